@@ -1,0 +1,537 @@
+"""Configuration: one TOML file mapped onto frozen dataclasses, defaults = the paper's Table 1.
+
+Every key is declared once, in the dataclasses below, with its unit and its admissible range.
+`load()` reads a file (or nothing: the built-in default case), applies ``--set`` overrides,
+checks every key and raises :class:`ConfigError` listing *all* problems at once, each naming
+the file and the dotted key.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import math
+import tomllib
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any
+
+CONTACT_KINDS = ("tieboss", "shroud")
+
+
+class ConfigError(ValueError):
+    """Invalid configuration; ``problems`` lists one message per offending key."""
+
+    def __init__(self, problems: Sequence[str]):
+        self.problems = list(problems)
+        super().__init__("invalid configuration:\n  " + "\n  ".join(self.problems))
+
+
+def _key(unit: str, help: str, **check: Any) -> dict[str, Any]:
+    """Field metadata: unit, one-line help and validation bounds (min, max, gt, choices)."""
+    return {"unit": unit, "help": help, **check}
+
+
+@dataclass(frozen=True)
+class WheelConfig:
+    blades: int = field(default=66, metadata=_key("-", "number of rotor blades N", min=3))
+    stator_vanes: int = field(
+        default=64, metadata=_key("-", "number of stator vanes n_s (nozzle order)", min=1)
+    )
+    speed_hz: float = field(default=50.0, metadata=_key("Hz", "rotor speed f_rev", min=0.0))
+    coupling_stiffness: float = field(
+        default=2e8, metadata=_key("N/m", "cut-face coupling springs c1", min=0.0)
+    )
+    modes_per_segment: int = field(
+        default=10, metadata=_key("-", "segment modes m kept per blade", min=1, max=200)
+    )
+    damping_beta: float = field(
+        default=5e-8, metadata=_key("s", "stiffness-proportional damping beta_D", min=0.0)
+    )
+    basis: str = field(
+        default="free",
+        metadata=_key(
+            "-",
+            "segment basis: 'free' (paper: free-interface modes) or 'enriched' "
+            "(plus sector parts of exact cyclic modes)",
+            choices=("free", "enriched"),
+        ),
+    )
+
+
+@dataclass(frozen=True)
+class SegmentConfig:
+    source: str = field(
+        default="builtin", metadata=_key("-", "'builtin' or a volume mesh file readable by meshio")
+    )
+    preset: str = field(
+        default="default",
+        metadata=_key("-", "built-in mesh density", choices=("coarse", "default", "paper")),
+    )
+    young: float = field(default=2.1e11, metadata=_key("Pa", "Young's modulus E", gt=0.0))
+    poisson: float = field(
+        default=0.3, metadata=_key("-", "Poisson's ratio nu", min=0.0, max=0.4999)
+    )
+    density: float = field(default=7850.0, metadata=_key("kg/m^3", "density rho", gt=0.0))
+    node_set_tolerance: float = field(
+        default=1e-3,
+        metadata=_key("m", "largest distance of a node picked by coordinates", gt=0.0),
+    )
+    node_sets: Mapping[str, Any] = field(
+        default_factory=dict,
+        metadata=_key(
+            "m",
+            "node sets given as coordinates for a user mesh: name = [[x, y, z], ...]",
+        ),
+    )
+
+
+@dataclass(frozen=True)
+class ExcitationConfig:
+    force: float = field(
+        default=100.0,
+        metadata=_key("N", "nozzle force amplitude F_b per excitation node (0: off)", min=0.0),
+    )
+
+
+@dataclass(frozen=True)
+class FlutterConfig:
+    model: str = field(
+        default="relative",
+        metadata=_key(
+            "-",
+            "Van der Pol model: 'relative' (eq. 2), 'absolute' (eq. 1) or 'off'",
+            choices=("relative", "absolute", "off"),
+        ),
+    )
+    mu: float = field(default=100.0, metadata=_key("N s/m", "Van der Pol intensity mu", min=0.0))
+    r: float = field(
+        default=5e-3, metadata=_key("m", "amplitude where negative damping turns positive", gt=0.0)
+    )
+    mode: int = field(
+        default=-1,
+        metadata=_key(
+            "-", "restrict Van der Pol to this segment mode (0-based); -1: all modes", min=-1
+        ),
+    )
+
+
+@dataclass(frozen=True)
+class ContactConfig:
+    enabled: bool = field(default=True, metadata=_key("-", "contact kind present"))
+    height: float = field(default=1.6, metadata=_key("m", "radius H of the arm", gt=0.0))
+    arm_length: float = field(default=0.15, metadata=_key("m", "rigid arm length L", gt=0.0))
+    profile_thickness: float = field(
+        default=3.1e-2, metadata=_key("m", "distance l between profile points A and B", gt=0.0)
+    )
+    angle_deg: float = field(
+        default=45.0, metadata=_key("deg", "contact surface angle beta", min=0.0, max=90.0)
+    )
+    normal_preload: float = field(
+        default=400.0, metadata=_key("N", "initial normal force F_N0", min=0.0)
+    )
+    stiffness: Any = field(
+        default=7.6e7,
+        metadata=_key(
+            "N/m",
+            "normal contact stiffness k_c: a number, a table [[angle_deg, N/m], ...] or 'fe'",
+        ),
+    )
+    arm_axial_stiffness: float = field(
+        default=5e8,
+        metadata=_key("N/m", "axial stiffness of the arm, in series for stiffness = 'fe'", gt=0.0),
+    )
+
+
+def _shroud_default() -> ContactConfig:
+    return ContactConfig(
+        height=2.18, arm_length=0.2, profile_thickness=3.46e-2, angle_deg=50.0, stiffness=7.6e7
+    )
+
+
+@dataclass(frozen=True)
+class ContactsConfig:
+    tieboss: ContactConfig = field(default_factory=ContactConfig)
+    shroud: ContactConfig = field(default_factory=_shroud_default)
+
+    def enabled_kinds(self) -> list[str]:
+        return [k for k in CONTACT_KINDS if getattr(self, k).enabled]
+
+
+@dataclass(frozen=True)
+class FrictionConfig:
+    static: float = field(
+        default=0.6, metadata=_key("-", "static friction coefficient f_s", min=0.0)
+    )
+    dynamic: float = field(
+        default=0.4, metadata=_key("-", "dynamic friction coefficient f_d", min=0.0)
+    )
+    decay: float = field(
+        default=2.0, metadata=_key("s/m", "decay d of the static-to-dynamic transition", min=0.0)
+    )
+    microslip_velocity: float = field(
+        default=0.6, metadata=_key("m/s", "micro-slip velocity v_k", gt=0.0)
+    )
+
+
+@dataclass(frozen=True)
+class TimeConfig:
+    step: float = field(default=5e-6, metadata=_key("s", "fixed RK step", gt=0.0))
+    end: float = field(default=1.5, metadata=_key("s", "simulated time", gt=0.0))
+    window: float = field(default=0.0375, metadata=_key("s", "evaluation window", gt=0.0))
+    start: str = field(
+        default="rest",
+        metadata=_key(
+            "-", "'rest' or 'preload' (static equilibrium, SNES)", choices=("rest", "preload")
+        ),
+    )
+    divergence_amplitude: float = field(
+        default=1.0,
+        metadata=_key("m", "tip amplitude beyond which a case is stopped as diverged", gt=0.0),
+    )
+
+
+@dataclass(frozen=True)
+class OutputConfig:
+    sample_rate_hz: float = field(
+        default=20000.0,
+        metadata=_key("Hz", "sample rate of the stored tip histories", gt=0.0),
+    )
+
+
+def _paper_shroud_angles() -> list[float]:
+    return [5.0 * k for k in range(19)]
+
+
+@dataclass(frozen=True)
+class SweepConfig:
+    tieboss_angles_deg: tuple[float, ...] = field(
+        default=(45.0,), metadata=_key("deg", "tie-boss angles of the sweep", min=0.0, max=90.0)
+    )
+    shroud_angles_deg: tuple[float, ...] = field(
+        default=tuple(_paper_shroud_angles()),
+        metadata=_key("deg", "shroud angles of the sweep", min=0.0, max=90.0),
+    )
+
+
+@dataclass(frozen=True)
+class Config:
+    wheel: WheelConfig = field(default_factory=WheelConfig)
+    segment: SegmentConfig = field(default_factory=SegmentConfig)
+    excitation: ExcitationConfig = field(default_factory=ExcitationConfig)
+    flutter: FlutterConfig = field(default_factory=FlutterConfig)
+    contacts: ContactsConfig = field(default_factory=ContactsConfig)
+    friction: FrictionConfig = field(default_factory=FrictionConfig)
+    time: TimeConfig = field(default_factory=TimeConfig)
+    output: OutputConfig = field(default_factory=OutputConfig)
+    sweep: SweepConfig = field(default_factory=SweepConfig)
+    source: str = field(default="<built-in default>", compare=False)
+
+    def replace(self, **changes: Any) -> Config:
+        """Return a copy with dotted keys replaced: ``cfg.replace(**{"time.end": 0.1})``."""
+        return from_dict(_set_nested(to_dict(self), changes), source=self.source)
+
+    def contact(self, kind: str) -> ContactConfig:
+        return getattr(self.contacts, kind)
+
+
+# --------------------------------------------------------------------------------------
+# dict <-> dataclass
+# --------------------------------------------------------------------------------------
+
+
+def to_dict(cfg: Any) -> dict[str, Any]:
+    """Nested plain dict of a config (tuples as lists); omits ``source``."""
+    out: dict[str, Any] = {}
+    for f in fields(cfg):
+        if isinstance(cfg, Config) and f.name == "source":
+            continue
+        value = getattr(cfg, f.name)
+        if dataclasses.is_dataclass(value):
+            out[f.name] = to_dict(value)
+        elif isinstance(value, tuple):
+            out[f.name] = list(value)
+        elif isinstance(value, Mapping):
+            out[f.name] = {k: v for k, v in value.items()}
+        else:
+            out[f.name] = value
+    return out
+
+
+def _set_nested(data: dict[str, Any], changes: Mapping[str, Any]) -> dict[str, Any]:
+    for dotted, value in changes.items():
+        node = data
+        parts = dotted.split(".")
+        for part in parts[:-1]:
+            node = node.setdefault(part, {})
+            if not isinstance(node, dict):
+                raise ConfigError([f"--set {dotted}: '{part}' is a key, not a section"])
+        node[parts[-1]] = value
+    return data
+
+
+def _suggest(name: str, valid: Sequence[str]) -> str:
+    close = difflib.get_close_matches(name, valid, n=1, cutoff=0.6)
+    return f" (did you mean '{close[0]}'?)" if close else f" (valid: {', '.join(valid)})"
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool)
+
+
+def _check_number(where: str, value: Any, meta: Mapping[str, Any], problems: list[str]) -> bool:
+    if not _is_number(value):
+        problems.append(f"{where}: expected a number, got {value!r}")
+        return False
+    if not math.isfinite(value):
+        problems.append(f"{where}: must be finite, got {value!r}")
+        return False
+    unit = meta.get("unit", "")
+    unit = "" if unit == "-" else f" {unit}"
+    if "gt" in meta and not value > meta["gt"]:
+        problems.append(f"{where}: must be > {meta['gt']}{unit}, got {value!r}")
+        return False
+    if "min" in meta and value < meta["min"]:
+        problems.append(f"{where}: must be >= {meta['min']}{unit}, got {value!r}")
+        return False
+    if "max" in meta and value > meta["max"]:
+        problems.append(f"{where}: must be <= {meta['max']}{unit}, got {value!r}")
+        return False
+    return True
+
+
+def _convert_field(where: str, f: dataclasses.Field, value: Any, problems: list[str]) -> Any:
+    meta = f.metadata
+    default = f.default if f.default is not dataclasses.MISSING else f.default_factory()
+    if f.name == "stiffness":
+        return _convert_stiffness(where, value, problems)
+    if f.name == "node_sets":
+        return _convert_node_sets(where, value, problems)
+    if isinstance(default, bool):
+        if not isinstance(value, bool):
+            problems.append(f"{where}: expected true or false, got {value!r}")
+        return value
+    if isinstance(default, int):
+        if not isinstance(value, int) or isinstance(value, bool):
+            problems.append(f"{where}: expected an integer, got {value!r}")
+            return value
+        _check_number(where, value, meta, problems)
+        return value
+    if isinstance(default, float):
+        if _check_number(where, value, meta, problems):
+            return float(value)
+        return value
+    if isinstance(default, str):
+        if not isinstance(value, str):
+            problems.append(f"{where}: expected a string, got {value!r}")
+        elif "choices" in meta and value not in meta["choices"]:
+            problems.append(
+                f"{where}: '{value}' is not one of {', '.join(map(repr, meta['choices']))}"
+            )
+        return value
+    if isinstance(default, tuple):
+        if not isinstance(value, list | tuple) or not value:
+            problems.append(f"{where}: expected a non-empty list of numbers, got {value!r}")
+            return value
+        ok = all(_check_number(f"{where}[{i}]", v, meta, problems) for i, v in enumerate(value))
+        return tuple(float(v) for v in value) if ok else value
+    raise AssertionError(f"no converter for {where}")  # pragma: no cover
+
+
+def _convert_stiffness(where: str, value: Any, problems: list[str]) -> Any:
+    if isinstance(value, str):
+        if value != "fe":
+            problems.append(f"{where}: expected a number, a table or 'fe', got {value!r}")
+        return value
+    if _is_number(value):
+        _check_number(where, value, {"gt": 0.0, "unit": "N/m"}, problems)
+        return float(value)
+    if isinstance(value, list | tuple) and len(value) >= 2:
+        rows = []
+        for i, row in enumerate(value):
+            if not (isinstance(row, list | tuple) and len(row) == 2):
+                problems.append(f"{where}[{i}]: expected [angle_deg, stiffness], got {row!r}")
+                return value
+            a_ok = _check_number(f"{where}[{i}][0]", row[0], {"min": 0.0, "max": 90.0}, problems)
+            k_ok = _check_number(f"{where}[{i}][1]", row[1], {"gt": 0.0}, problems)
+            if not (a_ok and k_ok):
+                return value
+            rows.append((float(row[0]), float(row[1])))
+        angles = [r[0] for r in rows]
+        if any(b <= a for a, b in zip(angles, angles[1:], strict=False)):
+            problems.append(f"{where}: table angles must increase strictly")
+        return tuple(rows)
+    problems.append(f"{where}: expected a number, a table [[angle, N/m], ...] or 'fe'")
+    return value
+
+
+def _convert_node_sets(where: str, value: Any, problems: list[str]) -> Any:
+    if not isinstance(value, Mapping):
+        problems.append(f"{where}: expected a table name = [[x, y, z], ...]")
+        return {}
+    out = {}
+    for name, pts in value.items():
+        ok = (
+            isinstance(pts, list)
+            and pts
+            and all(
+                isinstance(p, list) and len(p) == 3 and all(_is_number(c) for c in p) for p in pts
+            )
+        )
+        if not ok:
+            problems.append(f"{where}.{name}: expected a list of [x, y, z] points in m")
+            continue
+        out[name] = tuple(tuple(float(c) for c in p) for p in pts)
+    return out
+
+
+def _build(cls: type, data: Mapping[str, Any], prefix: str, problems: list[str]) -> Any:
+    names = [f.name for f in fields(cls) if not (cls is Config and f.name == "source")]
+    kwargs = {}
+    for key, value in data.items():
+        where = f"{prefix}{key}"
+        if key not in names:
+            kind = "section" if isinstance(value, Mapping) else "key"
+            problems.append(f"{where}: unknown {kind}{_suggest(key, names)}")
+            continue
+        f = next(f for f in fields(cls) if f.name == key)
+        default = f.default if f.default is not dataclasses.MISSING else f.default_factory()
+        if dataclasses.is_dataclass(default):
+            if not isinstance(value, Mapping):
+                problems.append(f"{where}: expected a section [{where}]")
+                continue
+            # nested sections: start from the field's own default (shroud differs from tieboss)
+            kwargs[key] = _build_from(default, value, f"{where}.", problems)
+        else:
+            kwargs[key] = _convert_field(where, f, value, problems)
+    return cls(**kwargs)
+
+
+def _build_from(default: Any, data: Mapping[str, Any], prefix: str, problems: list[str]) -> Any:
+    """Like `_build`, but unspecified keys keep the values of the given default instance."""
+    built = _build(type(default), data, prefix, problems)
+    given = set(data)
+    changes = {f.name: getattr(built, f.name) for f in fields(default) if f.name in given}
+    return dataclasses.replace(default, **changes)
+
+
+def _cross_checks(cfg: Config, problems: list[str]) -> None:
+    fr, t = cfg.friction, cfg.time
+    if _is_number(fr.dynamic) and _is_number(fr.static) and fr.dynamic > fr.static:
+        problems.append(
+            f"friction.dynamic: must not exceed friction.static ({fr.dynamic} > {fr.static})"
+        )
+    if all(_is_number(v) for v in (t.step, t.window, t.end)):
+        if t.step > t.window:
+            problems.append(f"time.step: larger than time.window ({t.step} > {t.window} s)")
+        if t.window > t.end:
+            problems.append(f"time.window: larger than time.end ({t.window} > {t.end} s)")
+        if _is_number(cfg.output.sample_rate_hz) and cfg.output.sample_rate_hz * t.step > 1.0:
+            problems.append(
+                f"output.sample_rate_hz: {cfg.output.sample_rate_hz} Hz exceeds 1/time.step"
+            )
+    w = cfg.wheel
+    if isinstance(cfg.flutter.mode, int) and isinstance(w.modes_per_segment, int):
+        if cfg.flutter.mode >= w.modes_per_segment:
+            problems.append(
+                f"flutter.mode: {cfg.flutter.mode} is not below wheel.modes_per_segment "
+                f"({w.modes_per_segment})"
+            )
+    for kind in CONTACT_KINDS:
+        c = cfg.contact(kind)
+        if _is_number(c.profile_thickness) and _is_number(c.arm_length):
+            if c.profile_thickness >= c.arm_length:
+                problems.append(
+                    f"contacts.{kind}.profile_thickness: must be shorter than arm_length"
+                )
+
+
+def from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Config:
+    """Validate a nested dict (as read from TOML) and return the frozen :class:`Config`."""
+    problems: list[str] = []
+    cfg = _build_from(Config(), data, "", problems)
+    _cross_checks(cfg, problems)
+    if problems:
+        raise ConfigError([f"{source}: {p}" for p in problems])
+    return dataclasses.replace(cfg, source=source)
+
+
+def parse_override(text: str) -> tuple[str, Any]:
+    """Parse one ``--set section.key=value``; the value is TOML, else a bare string."""
+    if "=" not in text:
+        raise ConfigError([f"--set {text}: expected section.key=value"])
+    key, raw = (s.strip() for s in text.split("=", 1))
+    try:
+        value = tomllib.loads(f"v = {raw}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = raw
+    return key, value
+
+
+def load(path: str | Path | None = None, overrides: Sequence[str] = ()) -> Config:
+    """Read a TOML file (``None``: built-in default case), apply ``--set`` overrides, validate."""
+    data: dict[str, Any] = {}
+    source = "<built-in default>"
+    if path is not None:
+        source = str(path)
+        try:
+            with open(path, "rb") as fh:
+                data = tomllib.load(fh)
+        except FileNotFoundError:
+            raise ConfigError([f"{source}: file not found"]) from None
+        except tomllib.TOMLDecodeError as exc:
+            raise ConfigError([f"{source}: not valid TOML: {exc}"]) from None
+    changes = dict(parse_override(o) for o in overrides)
+    if changes:
+        source += " + --set " + " ".join(f"{k}={v!r}" for k, v in changes.items())
+    return from_dict(_set_nested(data, changes), source=source)
+
+
+# --------------------------------------------------------------------------------------
+# TOML output
+# --------------------------------------------------------------------------------------
+
+
+def _toml_value(v: Any) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, str):
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(v, float):
+        return repr(v)
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, list | tuple):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    raise TypeError(v)
+
+
+def to_toml(cfg: Config, comments: bool = True) -> str:
+    """The effective configuration as TOML (with units and help as comments)."""
+    lines: list[str] = []
+
+    def section(obj: Any, name: str) -> None:
+        plain = [f for f in fields(obj) if not dataclasses.is_dataclass(getattr(obj, f.name))]
+        skip = ("node_sets",) if name else ("source", "node_sets")
+        plain = [f for f in plain if f.name not in skip]
+        if plain:
+            lines.append(f"[{name}]")
+            for f in plain:
+                text = f"{f.name} = {_toml_value(getattr(obj, f.name))}"
+                if comments and f.metadata:
+                    text = f"{text:<40} # [{f.metadata['unit']}] {f.metadata['help']}"
+                lines.append(text)
+            lines.append("")
+        if name == "segment" and obj.node_sets:
+            lines.append("[segment.node_sets]")
+            for k, pts in obj.node_sets.items():
+                lines.append(f"{k} = {_toml_value([list(p) for p in pts])}")
+            lines.append("")
+        for f in fields(obj):
+            value = getattr(obj, f.name)
+            if dataclasses.is_dataclass(value):
+                section(value, f"{name}.{f.name}" if name else f.name)
+
+    section(cfg, "")
+    return "\n".join(lines).rstrip() + "\n"

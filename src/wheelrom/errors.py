@@ -1,0 +1,9 @@
+"""Errors for bad user input (mesh files, node sets, result files).
+
+Configuration keys raise :class:`wheelrom.config.ConfigError`; both make the CLI exit with
+status 2 and a message naming the offending file, key or node set.
+"""
+
+
+class InputError(ValueError):
+    """Bad input other than configuration keys."""
