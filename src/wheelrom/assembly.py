@@ -1,0 +1,165 @@
+"""Segment matrices: consistent mass and linear-elastic stiffness (scikit-fem), PETSc AIJ.
+
+The ``clamped`` DOFs are removed: the returned matrices act on the *free* DOFs only, listed in
+``SegmentMatrices.free`` (indices into the full DOF vector ``3 * node + component``).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from wheelrom.mesh import SegmentMesh
+
+# 3x3x3 Gauss points on a hexahedron, 11 points (degree 4) on a tetrahedron: the usual
+# rules for quadratic solid elements (scikit-fem's default is exact for the full degree).
+INTORDER = 4
+
+
+@dataclass
+class SegmentMatrices:
+    """Mass ``M`` [kg] and stiffness ``K`` [N/m] on the free DOFs (scipy CSR, symmetric).
+
+    Attributes:
+        free: ``(n_free,)`` full DOF index of every row.
+        n_full: number of DOFs including the clamped ones.
+        assembly_s: wall time of the assembly [s].
+    """
+
+    K: sp.csr_matrix
+    M: sp.csr_matrix
+    free: np.ndarray
+    n_full: int
+    assembly_s: float
+
+    def expand(self, x: np.ndarray) -> np.ndarray:
+        """Free-DOF vectors ``(n_free, ...)`` -> full DOF vectors with zeros at the clamp."""
+        out = np.zeros((self.n_full,) + x.shape[1:], dtype=x.dtype)
+        out[self.free] = x
+        return out
+
+    def restrict_rows(self, full_dofs: np.ndarray) -> np.ndarray:
+        """Row positions of full DOFs among the free ones (-1 where clamped)."""
+        pos = np.full(self.n_full, -1)
+        pos[self.free] = np.arange(self.free.size)
+        return pos[full_dofs]
+
+
+def vector_basis(seg: SegmentMesh):
+    """scikit-fem vector basis of the segment's quadratic element."""
+    from skfem import Basis, ElementHexS2, ElementTetP2, ElementVector
+
+    elem = ElementHexS2() if seg.element == "hex20" else ElementTetP2()
+    return Basis(seg.mesh, ElementVector(elem), intorder=INTORDER)
+
+
+def scalar_basis(seg: SegmentMesh):
+    """scikit-fem scalar basis of the segment's quadratic element (one DOF per node)."""
+    from skfem import Basis, ElementHexS2, ElementTetP2
+
+    elem = ElementHexS2() if seg.element == "hex20" else ElementTetP2()
+    return Basis(seg.mesh, elem, intorder=INTORDER)
+
+
+def assemble_full(seg: SegmentMesh, young: float, poisson: float, density: float):
+    """Full (unconstrained) K and M as scipy CSR, DOF ``3 * node + component``.
+
+    Shape functions, their gradients and the quadrature come from scikit-fem; the isotropic
+    elasticity form ``lambda div u div v + 2 mu eps(u):eps(v)`` is contracted for all
+    elements at once with ``einsum`` (scikit-fem's generic ``asm`` loops over the 60 x 60
+    basis pairs in Python and is ~30x slower; :func:`assemble_full_skfem` keeps it as the
+    reference the tests compare against).
+    """
+    lam = young * poisson / ((1 + poisson) * (1 - 2 * poisson))
+    mu = young / (2 * (1 + poisson))
+    bs = scalar_basis(seg)
+    nb = bs.Nbfun
+    grads = np.array([bs.basis[i][0].grad for i in range(nb)])  # (nb, 3, nel, nq)
+    values = np.array([bs.basis[i][0].value for i in range(nb)])  # (nb, nel, nq)
+    dx = bs.dx  # (nel, nq) quadrature weight x |det J|
+    gw = grads * dx[None, None]
+    # T[e, i, a, j, b] = sum_q dphi_i/dx_a dphi_j/dx_b dx
+    T = np.einsum("iaeq,jbeq->eiajb", gw, grads, optimize=True)
+    K_loc = lam * T + mu * T.transpose(0, 1, 4, 3, 2)
+    lap = np.einsum("eikjk->eij", T)
+    for a in range(3):
+        K_loc[:, :, a, :, a] += mu * lap
+    m_loc = density * np.einsum("ieq,jeq->eij", values * dx[None], values, optimize=True)
+    nodes = bs.element_dofs.T  # (nel, nb): scalar DOF = node index
+    dofs = (3 * nodes[:, :, None] + np.arange(3)).reshape(len(nodes), 3 * nb)
+    rows = np.broadcast_to(dofs[:, :, None], (len(nodes), 3 * nb, 3 * nb)).ravel()
+    cols = np.broadcast_to(dofs[:, None, :], (len(nodes), 3 * nb, 3 * nb)).ravel()
+    n = seg.n_dofs
+    K = sp.csr_matrix((K_loc.reshape(len(nodes), 3 * nb, 3 * nb).ravel(), (rows, cols)),
+                      shape=(n, n))
+    eye = np.eye(3)
+    M_loc = np.einsum("eij,ab->eiajb", m_loc, eye).reshape(len(nodes), 3 * nb, 3 * nb)
+    M = sp.csr_matrix((M_loc.ravel(), (rows, cols)), shape=(n, n))
+    return K, M
+
+
+def assemble_full_skfem(seg: SegmentMesh, young: float, poisson: float, density: float):
+    """Reference assembly with scikit-fem's ``asm`` and its elasticity model (slow)."""
+    from skfem import BilinearForm, asm
+    from skfem.helpers import dot
+    from skfem.models.elasticity import lame_parameters, linear_elasticity
+
+    basis = vector_basis(seg)
+
+    @BilinearForm
+    def mass(u, v, w):
+        return density * dot(u, v)
+
+    K = asm(linear_elasticity(*lame_parameters(young, poisson)), basis).tocsr()
+    M = asm(mass, basis).tocsr()
+    return K, M
+
+
+def assemble(seg: SegmentMesh, young: float, poisson: float, density: float,
+             clamp: bool = True) -> SegmentMatrices:
+    """Assemble the segment and remove the ``clamped`` DOFs (``clamp=False``: free-free)."""
+    t0 = time.perf_counter()
+    K, M = assemble_full(seg, young, poisson, density)
+    fixed = seg.dofs("clamped").ravel() if clamp else np.zeros(0, int)
+    keep = np.ones(seg.n_dofs, bool)
+    keep[fixed] = False
+    free = np.flatnonzero(keep)
+    K = K[free][:, free].tocsr()
+    M = M[free][:, free].tocsr()
+    # symmetric to round-off: average away the assembly's last-bit asymmetry
+    K = ((K + K.T) * 0.5).tocsr()
+    M = ((M + M.T) * 0.5).tocsr()
+    return SegmentMatrices(K, M, free, seg.n_dofs, time.perf_counter() - t0)
+
+
+def to_petsc(A: sp.csr_matrix, comm, prefix: str | None = None):
+    """A scipy CSR matrix as a PETSc AIJ matrix on ``comm`` (rows split by PETSc's layout).
+
+    Every rank holds the full CSR (the segment is built redundantly); each inserts its rows.
+    """
+    from wheelrom._environment import petsc
+
+    PETSc = petsc()
+    n = A.shape[0]
+    M = PETSc.Mat().create(comm=comm)
+    M.setSizes(((PETSc.DECIDE, n), (PETSc.DECIDE, n)))
+    M.setType(PETSc.Mat.Type.AIJ)
+    if prefix:
+        M.setOptionsPrefix(prefix)
+    rlo, rhi = _ownership(n, comm)
+    local = A[rlo:rhi]
+    M.setPreallocationCSR((local.indptr, local.indices))
+    M.setValuesCSR(local.indptr, local.indices, local.data)
+    M.assemble()
+    return M
+
+
+def _ownership(n: int, comm) -> tuple[int, int]:
+    """PETSc's default row split of ``n`` rows over ``comm``."""
+    size, rank = comm.getSize(), comm.getRank()
+    base, extra = divmod(n, size)
+    lo = rank * base + min(rank, extra)
+    return lo, lo + base + (1 if rank < extra else 0)
