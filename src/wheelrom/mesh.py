@@ -442,3 +442,12 @@ def _quadratic_cells(seg: SegmentMesh) -> np.ndarray:
     pairs = _HEX20_EDGES if seg.element == "hex20" else _TET10_EDGES
     mids = [edge_nodes(seg, corners[:, i], corners[:, j]) for i, j in pairs]
     return np.column_stack([corners, *mids])
+
+
+def load_segment(cfg: Config) -> SegmentMesh:
+    """The segment of a configuration: built-in, or read from ``segment.source``."""
+    if cfg.segment.source == "builtin":
+        return build_builtin(cfg)
+    from wheelrom.mesh_io import read_segment
+
+    return read_segment(cfg.segment.source, cfg)

@@ -1,0 +1,214 @@
+"""Cyclic modal synthesis: the reduced wheel model (paper section 3, MODEL.md).
+
+Blade ``s`` has modal coordinates ``q_s`` (``m`` of them, [sqrt(kg) m]), ``u(s) = Xb q_s`` in
+sector ``s``'s own frame. Springs ``c1`` join node ``k`` of ``right(s)`` with node ``k`` of
+``left(s+1)``; their energy ``1/2 c1 sum |R Xl q_{s+1} - Xr q_s|^2`` gives the block-cyclic
+tridiagonal reduced stiffness
+
+    K_R = I (x) (Xb^T K Xb) + dK,   block (s, s) = A0,  (s, s+1) = A1,  (s+1, s) = A1^T,
+    A0 = Xb^T K Xb + c1 (Xr^T Xr + Xl^T Xl),   A1 = -c1 Xr^T R Xl,
+
+and ``M_R = I``. Everything the forces need of the segment is kept here as small dense
+arrays (shapes at the contact points, participation vectors), so the reduced model is a
+few kilobytes that rank 0 can build and broadcast.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from wheelrom.config import CONTACT_KINDS, Config
+from wheelrom.mesh import SegmentMesh
+
+
+@dataclass
+class ReducedModel:
+    """Everything downstream needs of the segment, in modal coordinates.
+
+    Attributes:
+        blades: N.  modes: m.
+        segment_hz: ``(m,)`` segment natural frequencies [Hz].
+        K_seg: ``(m, m)`` ``Xb^T K Xb`` [1/s^2] (``diag(omega^2)`` for free-interface modes).
+        A0, A1: ``(m, m)`` diagonal and super-diagonal blocks of ``K_R`` [1/s^2].
+        rotation: ``(3, 3)`` R.
+        tip: ``(3, m)`` displacement of the ``tip`` node per modal coordinate [m/(sqrt(kg) m)].
+        aero: ``(m,)`` mean ``y`` displacement of the ``aero`` nodes per modal coordinate.
+        excitation: ``(m,)`` generalised force of a unit ``y`` force on every excitation node.
+        contact_A, contact_B: kind -> ``(3, m)`` shapes at the profile points A, B.
+        contact_points: kind -> ``(2, 3)`` undeformed A, B [m].
+    """
+
+    blades: int
+    modes: int
+    segment_hz: np.ndarray
+    K_seg: np.ndarray
+    A0: np.ndarray
+    A1: np.ndarray
+    rotation: np.ndarray
+    tip: np.ndarray
+    aero: np.ndarray
+    excitation: np.ndarray
+    contact_A: dict[str, np.ndarray] = field(default_factory=dict)
+    contact_B: dict[str, np.ndarray] = field(default_factory=dict)
+    contact_points: dict[str, np.ndarray] = field(default_factory=dict)
+    info: dict = field(default_factory=dict)
+
+    @property
+    def size(self) -> int:
+        return self.blades * self.modes
+
+    def dense_stiffness(self) -> np.ndarray:
+        """``K_R`` as a dense ``(N m, N m)`` array [1/s^2]."""
+        N, m = self.blades, self.modes
+        K = np.zeros((N, m, N, m))
+        for s in range(N):
+            t = (s + 1) % N
+            K[s, :, s, :] += self.A0
+            K[s, :, t, :] += self.A1
+            K[t, :, s, :] += self.A1.T
+        return K.reshape(N * m, N * m)
+
+    def petsc_stiffness(self, comm=None, prefix: str = "wheel_K_"):
+        """``K_R`` as a PETSc BAIJ matrix with block size m on ``comm`` (default COMM_SELF)."""
+        from wheelrom._environment import petsc
+
+        PETSc = petsc()
+        comm = comm or PETSc.COMM_SELF
+        N, m = self.blades, self.modes
+        A = PETSc.Mat().create(comm=comm)
+        A.setOptionsPrefix(prefix)
+        A.setSizes(((PETSc.DECIDE, N * m), (PETSc.DECIDE, N * m)), bsize=m)
+        A.setType(PETSc.Mat.Type.BAIJ)
+        A.setBlockSize(m)
+        A.setPreallocationNNZ((3 if N > 2 else N, 0))
+        A.setFromOptions()
+        lo, hi = A.getOwnershipRange()
+        for s in range(lo // m, hi // m):
+            A.setValuesBlocked([s], [s], self.A0)
+            A.setValuesBlocked([s], [(s + 1) % N], self.A1)
+            A.setValuesBlocked([s], [(s - 1) % N], self.A1.T)
+        A.assemble()
+        return A
+
+    def block_circulant_eigenvalues(self) -> np.ndarray:
+        """``(N, m)`` eigenvalues per nodal-diameter phase ``k`` (travelling-wave index).
+
+        ``eig(A0 + A1 e^{i phi_k} + A1^T e^{-i phi_k})``, ``phi_k = 2 pi k / N``: the exact
+        spectrum of the block-circulant ``K_R`` (independent of assembling it).
+        """
+        out = np.empty((self.blades, self.modes))
+        for k in range(self.blades):
+            ph = np.exp(2j * np.pi * k / self.blades)
+            H = self.A0 + self.A1 * ph + self.A1.T * np.conj(ph)
+            out[k] = np.linalg.eigvalsh(0.5 * (H + H.conj().T))
+        return out
+
+    def frequencies_by_nodal_diameter(self) -> np.ndarray:
+        """``(N // 2 + 1, m)`` frequencies [Hz] for nodal diameters ``0..N//2``."""
+        lam = self.block_circulant_eigenvalues()[: self.blades // 2 + 1]
+        return np.sqrt(np.maximum(lam, 0.0)) / (2 * np.pi)
+
+
+def nodal_diameter(k: int | np.ndarray, blades: int):
+    """Nodal diameter of travelling-wave index ``k``: ``min(k, N - k)``."""
+    k = np.asarray(k) % blades
+    return np.minimum(k, blades - k)
+
+
+def wheel_modes(model: ReducedModel):
+    """All ``N m`` wheel frequencies [Hz] from ``K_R``, each with its nodal diameter.
+
+    Returns ``(hz, nd, kind)``: ascending frequencies, nodal diameter (DFT of the mode over
+    the blades: the harmonic holding most of its energy) and ``"standing"`` for ND 0 and
+    N/2 (single modes), ``"pair"`` for the doubly repeated travelling/standing pairs.
+    """
+    lam, vec = np.linalg.eigh(model.dense_stiffness())
+    N, m = model.blades, model.modes
+    shapes = vec.T.reshape(-1, N, m)
+    energy = (abs(np.fft.fft(shapes, axis=1)) ** 2).sum(axis=2)  # (modes, N)
+    nd_energy = np.zeros((lam.size, N // 2 + 1))
+    for k in range(N):
+        nd_energy[:, nodal_diameter(k, N)] += energy[:, k]
+    nd = np.argmax(nd_energy, axis=1)
+    kind = np.where((nd == 0) | ((N % 2 == 0) & (nd == N // 2)), "standing", "pair")
+    return np.sqrt(np.maximum(lam, 0.0)) / (2 * np.pi), nd, kind
+
+
+def rows_at(shapes: np.ndarray, nodes: np.ndarray) -> np.ndarray:
+    """``(len(nodes), 3, m)`` displacement rows of full-DOF shapes ``(n_dofs, m)``."""
+    dofs = 3 * np.asarray(nodes)[:, None] + np.arange(3)
+    return shapes[dofs]
+
+
+def reduce(seg: SegmentMesh, shapes: np.ndarray, K_seg: np.ndarray, cfg: Config,
+           segment_hz: np.ndarray | None = None) -> ReducedModel:
+    """Build the reduced wheel from a segment basis ``shapes`` (full DOFs, ``(n, m)``).
+
+    ``shapes`` must be M-orthonormal; ``K_seg = shapes^T K shapes``.
+    """
+    c1 = cfg.wheel.coupling_stiffness
+    R = seg.rotation
+    Xr = rows_at(shapes, seg.node_sets["right"])  # (pairs, 3, m)
+    Xl = rows_at(shapes, seg.node_sets["left"])
+    RXl = np.einsum("ab,kbm->kam", R, Xl)
+    Xr2 = Xr.reshape(-1, Xr.shape[-1])
+    Xl2 = Xl.reshape(-1, Xl.shape[-1])
+    A0 = K_seg + c1 * (Xr2.T @ Xr2 + Xl2.T @ Xl2)
+    A1 = -c1 * Xr2.T @ RXl.reshape(-1, Xl.shape[-1])
+    A0 = 0.5 * (A0 + A0.T)
+    m = shapes.shape[1]
+    if segment_hz is None:
+        segment_hz = np.sqrt(np.maximum(np.linalg.eigvalsh(K_seg), 0)) / (2 * np.pi)
+    model = ReducedModel(
+        blades=seg.sectors,
+        modes=m,
+        segment_hz=np.asarray(segment_hz),
+        K_seg=K_seg,
+        A0=A0,
+        A1=A1,
+        rotation=R,
+        tip=rows_at(shapes, seg.node_sets["tip"]).mean(axis=0),
+        aero=rows_at(shapes, seg.node_sets["aero"])[:, 1, :].mean(axis=0),
+        excitation=rows_at(shapes, seg.node_sets["excitation"])[:, 1, :].sum(axis=0),
+    )
+    for kind in CONTACT_KINDS:
+        if f"{kind}_A" in seg.node_sets:
+            model.contact_A[kind] = rows_at(shapes, seg.node_sets[f"{kind}_A"])[0]
+            model.contact_B[kind] = rows_at(shapes, seg.node_sets[f"{kind}_B"])[0]
+            model.contact_points[kind] = np.stack([seg.point(f"{kind}_A"),
+                                                   seg.point(f"{kind}_B")])
+    model.info.update(seg.info)
+    return model
+
+
+def build_model(cfg: Config, comm=None, log=None) -> ReducedModel:
+    """Segment mesh -> matrices -> modes -> reduced wheel, for one configuration.
+
+    ``comm`` is the communicator of the segment eigen-solve (default ``COMM_SELF``); the
+    result is the same on every rank of it. ``log`` receives progress lines.
+    """
+    import time
+
+    from wheelrom._environment import petsc
+    from wheelrom.assembly import assemble
+    from wheelrom.mesh import load_segment
+    from wheelrom.modes import segment_modes
+
+    say = log or (lambda msg: None)
+    comm = comm or petsc().COMM_SELF
+    t0 = time.perf_counter()
+    seg = load_segment(cfg)
+    s = cfg.segment
+    mats = assemble(seg, s.young, s.poisson, s.density)
+    say(f"segment: {seg.n_dofs} DOFs ({seg.element}), assembled in {mats.assembly_s:.2f} s")
+    eig = segment_modes(mats, cfg.wheel.modes_per_segment, comm)
+    say(f"segment modes: {eig.frequencies_hz.size} in {eig.solve_s:.2f} s, "
+        f"max residual {eig.residuals.max():.1e}")
+    model = reduce(seg, eig.vectors, np.diag(eig.eigenvalues), cfg, eig.frequencies_hz)
+    model.info.update(
+        segment_dofs=seg.n_dofs, assembly_s=mats.assembly_s, eigen_solve_s=eig.solve_s,
+        eigen_residual_max=float(eig.residuals.max()), build_s=time.perf_counter() - t0,
+    )
+    return model
