@@ -85,10 +85,14 @@ class ReducedModel:
         A.setPreallocationNNZ((3 if N > 2 else N, 0))
         A.setFromOptions()
         lo, hi = A.getOwnershipRange()
+        # contiguous copies: a transposed view would hand PETSc the untransposed buffer
+        A0 = np.ascontiguousarray(self.A0)
+        A1 = np.ascontiguousarray(self.A1)
+        A1T = np.ascontiguousarray(self.A1.T)
         for s in range(lo // m, hi // m):
-            A.setValuesBlocked([s], [s], self.A0)
-            A.setValuesBlocked([s], [(s + 1) % N], self.A1)
-            A.setValuesBlocked([s], [(s - 1) % N], self.A1.T)
+            A.setValuesBlocked([s], [s], A0)
+            A.setValuesBlocked([s], [(s + 1) % N], A1)
+            A.setValuesBlocked([s], [(s - 1) % N], A1T)
         A.assemble()
         return A
 

@@ -1,0 +1,324 @@
+"""Forces on the reduced wheel: nozzle (eq. 13), Van der Pol (eqs. 1, 2/14), dry friction
+contacts on rigid arms (eqs. 16-20). Equations, frames and signs: ``docs/theory.md``.
+
+One compiled kernel (numba) evaluates everything in a single pass over the blades into
+preallocated arrays; the same :class:`ForceModel` serves the PETSc TS right-hand side, the
+static preload solve and the plain-numpy serial reference.
+
+Units: modal coordinates ``q`` [sqrt(kg) m], velocities ``v`` [sqrt(kg) m/s], generalised
+force [sqrt(kg) m/s^2] (= N / sqrt(kg), since ``M_R = I``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from wheelrom.config import CONTACT_KINDS, Config
+from wheelrom.cyclic import ReducedModel
+
+VDP_OFF, VDP_ABSOLUTE, VDP_RELATIVE = 0, 1, 2
+OPEN, STICK, SLIP = 0, 1, 2  # contact states (STICK: micro-slip branch |v| <= v_k)
+
+
+def contact_frame(angle_deg: float) -> np.ndarray:
+    """``T_g2l`` of eq. 18: rows xi = x, eta = (0, cos b, sin b), zeta = (0, -sin b, cos b)."""
+    b = math.radians(angle_deg)
+    return np.array([[1.0, 0.0, 0.0], [0.0, math.cos(b), math.sin(b)],
+                     [0.0, -math.sin(b), math.cos(b)]])
+
+
+def stiffness_at(stiffness, angle_deg: float) -> float:
+    """Normal contact stiffness ``k_c(beta)`` [N/m] from a number or an (angle, value) table.
+
+    Tables are interpolated linearly in ``log k`` (the curve spans decades, paper Fig. 5).
+    """
+    if isinstance(stiffness, int | float):
+        return float(stiffness)
+    if isinstance(stiffness, str):
+        raise ValueError("stiffness = 'fe' must be resolved before building the force model")
+    angles = np.array([a for a, _ in stiffness])
+    values = np.log(np.array([k for _, k in stiffness]))
+    return float(np.exp(np.interp(angle_deg, angles, values)))
+
+
+@dataclass
+class ContactArrays:
+    """Per contact kind: geometry and parameters, as the kernel wants them.
+
+    ``XA``, ``XB``: ``(K, 3, m)`` shapes at A and B; ``A0``, ``B0``: ``(K, 3)`` [m];
+    ``arm``: ``(K,)`` L [m]; ``T``: ``(K, N, 3, 3)`` local frames per blade;
+    ``k``: ``(K, N)`` [N/m]; ``preload``: ``(K,)`` [N].
+    """
+
+    kinds: list[str]
+    XA: np.ndarray
+    XB: np.ndarray
+    A0: np.ndarray
+    B0: np.ndarray
+    arm: np.ndarray
+    T: np.ndarray
+    k: np.ndarray
+    preload: np.ndarray
+
+
+class ForceModel:
+    """Nonlinear generalised forces of the whole wheel.
+
+    Build once per case; :meth:`evaluate` is allocation-free (writes into ``self`` arrays):
+
+    - ``force``: ``(N, m)`` generalised force (nozzle + Van der Pol + contacts);
+    - ``normal_force``, ``slip_velocity``, ``normal_gap``: ``(K, N)`` [N, m/s, m] per contact
+      kind and blade pair ``(s, s+1)``; ``contact_state``: ``(K, N)`` OPEN/STICK/SLIP;
+    - ``vdp_displacement``: ``(N,)`` Van der Pol reference displacement ``y_s`` [m];
+    - ``power``: ``(3,)`` power of nozzle, Van der Pol and friction forces [W].
+    """
+
+    def __init__(self, model: ReducedModel, cfg: Config,
+                 angles_deg: dict[str, float | np.ndarray] | None = None):
+        N, m = model.blades, model.modes
+        self.N, self.m = N, m
+        angles_deg = angles_deg or {}
+        w = cfg.wheel
+        self.omega = 2 * math.pi * w.speed_hz
+        self.stator_vanes = w.stator_vanes
+        self.nozzle_force = cfg.excitation.force
+        self.p_exc = np.ascontiguousarray(model.excitation, dtype=float)
+        self.nozzle_phase = 2 * math.pi * (1 - w.stator_vanes / N) * np.arange(N)
+        fl = cfg.flutter
+        self.vdp_model = {"off": VDP_OFF, "absolute": VDP_ABSOLUTE,
+                          "relative": VDP_RELATIVE}[fl.model]
+        p = np.array(model.aero, dtype=float)
+        if fl.mode >= 0:
+            keep = np.zeros_like(p)
+            keep[fl.mode] = p[fl.mode]
+            p = keep
+        self.p_aero = p
+        self.vdp_mu, self.vdp_r = fl.mu, fl.r
+        fr = cfg.friction
+        self.friction = np.array([fr.static, fr.dynamic, fr.decay, fr.microslip_velocity])
+        self.R = np.ascontiguousarray(model.rotation)
+        kinds = [k for k in cfg.contacts.enabled_kinds() if k in model.contact_A]
+        K = len(kinds)
+        T = np.zeros((K, N, 3, 3))
+        k_c = np.zeros((K, N))
+        self.angles_deg = {}
+        for i, kind in enumerate(kinds):
+            c = cfg.contact(kind)
+            ang = np.broadcast_to(np.asarray(angles_deg.get(kind, c.angle_deg), float), (N,))
+            self.angles_deg[kind] = ang.copy()
+            for s in range(N):
+                T[i, s] = contact_frame(ang[s])
+                k_c[i, s] = stiffness_at(c.stiffness, ang[s])
+        self.contacts = ContactArrays(
+            kinds=kinds,
+            XA=np.array([model.contact_A[k] for k in kinds]).reshape(K, 3, m),
+            XB=np.array([model.contact_B[k] for k in kinds]).reshape(K, 3, m),
+            A0=np.array([model.contact_points[k][0] for k in kinds]).reshape(K, 3),
+            B0=np.array([model.contact_points[k][1] for k in kinds]).reshape(K, 3),
+            arm=np.array([cfg.contact(k).arm_length for k in kinds], dtype=float),
+            T=T, k=k_c,
+            preload=np.array([cfg.contact(k).normal_preload for k in kinds], dtype=float),
+        )
+        self.force = np.zeros((N, m))
+        self.normal_force = np.zeros((K, N))
+        self.slip_velocity = np.zeros((K, N))
+        self.normal_gap = np.zeros((K, N))
+        self.contact_state = np.zeros((K, N), dtype=np.int8)
+        self.vdp_displacement = np.zeros(N)
+        self.power = np.zeros(3)
+        self._work = np.zeros((N, 4))
+
+    def evaluate(self, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """Fill and return ``self.force`` ``(N, m)`` for modal state ``q, v`` at time ``t`` [s]."""
+        c = self.contacts
+        _kernel(
+            t, q, v, self.force, self.omega, self.stator_vanes, self.nozzle_force, self.p_exc,
+            self.nozzle_phase, self.vdp_model, self.vdp_mu, self.vdp_r, self.p_aero,
+            self.friction, self.R, c.XA, c.XB, c.A0, c.B0, c.arm, c.T, c.k, c.preload,
+            self.normal_force, self.slip_velocity, self.normal_gap, self.contact_state,
+            self.vdp_displacement, self.power, self._work,
+        )
+        return self.force
+
+    def contact_energy(self) -> float:
+        """Potential energy of the normal contact springs at the last evaluation [J].
+
+        ``V = -F_N0 g + k g^2 / 2`` for ``g < F_N0 / k`` (closed), ``-F_N0^2 / (2 k)`` when open;
+        ``-dV/dg`` is the normal force, so the contact normal forces are conservative.
+        """
+        c = self.contacts
+        g = self.normal_gap
+        open_ = g >= c.preload[:, None] / c.k
+        closed = -c.preload[:, None] * g + 0.5 * c.k * g * g
+        return float(np.where(open_, -c.preload[:, None] ** 2 / (2 * c.k), closed).sum())
+
+
+@numba.njit(cache=True, fastmath=False)
+def _kernel(t, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p_aero, friction,
+            R, XA, XB, A0, B0, arm, T, kc, preload, normal, slip, gap, state, y_vdp, power,
+            work):
+    N, m = q.shape
+    f_s, f_d, decay, v_k = friction[0], friction[1], friction[2], friction[3]
+    p_noz = 0.0
+    p_vdp = 0.0
+    p_fric = 0.0
+    # nozzle excitation (eq. 13) and the Van der Pol displacements
+    for s in range(N):
+        FE = Fb * math.cos(n_s * omega * t - phase[s])
+        y = 0.0
+        yd = 0.0
+        ve = 0.0
+        for j in range(m):
+            out[s, j] = p_exc[j] * FE
+            y += p_aero[j] * q[s, j]
+            yd += p_aero[j] * v[s, j]
+            ve += p_exc[j] * v[s, j]
+        p_noz += FE * ve
+        y_vdp[s] = y
+        work[s, 0] = y
+        work[s, 1] = yd
+    # Van der Pol: force on blade s is -F_s along the aero direction, generalised p F
+    if vdp_model == 1:
+        for s in range(N):
+            y = work[s, 0]
+            yd = work[s, 1]
+            g = mu * (1.0 - (y / r) ** 2) * yd  # = -F_s (eq. 1)
+            p_vdp += g * yd
+            for j in range(m):
+                out[s, j] += p_aero[j] * g
+    elif vdp_model == 2:
+        for s in range(N):  # g_s = mu (1 - (D_s/r)^2) D'_s, D_s = y_s - y_{s-1}
+            sp = (s - 1) % N
+            D = work[s, 0] - work[sp, 0]
+            Dd = work[s, 1] - work[sp, 1]
+            work[s, 2] = mu * (1.0 - (D / r) ** 2) * Dd
+        for s in range(N):
+            sn = (s + 1) % N
+            g = work[s, 2] - work[sn, 2]  # = -F_s of eq. 2
+            p_vdp += g * work[s, 1]
+            for j in range(m):
+                out[s, j] += p_aero[j] * g
+    # contacts: arm of blade s (A_s, B_s, arm end C_s) against A_{s+1}
+    uA = np.empty(3)
+    uB = np.empty(3)
+    vA = np.empty(3)
+    vB = np.empty(3)
+    uN = np.empty(3)
+    vN = np.empty(3)
+    d = np.empty(3)
+    dd = np.empty(3)
+    e = np.empty(3)
+    ed = np.empty(3)
+    uc = np.empty(3)
+    vc = np.empty(3)
+    ul = np.empty(3)
+    vl = np.empty(3)
+    F = np.empty(3)
+    FN = np.empty(3)
+    for c in range(XA.shape[0]):
+        L = arm[c]
+        l0 = 0.0
+        for a in range(3):
+            l0 += (B0[c, a] - A0[c, a]) ** 2
+        l0 = math.sqrt(l0)
+        for s in range(N):
+            sn = (s + 1) % N
+            for a in range(3):
+                x1 = 0.0
+                x2 = 0.0
+                x3 = 0.0
+                x4 = 0.0
+                x5 = 0.0
+                x6 = 0.0
+                for j in range(m):
+                    x1 += XA[c, a, j] * q[s, j]
+                    x2 += XB[c, a, j] * q[s, j]
+                    x3 += XA[c, a, j] * v[s, j]
+                    x4 += XB[c, a, j] * v[s, j]
+                    x5 += XA[c, a, j] * q[sn, j]
+                    x6 += XA[c, a, j] * v[sn, j]
+                uA[a] = x1
+                uB[a] = x2
+                vA[a] = x3
+                vB[a] = x4
+                uN[a] = x5
+                vN[a] = x6
+            # deformed arm direction e = (B' - A') / |B' - A'| and its rate (eq. 16)
+            nd = 0.0
+            for a in range(3):
+                d[a] = B0[c, a] + uB[a] - A0[c, a] - uA[a]
+                dd[a] = vB[a] - vA[a]
+                nd += d[a] * d[a]
+            nd = math.sqrt(nd)
+            edd = 0.0
+            for a in range(3):
+                e[a] = d[a] / nd
+                edd += e[a] * dd[a]
+            for a in range(3):
+                ed[a] = (dd[a] - e[a] * edd) / nd
+            # relative displacement (eq. 17, change from the undeformed gap) and velocity,
+            # in sector s's frame: A_{s+1} moves by R u_A(s+1)
+            for a in range(3):
+                RuN = R[a, 0] * uN[0] + R[a, 1] * uN[1] + R[a, 2] * uN[2]
+                RvN = R[a, 0] * vN[0] + R[a, 1] * vN[1] + R[a, 2] * vN[2]
+                e0 = (B0[c, a] - A0[c, a]) / l0
+                uc[a] = RuN - uA[a] - L * (e[a] - e0)
+                vc[a] = RvN - vA[a] - L * ed[a]
+            for a in range(3):  # local frame (eq. 18)
+                ul[a] = T[c, s, a, 0] * uc[0] + T[c, s, a, 1] * uc[1] + T[c, s, a, 2] * uc[2]
+                vl[a] = T[c, s, a, 0] * vc[0] + T[c, s, a, 1] * vc[1] + T[c, s, a, 2] * vc[2]
+            Fn = preload[c] - kc[c, s] * ul[1]  # eq. 19
+            gap[c, s] = ul[1]
+            vt = math.sqrt(vl[0] * vl[0] + vl[2] * vl[2])
+            slip[c, s] = vt
+            Ft0 = 0.0
+            Ft2 = 0.0
+            if Fn <= 0.0:
+                Fn = 0.0
+                state[c, s] = 0
+            else:
+                if vt <= v_k:
+                    coef = f_s * vt / v_k  # micro-slip branch (Fig. 4)
+                    state[c, s] = 1
+                else:
+                    coef = f_d + (f_s - f_d) * math.exp(-decay * (vt - v_k))
+                    state[c, s] = 2
+                if vt > 0.0:
+                    Ft0 = -coef * Fn * vl[0] / vt
+                    Ft2 = -coef * Fn * vl[2] / vt
+                p_fric += Ft0 * vl[0] + Ft2 * vl[2]
+            normal[c, s] = Fn
+            # force on A_{s+1} in sector s's frame: T^T (F_xi, F_n, F_zeta)
+            for a in range(3):
+                F[a] = T[c, s, 0, a] * Ft0 + T[c, s, 1, a] * Fn + T[c, s, 2, a] * Ft2
+            # blade s+1 (own frame: R^T F) at A
+            for a in range(3):
+                FN[a] = R[0, a] * F[0] + R[1, a] * F[1] + R[2, a] * F[2]
+            for j in range(m):
+                acc = 0.0
+                for a in range(3):
+                    acc += XA[c, a, j] * FN[a]
+                out[sn, j] += acc
+            # arm end of blade s gets -F; moved exactly onto A and B (virtual work of
+            # C' = A' + L e): F_B = (L/|d|) F_perp, F_A = -F - F_B
+            Fe = 0.0
+            for a in range(3):
+                Fe += -F[a] * e[a]
+            for j in range(m):
+                acc = 0.0
+                for a in range(3):
+                    FB = (L / nd) * (-F[a] - Fe * e[a])
+                    FA = -F[a] - FB
+                    acc += XA[c, a, j] * FA + XB[c, a, j] * FB
+                out[s, j] += acc
+    power[0] = p_noz
+    power[1] = p_vdp
+    power[2] = p_fric
+
+
+def contact_kinds_in(model: ReducedModel) -> list[str]:
+    return [k for k in CONTACT_KINDS if k in model.contact_A]

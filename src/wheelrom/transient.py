@@ -1,0 +1,421 @@
+"""Transient response of the reduced wheel on PETSc TS (paper eq. 15), and a serial reference.
+
+State ``u = (q, q', W)`` with ``q, q'`` of length ``N m`` and four work accumulators
+``W = (W_nozzle, W_vdp, W_friction, W_damping)`` [J] integrated with the same stages as the
+motion, so the energy balance ``E(t) - E(0) = sum W`` is a check of the integration itself:
+
+    q''  = -K_R (q + beta_D q') + f(q, q', t)
+    W'   = (P_nozzle, P_vdp, P_friction, -beta_D q'^T K_R q')
+
+Default TS: ``rk`` / ``3bs`` (Bogacki-Shampine = Simulink ode3), fixed step ``time.step``, no
+adaptivity. Options prefix ``wheel_``: ``-wheel_ts_type``, ``-wheel_ts_rk_type``,
+``-wheel_ts_adapt_type``, ``-wheel_ts_dt`` ... are applied last (``setFromOptions``).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from wheelrom._environment import petsc
+from wheelrom.config import Config
+from wheelrom.cyclic import ReducedModel
+from wheelrom.forces import OPEN, ForceModel
+
+N_WORK = 4
+WORK_NAMES = ("nozzle", "van_der_pol", "friction", "damping")
+
+
+@dataclass
+class CaseResult:
+    """Monitor output of one case (arrays per window ``w`` unless noted).
+
+    Attributes:
+        status: ``"done"`` or ``"failed: <reason>"``.
+        window_end: ``(W,)`` end time of each window [s].
+        max_tip_amplitude: ``(W,)`` largest tip displacement magnitude over blades [m].
+        min_normal_force: kind -> ``(W,)`` smallest normal force over blades and time [N].
+        open_fraction: kind -> ``(W,)`` fraction of (blade, step) samples with the contact open.
+        nd_spectrum: ``(W, N//2+1)`` largest DFT amplitude over the window of the tip ``y``
+            displacement per nodal diameter [m].
+        energy: ``(W,)`` kinetic + potential energy at window end [J].
+        work: ``(W, 4)`` cumulative work of nozzle, Van der Pol, friction, damping [J].
+        sample_time: ``(S,)`` [s]; tip_history: ``(S, N, 3)`` tip displacement [m].
+        steps, wall_s, options: TS steps taken, wall time [s], PETSc options used.
+    """
+
+    status: str = "done"
+    window_end: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    max_tip_amplitude: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    min_normal_force: dict = field(default_factory=dict)
+    open_fraction: dict = field(default_factory=dict)
+    nd_spectrum: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    energy: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    energy0: float = 0.0
+    work: np.ndarray = field(default_factory=lambda: np.zeros((0, N_WORK)))
+    sample_time: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    tip_history: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 3)))
+    steps: int = 0
+    wall_s: float = 0.0
+    options: dict = field(default_factory=dict)
+    preload_residual: float | None = None
+    final_state: np.ndarray | None = None
+
+    def energy_balance_error(self) -> float:
+        """``|E - E0 - sum W| / sum |W|`` at the last window (0 when nothing happened)."""
+        if self.energy.size == 0:
+            return 0.0
+        total = self.work[-1].sum()
+        scale = np.abs(self.work[-1]).sum()
+        return float(abs(self.energy[-1] - self.energy0 - total) / scale) if scale else 0.0
+
+    def summary(self) -> dict:
+        last = -1 if self.window_end.size else None
+        return {
+            "status": self.status,
+            "steps": self.steps,
+            "wall_s": self.wall_s,
+            "simulated_s": float(self.window_end[-1]) if last is not None else 0.0,
+            "max_tip_amplitude": float(self.max_tip_amplitude[-1]) if last is not None else None,
+            "min_normal_force": {k: float(v[-1]) for k, v in self.min_normal_force.items()
+                                 if v.size},
+            "open_fraction": {k: float(v[-1]) for k, v in self.open_fraction.items() if v.size},
+            "energy_balance_error": self.energy_balance_error(),
+            "preload_residual": self.preload_residual,
+            "options": self.options,
+        }
+
+
+class WheelProblem:
+    """The ODE of one case: owns sizes, work arrays and the TS callbacks (``COMM_SELF``)."""
+
+    def __init__(self, model: ReducedModel, cfg: Config, forces: ForceModel, comm=None):
+        PETSc = petsc()
+        self.comm = comm or PETSc.COMM_SELF
+        self.model, self.cfg, self.forces = model, cfg, forces
+        self.N, self.m = model.blades, model.modes
+        self.n = self.N * self.m
+        self.beta = cfg.wheel.damping_beta
+        self.K = model.petsc_stiffness(self.comm)
+        self.Kd = model.dense_stiffness()  # for energies and the reference (small)
+        self._x = PETSc.Vec().createSeq(self.n, comm=self.comm)
+        self._Kx = PETSc.Vec().createSeq(self.n, comm=self.comm)
+        self._Kv = PETSc.Vec().createSeq(self.n, comm=self.comm)
+        self.rhs_calls = 0
+
+    def size(self) -> int:
+        return 2 * self.n + N_WORK
+
+    def rhs(self, ts, t, u, f):
+        """TS RHS callback: ``f = (q', q'', W')``."""
+        self.rhs_calls += 1
+        n = self.n
+        ua = u.getArray(readonly=True)
+        fa = f.getArray()
+        q = ua[:n]
+        v = ua[n:2 * n]
+        self._x.setArray(q)
+        self.K.mult(self._x, self._Kx)
+        self._x.setArray(v)
+        self.K.mult(self._x, self._Kv)
+        force = self.forces.evaluate(t, q.reshape(self.N, self.m), v.reshape(self.N, self.m))
+        Kq = self._Kx.getArray(readonly=True)
+        Kv = self._Kv.getArray(readonly=True)
+        fa[:n] = v
+        fa[n:2 * n] = force.ravel() - Kq - self.beta * Kv
+        p = self.forces.power
+        fa[2 * n] = p[0]
+        fa[2 * n + 1] = p[1]
+        fa[2 * n + 2] = p[2]
+        fa[2 * n + 3] = -self.beta * float(v @ Kv)
+
+    def rhs_numpy(self, t: float, u: np.ndarray) -> np.ndarray:
+        """The same right-hand side with numpy only (serial reference)."""
+        n = self.n
+        q, v = u[:n], u[n:2 * n]
+        force = self.forces.evaluate(t, q.reshape(self.N, self.m), v.reshape(self.N, self.m))
+        Kv = self.Kd @ v
+        out = np.empty_like(u)
+        out[:n] = v
+        out[n:2 * n] = force.ravel() - self.Kd @ q - self.beta * Kv
+        out[2 * n:2 * n + 3] = self.forces.power
+        out[2 * n + 3] = -self.beta * float(v @ Kv)
+        return out
+
+    def energy(self, u: np.ndarray) -> float:
+        """Kinetic + modal strain + contact spring energy [J] (evaluates the contacts)."""
+        n = self.n
+        q, v = u[:n], u[n:2 * n]
+        self.forces.evaluate(0.0, q.reshape(self.N, self.m), v.reshape(self.N, self.m))
+        return 0.5 * float(v @ v) + 0.5 * float(q @ (self.Kd @ q)) + self.forces.contact_energy()
+
+    def destroy(self) -> None:
+        for obj in (self.K, self._x, self._Kx, self._Kv):
+            obj.destroy()
+
+
+class Monitor:
+    """Per-step bookkeeping: window statistics, decimated tip histories, divergence."""
+
+    def __init__(self, problem: WheelProblem, cfg: Config):
+        self.p = problem
+        self.N = problem.N
+        self.kinds = problem.forces.contacts.kinds
+        self.sample_dt = 1.0 / cfg.output.sample_rate_hz
+        self.next_sample = 0.0
+        self.samples_t: list[float] = []
+        self.samples: list[np.ndarray] = []
+        self.limit = cfg.time.divergence_amplitude
+        self.reset_window()
+        self.diverged: str | None = None
+
+    def reset_window(self) -> None:
+        self.amp = 0.0
+        self.min_fn = {k: math.inf for k in self.kinds}
+        self.open_count = {k: 0 for k in self.kinds}
+        self.count = 0
+        self.spectrum = np.zeros(self.N // 2 + 1)
+
+    def __call__(self, t: float, u: np.ndarray) -> None:
+        p = self.p
+        n = p.n
+        q = u[:n].reshape(p.N, p.m)
+        tip = q @ p.model.tip.T  # (N, 3)
+        amp = float(np.sqrt((tip * tip).sum(axis=1)).max())
+        if not math.isfinite(amp):
+            self.diverged = f"non-finite state at t = {t:.6g} s"
+            return
+        self.amp = max(self.amp, amp)
+        if amp > self.limit:
+            self.diverged = (f"tip amplitude {amp:.3g} m exceeds time.divergence_amplitude "
+                             f"at t = {t:.6g} s")
+        if self.kinds:
+            p.forces.evaluate(t, q, u[n:2 * n].reshape(p.N, p.m))
+            for i, k in enumerate(self.kinds):
+                self.min_fn[k] = min(self.min_fn[k], float(p.forces.normal_force[i].min()))
+                self.open_count[k] += int((p.forces.contact_state[i] == OPEN).sum())
+        self.count += 1
+        if t >= self.next_sample - 1e-12:
+            self.samples_t.append(t)
+            self.samples.append(tip.copy())
+            spec = np.abs(np.fft.rfft(tip[:, 1])) / self.N
+            np.maximum(self.spectrum, spec, out=self.spectrum)
+            self.next_sample += self.sample_dt
+
+
+def _options_used(prefix: str) -> dict:
+    PETSc = petsc()
+    opts = PETSc.Options().getAll()
+    return {k: v for k, v in opts.items() if k.startswith(prefix)}
+
+
+def make_ts(problem: WheelProblem, cfg: Config, prefix: str = "wheel_",
+            options: dict | None = None):
+    """A configured TS (defaults in code, ``setFromOptions`` last).
+
+    ``options``: extra PETSc options (without prefix) set under ``prefix`` for this TS only.
+    """
+    PETSc = petsc()
+    opts = PETSc.Options()
+    inserted = []
+    # petsc4py 3.18 has no TSAdapt object: fixed steps are a default in the options database
+    # (a user's -wheel_ts_adapt_type wins because it is already set)
+    defaults = {"ts_adapt_type": "none"}
+    for key, value in {**defaults, **(options or {})}.items():
+        name = prefix + key.lstrip("-")
+        if key in defaults and opts.hasName(name):
+            continue
+        if not opts.hasName(name) or key not in defaults:
+            inserted.append(name)
+        opts.setValue(name, "" if value is None else str(value))
+    ts = PETSc.TS().create(comm=problem.comm)
+    ts.setOptionsPrefix(prefix)
+    ts.setProblemType(PETSc.TS.ProblemType.NONLINEAR)
+    ts.setType(PETSc.TS.Type.RK)
+    ts.setRKType("3bs")
+    ts.setTimeStep(cfg.time.step)
+    ts.setMaxTime(cfg.time.end)
+    ts.setMaxSteps(10**9)
+    ts.setExactFinalTime(PETSc.TS.ExactFinalTime.MATCHSTEP)
+    f = PETSc.Vec().createSeq(problem.size(), comm=problem.comm)
+    ts.setRHSFunction(problem.rhs, f)
+    ts.setFromOptions()
+    used = {
+        "ts_type": ts.getType(),
+        "ts_rk_type": ts.getRKType() if ts.getType() == "rk" else None,
+        "ts_dt": ts.getTimeStep(),
+    }
+    used.update({k[len(prefix):]: v for k, v in _options_used(prefix).items()})
+    for name in inserted:
+        opts.delValue(name)
+    return ts, f, {k: v for k, v in used.items() if v is not None}
+
+
+def initial_state(problem: WheelProblem, cfg: Config, result: CaseResult) -> np.ndarray:
+    """Zero state, or the static equilibrium under preloads (and the t = 0 nozzle force)."""
+    u0 = np.zeros(problem.size())
+    if cfg.time.start == "preload":
+        q, residual = static_preload(problem)
+        u0[: problem.n] = q
+        result.preload_residual = residual
+    return u0
+
+
+def static_preload(problem: WheelProblem, prefix: str = "preload_") -> tuple[np.ndarray, float]:
+    """Solve ``K_R q = f(q, 0, t=0)`` with PETSc SNES; returns ``q`` and ``|residual|``.
+
+    Jacobian by finite differences of the residual with ``K_R`` structure (dense, N m
+    unknowns). Options prefix ``preload_`` (``-preload_snes_rtol`` ...).
+    """
+    PETSc = petsc()
+    n = problem.n
+    zeros_v = np.zeros((problem.N, problem.m))
+
+    def residual_np(q):
+        force = problem.forces.evaluate(0.0, q.reshape(problem.N, problem.m), zeros_v)
+        return problem.Kd @ q - force.ravel()
+
+    def residual(snes, x, r):
+        r.setArray(residual_np(x.getArray(readonly=True)))
+
+    def jacobian(snes, x, J, P):
+        q = x.getArray(readonly=True).copy()
+        base = residual_np(q)
+        h = 1e-9 * max(1.0, np.abs(q).max())
+        Jd = np.empty((n, n))
+        for j in range(n):
+            qj = q.copy()
+            qj[j] += h
+            Jd[:, j] = (residual_np(qj) - base) / h
+        P.setValues(range(n), range(n), Jd)
+        P.assemble()
+
+    snes = PETSc.SNES().create(comm=problem.comm)
+    snes.setOptionsPrefix(prefix)
+    J = PETSc.Mat().createDense((n, n), comm=problem.comm)
+    J.setUp()
+    r = PETSc.Vec().createSeq(n, comm=problem.comm)
+    x = PETSc.Vec().createSeq(n, comm=problem.comm)
+    snes.setFunction(residual, r)
+    snes.setJacobian(jacobian, J, J)
+    snes.setTolerances(rtol=1e-12, atol=1e-12 * max(1.0, problem.forces.nozzle_force), max_it=50)
+    snes.getKSP().setType("preonly")
+    snes.getKSP().getPC().setType("lu")
+    snes.setFromOptions()
+    x.set(0.0)
+    snes.solve(None, x)
+    q = x.getArray().copy()
+    res = float(np.linalg.norm(residual_np(q)))
+    reason = snes.getConvergedReason()
+    for obj in (snes, J, r, x):
+        obj.destroy()
+    if reason <= 0:
+        raise RuntimeError(f"preload SNES did not converge (reason {reason}, |F| = {res:.3g})")
+    return q, res
+
+
+def run_case(model: ReducedModel, cfg: Config, angles_deg: dict | None = None,
+             options: dict | None = None, progress=None, prefix: str = "wheel_") -> CaseResult:
+    """Integrate one case window by window; a divergence stops it and keeps what was done."""
+    PETSc = petsc()
+    t_wall = time.perf_counter()
+    forces = ForceModel(model, cfg, angles_deg)
+    problem = WheelProblem(model, cfg, forces)
+    result = CaseResult()
+    u0 = initial_state(problem, cfg, result)
+    ts, fvec, used = make_ts(problem, cfg, prefix, options)
+    result.options = used
+    monitor = Monitor(problem, cfg)
+    u = PETSc.Vec().createSeq(problem.size(), comm=problem.comm)
+    u.setArray(u0)
+    result.energy0 = problem.energy(u0)
+
+    def ts_monitor(ts, step, t, x):
+        monitor(t, x.getArray(readonly=True))
+        if monitor.diverged:
+            ts.setConvergedReason(PETSc.TS.ConvergedReason.CONVERGED_USER)
+
+    ts.setMonitor(ts_monitor)
+    windows = max(1, int(round(cfg.time.end / cfg.time.window)))
+    rows = {key: [] for key in ("end", "amp", "energy", "work", "spec")}
+    fn_rows = {k: [] for k in forces.contacts.kinds}
+    open_rows = {k: [] for k in forces.contacts.kinds}
+    t_now = 0.0
+    try:
+        for w in range(windows):
+            t_end = cfg.time.end if w == windows - 1 else (w + 1) * cfg.time.window
+            ts.setMaxTime(t_end)
+            ts.solve(u)
+            t_now = ts.getTime()
+            ua = u.getArray(readonly=True)
+            if monitor.diverged:
+                result.status = f"failed: {monitor.diverged}"
+                break
+            rows["end"].append(t_now)
+            rows["amp"].append(monitor.amp)
+            rows["spec"].append(monitor.spectrum.copy())
+            rows["energy"].append(problem.energy(ua))
+            rows["work"].append(ua[2 * problem.n:].copy())
+            for k in forces.contacts.kinds:
+                fn_rows[k].append(monitor.min_fn[k])
+                open_rows[k].append(monitor.open_count[k] / max(1, monitor.count * problem.N))
+            monitor.reset_window()
+            if progress:
+                progress(w + 1, windows, t_now, rows["amp"][-1])
+            if t_now < t_end - 1e-9 * max(1.0, t_end):
+                result.status = f"failed: TS stopped at t = {t_now:.6g} s ({ts.getConvergedReason()})"
+                break
+    except PETSc.Error as exc:
+        result.status = f"failed: PETSc error {exc}"
+    result.window_end = np.array(rows["end"])
+    result.max_tip_amplitude = np.array(rows["amp"])
+    result.nd_spectrum = np.array(rows["spec"]).reshape(-1, problem.N // 2 + 1)
+    result.energy = np.array(rows["energy"])
+    result.work = np.array(rows["work"]).reshape(-1, N_WORK)
+    result.min_normal_force = {k: np.array(v) for k, v in fn_rows.items()}
+    result.open_fraction = {k: np.array(v) for k, v in open_rows.items()}
+    result.sample_time = np.array(monitor.samples_t)
+    result.tip_history = np.array(monitor.samples).reshape(-1, problem.N, 3)
+    result.steps = ts.getStepNumber()
+    result.final_state = u.getArray().copy()
+    result.wall_s = time.perf_counter() - t_wall
+    for obj in (ts, fvec, u):
+        obj.destroy()
+    problem.destroy()
+    return result
+
+
+# Bogacki-Shampine tableau (explicit RK3, FSAL; the 3rd-order solution is used)
+_BS_A = ((0.5,), (0.0, 0.75))
+_BS_B = (2.0 / 9.0, 1.0 / 3.0, 4.0 / 9.0)
+_BS_C = (0.0, 0.5, 0.75)
+
+
+def reference_solution(model: ReducedModel, cfg: Config, steps: int,
+                       angles_deg: dict | None = None, sample_every: int = 1):
+    """Plain-numpy fixed-step Bogacki-Shampine loop (no PETSc) over the same force model.
+
+    Returns ``(times, states)`` with the state every ``sample_every`` steps and ``wall_s``.
+    """
+    t_wall = time.perf_counter()
+    forces = ForceModel(model, cfg, angles_deg)
+    problem = WheelProblem(model, cfg, forces)
+    res = CaseResult()
+    u = initial_state(problem, cfg, res)
+    h = cfg.time.step
+    times, states = [0.0], [u.copy()]
+    t = 0.0
+    for i in range(steps):
+        k1 = problem.rhs_numpy(t, u)
+        k2 = problem.rhs_numpy(t + _BS_C[1] * h, u + h * _BS_A[0][0] * k1)
+        k3 = problem.rhs_numpy(t + _BS_C[2] * h, u + h * _BS_A[1][1] * k2)
+        u = u + h * (_BS_B[0] * k1 + _BS_B[1] * k2 + _BS_B[2] * k3)
+        t = (i + 1) * h
+        if (i + 1) % sample_every == 0:
+            times.append(t)
+            states.append(u.copy())
+    problem.destroy()
+    return np.array(times), np.array(states), time.perf_counter() - t_wall
