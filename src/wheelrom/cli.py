@@ -64,9 +64,185 @@ def cmd_config_check(args: argparse.Namespace) -> int:
     return 0
 
 
+def _log(msg: str) -> None:
+    print(msg, file=sys.stderr, flush=True)
+
+
+def _options_dict(args: argparse.Namespace) -> dict:
+    """PETSc options after ``--`` as a dict for the case TS (prefix ``wheel_`` stripped)."""
+    out: dict = {}
+    key = None
+    for token in getattr(args, "petsc_args", []):
+        if token.startswith("-") and not _is_number(token):
+            key = token.lstrip("-")
+            key = key[len("wheel_"):] if key.startswith("wheel_") else key
+            out[key] = None
+        elif key is not None:
+            out[key] = token
+            key = None
+    return out
+
+
+def _is_number(token: str) -> bool:
+    try:
+        float(token)
+        return True
+    except ValueError:
+        return False
+
+
+def cmd_modes(args: argparse.Namespace) -> int:
+    """Segment modes (SLEPc) and wheel frequencies by nodal diameter (cyclic synthesis)."""
+    from wheelrom.cyclic import build_model, wheel_modes
+
+    cfg = _load(args)
+    model = build_model(cfg, log=None if args.json else _log)
+    hz, nd, kind = wheel_modes(model)
+    if args.out:
+        import h5py
+
+        from wheelrom.config import to_toml
+        from wheelrom.sweep import write_model
+
+        with h5py.File(args.out, "w") as f:
+            f.attrs["config"] = to_toml(cfg)
+            write_model(f.create_group("model"), model)
+            f["model/wheel_hz"], f["model/wheel_nd"] = hz, nd
+    if args.json:
+        print_json({"segment_hz": model.segment_hz.tolist(), "wheel_hz": hz.tolist(),
+                    "wheel_nd": nd.tolist(), "info": model.info})
+        return 0
+    print("segment modes [Hz]: " + ", ".join(f"{x:.2f}" for x in model.segment_hz))
+    for kind_name, rep in model.info.items():
+        if isinstance(rep, dict) and "arm_length" in rep:
+            print(f"{kind_name}: arm L = {rep['arm_length']:.4g} m, pitch chord "
+                  f"{rep['pitch_chord']:.4g} m, arm end misses next A by "
+                  f"{rep['tip_to_next_A'] * 1e3:.2f} mm")
+    table = model.frequencies_by_nodal_diameter()
+    print("wheel frequencies by nodal diameter [Hz] (first 4 families):")
+    for k, row in enumerate(table):
+        print(f"  ND {k:3d}: " + "  ".join(f"{x:9.2f}" for x in row[:4]))
+    return 0
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    """One transient case on PETSc TS (options after -- go to the TS, prefix wheel_)."""
+    from wheelrom.cyclic import build_model
+    from wheelrom.transient import run_case
+
+    cfg = _load(args)
+    model = build_model(cfg, log=None if args.json else _log)
+
+    def progress(w, total, t, amp):
+        if not args.json:
+            _log(f"window {w}/{total}: t = {t:.4f} s, max tip amplitude {amp:.3e} m")
+
+    res = run_case(model, cfg, options=_options_dict(args), progress=progress)
+    if args.out:
+        import h5py
+
+        from wheelrom.sweep import _create_layout, _write_case
+
+        cfg1 = cfg.replace(**{"sweep.tieboss_angles_deg": [cfg.contacts.tieboss.angle_deg],
+                              "sweep.shroud_angles_deg": [cfg.contacts.shroud.angle_deg]})
+        with h5py.File(args.out, "w") as f:
+            _create_layout(f, cfg1, model)
+            _write_case(f["cases"], 0, res)
+    summary = res.summary()
+    if args.json:
+        print_json(summary)
+    else:
+        for key, value in summary.items():
+            print(f"{key}: {value}")
+    return 0 if res.status == "done" else 1
+
+
+def cmd_compare(args: argparse.Namespace) -> int:
+    """PETSc TS against the plain-numpy serial reference on the same model."""
+    import numpy as np
+
+    from wheelrom.cyclic import build_model
+    from wheelrom.transient import reference_solution, run_case
+
+    cfg = _load(args)
+    steps = args.steps
+    cfg = cfg.replace(**{"time.end": steps * cfg.time.step, "time.window": steps * cfg.time.step})
+    model = build_model(cfg, log=None if args.json else _log)
+    res = run_case(model, cfg)
+    _, states, ref_wall = reference_solution(model, cfg, steps, sample_every=steps)
+    n = model.size
+    ref_tip = states[-1][:n].reshape(model.blades, model.modes) @ model.tip.T
+    ts_tip = res.final_state[:n].reshape(model.blades, model.modes) @ model.tip.T
+    diff = float(np.abs(ref_tip - ts_tip).max() / max(np.abs(ref_tip).max(), 1e-300))
+    out = {"steps": steps, "max_relative_difference": diff, "petsc_wall_s": res.wall_s,
+           "reference_wall_s": ref_wall}
+    if args.json:
+        print_json(out)
+    else:
+        for key, value in out.items():
+            print(f"{key}: {value}")
+    return 0
+
+
+def cmd_sweep(args: argparse.Namespace) -> int:
+    """Angle sweep across MPI ranks into one parallel HDF5 file (mpirun -n P wheelrom sweep)."""
+    from wheelrom.sweep import run_sweep
+
+    cfg = _load(args)
+    failed = run_sweep(cfg, args.out, resume=args.resume, force=args.force,
+                       log=lambda m: print(m, flush=True), options=_options_dict(args))
+    return 1 if failed else 0
+
+
+def cmd_plot(args: argparse.Namespace) -> int:
+    """Figures (PNG, PDF with --pdf) from a sweep/run/modes HDF5 file."""
+    from wheelrom.plots import plot_file
+
+    written = plot_file(args.results, args.outdir, pdf=args.pdf)
+    for path in written:
+        print(path)
+    return 0
+
+
+def _json_out(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+
+
+def _args_modes(p):
+    _json_out(p)
+    p.add_argument("--out", help="write the reduced model to this HDF5 file")
+
+
+def _args_run(p):
+    _json_out(p)
+    p.add_argument("--out", help="write the case to this HDF5 file (sweep layout)")
+
+
+def _args_compare(p):
+    _json_out(p)
+    p.add_argument("--steps", type=int, default=2000, help="steps to compare (default 2000)")
+
+
+def _args_sweep(p):
+    p.add_argument("--out", required=True, help="HDF5 results file")
+    p.add_argument("--resume", action="store_true", help="run only the cases still pending")
+    p.add_argument("--force", action="store_true", help="overwrite an existing file")
+
+
+def _args_plot(p):
+    p.add_argument("--outdir", default=None, help="directory for the figures")
+    p.add_argument("--pdf", action="store_true", help="also write PDF")
+
+
 COMMANDS: dict[
     str, tuple[Callable[[argparse.Namespace], int], str, Callable[[argparse.ArgumentParser], None]]
-] = {}
+] = {
+    "modes": (cmd_modes, "segment and wheel modal analysis", _args_modes),
+    "run": (cmd_run, "one transient case", _args_run),
+    "compare": (cmd_compare, "PETSc TS against the serial numpy reference", _args_compare),
+    "sweep": (cmd_sweep, "contact-angle sweep under mpirun, parallel HDF5", _args_sweep),
+    "plot": (cmd_plot, "figures from a results file", _args_plot),
+}
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -93,7 +269,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     for name, (func, help_text, extra) in COMMANDS.items():
         p = sub.add_parser(name, help=help_text, description=func.__doc__)
-        _add_config_args(p)
+        if name == "plot":
+            p.add_argument("results", help="HDF5 file from sweep, run or modes --out")
+        else:
+            _add_config_args(p)
         extra(p)
         p.set_defaults(func=func)
     return parser
