@@ -128,6 +128,8 @@ class ForceModel:
         self.slip_velocity = np.zeros((K, N))
         self.normal_gap = np.zeros((K, N))
         self.contact_state = np.zeros((K, N), dtype=np.int8)
+        self.relative_displacement = np.zeros((K, N, 3))  # local (xi, eta, zeta) [m]
+        self.relative_velocity = np.zeros((K, N, 3))  # local [m/s]
         self.vdp_displacement = np.zeros(N)
         self.power = np.zeros(3)
         self._work = np.zeros((N, 4))
@@ -140,7 +142,7 @@ class ForceModel:
             self.nozzle_phase, self.vdp_model, self.vdp_mu, self.vdp_r, self.p_aero,
             self.friction, self.R, c.XA, c.XB, c.A0, c.B0, c.arm, c.T, c.k, c.preload,
             self.normal_force, self.slip_velocity, self.normal_gap, self.contact_state,
-            self.vdp_displacement, self.power, self._work,
+            self.relative_displacement, self.relative_velocity, self.vdp_displacement, self.power, self._work,
         )
         return self.force
 
@@ -159,8 +161,8 @@ class ForceModel:
 
 @numba.njit(cache=True, fastmath=False)
 def _kernel(t, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p_aero, friction,
-            R, XA, XB, A0, B0, arm, T, kc, preload, normal, slip, gap, state, y_vdp, power,
-            work):
+            R, XA, XB, A0, B0, arm, T, kc, preload, normal, slip, gap, state, rel_u, rel_v,
+            y_vdp, power, work):
     N, m = q.shape
     f_s, f_d, decay, v_k = friction[0], friction[1], friction[2], friction[3]
     p_noz = 0.0
@@ -271,6 +273,9 @@ def _kernel(t, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p_aero
             for a in range(3):  # local frame (eq. 18)
                 ul[a] = T[c, s, a, 0] * uc[0] + T[c, s, a, 1] * uc[1] + T[c, s, a, 2] * uc[2]
                 vl[a] = T[c, s, a, 0] * vc[0] + T[c, s, a, 1] * vc[1] + T[c, s, a, 2] * vc[2]
+            for a in range(3):
+                rel_u[c, s, a] = ul[a]
+                rel_v[c, s, a] = vl[a]
             Fn = preload[c] - kc[c, s] * ul[1]  # eq. 19
             gap[c, s] = ul[1]
             vt = math.sqrt(vl[0] * vl[0] + vl[2] * vl[2])

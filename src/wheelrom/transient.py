@@ -318,14 +318,21 @@ def static_preload(problem: WheelProblem, prefix: str = "preload_") -> tuple[np.
 
 
 def run_case(model: ReducedModel, cfg: Config, angles_deg: dict | None = None,
-             options: dict | None = None, progress=None, prefix: str = "wheel_") -> CaseResult:
-    """Integrate one case window by window; a divergence stops it and keeps what was done."""
+             options: dict | None = None, progress=None, prefix: str = "wheel_",
+             u0: np.ndarray | None = None) -> CaseResult:
+    """Integrate one case window by window; a divergence stops it and keeps what was done.
+
+    ``u0``: optional initial modal state ``(q, q')`` of length ``2 N m`` (else ``time.start``).
+    """
     PETSc = petsc()
     t_wall = time.perf_counter()
     forces = ForceModel(model, cfg, angles_deg)
     problem = WheelProblem(model, cfg, forces)
     result = CaseResult()
-    u0 = initial_state(problem, cfg, result)
+    if u0 is None:
+        u0 = initial_state(problem, cfg, result)
+    else:
+        u0 = np.concatenate([u0, np.zeros(N_WORK)])
     ts, fvec, used = make_ts(problem, cfg, prefix, options)
     result.options = used
     monitor = Monitor(problem, cfg)

@@ -1,0 +1,136 @@
+"""Sweeps under mpirun (subprocesses), resume after SIGKILL, failure isolation, figures."""
+
+import os
+import signal
+import subprocess
+import sys
+
+
+import h5py
+import numpy as np
+import pytest
+
+from conftest import SMALL
+
+WHEELROM = [sys.executable, "-m", "wheelrom.cli"]
+ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+           OMPI_MCA_rmaps_base_oversubscribe="1")
+
+
+def sweep(out, *extra, ranks=1, check=True):
+    cmd = WHEELROM + ["sweep", SMALL, "--out", str(out), *extra]
+    if ranks > 1:
+        cmd = ["mpirun", "-n", str(ranks), *cmd]
+    return subprocess.run(cmd, env=ENV, capture_output=True, text=True, check=check,
+                          timeout=600)
+
+
+def case_data(path):
+    out = {}
+    with h5py.File(path, "r") as f:
+        def visit(name, obj):
+            if isinstance(obj, h5py.Dataset) and name.startswith("cases/") and "wall_s" not in name:
+                out[name] = obj[()]
+        f.visititems(visit)
+    return out
+
+
+def assert_same(a, b):
+    assert a.keys() == b.keys()
+    for k in a:
+        if a[k].dtype.kind == "f":
+            assert np.array_equal(a[k], b[k], equal_nan=True), k
+        else:
+            assert np.array_equal(a[k], b[k]), k
+
+
+@pytest.fixture(scope="module")
+def serial_run(tmp_path_factory):
+    path = tmp_path_factory.mktemp("sweep") / "n1.h5"
+    sweep(path)
+    return path
+
+
+def test_two_ranks_bitwise_equal_one_rank(serial_run, tmp_path):
+    sweep(tmp_path / "n2.h5", ranks=2)
+    a, b = case_data(serial_run), case_data(tmp_path / "n2.h5")
+    assert all(s == b"done" for s in a["cases/status"])
+    assert np.isfinite(a["cases/max_tip_amplitude"]).all()
+    assert_same(a, b)
+
+
+def test_existing_file_is_not_overwritten(serial_run):
+    before = os.path.getmtime(serial_run)
+    res = sweep(serial_run, check=False)
+    assert res.returncode == 2 and "--force" in res.stderr
+    assert os.path.getmtime(serial_run) == before
+
+
+def test_killed_sweep_resumes_to_the_same_file(serial_run, tmp_path):
+    out = tmp_path / "killed.h5"
+    cmd = WHEELROM + ["sweep", SMALL, "--out", str(out)]
+    proc = subprocess.Popen(cmd, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            text=True)
+    for line in proc.stdout:
+        if line.startswith("[1/3]"):
+            proc.send_signal(signal.SIGKILL)
+            break
+    proc.wait(timeout=60)
+    with h5py.File(out, "r") as f:  # opens, holds the first case
+        status = [s.decode() for s in f["cases/status"][:]]
+    assert status[0] == "done" and "pending" in status
+    sweep(out, "--resume")
+    assert_same(case_data(serial_run), case_data(out))
+
+
+def test_diverging_case_fails_alone(tmp_path):
+    """At 90 deg the shroud stiffness is far beyond the explicit step's stability."""
+    out = tmp_path / "div.h5"
+    res = sweep(out, "--set", "sweep.shroud_angles_deg=[20.0, 90.0]",
+                "--set", "contacts.shroud.stiffness=[[0.0, 7.6e7], [80.0, 7.6e7], [90.0, 1e14]]",
+                check=False)
+    assert res.returncode == 1
+    with h5py.File(out, "r") as f:
+        status = [s.decode() for s in f["cases/status"][:]]
+        assert status[0] == "done"
+        assert status[1].startswith("failed:") and "t =" in status[1]
+        assert np.isfinite(f["cases/max_tip_amplitude"][0]).all()
+
+
+def test_figures_render_headless(serial_run, tmp_path):
+    res = subprocess.run(WHEELROM + ["plot", str(serial_run), "--outdir", str(tmp_path)],
+                         env=dict(ENV, MPLBACKEND="Agg"), capture_output=True, text=True,
+                         check=True)
+    names = ["fig08_frequencies", "interference", "fig05_contact_stiffness", "fig10_amplitude",
+             "fig11_normal_force", "fig12_nd_spectrum", "summary"]
+    for name in names:
+        png = tmp_path / f"{name}.png"
+        assert png.stat().st_size > 5000
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert res.stdout.count(".png") == len(names)
+
+
+def test_plot_names_the_missing_quantity(serial_run, tmp_path):
+    broken = tmp_path / "broken.h5"
+    with h5py.File(serial_run, "r") as src, h5py.File(broken, "w") as dst:
+        for key, value in src.attrs.items():
+            dst.attrs[key] = value
+        src.copy("model", dst)
+        src.copy("cases", dst)
+        del dst["cases/nd_spectrum"]
+    res = subprocess.run(WHEELROM + ["plot", str(broken), "--outdir", str(tmp_path)],
+                         env=ENV, capture_output=True, text=True)
+    assert res.returncode == 2 and "cases/nd_spectrum" in res.stderr
+
+
+def test_run_json_summary(tmp_path):
+    import json
+
+    res = subprocess.run(WHEELROM + ["run", SMALL, "--json", "--set", "time.end=0.001",
+                                     "--out", str(tmp_path / "c.h5"), "--", "-wheel_ts_rk_type",
+                                     "4"], env=ENV, capture_output=True, text=True, check=True)
+    summary = json.loads(res.stdout)
+    assert summary["status"] == "done" and summary["steps"] == 200
+    assert summary["options"]["ts_rk_type"] == "4"
+    assert set(summary["min_normal_force"]) == {"tieboss", "shroud"}
+    assert summary["max_tip_amplitude"] > 0

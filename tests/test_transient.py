@@ -1,0 +1,111 @@
+"""Transient solver against the serial reference, the frequency domain and energy laws."""
+
+import math
+
+import numpy as np
+import pytest
+
+from wheelrom import transient
+
+
+def test_petsc_ts_equals_serial_reference_all_forces_on(coarse_model, coarse_cfg):
+    steps = 2000
+    cfg = coarse_cfg.replace(**{"time.end": steps * 5e-6, "time.window": steps * 5e-6})
+    res = transient.run_case(coarse_model, cfg)
+    assert res.status == "done" and res.steps == steps
+    _, states, _ = transient.reference_solution(coarse_model, cfg, steps, sample_every=steps)
+    n = coarse_model.size
+    ref, got = states[-1][:2 * n], res.final_state[:2 * n]
+    assert np.abs(ref).max() > 0
+    assert np.abs(got - ref).max() <= 1e-9 * np.abs(ref).max()
+
+
+def test_linear_steady_state_matches_frequency_domain(small_model, small_cfg):
+    """Started on the frequency-domain steady state, the TS must stay on it."""
+    cfg = small_cfg.replace(**{
+        "flutter.model": "off", "contacts.tieboss.enabled": False,
+        "contacts.shroud.enabled": False, "wheel.damping_beta": 2e-6,
+        "time.end": 0.02, "time.window": 0.005, "time.step": 5e-6,
+        "output.sample_rate_hz": 20000.0})
+    N, m = small_model.blades, small_model.modes
+    w = cfg.wheel.stator_vanes * 2 * math.pi * cfg.wheel.speed_hz
+    K = small_model.dense_stiffness()
+    phase = 2 * math.pi * (1 - cfg.wheel.stator_vanes / N) * np.arange(N)
+    F = (cfg.excitation.force * np.exp(-1j * phase)[:, None] * small_model.excitation).ravel()
+    X = np.linalg.solve(K - w * w * np.eye(N * m) + 1j * w * cfg.wheel.damping_beta * K, F)
+    u0 = np.concatenate([X.real, (1j * w * X).real])
+    res = transient.run_case(small_model, cfg, u0=u0)
+    t = res.sample_time
+    expect = np.real(np.exp(1j * w * t)[:, None, None] * (X.reshape(N, m) @ small_model.tip.T))
+    amp = np.abs(X.reshape(N, m) @ small_model.tip[1]).max()
+    assert amp > 0
+    assert np.abs(res.tip_history - expect).max() < 5e-3 * amp
+
+
+def _free_energy_drift(model, cfg, step):
+    cfg = cfg.replace(**{"time.step": step, "time.end": 0.004, "time.window": 0.004,
+                         "output.sample_rate_hz": 1.0 / step})
+    forces_off = {"flutter.model": "off", "excitation.force": 0.0, "wheel.damping_beta": 0.0,
+                  "contacts.tieboss.enabled": False, "contacts.shroud.enabled": False}
+    cfg = cfg.replace(**forces_off)
+    from wheelrom.forces import ForceModel
+
+    fm = ForceModel(model, cfg)
+    problem = transient.WheelProblem(model, cfg, fm)
+    rng = np.random.default_rng(2)
+    u = np.zeros(problem.size())
+    u[problem.n:2 * problem.n] = rng.normal(size=problem.n) * 1e-2
+    e0 = problem.energy(u)
+    t, h = 0.0, step
+    for _ in range(int(round(0.004 / step))):
+        k1 = problem.rhs_numpy(t, u)
+        k2 = problem.rhs_numpy(t + h / 2, u + h / 2 * k1)
+        k3 = problem.rhs_numpy(t + 0.75 * h, u + 0.75 * h * k2)
+        u = u + h * (2 * k1 + 3 * k2 + 4 * k3) / 9
+        t += h
+    return abs(problem.energy(u) - e0) / e0
+
+
+def test_undamped_energy_drift_is_third_order(small_model, small_cfg):
+    d1 = _free_energy_drift(small_model, small_cfg, 2e-5)
+    d2 = _free_energy_drift(small_model, small_cfg, 1e-5)
+    assert d1 > 0
+    assert 6.0 < d1 / d2 < 20.0  # ~2^3; RK3 dissipation ~ h^4 per period -> 8-16
+
+
+def test_energy_balance_closes_with_all_forces(coarse_model, coarse_cfg):
+    cfg = coarse_cfg.replace(**{"time.end": 0.01, "time.window": 0.0025})
+    res = transient.run_case(coarse_model, cfg)
+    assert res.status == "done"
+    assert np.abs(res.work[-1]).sum() > 0
+    assert res.energy_balance_error() < 1e-3
+    assert res.work[-1, 2] < 0 and res.work[-1, 3] < 0  # friction and damping dissipate
+
+
+def test_preload_start_is_static_equilibrium(small_model, small_cfg):
+    cfg = small_cfg.replace(**{"time.start": "preload"})
+    from wheelrom.forces import ForceModel
+
+    problem = transient.WheelProblem(small_model, cfg, ForceModel(small_model, cfg))
+    res = transient.CaseResult()
+    u0 = transient.initial_state(problem, cfg, res)
+    assert np.abs(u0).max() > 0
+    acc = problem.rhs_numpy(0.0, u0)[problem.n:2 * problem.n]
+    scale = np.abs(problem.Kd @ u0[:problem.n]).max()
+    assert np.abs(acc).max() < 1e-9 * scale
+    assert res.preload_residual < 1e-9 * scale
+
+
+def test_divergence_stops_case_and_keeps_windows(small_model, small_cfg):
+    cfg = small_cfg.replace(**{"time.step": 4e-4, "time.window": 4e-4 * 2,
+                               "time.end": 0.02, "output.sample_rate_hz": 1000.0})
+    res = transient.run_case(small_model, cfg)
+    assert res.status.startswith("failed:")
+    assert "t =" in res.status
+
+
+@pytest.mark.parametrize("rk", ["3bs", "4", "5dp"])
+def test_ts_options_reach_the_solver(small_model, small_cfg, rk):
+    cfg = small_cfg.replace(**{"time.end": 1e-3, "time.window": 1e-3})
+    res = transient.run_case(small_model, cfg, options={"ts_rk_type": rk})
+    assert res.options["ts_rk_type"] == rk and res.status == "done"
