@@ -26,7 +26,11 @@ def test_defaults_are_table_1():
     assert (t.arm_length, t.profile_thickness) == (0.15, 3.1e-2)
     s = c.contacts.shroud
     assert (s.normal_preload, s.height, s.arm_length, s.profile_thickness) == (
-        400.0, 2.18, 0.2, 3.46e-2)
+        400.0,
+        2.18,
+        0.2,
+        3.46e-2,
+    )
     assert c.wheel.coupling_stiffness == 2e8 and c.wheel.modes_per_segment == 10
     assert (c.time.step, c.time.window, c.time.end) == (5e-6, 0.0375, 1.5)
     assert c.sweep.tieboss_angles_deg == (45.0,)
@@ -51,8 +55,14 @@ def test_partial_section_keeps_other_defaults(tmp_path):
 
 
 def test_set_overrides_types():
-    c = config.load(overrides=["time.end=0.2", "contacts.shroud.enabled=false",
-                               "segment.source=my mesh.msh", "sweep.shroud_angles_deg=[10, 20]"])
+    c = config.load(
+        overrides=[
+            "time.end=0.2",
+            "contacts.shroud.enabled=false",
+            "segment.source=my mesh.msh",
+            "sweep.shroud_angles_deg=[10, 20]",
+        ]
+    )
     assert c.time.end == 0.2 and c.contacts.shroud.enabled is False
     assert c.segment.source == "my mesh.msh"
     assert c.sweep.shroud_angles_deg == (10.0, 20.0)
@@ -112,10 +122,15 @@ def test_check_names_all_three_problems_and_exits_2(tmp_path, capsys):
 
 
 def test_cli_show_and_help():
-    out = subprocess.run([sys.executable, "-m", "wheelrom.cli", "config", "show",
-                          "--set", "time.end=0.25"], capture_output=True, text=True, check=True)
+    out = subprocess.run(
+        [sys.executable, "-m", "wheelrom.cli", "config", "show", "--set", "time.end=0.25"],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     assert "end = 0.25" in out.stdout
     for args in (["--help"], ["config", "check", "--help"]):
-        res = subprocess.run([sys.executable, "-m", "wheelrom.cli", *args],
-                             capture_output=True, text=True)
+        res = subprocess.run(
+            [sys.executable, "-m", "wheelrom.cli", *args], capture_output=True, text=True
+        )
         assert res.returncode == 0 and "usage" in res.stdout

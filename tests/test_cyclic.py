@@ -64,7 +64,7 @@ def test_nodal_diameters_of_wheel_modes(coarse_model):
 
 @pytest.mark.parametrize("k", [1, 7])
 def test_travelling_wave_is_eigenvector(coarse_model, k):
-    N, m = coarse_model.blades, coarse_model.modes
+    N, _m = coarse_model.blades, coarse_model.modes
     ph = np.exp(2j * np.pi * k / N)
     H = coarse_model.A0 + coarse_model.A1 * ph + coarse_model.A1.T * np.conj(ph)
     lam, v = np.linalg.eigh(H)

@@ -10,8 +10,14 @@ from wheelrom.cyclic import ReducedModel
 
 
 def _all_off(cfg):
-    return cfg.replace(**{"flutter.model": "off", "excitation.force": 0.0,
-                          "contacts.tieboss.enabled": False, "contacts.shroud.enabled": False})
+    return cfg.replace(
+        **{
+            "flutter.model": "off",
+            "excitation.force": 0.0,
+            "contacts.tieboss.enabled": False,
+            "contacts.shroud.enabled": False,
+        }
+    )
 
 
 def test_nozzle_contains_only_nodal_diameter_N_minus_ns(coarse_model, coarse_cfg):
@@ -74,15 +80,31 @@ def _point_model(N=8, kind="shroud", H=2.0, l=0.03):
 
     phi = 2 * math.pi / N
     alpha, A, B = _arm_geometry(H, l, phi)
-    model = ReducedModel(blades=N, modes=3, segment_hz=np.ones(3), K_seg=np.eye(3),
-                         A0=np.eye(3), A1=np.zeros((3, 3)), rotation=rotation_z(phi),
-                         tip=np.zeros((3, 3)), aero=np.zeros(3), excitation=np.zeros(3))
+    model = ReducedModel(
+        blades=N,
+        modes=3,
+        segment_hz=np.ones(3),
+        K_seg=np.eye(3),
+        A0=np.eye(3),
+        A1=np.zeros((3, 3)),
+        rotation=rotation_z(phi),
+        tip=np.zeros((3, 3)),
+        aero=np.zeros(3),
+        excitation=np.zeros(3),
+    )
     model.contact_A[kind] = np.eye(3)  # q_s = displacement of A_s
     model.contact_B[kind] = np.eye(3)  # B moves with A (rigid translation) unless overridden
     model.contact_points[kind] = np.stack([A, B])
-    cfg = config.load(overrides=[f"wheel.blades={N}", "flutter.model='off'",
-                                 "excitation.force=0.0", "contacts.tieboss.enabled=false",
-                                 f"contacts.shroud.arm_length={np.linalg.norm(model.rotation @ A - A)}"])
+    arm = np.linalg.norm(model.rotation @ A - A)
+    cfg = config.load(
+        overrides=[
+            f"wheel.blades={N}",
+            "flutter.model='off'",
+            "excitation.force=0.0",
+            "contacts.tieboss.enabled=false",
+            f"contacts.shroud.arm_length={arm}",
+        ]
+    )
     return model, cfg, A, B
 
 
@@ -112,7 +134,7 @@ def test_separation_opens_contact():
     R = model.rotation
     q[1] = R.T @ eta * (1.5 * 400.0 / k)  # A_1 moves along +eta (sector 0 frame)
     v[1] = R.T @ np.array([0.0, -np.sin(0.3), np.cos(0.3)]) * 0.1
-    f = fm.evaluate(0.0, q, v)
+    fm.evaluate(0.0, q, v)
     assert fm.normal_force[0, 0] == 0.0 and fm.contact_state[0, 0] == forces.OPEN
     q[1] *= 0.5 / 1.5  # closed again: F_n = F_N0 - k g
     fm.evaluate(0.0, q, v)
@@ -139,8 +161,9 @@ def test_arm_transfer_preserves_force_and_moment_about_A():
     vl = fm.relative_velocity[0, 0]
     Fn = fm.normal_force[0, 0]
     vt = math.hypot(vl[0], vl[2])
-    coef = cfg.friction.static * vt / 0.6 if vt <= 0.6 else (
-        0.4 + 0.2 * math.exp(-2.0 * (vt - 0.6)))
+    coef = (
+        cfg.friction.static * vt / 0.6 if vt <= 0.6 else (0.4 + 0.2 * math.exp(-2.0 * (vt - 0.6)))
+    )
     Fl = np.array([-coef * Fn * vl[0] / vt, Fn, -coef * Fn * vl[2] / vt])
     F = T.T @ Fl
     assert Fn == pytest.approx(400.0 - fm.contacts.k[0, 0] * ul[1])
@@ -151,8 +174,9 @@ def test_arm_transfer_preserves_force_and_moment_about_A():
     Fnp = fm.normal_force[0, 7]
     vtp = math.hypot(vlp[0], vlp[2])
     coefp = 0.6 * vtp / 0.6 if vtp <= 0.6 else 0.4 + 0.2 * math.exp(-2.0 * (vtp - 0.6))
-    Fprev = model.rotation.T @ (Tp.T @ np.array([-coefp * Fnp * vlp[0] / vtp, Fnp,
-                                                 -coefp * Fnp * vlp[2] / vtp]))
+    Fprev = model.rotation.T @ (
+        Tp.T @ np.array([-coefp * Fnp * vlp[0] / vtp, Fnp, -coefp * Fnp * vlp[2] / vtp])
+    )
     FA_arm = FA - Fprev
     np.testing.assert_allclose(FA_arm + FB, -F, atol=1e-9 * np.abs(F).max())
     Ad = A + q[0, :3]
@@ -209,5 +233,4 @@ def test_relative_velocity_is_derivative_of_relative_displacement(coarse_model, 
     um = fm.relative_displacement.copy()
     fm.evaluate(0.0, q, v)
     fd = (up - um) / (2 * h)
-    np.testing.assert_allclose(fm.relative_velocity, fd, rtol=1e-5,
-                               atol=1e-6 * abs(fd).max())
+    np.testing.assert_allclose(fm.relative_velocity, fd, rtol=1e-5, atol=1e-6 * abs(fd).max())

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from wheelrom import assembly, mesh, modes
+from wheelrom import assembly, modes
 from wheelrom.mesh import SegmentMesh
 
 
@@ -53,8 +53,9 @@ def _bar(length, width, height, n):
     """A clamped slender bar along x, meshed like the segment (hex20, same assembly)."""
     from skfem import MeshHex
 
-    m = MeshHex.init_tensor(np.linspace(0, length, n + 1), np.linspace(0, width, 3),
-                            np.linspace(0, height, 3))
+    m = MeshHex.init_tensor(
+        np.linspace(0, length, n + 1), np.linspace(0, width, 3), np.linspace(0, height, 3)
+    )
     clamped = np.flatnonzero(m.p[0] < 1e-12)
     nv = m.p.shape[1]
     edges = m.edges

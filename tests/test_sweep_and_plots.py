@@ -5,7 +5,6 @@ import signal
 import subprocess
 import sys
 
-
 import h5py
 import numpy as np
 import pytest
@@ -13,24 +12,29 @@ import pytest
 from conftest import SMALL
 
 WHEELROM = [sys.executable, "-m", "wheelrom.cli"]
-ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-           OMPI_MCA_rmaps_base_oversubscribe="1")
+ENV = dict(
+    os.environ,
+    OMPI_ALLOW_RUN_AS_ROOT="1",
+    OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+    OMPI_MCA_rmaps_base_oversubscribe="1",
+)
 
 
 def sweep(out, *extra, ranks=1, check=True):
     cmd = WHEELROM + ["sweep", SMALL, "--out", str(out), *extra]
     if ranks > 1:
         cmd = ["mpirun", "-n", str(ranks), *cmd]
-    return subprocess.run(cmd, env=ENV, capture_output=True, text=True, check=check,
-                          timeout=600)
+    return subprocess.run(cmd, env=ENV, capture_output=True, text=True, check=check, timeout=600)
 
 
 def case_data(path):
     out = {}
     with h5py.File(path, "r") as f:
+
         def visit(name, obj):
             if isinstance(obj, h5py.Dataset) and name.startswith("cases/") and "wall_s" not in name:
                 out[name] = obj[()]
+
         f.visititems(visit)
     return out
 
@@ -69,8 +73,9 @@ def test_existing_file_is_not_overwritten(serial_run):
 def test_killed_sweep_resumes_to_the_same_file(serial_run, tmp_path):
     out = tmp_path / "killed.h5"
     cmd = WHEELROM + ["sweep", SMALL, "--out", str(out)]
-    proc = subprocess.Popen(cmd, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                            text=True)
+    proc = subprocess.Popen(
+        cmd, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
+    )
     for line in proc.stdout:
         if line.startswith("[1/3]"):
             proc.send_signal(signal.SIGKILL)
@@ -86,9 +91,14 @@ def test_killed_sweep_resumes_to_the_same_file(serial_run, tmp_path):
 def test_diverging_case_fails_alone(tmp_path):
     """At 90 deg the shroud stiffness is far beyond the explicit step's stability."""
     out = tmp_path / "div.h5"
-    res = sweep(out, "--set", "sweep.shroud_angles_deg=[20.0, 90.0]",
-                "--set", "contacts.shroud.stiffness=[[0.0, 7.6e7], [80.0, 7.6e7], [90.0, 1e14]]",
-                check=False)
+    res = sweep(
+        out,
+        "--set",
+        "sweep.shroud_angles_deg=[20.0, 90.0]",
+        "--set",
+        "contacts.shroud.stiffness=[[0.0, 7.6e7], [80.0, 7.6e7], [90.0, 1e14]]",
+        check=False,
+    )
     assert res.returncode == 1
     with h5py.File(out, "r") as f:
         status = [s.decode() for s in f["cases/status"][:]]
@@ -98,11 +108,22 @@ def test_diverging_case_fails_alone(tmp_path):
 
 
 def test_figures_render_headless(serial_run, tmp_path):
-    res = subprocess.run(WHEELROM + ["plot", str(serial_run), "--outdir", str(tmp_path)],
-                         env=dict(ENV, MPLBACKEND="Agg"), capture_output=True, text=True,
-                         check=True)
-    names = ["fig08_frequencies", "interference", "fig05_contact_stiffness", "fig10_amplitude",
-             "fig11_normal_force", "fig12_nd_spectrum", "summary"]
+    res = subprocess.run(
+        WHEELROM + ["plot", str(serial_run), "--outdir", str(tmp_path)],
+        env=dict(ENV, MPLBACKEND="Agg"),
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    names = [
+        "fig08_frequencies",
+        "interference",
+        "fig05_contact_stiffness",
+        "fig10_amplitude",
+        "fig11_normal_force",
+        "fig12_nd_spectrum",
+        "summary",
+    ]
     for name in names:
         png = tmp_path / f"{name}.png"
         assert png.stat().st_size > 5000
@@ -118,17 +139,37 @@ def test_plot_names_the_missing_quantity(serial_run, tmp_path):
         src.copy("model", dst)
         src.copy("cases", dst)
         del dst["cases/nd_spectrum"]
-    res = subprocess.run(WHEELROM + ["plot", str(broken), "--outdir", str(tmp_path)],
-                         env=ENV, capture_output=True, text=True)
+    res = subprocess.run(
+        WHEELROM + ["plot", str(broken), "--outdir", str(tmp_path)],
+        env=ENV,
+        capture_output=True,
+        text=True,
+    )
     assert res.returncode == 2 and "cases/nd_spectrum" in res.stderr
 
 
 def test_run_json_summary(tmp_path):
     import json
 
-    res = subprocess.run(WHEELROM + ["run", SMALL, "--json", "--set", "time.end=0.001",
-                                     "--out", str(tmp_path / "c.h5"), "--", "-wheel_ts_rk_type",
-                                     "4"], env=ENV, capture_output=True, text=True, check=True)
+    res = subprocess.run(
+        WHEELROM
+        + [
+            "run",
+            SMALL,
+            "--json",
+            "--set",
+            "time.end=0.001",
+            "--out",
+            str(tmp_path / "c.h5"),
+            "--",
+            "-wheel_ts_rk_type",
+            "4",
+        ],
+        env=ENV,
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     summary = json.loads(res.stdout)
     assert summary["status"] == "done" and summary["steps"] == 200
     assert summary["options"]["ts_rk_type"] == "4"

@@ -15,18 +15,25 @@ def test_petsc_ts_equals_serial_reference_all_forces_on(coarse_model, coarse_cfg
     assert res.status == "done" and res.steps == steps
     _, states, _ = transient.reference_solution(coarse_model, cfg, steps, sample_every=steps)
     n = coarse_model.size
-    ref, got = states[-1][:2 * n], res.final_state[:2 * n]
+    ref, got = states[-1][: 2 * n], res.final_state[: 2 * n]
     assert np.abs(ref).max() > 0
     assert np.abs(got - ref).max() <= 1e-9 * np.abs(ref).max()
 
 
 def test_linear_steady_state_matches_frequency_domain(small_model, small_cfg):
     """Started on the frequency-domain steady state, the TS must stay on it."""
-    cfg = small_cfg.replace(**{
-        "flutter.model": "off", "contacts.tieboss.enabled": False,
-        "contacts.shroud.enabled": False, "wheel.damping_beta": 2e-6,
-        "time.end": 0.02, "time.window": 0.005, "time.step": 5e-6,
-        "output.sample_rate_hz": 20000.0})
+    cfg = small_cfg.replace(
+        **{
+            "flutter.model": "off",
+            "contacts.tieboss.enabled": False,
+            "contacts.shroud.enabled": False,
+            "wheel.damping_beta": 2e-6,
+            "time.end": 0.02,
+            "time.window": 0.005,
+            "time.step": 5e-6,
+            "output.sample_rate_hz": 20000.0,
+        }
+    )
     N, m = small_model.blades, small_model.modes
     w = cfg.wheel.stator_vanes * 2 * math.pi * cfg.wheel.speed_hz
     K = small_model.dense_stiffness()
@@ -43,10 +50,21 @@ def test_linear_steady_state_matches_frequency_domain(small_model, small_cfg):
 
 
 def _free_energy_drift(model, cfg, step):
-    cfg = cfg.replace(**{"time.step": step, "time.end": 0.004, "time.window": 0.004,
-                         "output.sample_rate_hz": 1.0 / step})
-    forces_off = {"flutter.model": "off", "excitation.force": 0.0, "wheel.damping_beta": 0.0,
-                  "contacts.tieboss.enabled": False, "contacts.shroud.enabled": False}
+    cfg = cfg.replace(
+        **{
+            "time.step": step,
+            "time.end": 0.004,
+            "time.window": 0.004,
+            "output.sample_rate_hz": 1.0 / step,
+        }
+    )
+    forces_off = {
+        "flutter.model": "off",
+        "excitation.force": 0.0,
+        "wheel.damping_beta": 0.0,
+        "contacts.tieboss.enabled": False,
+        "contacts.shroud.enabled": False,
+    }
     cfg = cfg.replace(**forces_off)
     from wheelrom.forces import ForceModel
 
@@ -54,7 +72,7 @@ def _free_energy_drift(model, cfg, step):
     problem = transient.WheelProblem(model, cfg, fm)
     rng = np.random.default_rng(2)
     u = np.zeros(problem.size())
-    u[problem.n:2 * problem.n] = rng.normal(size=problem.n) * 1e-2
+    u[problem.n : 2 * problem.n] = rng.normal(size=problem.n) * 1e-2
     e0 = problem.energy(u)
     t, h = 0.0, step
     for _ in range(int(round(0.004 / step))):
@@ -90,15 +108,21 @@ def test_preload_start_is_static_equilibrium(small_model, small_cfg):
     res = transient.CaseResult()
     u0 = transient.initial_state(problem, cfg, res)
     assert np.abs(u0).max() > 0
-    acc = problem.rhs_numpy(0.0, u0)[problem.n:2 * problem.n]
-    scale = np.abs(problem.Kd @ u0[:problem.n]).max()
+    acc = problem.rhs_numpy(0.0, u0)[problem.n : 2 * problem.n]
+    scale = np.abs(problem.Kd @ u0[: problem.n]).max()
     assert np.abs(acc).max() < 1e-9 * scale
     assert res.preload_residual < 1e-9 * scale
 
 
 def test_divergence_stops_case_and_keeps_windows(small_model, small_cfg):
-    cfg = small_cfg.replace(**{"time.step": 4e-4, "time.window": 4e-4 * 2,
-                               "time.end": 0.02, "output.sample_rate_hz": 1000.0})
+    cfg = small_cfg.replace(
+        **{
+            "time.step": 4e-4,
+            "time.window": 4e-4 * 2,
+            "time.end": 0.02,
+            "output.sample_rate_hz": 1000.0,
+        }
+    )
     res = transient.run_case(small_model, cfg)
     assert res.status.startswith("failed:")
     assert "t =" in res.status

@@ -93,8 +93,9 @@ def assemble_full(seg: SegmentMesh, young: float, poisson: float, density: float
     rows = np.broadcast_to(dofs[:, :, None], (len(nodes), 3 * nb, 3 * nb)).ravel()
     cols = np.broadcast_to(dofs[:, None, :], (len(nodes), 3 * nb, 3 * nb)).ravel()
     n = seg.n_dofs
-    K = sp.csr_matrix((K_loc.reshape(len(nodes), 3 * nb, 3 * nb).ravel(), (rows, cols)),
-                      shape=(n, n))
+    K = sp.csr_matrix(
+        (K_loc.reshape(len(nodes), 3 * nb, 3 * nb).ravel(), (rows, cols)), shape=(n, n)
+    )
     eye = np.eye(3)
     M_loc = np.einsum("eij,ab->eiajb", m_loc, eye).reshape(len(nodes), 3 * nb, 3 * nb)
     M = sp.csr_matrix((M_loc.ravel(), (rows, cols)), shape=(n, n))
@@ -118,8 +119,9 @@ def assemble_full_skfem(seg: SegmentMesh, young: float, poisson: float, density:
     return K, M
 
 
-def assemble(seg: SegmentMesh, young: float, poisson: float, density: float,
-             clamp: bool = True) -> SegmentMatrices:
+def assemble(
+    seg: SegmentMesh, young: float, poisson: float, density: float, clamp: bool = True
+) -> SegmentMatrices:
     """Assemble the segment and remove the ``clamped`` DOFs (``clamp=False``: free-free)."""
     t0 = time.perf_counter()
     K, M = assemble_full(seg, young, poisson, density)

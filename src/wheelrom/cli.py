@@ -75,7 +75,7 @@ def _options_dict(args: argparse.Namespace) -> dict:
     for token in getattr(args, "petsc_args", []):
         if token.startswith("-") and not _is_number(token):
             key = token.lstrip("-")
-            key = key[len("wheel_"):] if key.startswith("wheel_") else key
+            key = key[len("wheel_") :] if key.startswith("wheel_") else key
             out[key] = None
         elif key is not None:
             out[key] = token
@@ -109,15 +109,23 @@ def cmd_modes(args: argparse.Namespace) -> int:
             write_model(f.create_group("model"), model)
             f["model/wheel_hz"], f["model/wheel_nd"] = hz, nd
     if args.json:
-        print_json({"segment_hz": model.segment_hz.tolist(), "wheel_hz": hz.tolist(),
-                    "wheel_nd": nd.tolist(), "info": model.info})
+        print_json(
+            {
+                "segment_hz": model.segment_hz.tolist(),
+                "wheel_hz": hz.tolist(),
+                "wheel_nd": nd.tolist(),
+                "info": model.info,
+            }
+        )
         return 0
     print("segment modes [Hz]: " + ", ".join(f"{x:.2f}" for x in model.segment_hz))
     for kind_name, rep in model.info.items():
         if isinstance(rep, dict) and "arm_length" in rep:
-            print(f"{kind_name}: arm L = {rep['arm_length']:.4g} m, pitch chord "
-                  f"{rep['pitch_chord']:.4g} m, arm end misses next A by "
-                  f"{rep['tip_to_next_A'] * 1e3:.2f} mm")
+            print(
+                f"{kind_name}: arm L = {rep['arm_length']:.4g} m, pitch chord "
+                f"{rep['pitch_chord']:.4g} m, arm end misses next A by "
+                f"{rep['tip_to_next_A'] * 1e3:.2f} mm"
+            )
     table = model.frequencies_by_nodal_diameter()
     print("wheel frequencies by nodal diameter [Hz] (first 4 families):")
     for k, row in enumerate(table):
@@ -143,8 +151,12 @@ def cmd_run(args: argparse.Namespace) -> int:
 
         from wheelrom.sweep import _create_layout, _write_case
 
-        cfg1 = cfg.replace(**{"sweep.tieboss_angles_deg": [cfg.contacts.tieboss.angle_deg],
-                              "sweep.shroud_angles_deg": [cfg.contacts.shroud.angle_deg]})
+        cfg1 = cfg.replace(
+            **{
+                "sweep.tieboss_angles_deg": [cfg.contacts.tieboss.angle_deg],
+                "sweep.shroud_angles_deg": [cfg.contacts.shroud.angle_deg],
+            }
+        )
         with h5py.File(args.out, "w") as f:
             _create_layout(f, cfg1, model)
             _write_case(f["cases"], 0, res)
@@ -174,8 +186,12 @@ def cmd_compare(args: argparse.Namespace) -> int:
     ref_tip = states[-1][:n].reshape(model.blades, model.modes) @ model.tip.T
     ts_tip = res.final_state[:n].reshape(model.blades, model.modes) @ model.tip.T
     diff = float(np.abs(ref_tip - ts_tip).max() / max(np.abs(ref_tip).max(), 1e-300))
-    out = {"steps": steps, "max_relative_difference": diff, "petsc_wall_s": res.wall_s,
-           "reference_wall_s": ref_wall}
+    out = {
+        "steps": steps,
+        "max_relative_difference": diff,
+        "petsc_wall_s": res.wall_s,
+        "reference_wall_s": ref_wall,
+    }
     if args.json:
         print_json(out)
     else:
@@ -189,8 +205,14 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     from wheelrom.sweep import run_sweep
 
     cfg = _load(args)
-    failed = run_sweep(cfg, args.out, resume=args.resume, force=args.force,
-                       log=lambda m: print(m, flush=True), options=_options_dict(args))
+    failed = run_sweep(
+        cfg,
+        args.out,
+        resume=args.resume,
+        force=args.force,
+        log=lambda m: print(m, flush=True),
+        options=_options_dict(args),
+    )
     return 1 if failed else 0
 
 

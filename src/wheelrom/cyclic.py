@@ -146,8 +146,13 @@ def rows_at(shapes: np.ndarray, nodes: np.ndarray) -> np.ndarray:
     return shapes[dofs]
 
 
-def reduce(seg: SegmentMesh, shapes: np.ndarray, K_seg: np.ndarray, cfg: Config,
-           segment_hz: np.ndarray | None = None) -> ReducedModel:
+def reduce(
+    seg: SegmentMesh,
+    shapes: np.ndarray,
+    K_seg: np.ndarray,
+    cfg: Config,
+    segment_hz: np.ndarray | None = None,
+) -> ReducedModel:
     """Build the reduced wheel from a segment basis ``shapes`` (full DOFs, ``(n, m)``).
 
     ``shapes`` must be M-orthonormal; ``K_seg = shapes^T K shapes``.
@@ -181,8 +186,7 @@ def reduce(seg: SegmentMesh, shapes: np.ndarray, K_seg: np.ndarray, cfg: Config,
         if f"{kind}_A" in seg.node_sets:
             model.contact_A[kind] = rows_at(shapes, seg.node_sets[f"{kind}_A"])[0]
             model.contact_B[kind] = rows_at(shapes, seg.node_sets[f"{kind}_B"])[0]
-            model.contact_points[kind] = np.stack([seg.point(f"{kind}_A"),
-                                                   seg.point(f"{kind}_B")])
+            model.contact_points[kind] = np.stack([seg.point(f"{kind}_A"), seg.point(f"{kind}_B")])
     model.info.update(seg.info)
     return model
 
@@ -208,11 +212,16 @@ def build_model(cfg: Config, comm=None, log=None) -> ReducedModel:
     mats = assemble(seg, s.young, s.poisson, s.density)
     say(f"segment: {seg.n_dofs} DOFs ({seg.element}), assembled in {mats.assembly_s:.2f} s")
     eig = segment_modes(mats, cfg.wheel.modes_per_segment, comm)
-    say(f"segment modes: {eig.frequencies_hz.size} in {eig.solve_s:.2f} s, "
-        f"max residual {eig.residuals.max():.1e}")
+    say(
+        f"segment modes: {eig.frequencies_hz.size} in {eig.solve_s:.2f} s, "
+        f"max residual {eig.residuals.max():.1e}"
+    )
     model = reduce(seg, eig.vectors, np.diag(eig.eigenvalues), cfg, eig.frequencies_hz)
     model.info.update(
-        segment_dofs=seg.n_dofs, assembly_s=mats.assembly_s, eigen_solve_s=eig.solve_s,
-        eigen_residual_max=float(eig.residuals.max()), build_s=time.perf_counter() - t0,
+        segment_dofs=seg.n_dofs,
+        assembly_s=mats.assembly_s,
+        eigen_solve_s=eig.solve_s,
+        eigen_residual_max=float(eig.residuals.max()),
+        build_s=time.perf_counter() - t0,
     )
     return model

@@ -27,8 +27,9 @@ OPEN, STICK, SLIP = 0, 1, 2  # contact states (STICK: micro-slip branch |v| <= v
 def contact_frame(angle_deg: float) -> np.ndarray:
     """``T_g2l`` of eq. 18: rows xi = x, eta = (0, cos b, sin b), zeta = (0, -sin b, cos b)."""
     b = math.radians(angle_deg)
-    return np.array([[1.0, 0.0, 0.0], [0.0, math.cos(b), math.sin(b)],
-                     [0.0, -math.sin(b), math.cos(b)]])
+    return np.array(
+        [[1.0, 0.0, 0.0], [0.0, math.cos(b), math.sin(b)], [0.0, -math.sin(b), math.cos(b)]]
+    )
 
 
 def stiffness_at(stiffness, angle_deg: float) -> float:
@@ -77,8 +78,12 @@ class ForceModel:
     - ``power``: ``(3,)`` power of nozzle, Van der Pol and friction forces [W].
     """
 
-    def __init__(self, model: ReducedModel, cfg: Config,
-                 angles_deg: dict[str, float | np.ndarray] | None = None):
+    def __init__(
+        self,
+        model: ReducedModel,
+        cfg: Config,
+        angles_deg: dict[str, float | np.ndarray] | None = None,
+    ):
         N, m = model.blades, model.modes
         self.N, self.m = N, m
         angles_deg = angles_deg or {}
@@ -89,8 +94,9 @@ class ForceModel:
         self.p_exc = np.ascontiguousarray(model.excitation, dtype=float)
         self.nozzle_phase = 2 * math.pi * (1 - w.stator_vanes / N) * np.arange(N)
         fl = cfg.flutter
-        self.vdp_model = {"off": VDP_OFF, "absolute": VDP_ABSOLUTE,
-                          "relative": VDP_RELATIVE}[fl.model]
+        self.vdp_model = {"off": VDP_OFF, "absolute": VDP_ABSOLUTE, "relative": VDP_RELATIVE}[
+            fl.model
+        ]
         p = np.array(model.aero, dtype=float)
         if fl.mode >= 0:
             keep = np.zeros_like(p)
@@ -120,7 +126,8 @@ class ForceModel:
             A0=np.array([model.contact_points[k][0] for k in kinds]).reshape(K, 3),
             B0=np.array([model.contact_points[k][1] for k in kinds]).reshape(K, 3),
             arm=np.array([cfg.contact(k).arm_length for k in kinds], dtype=float),
-            T=T, k=k_c,
+            T=T,
+            k=k_c,
             preload=np.array([cfg.contact(k).normal_preload for k in kinds], dtype=float),
         )
         self.force = np.zeros((N, m))
@@ -138,11 +145,38 @@ class ForceModel:
         """Fill and return ``self.force`` ``(N, m)`` for modal state ``q, v`` at time ``t`` [s]."""
         c = self.contacts
         _kernel(
-            t, q, v, self.force, self.omega, self.stator_vanes, self.nozzle_force, self.p_exc,
-            self.nozzle_phase, self.vdp_model, self.vdp_mu, self.vdp_r, self.p_aero,
-            self.friction, self.R, c.XA, c.XB, c.A0, c.B0, c.arm, c.T, c.k, c.preload,
-            self.normal_force, self.slip_velocity, self.normal_gap, self.contact_state,
-            self.relative_displacement, self.relative_velocity, self.vdp_displacement, self.power, self._work,
+            t,
+            q,
+            v,
+            self.force,
+            self.omega,
+            self.stator_vanes,
+            self.nozzle_force,
+            self.p_exc,
+            self.nozzle_phase,
+            self.vdp_model,
+            self.vdp_mu,
+            self.vdp_r,
+            self.p_aero,
+            self.friction,
+            self.R,
+            c.XA,
+            c.XB,
+            c.A0,
+            c.B0,
+            c.arm,
+            c.T,
+            c.k,
+            c.preload,
+            self.normal_force,
+            self.slip_velocity,
+            self.normal_gap,
+            self.contact_state,
+            self.relative_displacement,
+            self.relative_velocity,
+            self.vdp_displacement,
+            self.power,
+            self._work,
         )
         return self.force
 
@@ -156,13 +190,44 @@ class ForceModel:
         g = self.normal_gap
         open_ = g >= c.preload[:, None] / c.k
         closed = -c.preload[:, None] * g + 0.5 * c.k * g * g
-        return float(np.where(open_, -c.preload[:, None] ** 2 / (2 * c.k), closed).sum())
+        return float(np.where(open_, -(c.preload[:, None] ** 2) / (2 * c.k), closed).sum())
 
 
 @numba.njit(cache=True, fastmath=False)
-def _kernel(t, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p_aero, friction,
-            R, XA, XB, A0, B0, arm, T, kc, preload, normal, slip, gap, state, rel_u, rel_v,
-            y_vdp, power, work):
+def _kernel(
+    t,
+    q,
+    v,
+    out,
+    omega,
+    n_s,
+    Fb,
+    p_exc,
+    phase,
+    vdp_model,
+    mu,
+    r,
+    p_aero,
+    friction,
+    R,
+    XA,
+    XB,
+    A0,
+    B0,
+    arm,
+    T,
+    kc,
+    preload,
+    normal,
+    slip,
+    gap,
+    state,
+    rel_u,
+    rel_v,
+    y_vdp,
+    power,
+    work,
+):
     N, m = q.shape
     f_s, f_d, decay, v_k = friction[0], friction[1], friction[2], friction[3]
     p_noz = 0.0

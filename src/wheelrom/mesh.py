@@ -152,8 +152,10 @@ def _subdivide(lines: np.ndarray, k: int) -> np.ndarray:
     if k == 1:
         return lines
     f = np.arange(k) / k
-    pieces = [lines[..., i, None] + f * (lines[..., i + 1, None] - lines[..., i, None])
-              for i in range(lines.shape[-1] - 1)]
+    pieces = [
+        lines[..., i, None] + f * (lines[..., i + 1, None] - lines[..., i, None])
+        for i in range(lines.shape[-1] - 1)
+    ]
     return np.concatenate([*pieces, lines[..., -1:]], axis=-1)
 
 
@@ -231,12 +233,21 @@ def build_builtin(cfg: Config, geometry: BuiltinGeometry | None = None) -> Segme
 
     m_line = 0.6
     a_lines = np.stack(
-        [np.full_like(r_rows, -1.0), np.full_like(r_rows, -m_line), -row_alpha,
-         np.zeros_like(r_rows), row_alpha, np.full_like(r_rows, m_line),
-         np.ones_like(r_rows)], axis=-1)
+        [
+            np.full_like(r_rows, -1.0),
+            np.full_like(r_rows, -m_line),
+            -row_alpha,
+            np.zeros_like(r_rows),
+            row_alpha,
+            np.full_like(r_rows, m_line),
+            np.ones_like(r_rows),
+        ],
+        axis=-1,
+    )
     b_lines = np.stack(
-        [-np.ones_like(r_rows), -row_beta, np.zeros_like(r_rows), row_beta,
-         np.ones_like(r_rows)], axis=-1)
+        [-np.ones_like(r_rows), -row_beta, np.zeros_like(r_rows), row_beta, np.ones_like(r_rows)],
+        axis=-1,
+    )
     a_lines = _subdivide(a_lines, preset["sub_chord"])
     b_lines = _subdivide(b_lines, preset["sub_thick"])
 
@@ -404,8 +415,20 @@ def _arm_report(seg: SegmentMesh, cfg: Config) -> dict:
 # --------------------------------------------------------------------------------------
 
 # VTK/Abaqus edge order of the quadratic cells, as pairs of corner positions
-_HEX20_EDGES = [(0, 1), (1, 2), (2, 3), (3, 0), (4, 5), (5, 6), (6, 7), (7, 4),
-                (0, 4), (1, 5), (2, 6), (3, 7)]
+_HEX20_EDGES = [
+    (0, 1),
+    (1, 2),
+    (2, 3),
+    (3, 0),
+    (4, 5),
+    (5, 6),
+    (6, 7),
+    (7, 4),
+    (0, 4),
+    (1, 5),
+    (2, 6),
+    (3, 7),
+]
 _TET10_EDGES = [(0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3)]
 
 

@@ -46,8 +46,14 @@ def _has_mumps(PETSc) -> bool:
         return False
 
 
-def lowest_modes(K: sp.csr_matrix, M: sp.csr_matrix, nev: int, comm=None,
-                 prefix: str = "segment_", target: float = 0.0) -> EigenResult:
+def lowest_modes(
+    K: sp.csr_matrix,
+    M: sp.csr_matrix,
+    nev: int,
+    comm=None,
+    prefix: str = "segment_",
+    target: float = 0.0,
+) -> EigenResult:
     """The ``nev`` eigenpairs of ``K x = lambda M x`` nearest ``target`` (shift-and-invert)."""
     PETSc = petsc()
     SLEPc = slepc()

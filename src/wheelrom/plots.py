@@ -70,13 +70,19 @@ def _modal_figures(f, cfg, path, outdir, pdf, written, plt) -> None:
     families = min(table.shape[1], 6)
     for j in range(families):
         axes[0].plot(nd, table[:, j], "o-", ms=3, label=f"family {j + 1}")
-    axes[0].set(xlabel="nodal diameter [-]", ylabel="frequency [Hz]",
-                title="Reduced wheel: frequency vs nodal diameter")
+    axes[0].set(
+        xlabel="nodal diameter [-]",
+        ylabel="frequency [Hz]",
+        title="Reduced wheel: frequency vs nodal diameter",
+    )
     axes[0].legend(fontsize=8)
     order = np.sort(table[:, :families].ravel())
     axes[1].plot(np.arange(1, order.size + 1), order, ".-")
-    axes[1].set(xlabel="mode order [-]", ylabel="frequency [Hz]",
-                title="Frequency vs mode order (each ND once)")
+    axes[1].set(
+        xlabel="mode order [-]",
+        ylabel="frequency [Hz]",
+        title="Frequency vs mode order (each ND once)",
+    )
     for ax in axes:
         ax.grid(alpha=0.3)
     _save(fig, outdir, "fig08_frequencies", pdf, written)
@@ -89,11 +95,17 @@ def _modal_figures(f, cfg, path, outdir, pdf, written, plt) -> None:
     fig, ax = plt.subplots(figsize=(7, 4.5))
     for j in range(table.shape[1]):
         ax.plot(nd, table[:, j], "k.-", lw=0.6, ms=2)
-    ax.plot([nd_exc], [n_s * f_rev], "r*", ms=14,
-            label=f"nozzle: EO {n_s} = {n_s * f_rev:g} Hz on ND {nd_exc}")
+    ax.plot(
+        [nd_exc],
+        [n_s * f_rev],
+        "r*",
+        ms=14,
+        label=f"nozzle: EO {n_s} = {n_s * f_rev:g} Hz on ND {nd_exc}",
+    )
     ax.axvline(nd_exc, color="r", lw=0.8, ls=":")
-    ax.set(xlabel="nodal diameter [-]", ylabel="frequency [Hz]",
-           title="Interference diagram (ZZENF)")
+    ax.set(
+        xlabel="nodal diameter [-]", ylabel="frequency [Hz]", title="Interference diagram (ZZENF)"
+    )
     ax.legend(fontsize=9)
     ax.grid(alpha=0.3)
     _save(fig, outdir, "interference", pdf, written)
@@ -107,8 +119,11 @@ def _modal_figures(f, cfg, path, outdir, pdf, written, plt) -> None:
         if isinstance(stiff, str):
             continue
         ax.semilogy(angles, [stiffness_at(stiff, a) for a in angles], label=kind)
-    ax.set(xlabel="contact surface angle beta [deg]", ylabel="k_c [N/m]",
-           title="Normal contact stiffness")
+    ax.set(
+        xlabel="contact surface angle beta [deg]",
+        ylabel="k_c [N/m]",
+        title="Normal contact stiffness",
+    )
     ax.legend()
     ax.grid(alpha=0.3, which="both")
     _save(fig, outdir, "fig05_contact_stiffness", pdf, written)
@@ -132,14 +147,20 @@ def _sweep_figures(f, cfg, path, outdir, pdf, written, plt) -> None:
         axes[0].semilogy(t * 1e3, amp[i] * 1e3, color=cmap(norm(shroud[i])), lw=1.2)
     sm = plt.cm.ScalarMappable(norm=norm, cmap=cmap)
     fig.colorbar(sm, ax=axes[0], label="shroud angle [deg]")
-    axes[0].set(xlabel="time [ms]", ylabel="max tip amplitude [mm]",
-                title="Blade-tip amplitude per window")
+    axes[0].set(
+        xlabel="time [ms]", ylabel="max tip amplitude [mm]", title="Blade-tip amplitude per window"
+    )
     order = np.argsort(shroud)
     positive = amp[np.isfinite(amp) & (amp > 0)]
     lo = positive.min() * 1e3 if positive.size else 1e-6
-    mesh = axes[1].pcolormesh(t * 1e3, shroud[order], amp[order] * 1e3, shading="nearest",
-                              norm=colors.LogNorm(vmin=lo, vmax=max(lo * 10,
-                                                  np.nanmax(amp) * 1e3)), cmap="magma")
+    mesh = axes[1].pcolormesh(
+        t * 1e3,
+        shroud[order],
+        amp[order] * 1e3,
+        shading="nearest",
+        norm=colors.LogNorm(vmin=lo, vmax=max(lo * 10, np.nanmax(amp) * 1e3)),
+        cmap="magma",
+    )
     fig.colorbar(mesh, ax=axes[1], label="max tip amplitude [mm]")
     axes[1].set(xlabel="time [ms]", ylabel="shroud angle [deg]", title="Amplitude map")
     for ax in axes:
@@ -157,13 +178,18 @@ def _sweep_figures(f, cfg, path, outdir, pdf, written, plt) -> None:
         opened = f[f"cases/open_fraction/{kind}"][()]
         for i in range(len(angles)):
             axes[r, 0].plot(t * 1e3, fn[i], color=cmap(norm(shroud[i])), lw=1.2)
-        axes[r, 0].set(xlabel="time [ms]", ylabel="min normal force [N]",
-                       title=f"{kind}: minimum normal force (0 = contact open)")
-        m2 = axes[r, 1].pcolormesh(t * 1e3, shroud[order], opened[order], shading="nearest",
-                                   vmin=0, vmax=1, cmap="Reds")
+        axes[r, 0].set(
+            xlabel="time [ms]",
+            ylabel="min normal force [N]",
+            title=f"{kind}: minimum normal force (0 = contact open)",
+        )
+        m2 = axes[r, 1].pcolormesh(
+            t * 1e3, shroud[order], opened[order], shading="nearest", vmin=0, vmax=1, cmap="Reds"
+        )
         fig.colorbar(m2, ax=axes[r, 1], label="fraction of contacts open [-]")
-        axes[r, 1].set(xlabel="time [ms]", ylabel="shroud angle [deg]",
-                       title=f"{kind}: open contacts")
+        axes[r, 1].set(
+            xlabel="time [ms]", ylabel="shroud angle [deg]", title=f"{kind}: open contacts"
+        )
         axes[r, 0].grid(alpha=0.3)
     _save(fig, outdir, "fig11_normal_force", pdf, written)
     plt.close(fig)
@@ -176,12 +202,18 @@ def _sweep_figures(f, cfg, path, outdir, pdf, written, plt) -> None:
     vmax = np.nanmax(spec[[best, worst]]) * 1e3
     vmin = max(vmax * 1e-4, 1e-12)
     for ax, i, label in ((axes[0], best, "most suppressed"), (axes[1], worst, "least")):
-        m3 = ax.pcolormesh(t * 1e3, np.arange(spec.shape[2]), spec[i].T * 1e3,
-                           shading="nearest", cmap="inferno",
-                           norm=colors.LogNorm(vmin=vmin, vmax=vmax))
+        m3 = ax.pcolormesh(
+            t * 1e3,
+            np.arange(spec.shape[2]),
+            spec[i].T * 1e3,
+            shading="nearest",
+            cmap="inferno",
+            norm=colors.LogNorm(vmin=vmin, vmax=vmax),
+        )
         fig.colorbar(m3, ax=ax, label="tip y amplitude [mm]")
-        ax.set(ylabel="nodal diameter [-]",
-               title=f"shroud {shroud[i]:g} deg ({label}): ND spectrum")
+        ax.set(
+            ylabel="nodal diameter [-]", title=f"shroud {shroud[i]:g} deg ({label}): ND spectrum"
+        )
     axes[1].set_xlabel("time [ms]")
     _save(fig, outdir, "fig12_nd_spectrum", pdf, written)
     plt.close(fig)
@@ -191,15 +223,28 @@ def _sweep_figures(f, cfg, path, outdir, pdf, written, plt) -> None:
     ok = np.array([s == "done" for s in status])
     ax.semilogy(shroud[ok], final[ok] * 1e3, "o-", label="done")
     if (~ok).any():
-        ax.semilogy(shroud[~ok], np.full((~ok).sum(), np.nanmax(final[ok]) * 1e3 if ok.any()
-                                         else 1.0), "rx", ms=10, label="failed")
+        ax.semilogy(
+            shroud[~ok],
+            np.full((~ok).sum(), np.nanmax(final[ok]) * 1e3 if ok.any() else 1.0),
+            "rx",
+            ms=10,
+            label="failed",
+        )
     if ok.any():
         limit = 2 * np.nanmin(final[ok])
         good = shroud[ok][final[ok] <= limit]
-        ax.axvspan(good.min() - 2.5, good.max() + 2.5, color="g", alpha=0.15,
-                   label=f"within 2x of the lowest ({good.min():g}-{good.max():g} deg)")
-    ax.set(xlabel="shroud contact angle [deg]", ylabel="final max tip amplitude [mm]",
-           title="Suppression of self-excitation by shroud angle")
+        ax.axvspan(
+            good.min() - 2.5,
+            good.max() + 2.5,
+            color="g",
+            alpha=0.15,
+            label=f"within 2x of the lowest ({good.min():g}-{good.max():g} deg)",
+        )
+    ax.set(
+        xlabel="shroud contact angle [deg]",
+        ylabel="final max tip amplitude [mm]",
+        title="Suppression of self-excitation by shroud angle",
+    )
     ax.legend(fontsize=9)
     ax.grid(alpha=0.3, which="both")
     _save(fig, outdir, "summary", pdf, written)

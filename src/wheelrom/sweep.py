@@ -42,8 +42,12 @@ def n_samples_max(cfg: Config) -> int:
 
 
 def _case_config(cfg: Config, angles: np.ndarray) -> Config:
-    return cfg.replace(**{"contacts.tieboss.angle_deg": float(angles[0]),
-                          "contacts.shroud.angle_deg": float(angles[1])})
+    return cfg.replace(
+        **{
+            "contacts.tieboss.angle_deg": float(angles[0]),
+            "contacts.shroud.angle_deg": float(angles[1]),
+        }
+    )
 
 
 def write_model(group, model: ReducedModel) -> None:
@@ -85,8 +89,9 @@ def _create_layout(f, cfg: Config, model: ReducedModel) -> None:
     cases.create_dataset("windows_done", (C,), dtype="i8")
     cases.create_dataset("samples_done", (C,), dtype="i8")
     cases.create_dataset("options", (C,), dtype=f"S{STATUS_LEN}")
-    cases.create_dataset("window_end", data=np.minimum(
-        (np.arange(W) + 1) * cfg.time.window, cfg.time.end))
+    cases.create_dataset(
+        "window_end", data=np.minimum((np.arange(W) + 1) * cfg.time.window, cfg.time.end)
+    )
     nan = dict(dtype="f8", fillvalue=np.nan)
     cases.create_dataset("max_tip_amplitude", (C, W), **nan)
     cases.create_dataset("nd_spectrum", (C, W, N // 2 + 1), **nan)
@@ -129,8 +134,15 @@ def _write_case(cases, i: int, res: CaseResult) -> None:
         cases["tip_history"][i, :s] = res.tip_history
 
 
-def run_sweep(cfg: Config, out: str, resume: bool = False, force: bool = False,
-              comm=None, log=print, options: dict | None = None) -> int:
+def run_sweep(
+    cfg: Config,
+    out: str,
+    resume: bool = False,
+    force: bool = False,
+    comm=None,
+    log=print,
+    options: dict | None = None,
+) -> int:
     """Run the sweep of ``cfg`` into ``out``; returns the number of failed cases.
 
     Collective over ``comm`` (mpi4py, default ``COMM_WORLD``). Progress lines go to ``log``
@@ -154,8 +166,7 @@ def run_sweep(cfg: Config, out: str, resume: bool = False, force: bool = False,
     if rank == 0:
         exists = os.path.exists(out)
         if exists and not (resume or force):
-            problem = (f"{out} exists: pass --resume to complete it or --force to "
-                       "overwrite it")
+            problem = f"{out} exists: pass --resume to complete it or --force to overwrite it"
         elif exists and resume:
             problem = _check_resumable(out, cfg)
     problem = comm.bcast(problem)
@@ -168,8 +179,10 @@ def run_sweep(cfg: Config, out: str, resume: bool = False, force: bool = False,
     if rank == 0:
         model = build_model(cfg, petsc().COMM_SELF, log=say)
     model = comm.bcast(model)
-    say(f"model ready in {time.perf_counter() - t0:.1f} s: {model.blades} blades x "
-        f"{model.modes} modes")
+    say(
+        f"model ready in {time.perf_counter() - t0:.1f} s: {model.blades} blades x "
+        f"{model.modes} modes"
+    )
 
     angles = case_angles(cfg)
     C = angles.shape[0]
@@ -184,7 +197,7 @@ def run_sweep(cfg: Config, out: str, resume: bool = False, force: bool = False,
         walls: list[float] = []
         t_sweep = time.perf_counter()
         for r0 in range(0, len(todo), size):
-            batch = todo[r0:r0 + size]
+            batch = todo[r0 : r0 + size]
             mine = batch[rank] if rank < len(batch) else None
             res = None
             if mine is not None:
@@ -195,8 +208,9 @@ def run_sweep(cfg: Config, out: str, resume: bool = False, force: bool = False,
                     res = CaseResult(status=f"failed: {type(exc).__name__}: {exc}")
                 _write_case(f["cases"], mine, res)
             f.flush()  # collective: every finished round is on disk
-            info = comm.gather((mine, res.status if res else None,
-                                res.wall_s if res else None), root=0)
+            info = comm.gather(
+                (mine, res.status if res else None, res.wall_s if res else None), root=0
+            )
             if rank == 0:
                 for i, st, wall in info:
                     if i is None:
@@ -207,8 +221,10 @@ def run_sweep(cfg: Config, out: str, resume: bool = False, force: bool = False,
                     left = len(todo) - (r0 + len(batch))
                     per_round = (time.perf_counter() - t_sweep) / (r0 // size + 1)
                     eta = per_round * math.ceil(left / size)
-                    say(f"[{done}/{C}] tie-boss {tb:g} deg, shroud {sh:g} deg: {st} "
-                        f"({wall:.1f} s); about {eta:.0f} s left")
+                    say(
+                        f"[{done}/{C}] tie-boss {tb:g} deg, shroud {sh:g} deg: {st} "
+                        f"({wall:.1f} s); about {eta:.0f} s left"
+                    )
         failed = int(sum(1 for s in f["cases/status"][:] if s.decode().startswith("failed")))
     say(f"sweep finished in {time.perf_counter() - t0:.1f} s; {failed} case(s) failed")
     return failed
@@ -222,8 +238,10 @@ def _check_resumable(out: str, cfg: Config) -> str | None:
             if f.attrs.get("format") != FORMAT:
                 return f"{out} is not a wheelrom sweep file"
             if f.attrs.get("config") != config_mod.to_toml(cfg):
-                return (f"{out} was written for a different configuration "
-                        "(compare 'wheelrom config show'); use --force to start again")
+                return (
+                    f"{out} was written for a different configuration "
+                    "(compare 'wheelrom config show'); use --force to start again"
+                )
     except OSError as exc:
         return f"{out} cannot be opened for --resume ({exc}); use --force to start again"
     return None

@@ -80,8 +80,9 @@ class CaseResult:
             "wall_s": self.wall_s,
             "simulated_s": float(self.window_end[-1]) if last is not None else 0.0,
             "max_tip_amplitude": float(self.max_tip_amplitude[-1]) if last is not None else None,
-            "min_normal_force": {k: float(v[-1]) for k, v in self.min_normal_force.items()
-                                 if v.size},
+            "min_normal_force": {
+                k: float(v[-1]) for k, v in self.min_normal_force.items() if v.size
+            },
             "open_fraction": {k: float(v[-1]) for k, v in self.open_fraction.items() if v.size},
             "energy_balance_error": self.energy_balance_error(),
             "preload_residual": self.preload_residual,
@@ -116,7 +117,7 @@ class WheelProblem:
         ua = u.getArray(readonly=True)
         fa = f.getArray()
         q = ua[:n]
-        v = ua[n:2 * n]
+        v = ua[n : 2 * n]
         self._x.setArray(q)
         self.K.mult(self._x, self._Kx)
         self._x.setArray(v)
@@ -125,7 +126,7 @@ class WheelProblem:
         Kq = self._Kx.getArray(readonly=True)
         Kv = self._Kv.getArray(readonly=True)
         fa[:n] = v
-        fa[n:2 * n] = force.ravel() - Kq - self.beta * Kv
+        fa[n : 2 * n] = force.ravel() - Kq - self.beta * Kv
         p = self.forces.power
         fa[2 * n] = p[0]
         fa[2 * n + 1] = p[1]
@@ -135,20 +136,20 @@ class WheelProblem:
     def rhs_numpy(self, t: float, u: np.ndarray) -> np.ndarray:
         """The same right-hand side with numpy only (serial reference)."""
         n = self.n
-        q, v = u[:n], u[n:2 * n]
+        q, v = u[:n], u[n : 2 * n]
         force = self.forces.evaluate(t, q.reshape(self.N, self.m), v.reshape(self.N, self.m))
         Kv = self.Kd @ v
         out = np.empty_like(u)
         out[:n] = v
-        out[n:2 * n] = force.ravel() - self.Kd @ q - self.beta * Kv
-        out[2 * n:2 * n + 3] = self.forces.power
+        out[n : 2 * n] = force.ravel() - self.Kd @ q - self.beta * Kv
+        out[2 * n : 2 * n + 3] = self.forces.power
         out[2 * n + 3] = -self.beta * float(v @ Kv)
         return out
 
     def energy(self, u: np.ndarray) -> float:
         """Kinetic + modal strain + contact spring energy [J] (evaluates the contacts)."""
         n = self.n
-        q, v = u[:n], u[n:2 * n]
+        q, v = u[:n], u[n : 2 * n]
         self.forces.evaluate(0.0, q.reshape(self.N, self.m), v.reshape(self.N, self.m))
         return 0.5 * float(v @ v) + 0.5 * float(q @ (self.Kd @ q)) + self.forces.contact_energy()
 
@@ -190,10 +191,11 @@ class Monitor:
             return
         self.amp = max(self.amp, amp)
         if amp > self.limit:
-            self.diverged = (f"tip amplitude {amp:.3g} m exceeds time.divergence_amplitude "
-                             f"at t = {t:.6g} s")
+            self.diverged = (
+                f"tip amplitude {amp:.3g} m exceeds time.divergence_amplitude at t = {t:.6g} s"
+            )
         if self.kinds:
-            p.forces.evaluate(t, q, u[n:2 * n].reshape(p.N, p.m))
+            p.forces.evaluate(t, q, u[n : 2 * n].reshape(p.N, p.m))
             for i, k in enumerate(self.kinds):
                 self.min_fn[k] = min(self.min_fn[k], float(p.forces.normal_force[i].min()))
                 self.open_count[k] += int((p.forces.contact_state[i] == OPEN).sum())
@@ -212,8 +214,9 @@ def _options_used(prefix: str) -> dict:
     return {k: v for k, v in opts.items() if k.startswith(prefix)}
 
 
-def make_ts(problem: WheelProblem, cfg: Config, prefix: str = "wheel_",
-            options: dict | None = None):
+def make_ts(
+    problem: WheelProblem, cfg: Config, prefix: str = "wheel_", options: dict | None = None
+):
     """A configured TS (defaults in code, ``setFromOptions`` last).
 
     ``options``: extra PETSc options (without prefix) set under ``prefix`` for this TS only.
@@ -248,7 +251,7 @@ def make_ts(problem: WheelProblem, cfg: Config, prefix: str = "wheel_",
         "ts_rk_type": ts.getRKType() if ts.getType() == "rk" else None,
         "ts_dt": ts.getTimeStep(),
     }
-    used.update({k[len(prefix):]: v for k, v in _options_used(prefix).items()})
+    used.update({k[len(prefix) :]: v for k, v in _options_used(prefix).items()})
     for name in inserted:
         opts.delValue(name)
     return ts, f, {k: v for k, v in used.items() if v is not None}
@@ -317,9 +320,15 @@ def static_preload(problem: WheelProblem, prefix: str = "preload_") -> tuple[np.
     return q, res
 
 
-def run_case(model: ReducedModel, cfg: Config, angles_deg: dict | None = None,
-             options: dict | None = None, progress=None, prefix: str = "wheel_",
-             u0: np.ndarray | None = None) -> CaseResult:
+def run_case(
+    model: ReducedModel,
+    cfg: Config,
+    angles_deg: dict | None = None,
+    options: dict | None = None,
+    progress=None,
+    prefix: str = "wheel_",
+    u0: np.ndarray | None = None,
+) -> CaseResult:
     """Integrate one case window by window; a divergence stops it and keeps what was done.
 
     ``u0``: optional initial modal state ``(q, q')`` of length ``2 N m`` (else ``time.start``).
@@ -365,7 +374,7 @@ def run_case(model: ReducedModel, cfg: Config, angles_deg: dict | None = None,
             rows["amp"].append(monitor.amp)
             rows["spec"].append(monitor.spectrum.copy())
             rows["energy"].append(problem.energy(ua))
-            rows["work"].append(ua[2 * problem.n:].copy())
+            rows["work"].append(ua[2 * problem.n :].copy())
             for k in forces.contacts.kinds:
                 fn_rows[k].append(monitor.min_fn[k])
                 open_rows[k].append(monitor.open_count[k] / max(1, monitor.count * problem.N))
@@ -373,7 +382,9 @@ def run_case(model: ReducedModel, cfg: Config, angles_deg: dict | None = None,
             if progress:
                 progress(w + 1, windows, t_now, rows["amp"][-1])
             if t_now < t_end - 1e-9 * max(1.0, t_end):
-                result.status = f"failed: TS stopped at t = {t_now:.6g} s ({ts.getConvergedReason()})"
+                result.status = (
+                    f"failed: TS stopped at t = {t_now:.6g} s ({ts.getConvergedReason()})"
+                )
                 break
     except PETSc.Error as exc:
         result.status = f"failed: PETSc error {exc}"
@@ -401,8 +412,13 @@ _BS_B = (2.0 / 9.0, 1.0 / 3.0, 4.0 / 9.0)
 _BS_C = (0.0, 0.5, 0.75)
 
 
-def reference_solution(model: ReducedModel, cfg: Config, steps: int,
-                       angles_deg: dict | None = None, sample_every: int = 1):
+def reference_solution(
+    model: ReducedModel,
+    cfg: Config,
+    steps: int,
+    angles_deg: dict | None = None,
+    sample_every: int = 1,
+):
     """Plain-numpy fixed-step Bogacki-Shampine loop (no PETSc) over the same force model.
 
     Returns ``(times, states)`` with the state every ``sample_every`` steps and ``wall_s``.
