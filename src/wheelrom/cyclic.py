@@ -204,6 +204,13 @@ def build_model(cfg: Config, comm=None, log=None) -> ReducedModel:
     from wheelrom.mesh import load_segment
     from wheelrom.modes import segment_modes
 
+    from wheelrom.errors import InputError
+
+    if cfg.wheel.basis != "free":
+        raise InputError("wheel.basis = 'enriched' is not implemented yet; use 'free'")
+    for kind in cfg.contacts.enabled_kinds():
+        if cfg.contact(kind).stiffness == "fe":
+            raise InputError(f"contacts.{kind}.stiffness = 'fe' is not implemented yet")
     say = log or (lambda msg: None)
     comm = comm or petsc().COMM_SELF
     t0 = time.perf_counter()

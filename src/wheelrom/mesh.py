@@ -471,6 +471,7 @@ def load_segment(cfg: Config) -> SegmentMesh:
     """The segment of a configuration: built-in, or read from ``segment.source``."""
     if cfg.segment.source == "builtin":
         return build_builtin(cfg)
-    from wheelrom.mesh_io import read_segment
-
-    return read_segment(cfg.segment.source, cfg)
+    raise InputError(
+        f"segment.source = {cfg.segment.source!r}: reading user meshes is not implemented yet "
+        "(only 'builtin')"
+    )
