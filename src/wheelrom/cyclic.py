@@ -201,10 +201,9 @@ def build_model(cfg: Config, comm=None, log=None) -> ReducedModel:
 
     from wheelrom._environment import petsc
     from wheelrom.assembly import assemble
+    from wheelrom.errors import InputError
     from wheelrom.mesh import load_segment
     from wheelrom.modes import segment_modes
-
-    from wheelrom.errors import InputError
 
     if cfg.wheel.basis != "free":
         raise InputError("wheel.basis = 'enriched' is not implemented yet; use 'free'")
