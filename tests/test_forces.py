@@ -168,7 +168,6 @@ def test_arm_transfer_preserves_force_and_moment_about_A():
     F = T.T @ Fl
     assert Fn == pytest.approx(400.0 - fm.contacts.k[0, 0] * ul[1])
     # blade 0 also receives the contact force of blade 7's arm at its own A
-    F_prev_local = None  # noqa: F841
     Tp = fm.contacts.T[0, 7]
     vlp = fm.relative_velocity[0, 7]
     Fnp = fm.normal_force[0, 7]

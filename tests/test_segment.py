@@ -5,8 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from wheelrom import assembly, modes
-from wheelrom.mesh import SegmentMesh
+from wheelrom import assembly, mesh, modes
 
 
 def test_mass_equals_density_times_exact_volume(coarse_segment):
@@ -57,14 +56,7 @@ def _bar(length, width, height, n):
         np.linspace(0, length, n + 1), np.linspace(0, width, 3), np.linspace(0, height, 3)
     )
     clamped = np.flatnonzero(m.p[0] < 1e-12)
-    nv = m.p.shape[1]
-    edges = m.edges
-    nodes = np.vstack([m.p.T, 0.5 * (m.p[:, edges[0]] + m.p[:, edges[1]]).T])
-    on = np.zeros(nv, bool)
-    on[clamped] = True
-    sets = {"clamped": np.concatenate([clamped, nv + np.flatnonzero(on[edges[0]] & on[edges[1]])])}
-    seg = SegmentMesh(m, "hex20", nodes, sets, sectors=1)
-    return seg
+    return mesh._with_edges(m, "hex20", {"clamped": clamped}, {}, sectors=1)
 
 
 def test_slender_cantilever_against_beam_theory():

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from wheelrom.config import CONTACT_KINDS, Config
+from wheelrom.config import Config
 from wheelrom.cyclic import ReducedModel
 
 VDP_OFF, VDP_ABSOLUTE, VDP_RELATIVE = 0, 1, 2
@@ -388,7 +388,3 @@ def _kernel(
     power[0] = p_noz
     power[1] = p_vdp
     power[2] = p_fric
-
-
-def contact_kinds_in(model: ReducedModel) -> list[str]:
-    return [k for k in CONTACT_KINDS if k in model.contact_A]

@@ -337,6 +337,7 @@ def build_builtin(cfg: Config, geometry: BuiltinGeometry | None = None) -> Segme
         assert np.allclose(got_B, arm["B"], atol=1e-9), (kind, got_B, arm["B"])
 
     seg = _with_edges(mesh, "hex20", vsets, {k: np.array(v) for k, v in points.items()}, N)
+    pair_cut_faces(seg)
     seg.info.update(_arm_report(seg, cfg))
     seg.info["exact_volume"] = g.exact_volume(N)
     seg.info["preset"] = cfg.segment.preset
@@ -355,9 +356,7 @@ def _with_edges(mesh, element, vertex_face_sets, point_sets, sectors) -> Segment
         on_edge = np.flatnonzero(inside[edges[0]] & inside[edges[1]])
         sets[name] = np.concatenate([np.sort(verts), nv + on_edge])
     sets.update({k: np.asarray(v, dtype=int) for k, v in point_sets.items()})
-    seg = SegmentMesh(mesh, element, nodes, sets, sectors)
-    pair_cut_faces(seg)
-    return seg
+    return SegmentMesh(mesh, element, nodes, sets, sectors)
 
 
 def pair_cut_faces(seg: SegmentMesh, tol: float | None = None) -> None:
