@@ -20,10 +20,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from wheelrom import rhs
 from wheelrom._environment import petsc
 from wheelrom.config import Config
 from wheelrom.cyclic import ReducedModel
-from wheelrom.forces import OPEN, ForceModel
+from wheelrom.forces import ForceModel
 
 N_WORK = 4
 WORK_NAMES = ("nozzle", "van_der_pol", "friction", "damping")
@@ -59,6 +60,7 @@ class CaseResult:
     sample_time: np.ndarray = field(default_factory=lambda: np.zeros(0))
     tip_history: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 3)))
     steps: int = 0
+    rhs_evaluations: int = 0
     wall_s: float = 0.0
     options: dict = field(default_factory=dict)
     preload_residual: float | None = None
@@ -91,7 +93,12 @@ class CaseResult:
 
 
 class WheelProblem:
-    """The ODE of one case: owns sizes, work arrays and the TS callbacks (``COMM_SELF``)."""
+    """The ODE of one case: sizes, the compiled context and the TS callbacks (``COMM_SELF``).
+
+    Two right-hand sides: the compiled one (:mod:`wheelrom.rhs`, registered as C callbacks,
+    the default) and a petsc4py Python callback using the PETSc BAIJ ``K_R`` and the
+    :class:`ForceModel` kernel (``rhs="python"``: slower, a second implementation).
+    """
 
     def __init__(self, model: ReducedModel, cfg: Config, forces: ForceModel, comm=None):
         PETSc = petsc()
@@ -100,38 +107,44 @@ class WheelProblem:
         self.N, self.m = model.blades, model.modes
         self.n = self.N * self.m
         self.beta = cfg.wheel.damping_beta
-        self.K = model.petsc_stiffness(self.comm)
         self.Kd = model.dense_stiffness()  # for energies and the reference (small)
-        self._x = PETSc.Vec().createSeq(self.n, comm=self.comm)
-        self._Kx = PETSc.Vec().createSeq(self.n, comm=self.comm)
-        self._Kv = PETSc.Vec().createSeq(self.n, comm=self.comm)
-        self.rhs_calls = 0
+        self.context = rhs.Context(
+            forces,
+            model,
+            self.beta,
+            sample_dt=1.0 / cfg.output.sample_rate_hz,
+            limit=cfg.time.divergence_amplitude,
+            capacity=_sample_capacity(cfg),
+        )
+        self._petsc: list = []  # BAIJ K_R and work Vecs of the Python path, made on demand
 
     def size(self) -> int:
         return 2 * self.n + N_WORK
 
     def rhs(self, ts, t, u, f):
-        """TS RHS callback: ``f = (q', q'', W')``."""
-        self.rhs_calls += 1
+        """Python TS callback (``rhs="python"``): ``f = (q', q'', W')`` with BAIJ products."""
+        PETSc = petsc()
+        if not self._petsc:
+            K = self.model.petsc_stiffness(self.comm)
+            self._petsc = [K] + [PETSc.Vec().createSeq(self.n, comm=self.comm) for _ in "xqv"]
+        K, x, Kq, Kv = self._petsc
+        self.context.array[rhs.H_RHS_CALLS] += 1
         n = self.n
         ua = u.getArray(readonly=True)
         fa = f.getArray()
         q = ua[:n]
         v = ua[n : 2 * n]
-        self._x.setArray(q)
-        self.K.mult(self._x, self._Kx)
-        self._x.setArray(v)
-        self.K.mult(self._x, self._Kv)
+        x.setArray(q)
+        K.mult(x, Kq)
+        x.setArray(v)
+        K.mult(x, Kv)
         force = self.forces.evaluate(t, q.reshape(self.N, self.m), v.reshape(self.N, self.m))
-        Kq = self._Kx.getArray(readonly=True)
-        Kv = self._Kv.getArray(readonly=True)
+        Kqa = Kq.getArray(readonly=True)
+        Kva = Kv.getArray(readonly=True)
         fa[:n] = v
-        fa[n : 2 * n] = force.ravel() - Kq - self.beta * Kv
-        p = self.forces.power
-        fa[2 * n] = p[0]
-        fa[2 * n + 1] = p[1]
-        fa[2 * n + 2] = p[2]
-        fa[2 * n + 3] = -self.beta * float(v @ Kv)
+        fa[n : 2 * n] = force.ravel() - Kqa - self.beta * Kva
+        fa[2 * n : 2 * n + 3] = self.forces.power
+        fa[2 * n + 3] = -self.beta * float(v @ Kva)
 
     def rhs_numpy(self, t: float, u: np.ndarray) -> np.ndarray:
         """The same right-hand side with numpy only (serial reference)."""
@@ -154,58 +167,68 @@ class WheelProblem:
         return 0.5 * float(v @ v) + 0.5 * float(q @ (self.Kd @ q)) + self.forces.contact_energy()
 
     def destroy(self) -> None:
-        for obj in (self.K, self._x, self._Kx, self._Kv):
+        for obj in self._petsc:
             obj.destroy()
+        self._petsc = []
 
 
-class Monitor:
-    """Per-step bookkeeping: window statistics, decimated tip histories, divergence."""
+def _sample_capacity(cfg: Config) -> int:
+    """Output samples one window can hold (the last window may be up to 1.5 windows long)."""
+    windows = max(1, int(round(cfg.time.end / cfg.time.window)))
+    longest = max(cfg.time.window, cfg.time.end - (windows - 1) * cfg.time.window)
+    return int(math.ceil(longest * cfg.output.sample_rate_hz)) + 4
 
-    def __init__(self, problem: WheelProblem, cfg: Config):
+
+class Samples:
+    """Output samples, collected window by window from the context's buffers.
+
+    Window statistics are taken over the samples (rate ``output.sample_rate_hz``), which the
+    compiled monitor records at the first step at or after each sample time.
+    """
+
+    def __init__(self, problem: WheelProblem):
         self.p = problem
-        self.N = problem.N
         self.kinds = problem.forces.contacts.kinds
-        self.sample_dt = 1.0 / cfg.output.sample_rate_hz
-        self.next_sample = 0.0
-        self.samples_t: list[float] = []
-        self.samples: list[np.ndarray] = []
-        self.limit = cfg.time.divergence_amplitude
-        self.reset_window()
-        self.diverged: str | None = None
+        self.times: list[np.ndarray] = []
+        self.tips: list[np.ndarray] = []
 
-    def reset_window(self) -> None:
-        self.amp = 0.0
-        self.min_fn = {k: math.inf for k in self.kinds}
-        self.open_count = {k: 0 for k in self.kinds}
-        self.count = 0
-        self.spectrum = np.zeros(self.N // 2 + 1)
+    def take_window(self) -> dict:
+        """Move the window's samples out of the context; return its statistics."""
+        ctx = self.p.context
+        count = int(ctx.header(rhs.H_COUNT))
+        if ctx.header(rhs.H_OVERFLOW):
+            raise RuntimeError("output sample buffer overflow (report this as a bug)")
+        N = self.p.N
+        t = ctx.view("sample_time")[:count].copy()
+        tip = ctx.view("sample_tip")[:count].copy()
+        low = ctx.view("sample_min_normal")[:count]
+        opened = ctx.view("sample_open")[:count]
+        ctx.set_header(rhs.H_COUNT, 0)
+        self.times.append(t)
+        self.tips.append(tip)
+        if count == 0:
+            return {
+                "amp": math.nan,
+                "spec": np.full(N // 2 + 1, math.nan),
+                "min_fn": {k: math.nan for k in self.kinds},
+                "open": {k: math.nan for k in self.kinds},
+            }
+        return {
+            "amp": float(np.sqrt((tip * tip).sum(axis=2)).max()),
+            "spec": (np.abs(np.fft.rfft(tip[:, :, 1], axis=1)) / N).max(axis=0),
+            "min_fn": {k: float(low[:, i].min()) for i, k in enumerate(self.kinds)},
+            "open": {k: float(opened[:, i].sum() / (count * N)) for i, k in enumerate(self.kinds)},
+        }
 
-    def __call__(self, t: float, u: np.ndarray) -> None:
-        p = self.p
-        n = p.n
-        q = u[:n].reshape(p.N, p.m)
-        tip = q @ p.model.tip.T  # (N, 3)
-        amp = float(np.sqrt((tip * tip).sum(axis=1)).max())
-        if not math.isfinite(amp):
-            self.diverged = f"non-finite state at t = {t:.6g} s"
-            return
-        self.amp = max(self.amp, amp)
-        if amp > self.limit:
-            self.diverged = (
-                f"tip amplitude {amp:.3g} m exceeds time.divergence_amplitude at t = {t:.6g} s"
-            )
-        if self.kinds:
-            p.forces.evaluate(t, q, u[n : 2 * n].reshape(p.N, p.m))
-            for i, k in enumerate(self.kinds):
-                self.min_fn[k] = min(self.min_fn[k], float(p.forces.normal_force[i].min()))
-                self.open_count[k] += int((p.forces.contact_state[i] == OPEN).sum())
-        self.count += 1
-        if t >= self.next_sample - 1e-12:
-            self.samples_t.append(t)
-            self.samples.append(tip.copy())
-            spec = np.abs(np.fft.rfft(tip[:, 1])) / self.N
-            np.maximum(self.spectrum, spec, out=self.spectrum)
-            self.next_sample += self.sample_dt
+    def stop_reason(self) -> str | None:
+        ctx = self.p.context
+        flag = int(ctx.header(rhs.H_STOP))
+        t = ctx.header(rhs.H_STOP_T)
+        if flag == rhs.STOP_NONFINITE:
+            return f"non-finite state at t = {t:.6g} s"
+        if flag == rhs.STOP_AMPLITUDE:
+            return f"tip amplitude exceeds time.divergence_amplitude at t = {t:.6g} s"
+        return None
 
 
 def _options_used(prefix: str) -> dict:
@@ -215,11 +238,16 @@ def _options_used(prefix: str) -> dict:
 
 
 def make_ts(
-    problem: WheelProblem, cfg: Config, prefix: str = "wheel_", options: dict | None = None
+    problem: WheelProblem,
+    cfg: Config,
+    prefix: str = "wheel_",
+    options: dict | None = None,
+    rhs_kind: str = "compiled",
 ):
     """A configured TS (defaults in code, ``setFromOptions`` last).
 
     ``options``: extra PETSc options (without prefix) set under ``prefix`` for this TS only.
+    ``rhs_kind``: ``"compiled"`` (C callbacks, default) or ``"python"`` (petsc4py callbacks).
     """
     PETSc = petsc()
     opts = PETSc.Options()
@@ -244,7 +272,19 @@ def make_ts(
     ts.setMaxSteps(10**9)
     ts.setExactFinalTime(PETSc.TS.ExactFinalTime.MATCHSTEP)
     f = PETSc.Vec().createSeq(problem.size(), comm=problem.comm)
-    ts.setRHSFunction(problem.rhs, f)
+    if rhs_kind == "compiled":
+        rhs.attach(ts, f, problem.context)
+    elif rhs_kind == "python":
+        ctx = problem.context.array
+
+        def monitor(ts, step, t, x):
+            if rhs.sample_core(t, x.getArray(readonly=True), ctx):
+                ts.setConvergedReason(PETSc.TS.ConvergedReason.CONVERGED_USER)
+
+        ts.setRHSFunction(problem.rhs, f)
+        ts.setMonitor(monitor)
+    else:
+        raise ValueError(f"rhs_kind must be 'compiled' or 'python', not {rhs_kind!r}")
     ts.setFromOptions()
     used = {
         "ts_type": ts.getType(),
@@ -328,10 +368,13 @@ def run_case(
     progress=None,
     prefix: str = "wheel_",
     u0: np.ndarray | None = None,
+    rhs_kind: str = "compiled",
 ) -> CaseResult:
     """Integrate one case window by window; a divergence stops it and keeps what was done.
 
     ``u0``: optional initial modal state ``(q, q')`` of length ``2 N m`` (else ``time.start``).
+    ``options``: PETSc options for this TS (keys without prefix, e.g. ``{"ts_rk_type": "5dp"}``).
+    ``progress(window, windows, t, amplitude)`` is called after every window.
     """
     PETSc = petsc()
     t_wall = time.perf_counter()
@@ -342,19 +385,12 @@ def run_case(
         u0 = initial_state(problem, cfg, result)
     else:
         u0 = np.concatenate([u0, np.zeros(N_WORK)])
-    ts, fvec, used = make_ts(problem, cfg, prefix, options)
+    ts, fvec, used = make_ts(problem, cfg, prefix, options, rhs_kind)
     result.options = used
-    monitor = Monitor(problem, cfg)
+    samples = Samples(problem)
     u = PETSc.Vec().createSeq(problem.size(), comm=problem.comm)
     u.setArray(u0)
     result.energy0 = problem.energy(u0)
-
-    def ts_monitor(ts, step, t, x):
-        monitor(t, x.getArray(readonly=True))
-        if monitor.diverged:
-            ts.setConvergedReason(PETSc.TS.ConvergedReason.CONVERGED_USER)
-
-    ts.setMonitor(ts_monitor)
     windows = max(1, int(round(cfg.time.end / cfg.time.window)))
     rows = {key: [] for key in ("end", "amp", "energy", "work", "spec")}
     fn_rows = {k: [] for k in forces.contacts.kinds}
@@ -367,18 +403,19 @@ def run_case(
             ts.solve(u)
             t_now = ts.getTime()
             ua = u.getArray(readonly=True)
-            if monitor.diverged:
-                result.status = f"failed: {monitor.diverged}"
+            stats = samples.take_window()
+            reason = samples.stop_reason()
+            if reason:
+                result.status = f"failed: {reason}"
                 break
             rows["end"].append(t_now)
-            rows["amp"].append(monitor.amp)
-            rows["spec"].append(monitor.spectrum.copy())
+            rows["amp"].append(stats["amp"])
+            rows["spec"].append(stats["spec"])
             rows["energy"].append(problem.energy(ua))
             rows["work"].append(ua[2 * problem.n :].copy())
             for k in forces.contacts.kinds:
-                fn_rows[k].append(monitor.min_fn[k])
-                open_rows[k].append(monitor.open_count[k] / max(1, monitor.count * problem.N))
-            monitor.reset_window()
+                fn_rows[k].append(stats["min_fn"][k])
+                open_rows[k].append(stats["open"][k])
             if progress:
                 progress(w + 1, windows, t_now, rows["amp"][-1])
             if t_now < t_end - 1e-9 * max(1.0, t_end):
@@ -395,9 +432,10 @@ def run_case(
     result.work = np.array(rows["work"]).reshape(-1, N_WORK)
     result.min_normal_force = {k: np.array(v) for k, v in fn_rows.items()}
     result.open_fraction = {k: np.array(v) for k, v in open_rows.items()}
-    result.sample_time = np.array(monitor.samples_t)
-    result.tip_history = np.array(monitor.samples).reshape(-1, problem.N, 3)
+    result.sample_time = np.concatenate(samples.times)
+    result.tip_history = np.concatenate(samples.tips).reshape(-1, problem.N, 3)
     result.steps = ts.getStepNumber()
+    result.rhs_evaluations = int(problem.context.header(rhs.H_RHS_CALLS))
     result.final_state = u.getArray().copy()
     result.wall_s = time.perf_counter() - t_wall
     for obj in (ts, fvec, u):
