@@ -212,8 +212,28 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         force=args.force,
         log=lambda m: print(m, flush=True),
         options=_options_dict(args),
+        model_comm=args.model_comm,
     )
     return 1 if failed else 0
+
+
+def cmd_bench(args: argparse.Namespace) -> int:
+    """Speed of the transient hot path on this machine (one core): RHS, TS steps, ratios."""
+    from wheelrom.bench import run
+    from wheelrom.cyclic import build_model
+
+    cfg = _load(args)
+    if args.steps < 20000:
+        raise InputError(f"bench --steps must be at least 20000 (got {args.steps})")
+    say = None if args.json else _log
+    model = build_model(cfg, log=say)
+    out = run(model, cfg, steps=args.steps, compare_steps=args.reference_steps, log=say)
+    if args.json:
+        print_json(out)
+    else:
+        for key, value in out.items():
+            print(f"{key}: {value}")
+    return 0
 
 
 def cmd_plot(args: argparse.Namespace) -> int:
@@ -249,6 +269,21 @@ def _args_sweep(p):
     p.add_argument("--out", required=True, help="HDF5 results file")
     p.add_argument("--resume", action="store_true", help="run only the cases still pending")
     p.add_argument("--force", action="store_true", help="overwrite an existing file")
+    p.add_argument(
+        "--model-comm",
+        choices=("rank0", "world"),
+        default="rank0",
+        help="build the model on rank 0 and broadcast it (default: results independent of "
+        "the rank count), or solve the segment eigenproblem on all ranks (large segments)",
+    )
+
+
+def _args_bench(p):
+    _json_out(p)
+    p.add_argument("--steps", type=int, default=20000, help="TS steps timed (>= 20000)")
+    p.add_argument(
+        "--reference-steps", type=int, default=2000, help="steps of the numpy/scipy comparisons"
+    )
 
 
 def _args_plot(p):
@@ -264,6 +299,7 @@ COMMANDS: dict[
     "compare": (cmd_compare, "PETSc TS against the serial numpy reference", _args_compare),
     "sweep": (cmd_sweep, "contact-angle sweep under mpirun, parallel HDF5", _args_sweep),
     "plot": (cmd_plot, "figures from a results file", _args_plot),
+    "bench": (cmd_bench, "speed of the transient hot path (one core)", _args_bench),
 }
 
 

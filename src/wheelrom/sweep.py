@@ -142,11 +142,15 @@ def run_sweep(
     comm=None,
     log=print,
     options: dict | None = None,
+    model_comm: str = "rank0",
 ) -> int:
     """Run the sweep of ``cfg`` into ``out``; returns the number of failed cases.
 
     Collective over ``comm`` (mpi4py, default ``COMM_WORLD``). Progress lines go to ``log``
-    on rank 0.
+    on rank 0. ``model_comm``: ``"rank0"`` builds the model on rank 0 and broadcasts it
+    (results independent of the number of ranks); ``"world"`` runs the segment eigen-solve
+    distributed over all ranks (for segments too large for one rank; the modes then agree
+    with a serial build to the eigen-solver tolerance, not bitwise).
     """
     import h5py
     from mpi4py import MPI
@@ -176,9 +180,14 @@ def run_sweep(
 
     t0 = time.perf_counter()
     model = None
-    if rank == 0:
-        model = build_model(cfg, petsc().COMM_SELF, log=say)
-    model = comm.bcast(model)
+    if model_comm == "world":
+        model = build_model(cfg, petsc().COMM_WORLD, log=say)
+    elif model_comm == "rank0":
+        if rank == 0:
+            model = build_model(cfg, petsc().COMM_SELF, log=say)
+        model = comm.bcast(model)
+    else:
+        raise InputError(f"model_comm must be 'rank0' or 'world', not {model_comm!r}")
     say(
         f"model ready in {time.perf_counter() - t0:.1f} s: {model.blades} blades x "
         f"{model.modes} modes"

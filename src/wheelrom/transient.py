@@ -396,10 +396,19 @@ def run_case(
     fn_rows = {k: [] for k in forces.contacts.kinds}
     open_rows = {k: [] for k in forces.contacts.kinds}
     t_now = 0.0
+    # Fixed steps: a window ends after a step count, not at a time, because TS "matchstep"
+    # would shorten the last step to round-off gaps and keep the short step afterwards.
+    dt0 = ts.getTimeStep()
+    fixed = used.get("ts_adapt_type", "none") == "none"
     try:
         for w in range(windows):
             t_end = cfg.time.end if w == windows - 1 else (w + 1) * cfg.time.window
-            ts.setMaxTime(t_end)
+            if fixed:
+                ts.setTimeStep(dt0)
+                ts.setMaxSteps(int(round(t_end / dt0)))
+                ts.setMaxTime(t_end + 0.5 * dt0)
+            else:
+                ts.setMaxTime(t_end)
             ts.solve(u)
             t_now = ts.getTime()
             ua = u.getArray(readonly=True)
@@ -418,7 +427,7 @@ def run_case(
                 open_rows[k].append(stats["open"][k])
             if progress:
                 progress(w + 1, windows, t_now, rows["amp"][-1])
-            if t_now < t_end - 1e-9 * max(1.0, t_end):
+            if t_now < t_end - (0.5 * dt0 if fixed else 1e-9 * max(1.0, t_end)):
                 result.status = (
                     f"failed: TS stopped at t = {t_now:.6g} s ({ts.getConvergedReason()})"
                 )

@@ -1,0 +1,110 @@
+#!/usr/bin/env python
+"""Scripted TS option tuning: one model, many PETSc TS settings, accuracy against wall time.
+
+Builds the reduced model once (library API), runs the same case with each TS setting through
+``wheelrom.transient.run_case(model, cfg, options=...)``, and compares the final blade-tip
+displacements of every blade with a fine-step reference (RK 5dp at a quarter of the step).
+This is also the work-precision study of ``docs/performance.md``.
+
+    .venv/bin/python run/tune_ts.py [CONFIG] [--set key=value ...] [--end 0.02]
+                                    [--json] [--plot work_precision.png]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+
+import numpy as np
+
+import wheelrom  # noqa: F401  (environment bootstrap)
+from wheelrom import config
+from wheelrom.cyclic import build_model
+from wheelrom.transient import run_case
+
+
+def settings(step: float) -> list[tuple[str, dict]]:
+    """The TS settings compared: fixed-step 3bs at several steps, adaptive RK types."""
+    out = [(f"3bs dt={dt:.3g}", {"ts_rk_type": "3bs", "ts_dt": dt}) for dt in
+           (4 * step, 2 * step, step, step / 2)]  # fmt: skip
+    for rk in ("3bs", "5dp"):
+        for rtol in (1e-4, 1e-6, 1e-8):
+            opts = {"ts_rk_type": rk, "ts_adapt_type": "basic", "ts_rtol": rtol,
+                    "ts_atol": rtol * 1e-3, "ts_dt": step}  # fmt: skip
+            out.append((f"{rk} adaptive rtol={rtol:.0e}", opts))
+    return out
+
+
+def final_tip(model, res) -> np.ndarray:
+    n = model.size
+    return res.final_state[:n].reshape(model.blades, model.modes) @ model.tip.T
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("config", nargs="?", help="TOML configuration (default: built-in case)")
+    ap.add_argument("--set", dest="overrides", action="append", default=[])
+    ap.add_argument("--end", type=float, default=0.02, help="simulated time per run [s]")
+    ap.add_argument("--json", action="store_true", help="print the table as JSON")
+    ap.add_argument("--plot", help="write a work-precision figure (PNG)")
+    args = ap.parse_args(argv)
+    cfg = config.load(args.config, args.overrides)
+    cfg = cfg.replace(**{"time.end": args.end, "time.window": args.end})
+    model = build_model(cfg, log=None if args.json else print)
+    run_case(model, cfg.replace(**{"time.end": 20 * cfg.time.step,
+                                   "time.window": 20 * cfg.time.step}))  # fmt: skip
+    reference = run_case(model, cfg, options={"ts_rk_type": "5dp", "ts_dt": cfg.time.step / 4})
+    if reference.status != "done":
+        print(f"reference run failed: {reference.status}", file=sys.stderr)
+        return 1
+    tip_ref = final_tip(model, reference)
+    scale = float(np.abs(tip_ref).max())
+    rows = []
+    for label, opts in settings(cfg.time.step):
+        t0 = time.perf_counter()
+        res = run_case(model, cfg, options=opts)
+        wall = time.perf_counter() - t0
+        error = (
+            float(np.abs(final_tip(model, res) - tip_ref).max() / scale)
+            if res.status == "done"
+            else float("nan")
+        )
+        rows.append({
+            "setting": label, "options": res.options, "status": res.status,
+            "steps": res.steps, "rhs_evaluations": res.rhs_evaluations, "wall_s": wall,
+            "tip_error": error, "energy_balance_error": res.energy_balance_error(),
+        })  # fmt: skip
+        if not args.json:
+            print(f"{label:28s} {res.status:6s} steps {res.steps:7d}  wall {wall:7.3f} s  "
+                  f"tip error {error:9.2e}")  # fmt: skip
+    if args.json:
+        json.dump({"end_s": args.end, "reference": "5dp dt/4", "runs": rows}, sys.stdout,
+                  indent=1, default=str)  # fmt: skip
+        sys.stdout.write("\n")
+    if args.plot:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots(figsize=(6.5, 4.5))
+        for family, marker in (("3bs dt", "o"), ("3bs adaptive", "s"), ("5dp adaptive", "^")):
+            pts = [(r["wall_s"], r["tip_error"]) for r in rows if r["setting"].startswith(family)]
+            if pts:
+                x, y = zip(*pts, strict=True)
+                ax.loglog(x, y, marker=marker, label=family.replace(" dt", " fixed step"))
+        ax.set_xlabel("wall time [s]")
+        ax.set_ylabel("relative tip error at t_end [-]")
+        ax.set_title(f"work-precision, {model.blades} blades x {model.modes} modes, "
+                     f"{args.end * 1e3:.0f} ms")  # fmt: skip
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend()
+        fig.tight_layout()
+        fig.savefig(args.plot, dpi=110)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,144 @@
+"""Benchmark of the transient hot path (``wheelrom bench``): a fixed workload, one process.
+
+Figures (all on the configuration's reduced model, single core):
+
+- ``us_per_rhs``: one compiled right-hand side evaluation (``K_R`` product + all forces),
+  timed in a compiled loop, so without any call overhead;
+- ``steps_per_s``: PETSc TS steps per second of a measured run of ``steps`` (>= 20,000)
+  steps with the configuration's TS settings, output sampling included;
+- ``ts_overhead_us_per_step``: wall per step minus the right-hand sides it evaluated;
+- ``paper_case_s``: ``time.end / time.step`` steps at that rate (the paper case with the
+  default configuration);
+- ``ratio_vs_numpy_reference``: wall of the plain-numpy serial reference (same steps, same
+  force model) over ours;
+- ``ratio_vs_scipy``: wall of ``scipy.integrate.solve_ivp`` (RK23, adaptive, on the same
+  compiled right-hand side) over ours for the same simulated time, its ``rtol`` chosen as the
+  loosest of 1e-2..1e-9 whose tip-history error against a fine-step reference is not larger
+  than our fixed-step error.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from wheelrom import rhs
+from wheelrom.config import Config
+from wheelrom.cyclic import ReducedModel
+from wheelrom.forces import ForceModel
+from wheelrom.transient import WheelProblem, reference_solution, run_case
+
+
+def _tip(model: ReducedModel, states: np.ndarray) -> np.ndarray:
+    """Tip displacements ``(..., N, 3)`` of states ``(..., 2 N m + 4)``."""
+    n = model.size
+    q = states[..., :n].reshape(*states.shape[:-1], model.blades, model.modes)
+    return q @ model.tip.T
+
+
+def rhs_microseconds(problem: WheelProblem, calls: int = 20000) -> float:
+    """Mean wall time of one compiled RHS evaluation [us] (compiled loop, warm)."""
+    import numba
+
+    @numba.njit
+    def loop(count, u, f, ctx):
+        for i in range(count):
+            rhs.rhs_core(1e-3 * (i % 7), u, f, ctx)
+
+    rng = np.random.default_rng(0)
+    u = rng.normal(size=problem.size()) * 1e-4
+    f = np.empty_like(u)
+    ctx = problem.context.array.copy()  # leave the case's context untouched
+    loop(10, u, f, ctx)
+    best = math.inf
+    for _ in range(3):
+        t0 = time.perf_counter()
+        loop(calls, u, f, ctx)
+        best = min(best, (time.perf_counter() - t0) / calls * 1e6)
+    return best
+
+
+def _scipy_run(problem: WheelProblem, t_end: float, rtol: float, t_eval: np.ndarray):
+    from scipy.integrate import solve_ivp
+
+    ctx = problem.context.array
+    f = np.empty(problem.size())
+
+    def fun(t, u):
+        rhs.rhs_core(t, u, f, ctx)
+        return f.copy()
+
+    u0 = np.zeros(problem.size())
+    t0 = time.perf_counter()
+    sol = solve_ivp(fun, (0.0, t_end), u0, method="RK23", rtol=rtol, atol=rtol * 1e-9,
+                    t_eval=t_eval)  # fmt: skip
+    return sol, time.perf_counter() - t0
+
+
+def run(model: ReducedModel, cfg: Config, steps: int = 20000, compare_steps: int = 2000,
+        log=None) -> dict:  # fmt: skip
+    """Run the workload; returns the figures (see the module docstring)."""
+    say = log or (lambda m: None)
+    h = cfg.time.step
+    problem = WheelProblem(model, cfg, ForceModel(model, cfg))
+    us_rhs = rhs_microseconds(problem)
+    say(f"compiled right-hand side: {us_rhs:.2f} us per evaluation")
+
+    # TS run of `steps` steps (warm-up first: the C callbacks compile once per process)
+    short = cfg.replace(**{"time.end": 20 * h, "time.window": 20 * h})
+    run_case(model, short)
+    t_end = steps * h
+    timed = cfg.replace(**{"time.end": t_end, "time.window": t_end})
+    res = run_case(model, timed)
+    steps_per_s = res.steps / res.wall_s
+    per_step_us = 1e6 / steps_per_s
+    rhs_per_step = res.rhs_evaluations / max(res.steps, 1)
+    say(f"PETSc TS: {res.steps} steps in {res.wall_s:.2f} s = {steps_per_s:.0f} steps/s")
+    paper_steps = cfg.time.end / h
+
+    # plain-numpy serial reference over compare_steps
+    _, ref_states, ref_wall = reference_solution(model, cfg, compare_steps,
+                                                 sample_every=compare_steps)  # fmt: skip
+    ratio_numpy = (ref_wall / compare_steps) / (res.wall_s / res.steps)
+    say(f"numpy reference: {compare_steps} steps in {ref_wall:.2f} s")
+
+    # accuracy of our fixed step on the tip history over compare_steps, against a 4x finer step
+    t_cmp = compare_steps * h
+    cmp_cfg = cfg.replace(**{"time.end": t_cmp, "time.window": t_cmp})
+    ours = run_case(model, cmp_cfg)
+    fine = run_case(model, cmp_cfg, options={"ts_dt": h / 4})
+    scale = np.abs(fine.tip_history).max()
+    our_error = float(np.abs(ours.tip_history - fine.tip_history).max() / scale)
+    chosen, sp_wall, sp_error = None, math.nan, math.nan
+    for rtol in (1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9):
+        sol, wall = _scipy_run(problem, t_cmp, rtol, fine.sample_time)
+        if not sol.success:
+            continue
+        err = float(np.abs(_tip(model, sol.y.T) - fine.tip_history).max() / scale)
+        if err <= our_error:
+            chosen, sp_wall, sp_error = rtol, wall, err
+            break
+    ratio_scipy = (sp_wall / t_cmp) / (res.wall_s / t_end) if chosen else math.nan
+    say(f"scipy RK23: rtol {chosen}, error {sp_error:.2e} (ours {our_error:.2e}), "
+        f"{sp_wall:.2f} s for {t_cmp * 1e3:.0f} ms")  # fmt: skip
+    return {
+        "blades": model.blades,
+        "modes": model.modes,
+        "contact_kinds": problem.forces.contacts.kinds,
+        "us_per_rhs": us_rhs,
+        "rhs_per_step": rhs_per_step,
+        "steps": res.steps,
+        "steps_per_s": steps_per_s,
+        "us_per_step": per_step_us,
+        "ts_overhead_us_per_step": per_step_us - rhs_per_step * us_rhs,
+        "paper_case_steps": paper_steps,
+        "paper_case_s": paper_steps / steps_per_s,
+        "reference_steps": compare_steps,
+        "ratio_vs_numpy_reference": ratio_numpy,
+        "tip_error_fixed_step": our_error,
+        "scipy_rtol": chosen,
+        "scipy_tip_error": sp_error,
+        "ratio_vs_scipy": ratio_scipy,
+    }

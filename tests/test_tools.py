@@ -1,0 +1,49 @@
+"""Scripts in run/: the TS tuning script (library API, options per run)."""
+
+import importlib.util
+import json
+import os
+
+import pytest
+
+HERE = os.path.dirname(__file__)
+ROOT = os.path.dirname(HERE)
+
+
+def _load_script(name):
+    spec = importlib.util.spec_from_file_location(name, os.path.join(ROOT, "run", f"{name}.py"))
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_tune_ts_script_orders_and_options(capsys, tmp_path):
+    tune = _load_script("tune_ts")
+    fig = tmp_path / "wp.png"
+    small = os.path.join(HERE, "data", "small.toml")
+    assert tune.main([small, "--end", "0.002", "--json", "--plot", str(fig)]) == 0
+    table = json.loads(capsys.readouterr().out)
+    runs = {r["setting"]: r for r in table["runs"]}
+    assert all(r["status"] == "done" for r in runs.values())
+    # the options each run reports are the ones it asked for
+    assert runs["5dp adaptive rtol=1e-06"]["options"]["ts_rk_type"] == "5dp"
+    assert runs["5dp adaptive rtol=1e-06"]["options"]["ts_adapt_type"] == "basic"
+    fixed = [r for label, r in runs.items() if label.startswith("3bs dt=")]
+    steps = [r["steps"] for r in fixed]
+    assert steps == [100, 200, 400, 800]
+    errors = [r["tip_error"] for r in fixed]
+    # Bogacki-Shampine is third order: halving the step cuts the error by about 8
+    for coarse, fine in zip(errors[1:], errors[2:], strict=False):
+        assert 4.0 < coarse / fine < 16.0
+    # tighter adaptive tolerances are more accurate
+    assert runs["5dp adaptive rtol=1e-08"]["tip_error"] < runs["5dp adaptive rtol=1e-04"]["tip_error"]
+    assert fig.stat().st_size > 1000
+
+
+@pytest.mark.parametrize("bad", [["--end", "-1"]])
+def test_tune_ts_rejects_bad_end(bad):
+    from wheelrom.config import ConfigError
+
+    tune = _load_script("tune_ts")
+    with pytest.raises(ConfigError):
+        tune.main(bad)
