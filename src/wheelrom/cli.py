@@ -217,6 +217,44 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     return 1 if failed else 0
 
 
+def cmd_contact_stiffness(args: argparse.Namespace) -> int:
+    """Contact stiffness k_c(beta) from the segment FE by static unit loads (paper Fig. 5)."""
+    from wheelrom.assembly import assemble
+    from wheelrom.config import CONTACT_KINDS
+    from wheelrom.forces import stiffness_at
+    from wheelrom.mesh import load_segment
+    from wheelrom.stiffness import stiffness_tables
+
+    cfg = _load(args)
+    seg = load_segment(cfg)
+    s = cfg.segment
+    mats = assemble(seg, s.young, s.poisson, s.density)
+    kinds = [k for k in CONTACT_KINDS if f"{k}_A" in seg.node_sets]
+    out = {}
+    for kind, (angles, values, flex) in stiffness_tables(cfg, seg, mats, kinds).items():
+        configured = cfg.contact(kind).stiffness
+        out[kind] = {
+            "angle_deg": angles.tolist(),
+            "fe_stiffness_n_per_m": values.tolist(),
+            "configured_n_per_m": None
+            if configured == "fe"
+            else [stiffness_at(configured, a) for a in angles],
+            "arm_axial_stiffness_n_per_m": cfg.contact(kind).arm_axial_stiffness,
+            "flexibility_m_per_n": flex.G.tolist(),
+            "load_nodes": list(flex.load_nodes),
+            "solve_s": flex.solve_s,
+        }
+    if args.json:
+        print_json(out)
+        return 0
+    for kind, row in out.items():
+        print(f"{kind}: k_c [N/m] from the segment FE ({seg.n_dofs} DOFs), configured value")
+        conf = row["configured_n_per_m"] or [None] * len(row["angle_deg"])
+        for a, k, c in zip(row["angle_deg"], row["fe_stiffness_n_per_m"], conf, strict=True):
+            print(f"  {a:5.1f} deg  {k:11.4g}  " + ("" if c is None else f"{c:11.4g}"))
+    return 0
+
+
 def cmd_bench(args: argparse.Namespace) -> int:
     """Speed of the transient hot path on this machine (one core): RHS, TS steps, ratios."""
     from wheelrom.bench import run
@@ -300,6 +338,11 @@ COMMANDS: dict[
     "sweep": (cmd_sweep, "contact-angle sweep under mpirun, parallel HDF5", _args_sweep),
     "plot": (cmd_plot, "figures from a results file", _args_plot),
     "bench": (cmd_bench, "speed of the transient hot path (one core)", _args_bench),
+    "contact-stiffness": (
+        cmd_contact_stiffness,
+        "k_c(beta) from the segment FE (static unit loads)",
+        _json_out,
+    ),
 }
 
 

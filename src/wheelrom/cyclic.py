@@ -53,6 +53,8 @@ class ReducedModel:
     contact_A: dict[str, np.ndarray] = field(default_factory=dict)
     contact_B: dict[str, np.ndarray] = field(default_factory=dict)
     contact_points: dict[str, np.ndarray] = field(default_factory=dict)
+    # kind -> (k, 2) table (angle [deg], k_c [N/m]) computed from the segment FE
+    contact_stiffness: dict[str, np.ndarray] = field(default_factory=dict)
     info: dict = field(default_factory=dict)
 
     @property
@@ -207,9 +209,6 @@ def build_model(cfg: Config, comm=None, log=None) -> ReducedModel:
 
     if cfg.wheel.basis != "free":
         raise InputError("wheel.basis = 'enriched' is not implemented yet; use 'free'")
-    for kind in cfg.contacts.enabled_kinds():
-        if cfg.contact(kind).stiffness == "fe":
-            raise InputError(f"contacts.{kind}.stiffness = 'fe' is not implemented yet")
     say = log or (lambda msg: None)
     comm = comm or petsc().COMM_SELF
     t0 = time.perf_counter()
@@ -223,6 +222,16 @@ def build_model(cfg: Config, comm=None, log=None) -> ReducedModel:
         f"max residual {eig.residuals.max():.1e}"
     )
     model = reduce(seg, eig.vectors, np.diag(eig.eigenvalues), cfg, eig.frequencies_hz)
+    fe_kinds = [k for k in cfg.contacts.enabled_kinds() if cfg.contact(k).stiffness == "fe"]
+    if fe_kinds:
+        from wheelrom.stiffness import stiffness_tables
+
+        for kind, (angles, values, flex) in stiffness_tables(cfg, seg, mats, fe_kinds).items():
+            model.contact_stiffness[kind] = np.stack([angles, values], axis=1)
+            say(
+                f"contact stiffness '{kind}' from FE ({flex.solve_s:.1f} s): "
+                f"{values.min():.3g}..{values.max():.3g} N/m over 0..90 deg"
+            )
     model.info.update(
         segment_dofs=seg.n_dofs,
         assembly_s=mats.assembly_s,

@@ -115,10 +115,15 @@ class ForceModel:
         for i, kind in enumerate(kinds):
             c = cfg.contact(kind)
             ang = np.broadcast_to(np.asarray(angles_deg.get(kind, c.angle_deg), float), (N,))
+            stiffness = c.stiffness
+            if stiffness == "fe":
+                if kind not in model.contact_stiffness:
+                    raise ValueError(f"contacts.{kind}.stiffness = 'fe' but the model has no table")
+                stiffness = [tuple(row) for row in model.contact_stiffness[kind]]
             self.angles_deg[kind] = ang.copy()
             for s in range(N):
                 T[i, s] = contact_frame(ang[s])
-                k_c[i, s] = stiffness_at(c.stiffness, ang[s])
+                k_c[i, s] = stiffness_at(stiffness, ang[s])
         self.contacts = ContactArrays(
             kinds=kinds,
             XA=np.array([model.contact_A[k] for k in kinds]).reshape(K, 3, m),

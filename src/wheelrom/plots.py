@@ -66,7 +66,7 @@ def _modal_figures(f, cfg, path, outdir, pdf, written, plt) -> None:
     table = _need(f, "model/frequencies_by_nd", path)  # (ND, m)
     N = cfg.wheel.blades
     nd = np.arange(table.shape[0])
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), layout="constrained")
     families = min(table.shape[1], 6)
     for j in range(families):
         axes[0].plot(nd, table[:, j], "o-", ms=3, label=f"family {j + 1}")
@@ -92,7 +92,7 @@ def _modal_figures(f, cfg, path, outdir, pdf, written, plt) -> None:
     n_s, f_rev = cfg.wheel.stator_vanes, cfg.wheel.speed_hz
     nd_exc = abs(N - n_s) % N
     nd_exc = min(nd_exc, N - nd_exc)
-    fig, ax = plt.subplots(figsize=(7, 4.5))
+    fig, ax = plt.subplots(figsize=(7, 4.5), layout="constrained")
     for j in range(table.shape[1]):
         ax.plot(nd, table[:, j], "k.-", lw=0.6, ms=2)
     ax.plot(
@@ -112,13 +112,18 @@ def _modal_figures(f, cfg, path, outdir, pdf, written, plt) -> None:
     plt.close(fig)
 
     # contact stiffness vs surface angle (Fig. 5)
-    fig, ax = plt.subplots(figsize=(6, 4))
+    fig, ax = plt.subplots(figsize=(6, 4), layout="constrained")
     angles = np.linspace(0, 90, 91)
     for kind in CONTACT_KINDS:
         stiff = cfg.contact(kind).stiffness
-        if isinstance(stiff, str):
-            continue
-        ax.semilogy(angles, [stiffness_at(stiff, a) for a in angles], label=kind)
+        label = kind
+        if isinstance(stiff, str):  # "fe": the table computed with the model
+            key = f"model/contacts/{kind}/stiffness"
+            if key not in f:
+                continue
+            stiff = [tuple(row) for row in f[key][()]]
+            label = f"{kind} (segment FE)"
+        ax.semilogy(angles, [stiffness_at(stiff, a) for a in angles], label=label)
     ax.set(
         xlabel="contact surface angle beta [deg]",
         ylabel="k_c [N/m]",
@@ -142,7 +147,7 @@ def _sweep_figures(f, cfg, path, outdir, pdf, written, plt) -> None:
     norm = colors.Normalize(vmin=0, vmax=90)
 
     # Fig. 10: amplitude vs time, one line per angle, and an angle x time map
-    fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.5), layout="constrained")
     for i in range(len(angles)):
         axes[0].semilogy(t * 1e3, amp[i] * 1e3, color=cmap(norm(shroud[i])), lw=1.2)
     sm = plt.cm.ScalarMappable(norm=norm, cmap=cmap)
@@ -172,7 +177,9 @@ def _sweep_figures(f, cfg, path, outdir, pdf, written, plt) -> None:
     kinds = [k for k in CONTACT_KINDS if f"cases/min_normal_force/{k}" in f]
     if not kinds:
         raise InputError(f"{path}: dataset 'cases/min_normal_force' is missing")
-    fig, axes = plt.subplots(len(kinds), 2, figsize=(12, 3.8 * len(kinds)), squeeze=False)
+    fig, axes = plt.subplots(
+        len(kinds), 2, figsize=(12, 3.8 * len(kinds)), squeeze=False, layout="constrained"
+    )
     for r, kind in enumerate(kinds):
         fn = f[f"cases/min_normal_force/{kind}"][()]
         opened = f[f"cases/open_fraction/{kind}"][()]
@@ -198,7 +205,7 @@ def _sweep_figures(f, cfg, path, outdir, pdf, written, plt) -> None:
     spec = _need(f, "cases/nd_spectrum", path)
     final = np.array([a[np.isfinite(a)][-1] if np.isfinite(a).any() else np.inf for a in amp])
     best, worst = int(np.argmin(final)), int(np.argmax(np.where(np.isfinite(final), final, -1)))
-    fig, axes = plt.subplots(2, 1, figsize=(9, 7), sharex=True)
+    fig, axes = plt.subplots(2, 1, figsize=(9, 7), sharex=True, layout="constrained")
     vmax = np.nanmax(spec[[best, worst]]) * 1e3
     vmin = max(vmax * 1e-4, 1e-12)
     for ax, i, label in ((axes[0], best, "most suppressed"), (axes[1], worst, "least")):
@@ -219,7 +226,7 @@ def _sweep_figures(f, cfg, path, outdir, pdf, written, plt) -> None:
     plt.close(fig)
 
     # summary: final amplitude vs shroud angle, suppression interval marked
-    fig, ax = plt.subplots(figsize=(7, 4.2))
+    fig, ax = plt.subplots(figsize=(7, 4.2), layout="constrained")
     ok = np.array([s == "done" for s in status])
     ax.semilogy(shroud[ok], final[ok] * 1e3, "o-", label="done")
     if (~ok).any():
