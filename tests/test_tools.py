@@ -21,7 +21,11 @@ def test_tune_ts_script_orders_and_options(capsys, tmp_path):
     tune = _load_script("tune_ts")
     fig = tmp_path / "wp.png"
     small = os.path.join(HERE, "data", "small.toml")
-    assert tune.main([small, "--end", "0.002", "--json", "--plot", str(fig)]) == 0
+    # contacts off: the friction law's kinks (v = 0, v = v_k) and contact loss reduce the
+    # observed order of any RK method; the smooth rest must show the design order
+    smooth = ["--set", "contacts.shroud.enabled=false", "--set", "contacts.tieboss.enabled=false"]
+    argv = [small, *smooth, "--end", "0.002", "--json", "--plot", str(fig)]
+    assert tune.main(argv) == 0
     table = json.loads(capsys.readouterr().out)
     runs = {r["setting"]: r for r in table["runs"]}
     assert all(r["status"] == "done" for r in runs.values())
@@ -33,10 +37,11 @@ def test_tune_ts_script_orders_and_options(capsys, tmp_path):
     assert steps == [100, 200, 400, 800]
     errors = [r["tip_error"] for r in fixed]
     # Bogacki-Shampine is third order: halving the step cuts the error by about 8
-    for coarse, fine in zip(errors[1:], errors[2:], strict=False):
-        assert 4.0 < coarse / fine < 16.0
+    for coarse, fine in zip(errors[:-1], errors[1:], strict=True):
+        assert 6.0 < coarse / fine < 10.0
     # tighter adaptive tolerances are more accurate
-    assert runs["5dp adaptive rtol=1e-08"]["tip_error"] < runs["5dp adaptive rtol=1e-04"]["tip_error"]
+    tight, loose = runs["5dp adaptive rtol=1e-08"], runs["5dp adaptive rtol=1e-04"]
+    assert tight["tip_error"] < loose["tip_error"]
     assert fig.stat().st_size > 1000
 
 

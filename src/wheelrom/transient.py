@@ -397,13 +397,14 @@ def run_case(
     open_rows = {k: [] for k in forces.contacts.kinds}
     t_now = 0.0
     # Fixed steps: a window ends after a step count, not at a time, because TS "matchstep"
-    # would shorten the last step to round-off gaps and keep the short step afterwards.
+    # shortens (or splits in two) the steps before a window end and keeps the short step.
     dt0 = ts.getTimeStep()
     fixed = used.get("ts_adapt_type", "none") == "none"
     try:
         for w in range(windows):
             t_end = cfg.time.end if w == windows - 1 else (w + 1) * cfg.time.window
-            if fixed:
+            if fixed:  # step over, never clip: the step count ends the window
+                ts.setExactFinalTime(PETSc.TS.ExactFinalTime.STEPOVER)
                 ts.setTimeStep(dt0)
                 ts.setMaxSteps(int(round(t_end / dt0)))
                 ts.setMaxTime(t_end + 0.5 * dt0)
