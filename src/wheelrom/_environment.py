@@ -52,6 +52,15 @@ def bootstrap() -> None:
             _add_site(os.environ[var])
 
 
+_INIT_ARGS: list[str] = []
+
+
+def set_init_args(args: list[str]) -> None:
+    """PETSc command-line options to hand to ``PetscInitialize`` (the CLI's args after
+    ``--``), so that initialisation-time options such as ``-log_view`` work."""
+    _INIT_ARGS[:] = list(args)
+
+
 def petsc():
     """Return the initialised ``petsc4py.PETSc`` module (one clear error when missing)."""
     if importlib.util.find_spec("petsc4py") is None:
@@ -59,7 +68,7 @@ def petsc():
     if "petsc4py.PETSc" not in sys.modules:
         import petsc4py
 
-        petsc4py.init()
+        petsc4py.init([sys.argv[0] if sys.argv else "wheelrom", *_INIT_ARGS])
     from petsc4py import PETSc
 
     return PETSc

@@ -3,7 +3,8 @@
 Figures (all on the configuration's reduced model, single core):
 
 - ``us_per_rhs``: one compiled right-hand side evaluation (``K_R`` product + all forces),
-  timed in a compiled loop, so without any call overhead;
+  timed in a compiled loop, so without any call overhead; ``us_per_force_evaluation`` the
+  same without the ``K_R`` product;
 - ``steps_per_s``: PETSc TS steps per second of a measured run of ``steps`` (>= 20,000)
   steps with the configuration's TS settings, output sampling included;
 - ``ts_overhead_us_per_step``: wall per step minus the right-hand sides it evaluated;
@@ -38,8 +39,9 @@ def _tip(model: ReducedModel, states: np.ndarray) -> np.ndarray:
     return q @ model.tip.T
 
 
-def rhs_microseconds(problem: WheelProblem, calls: int = 20000) -> float:
-    """Mean wall time of one compiled RHS evaluation [us] (compiled loop, warm)."""
+def rhs_microseconds(problem: WheelProblem, calls: int = 20000, linear: bool = True) -> float:
+    """Best-of-3 mean wall time of one compiled RHS evaluation [us] (compiled loop, warm);
+    ``linear=False`` leaves out the ``K_R`` product (the force model alone)."""
     import numba
 
     @numba.njit
@@ -51,6 +53,7 @@ def rhs_microseconds(problem: WheelProblem, calls: int = 20000) -> float:
     u = rng.normal(size=problem.size()) * 1e-4
     f = np.empty_like(u)
     ctx = problem.context.array.copy()  # leave the case's context untouched
+    ctx[rhs.H_SKIP_LINEAR] = 0.0 if linear else 1.0
     loop(10, u, f, ctx)
     best = math.inf
     for _ in range(3):
@@ -72,6 +75,7 @@ def _scipy_run(problem: WheelProblem, t_end: float, rtol: float, t_eval: np.ndar
 
     u0 = np.zeros(problem.size())
     t0 = time.perf_counter()
+    t_end = max(t_end, float(t_eval[-1]))  # the last sample may sit a round-off past t_end
     sol = solve_ivp(fun, (0.0, t_end), u0, method="RK23", rtol=rtol, atol=rtol * 1e-9,
                     t_eval=t_eval)  # fmt: skip
     return sol, time.perf_counter() - t0
@@ -84,7 +88,8 @@ def run(model: ReducedModel, cfg: Config, steps: int = 20000, compare_steps: int
     h = cfg.time.step
     problem = WheelProblem(model, cfg, ForceModel(model, cfg))
     us_rhs = rhs_microseconds(problem)
-    say(f"compiled right-hand side: {us_rhs:.2f} us per evaluation")
+    us_forces = rhs_microseconds(problem, linear=False)
+    say(f"compiled right-hand side: {us_rhs:.2f} us per evaluation ({us_forces:.2f} us forces)")
 
     # TS run of `steps` steps (warm-up first: the C callbacks compile once per process)
     short = cfg.replace(**{"time.end": 20 * h, "time.window": 20 * h})
@@ -128,6 +133,8 @@ def run(model: ReducedModel, cfg: Config, steps: int = 20000, compare_steps: int
         "modes": model.modes,
         "contact_kinds": problem.forces.contacts.kinds,
         "us_per_rhs": us_rhs,
+        "us_per_force_evaluation": us_forces,
+        "us_per_linear_product": us_rhs - us_forces,
         "rhs_per_step": rhs_per_step,
         "steps": res.steps,
         "steps_per_s": steps_per_s,

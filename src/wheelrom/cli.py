@@ -39,11 +39,18 @@ def _load(args: argparse.Namespace) -> config_mod.Config:
 
 
 def _petsc_options(args: argparse.Namespace) -> None:
-    """Insert the arguments after ``--`` into the PETSc options database."""
+    """Hand the arguments after ``--`` to PetscInitialize (or, when PETSc is already up,
+    insert them into the options database)."""
     if getattr(args, "petsc_args", None):
-        from wheelrom._environment import petsc
+        import sys as _sys
 
-        petsc().Options().insertString(" ".join(args.petsc_args))
+        from wheelrom._environment import petsc, set_init_args
+
+        if "petsc4py.PETSc" not in _sys.modules:
+            set_init_args(args.petsc_args)
+            petsc()
+        else:
+            petsc().Options().insertString(" ".join(args.petsc_args))
 
 
 # --------------------------------------------------------------------------------------
@@ -96,8 +103,30 @@ def cmd_modes(args: argparse.Namespace) -> int:
     from wheelrom.cyclic import build_model, wheel_modes
 
     cfg = _load(args)
-    model = build_model(cfg, log=None if args.json else _log)
+    say = None if args.json else _log
+    model = build_model(cfg, log=say, keep_shapes=bool(args.vtu))
     hz, nd, kind = wheel_modes(model)
+    if args.vtu:
+        from wheelrom.wheelmesh import write_wheel_mode
+
+        f_mode = write_wheel_mode(args.vtu, model.segment, model.shapes, model, args.vtu_nd,
+                                  args.vtu_family)  # fmt: skip
+        if say:
+            say(f"wrote {args.vtu}: ND {args.vtu_nd} mode at {f_mode:.2f} Hz on the whole wheel")
+    reference = assembled = None
+    if args.full_wheel:
+        from wheelrom import fullwheel
+        from wheelrom.assembly import assemble
+        from wheelrom.mesh import load_segment
+
+        seg = load_segment(cfg)
+        s = cfg.segment
+        mats = assemble(seg, s.young, s.poisson, s.density)
+        c1, m = cfg.wheel.coupling_stiffness, model.modes
+        if args.full_wheel in ("cyclic", "both"):
+            reference = fullwheel.cyclic_table(seg, mats, c1, m, log=say)
+        if args.full_wheel in ("assembled", "both"):
+            assembled = fullwheel.assembled_wheel_modes(seg, mats, c1, args.full_wheel_modes)
     if args.out:
         import h5py
 
@@ -108,15 +137,25 @@ def cmd_modes(args: argparse.Namespace) -> int:
             f.attrs["config"] = to_toml(cfg)
             write_model(f.create_group("model"), model)
             f["model/wheel_hz"], f["model/wheel_nd"] = hz, nd
+            if reference is not None:
+                f["model/full_wheel_hz"] = reference
+            if assembled is not None:
+                f["model/assembled_wheel_hz"] = assembled
+    table = model.frequencies_by_nodal_diameter()
     if args.json:
-        print_json(
-            {
-                "segment_hz": model.segment_hz.tolist(),
-                "wheel_hz": hz.tolist(),
-                "wheel_nd": nd.tolist(),
-                "info": model.info,
-            }
-        )
+        out = {
+            "segment_hz": model.segment_hz.tolist(),
+            "wheel_hz": hz.tolist(),
+            "wheel_nd": nd.tolist(),
+            "reduced_hz_by_nd": table.tolist(),
+            "info": model.info,
+        }
+        if reference is not None:
+            out["full_wheel_hz"] = reference.tolist()
+            out["relative_error_by_nd"] = (table / reference - 1).tolist()
+        if assembled is not None:
+            out["assembled_wheel_hz"] = assembled.tolist()
+        print_json(out)
         return 0
     print("segment modes [Hz]: " + ", ".join(f"{x:.2f}" for x in model.segment_hz))
     for kind_name, rep in model.info.items():
@@ -126,10 +165,17 @@ def cmd_modes(args: argparse.Namespace) -> int:
                 f"{rep['pitch_chord']:.4g} m, arm end misses next A by "
                 f"{rep['tip_to_next_A'] * 1e3:.2f} mm"
             )
-    table = model.frequencies_by_nodal_diameter()
     print("wheel frequencies by nodal diameter [Hz] (first 4 families):")
     for k, row in enumerate(table):
         print(f"  ND {k:3d}: " + "  ".join(f"{x:9.2f}" for x in row[:4]))
+    if reference is not None:
+        err = 100 * (table / reference - 1)
+        print("reduced model vs full-wheel FE (exact cyclic symmetry), error [%] by family:")
+        print("  family:  " + "  ".join(f"{j + 1:7d}" for j in range(table.shape[1])))
+        print("  max:     " + "  ".join(f"{x:7.2f}" for x in err.max(axis=0)))
+        print("  mean:    " + "  ".join(f"{x:7.2f}" for x in err.mean(axis=0)))
+    if assembled is not None:
+        print("assembled full wheel, lowest [Hz]: " + ", ".join(f"{x:.3f}" for x in assembled))
     return 0
 
 
@@ -291,6 +337,18 @@ def _json_out(p: argparse.ArgumentParser) -> None:
 def _args_modes(p):
     _json_out(p)
     p.add_argument("--out", help="write the reduced model to this HDF5 file")
+    p.add_argument(
+        "--full-wheel",
+        nargs="?",
+        const="cyclic",
+        choices=("cyclic", "assembled", "both"),
+        help="full-wheel FE reference: exact cyclic symmetry per ND (default, any preset) "
+        "and/or N assembled segment copies (SLEPc on all ranks; coarse preset)",
+    )
+    p.add_argument("--full-wheel-modes", type=int, default=20, help="modes of the assembled wheel")
+    p.add_argument("--vtu", help="write a wheel mode on the whole-wheel mesh (.vtu, meshio)")
+    p.add_argument("--vtu-nd", type=int, default=5, help="nodal diameter of that mode")
+    p.add_argument("--vtu-family", type=int, default=0, help="mode family (0 = lowest)")
 
 
 def _args_run(p):

@@ -53,8 +53,8 @@ class WheelConfig:
         default="free",
         metadata=_key(
             "-",
-            "segment basis: 'free' (paper: free-interface modes) or 'enriched' "
-            "(plus sector parts of exact cyclic modes)",
+            "segment basis: 'free' (paper: m free-interface modes) or 'enriched' (3 m "
+            "vectors: plus the m lowest exact cyclic sector modes of ND 0 and of ND N/2)",
             choices=("free", "enriched"),
         ),
     )

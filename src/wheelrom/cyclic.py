@@ -55,6 +55,9 @@ class ReducedModel:
     contact_points: dict[str, np.ndarray] = field(default_factory=dict)
     # kind -> (k, 2) table (angle [deg], k_c [N/m]) computed from the segment FE
     contact_stiffness: dict[str, np.ndarray] = field(default_factory=dict)
+    # build_model(keep_shapes=True) only: the segment mesh and basis (n_dofs, m), for export
+    segment: object = field(default=None, repr=False, compare=False)
+    shapes: np.ndarray | None = field(default=None, repr=False, compare=False)
     info: dict = field(default_factory=dict)
 
     @property
@@ -193,7 +196,7 @@ def reduce(
     return model
 
 
-def build_model(cfg: Config, comm=None, log=None) -> ReducedModel:
+def build_model(cfg: Config, comm=None, log=None, keep_shapes: bool = False) -> ReducedModel:
     """Segment mesh -> matrices -> modes -> reduced wheel, for one configuration.
 
     ``comm`` is the communicator of the segment eigen-solve (default ``COMM_SELF``); the
@@ -203,12 +206,9 @@ def build_model(cfg: Config, comm=None, log=None) -> ReducedModel:
 
     from wheelrom._environment import petsc
     from wheelrom.assembly import assemble
-    from wheelrom.errors import InputError
     from wheelrom.mesh import load_segment
     from wheelrom.modes import segment_modes
 
-    if cfg.wheel.basis != "free":
-        raise InputError("wheel.basis = 'enriched' is not implemented yet; use 'free'")
     say = log or (lambda msg: None)
     comm = comm or petsc().COMM_SELF
     t0 = time.perf_counter()
@@ -221,7 +221,25 @@ def build_model(cfg: Config, comm=None, log=None) -> ReducedModel:
         f"segment modes: {eig.frequencies_hz.size} in {eig.solve_s:.2f} s, "
         f"max residual {eig.residuals.max():.1e}"
     )
-    model = reduce(seg, eig.vectors, np.diag(eig.eigenvalues), cfg, eig.frequencies_hz)
+    if cfg.wheel.basis == "enriched":
+        from wheelrom.fullwheel import enriched_basis
+
+        t1 = time.perf_counter()
+        m = cfg.wheel.modes_per_segment
+        X, lam = enriched_basis(seg, mats, cfg.wheel.coupling_stiffness, eig.vectors[mats.free],
+                                m, comm)  # fmt: skip
+        say(
+            f"enriched basis: {X.shape[1]} vectors (free modes + sector modes of ND 0 and "
+            f"ND {seg.sectors // 2}) in {time.perf_counter() - t1:.2f} s"
+        )
+        hz = np.sqrt(np.maximum(lam, 0.0)) / (2 * np.pi)
+        shapes = mats.expand(X)
+        model = reduce(seg, shapes, np.diag(lam), cfg, hz)
+    else:
+        shapes = eig.vectors
+        model = reduce(seg, shapes, np.diag(eig.eigenvalues), cfg, eig.frequencies_hz)
+    if keep_shapes:
+        model.segment, model.shapes = seg, shapes
     fe_kinds = [k for k in cfg.contacts.enabled_kinds() if cfg.contact(k).stiffness == "fe"]
     if fe_kinds:
         from wheelrom.stiffness import stiffness_tables

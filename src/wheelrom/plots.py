@@ -70,6 +70,11 @@ def _modal_figures(f, cfg, path, outdir, pdf, written, plt) -> None:
     families = min(table.shape[1], 6)
     for j in range(families):
         axes[0].plot(nd, table[:, j], "o-", ms=3, label=f"family {j + 1}")
+    reference = f["model/full_wheel_hz"][()] if "model/full_wheel_hz" in f else None
+    if reference is not None:  # exact cyclic-symmetry FE of the same wheel
+        for j in range(min(families, reference.shape[1])):
+            axes[0].plot(nd, reference[:, j], "k--", lw=0.8,
+                         label="full-wheel FE" if j == 0 else None)  # fmt: skip
     axes[0].set(
         xlabel="nodal diameter [-]",
         ylabel="frequency [Hz]",
@@ -77,7 +82,12 @@ def _modal_figures(f, cfg, path, outdir, pdf, written, plt) -> None:
     )
     axes[0].legend(fontsize=8)
     order = np.sort(table[:, :families].ravel())
-    axes[1].plot(np.arange(1, order.size + 1), order, ".-")
+    axes[1].plot(np.arange(1, order.size + 1), order, ".-", label="reduced model")
+    if reference is not None:
+        ref_order = np.sort(reference[:, :families].ravel())
+        axes[1].plot(np.arange(1, ref_order.size + 1), ref_order, "k--", lw=0.8,
+                     label="full-wheel FE")  # fmt: skip
+        axes[1].legend(fontsize=8)
     axes[1].set(
         xlabel="mode order [-]",
         ylabel="frequency [Hz]",

@@ -36,6 +36,7 @@ H_LEN, H_N, H_M, H_K, H_VDP, H_NS, H_OMEGA, H_FB, H_MU, H_R, H_BETA = range(11)
 H_FS, H_FD, H_DECAY, H_VK, H_USER_REASON, H_SAMPLE_DT, H_NEXT_SAMPLE, H_COUNT = range(11, 19)
 H_CAP, H_LIMIT, H_STOP, H_STOP_T, H_RHS_CALLS, H_SLOT_U, H_SLOT_F, H_OVERFLOW = range(19, 27)
 H_NSTATE = 27
+H_SKIP_LINEAR = 28  # 1: leave out the K_R product (benchmarks of the force part alone)
 H_OFFSETS = 32  # offsets of the arrays below start here
 
 # arrays in the context, in order; shapes from (N, m, K, capacity)
@@ -199,13 +200,14 @@ def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
         WT[j, N + 1] = WT[j, 1]
     # KW = K_R w, row s = A0 w_s + A1 w_{s+1} + A1^T w_{s-1}; and for the damping power
     # q'^T K_R q' = sum_s v_s^T (A0 v_s + 2 A1 v_{s+1}) the vectors DV_s = A0 v_s + 2 A1 v_{s+1}
+    linear = ctx[H_SKIP_LINEAR] == 0.0
     for i in range(m):
         kw = KW[i]
         dv = DV[i]
         for s in range(N):
             kw[s] = 0.0
             dv[s] = 0.0
-        for j in range(m):
+        for j in range(m if linear else 0):
             a0 = A0[i, j]
             a1 = A1[i, j]
             a1t = A1T[i, j]

@@ -1,0 +1,152 @@
+"""Full-wheel finite-element references for the reduced model (paper Fig. 8, "full 3D FE").
+
+Two independent ways to the modes of the whole wheel built from the segment FE with the same
+coupling springs ``c1`` (on all DOFs of every ``right(s)``/``left(s+1)`` node pair, with the
+sector rotation ``R``) as the reduced model:
+
+(a) :func:`assembled_wheel_modes`: ``N`` copies of the segment joined by the springs, one
+    sparse matrix of ``N n`` DOFs distributed over the communicator, lowest modes by SLEPc
+    (prefix ``fullwheel_``). Practical with the ``coarse`` preset and a few ranks.
+(b) :func:`cyclic_modes`: exact cyclic symmetry on one sector. For phase ``phi = 2 pi k/N``
+    the Bloch condition ``u(s+1) = e^{i phi} u(s)`` turns the springs into a Hermitian
+    sector stiffness ``K + c1 (Pl^T Pl + Pr^T Pr) - c1 (e^{i phi} X + e^{-i phi} X^T)``,
+    ``X = Pr^T R Pl``; PETSc here is real, so it is solved in the real ``2n`` form
+    ``[[A, -B], [B, A]]`` (``A``, ``B`` its real and imaginary parts) whose eigenvalues come in
+    equal pairs (prefix ``cyclic_``). Cheap for any preset.
+
+The reduced model is a Ritz projection of (b) onto the segment basis for every ``k``, so its
+frequencies per nodal diameter are upper bounds of (b)'s, family by family.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import scipy.sparse as sp
+
+from wheelrom.assembly import SegmentMatrices
+from wheelrom.mesh import SegmentMesh
+from wheelrom.modes import lowest_modes
+
+
+def _selection(seg: SegmentMesh, mats: SegmentMatrices, name: str) -> sp.csr_matrix:
+    """``(3 p, n_free)`` picking the DOFs of node set ``name`` (clamped DOFs give zero rows)."""
+    dofs = seg.dofs(name).ravel()
+    where = np.full(mats.n_full, -1)
+    where[mats.free] = np.arange(mats.free.size)
+    cols = where[dofs]
+    rows = np.arange(dofs.size)
+    keep = cols >= 0
+    return sp.csr_matrix(
+        (np.ones(keep.sum()), (rows[keep], cols[keep])), shape=(dofs.size, mats.free.size)
+    )
+
+
+def spring_parts(seg: SegmentMesh, mats: SegmentMatrices, c1: float):
+    """``(D, X)``: ``D = c1 (Pl^T Pl + Pr^T Pr)`` and ``X = c1 Pr^T R Pl`` on the free DOFs."""
+    Pr = _selection(seg, mats, "right")
+    Pl = _selection(seg, mats, "left")
+    pairs = Pr.shape[0] // 3
+    Rb = sp.block_diag([seg.rotation] * pairs, format="csr")
+    D = c1 * (Pl.T @ Pl + Pr.T @ Pr)
+    X = c1 * (Pr.T @ Rb @ Pl)
+    return D.tocsr(), X.tocsr()
+
+
+def cyclic_modes(
+    seg: SegmentMesh,
+    mats: SegmentMatrices,
+    c1: float,
+    k: int,
+    nev: int,
+    comm=None,
+    parts=None,
+) -> np.ndarray:
+    """Lowest ``nev`` wheel frequencies [Hz] with phase index ``k`` (nodal diameter
+    ``min(k, N - k)``), exact cyclic symmetry on one sector."""
+    N = seg.sectors
+    D, X = parts if parts is not None else spring_parts(seg, mats, c1)
+    phi = 2 * np.pi * k / N
+    A = (mats.K + D - np.cos(phi) * (X + X.T)).tocsr()
+    if abs(np.sin(phi)) < 1e-12:  # k = 0 or N/2: real problem
+        res = lowest_modes(A, mats.M, nev, comm, prefix="cyclic_")
+        lam = res.eigenvalues
+    else:
+        B = (-np.sin(phi) * (X - X.T)).tocsr()
+        A2 = sp.bmat([[A, -B], [B, A]], format="csr")
+        M2 = sp.block_diag([mats.M, mats.M], format="csr")
+        res = lowest_modes(A2, M2, 2 * nev, comm, prefix="cyclic_")
+        lam = 0.5 * (res.eigenvalues[0::2] + res.eigenvalues[1::2])  # equal pairs
+    return np.sqrt(np.maximum(lam, 0.0)) / (2 * np.pi)
+
+
+def cyclic_table(seg, mats, c1: float, nev: int, comm=None, log=None) -> np.ndarray:
+    """``(N // 2 + 1, nev)`` frequencies [Hz] per nodal diameter by (b)."""
+    parts = spring_parts(seg, mats, c1)
+    out = []
+    t0 = time.perf_counter()
+    for k in range(seg.sectors // 2 + 1):
+        out.append(cyclic_modes(seg, mats, c1, k, nev, comm, parts))
+        if log:
+            log(f"cyclic FE: ND {k} done ({time.perf_counter() - t0:.1f} s)")
+    return np.array(out)
+
+
+def assembled_wheel(seg: SegmentMesh, mats: SegmentMatrices, c1: float):
+    """``(K, M)`` of ``N`` segment copies joined by the springs, sparse ``(N n, N n)``."""
+    N = seg.sectors
+    _, X = spring_parts(seg, mats, c1)
+    Dr = c1 * (_selection(seg, mats, "right").T @ _selection(seg, mats, "right"))
+    Dl = c1 * (_selection(seg, mats, "left").T @ _selection(seg, mats, "left"))
+    eye = sp.identity(N, format="csr")
+    # spring (s, s+1): 1/2 c1 |R Pl u_{s+1} - Pr u_s|^2 -> (s,s) Dr, (s+1,s+1) Dl,
+    # (s, s+1) -X, (s+1, s) -X^T
+    shift = sp.csr_matrix((np.ones(N), (np.arange(N), (np.arange(N) + 1) % N)), shape=(N, N))
+    K = sp.kron(eye, mats.K + Dr + Dl) - sp.kron(shift, X) - sp.kron(shift.T, X.T)
+    M = sp.kron(eye, mats.M)
+    return K.tocsr(), M.tocsr()
+
+
+def assembled_wheel_modes(seg, mats, c1: float, nev: int, comm=None) -> np.ndarray:
+    """Lowest ``nev`` frequencies [Hz] of the assembled wheel (a), SLEPc on ``comm``."""
+    K, M = assembled_wheel(seg, mats, c1)
+    res = lowest_modes(K, M, nev, comm, prefix="fullwheel_")
+    return res.frequencies_hz
+
+
+def sector_vectors(seg, mats, c1: float, k: int, nev: int, comm=None) -> np.ndarray:
+    """Real vectors ``(n_free, *)`` spanning the lowest ``nev`` sector modes of phase ``k``
+    (for a complex mode both its real and imaginary parts)."""
+    D, X = spring_parts(seg, mats, c1)
+    phi = 2 * np.pi * k / seg.sectors
+    A = (mats.K + D - np.cos(phi) * (X + X.T)).tocsr()
+    if abs(np.sin(phi)) < 1e-12:
+        return lowest_modes(A, mats.M, nev, comm, prefix="cyclic_").vectors
+    B = (-np.sin(phi) * (X - X.T)).tocsr()
+    A2 = sp.bmat([[A, -B], [B, A]], format="csr")
+    M2 = sp.block_diag([mats.M, mats.M], format="csr")
+    V = lowest_modes(A2, M2, 2 * nev, comm, prefix="cyclic_").vectors[:, 0::2]
+    n = mats.free.size
+    return np.hstack([V[:n], V[n:]])
+
+
+def enriched_basis(seg, mats, c1: float, free_modes: np.ndarray, per_phase: int, comm=None):
+    """Free-interface modes plus the sector modes of ND 0 and ND N/2 (the two ends of every
+    family), made M-orthonormal and rotated to segment Ritz modes.
+
+    ``free_modes``: ``(n_free, m)``. Returns ``(vectors (n_free, r), ritz_values (r,))`` with
+    ``vectors^T M vectors = I`` and ``vectors^T K vectors = diag(ritz_values)``.
+    """
+    parts = [free_modes]
+    for k in sorted({0, seg.sectors // 2}):
+        parts.append(sector_vectors(seg, mats, c1, k, per_phase, comm))
+    V = np.hstack(parts)
+    Mr = V.T @ (mats.M @ V)
+    Kr = V.T @ (mats.K @ V)
+    # drop numerically dependent directions, then solve the small Ritz problem
+    w, U = np.linalg.eigh(0.5 * (Mr + Mr.T))
+    keep = w > 1e-10 * w.max()
+    T = U[:, keep] / np.sqrt(w[keep])
+    lam, Y = np.linalg.eigh(T.T @ (0.5 * (Kr + Kr.T)) @ T)
+    return V @ (T @ Y), lam
