@@ -72,3 +72,20 @@ def test_wheel_mode_vtu_has_the_nodal_diameter_and_a_continuous_cut(small_cfg, t
     right, left = seg.node_sets["right"], seg.node_sets["left"]
     gap = u[right] - u[n_nodes + left]  # sector 0 right against sector 1 left
     assert np.abs(gap).max() < 0.01
+
+
+def test_accuracy_command_is_monotone_in_the_basis(capsys):
+    """Nested free bases: the Ritz error can only shrink as m grows, family by family."""
+    import json
+
+    from conftest import SMALL
+    from wheelrom import cli
+
+    argv = ["accuracy", SMALL, "--modes", "3", "6", "--enriched-modes", "3", "--families", "2"]
+    assert cli.main([*argv, "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    e3 = np.array(out["bases"]["free m=3"]["relative_error"])
+    e6 = np.array(out["bases"]["free m=6"]["relative_error"])
+    assert e3.shape == e6.shape == (7, 2)
+    assert np.all(e6 >= -1e-7) and np.all(e6 <= e3 + 1e-7)
+    assert out["bases"]["enriched m=3"]["vectors"] <= 9

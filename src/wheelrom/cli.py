@@ -301,6 +301,47 @@ def cmd_contact_stiffness(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_accuracy(args: argparse.Namespace) -> int:
+    """Reduced-model frequencies against the exact cyclic-symmetry FE: error per family."""
+    import numpy as np
+
+    from wheelrom.fullwheel import accuracy_table
+
+    cfg = _load(args)
+    say = None if args.json else _log
+    table = accuracy_table(cfg, tuple(args.modes), args.enriched_modes, args.families, log=say)
+    if args.json:
+        print_json({
+            "reference_hz": table["reference_hz"].tolist(),
+            "bases": {k: {"vectors": v["vectors"], "relative_error": v["relative_error"].tolist()}
+                      for k, v in table["bases"].items()},
+        })  # fmt: skip
+        return 0
+    fam = table["reference_hz"].shape[1]
+    print("max over nodal diameters of |reduced / FE - 1| [%], by family")
+    print(
+        f"{'basis':18s} {'vectors':>7s} "
+        + " ".join(f"{'fam ' + str(j + 1):>9s}" for j in range(fam))
+    )
+    for label, row in table["bases"].items():
+        err = 100 * np.abs(row["relative_error"]).max(axis=0)
+        print(f"{label:18s} {row['vectors']:7d} " + " ".join(f"{x:9.3f}" for x in err))
+    return 0
+
+
+def cmd_mesh(args: argparse.Namespace) -> int:
+    """Write the segment mesh and node sets (.inp with a CalculiX modal step, .vtu, ...)."""
+    from wheelrom.mesh import load_segment
+    from wheelrom.mesh_export import write_segment
+
+    cfg = _load(args)
+    seg = load_segment(cfg)
+    write_segment(seg, args.out, cfg)
+    sets = ", ".join(f"{k} ({v.size})" for k, v in sorted(seg.node_sets.items()))
+    print(f"wrote {args.out}: {seg.nodes.shape[0]} nodes, {seg.n_dofs} DOFs; node sets: {sets}")
+    return 0
+
+
 def cmd_bench(args: argparse.Namespace) -> int:
     """Speed of the transient hot path on this machine (one core): RHS, TS steps, ratios."""
     from wheelrom.bench import run
@@ -382,6 +423,17 @@ def _args_bench(p):
     )
 
 
+def _args_mesh(p):
+    p.add_argument("--out", required=True, help="output file: .inp (CalculiX), .vtu, .xdmf ...")
+
+
+def _args_accuracy(p):
+    _json_out(p)
+    p.add_argument("--modes", type=int, nargs="+", default=[10, 20, 40], help="free bases m")
+    p.add_argument("--enriched-modes", type=int, default=10, help="m of the enriched basis")
+    p.add_argument("--families", type=int, default=4, help="families compared")
+
+
 def _args_plot(p):
     p.add_argument("--outdir", default=None, help="directory for the figures")
     p.add_argument("--pdf", action="store_true", help="also write PDF")
@@ -396,6 +448,8 @@ COMMANDS: dict[
     "sweep": (cmd_sweep, "contact-angle sweep under mpirun, parallel HDF5", _args_sweep),
     "plot": (cmd_plot, "figures from a results file", _args_plot),
     "bench": (cmd_bench, "speed of the transient hot path (one core)", _args_bench),
+    "mesh": (cmd_mesh, "write the segment mesh and node sets", _args_mesh),
+    "accuracy": (cmd_accuracy, "reduced model vs exact cyclic FE, per family", _args_accuracy),
     "contact-stiffness": (
         cmd_contact_stiffness,
         "k_c(beta) from the segment FE (static unit loads)",
