@@ -53,8 +53,8 @@ class WheelConfig:
         default="free",
         metadata=_key(
             "-",
-            "segment basis: 'free' (paper: m free-interface modes) or 'enriched' (3 m "
-            "vectors: plus the m lowest exact cyclic sector modes of ND 0 and of ND N/2)",
+            "segment basis: 'free' (paper: m free-interface modes) or 'enriched' (plus the "
+            "2 lowest exact cyclic sector modes of ND 0, N/8, N/4, N/2: m + 12 vectors)",
             choices=("free", "enriched"),
         ),
     )

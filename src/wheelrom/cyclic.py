@@ -222,15 +222,15 @@ def build_model(cfg: Config, comm=None, log=None, keep_shapes: bool = False) -> 
         f"max residual {eig.residuals.max():.1e}"
     )
     if cfg.wheel.basis == "enriched":
-        from wheelrom.fullwheel import enriched_basis
+        from wheelrom.fullwheel import ENRICH_FAMILIES, enriched_basis, enrichment_phases
 
         t1 = time.perf_counter()
-        m = cfg.wheel.modes_per_segment
+        phases = enrichment_phases(seg.sectors)
         X, lam = enriched_basis(seg, mats, cfg.wheel.coupling_stiffness, eig.vectors[mats.free],
-                                m, comm)  # fmt: skip
+                                ENRICH_FAMILIES, comm, phases)  # fmt: skip
         say(
-            f"enriched basis: {X.shape[1]} vectors (free modes + sector modes of ND 0 and "
-            f"ND {seg.sectors // 2}) in {time.perf_counter() - t1:.2f} s"
+            f"enriched basis: {X.shape[1]} vectors (free modes + {ENRICH_FAMILIES} sector modes "
+            f"of ND {', '.join(map(str, phases))}) in {time.perf_counter() - t1:.2f} s"
         )
         hz = np.sqrt(np.maximum(lam, 0.0)) / (2 * np.pi)
         shapes = mats.expand(X)

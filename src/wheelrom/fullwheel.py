@@ -131,22 +131,32 @@ def sector_vectors(seg, mats, c1: float, k: int, nev: int, comm=None) -> np.ndar
     return np.hstack([V[:n], V[n:]])
 
 
-def enriched_basis(seg, mats, c1: float, free_modes: np.ndarray, per_phase: int, comm=None):
-    """Free-interface modes plus the sector modes of ND 0 and ND N/2 (the two ends of every
-    family), made M-orthonormal and rotated to segment Ritz modes.
+ENRICH_FAMILIES = 2
+
+
+def enrichment_phases(blades: int) -> tuple[int, ...]:
+    """Phase indices whose sector modes enrich the basis: ND 0, N/8, N/4 and N/2."""
+    return tuple(sorted({0, round(blades / 8), round(blades / 4), blades // 2}))
+
+
+def enriched_basis(seg, mats, c1: float, free_modes: np.ndarray, per_phase: int, comm=None,
+                   phases=None):  # fmt: skip
+    """Free-interface modes plus the lowest ``per_phase`` exact sector modes at ``phases``
+    (default ND 0 and N/2; complex modes give their real and imaginary parts), made
+    M-orthonormal and rotated to segment Ritz modes.
 
     ``free_modes``: ``(n_free, m)``. Returns ``(vectors (n_free, r), ritz_values (r,))`` with
     ``vectors^T M vectors = I`` and ``vectors^T K vectors = diag(ritz_values)``.
     """
     parts = [free_modes]
-    for k in sorted({0, seg.sectors // 2}):
+    for k in sorted(set(phases) if phases is not None else {0, seg.sectors // 2}):
         parts.append(sector_vectors(seg, mats, c1, k, per_phase, comm))
     V = np.hstack(parts)
     Mr = V.T @ (mats.M @ V)
     Kr = V.T @ (mats.K @ V)
     # drop numerically dependent directions, then solve the small Ritz problem
     w, U = np.linalg.eigh(0.5 * (Mr + Mr.T))
-    keep = w > 1e-10 * w.max()
+    keep = w > 1e-13 * w.max()
     T = U[:, keep] / np.sqrt(w[keep])
     lam, Y = np.linalg.eigh(T.T @ (0.5 * (Kr + Kr.T)) @ T)
     return V @ (T @ Y), lam
@@ -179,7 +189,7 @@ def accuracy_table(cfg, modes=(10, 20, 40), enriched_modes=10, families=4, comm=
         rom = model.frequencies_by_nodal_diameter()[:, :families]
         bases[f"free m={m}"] = {"vectors": m, "relative_error": rom / reference - 1}
     X, lam = enriched_basis(seg, mats, c1, eig.vectors[mats.free, :enriched_modes],
-                            enriched_modes, comm)  # fmt: skip
+                            ENRICH_FAMILIES, comm, enrichment_phases(seg.sectors))  # fmt: skip
     model = reduce(seg, mats.expand(X), np.diag(lam), cfg)
     rom = model.frequencies_by_nodal_diameter()[:, :families]
     bases[f"enriched m={enriched_modes}"] = {
