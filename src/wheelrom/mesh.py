@@ -470,7 +470,6 @@ def load_segment(cfg: Config) -> SegmentMesh:
     """The segment of a configuration: built-in, or read from ``segment.source``."""
     if cfg.segment.source == "builtin":
         return build_builtin(cfg)
-    raise InputError(
-        f"segment.source = {cfg.segment.source!r}: reading user meshes is not implemented yet "
-        "(only 'builtin')"
-    )
+    from wheelrom.mesh_import import read_segment
+
+    return read_segment(cfg)
