@@ -308,24 +308,27 @@ def _contacts(ctx, N, m, K, QT, VT, FT):
     f_s, f_d, decay, v_k = ctx[H_FS], ctx[H_FD], ctx[H_DECAY], ctx[H_VK]
     p_fric = 0.0
     for c in range(K):
-        # displacements and velocities of A and B of every blade
+        # displacements and velocities of A and B of every blade (blades innermost)
         for a in range(3):
             for s in range(N):
-                ua = 0.0
-                ub = 0.0
-                va = 0.0
-                vb = 0.0
-                for j in range(m):
-                    xa = XA[c, a, j]
-                    xb = XB[c, a, j]
-                    ua += xa * QT[j, s + 1]
-                    ub += xb * QT[j, s + 1]
-                    va += xa * VT[j, s + 1]
-                    vb += xb * VT[j, s + 1]
-                UA[a, s] = ua
-                UB[a, s] = ub
-                VA[a, s] = va
-                VB[a, s] = vb
+                UA[a, s] = 0.0
+                UB[a, s] = 0.0
+                VA[a, s] = 0.0
+                VB[a, s] = 0.0
+            for j in range(m):
+                xa = XA[c, a, j]
+                xb = XB[c, a, j]
+                qj = QT[j]
+                vj = VT[j]
+                ua = UA[a]
+                ub = UB[a]
+                va = VA[a]
+                vb = VB[a]
+                for s in range(N):
+                    ua[s] += xa * qj[s + 1]
+                    ub[s] += xb * qj[s + 1]
+                    va[s] += xa * vj[s + 1]
+                    vb[s] += xb * vj[s + 1]
         L = arm[c]
         d0x = Bpt[c, 0] - Apt[c, 0]
         d0y = Bpt[c, 1] - Apt[c, 1]
@@ -402,18 +405,19 @@ def _contacts(ctx, N, m, K, QT, VT, FT):
             FA[0, s] = -Fx - FB[0, s]
             FA[1, s] = -Fy - FB[1, s]
             FA[2, s] = -Fz - FB[2, s]
+        # back to the modes: FT[j, s] += XA[:, j] . (F_A + F_N) + XB[:, j] . F_B
+        for a in range(3):
+            for s in range(N):
+                FA[a, s] += FN[a, s]
+        fa0, fa1, fa2 = FA[0], FA[1], FA[2]
+        fb0, fb1, fb2 = FB[0], FB[1], FB[2]
         for j in range(m):
             xa0, xa1, xa2 = XA[c, 0, j], XA[c, 1, j], XA[c, 2, j]
             xb0, xb1, xb2 = XB[c, 0, j], XB[c, 1, j], XB[c, 2, j]
+            ft = FT[j]
             for s in range(N):
-                FT[j, s] += (
-                    xa0 * (FA[0, s] + FN[0, s])
-                    + xa1 * (FA[1, s] + FN[1, s])
-                    + xa2 * (FA[2, s] + FN[2, s])
-                    + xb0 * FB[0, s]
-                    + xb1 * FB[1, s]
-                    + xb2 * FB[2, s]
-                )
+                ft[s] += (xa0 * fa0[s] + xa1 * fa1[s] + xa2 * fa2[s]
+                          + xb0 * fb0[s] + xb1 * fb1[s] + xb2 * fb2[s])  # fmt: skip
     return p_fric
 
 
