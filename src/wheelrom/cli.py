@@ -116,12 +116,11 @@ def cmd_modes(args: argparse.Namespace) -> int:
     reference = assembled = None
     if args.full_wheel:
         from wheelrom import fullwheel
-        from wheelrom.assembly import assemble
         from wheelrom.mesh import load_segment
+        from wheelrom.prestress import segment_matrices
 
         seg = load_segment(cfg)
-        s = cfg.segment
-        mats = assemble(seg, s.young, s.poisson, s.density)
+        mats = segment_matrices(cfg, seg)
         c1, m = cfg.wheel.coupling_stiffness, model.modes
         if args.full_wheel in ("cyclic", "both"):
             reference = fullwheel.cyclic_table(seg, mats, c1, m, log=say)

@@ -74,6 +74,14 @@ class SegmentConfig:
         default=0.3, metadata=_key("-", "Poisson's ratio nu", min=0.0, max=0.4999)
     )
     density: float = field(default=7850.0, metadata=_key("kg/m^3", "density rho", gt=0.0))
+    prestress: bool = field(
+        default=True,
+        metadata=_key(
+            "-",
+            "segment modes at wheel.speed_hz with centrifugal stress stiffening and spin "
+            "softening (false: standstill modes)",
+        ),
+    )
     node_set_tolerance: float = field(
         default=1e-3,
         metadata=_key("m", "largest distance of a node picked by coordinates", gt=0.0),

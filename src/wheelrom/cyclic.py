@@ -205,17 +205,15 @@ def build_model(cfg: Config, comm=None, log=None, keep_shapes: bool = False) -> 
     import time
 
     from wheelrom._environment import petsc
-    from wheelrom.assembly import assemble
     from wheelrom.mesh import load_segment
     from wheelrom.modes import segment_modes
+    from wheelrom.prestress import segment_matrices
 
     say = log or (lambda msg: None)
     comm = comm or petsc().COMM_SELF
     t0 = time.perf_counter()
     seg = load_segment(cfg)
-    s = cfg.segment
-    mats = assemble(seg, s.young, s.poisson, s.density)
-    say(f"segment: {seg.n_dofs} DOFs ({seg.element}), assembled in {mats.assembly_s:.2f} s")
+    mats = segment_matrices(cfg, seg, comm, log=say)
     eig = segment_modes(mats, cfg.wheel.modes_per_segment, comm)
     say(
         f"segment modes: {eig.frequencies_hz.size} in {eig.solve_s:.2f} s, "

@@ -25,33 +25,9 @@ import time
 import numpy as np
 import scipy.sparse as sp
 
-from wheelrom.assembly import SegmentMatrices
+from wheelrom.assembly import SegmentMatrices, selection, spring_parts
 from wheelrom.mesh import SegmentMesh
 from wheelrom.modes import lowest_modes
-
-
-def _selection(seg: SegmentMesh, mats: SegmentMatrices, name: str) -> sp.csr_matrix:
-    """``(3 p, n_free)`` picking the DOFs of node set ``name`` (clamped DOFs give zero rows)."""
-    dofs = seg.dofs(name).ravel()
-    where = np.full(mats.n_full, -1)
-    where[mats.free] = np.arange(mats.free.size)
-    cols = where[dofs]
-    rows = np.arange(dofs.size)
-    keep = cols >= 0
-    return sp.csr_matrix(
-        (np.ones(keep.sum()), (rows[keep], cols[keep])), shape=(dofs.size, mats.free.size)
-    )
-
-
-def spring_parts(seg: SegmentMesh, mats: SegmentMatrices, c1: float):
-    """``(D, X)``: ``D = c1 (Pl^T Pl + Pr^T Pr)`` and ``X = c1 Pr^T R Pl`` on the free DOFs."""
-    Pr = _selection(seg, mats, "right")
-    Pl = _selection(seg, mats, "left")
-    pairs = Pr.shape[0] // 3
-    Rb = sp.block_diag([seg.rotation] * pairs, format="csr")
-    D = c1 * (Pl.T @ Pl + Pr.T @ Pr)
-    X = c1 * (Pr.T @ Rb @ Pl)
-    return D.tocsr(), X.tocsr()
 
 
 def cyclic_modes(
@@ -97,8 +73,8 @@ def assembled_wheel(seg: SegmentMesh, mats: SegmentMatrices, c1: float):
     """``(K, M)`` of ``N`` segment copies joined by the springs, sparse ``(N n, N n)``."""
     N = seg.sectors
     _, X = spring_parts(seg, mats, c1)
-    Dr = c1 * (_selection(seg, mats, "right").T @ _selection(seg, mats, "right"))
-    Dl = c1 * (_selection(seg, mats, "left").T @ _selection(seg, mats, "left"))
+    Dr = c1 * (selection(seg, mats, "right").T @ selection(seg, mats, "right"))
+    Dl = c1 * (selection(seg, mats, "left").T @ selection(seg, mats, "left"))
     eye = sp.identity(N, format="csr")
     # spring (s, s+1): 1/2 c1 |R Pl u_{s+1} - Pr u_s|^2 -> (s,s) Dr, (s+1,s+1) Dl,
     # (s, s+1) -X, (s+1, s) -X^T
@@ -169,15 +145,14 @@ def accuracy_table(cfg, modes=(10, 20, 40), enriched_modes=10, families=4, comm=
     "relative_error": (ND, families)}}}`` for the free-interface basis at each ``m`` in
     ``modes`` and the enriched basis built on ``enriched_modes``.
     """
-    from wheelrom.assembly import assemble
     from wheelrom.cyclic import reduce
     from wheelrom.mesh import load_segment
     from wheelrom.modes import segment_modes
+    from wheelrom.prestress import segment_matrices
 
     say = log or (lambda msg: None)
     seg = load_segment(cfg)
-    s = cfg.segment
-    mats = assemble(seg, s.young, s.poisson, s.density)
+    mats = segment_matrices(cfg, seg, comm)
     c1 = cfg.wheel.coupling_stiffness
     eig = segment_modes(mats, max(max(modes), enriched_modes), comm)
     say(f"segment: {seg.n_dofs} DOFs, {eig.eigenvalues.size} modes in {eig.solve_s:.1f} s")
