@@ -22,6 +22,12 @@ def test_inp_round_trip_nodes_elements_and_sets(coarse_cfg, coarse_segment, tmp_
     for card in ("*MATERIAL", "*SOLID SECTION", "*BOUNDARY", "*FREQUENCY"):
         assert card in text
     assert "CLAMPED, 1, 3" in text
+    # prestress on (default): centrifugal static step, then a perturbation frequency step
+    omega2 = (2 * np.pi * coarse_cfg.wheel.speed_hz) ** 2
+    centrif = [ln for ln in text.splitlines() if "CENTRIF" in ln][0].split(",")
+    assert float(centrif[2]) == pytest.approx(omega2, rel=1e-9)
+    assert [float(x) for x in centrif[3:]] == [0, 0, 0, 0, 0, 1]
+    assert text.index("*STATIC") < text.index("*STEP, PERTURBATION") < text.index("*FREQUENCY")
     # element orientation an independent FE code accepts: positive corner volumes
     c = seg.nodes[seg.quadratic_cells()[:, :8]]
     vol = np.einsum("ei,ei->e", np.cross(c[:, 1] - c[:, 0], c[:, 3] - c[:, 0]), c[:, 4] - c[:, 0])

@@ -341,6 +341,26 @@ def cmd_mesh(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_campbell(args: argparse.Namespace) -> int:
+    """Segment and wheel frequencies versus speed (prestressed), with engine orders."""
+    from wheelrom.campbell import campbell, parse_speeds
+    from wheelrom.plots import plot_campbell
+
+    cfg = _load(args)
+    try:
+        speeds = parse_speeds(args.speeds)
+    except ValueError as exc:
+        raise InputError(str(exc)) from exc
+    data = campbell(cfg, speeds, log=None if args.json else _log)
+    written = plot_campbell(data, args.outdir, pdf=args.pdf)
+    if args.json:
+        print_json({k: (v.tolist() if hasattr(v, "tolist") else v) for k, v in data.items()}
+                   | {"figures": written})  # fmt: skip
+    else:
+        print("\n".join(written))
+    return 0
+
+
 def cmd_bench(args: argparse.Namespace) -> int:
     """Speed of the transient hot path on this machine (one core): RHS, TS steps, ratios."""
     from wheelrom.bench import run
@@ -422,6 +442,15 @@ def _args_bench(p):
     )
 
 
+def _args_campbell(p):
+    _json_out(p)
+    p.add_argument(
+        "--speeds", default="0:60:13", help="rotor speeds [Hz]: start:stop:count or a,b,c"
+    )
+    p.add_argument("--outdir", default="out/figures", help="directory for campbell.png")
+    p.add_argument("--pdf", action="store_true", help="also write PDF")
+
+
 def _args_mesh(p):
     p.add_argument("--out", required=True, help="output file: .inp (CalculiX), .vtu, .xdmf ...")
 
@@ -447,6 +476,7 @@ COMMANDS: dict[
     "sweep": (cmd_sweep, "contact-angle sweep under mpirun, parallel HDF5", _args_sweep),
     "plot": (cmd_plot, "figures from a results file", _args_plot),
     "bench": (cmd_bench, "speed of the transient hot path (one core)", _args_bench),
+    "campbell": (cmd_campbell, "frequencies versus rotor speed (prestressed)", _args_campbell),
     "mesh": (cmd_mesh, "write the segment mesh and node sets", _args_mesh),
     "accuracy": (cmd_accuracy, "reduced model vs exact cyclic FE, per family", _args_accuracy),
     "contact-stiffness": (

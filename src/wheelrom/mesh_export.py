@@ -63,13 +63,29 @@ def _abaqus_text(seg: SegmentMesh, cfg=None) -> str:
             "*SOLID SECTION, ELSET=SEGMENT, MATERIAL=STEEL",
             "*BOUNDARY",
             "CLAMPED, 1, 3",
-            "*STEP",
-            "*FREQUENCY",
-            f"{cfg.wheel.modes_per_segment}",
-            "*NODE FILE",
-            "U",
-            "*END STEP",
         ]
+        m = cfg.wheel.modes_per_segment
+        omega = 2 * np.pi * cfg.wheel.speed_hz
+        if s.prestress and omega > 0:
+            lines += [
+                f"** centrifugal prestress at {cfg.wheel.speed_hz:g} Hz about z, then the modes of",
+                "** the stressed segment (stress stiffening, spin softening) as a perturbation.",
+                "** wheelrom closes the sector onto itself (ND 0 springs) for the static state;",
+                "** here the cut faces LEFT/RIGHT are free: expect small differences in the disc.",
+                "*STEP, NLGEOM",
+                "*STATIC",
+                "*DLOAD",
+                f"SEGMENT, CENTRIF, {omega**2:.10g}, 0., 0., 0., 0., 0., 1.",
+                "*END STEP",
+                "*STEP, PERTURBATION",
+                "*FREQUENCY",
+                f"{m}",
+                "*NODE FILE",
+                "U",
+                "*END STEP",
+            ]
+        else:
+            lines += ["*STEP", "*FREQUENCY", f"{m}", "*NODE FILE", "U", "*END STEP"]
     return "\n".join(lines) + "\n"
 
 

@@ -266,3 +266,44 @@ def _sweep_figures(f, cfg, path, outdir, pdf, written, plt) -> None:
     ax.grid(alpha=0.3, which="both")
     _save(fig, outdir, "summary", pdf, written)
     plt.close(fig)
+
+
+def plot_campbell(data: dict, outdir: str, pdf: bool = False) -> list[str]:
+    """Campbell diagram: wheel families (band over nodal diameters), segment modes and
+    engine-order lines, the nozzle order ``n_s`` marked."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    os.makedirs(outdir, exist_ok=True)
+    written: list[str] = []
+    speeds = data["speeds_hz"]
+    wheel = data["wheel_hz_by_nd"]  # (S, ND, m)
+    top = float(wheel[..., : min(6, wheel.shape[2])].max()) * 1.1
+    fig, ax = plt.subplots(figsize=(7.5, 5), layout="constrained")
+    rpm = speeds * 60
+    for j in range(min(6, wheel.shape[2])):
+        low, high = wheel[:, :, j].min(axis=1), wheel[:, :, j].max(axis=1)
+        label = f"family {j + 1} (ND 0..{wheel.shape[1] - 1})"
+        ax.fill_between(rpm, low, high, alpha=0.25, label=label)
+        ax.plot(rpm, data["segment_hz"][:, j], "k:", lw=0.8)
+    for eo in range(1, 13):
+        ax.plot(rpm, eo * speeds, color="0.6", lw=0.6)
+        if eo * speeds[-1] < top:
+            ax.annotate(f"EO {eo}", (rpm[-1], eo * speeds[-1]), fontsize=7, color="0.4")
+    n_s = data["stator_vanes"]
+    ax.plot(
+        rpm,
+        n_s * speeds,
+        "r--",
+        lw=1.0,
+        label=f"nozzle EO {n_s} (on ND {abs(data['blades'] - n_s)})",
+    )
+    ax.set(xlabel="rotor speed [rpm]", ylabel="frequency [Hz]", ylim=(0, top),
+           title="Campbell diagram (dotted: free-interface segment modes)")  # fmt: skip
+    ax.legend(fontsize=8, loc="upper left")
+    ax.grid(alpha=0.3)
+    _save(fig, outdir, "campbell", pdf, written)
+    plt.close(fig)
+    return written
