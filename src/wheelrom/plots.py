@@ -248,15 +248,20 @@ def _sweep_figures(f, cfg, path, outdir, pdf, written, plt) -> None:
             label="failed",
         )
     if ok.any():
-        limit = 2 * np.nanmin(final[ok])
-        good = shroud[ok][final[ok] <= limit]
-        ax.axvspan(
-            good.min() - 2.5,
-            good.max() + 2.5,
-            color="g",
-            alpha=0.15,
-            label=f"within 2x of the lowest ({good.min():g}-{good.max():g} deg)",
-        )
+        # suppressed = not growing: final amplitude below 3x the first window's
+        first = np.array([a[np.isfinite(a)][0] if np.isfinite(a).any() else np.inf for a in amp])
+        quiet = ok & (final <= 3 * first)
+        angles = np.sort(shroud[quiet])
+        runs, label = [], None
+        for a in angles:  # contiguous runs of sweep angles
+            if runs and a - runs[-1][1] <= np.min(np.diff(np.unique(shroud)), initial=5) + 1e-9:
+                runs[-1][1] = a
+            else:
+                runs.append([a, a])
+        text = ", ".join(f"{lo:g}-{hi:g}" if hi > lo else f"{lo:g}" for lo, hi in runs)
+        for k, (lo, hi) in enumerate(runs):
+            label = f"not growing (final < 3x first window): {text} deg" if k == 0 else None
+            ax.axvspan(lo - 2.5, hi + 2.5, color="g", alpha=0.15, label=label)
     ax.set(
         xlabel="shroud contact angle [deg]",
         ylabel="final max tip amplitude [mm]",
