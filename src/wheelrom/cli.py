@@ -205,12 +205,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         with h5py.File(args.out, "w") as f:
             _create_layout(f, cfg1, model)
             _write_case(f["cases"], 0, res)
-    summary = res.summary()
-    if args.json:
-        print_json(summary)
-    else:
-        for key, value in summary.items():
-            print(f"{key}: {value}")
+    _print_result(res.summary(), args.json)
     return 0 if res.status == "done" else 1
 
 
@@ -237,11 +232,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
         "petsc_wall_s": res.wall_s,
         "reference_wall_s": ref_wall,
     }
-    if args.json:
-        print_json(out)
-    else:
-        for key, value in out.items():
-            print(f"{key}: {value}")
+    _print_result(out, args.json)
     return 0
 
 
@@ -372,11 +363,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     say = None if args.json else _log
     model = build_model(cfg, log=say)
     out = run(model, cfg, steps=args.steps, compare_steps=args.reference_steps, log=say)
-    if args.json:
-        print_json(out)
-    else:
-        for key, value in out.items():
-            print(f"{key}: {value}")
+    _print_result(out, args.json)
     return 0
 
 
@@ -538,6 +525,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     except InputError as exc:
         print(f"wheelrom: {exc}", file=sys.stderr)
         return EXIT_CONFIG
+
+
+def _print_result(out: dict, as_json: bool) -> None:
+    """One JSON object on stdout, or ``key: value`` lines."""
+    if as_json:
+        print_json(out)
+    else:
+        for key, value in out.items():
+            print(f"{key}: {value}")
 
 
 def print_json(obj: object) -> None:

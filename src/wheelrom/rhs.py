@@ -482,25 +482,24 @@ def sample_core(t, u, ctx):
     return 0
 
 
-@intrinsic
-def _double_ptr(typingctx, address):
-    """int64 address -> ``double *`` (for ``numba.carray`` over PETSc/ctx memory)."""
-    sig = types.CPointer(types.float64)(types.int64)
+def _address_cast(element):
+    """A numba intrinsic turning an int64 address into ``element *`` (for ``numba.carray``
+    over PETSc and context memory)."""
 
-    def codegen(context, builder, signature, args):
-        return builder.inttoptr(args[0], context.get_value_type(signature.return_type))
+    @intrinsic
+    def cast(typingctx, address):
+        sig = types.CPointer(element)(types.int64)
 
-    return sig, codegen
+        def codegen(context, builder, signature, args):
+            return builder.inttoptr(args[0], context.get_value_type(signature.return_type))
+
+        return sig, codegen
+
+    return cast
 
 
-@intrinsic
-def _long_ptr(typingctx, address):
-    sig = types.CPointer(types.int64)(types.int64)
-
-    def codegen(context, builder, signature, args):
-        return builder.inttoptr(args[0], context.get_value_type(signature.return_type))
-
-    return sig, codegen
+_double_ptr = _address_cast(types.float64)
+_long_ptr = _address_cast(types.int64)
 
 
 def _petsc_function(lib, name, *argtypes):
