@@ -191,3 +191,13 @@ def test_model_on_comm_world_gives_the_same_physics(serial_run, tmp_path):
     np.testing.assert_allclose(
         b["cases/min_normal_force/shroud"], a["cases/min_normal_force/shroud"], rtol=1e-5
     )
+
+
+def test_nd_spectrum_for_chosen_angles(serial_run, tmp_path):
+    from wheelrom.errors import InputError
+    from wheelrom.plots import plot_file
+
+    written = plot_file(str(serial_run), str(tmp_path), nd_angles=(20.0, 80.0))
+    assert str(tmp_path / "fig12_nd_spectrum.png") in written
+    with pytest.raises(InputError, match="shroud angle 33 deg is not in"):
+        plot_file(str(serial_run), str(tmp_path), nd_angles=(33.0, 80.0))

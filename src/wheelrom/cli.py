@@ -371,7 +371,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
     """Figures (PNG, PDF with --pdf) from a sweep/run/modes HDF5 file."""
     from wheelrom.plots import plot_file
 
-    written = plot_file(args.results, args.outdir, pdf=args.pdf)
+    written = plot_file(args.results, args.outdir, pdf=args.pdf, nd_angles=args.nd_angles)
     for path in written:
         print(path)
     return 0
@@ -452,6 +452,14 @@ def _args_accuracy(p):
 def _args_plot(p):
     p.add_argument("--outdir", default=None, help="directory for the figures")
     p.add_argument("--pdf", action="store_true", help="also write PDF")
+    p.add_argument(
+        "--nd-angles",
+        type=float,
+        nargs=2,
+        metavar=("A", "B"),
+        help="shroud angles [deg] of the two ND-spectrum panels (default: most and least "
+        "suppressed)",
+    )
 
 
 COMMANDS: dict[

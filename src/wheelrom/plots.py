@@ -34,7 +34,8 @@ def _save(fig, outdir: str, name: str, pdf: bool, written: list[str]) -> None:
         written.append(os.path.join(outdir, f"{name}.pdf"))
 
 
-def plot_file(path: str, outdir: str | None = None, pdf: bool = False) -> list[str]:
+def plot_file(path: str, outdir: str | None = None, pdf: bool = False,
+              nd_angles: tuple[float, float] | None = None) -> list[str]:  # fmt: skip
     """Write every figure the file supports into ``outdir``; returns the paths written."""
     import h5py
     import matplotlib
@@ -58,7 +59,7 @@ def plot_file(path: str, outdir: str | None = None, pdf: bool = False) -> list[s
         if "model" in f:
             _modal_figures(f, cfg, path, outdir, pdf, written, plt)
         if "cases" in f:
-            _sweep_figures(f, cfg, path, outdir, pdf, written, plt)
+            _sweep_figures(f, cfg, path, outdir, pdf, written, plt, nd_angles)
     return written
 
 
@@ -145,7 +146,7 @@ def _modal_figures(f, cfg, path, outdir, pdf, written, plt) -> None:
     plt.close(fig)
 
 
-def _sweep_figures(f, cfg, path, outdir, pdf, written, plt) -> None:
+def _sweep_figures(f, cfg, path, outdir, pdf, written, plt, nd_angles=None) -> None:
     from matplotlib import colors
 
     angles = _need(f, "cases/angles_deg", path)
@@ -215,10 +216,21 @@ def _sweep_figures(f, cfg, path, outdir, pdf, written, plt) -> None:
     spec = _need(f, "cases/nd_spectrum", path)
     final = np.array([a[np.isfinite(a)][-1] if np.isfinite(a).any() else np.inf for a in amp])
     best, worst = int(np.argmin(final)), int(np.argmax(np.where(np.isfinite(final), final, -1)))
+    picks = [(best, "most suppressed"), (worst, "least")]
+    if nd_angles is not None:  # the user's two shroud angles: nearest cases
+        picks = []
+        for a in nd_angles:
+            i = int(np.argmin(np.abs(shroud - a)))
+            if abs(shroud[i] - a) > 1e-6:
+                raise InputError(
+                    f"--nd-angles: shroud angle {a:g} deg is not in {path} "
+                    f"(has {', '.join(f'{x:g}' for x in np.unique(shroud))})"
+                )
+            picks.append((i, "chosen"))
     fig, axes = plt.subplots(2, 1, figsize=(9, 7), sharex=True, layout="constrained")
-    vmax = np.nanmax(spec[[best, worst]]) * 1e3
+    vmax = np.nanmax(spec[[i for i, _ in picks]]) * 1e3
     vmin = max(vmax * 1e-4, 1e-12)
-    for ax, i, label in ((axes[0], best, "most suppressed"), (axes[1], worst, "least")):
+    for ax, (i, label) in zip(axes, picks, strict=True):
         m3 = ax.pcolormesh(
             t * 1e3,
             np.arange(spec.shape[2]),
