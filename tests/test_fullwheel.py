@@ -52,7 +52,7 @@ def test_wheel_mode_vtu_has_the_nodal_diameter_and_a_continuous_cut(small_cfg, t
 
     from wheelrom import cyclic, wheelmesh
 
-    model = cyclic.build_model(small_cfg, keep_shapes=True)
+    model = cyclic.build_model(small_cfg, keep_segment=True)
     seg, N = model.segment, model.blades
     path = tmp_path / "nd5.vtu"
     hz = wheelmesh.write_wheel_mode(str(path), seg, model.shapes, model, nd=5)

@@ -41,12 +41,6 @@ class SegmentMatrices:
         out[self.free] = x
         return out
 
-    def restrict_rows(self, full_dofs: np.ndarray) -> np.ndarray:
-        """Row positions of full DOFs among the free ones (-1 where clamped)."""
-        pos = np.full(self.n_full, -1)
-        pos[self.free] = np.arange(self.free.size)
-        return pos[full_dofs]
-
 
 def vector_basis(seg: SegmentMesh):
     """scikit-fem vector basis of the segment's quadratic element."""
@@ -64,6 +58,38 @@ def scalar_basis(seg: SegmentMesh):
     return Basis(seg.mesh, elem, intorder=INTORDER)
 
 
+def basis_arrays(seg: SegmentMesh):
+    """The segment's scalar basis at its Gauss points, as arrays for ``einsum`` assembly.
+
+    Returns ``(values (nb, nel, nq), grads (nb, 3, nel, nq), dx (nel, nq), element_dofs
+    (nel, 3 nb), basis)``: shape functions, their gradients, quadrature weight x |det J|, the
+    vector DOFs ``3 node + component`` of every element, and the scikit-fem basis.
+    """
+    bs = scalar_basis(seg)
+    nb = bs.Nbfun
+    values = np.array([bs.basis[i][0].value for i in range(nb)])
+    grads = np.array([bs.basis[i][0].grad for i in range(nb)])
+    nodes = bs.element_dofs.T  # (nel, nb): scalar DOF = node index
+    dofs = (3 * nodes[:, :, None] + np.arange(3)).reshape(len(nodes), 3 * nb)
+    return values, grads, bs.dx, dofs, bs
+
+
+def scatter(local: np.ndarray, dofs: np.ndarray, n: int) -> sp.csr_matrix:
+    """Sum element matrices ``local`` (``(nel, k, k)`` or any shape of that size) into an
+    ``(n, n)`` CSR matrix at the element DOFs ``dofs`` ``(nel, k)``."""
+    nel, k = dofs.shape
+    rows = np.broadcast_to(dofs[:, :, None], (nel, k, k)).ravel()
+    cols = np.broadcast_to(dofs[:, None, :], (nel, k, k)).ravel()
+    return sp.csr_matrix((local.reshape(nel, k, k).ravel(), (rows, cols)), shape=(n, n))
+
+
+def scalar_to_vector(local: np.ndarray, components=(1.0, 1.0, 1.0)) -> np.ndarray:
+    """``(nel, nb, nb)`` scalar element matrices -> ``(nel, 3 nb, 3 nb)`` acting on the listed
+    displacement components (node-major DOF order)."""
+    nel, nb, _ = local.shape
+    return np.einsum("eab,ij->eaibj", local, np.diag(components)).reshape(nel, 3 * nb, 3 * nb)
+
+
 def assemble_full(seg: SegmentMesh, young: float, poisson: float, density: float):
     """Full (unconstrained) K and M as scipy CSR, DOF ``3 * node + component``.
 
@@ -75,11 +101,7 @@ def assemble_full(seg: SegmentMesh, young: float, poisson: float, density: float
     """
     lam = young * poisson / ((1 + poisson) * (1 - 2 * poisson))
     mu = young / (2 * (1 + poisson))
-    bs = scalar_basis(seg)
-    nb = bs.Nbfun
-    grads = np.array([bs.basis[i][0].grad for i in range(nb)])  # (nb, 3, nel, nq)
-    values = np.array([bs.basis[i][0].value for i in range(nb)])  # (nb, nel, nq)
-    dx = bs.dx  # (nel, nq) quadrature weight x |det J|
+    values, grads, dx, dofs, _ = basis_arrays(seg)
     gw = grads * dx[None, None]
     # T[e, i, a, j, b] = sum_q dphi_i/dx_a dphi_j/dx_b dx
     T = np.einsum("iaeq,jbeq->eiajb", gw, grads, optimize=True)
@@ -88,18 +110,8 @@ def assemble_full(seg: SegmentMesh, young: float, poisson: float, density: float
     for a in range(3):
         K_loc[:, :, a, :, a] += mu * lap
     m_loc = density * np.einsum("ieq,jeq->eij", values * dx[None], values, optimize=True)
-    nodes = bs.element_dofs.T  # (nel, nb): scalar DOF = node index
-    dofs = (3 * nodes[:, :, None] + np.arange(3)).reshape(len(nodes), 3 * nb)
-    rows = np.broadcast_to(dofs[:, :, None], (len(nodes), 3 * nb, 3 * nb)).ravel()
-    cols = np.broadcast_to(dofs[:, None, :], (len(nodes), 3 * nb, 3 * nb)).ravel()
     n = seg.n_dofs
-    K = sp.csr_matrix(
-        (K_loc.reshape(len(nodes), 3 * nb, 3 * nb).ravel(), (rows, cols)), shape=(n, n)
-    )
-    eye = np.eye(3)
-    M_loc = np.einsum("eij,ab->eiajb", m_loc, eye).reshape(len(nodes), 3 * nb, 3 * nb)
-    M = sp.csr_matrix((M_loc.ravel(), (rows, cols)), shape=(n, n))
-    return K, M
+    return scatter(K_loc, dofs, n), scatter(scalar_to_vector(m_loc), dofs, n)
 
 
 def assemble_full_skfem(seg: SegmentMesh, young: float, poisson: float, density: float):
@@ -159,6 +171,43 @@ def to_petsc(A: sp.csr_matrix, comm, prefix: str | None = None):
     return M
 
 
+def direct_solve(A: sp.csr_matrix, B: np.ndarray, comm=None, prefix: str | None = None):
+    """``X = A^-1 B`` for the columns of ``B`` ``(n, k)`` with one factorisation: PETSc KSP
+    ``preonly`` + Cholesky (LU in parallel) with MUMPS, options prefix ``prefix``.
+
+    Every rank holds ``A`` and ``B`` (built redundantly) and gets the whole ``X``.
+    """
+    from wheelrom._environment import petsc
+
+    PETSc = petsc()
+    comm = comm or PETSc.COMM_SELF
+    K = to_petsc(A, comm)
+    ksp = PETSc.KSP().create(comm=comm)
+    if prefix:
+        ksp.setOptionsPrefix(prefix)
+    ksp.setOperators(K)
+    ksp.setType("preonly")
+    pc = ksp.getPC()
+    pc.setType("cholesky" if comm.getSize() == 1 else "lu")
+    pc.setFactorSolverType("mumps")
+    ksp.setFromOptions()
+    x, b = K.createVecs()
+    lo, hi = b.getOwnershipRange()
+    B = np.asarray(B, dtype=float).reshape(A.shape[0], -1)
+    X = np.zeros_like(B)
+    for j in range(B.shape[1]):
+        b.setArray(B[lo:hi, j])
+        ksp.solve(b, x)
+        X[lo:hi, j] = x.getArray(readonly=True)
+    if comm.getSize() > 1:
+        from mpi4py import MPI
+
+        X = comm.tompi4py().allreduce(X, op=MPI.SUM)
+    for obj in (ksp, K, x, b):
+        obj.destroy()
+    return X
+
+
 def _ownership(n: int, comm) -> tuple[int, int]:
     """PETSc's default row split of ``n`` rows over ``comm``."""
     size, rank = comm.getSize(), comm.getRank()
@@ -192,3 +241,17 @@ def spring_parts(seg: SegmentMesh, mats: SegmentMatrices, c1: float):
     D = c1 * (Pl.T @ Pl + Pr.T @ Pr)
     X = c1 * (Pr.T @ Rb @ Pl)
     return D.tocsr(), X.tocsr()
+
+
+def phase_stiffness(mats: SegmentMatrices, parts, phi: float):
+    """The sector stiffness of the wheel modes with phase ``phi`` between neighbours
+    (``u(s+1) = e^{i phi} u(s)``): ``K + D - (e^{i phi} X + e^{-i phi} X^T) = A + i B``.
+
+    ``parts = (D, X)`` from :func:`spring_parts`. Returns ``(A, B)``, ``B = None`` when the
+    problem is real (``phi`` = 0 or pi).
+    """
+    D, X = parts
+    A = (mats.K + D - np.cos(phi) * (X + X.T)).tocsr()
+    if abs(np.sin(phi)) < 1e-12:
+        return A, None
+    return A, (-np.sin(phi) * (X - X.T)).tocsr()

@@ -42,11 +42,9 @@ def _petsc_options(args: argparse.Namespace) -> None:
     """Hand the arguments after ``--`` to PetscInitialize (or, when PETSc is already up,
     insert them into the options database)."""
     if getattr(args, "petsc_args", None):
-        import sys as _sys
-
         from wheelrom._environment import petsc, set_init_args
 
-        if "petsc4py.PETSc" not in _sys.modules:
+        if "petsc4py.PETSc" not in sys.modules:
             set_init_args(args.petsc_args)
             petsc()
         else:
@@ -104,7 +102,7 @@ def cmd_modes(args: argparse.Namespace) -> int:
 
     cfg = _load(args)
     say = None if args.json else _log
-    model = build_model(cfg, log=say, keep_shapes=bool(args.vtu))
+    model = build_model(cfg, log=say, keep_segment=bool(args.vtu or args.full_wheel))
     hz, nd, kind = wheel_modes(model)
     if args.vtu:
         from wheelrom.wheelmesh import write_wheel_mode
@@ -116,11 +114,8 @@ def cmd_modes(args: argparse.Namespace) -> int:
     reference = assembled = None
     if args.full_wheel:
         from wheelrom import fullwheel
-        from wheelrom.mesh import load_segment
-        from wheelrom.prestress import segment_matrices
 
-        seg = load_segment(cfg)
-        mats = segment_matrices(cfg, seg)
+        seg, mats = model.segment, model.matrices  # the matrices the model was built from
         c1, m = cfg.wheel.coupling_stiffness, model.modes
         if args.full_wheel in ("cyclic", "both"):
             reference = fullwheel.cyclic_table(seg, mats, c1, m, log=say)

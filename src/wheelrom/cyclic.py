@@ -55,8 +55,10 @@ class ReducedModel:
     contact_points: dict[str, np.ndarray] = field(default_factory=dict)
     # kind -> (k, 2) table (angle [deg], k_c [N/m]) computed from the segment FE
     contact_stiffness: dict[str, np.ndarray] = field(default_factory=dict)
-    # build_model(keep_shapes=True) only: the segment mesh and basis (n_dofs, m), for export
+    # build_model(keep_segment=True) only: the segment mesh, its (prestressed) matrices and
+    # the basis (n_dofs, m), for export and the full-wheel references
     segment: object = field(default=None, repr=False, compare=False)
+    matrices: object = field(default=None, repr=False, compare=False)
     shapes: np.ndarray | None = field(default=None, repr=False, compare=False)
     info: dict = field(default_factory=dict)
 
@@ -196,7 +198,7 @@ def reduce(
     return model
 
 
-def build_model(cfg: Config, comm=None, log=None, keep_shapes: bool = False) -> ReducedModel:
+def build_model(cfg: Config, comm=None, log=None, keep_segment: bool = False) -> ReducedModel:
     """Segment mesh -> matrices -> modes -> reduced wheel, for one configuration.
 
     ``comm`` is the communicator of the segment eigen-solve (default ``COMM_SELF``); the
@@ -236,8 +238,8 @@ def build_model(cfg: Config, comm=None, log=None, keep_shapes: bool = False) -> 
     else:
         shapes = eig.vectors
         model = reduce(seg, shapes, np.diag(eig.eigenvalues), cfg, eig.frequencies_hz)
-    if keep_shapes:
-        model.segment, model.shapes = seg, shapes
+    if keep_segment:
+        model.segment, model.matrices, model.shapes = seg, mats, shapes
     fe_kinds = [k for k in cfg.contacts.enabled_kinds() if cfg.contact(k).stiffness == "fe"]
     if fe_kinds:
         from wheelrom.stiffness import stiffness_tables

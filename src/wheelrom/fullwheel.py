@@ -25,9 +25,29 @@ import time
 import numpy as np
 import scipy.sparse as sp
 
-from wheelrom.assembly import SegmentMatrices, selection, spring_parts
+from wheelrom.assembly import SegmentMatrices, phase_stiffness, spring_parts
 from wheelrom.mesh import SegmentMesh
 from wheelrom.modes import lowest_modes
+
+
+def phase_modes(seg: SegmentMesh, mats: SegmentMatrices, parts, k: int, nev: int, comm=None):
+    """The lowest ``nev`` sector modes of phase index ``k`` (exact cyclic symmetry).
+
+    ``parts``: :func:`~wheelrom.assembly.spring_parts`. Returns ``(eigenvalues (nev,),
+    vectors)``; ``vectors`` are real and span the modes: ``(n_free, nev)`` for a real phase
+    (``k`` = 0, N/2), else ``(n_free, 2 nev)`` with the real and imaginary parts.
+    """
+    A, B = phase_stiffness(mats, parts, 2 * np.pi * k / seg.sectors)
+    if B is None:
+        res = lowest_modes(A, mats.M, nev, comm, prefix="cyclic_")
+        return res.eigenvalues, res.vectors
+    A2 = sp.bmat([[A, -B], [B, A]], format="csr")
+    M2 = sp.block_diag([mats.M, mats.M], format="csr")
+    res = lowest_modes(A2, M2, 2 * nev, comm, prefix="cyclic_")
+    lam = 0.5 * (res.eigenvalues[0::2] + res.eigenvalues[1::2])  # equal pairs
+    V = res.vectors[:, 0::2]  # one member of each pair: x + i y as [x; y]
+    n = mats.free.size
+    return lam, np.hstack([V[:n], V[n:]])
 
 
 def cyclic_modes(
@@ -41,19 +61,8 @@ def cyclic_modes(
 ) -> np.ndarray:
     """Lowest ``nev`` wheel frequencies [Hz] with phase index ``k`` (nodal diameter
     ``min(k, N - k)``), exact cyclic symmetry on one sector."""
-    N = seg.sectors
-    D, X = parts if parts is not None else spring_parts(seg, mats, c1)
-    phi = 2 * np.pi * k / N
-    A = (mats.K + D - np.cos(phi) * (X + X.T)).tocsr()
-    if abs(np.sin(phi)) < 1e-12:  # k = 0 or N/2: real problem
-        res = lowest_modes(A, mats.M, nev, comm, prefix="cyclic_")
-        lam = res.eigenvalues
-    else:
-        B = (-np.sin(phi) * (X - X.T)).tocsr()
-        A2 = sp.bmat([[A, -B], [B, A]], format="csr")
-        M2 = sp.block_diag([mats.M, mats.M], format="csr")
-        res = lowest_modes(A2, M2, 2 * nev, comm, prefix="cyclic_")
-        lam = 0.5 * (res.eigenvalues[0::2] + res.eigenvalues[1::2])  # equal pairs
+    parts = parts if parts is not None else spring_parts(seg, mats, c1)
+    lam, _ = phase_modes(seg, mats, parts, k, nev, comm)
     return np.sqrt(np.maximum(lam, 0.0)) / (2 * np.pi)
 
 
@@ -72,14 +81,12 @@ def cyclic_table(seg, mats, c1: float, nev: int, comm=None, log=None) -> np.ndar
 def assembled_wheel(seg: SegmentMesh, mats: SegmentMatrices, c1: float):
     """``(K, M)`` of ``N`` segment copies joined by the springs, sparse ``(N n, N n)``."""
     N = seg.sectors
-    _, X = spring_parts(seg, mats, c1)
-    Dr = c1 * (selection(seg, mats, "right").T @ selection(seg, mats, "right"))
-    Dl = c1 * (selection(seg, mats, "left").T @ selection(seg, mats, "left"))
+    D, X = spring_parts(seg, mats, c1)
     eye = sp.identity(N, format="csr")
-    # spring (s, s+1): 1/2 c1 |R Pl u_{s+1} - Pr u_s|^2 -> (s,s) Dr, (s+1,s+1) Dl,
-    # (s, s+1) -X, (s+1, s) -X^T
+    # spring (s, s+1): 1/2 c1 |R Pl u_{s+1} - Pr u_s|^2 -> (s,s) c1 Pr^T Pr, (s+1,s+1)
+    # c1 Pl^T Pl (together D on every diagonal block), (s, s+1) -X, (s+1, s) -X^T
     shift = sp.csr_matrix((np.ones(N), (np.arange(N), (np.arange(N) + 1) % N)), shape=(N, N))
-    K = sp.kron(eye, mats.K + Dr + Dl) - sp.kron(shift, X) - sp.kron(shift.T, X.T)
+    K = sp.kron(eye, mats.K + D) - sp.kron(shift, X) - sp.kron(shift.T, X.T)
     M = sp.kron(eye, mats.M)
     return K.tocsr(), M.tocsr()
 
@@ -89,22 +96,6 @@ def assembled_wheel_modes(seg, mats, c1: float, nev: int, comm=None) -> np.ndarr
     K, M = assembled_wheel(seg, mats, c1)
     res = lowest_modes(K, M, nev, comm, prefix="fullwheel_")
     return res.frequencies_hz
-
-
-def sector_vectors(seg, mats, c1: float, k: int, nev: int, comm=None) -> np.ndarray:
-    """Real vectors ``(n_free, *)`` spanning the lowest ``nev`` sector modes of phase ``k``
-    (for a complex mode both its real and imaginary parts)."""
-    D, X = spring_parts(seg, mats, c1)
-    phi = 2 * np.pi * k / seg.sectors
-    A = (mats.K + D - np.cos(phi) * (X + X.T)).tocsr()
-    if abs(np.sin(phi)) < 1e-12:
-        return lowest_modes(A, mats.M, nev, comm, prefix="cyclic_").vectors
-    B = (-np.sin(phi) * (X - X.T)).tocsr()
-    A2 = sp.bmat([[A, -B], [B, A]], format="csr")
-    M2 = sp.block_diag([mats.M, mats.M], format="csr")
-    V = lowest_modes(A2, M2, 2 * nev, comm, prefix="cyclic_").vectors[:, 0::2]
-    n = mats.free.size
-    return np.hstack([V[:n], V[n:]])
 
 
 ENRICH_FAMILIES = 2
@@ -124,10 +115,11 @@ def enriched_basis(seg, mats, c1: float, free_modes: np.ndarray, per_phase: int,
     ``free_modes``: ``(n_free, m)``. Returns ``(vectors (n_free, r), ritz_values (r,))`` with
     ``vectors^T M vectors = I`` and ``vectors^T K vectors = diag(ritz_values)``.
     """
-    parts = [free_modes]
+    springs = spring_parts(seg, mats, c1)
+    vectors = [free_modes]
     for k in sorted(set(phases) if phases is not None else {0, seg.sectors // 2}):
-        parts.append(sector_vectors(seg, mats, c1, k, per_phase, comm))
-    V = np.hstack(parts)
+        vectors.append(phase_modes(seg, mats, springs, k, per_phase, comm)[1])
+    V = np.hstack(vectors)
     Mr = V.T @ (mats.M @ V)
     Kr = V.T @ (mats.K @ V)
     # drop numerically dependent directions, then solve the small Ritz problem

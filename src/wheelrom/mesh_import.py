@@ -77,7 +77,6 @@ def read_segment(cfg: Config) -> SegmentMesh:
     for e, (i, j) in enumerate(_HEX20_VTK_EDGES):
         user_to_ours[cells[:, 8 + e]] = edge_nodes(seg, corners[:, i], corners[:, j])
     used = np.flatnonzero(user_to_ours >= 0)
-    size = float(np.ptp(seg.nodes, axis=0).max())
     offset = np.linalg.norm(raw.points[used] - seg.nodes[user_to_ours[used]], axis=1).max()
     seg.info["source"] = path
     seg.info["curved_midside_max_offset_m"] = float(offset)
@@ -86,7 +85,7 @@ def read_segment(cfg: Config) -> SegmentMesh:
     sets.update(_coordinate_sets(cfg, seg))
     seg.node_sets.update(sets)
     _check_required(cfg, seg, path)
-    pair_cut_faces(seg, tol=max(1e-9 * size, 1e-6 * size))
+    pair_cut_faces(seg)
     seg.info.update(_arm_report(seg, cfg))
     return seg
 

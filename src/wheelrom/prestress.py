@@ -22,64 +22,51 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from wheelrom.assembly import SegmentMatrices, scalar_basis, spring_parts, to_petsc
+from wheelrom.assembly import (
+    SegmentMatrices,
+    basis_arrays,
+    direct_solve,
+    phase_stiffness,
+    scalar_to_vector,
+    scatter,
+    spring_parts,
+)
 from wheelrom.mesh import SegmentMesh
 
 
-def _element_dofs(bs):
-    nodes = bs.element_dofs.T  # (nel, nb): scalar DOF = node index
-    return nodes, (3 * nodes[:, :, None] + np.arange(3)).reshape(len(nodes), -1)
+def centrifugal_load(seg: SegmentMesh, density: float, omega: float, arrays=None) -> np.ndarray:
+    """``(n_dofs,)`` consistent nodal forces [N] of ``rho Omega^2 (x, y, 0)``.
 
-
-def _scatter(loc: np.ndarray, dofs: np.ndarray, n: int) -> sp.csr_matrix:
-    nel, k = dofs.shape
-    rows = np.broadcast_to(dofs[:, :, None], (nel, k, k)).ravel()
-    cols = np.broadcast_to(dofs[:, None, :], (nel, k, k)).ravel()
-    return sp.csr_matrix((loc.reshape(nel, k, k).ravel(), (rows, cols)), shape=(n, n))
-
-
-def centrifugal_load(seg: SegmentMesh, density: float, omega: float) -> np.ndarray:
-    """``(n_dofs,)`` consistent nodal forces [N] of ``rho Omega^2 (x, y, 0)``."""
-    bs = scalar_basis(seg)
-    nb = bs.Nbfun
-    values = np.array([bs.basis[i][0].value for i in range(nb)])  # (nb, nel, nq)
+    ``arrays``: :func:`~wheelrom.assembly.basis_arrays` of ``seg`` when already at hand."""
+    values, _, dx, dofs, bs = arrays or basis_arrays(seg)
     xq = bs.mapping.F(bs.X)  # (3, nel, nq) quadrature point coordinates
-    nodes, _ = _element_dofs(bs)
-    f = np.zeros((seg.n_nodes, 3))
+    f = np.zeros(seg.n_dofs)
     for c in (0, 1):
-        loc = np.einsum("aeq,eq->ea", values, density * omega**2 * xq[c] * bs.dx)
-        np.add.at(f[:, c], nodes, loc)
-    return f.ravel()
+        loc = np.einsum("aeq,eq->ea", values, density * omega**2 * xq[c] * dx)
+        np.add.at(f, dofs[:, c::3], loc)
+    return f
 
 
-def spin_softening_mass(seg: SegmentMesh, density: float) -> sp.csr_matrix:
+def spin_softening_mass(seg: SegmentMesh, density: float, arrays=None) -> sp.csr_matrix:
     """``M_s``: consistent mass of the ``x`` and ``y`` components only [kg]."""
-    bs = scalar_basis(seg)
-    nb = bs.Nbfun
-    values = np.array([bs.basis[i][0].value for i in range(nb)])
-    m_loc = density * np.einsum("aeq,beq->eab", values * bs.dx[None], values, optimize=True)
-    _, dofs = _element_dofs(bs)
-    loc = np.einsum("eab,ij->eaibj", m_loc, np.diag([1.0, 1.0, 0.0]))
-    return _scatter(loc, dofs, seg.n_dofs)
+    values, _, dx, dofs, _ = arrays or basis_arrays(seg)
+    m_loc = density * np.einsum("aeq,beq->eab", values * dx[None], values, optimize=True)
+    return scatter(scalar_to_vector(m_loc, (1.0, 1.0, 0.0)), dofs, seg.n_dofs)
 
 
-def geometric_stiffness(seg: SegmentMesh, young: float, poisson: float,
-                        u: np.ndarray) -> sp.csr_matrix:  # fmt: skip
+def geometric_stiffness(seg: SegmentMesh, young: float, poisson: float, u: np.ndarray,
+                        arrays=None) -> sp.csr_matrix:  # fmt: skip
     """``K_sigma`` [N/m] of the stress of the displacement ``u`` ``(n_dofs,)``."""
     lam = young * poisson / ((1 + poisson) * (1 - 2 * poisson))
     mu = young / (2 * (1 + poisson))
-    bs = scalar_basis(seg)
-    nb = bs.Nbfun
-    grads = np.array([bs.basis[i][0].grad for i in range(nb)])  # (nb, 3, nel, nq)
-    nodes, dofs = _element_dofs(bs)
-    U = u.reshape(-1, 3)[nodes]  # (nel, nb, 3)
+    _, grads, dx, dofs, _ = arrays or basis_arrays(seg)
+    U = u[dofs].reshape(len(dofs), -1, 3)  # (nel, nb, 3)
     G = np.einsum("eai,akeq->eqik", U, grads, optimize=True)  # du_i/dx_k
     eps = 0.5 * (G + G.transpose(0, 1, 3, 2))
     tr = np.trace(eps, axis1=2, axis2=3)
     S = 2 * mu * eps + lam * tr[:, :, None, None] * np.eye(3)
-    g_loc = np.einsum("akeq,eqkl,bleq,eq->eab", grads, S, grads, bs.dx, optimize=True)
-    loc = np.einsum("eab,ij->eaibj", g_loc, np.eye(3))
-    return _scatter(loc, dofs, seg.n_dofs)
+    g_loc = np.einsum("akeq,eqkl,bleq,eq->eab", grads, S, grads, dx, optimize=True)
+    return scatter(scalar_to_vector(g_loc), dofs, seg.n_dofs)
 
 
 @dataclass
@@ -103,41 +90,18 @@ def prestress(seg: SegmentMesh, mats: SegmentMatrices, young: float, poisson: fl
               density: float, omega: float, c1: float, comm=None,
               prefix: str = "prestress_") -> Prestress:  # fmt: skip
     """Centrifugal static solve at ``omega`` [rad/s] and the prestress matrices."""
-    from wheelrom._environment import petsc
-
-    PETSc = petsc()
-    comm = comm or PETSc.COMM_SELF
     t0 = time.perf_counter()
-    f = centrifugal_load(seg, density, omega)[mats.free]
-    if seg.sectors > 1 and "left" in seg.node_sets:
-        D, X = spring_parts(seg, mats, c1)
-        A = (mats.K + D - (X + X.T)).tocsr()  # ND 0: the sector closed onto itself
+    arrays = basis_arrays(seg)
+    f = centrifugal_load(seg, density, omega, arrays)[mats.free]
+    if seg.sectors > 1 and "left" in seg.node_sets:  # ND 0: the sector closed onto itself
+        A, _ = phase_stiffness(mats, spring_parts(seg, mats, c1), 0.0)
     else:
         A = mats.K
-    K = to_petsc(A, comm)
-    ksp = PETSc.KSP().create(comm=comm)
-    ksp.setOptionsPrefix(prefix)
-    ksp.setOperators(K)
-    ksp.setType("preonly")
-    ksp.getPC().setType("cholesky" if comm.getSize() == 1 else "lu")
-    ksp.getPC().setFactorSolverType("mumps")
-    ksp.setFromOptions()
-    x, b = K.createVecs()
-    lo, hi = b.getOwnershipRange()
-    b.setArray(f[lo:hi])
-    ksp.solve(b, x)
-    u = np.zeros_like(f)
-    u[lo:hi] = x.getArray(readonly=True)
-    if comm.getSize() > 1:
-        from mpi4py import MPI
-
-        u = comm.tompi4py().allreduce(u, op=MPI.SUM)
-    for obj in (ksp, K, x, b):
-        obj.destroy()
+    u = direct_solve(A, f, comm, prefix)[:, 0]
     residual = float(np.linalg.norm(A @ u - f) / max(np.linalg.norm(f), 1e-300))
     u_full = mats.expand(u)
-    Ks = geometric_stiffness(seg, young, poisson, u_full)[mats.free][:, mats.free]
-    Ms = spin_softening_mass(seg, density)[mats.free][:, mats.free]
+    Ks = geometric_stiffness(seg, young, poisson, u_full, arrays)[mats.free][:, mats.free]
+    Ms = spin_softening_mass(seg, density, arrays)[mats.free][:, mats.free]
     return Prestress(omega, u_full, Ks.tocsr(), Ms.tocsr(), residual, time.perf_counter() - t0)
 
 

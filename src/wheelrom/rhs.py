@@ -78,7 +78,6 @@ _ARRAYS = (
     ("FN", lambda N, m, K, c: (3, N)),
     ("normal_force", lambda N, m, K, c: (K, N)),
     ("contact_state", lambda N, m, K, c: (K, N)),
-    ("scratch", lambda N, m, K, c: (2 * N * m + 4,)),
     # samples of the current window
     ("sample_time", lambda N, m, K, c: (c,)),
     ("sample_tip", lambda N, m, K, c: (c, N, 3)),
@@ -89,7 +88,7 @@ _INDEX = {name: i for i, (name, _) in enumerate(_ARRAYS)}
 (
     I_A0, I_A1, I_A1T, I_PEXC, I_COS, I_SIN, I_PAERO, I_R, I_XA, I_XB, I_AP, I_BP, I_ARM, I_T, I_KC,
     I_PRELOAD, I_TIP, I_QT, I_VT, I_WT, I_KW, I_DV, I_FT, I_NOZ, I_Y, I_YD, I_G, I_UA, I_UB, I_VA,
-    I_VB, I_FA, I_FB, I_FN, I_NORMAL, I_STATE, I_SCRATCH, I_STIME, I_STIP, I_SMIN, I_SOPEN,
+    I_VB, I_FA, I_FB, I_FN, I_NORMAL, I_STATE, I_STIME, I_STIP, I_SMIN, I_SOPEN,
 ) = range(len(_ARRAYS))  # fmt: skip
 
 STOP_NONFINITE, STOP_AMPLITUDE = 1, 2
@@ -167,25 +166,15 @@ def _get(ctx, index, size):
     return ctx[o : o + size]
 
 
-@numba.njit(cache=True, fastmath={"contract"})
-def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
-    """``f = (q', q'', W')`` for state ``u = (q, q', W)`` (lengths ``2 N m + 4``) at ``t`` [s]."""
-    N = int(ctx[H_N])
-    m = int(ctx[H_M])
-    K = int(ctx[H_K])
+@numba.njit(cache=True)
+def _load_state(u, ctx, N, m, beta):
+    """Mode-major copies of the state with one periodic ghost blade on each side:
+    ``QT[:, s+1] = q_s``, ``QT[:, 0] = q_{N-1}``, ``QT[:, N+1] = q_0``; likewise ``VT`` for
+    ``q'`` and ``WT`` for ``w = q + beta_D q'`` (one product gives elastic + damping force)."""
     n = N * m
-    beta = ctx[H_BETA]
-    A0 = _get(ctx, I_A0, m * m).reshape((m, m))
-    A1 = _get(ctx, I_A1, m * m).reshape((m, m))
-    A1T = _get(ctx, I_A1T, m * m).reshape((m, m))
     QT = _get(ctx, I_QT, m * (N + 2)).reshape((m, N + 2))
     VT = _get(ctx, I_VT, m * (N + 2)).reshape((m, N + 2))
     WT = _get(ctx, I_WT, m * (N + 2)).reshape((m, N + 2))
-    KW = _get(ctx, I_KW, m * N).reshape((m, N))
-    DV = _get(ctx, I_DV, m * N).reshape((m, N))
-    FT = _get(ctx, I_FT, m * N).reshape((m, N))
-    # mode-major copies with periodic ghosts: QT[:, s+1] = q_s, QT[:, 0] = q_{N-1}, ...;
-    # WT holds w = q + beta_D q', so one product gives the elastic + damping force
     for s in range(N):
         for j in range(m):
             QT[j, s + 1] = u[s * m + j]
@@ -198,6 +187,24 @@ def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
         VT[j, N + 1] = VT[j, 1]
         WT[j, 0] = WT[j, N]
         WT[j, N + 1] = WT[j, 1]
+    return QT, VT, WT
+
+
+@numba.njit(cache=True, fastmath={"contract"})
+def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
+    """``f = (q', q'', W')`` for state ``u = (q, q', W)`` (lengths ``2 N m + 4``) at ``t`` [s]."""
+    N = int(ctx[H_N])
+    m = int(ctx[H_M])
+    K = int(ctx[H_K])
+    n = N * m
+    beta = ctx[H_BETA]
+    A0 = _get(ctx, I_A0, m * m).reshape((m, m))
+    A1 = _get(ctx, I_A1, m * m).reshape((m, m))
+    A1T = _get(ctx, I_A1T, m * m).reshape((m, m))
+    QT, VT, WT = _load_state(u, ctx, N, m, beta)
+    KW = _get(ctx, I_KW, m * N).reshape((m, N))
+    DV = _get(ctx, I_DV, m * N).reshape((m, N))
+    FT = _get(ctx, I_FT, m * N).reshape((m, N))
     # KW = K_R w, row s = A0 w_s + A1 w_{s+1} + A1^T w_{s-1}; and for the damping power
     # q'^T K_R q' = sum_s v_s^T (A0 v_s + 2 A1 v_{s+1}) the vectors DV_s = A0 v_s + 2 A1 v_{s+1}
     linear = ctx[H_SKIP_LINEAR] == 0.0
@@ -455,8 +462,11 @@ def sample_core(t, u, ctx):
             elif a2 > amp:
                 amp = a2
         if K > 0 and finite:
-            scratch = _get(ctx, I_SCRATCH, 2 * N * m + 4)
-            rhs_core(t, u, scratch, ctx)
+            # the contact forces at this state (no K_R product, nozzle or Van der Pol needed;
+            # FT is scratch here: the next rhs_core overwrites it)
+            QT, VT, _ = _load_state(u, ctx, N, m, ctx[H_BETA])
+            FT = _get(ctx, I_FT, m * N).reshape((m, N))
+            _contacts(ctx, N, m, K, QT, VT, FT)
             normal = _get(ctx, I_NORMAL, K * N).reshape((K, N))
             state = _get(ctx, I_STATE, K * N).reshape((K, N))
             smin = _get(ctx, I_SMIN, cap * K).reshape((cap, K))
@@ -502,6 +512,20 @@ _double_ptr = _address_cast(types.float64)
 _long_ptr = _address_cast(types.int64)
 
 
+@numba.njit
+def _context_at(ctx_addr):
+    """The context array at ``ctx_addr`` and its header viewed as int64 (pointer slots)."""
+    header = numba.carray(_double_ptr(ctx_addr), H_OFFSETS)
+    ctx = numba.carray(_double_ptr(ctx_addr), int(header[H_LEN]))
+    return ctx, numba.carray(_long_ptr(ctx_addr), H_OFFSETS)
+
+
+@numba.njit
+def _state_at(address, ctx):
+    """A PETSc state Vec's array (``2 N m + 4`` doubles) at ``address``."""
+    return numba.carray(_double_ptr(address), int(ctx[H_NSTATE]))
+
+
 def _petsc_function(lib, name, *argtypes):
     fn = getattr(lib, name)
     fn.argtypes = argtypes
@@ -524,9 +548,7 @@ def callbacks():
 
     @numba.cfunc(types.int32(types.int64, types.float64, types.int64, types.int64, types.int64))
     def rhs(ts, t, U, F, ctx_addr):
-        ctx = numba.carray(_double_ptr(ctx_addr), H_OFFSETS)
-        ctx = numba.carray(_double_ptr(ctx_addr), int(ctx[H_LEN]))
-        slots = numba.carray(_long_ptr(ctx_addr), H_OFFSETS)
+        ctx, slots = _context_at(ctx_addr)
         slot_u = ctx_addr + 8 * H_SLOT_U
         slot_f = ctx_addr + 8 * H_SLOT_F
         err = get_read(U, slot_u)
@@ -535,9 +557,8 @@ def callbacks():
         err = get_write(F, slot_f)
         if err:
             return err
-        size = int(ctx[H_NSTATE])
-        u = numba.carray(_double_ptr(slots[H_SLOT_U]), size)
-        f = numba.carray(_double_ptr(slots[H_SLOT_F]), size)
+        u = _state_at(slots[H_SLOT_U], ctx)
+        f = _state_at(slots[H_SLOT_F], ctx)
         rhs_core(t, u, f, ctx)
         ctx[H_RHS_CALLS] += 1.0
         err = restore_read(U, slot_u)
@@ -547,14 +568,12 @@ def callbacks():
 
     @numba.cfunc(types.int32(types.int64, types.int32, types.float64, types.int64, types.int64))
     def monitor(ts, step, t, U, ctx_addr):
-        ctx = numba.carray(_double_ptr(ctx_addr), H_OFFSETS)
-        ctx = numba.carray(_double_ptr(ctx_addr), int(ctx[H_LEN]))
-        slots = numba.carray(_long_ptr(ctx_addr), H_OFFSETS)
+        ctx, slots = _context_at(ctx_addr)
         slot_u = ctx_addr + 8 * H_SLOT_U
         err = get_read(U, slot_u)
         if err:
             return err
-        u = numba.carray(_double_ptr(slots[H_SLOT_U]), int(ctx[H_NSTATE]))
+        u = _state_at(slots[H_SLOT_U], ctx)
         stop = sample_core(t, u, ctx)
         err = restore_read(U, slot_u)
         if err:

@@ -25,13 +25,12 @@ kind:
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass
 
 import numpy as np
 
-from wheelrom.assembly import SegmentMatrices, to_petsc
+from wheelrom.assembly import SegmentMatrices, direct_solve
 from wheelrom.errors import InputError
 from wheelrom.mesh import SegmentMesh
 
@@ -89,10 +88,6 @@ def flexibility(
     prefix: str = "stiffness_",
 ) -> dict[str, ContactFlexibility]:
     """Static flexibility at ``A``/``B`` of every kind in ``kinds`` (one factorisation)."""
-    from wheelrom._environment import petsc
-
-    PETSc = petsc()
-    comm = comm or PETSc.COMM_SELF
     t0 = time.perf_counter()
     columns, groups = [], {}
     for kind in kinds:
@@ -107,29 +102,7 @@ def flexibility(
                 f[3 * nodes + c] = 1.0 / nodes.size
                 columns.append(f[mats.free])
     F = np.array(columns).T  # (n_free, 6 * kinds)
-    K = to_petsc(mats.K, comm)
-    ksp = PETSc.KSP().create(comm=comm)
-    ksp.setOptionsPrefix(prefix)
-    ksp.setOperators(K)
-    ksp.setType("preonly")
-    pc = ksp.getPC()
-    pc.setType("cholesky")
-    pc.setFactorSolverType("mumps")
-    ksp.setFromOptions()
-    x, b = K.createVecs()
-    lo, hi = b.getOwnershipRange()
-    X = np.zeros_like(F)
-    for j in range(F.shape[1]):
-        b.setArray(F[lo:hi, j])
-        ksp.solve(b, x)
-        part = x.getArray(readonly=True).copy()
-        X[lo:hi, j] = part
-    if comm.getSize() > 1:
-        from mpi4py import MPI
-
-        X = comm.tompi4py().allreduce(X, op=MPI.SUM)
-    for obj in (ksp, K, x, b):
-        obj.destroy()
+    X = direct_solve(mats.K, F, comm, prefix)
     D = F.T @ X  # work-conjugate mean displacements: D[i, j] = f_i^T K^-1 f_j
     out = {}
     for i, kind in enumerate(kinds):
@@ -164,13 +137,3 @@ def stiffness_tables(cfg, seg: SegmentMesh, mats: SegmentMatrices, kinds=None, c
             flex[k])
         for k in kinds
     }  # fmt: skip
-
-
-def as_table(angles: np.ndarray, values: np.ndarray) -> tuple[tuple[float, float], ...]:
-    """The ``[[angle, k], ...]`` form of ``contacts.*.stiffness`` tables."""
-    return tuple((float(a), float(v)) for a, v in zip(angles, values, strict=True))
-
-
-def check_finite(kind: str, values: np.ndarray) -> None:
-    if not np.all(np.isfinite(values)) or np.any(values <= 0) or math.isnan(values.sum()):
-        raise InputError(f"contacts.{kind}: FE contact stiffness is not positive and finite")
