@@ -55,7 +55,8 @@ def rhs_microseconds(problem: WheelProblem, calls: int = 20000, linear: bool = T
     else:
         u = np.ascontiguousarray(state, dtype=float)
     f = np.empty_like(u)
-    ctx = problem.context.array.copy()  # leave the case's context untouched
+    ctx = rhs.aligned_zeros(problem.context.array.size)  # leave the case's context untouched
+    ctx[:] = problem.context.array
     ctx[rhs.H_SKIP_LINEAR] = 0.0 if linear else 1.0
     loop(10, u, f, ctx)
     best = math.inf

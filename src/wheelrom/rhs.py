@@ -94,6 +94,17 @@ _INDEX = {name: i for i, (name, _) in enumerate(_ARRAYS)}
 STOP_NONFINITE, STOP_AMPLITUDE = 1, 2
 
 
+ALIGN = 8  # doubles: 64 bytes
+
+
+def aligned_zeros(size: int) -> np.ndarray:
+    """A zeroed float64 array whose data starts on a 64-byte boundary. Measured: shifting the
+    context's arrays by 8 bytes made the right-hand side ~15 % slower."""
+    raw = np.zeros(size + ALIGN)
+    start = (-raw.ctypes.data // 8) % ALIGN
+    return raw[start : start + size]
+
+
 class Context:
     """The float64 context array of one case and named numpy views into it.
 
@@ -108,9 +119,10 @@ class Context:
         self.shapes = [fn(N, m, K, capacity) for _, fn in _ARRAYS]
         offsets, pos = [], H_OFFSETS + len(_ARRAYS)
         for shape in self.shapes:
+            pos += -pos % ALIGN  # every array starts on a 64-byte boundary (AVX loads)
             offsets.append(pos)
             pos += int(np.prod(shape))
-        self.array = np.zeros(pos)
+        self.array = aligned_zeros(pos)
         h = self.array
         h[H_LEN], h[H_N], h[H_M], h[H_K] = pos, N, m, K
         h[H_VDP], h[H_NS], h[H_OMEGA] = forces.vdp_model, forces.stator_vanes, forces.omega
@@ -166,7 +178,7 @@ def _get(ctx, index, size):
     return ctx[o : o + size]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _load_state(u, ctx, N, m, beta):
     """Mode-major copies of the state with one periodic ghost blade on each side:
     ``QT[:, s+1] = q_s``, ``QT[:, 0] = q_{N-1}``, ``QT[:, N+1] = q_0``; likewise ``VT`` for
