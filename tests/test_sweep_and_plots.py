@@ -72,7 +72,7 @@ def test_existing_file_is_not_overwritten(serial_run):
 
 def test_killed_sweep_resumes_to_the_same_file(serial_run, tmp_path):
     out = tmp_path / "killed.h5"
-    cmd = WHEELROM + ["sweep", SMALL, "--out", str(out)]
+    cmd = WHEELROM + ["sweep", SMALL, "--out", str(out), "--batch", "1"]
     proc = subprocess.Popen(
         cmd, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
     )

@@ -51,9 +51,8 @@ def rhs_microseconds(problem: WheelProblem, calls: int = 20000, linear: bool = T
             rhs.rhs_core(1e-3 * (i % 7), u, f, ctx)
 
     if state is None:
-        u = np.random.default_rng(0).normal(size=problem.size()) * 1e-4
-    else:
-        u = np.ascontiguousarray(state, dtype=float)
+        state = np.random.default_rng(0).normal(size=(problem.B, problem.size())) * 1e-4
+    u = problem.context.pack(state)
     f = np.empty_like(u)
     ctx = rhs.aligned_zeros(problem.context.array.size)  # leave the case's context untouched
     ctx[:] = problem.context.array
@@ -73,7 +72,7 @@ def _scipy_run(problem: WheelProblem, t_end: float, rtol: float, t_eval: np.ndar
     ctx = problem.context.array
     f = np.empty(problem.size())
 
-    def fun(t, u):
+    def fun(t, u):  # kernel layout (one case): unpacked for the tips afterwards
         rhs.rhs_core(t, u, f, ctx)
         return f.copy()
 
@@ -126,7 +125,8 @@ def run(model: ReducedModel, cfg: Config, steps: int = 20000, compare_steps: int
         sol, wall = _scipy_run(problem, t_cmp, rtol, fine.sample_time)
         if not sol.success:
             continue
-        err = float(np.abs(_tip(model, sol.y.T) - fine.tip_history).max() / scale)
+        states = np.array([problem.context.unpack(y)[0] for y in sol.y.T])
+        err = float(np.abs(_tip(model, states) - fine.tip_history).max() / scale)
         if err <= our_error:
             chosen, sp_wall, sp_error = rtol, wall, err
             break

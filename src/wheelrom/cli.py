@@ -244,6 +244,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         log=lambda m: print(m, flush=True),
         options=_options_dict(args),
         model_comm=args.model_comm,
+        batch=args.batch,
     )
     return 1 if failed else 0
 
@@ -413,6 +414,14 @@ def _args_sweep(p):
         default="rank0",
         help="build the model on rank 0 and broadcast it (default: results independent of "
         "the rank count), or solve the segment eigenproblem on all ranks (large segments)",
+    )
+    p.add_argument(
+        "--batch",
+        type=int,
+        default=0,
+        metavar="B",
+        help="cases integrated together in one TS per rank (results are the same for any B): "
+        "0 (default) = all of a rank's cases, fastest; 1 = every case written as soon as done",
     )
 
 

@@ -2,20 +2,30 @@
 
 Why: a petsc4py Python callback costs several microseconds per call (wrapping the Vecs, numpy
 views, the numba dispatch of ~30 arguments); the paper case needs ~900,000 evaluations. Here
-the whole right-hand side ``(q', q'', W')`` -- block-circulant ``K_R`` product for ``q`` and
-``q'``, nozzle, Van der Pol, contacts, the four powers -- is one numba kernel, registered with
-``TSSetRHSFunction`` as a C function (a numba ``cfunc`` calling PETSc through ctypes). A second
-C callback (``TSMonitorSet``) records the output samples and stops a diverging case.
+the whole right-hand side ``(q', q'', W')`` -- block-circulant ``K_R`` product, nozzle, Van der
+Pol, contacts, the four powers -- is one numba kernel, registered with ``TSSetRHSFunction`` as
+a C function (a numba ``cfunc`` calling PETSc through ctypes). A second C callback
+(``TSMonitorSet``) records the output samples and freezes a diverging case.
+
+**Batches.** One kernel call evaluates ``B`` cases of the same wheel at once (angle cases of a
+sweep: they differ only in their contact frames and stiffnesses). The kernel's state layout
+puts the case index innermost::
+
+    u = ( q[j, s, b],  q'[j, s, b],  W[k, b] )      mode j, blade s, case b
+
+so every loop runs over the ``N B`` contiguous *columns* ``(s, b)``: the neighbouring blade of
+column ``c`` is column ``c + B``, and the loops vectorise (AVX2) over blades and cases alike.
+Every operation on a column reads and writes that column's case only, so a case's result does
+not depend on the batch it runs in (the sweep tests hold batches of 1 and 3 bitwise equal).
+``B = 1`` is a single case. :meth:`Context.pack` / :meth:`Context.unpack` convert from and to
+the blade-major single-case state ``(q[s, j], q'[s, j], W[k])`` used everywhere else.
 
 Everything the kernel needs lives in one float64 *context* array: a header of scalars and
 offsets, the model and force parameters, work arrays, and the sample buffers of the current
 window (see :class:`Context`). The kernel is a second, independent implementation of
-:class:`wheelrom.forces.ForceModel` (vectorised over blades, mode-major work arrays); the tests
-hold the two equal to round-off.
+:class:`wheelrom.forces.ForceModel`; the tests hold the two equal to round-off.
 
-Measured on the 2-core test machine (66 blades x 10 modes, both contacts): ``K_R`` product
-of ``q`` and ``q'`` as a numba loop 7 us, as two PETSc BAIJ ``MatMult`` 2 x 26 us, as one BLAS
-``dgemm`` 11 us -- hence the loop (``docs/performance.md``).
+Measured on the 2-core test machine: ``docs/performance.md``.
 """
 
 from __future__ import annotations
@@ -26,6 +36,7 @@ import math
 
 import numba
 import numpy as np
+from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
@@ -33,66 +44,74 @@ from wheelrom._environment import petsc
 
 # header slots (float64; integers stored exactly)
 H_LEN, H_N, H_M, H_K, H_VDP, H_NS, H_OMEGA, H_FB, H_MU, H_R, H_BETA = range(11)
-H_FS, H_FD, H_DECAY, H_VK, H_USER_REASON, H_SAMPLE_DT, H_NEXT_SAMPLE, H_COUNT = range(11, 19)
-H_CAP, H_LIMIT, H_STOP, H_STOP_T, H_RHS_CALLS, H_SLOT_U, H_SLOT_F, H_OVERFLOW = range(19, 27)
-H_NSTATE = 27
-H_SKIP_LINEAR = 28  # 1: leave out the K_R product (benchmarks of the force part alone)
+H_FS, H_FD, H_DECAY, H_VK, H_USER_REASON, H_SAMPLE_DT, H_NEXT_SAMPLE = range(11, 18)
+H_CAP, H_LIMIT, H_RHS_CALLS, H_SLOT_U, H_SLOT_F, H_OVERFLOW, H_NSTATE = range(19, 26)
+H_SKIP_LINEAR = 26  # 1: leave out the K_R product (benchmarks of the force part alone)
+H_B = 27  # cases in the batch
+H_ACTIVE = 28  # cases still running (a diverged case is frozen)
 H_OFFSETS = 32  # offsets of the arrays below start here
 
-# arrays in the context, in order; shapes from (N, m, K, capacity)
+# arrays in the context, in order; shapes from (N, m, K, B, capacity)
 _ARRAYS = (
-    ("A0", lambda N, m, K, c: (m, m)),
-    ("A1", lambda N, m, K, c: (m, m)),
-    ("A1T", lambda N, m, K, c: (m, m)),
-    ("p_exc", lambda N, m, K, c: (m,)),
-    ("cos_phase", lambda N, m, K, c: (N,)),
-    ("sin_phase", lambda N, m, K, c: (N,)),
-    ("p_aero", lambda N, m, K, c: (m,)),
-    ("R", lambda N, m, K, c: (3, 3)),
-    ("XA", lambda N, m, K, c: (K, 3, m)),
-    ("XB", lambda N, m, K, c: (K, 3, m)),
-    ("A_point", lambda N, m, K, c: (K, 3)),
-    ("B_point", lambda N, m, K, c: (K, 3)),
-    ("arm", lambda N, m, K, c: (K,)),
-    ("T", lambda N, m, K, c: (K, N, 3, 3)),
-    ("k_c", lambda N, m, K, c: (K, N)),
-    ("preload", lambda N, m, K, c: (K,)),
-    ("tip", lambda N, m, K, c: (3, m)),
-    # work arrays (mode-major: the blade index is innermost, so loops over blades vectorise)
-    ("QT", lambda N, m, K, c: (m, N + 2)),  # q with one periodic ghost blade on each side
-    ("VT", lambda N, m, K, c: (m, N + 2)),
-    ("WT", lambda N, m, K, c: (m, N + 2)),
-    ("KW", lambda N, m, K, c: (m, N)),
-    ("DV", lambda N, m, K, c: (m, N)),
-    ("FT", lambda N, m, K, c: (m, N)),  # generalised nonlinear force
-    ("nozzle", lambda N, m, K, c: (N,)),
-    ("y", lambda N, m, K, c: (N,)),
-    ("yd", lambda N, m, K, c: (N,)),
-    ("g", lambda N, m, K, c: (N,)),
-    ("UA", lambda N, m, K, c: (3, N)),
-    ("UB", lambda N, m, K, c: (3, N)),
-    ("VA", lambda N, m, K, c: (3, N)),
-    ("VB", lambda N, m, K, c: (3, N)),
-    ("FA", lambda N, m, K, c: (3, N)),
-    ("FB", lambda N, m, K, c: (3, N)),
-    ("FN", lambda N, m, K, c: (3, N)),
-    ("normal_force", lambda N, m, K, c: (K, N)),
-    ("contact_state", lambda N, m, K, c: (K, N)),
+    ("A0", lambda N, m, K, B, c: (m, m)),
+    ("A1", lambda N, m, K, B, c: (m, m)),
+    ("A1T", lambda N, m, K, B, c: (m, m)),
+    ("p_exc", lambda N, m, K, B, c: (m,)),
+    ("cos_phase", lambda N, m, K, B, c: (N * B,)),
+    ("sin_phase", lambda N, m, K, B, c: (N * B,)),
+    ("p_aero", lambda N, m, K, B, c: (m,)),
+    ("R", lambda N, m, K, B, c: (3, 3)),
+    ("XA", lambda N, m, K, B, c: (K, 3, m)),
+    ("XB", lambda N, m, K, B, c: (K, 3, m)),
+    ("A_point", lambda N, m, K, B, c: (K, 3)),
+    ("B_point", lambda N, m, K, B, c: (K, 3)),
+    ("arm", lambda N, m, K, B, c: (K,)),
+    ("T", lambda N, m, K, B, c: (K, 9, N * B)),  # local frame rows per column
+    ("k_c", lambda N, m, K, B, c: (K, N * B)),
+    ("preload", lambda N, m, K, B, c: (K,)),
+    ("tip", lambda N, m, K, B, c: (3, m)),
+    ("active", lambda N, m, K, B, c: (B,)),  # 1: running, 0: frozen (diverged)
+    ("stop", lambda N, m, K, B, c: (B,)),  # STOP_* reason per case
+    ("stop_t", lambda N, m, K, B, c: (B,)),
+    ("count", lambda N, m, K, B, c: (B,)),  # samples of the current window per case
+    # work arrays: columns (s, b); one ghost blade (B columns) on each side where needed
+    ("QT", lambda N, m, K, B, c: (m, (N + 2) * B)),
+    ("VT", lambda N, m, K, B, c: (m, (N + 2) * B)),
+    ("WT", lambda N, m, K, B, c: (m, (N + 2) * B)),
+    ("KW", lambda N, m, K, B, c: (m, N * B)),
+    ("DV", lambda N, m, K, B, c: (m, N * B)),
+    ("FT", lambda N, m, K, B, c: (m, N * B)),  # generalised nonlinear force
+    ("nozzle", lambda N, m, K, B, c: (N * B,)),
+    ("y", lambda N, m, K, B, c: ((N + 2) * B,)),
+    ("yd", lambda N, m, K, B, c: ((N + 2) * B,)),
+    ("pair", lambda N, m, K, B, c: ((N + 2) * B,)),
+    ("g", lambda N, m, K, B, c: (N * B,)),
+    ("column", lambda N, m, K, B, c: (N * B,)),  # per-column power before the case sums
+    ("UA", lambda N, m, K, B, c: (3, (N + 1) * B)),
+    ("UB", lambda N, m, K, B, c: (3, N * B)),
+    ("VA", lambda N, m, K, B, c: (3, (N + 1) * B)),
+    ("VB", lambda N, m, K, B, c: (3, N * B)),
+    ("FA", lambda N, m, K, B, c: (3, N * B)),
+    ("FB", lambda N, m, K, B, c: (3, N * B)),
+    ("FN", lambda N, m, K, B, c: (3, (N + 1) * B)),
+    ("normal_force", lambda N, m, K, B, c: (K, N * B)),
+    ("contact_state", lambda N, m, K, B, c: (K, N * B)),
+    ("power", lambda N, m, K, B, c: (4, B)),
     # samples of the current window
-    ("sample_time", lambda N, m, K, c: (c,)),
-    ("sample_tip", lambda N, m, K, c: (c, N, 3)),
-    ("sample_min_normal", lambda N, m, K, c: (c, K)),
-    ("sample_open", lambda N, m, K, c: (c, K)),
+    ("sample_time", lambda N, m, K, B, c: (B, c)),
+    ("sample_tip", lambda N, m, K, B, c: (B, c, N, 3)),
+    ("sample_min_normal", lambda N, m, K, B, c: (B, c, K)),
+    ("sample_open", lambda N, m, K, B, c: (B, c, K)),
 )
 _INDEX = {name: i for i, (name, _) in enumerate(_ARRAYS)}
 (
     I_A0, I_A1, I_A1T, I_PEXC, I_COS, I_SIN, I_PAERO, I_R, I_XA, I_XB, I_AP, I_BP, I_ARM, I_T, I_KC,
-    I_PRELOAD, I_TIP, I_QT, I_VT, I_WT, I_KW, I_DV, I_FT, I_NOZ, I_Y, I_YD, I_G, I_UA, I_UB, I_VA,
-    I_VB, I_FA, I_FB, I_FN, I_NORMAL, I_STATE, I_STIME, I_STIP, I_SMIN, I_SOPEN,
+    I_PRELOAD, I_TIP, I_ACTIVE, I_STOP, I_STOPT, I_COUNT, I_QT, I_VT, I_WT, I_KW, I_DV, I_FT, I_NOZ,
+    I_Y, I_YD, I_PAIR, I_G, I_COL, I_UA, I_UB, I_VA, I_VB, I_FA, I_FB, I_FN, I_NORMAL, I_STATE,
+    I_POWER, I_STIME, I_STIP, I_SMIN, I_SOPEN,
 ) = range(len(_ARRAYS))  # fmt: skip
 
 STOP_NONFINITE, STOP_AMPLITUDE = 1, 2
-
 
 ALIGN = 8  # doubles: 64 bytes
 
@@ -106,17 +125,21 @@ def aligned_zeros(size: int) -> np.ndarray:
 
 
 class Context:
-    """The float64 context array of one case and named numpy views into it.
+    """The float64 context array of a batch of ``B`` cases and named numpy views into it.
 
-    Built from a :class:`~wheelrom.forces.ForceModel` (the single source of the force
-    parameters) and the reduced model; ``capacity`` output samples per window.
+    Built from one :class:`~wheelrom.forces.ForceModel` per case (the single source of the
+    force parameters; the cases may differ only in their contact frames ``T`` and stiffnesses
+    ``k_c``) and the reduced model; ``capacity`` output samples per window and case.
     """
 
     def __init__(self, forces, model, beta: float, sample_dt: float, limit: float, capacity: int):
         PETSc = petsc()
-        N, m, K = forces.N, forces.m, len(forces.contacts.kinds)
-        self.N, self.m, self.K, self.capacity = N, m, K, capacity
-        self.shapes = [fn(N, m, K, capacity) for _, fn in _ARRAYS]
+        forces = list(forces) if isinstance(forces, list | tuple) else [forces]
+        first = forces[0]
+        N, m, K, B = first.N, first.m, len(first.contacts.kinds), len(forces)
+        _check_batchable(forces)
+        self.N, self.m, self.K, self.B, self.capacity = N, m, K, B, capacity
+        self.shapes = [fn(N, m, K, B, capacity) for _, fn in _ARRAYS]
         offsets, pos = [], H_OFFSETS + len(_ARRAYS)
         for shape in self.shapes:
             pos += -pos % ALIGN  # every array starts on a 64-byte boundary (AVX loads)
@@ -124,34 +147,41 @@ class Context:
             pos += int(np.prod(shape))
         self.array = aligned_zeros(pos)
         h = self.array
-        h[H_LEN], h[H_N], h[H_M], h[H_K] = pos, N, m, K
-        h[H_VDP], h[H_NS], h[H_OMEGA] = forces.vdp_model, forces.stator_vanes, forces.omega
-        h[H_FB], h[H_MU], h[H_R], h[H_BETA] = forces.nozzle_force, forces.vdp_mu, forces.vdp_r, beta
-        h[H_FS : H_VK + 1] = forces.friction
+        h[H_LEN], h[H_N], h[H_M], h[H_K], h[H_B], h[H_ACTIVE] = pos, N, m, K, B, B
+        h[H_VDP], h[H_NS], h[H_OMEGA] = first.vdp_model, first.stator_vanes, first.omega
+        h[H_FB], h[H_MU], h[H_R], h[H_BETA] = first.nozzle_force, first.vdp_mu, first.vdp_r, beta
+        h[H_FS : H_VK + 1] = first.friction
         h[H_USER_REASON] = int(PETSc.TS.ConvergedReason.CONVERGED_USER)
         h[H_SAMPLE_DT], h[H_CAP], h[H_LIMIT] = sample_dt, capacity, limit
-        h[H_NSTATE] = 2 * N * m + 4
+        h[H_NSTATE] = B * (2 * N * m + 4)
         h[H_OFFSETS : H_OFFSETS + len(_ARRAYS)] = offsets
         self._offsets = offsets
-        c = forces.contacts
+        c = first.contacts
+
+        def columns(per_case):  # (B, ..., N) -> (..., N * B), case innermost
+            a = np.asarray(per_case, dtype=float)
+            return np.moveaxis(a, 0, -1).reshape(*a.shape[1:-1], N * B)
+
         values = {
             "A0": model.A0,
             "A1": model.A1,
             "A1T": model.A1.T,
-            "p_exc": forces.p_exc,
-            "cos_phase": np.cos(forces.nozzle_phase),
-            "sin_phase": np.sin(forces.nozzle_phase),
-            "p_aero": forces.p_aero,
-            "R": forces.R,
+            "p_exc": first.p_exc,
+            "cos_phase": np.repeat(np.cos(first.nozzle_phase), B),
+            "sin_phase": np.repeat(np.sin(first.nozzle_phase), B),
+            "p_aero": first.p_aero,
+            "R": first.R,
             "XA": c.XA,
             "XB": c.XB,
             "A_point": c.A0,
             "B_point": c.B0,
             "arm": c.arm,
-            "T": c.T,
-            "k_c": c.k,
+            # (B, K, N, 3, 3) -> (K, 9, N, B)
+            "T": columns([f.contacts.T.reshape(K, N, 9).transpose(0, 2, 1) for f in forces]),
+            "k_c": columns([f.contacts.k for f in forces]),
             "preload": c.preload,
             "tip": model.tip,
+            "active": np.ones(B),
         }
         for name, value in values.items():
             self.view(name)[...] = value
@@ -171,6 +201,52 @@ class Context:
     def set_header(self, slot: int, value: float) -> None:
         self.array[slot] = value
 
+    def pack(self, states: np.ndarray) -> np.ndarray:
+        """Kernel state (length ``B (2 N m + 4)``) from blade-major case states
+        ``(B, 2 N m + 4)`` (or ``(2 N m + 4,)`` when ``B = 1``)."""
+        N, m, B = self.N, self.m, self.B
+        s = np.asarray(states, dtype=float).reshape(B, -1)
+        n = N * m
+        q = s[:, :n].reshape(B, N, m).transpose(2, 1, 0)  # (m, N, B)
+        v = s[:, n : 2 * n].reshape(B, N, m).transpose(2, 1, 0)
+        w = s[:, 2 * n :].T  # (4, B)
+        return np.concatenate([q.ravel(), v.ravel(), w.ravel()])
+
+    def unpack(self, u: np.ndarray) -> np.ndarray:
+        """Blade-major case states ``(B, 2 N m + 4)`` from a kernel state (inverse of
+        :meth:`pack`)."""
+        N, m, B = self.N, self.m, self.B
+        n = N * m * B
+        u = np.asarray(u)
+        q = u[:n].reshape(m, N, B).transpose(2, 1, 0).reshape(B, N * m)
+        v = u[n : 2 * n].reshape(m, N, B).transpose(2, 1, 0).reshape(B, N * m)
+        w = u[2 * n :].reshape(4, B).T
+        return np.concatenate([q, v, w], axis=1)
+
+    def case_columns(self, name: str) -> np.ndarray:
+        """A ``(..., N B)`` work array as ``(B, ..., N)`` (per-case views for Python)."""
+        a = self.view(name)
+        return np.moveaxis(a.reshape(*a.shape[:-1], self.N, self.B), -1, 0)
+
+
+def _check_batchable(forces) -> None:
+    """Cases of a batch share everything but the contact frames and stiffnesses."""
+    first = forces[0]
+    for f in forces[1:]:
+        same = (
+            f.N == first.N and f.m == first.m and f.contacts.kinds == first.contacts.kinds
+            and f.vdp_model == first.vdp_model and f.stator_vanes == first.stator_vanes
+            and (f.omega, f.nozzle_force, f.vdp_mu, f.vdp_r)
+            == (first.omega, first.nozzle_force, first.vdp_mu, first.vdp_r)
+            and np.array_equal(f.friction, first.friction)
+            and np.array_equal(f.p_exc, first.p_exc) and np.array_equal(f.p_aero, first.p_aero)
+            and np.array_equal(f.contacts.preload, first.contacts.preload)
+            and np.array_equal(f.contacts.arm, first.contacts.arm)
+            and np.array_equal(f.contacts.XA, first.contacts.XA)
+        )  # fmt: skip
+        if not same:
+            raise ValueError("cases of one batch may differ only in contact angles and stiffnesses")
+
 
 @numba.njit(inline="always")
 def _get(ctx, index, size):
@@ -178,330 +254,528 @@ def _get(ctx, index, size):
     return ctx[o : o + size]
 
 
+@intrinsic
+def _float_bits(typingctx, x):
+    """The IEEE bits of a float64 as int64 (LLVM ``bitcast``: vectorises)."""
+
+    def codegen(context, builder, signature, args):
+        return builder.bitcast(args[0], ir.IntType(64))
+
+    return types.int64(types.float64), codegen
+
+
+@intrinsic
+def _bits_float(typingctx, x):
+    """The float64 with the IEEE bits of an int64 (inverse of :func:`_float_bits`)."""
+
+    def codegen(context, builder, signature, args):
+        return builder.bitcast(args[0], ir.DoubleType())
+
+    return types.float64(types.int64), codegen
+
+
+def _noalias_option() -> dict:
+    """``{"noalias": True}`` for ``numba.njit`` where numba has the flag (it marks every
+    array argument ``noalias`` in LLVM); numba 0.68 has the compiler flag but no decorator
+    option for it, so the option is added here. Without it the contact loop is still correct,
+    only slower (LLVM then needs runtime overlap checks across ~20 arrays and gives up)."""
+    from numba.core import compiler, cpu
+    from numba.core.options import TargetOptions
+
+    if not hasattr(compiler.Flags, "noalias"):
+        return {}
+    if not hasattr(cpu.CPUTargetOptions, "noalias"):
+        cpu.CPUTargetOptions.noalias = TargetOptions.Mapping("noalias")
+    return {"noalias": True}
+
+
+_NOALIAS = _noalias_option()
+
+_SHIFTER = 6755399441055744.0  # 1.5 * 2**52: adding it rounds to an integer in the low bits
+_SHIFTER_BITS = 0x4338000000000000
+
+
+@numba.njit(inline="always", fastmath={"contract"}, error_model="numpy")
+def fexp(x):
+    """``exp(x)`` within 2 ulp for ``x`` in [-708, 709] (clamped outside), branch-free.
+
+    Why: ``math.exp`` is a libm call, which keeps LLVM from vectorising the contact loop
+    (there is no vector math library in numba's LLVM here). Cody-Waite reduction
+    ``x = k ln 2 + r``, ``|r| <= ln 2 / 2``, Taylor polynomial of degree 13 (truncation
+    < 1e-17 relative), ``2^k`` built in the exponent bits.
+    """
+    x = min(max(x, -708.0), 709.0)
+    shifted = x * 1.4426950408889634 + _SHIFTER
+    k = _float_bits(shifted) - _SHIFTER_BITS
+    kd = shifted - _SHIFTER
+    r = x - kd * 6.93147180369123816490e-01  # ln 2, high part (exact product)
+    r = r - kd * 1.90821492927058770002e-10  # ln 2, low part
+    p = 1.0 / 6227020800.0
+    p = p * r + 1.0 / 479001600.0
+    p = p * r + 1.0 / 39916800.0
+    p = p * r + 1.0 / 3628800.0
+    p = p * r + 1.0 / 362880.0
+    p = p * r + 1.0 / 40320.0
+    p = p * r + 1.0 / 5040.0
+    p = p * r + 1.0 / 720.0
+    p = p * r + 1.0 / 120.0
+    p = p * r + 1.0 / 24.0
+    p = p * r + 1.0 / 6.0
+    p = p * r + 0.5
+    p = p * r + 1.0
+    p = p * r + 1.0
+    return p * _bits_float((k + 1023) << 52)
+
+
 @numba.njit(cache=True, inline="always")
-def _load_state(u, ctx, N, m, beta):
-    """Mode-major copies of the state with one periodic ghost blade on each side:
-    ``QT[:, s+1] = q_s``, ``QT[:, 0] = q_{N-1}``, ``QT[:, N+1] = q_0``; likewise ``VT`` for
-    ``q'`` and ``WT`` for ``w = q + beta_D q'`` (one product gives elastic + damping force)."""
-    n = N * m
-    QT = _get(ctx, I_QT, m * (N + 2)).reshape((m, N + 2))
-    VT = _get(ctx, I_VT, m * (N + 2)).reshape((m, N + 2))
-    WT = _get(ctx, I_WT, m * (N + 2)).reshape((m, N + 2))
-    for s in range(N):
-        for j in range(m):
-            QT[j, s + 1] = u[s * m + j]
-            VT[j, s + 1] = u[n + s * m + j]
-            WT[j, s + 1] = u[s * m + j] + beta * u[n + s * m + j]
+def _load_state(u, ctx, N, m, B, beta):
+    """Column copies of the state with one ghost blade (B columns) on each side:
+    ``QT[j, B + c] = q[j, c]``, ``QT[j, :B]`` = blade ``N-1``, ``QT[j, (N+1) B:]`` = blade 0;
+    likewise ``VT`` for ``q'`` and ``WT`` for ``w = q + beta_D q'`` (one ``K_R`` product gives
+    the elastic and the damping force)."""
+    NB = N * B
+    n = m * NB
+    W = (N + 2) * B
+    QT = _get(ctx, I_QT, m * W).reshape((m, W))
+    VT = _get(ctx, I_VT, m * W).reshape((m, W))
+    WT = _get(ctx, I_WT, m * W).reshape((m, W))
     for j in range(m):
-        QT[j, 0] = QT[j, N]
-        QT[j, N + 1] = QT[j, 1]
-        VT[j, 0] = VT[j, N]
-        VT[j, N + 1] = VT[j, 1]
-        WT[j, 0] = WT[j, N]
-        WT[j, N + 1] = WT[j, 1]
+        # slices instead of offset indices: numba adds a negative-index wrap-around to
+        # ``a[i + B]`` (B is not known to be >= 0), which keeps LLVM from vectorising
+        qt = QT[j]
+        vt = VT[j]
+        wt = WT[j]
+        qs = qt[B:]
+        vs = vt[B:]
+        ws = wt[B:]
+        uq = u[j * NB : (j + 1) * NB]
+        uv = u[n + j * NB : n + (j + 1) * NB]
+        for c in range(NB):
+            qs[c] = uq[c]
+            vs[c] = uv[c]
+            ws[c] = uq[c] + beta * uv[c]
+        for b in range(B):
+            qt[b] = qt[NB + b]
+            qt[NB + B + b] = qt[B + b]
+            vt[b] = vt[NB + b]
+            vt[NB + B + b] = vt[B + b]
+            wt[b] = wt[NB + b]
+            wt[NB + B + b] = wt[B + b]
     return QT, VT, WT
 
 
-@numba.njit(cache=True, fastmath={"contract"})
+@numba.njit(inline="always")
+def _case_sums(column, out, N, B):
+    """``out[b] = sum_s column[s B + b]`` (blades in order: the same sum for any ``B``)."""
+    for b in range(B):
+        out[b] = 0.0
+    for s in range(N):
+        part = column[s * B : (s + 1) * B]
+        for b in range(B):
+            out[b] += part[b]
+
+
+@numba.njit(cache=True, fastmath={"contract"}, error_model="numpy")
 def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
-    """``f = (q', q'', W')`` for state ``u = (q, q', W)`` (lengths ``2 N m + 4``) at ``t`` [s]."""
+    """``f = (q', q'', W')`` for the batch state ``u = (q, q', W)`` at ``t`` [s] (kernel
+    layout, length ``B (2 N m + 4)``; see the module docstring)."""
     N = int(ctx[H_N])
     m = int(ctx[H_M])
     K = int(ctx[H_K])
-    n = N * m
+    B = int(ctx[H_B])
+    NB = N * B
+    n = m * NB
     beta = ctx[H_BETA]
     A0 = _get(ctx, I_A0, m * m).reshape((m, m))
     A1 = _get(ctx, I_A1, m * m).reshape((m, m))
     A1T = _get(ctx, I_A1T, m * m).reshape((m, m))
-    QT, VT, WT = _load_state(u, ctx, N, m, beta)
-    KW = _get(ctx, I_KW, m * N).reshape((m, N))
-    DV = _get(ctx, I_DV, m * N).reshape((m, N))
-    FT = _get(ctx, I_FT, m * N).reshape((m, N))
+    QT, VT, WT = _load_state(u, ctx, N, m, B, beta)
+    KW = _get(ctx, I_KW, m * NB).reshape((m, NB))
+    DV = _get(ctx, I_DV, m * NB).reshape((m, NB))
+    FT = _get(ctx, I_FT, m * NB).reshape((m, NB))
+    column = _get(ctx, I_COL, NB)
+    power = _get(ctx, I_POWER, 4 * B).reshape((4, B))
     # KW = K_R w, row s = A0 w_s + A1 w_{s+1} + A1^T w_{s-1}; and for the damping power
     # q'^T K_R q' = sum_s v_s^T (A0 v_s + 2 A1 v_{s+1}) the vectors DV_s = A0 v_s + 2 A1 v_{s+1}
     linear = ctx[H_SKIP_LINEAR] == 0.0
+    B2 = 2 * B
     for i in range(m):
         kw = KW[i]
         dv = DV[i]
-        for s in range(N):
-            kw[s] = 0.0
-            dv[s] = 0.0
+        for c in range(NB):
+            kw[c] = 0.0
+            dv[c] = 0.0
         for j in range(m if linear else 0):
             a0 = A0[i, j]
             a1 = A1[i, j]
             a1t = A1T[i, j]
             a1x2 = 2.0 * a1
-            wj = WT[j]
-            vj = VT[j]
-            for s in range(N):
-                kw[s] += a0 * wj[s + 1] + a1 * wj[s + 2] + a1t * wj[s]
-                dv[s] += a0 * vj[s + 1] + a1x2 * vj[s + 2]
-    # nozzle (eq. 13) and Van der Pol displacements y_s = p^T q_s
+            w_prev = WT[j]
+            w_this = w_prev[B:]
+            w_next = w_prev[B2:]
+            v_this = VT[j, B:]
+            v_next = VT[j, B2:]
+            for c in range(NB):
+                kw[c] += a0 * w_this[c] + a1 * w_next[c] + a1t * w_prev[c]
+                dv[c] += a0 * v_this[c] + a1x2 * v_next[c]
+    # nozzle (eq. 13) and Van der Pol displacements y_s = p^T q_s (y, yd with ghost blades)
     p_exc = _get(ctx, I_PEXC, m)
     p_aero = _get(ctx, I_PAERO, m)
-    cos_phase = _get(ctx, I_COS, N)
-    sin_phase = _get(ctx, I_SIN, N)
-    nozzle = _get(ctx, I_NOZ, N)
-    y = _get(ctx, I_Y, N)
-    yd = _get(ctx, I_YD, N)
-    g = _get(ctx, I_G, N)
+    cos_phase = _get(ctx, I_COS, NB)
+    sin_phase = _get(ctx, I_SIN, NB)
+    nozzle = _get(ctx, I_NOZ, NB)
+    y = _get(ctx, I_Y, NB + 2 * B)
+    yd = _get(ctx, I_YD, NB + 2 * B)
+    pair = _get(ctx, I_PAIR, NB + 2 * B)
+    g = _get(ctx, I_G, NB)
     # F_b cos(n_s Omega t - phi_s) by the angle-difference formula: one cos and sin per call
     w_exc = ctx[H_NS] * ctx[H_OMEGA] * t
     Fc = ctx[H_FB] * math.cos(w_exc)
     Fs = ctx[H_FB] * math.sin(w_exc)
-    for s in range(N):
-        nozzle[s] = Fc * cos_phase[s] + Fs * sin_phase[s]
-        y[s] = 0.0
-        yd[s] = 0.0
-        g[s] = 0.0
-    p_noz = 0.0
+    y_this = y[B:]
+    yd_this = yd[B:]
+    for c in range(NB):
+        nozzle[c] = Fc * cos_phase[c] + Fs * sin_phase[c]
+        y_this[c] = 0.0
+        yd_this[c] = 0.0
+        column[c] = 0.0  # p_exc^T q'
     for j in range(m):
         pe = p_exc[j]
         pa = p_aero[j]
-        for s in range(N):
-            FT[j, s] = pe * nozzle[s]
-            y[s] += pa * QT[j, s + 1]
-            yd[s] += pa * VT[j, s + 1]
-            p_noz += pe * nozzle[s] * VT[j, s + 1]
-    p_vdp = 0.0
+        qj = QT[j, B:]
+        vj = VT[j, B:]
+        ft = FT[j]
+        for c in range(NB):
+            ft[c] = pe * nozzle[c]
+            y_this[c] += pa * qj[c]
+            yd_this[c] += pa * vj[c]
+            column[c] += pe * vj[c]
+    for c in range(NB):
+        column[c] *= nozzle[c]
+    _case_sums(column, power[0], N, B)
     vdp = int(ctx[H_VDP])
     mu = ctx[H_MU]
-    r = ctx[H_R]
+    inv_r = 1.0 / ctx[H_R]
     if vdp == 1:  # absolute (eq. 1): force on blade s is -F_s = g_s along the aero direction
-        for s in range(N):
-            g[s] = mu * (1.0 - (y[s] / r) ** 2) * yd[s]
-            p_vdp += g[s] * yd[s]
+        for c in range(NB):
+            ys = y_this[c] * inv_r
+            g[c] = mu * (1.0 - ys * ys) * yd_this[c]
+            column[c] = g[c] * yd_this[c]
     elif vdp == 2:  # relative (eq. 2/14): D_s = y_s - y_{s-1}, force g_s - g_{s+1}
-        for s in range(N):
-            sp = s - 1 if s > 0 else N - 1
-            D = y[s] - y[sp]
-            Dd = yd[s] - yd[sp]
-            nozzle[s] = mu * (1.0 - (D / r) ** 2) * Dd  # reuse as the pair term
-        for s in range(N):
-            sn = s + 1 if s + 1 < N else 0
-            g[s] = nozzle[s] - nozzle[sn]
-            p_vdp += g[s] * yd[s]
+        for b in range(B):
+            y[b] = y[NB + b]
+            yd[b] = yd[NB + b]
+        for c in range(NB):
+            D = (y_this[c] - y[c]) * inv_r
+            pair[c] = mu * (1.0 - D * D) * (yd_this[c] - yd[c])
+        for b in range(B):
+            pair[NB + b] = pair[b]
+        pair_next = pair[B:]
+        for c in range(NB):
+            g[c] = pair[c] - pair_next[c]
+            column[c] = g[c] * yd_this[c]
+    else:
+        for c in range(NB):
+            column[c] = 0.0
+    _case_sums(column, power[1], N, B)
     if vdp != 0:
         for j in range(m):
             pa = p_aero[j]
-            for s in range(N):
-                FT[j, s] += pa * g[s]
+            ft = FT[j]
+            for c in range(NB):
+                ft[c] += pa * g[c]
     # contacts: the arm of blade s (A_s, B_s, end C_s) against A_{s+1}
-    p_fric = 0.0
-    if K > 0:
-        p_fric = _contacts(ctx, N, m, K, QT, VT, FT)
-    # assemble f
-    p_damp = 0.0
-    for s in range(N):
-        for j in range(m):
-            f[s * m + j] = VT[j, s + 1]
-            f[n + s * m + j] = FT[j, s] - KW[j, s]
-            p_damp += VT[j, s + 1] * DV[j, s]
-    f[2 * n] = p_noz
-    f[2 * n + 1] = p_vdp
-    f[2 * n + 2] = p_fric
-    f[2 * n + 3] = -beta * p_damp
+    for c in range(NB):
+        column[c] = 0.0
+    for kind in range(K):
+        _contacts(ctx, kind, N, m, K, B, QT, VT, FT, column)
+    _case_sums(column, power[2], N, B)
+    # assemble f and the damping power -beta q'^T K_R q'
+    for c in range(NB):
+        column[c] = 0.0
+    for j in range(m):
+        vj = VT[j, B:]
+        dv = DV[j]
+        ft = FT[j]
+        kw = KW[j]
+        fq = f[j * NB : (j + 1) * NB]
+        fv = f[n + j * NB : n + (j + 1) * NB]
+        for c in range(NB):
+            fq[c] = vj[c]
+            fv[c] = ft[c] - kw[c]
+            column[c] += vj[c] * dv[c]
+    _case_sums(column, power[3], N, B)
+    for b in range(B):
+        f[2 * n + b] = power[0, b]
+        f[2 * n + B + b] = power[1, b]
+        f[2 * n + 2 * B + b] = power[2, b]
+        f[2 * n + 3 * B + b] = -beta * power[3, b]
+    if ctx[H_ACTIVE] < B:  # frozen (diverged) cases stay where they stopped
+        active = _get(ctx, I_ACTIVE, B)
+        for b in range(B):
+            if active[b] == 0.0:
+                for i in range(2 * m * N):
+                    f[i * B + b] = 0.0
+                for k in range(4):
+                    f[2 * n + k * B + b] = 0.0
 
 
-@numba.njit(cache=True, fastmath={"contract"})
-def _contacts(ctx, N, m, K, QT, VT, FT):
-    """Contact forces of every kind added to ``FT``; returns the friction power [W]."""
+@numba.njit(cache=True, fastmath={"contract"}, error_model="numpy")
+def _contacts(ctx, kind, N, m, K, B, QT, VT, FT, column):
+    """Contact forces of contact ``kind`` added to ``FT``, its friction power per column
+    added to ``column`` [W]; normal forces and states left in the context."""
+    NB = N * B
+    W = (N + 1) * B
+    c = kind
     XA = _get(ctx, I_XA, K * 3 * m).reshape((K, 3, m))
     XB = _get(ctx, I_XB, K * 3 * m).reshape((K, 3, m))
+    UA = _get(ctx, I_UA, 3 * W).reshape((3, W))
+    UB = _get(ctx, I_UB, 3 * NB).reshape((3, NB))
+    VA = _get(ctx, I_VA, 3 * W).reshape((3, W))
+    VB = _get(ctx, I_VB, 3 * NB).reshape((3, NB))
+    FA = _get(ctx, I_FA, 3 * NB).reshape((3, NB))
+    FB = _get(ctx, I_FB, 3 * NB).reshape((3, NB))
+    FN = _get(ctx, I_FN, 3 * W).reshape((3, W))
+    # displacements and velocities of A and B of every column (ghost blade N = blade 0 for A)
+    for a in range(3):
+        ua = UA[a]
+        ub = UB[a]
+        va = VA[a]
+        vb = VB[a]
+        for col in range(NB):
+            ua[col] = 0.0
+            ub[col] = 0.0
+            va[col] = 0.0
+            vb[col] = 0.0
+        for j in range(m):
+            xa = XA[c, a, j]
+            xb = XB[c, a, j]
+            qj = QT[j, B:]
+            vj = VT[j, B:]
+            for col in range(NB):
+                ua[col] += xa * qj[col]
+                ub[col] += xb * qj[col]
+                va[col] += xa * vj[col]
+                vb[col] += xb * vj[col]
+        for b in range(B):
+            ua[NB + b] = ua[b]
+            va[NB + b] = va[b]
     Apt = _get(ctx, I_AP, K * 3).reshape((K, 3))
     Bpt = _get(ctx, I_BP, K * 3).reshape((K, 3))
-    arm = _get(ctx, I_ARM, K)
-    T = _get(ctx, I_T, K * N * 9).reshape((K, N, 3, 3))
-    kc = _get(ctx, I_KC, K * N).reshape((K, N))
-    preload = _get(ctx, I_PRELOAD, K)
+    T = _get(ctx, I_T, K * 9 * NB).reshape((K, 9, NB))
+    kc = _get(ctx, I_KC, K * NB).reshape((K, NB))
+    normal = _get(ctx, I_NORMAL, K * NB).reshape((K, NB))
+    state = _get(ctx, I_STATE, K * NB).reshape((K, NB))
     R = _get(ctx, I_R, 9).reshape((3, 3))
-    UA = _get(ctx, I_UA, 3 * N).reshape((3, N))
-    UB = _get(ctx, I_UB, 3 * N).reshape((3, N))
-    VA = _get(ctx, I_VA, 3 * N).reshape((3, N))
-    VB = _get(ctx, I_VB, 3 * N).reshape((3, N))
-    FA = _get(ctx, I_FA, 3 * N).reshape((3, N))
-    FB = _get(ctx, I_FB, 3 * N).reshape((3, N))
-    FN = _get(ctx, I_FN, 3 * N).reshape((3, N))
-    normal = _get(ctx, I_NORMAL, K * N).reshape((K, N))
-    state = _get(ctx, I_STATE, K * N).reshape((K, N))
-    f_s, f_d, decay, v_k = ctx[H_FS], ctx[H_FD], ctx[H_DECAY], ctx[H_VK]
-    p_fric = 0.0
-    for c in range(K):
-        # displacements and velocities of A and B of every blade (blades innermost)
-        for a in range(3):
-            for s in range(N):
-                UA[a, s] = 0.0
-                UB[a, s] = 0.0
-                VA[a, s] = 0.0
-                VB[a, s] = 0.0
-            for j in range(m):
-                xa = XA[c, a, j]
-                xb = XB[c, a, j]
-                qj = QT[j]
-                vj = VT[j]
-                ua = UA[a]
-                ub = UB[a]
-                va = VA[a]
-                vb = VB[a]
-                for s in range(N):
-                    ua[s] += xa * qj[s + 1]
-                    ub[s] += xb * qj[s + 1]
-                    va[s] += xa * vj[s + 1]
-                    vb[s] += xb * vj[s + 1]
-        L = arm[c]
-        d0x = Bpt[c, 0] - Apt[c, 0]
-        d0y = Bpt[c, 1] - Apt[c, 1]
-        d0z = Bpt[c, 2] - Apt[c, 2]
-        l0 = math.sqrt(d0x * d0x + d0y * d0y + d0z * d0z)
-        e0x, e0y, e0z = d0x / l0, d0y / l0, d0z / l0
-        inv_vk = 1.0 / v_k
-        for s in range(N):
-            sn = s + 1 if s + 1 < N else 0
-            # deformed arm direction e and its rate (eq. 16)
-            dx = d0x + UB[0, s] - UA[0, s]
-            dy = d0y + UB[1, s] - UA[1, s]
-            dz = d0z + UB[2, s] - UA[2, s]
-            ddx = VB[0, s] - VA[0, s]
-            ddy = VB[1, s] - VA[1, s]
-            ddz = VB[2, s] - VA[2, s]
-            inv_nd = 1.0 / math.sqrt(dx * dx + dy * dy + dz * dz)
-            ex, ey, ez = dx * inv_nd, dy * inv_nd, dz * inv_nd
-            edd = ex * ddx + ey * ddy + ez * ddz
-            edx = (ddx - ex * edd) * inv_nd
-            edy = (ddy - ey * edd) * inv_nd
-            edz = (ddz - ez * edd) * inv_nd
-            # gap change in sector s's frame (eq. 17): R u_A(s+1) - u_A(s) - L (e - e0)
-            ucx = R[0, 0] * UA[0, sn] + R[0, 1] * UA[1, sn] + R[0, 2] * UA[2, sn]
-            ucy = R[1, 0] * UA[0, sn] + R[1, 1] * UA[1, sn] + R[1, 2] * UA[2, sn]
-            ucz = R[2, 0] * UA[0, sn] + R[2, 1] * UA[1, sn] + R[2, 2] * UA[2, sn]
-            vcx = R[0, 0] * VA[0, sn] + R[0, 1] * VA[1, sn] + R[0, 2] * VA[2, sn]
-            vcy = R[1, 0] * VA[0, sn] + R[1, 1] * VA[1, sn] + R[1, 2] * VA[2, sn]
-            vcz = R[2, 0] * VA[0, sn] + R[2, 1] * VA[1, sn] + R[2, 2] * VA[2, sn]
-            ucx -= UA[0, s] + L * (ex - e0x)
-            ucy -= UA[1, s] + L * (ey - e0y)
-            ucz -= UA[2, s] + L * (ez - e0z)
-            vcx -= VA[0, s] + L * edx
-            vcy -= VA[1, s] + L * edy
-            vcz -= VA[2, s] + L * edz
-            Tc = T[c, s]
-            gap = Tc[1, 0] * ucx + Tc[1, 1] * ucy + Tc[1, 2] * ucz  # local eta (eq. 18)
-            v_xi = Tc[0, 0] * vcx + Tc[0, 1] * vcy + Tc[0, 2] * vcz
-            v_zeta = Tc[2, 0] * vcx + Tc[2, 1] * vcy + Tc[2, 2] * vcz
-            Fn = preload[c] - kc[c, s] * gap  # eq. 19
-            vt = math.sqrt(v_xi * v_xi + v_zeta * v_zeta)
-            F_xi = 0.0
-            F_zeta = 0.0
-            if Fn <= 0.0:
-                Fn = 0.0
-                state[c, s] = 0.0
-            else:
-                if vt <= v_k:  # micro-slip branch (Fig. 4)
-                    coef = f_s * vt * inv_vk
-                    state[c, s] = 1.0
-                else:
-                    coef = f_d + (f_s - f_d) * math.exp(-decay * (vt - v_k))
-                    state[c, s] = 2.0
-                if vt > 0.0:
-                    scale = -coef * Fn / vt
-                    F_xi = scale * v_xi
-                    F_zeta = scale * v_zeta
-                p_fric += F_xi * v_xi + F_zeta * v_zeta
-            normal[c, s] = Fn
-            # force on A_{s+1} in sector s's frame: T^T (F_xi, F_n, F_zeta)
-            Fx = Tc[0, 0] * F_xi + Tc[1, 0] * Fn + Tc[2, 0] * F_zeta
-            Fy = Tc[0, 1] * F_xi + Tc[1, 1] * Fn + Tc[2, 1] * F_zeta
-            Fz = Tc[0, 2] * F_xi + Tc[1, 2] * Fn + Tc[2, 2] * F_zeta
-            # blade s+1 in its own frame: R^T F
-            FN[0, sn] = R[0, 0] * Fx + R[1, 0] * Fy + R[2, 0] * Fz
-            FN[1, sn] = R[0, 1] * Fx + R[1, 1] * Fy + R[2, 1] * Fz
-            FN[2, sn] = R[0, 2] * Fx + R[1, 2] * Fy + R[2, 2] * Fz
-            # -F at the arm end moved exactly onto A and B: F_B = (L/|d|) F_perp
-            Fe = -(Fx * ex + Fy * ey + Fz * ez)
-            scale = L * inv_nd
-            FB[0, s] = scale * (-Fx - Fe * ex)
-            FB[1, s] = scale * (-Fy - Fe * ey)
-            FB[2, s] = scale * (-Fz - Fe * ez)
-            FA[0, s] = -Fx - FB[0, s]
-            FA[1, s] = -Fy - FB[1, s]
-            FA[2, s] = -Fz - FB[2, s]
-        # back to the modes: FT[j, s] += XA[:, j] . (F_A + F_N) + XB[:, j] . F_B
-        for a in range(3):
-            for s in range(N):
-                FA[a, s] += FN[a, s]
-        fa0, fa1, fa2 = FA[0], FA[1], FA[2]
-        fb0, fb1, fb2 = FB[0], FB[1], FB[2]
-        for j in range(m):
-            xa0, xa1, xa2 = XA[c, 0, j], XA[c, 1, j], XA[c, 2, j]
-            xb0, xb1, xb2 = XB[c, 0, j], XB[c, 1, j], XB[c, 2, j]
-            ft = FT[j]
-            for s in range(N):
-                ft[s] += (xa0 * fa0[s] + xa1 * fa1[s] + xa2 * fa2[s]
-                          + xb0 * fb0[s] + xb1 * fb1[s] + xb2 * fb2[s])  # fmt: skip
-    return p_fric
+    law = (ctx[H_FS], ctx[H_FD], ctx[H_DECAY], ctx[H_VK])
+    geometry = (Apt[c, 0], Apt[c, 1], Apt[c, 2], Bpt[c, 0], Bpt[c, 1], Bpt[c, 2],
+                _get(ctx, I_ARM, K)[c], _get(ctx, I_PRELOAD, K)[c])  # fmt: skip
+    # the next blade's rows as 1-D views (a 2-D view UA[:, B:] would not be contiguous)
+    next_a = (UA[0, B:], UA[1, B:], UA[2, B:], VA[0, B:], VA[1, B:], VA[2, B:])
+    next_f = (FN[0, B:], FN[1, B:], FN[2, B:])
+    _contact_columns(NB, UA, UB, VA, VB, *next_a, T[c], kc[c], R, geometry, law,
+                     FA, FB, *next_f, normal[c], state[c], column)  # fmt: skip
+    # the force on A_{s+1} of the last blade's arm went to the ghost column: blade 0
+    for a in range(3):
+        fa = FA[a]
+        fn = FN[a]
+        for b in range(B):
+            fn[b] = fn[NB + b]
+        for col in range(NB):
+            fa[col] += fn[col]
+    # back to the modes: FT[j, col] += XA[:, j] . (F_A + F_N) + XB[:, j] . F_B
+    fa0, fa1, fa2 = FA[0], FA[1], FA[2]
+    fb0, fb1, fb2 = FB[0], FB[1], FB[2]
+    for j in range(m):
+        xa0, xa1, xa2 = XA[c, 0, j], XA[c, 1, j], XA[c, 2, j]
+        xb0, xb1, xb2 = XB[c, 0, j], XB[c, 1, j], XB[c, 2, j]
+        ft = FT[j]
+        for col in range(NB):
+            ft[col] += (xa0 * fa0[col] + xa1 * fa1[col] + xa2 * fa2[col]
+                        + xb0 * fb0[col] + xb1 * fb1[col] + xb2 * fb2[col])  # fmt: skip
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath={"contract"}, error_model="numpy", **_NOALIAS)
+def _contact_columns(NB, UA, UB, VA, VB, uax, uay, uaz, vax, vay, vaz, T, kc, R, geometry, law,
+                     FA, FB, fnx, fny, fnz, normal, state, column):  # fmt: skip
+    """The contact law of every column (eqs. 16-20), branch-free so that it vectorises.
+
+    ``uax ... vaz``, ``fnx ... fnz``: the rows of ``UA``, ``VA``, ``FN`` from the next blade
+    on (entry ``c`` is blade ``s + 1``), as views: see :func:`_load_state` on offset indices.
+
+    ``noalias``: the arrays are disjoint parts of the context; telling LLVM so removes the
+    runtime overlap checks that otherwise keep this loop scalar.
+    """
+    ax, ay, az, bx, by, bz, L, preload = geometry
+    f_s, f_d, decay, v_k = law
+    d0x, d0y, d0z = bx - ax, by - ay, bz - az
+    l0 = math.sqrt(d0x * d0x + d0y * d0y + d0z * d0z)
+    e0x, e0y, e0z = d0x / l0, d0y / l0, d0z / l0
+    inv_vk = 1.0 / v_k
+    r00, r01, r02 = R[0, 0], R[0, 1], R[0, 2]
+    r10, r11, r12 = R[1, 0], R[1, 1], R[1, 2]
+    r20, r21, r22 = R[2, 0], R[2, 1], R[2, 2]
+    for col in range(NB):
+        # deformed arm direction e and its rate (eq. 16)
+        dx = d0x + UB[0, col] - UA[0, col]
+        dy = d0y + UB[1, col] - UA[1, col]
+        dz = d0z + UB[2, col] - UA[2, col]
+        ddx = VB[0, col] - VA[0, col]
+        ddy = VB[1, col] - VA[1, col]
+        ddz = VB[2, col] - VA[2, col]
+        inv_nd = 1.0 / math.sqrt(dx * dx + dy * dy + dz * dz)
+        ex, ey, ez = dx * inv_nd, dy * inv_nd, dz * inv_nd
+        edd = ex * ddx + ey * ddy + ez * ddz
+        edx = (ddx - ex * edd) * inv_nd
+        edy = (ddy - ey * edd) * inv_nd
+        edz = (ddz - ez * edd) * inv_nd
+        # gap change in sector s's frame (eq. 17): R u_A(s+1) - u_A(s) - L (e - e0)
+        ucx = r00 * uax[col] + r01 * uay[col] + r02 * uaz[col]
+        ucy = r10 * uax[col] + r11 * uay[col] + r12 * uaz[col]
+        ucz = r20 * uax[col] + r21 * uay[col] + r22 * uaz[col]
+        vcx = r00 * vax[col] + r01 * vay[col] + r02 * vaz[col]
+        vcy = r10 * vax[col] + r11 * vay[col] + r12 * vaz[col]
+        vcz = r20 * vax[col] + r21 * vay[col] + r22 * vaz[col]
+        ucx -= UA[0, col] + L * (ex - e0x)
+        ucy -= UA[1, col] + L * (ey - e0y)
+        ucz -= UA[2, col] + L * (ez - e0z)
+        vcx -= VA[0, col] + L * edx
+        vcy -= VA[1, col] + L * edy
+        vcz -= VA[2, col] + L * edz
+        t00, t01, t02 = T[0, col], T[1, col], T[2, col]
+        t10, t11, t12 = T[3, col], T[4, col], T[5, col]
+        t20, t21, t22 = T[6, col], T[7, col], T[8, col]
+        gap = t10 * ucx + t11 * ucy + t12 * ucz  # local eta (eq. 18)
+        v_xi = t00 * vcx + t01 * vcy + t02 * vcz
+        v_zeta = t20 * vcx + t21 * vcy + t22 * vcz
+        trial = preload - kc[col] * gap  # eq. 19; open when <= 0
+        Fn = max(trial, 0.0)
+        vt = math.sqrt(v_xi * v_xi + v_zeta * v_zeta)
+        micro = vt <= v_k  # micro-slip branch (Fig. 4)
+        coef_slip = f_d + (f_s - f_d) * fexp(-decay * (vt - v_k))
+        coef = f_s * vt * inv_vk if micro else coef_slip
+        # vt = 0 gives coef = 0 and zero force, as the law's limit
+        scale = -coef * Fn / max(vt, 1e-300)
+        F_xi = scale * v_xi
+        F_zeta = scale * v_zeta
+        column[col] += F_xi * v_xi + F_zeta * v_zeta
+        normal[col] = Fn
+        state[col] = 0.0 if trial <= 0.0 else (1.0 if micro else 2.0)
+        # force on A_{s+1} in sector s's frame: T^T (F_xi, F_n, F_zeta)
+        Fx = t00 * F_xi + t10 * Fn + t20 * F_zeta
+        Fy = t01 * F_xi + t11 * Fn + t21 * F_zeta
+        Fz = t02 * F_xi + t12 * Fn + t22 * F_zeta
+        # blade s+1 in its own frame: R^T F (column nxt; the last blade's lands in the ghost)
+        fnx[col] = r00 * Fx + r10 * Fy + r20 * Fz
+        fny[col] = r01 * Fx + r11 * Fy + r21 * Fz
+        fnz[col] = r02 * Fx + r12 * Fy + r22 * Fz
+        # -F at the arm end moved exactly onto A and B: F_B = (L/|d|) F_perp
+        Fe = -(Fx * ex + Fy * ey + Fz * ez)
+        arm_scale = L * inv_nd
+        fbx = arm_scale * (-Fx - Fe * ex)
+        fby = arm_scale * (-Fy - Fe * ey)
+        fbz = arm_scale * (-Fz - Fe * ez)
+        FB[0, col] = fbx
+        FB[1, col] = fby
+        FB[2, col] = fbz
+        FA[0, col] = -Fx - fbx
+        FA[1, col] = -Fy - fby
+        FA[2, col] = -Fz - fbz
+
+
+@numba.njit(inline="always")
+def _freeze(ctx, b, reason, t):
+    active = _get(ctx, I_ACTIVE, int(ctx[H_B]))
+    if active[b] != 0.0:
+        active[b] = 0.0
+        ctx[H_ACTIVE] -= 1.0
+        B = int(ctx[H_B])
+        _get(ctx, I_STOP, B)[b] = reason
+        _get(ctx, I_STOPT, B)[b] = t
+
+
+@numba.njit(cache=True, fastmath={"contract"}, error_model="numpy")
 def sample_core(t, u, ctx):
-    """Output sample at ``t`` when due: tip displacements, minimum normal force and open
-    contacts per kind; returns 1 when the case must stop (non-finite or too large)."""
+    """Output samples at ``t`` when due, for every running case: tip displacements, minimum
+    normal force and open contacts per kind. A case whose tips are non-finite or too large is
+    frozen (its right-hand side is zero from then on); returns 1 when no case is left."""
     if t < ctx[H_NEXT_SAMPLE] - 1e-12:
         return 0
     N = int(ctx[H_N])
     m = int(ctx[H_M])
     K = int(ctx[H_K])
+    B = int(ctx[H_B])
+    NB = N * B
     cap = int(ctx[H_CAP])
-    k = int(ctx[H_COUNT])
     ctx[H_NEXT_SAMPLE] += ctx[H_SAMPLE_DT]
     tipm = _get(ctx, I_TIP, 3 * m).reshape((3, m))
-    amp = 0.0
-    finite = True
-    if k >= cap:
-        ctx[H_OVERFLOW] = 1.0
-    else:
-        times = _get(ctx, I_STIME, cap)
-        tips = _get(ctx, I_STIP, cap * N * 3).reshape((cap, N, 3))
-        times[k] = t
+    active = _get(ctx, I_ACTIVE, B)
+    count = _get(ctx, I_COUNT, B)
+    times = _get(ctx, I_STIME, B * cap).reshape((B, cap))
+    tips = _get(ctx, I_STIP, B * cap * N * 3).reshape((B, cap, N, 3))
+    smin = _get(ctx, I_SMIN, B * cap * K).reshape((B, cap, K))
+    sopen = _get(ctx, I_SOPEN, B * cap * K).reshape((B, cap, K))
+    UB = _get(ctx, I_UB, 3 * NB).reshape((3, NB))  # scratch: tip displacement per column
+    for a in range(3):
+        x = UB[a]
+        for c in range(NB):
+            x[c] = 0.0
+        for j in range(m):
+            coef = tipm[a, j]
+            o = j * NB
+            for c in range(NB):
+                x[c] += coef * u[o + c]
+    recorded = 0
+    for b in range(B):
+        if active[b] == 0.0:
+            continue
+        k = int(count[b])
+        if k >= cap:
+            ctx[H_OVERFLOW] = 1.0
+            continue
+        times[b, k] = t
+        amp = 0.0
+        finite = True
         for s in range(N):
             a2 = 0.0
             for a in range(3):
-                x = 0.0
-                for j in range(m):
-                    x += tipm[a, j] * u[s * m + j]
-                tips[k, s, a] = x
+                x = UB[a, s * B + b]
+                tips[b, k, s, a] = x
                 a2 += x * x
             if not math.isfinite(a2):
                 finite = False
             elif a2 > amp:
                 amp = a2
-        if K > 0 and finite:
-            # the contact forces at this state (no K_R product, nozzle or Van der Pol needed;
-            # FT is scratch here: the next rhs_core overwrites it)
-            QT, VT, _ = _load_state(u, ctx, N, m, ctx[H_BETA])
-            FT = _get(ctx, I_FT, m * N).reshape((m, N))
-            _contacts(ctx, N, m, K, QT, VT, FT)
-            normal = _get(ctx, I_NORMAL, K * N).reshape((K, N))
-            state = _get(ctx, I_STATE, K * N).reshape((K, N))
-            smin = _get(ctx, I_SMIN, cap * K).reshape((cap, K))
-            sopen = _get(ctx, I_SOPEN, cap * K).reshape((cap, K))
+        count[b] = k + 1
+        recorded += 1
+        if not finite:
+            _freeze(ctx, b, STOP_NONFINITE, t)
+        elif math.sqrt(amp) > ctx[H_LIMIT]:
+            _freeze(ctx, b, STOP_AMPLITUDE, t)
+    if K > 0 and recorded > 0:
+        # the contact forces at this state (no K_R product, nozzle or Van der Pol needed;
+        # FT and column are scratch here: the next rhs_core overwrites them)
+        QT, VT, _ = _load_state(u, ctx, N, m, B, ctx[H_BETA])
+        FT = _get(ctx, I_FT, m * NB).reshape((m, NB))
+        column = _get(ctx, I_COL, NB)
+        for kind in range(K):
+            _contacts(ctx, kind, N, m, K, B, QT, VT, FT, column)
+        normal = _get(ctx, I_NORMAL, K * NB).reshape((K, NB))
+        state = _get(ctx, I_STATE, K * NB).reshape((K, NB))
+        for b in range(B):
+            k = int(count[b]) - 1
+            if k < 0 or times[b, k] != t:  # not sampled now (frozen earlier or overflow)
+                continue
             for c in range(K):
-                low = normal[c, 0]
-                count = 0.0
+                low = normal[c, b]
+                opened = 0.0
                 for s in range(N):
-                    low = min(low, normal[c, s])
-                    if state[c, s] == 0.0:
-                        count += 1.0
-                smin[k, c] = low
-                sopen[k, c] = count
-        ctx[H_COUNT] = k + 1
-    if not finite:
-        ctx[H_STOP] = STOP_NONFINITE
-        ctx[H_STOP_T] = t
-        return 1
-    if math.sqrt(amp) > ctx[H_LIMIT]:
-        ctx[H_STOP] = STOP_AMPLITUDE
-        ctx[H_STOP_T] = t
-        return 1
-    return 0
+                    low = min(low, normal[c, s * B + b])
+                    if state[c, s * B + b] == 0.0:
+                        opened += 1.0
+                smin[b, k, c] = low
+                sopen[b, k, c] = opened
+    return 1 if ctx[H_ACTIVE] <= 0.0 else 0
 
 
 def _address_cast(element):
@@ -534,7 +808,7 @@ def _context_at(ctx_addr):
 
 @numba.njit
 def _state_at(address, ctx):
-    """A PETSc state Vec's array (``2 N m + 4`` doubles) at ``address``."""
+    """A PETSc state Vec's array (``B (2 N m + 4)`` doubles) at ``address``."""
     return numba.carray(_double_ptr(address), int(ctx[H_NSTATE]))
 
 
@@ -611,8 +885,11 @@ def attach(ts, f, context: Context) -> None:
         raise RuntimeError(f"PETSc error {err} while registering the compiled callbacks")
 
 
-def evaluate(context: Context, t: float, u: np.ndarray) -> np.ndarray:
-    """The compiled RHS from Python (tests, benchmarks): returns a new array."""
+def evaluate(context: Context, t: float, states: np.ndarray) -> np.ndarray:
+    """The compiled RHS from Python (tests, benchmarks) for blade-major case states
+    ``(B, 2 N m + 4)`` (or one state when ``B = 1``); returns the same shape."""
+    states = np.asarray(states, dtype=float)
+    u = context.pack(states)
     f = np.empty_like(u)
-    rhs_core(t, np.ascontiguousarray(u, dtype=float), f, context.array)
-    return f
+    rhs_core(t, u, f, context.array)
+    return context.unpack(f).reshape(states.shape)

@@ -1,10 +1,14 @@
 """Angle sweeps across MPI ranks into one parallel HDF5 file (layout: ``docs/output.md``).
 
 The reduced model is built once on rank 0 and broadcast, so case results cannot depend on
-the number of ranks. Cases (tie-boss angle x shroud angle) are processed in rounds: in each
-round every rank integrates one case on ``COMM_SELF``, then all ranks write their case into
-preallocated datasets and flush collectively. A sweep killed at any moment therefore leaves a
-file holding every case of every finished round; ``--resume`` runs the cases still pending.
+the number of ranks. The pending cases (tie-boss angle x shroud angle) are dealt round-robin
+to the ranks; each rank integrates its cases in batches of ``batch`` cases, one TS on
+``COMM_SELF`` per batch (:func:`wheelrom.transient.run_cases`: a case's result is bitwise the
+same in any batch). Rounds: every rank integrates one batch, then all ranks write their cases
+into preallocated datasets and flush collectively. A sweep killed at any moment therefore
+leaves a file holding every case of every finished round; ``--resume`` runs the cases still
+pending. ``batch = 0`` (default) puts all of a rank's cases in one batch: fastest, but a kill
+loses the whole round; ``batch = 1`` writes every case as soon as it is done.
 """
 
 from __future__ import annotations
@@ -21,7 +25,7 @@ from wheelrom import config as config_mod
 from wheelrom.config import CONTACT_KINDS, Config
 from wheelrom.cyclic import ReducedModel, build_model
 from wheelrom.errors import InputError
-from wheelrom.transient import N_WORK, WORK_NAMES, CaseResult, run_case
+from wheelrom.transient import N_WORK, WORK_NAMES, CaseResult, run_cases
 
 STATUS_LEN = 256
 FORMAT = "wheelrom-sweep-1"
@@ -41,13 +45,8 @@ def n_samples_max(cfg: Config) -> int:
     return int(math.ceil(cfg.time.end * cfg.output.sample_rate_hz)) + 2
 
 
-def _case_config(cfg: Config, angles: np.ndarray) -> Config:
-    return cfg.replace(
-        **{
-            "contacts.tieboss.angle_deg": float(angles[0]),
-            "contacts.shroud.angle_deg": float(angles[1]),
-        }
-    )
+def _case_angles(angles: np.ndarray) -> dict:
+    return {"tieboss": float(angles[0]), "shroud": float(angles[1])}
 
 
 def write_model(group, model: ReducedModel) -> None:
@@ -145,6 +144,7 @@ def run_sweep(
     log=print,
     options: dict | None = None,
     model_comm: str = "rank0",
+    batch: int = 0,
 ) -> int:
     """Run the sweep of ``cfg`` into ``out``; returns the number of failed cases.
 
@@ -152,7 +152,8 @@ def run_sweep(
     on rank 0. ``model_comm``: ``"rank0"`` builds the model on rank 0 and broadcasts it
     (results independent of the number of ranks); ``"world"`` runs the segment eigen-solve
     distributed over all ranks (for segments too large for one rank; the modes then agree
-    with a serial build to the eigen-solver tolerance, not bitwise).
+    with a serial build to the eigen-solver tolerance, not bitwise). ``batch``: cases per TS
+    on a rank (0: all of the rank's cases at once; see the module docstring).
     """
     import h5py
     from mpi4py import MPI
@@ -205,40 +206,67 @@ def run_sweep(
         todo = [i for i in range(C) if status[i] == "pending"]
         say(f"{C} cases, {len(todo)} to run on {size} rank(s)")
         done = C - len(todo)
-        walls: list[float] = []
+        if batch < 0:
+            raise InputError(f"--batch must be >= 0, not {batch}")
+        mine = todo[rank::size]
+        per_rank = math.ceil(len(todo) / size)
+        width = batch or max(per_rank, 1)
+        rounds = math.ceil(per_rank / width)
+        chunks = [mine[r * width : (r + 1) * width] for r in range(rounds)]
         t_sweep = time.perf_counter()
-        for r0 in range(0, len(todo), size):
-            batch = todo[r0 : r0 + size]
-            mine = batch[rank] if rank < len(batch) else None
-            res = None
-            if mine is not None:
-                case_cfg = _case_config(cfg, angles[mine])
+        for r, chunk in enumerate(chunks):
+            results: list[CaseResult] = []
+            if chunk:
+                progress = _progress_printer(say, len(chunk), cfg.time.end, r, rounds)
                 try:
-                    res = run_case(model, case_cfg, options=options)
-                except Exception as exc:  # a solver error fails this case, not the sweep
-                    res = CaseResult(status=f"failed: {type(exc).__name__}: {exc}")
-                _write_case(f["cases"], mine, res)
+                    results = run_cases(model, cfg, [_case_angles(angles[i]) for i in chunk],
+                                        options=options, progress=progress)  # fmt: skip
+                except Exception as exc:  # a solver error fails this batch, not the sweep
+                    results = [
+                        CaseResult(status=f"failed: {type(exc).__name__}: {exc}") for _ in chunk
+                    ]
+                for i, res in zip(chunk, results, strict=True):
+                    _write_case(f["cases"], i, res)
             f.flush()  # collective: every finished round is on disk
-            info = comm.gather(
-                (mine, res.status if res else None, res.wall_s if res else None), root=0
-            )
+            pairs = zip(chunk, results, strict=True)
+            report = [(i, res.status, res.wall_s, res.batch) for i, res in pairs]
+            info = comm.gather(report, root=0)
             if rank == 0:
-                for i, st, wall in info:
-                    if i is None:
-                        continue
+                finished = [item for part in info for item in part]
+                elapsed = time.perf_counter() - t_sweep
+                eta = elapsed / (r + 1) * (rounds - r - 1)
+                for i, st, wall, width_used in sorted(finished):
                     done += 1
-                    walls.append(wall)
                     tb, sh = angles[i]
-                    left = len(todo) - (r0 + len(batch))
-                    per_round = (time.perf_counter() - t_sweep) / (r0 // size + 1)
-                    eta = per_round * math.ceil(left / size)
+                    share = f"{wall:.1f} s" if width_used == 1 else (
+                        f"{wall:.1f} s, batch of {width_used}"
+                    )  # fmt: skip
                     say(
                         f"[{done}/{C}] tie-boss {tb:g} deg, shroud {sh:g} deg: {st} "
-                        f"({wall:.1f} s); about {eta:.0f} s left"
+                        f"({share}); about {eta:.0f} s left"
                     )
         failed = int(sum(1 for s in f["cases/status"][:] if s.decode().startswith("failed")))
     say(f"sweep finished in {time.perf_counter() - t0:.1f} s; {failed} case(s) failed")
     return failed
+
+
+def _progress_printer(say, cases: int, t_end: float, round_index: int, rounds: int):
+    """Progress of a long batch (rank 0's view): about every tenth of the simulated time."""
+    t0 = time.perf_counter()
+    last = [0.0]
+
+    def progress(window, windows, t, amplitude):
+        if t - last[0] < 0.1 * t_end and window < windows:
+            return
+        last[0] = t
+        elapsed = time.perf_counter() - t0
+        left = elapsed * (t_end - t) / max(t, 1e-300)
+        say(
+            f"  round {round_index + 1}/{rounds}: {cases} case(s), t = {t:.4g} of {t_end:g} s, "
+            f"largest tip amplitude {amplitude:.3g} m, {elapsed:.0f} s, about {left:.0f} s left"
+        )
+
+    return progress
 
 
 def _check_resumable(out: str, cfg: Config) -> str | None:

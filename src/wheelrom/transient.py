@@ -45,7 +45,9 @@ class CaseResult:
         energy: ``(W,)`` kinetic + potential energy at window end [J].
         work: ``(W, 4)`` cumulative work of nozzle, Van der Pol, friction, damping [J].
         sample_time: ``(S,)`` [s]; tip_history: ``(S, N, 3)`` tip displacement [m].
-        steps, wall_s, options: TS steps taken, wall time [s], PETSc options used.
+        steps, wall_s, options: TS steps taken, wall time [s] (of a batch: its wall time
+            over its number of cases), PETSc options used.
+        batch: number of cases integrated together in the TS of this case.
     """
 
     status: str = "done"
@@ -65,6 +67,7 @@ class CaseResult:
     options: dict = field(default_factory=dict)
     preload_residual: float | None = None
     final_state: np.ndarray | None = None
+    batch: int = 1
 
     def energy_balance_error(self) -> float:
         """``|E - E0 - sum W| / sum |W|`` at the last window (0 when nothing happened)."""
@@ -93,23 +96,29 @@ class CaseResult:
 
 
 class WheelProblem:
-    """The ODE of one case: sizes, the compiled context and the TS callbacks (``COMM_SELF``).
+    """The ODE of one case or of a batch of cases: sizes, the compiled context and the TS
+    callbacks (``COMM_SELF``).
 
+    ``forces``: one :class:`ForceModel` or a list of them, one per case of a batch (cases
+    differing only in contact angles, integrated together in one TS: see :mod:`wheelrom.rhs`).
     Two right-hand sides: the compiled one (:mod:`wheelrom.rhs`, registered as C callbacks,
     the default) and a petsc4py Python callback using the PETSc BAIJ ``K_R`` and the
-    :class:`ForceModel` kernel (``rhs="python"``: slower, a second implementation).
+    :class:`ForceModel` kernel (``rhs="python"``, one case: slower, a second implementation).
+    ``n``, :meth:`size`, :meth:`rhs_numpy`, :meth:`energy` refer to one case.
     """
 
-    def __init__(self, model: ReducedModel, cfg: Config, forces: ForceModel, comm=None):
+    def __init__(self, model: ReducedModel, cfg: Config, forces, comm=None):
         PETSc = petsc()
         self.comm = comm or PETSc.COMM_SELF
-        self.model, self.cfg, self.forces = model, cfg, forces
+        self.cases = list(forces) if isinstance(forces, list | tuple) else [forces]
+        self.model, self.cfg, self.forces = model, cfg, self.cases[0]
+        self.B = len(self.cases)
         self.N, self.m = model.blades, model.modes
         self.n = self.N * self.m
         self.beta = cfg.wheel.damping_beta
         self.Kd = model.dense_stiffness()  # for energies and the reference (small)
         self.context = rhs.Context(
-            forces,
+            self.cases,
             model,
             self.beta,
             sample_dt=1.0 / cfg.output.sample_rate_hz,
@@ -146,25 +155,28 @@ class WheelProblem:
         fa[2 * n : 2 * n + 3] = self.forces.power
         fa[2 * n + 3] = -self.beta * float(v @ Kva)
 
-    def rhs_numpy(self, t: float, u: np.ndarray) -> np.ndarray:
-        """The same right-hand side with numpy only (serial reference)."""
+    def rhs_numpy(self, t: float, u: np.ndarray, case: int = 0) -> np.ndarray:
+        """The same right-hand side with numpy only (serial reference), one case."""
         n = self.n
         q, v = u[:n], u[n : 2 * n]
-        force = self.forces.evaluate(t, q.reshape(self.N, self.m), v.reshape(self.N, self.m))
+        forces = self.cases[case]
+        force = forces.evaluate(t, q.reshape(self.N, self.m), v.reshape(self.N, self.m))
         Kv = self.Kd @ v
         out = np.empty_like(u)
         out[:n] = v
         out[n : 2 * n] = force.ravel() - self.Kd @ q - self.beta * Kv
-        out[2 * n : 2 * n + 3] = self.forces.power
+        out[2 * n : 2 * n + 3] = forces.power
         out[2 * n + 3] = -self.beta * float(v @ Kv)
         return out
 
-    def energy(self, u: np.ndarray) -> float:
-        """Kinetic + modal strain + contact spring energy [J] (evaluates the contacts)."""
+    def energy(self, u: np.ndarray, case: int = 0) -> float:
+        """Kinetic + modal strain + contact spring energy [J] of one case's blade-major state
+        (evaluates the contacts)."""
         n = self.n
         q, v = u[:n], u[n : 2 * n]
-        self.forces.evaluate(0.0, q.reshape(self.N, self.m), v.reshape(self.N, self.m))
-        return 0.5 * float(v @ v) + 0.5 * float(q @ (self.Kd @ q)) + self.forces.contact_energy()
+        forces = self.cases[case]
+        forces.evaluate(0.0, q.reshape(self.N, self.m), v.reshape(self.N, self.m))
+        return 0.5 * float(v @ v) + 0.5 * float(q @ (self.Kd @ q)) + forces.contact_energy()
 
     def destroy(self) -> None:
         for obj in self._petsc:
@@ -180,30 +192,30 @@ def _sample_capacity(cfg: Config) -> int:
 
 
 class Samples:
-    """Output samples, collected window by window from the context's buffers.
+    """Output samples of one case of a batch, collected window by window from the context.
 
     Window statistics are taken over the samples (rate ``output.sample_rate_hz``), which the
     compiled monitor records at the first step at or after each sample time.
     """
 
-    def __init__(self, problem: WheelProblem):
-        self.p = problem
+    def __init__(self, problem: WheelProblem, case: int = 0):
+        self.p, self.case = problem, case
         self.kinds = problem.forces.contacts.kinds
         self.times: list[np.ndarray] = []
         self.tips: list[np.ndarray] = []
 
     def take_window(self) -> dict:
         """Move the window's samples out of the context; return its statistics."""
-        ctx = self.p.context
-        count = int(ctx.header(rhs.H_COUNT))
+        ctx, b = self.p.context, self.case
+        count = int(ctx.view("count")[b])
         if ctx.header(rhs.H_OVERFLOW):
             raise RuntimeError("output sample buffer overflow (report this as a bug)")
         N = self.p.N
-        t = ctx.view("sample_time")[:count].copy()
-        tip = ctx.view("sample_tip")[:count].copy()
-        low = ctx.view("sample_min_normal")[:count]
-        opened = ctx.view("sample_open")[:count]
-        ctx.set_header(rhs.H_COUNT, 0)
+        t = ctx.view("sample_time")[b, :count].copy()
+        tip = ctx.view("sample_tip")[b, :count].copy()
+        low = ctx.view("sample_min_normal")[b, :count]
+        opened = ctx.view("sample_open")[b, :count]
+        ctx.view("count")[b] = 0
         self.times.append(t)
         self.tips.append(tip)
         if count == 0:
@@ -220,10 +232,14 @@ class Samples:
             "open": {k: float(opened[:, i].sum() / (count * N)) for i, k in enumerate(self.kinds)},
         }
 
+    def stop_time(self) -> float | None:
+        ctx, b = self.p.context, self.case
+        return float(ctx.view("stop_t")[b]) if ctx.view("stop")[b] else None
+
     def stop_reason(self) -> str | None:
-        ctx = self.p.context
-        flag = int(ctx.header(rhs.H_STOP))
-        t = ctx.header(rhs.H_STOP_T)
+        ctx, b = self.p.context, self.case
+        flag = int(ctx.view("stop")[b])
+        t = float(ctx.view("stop_t")[b])
         if flag == rhs.STOP_NONFINITE:
             return f"non-finite state at t = {t:.6g} s"
         if flag == rhs.STOP_AMPLITUDE:
@@ -271,14 +287,17 @@ def make_ts(
     ts.setMaxTime(cfg.time.end)
     ts.setMaxSteps(10**9)
     ts.setExactFinalTime(PETSc.TS.ExactFinalTime.MATCHSTEP)
-    f = PETSc.Vec().createSeq(problem.size(), comm=problem.comm)
     if rhs_kind == "compiled":
+        f = PETSc.Vec().createSeq(problem.B * problem.size(), comm=problem.comm)
         rhs.attach(ts, f, problem.context)
     elif rhs_kind == "python":
-        ctx = problem.context.array
+        if problem.B != 1:
+            raise ValueError("rhs_kind='python' integrates one case, not a batch")
+        f = PETSc.Vec().createSeq(problem.size(), comm=problem.comm)
+        context = problem.context
 
-        def monitor(ts, step, t, x):
-            if rhs.sample_core(t, x.getArray(readonly=True), ctx):
+        def monitor(ts, step, t, x):  # the TS state is blade-major here
+            if rhs.sample_core(t, context.pack(x.getArray(readonly=True)), context.array):
                 ts.setConvergedReason(PETSc.TS.ConvergedReason.CONVERGED_USER)
 
         ts.setRHSFunction(problem.rhs, f)
@@ -297,17 +316,21 @@ def make_ts(
     return ts, f, {k: v for k, v in used.items() if v is not None}
 
 
-def initial_state(problem: WheelProblem, cfg: Config, result: CaseResult) -> np.ndarray:
+def initial_state(
+    problem: WheelProblem, cfg: Config, result: CaseResult, case: int = 0
+) -> np.ndarray:
     """Zero state, or the static equilibrium under preloads (and the t = 0 nozzle force)."""
     u0 = np.zeros(problem.size())
     if cfg.time.start == "preload":
-        q, residual = static_preload(problem)
+        q, residual = static_preload(problem, case=case)
         u0[: problem.n] = q
         result.preload_residual = residual
     return u0
 
 
-def static_preload(problem: WheelProblem, prefix: str = "preload_") -> tuple[np.ndarray, float]:
+def static_preload(
+    problem: WheelProblem, prefix: str = "preload_", case: int = 0
+) -> tuple[np.ndarray, float]:
     """Solve ``K_R q = f(q, 0, t=0)`` with PETSc SNES; returns ``q`` and ``|residual|``.
 
     Jacobian by finite differences of the residual with ``K_R`` structure (dense, N m
@@ -317,8 +340,10 @@ def static_preload(problem: WheelProblem, prefix: str = "preload_") -> tuple[np.
     n = problem.n
     zeros_v = np.zeros((problem.N, problem.m))
 
+    forces = problem.cases[case]
+
     def residual_np(q):
-        force = problem.forces.evaluate(0.0, q.reshape(problem.N, problem.m), zeros_v)
+        force = forces.evaluate(0.0, q.reshape(problem.N, problem.m), zeros_v)
         return problem.Kd @ q - force.ravel()
 
     def residual(snes, x, r):
@@ -344,7 +369,7 @@ def static_preload(problem: WheelProblem, prefix: str = "preload_") -> tuple[np.
     x = PETSc.Vec().createSeq(n, comm=problem.comm)
     snes.setFunction(residual, r)
     snes.setJacobian(jacobian, J, J)
-    snes.setTolerances(rtol=1e-12, atol=1e-12 * max(1.0, problem.forces.nozzle_force), max_it=50)
+    snes.setTolerances(rtol=1e-12, atol=1e-12 * max(1.0, forces.nozzle_force), max_it=50)
     snes.getKSP().setType("preonly")
     snes.getKSP().getPC().setType("lu")
     snes.setFromOptions()
@@ -376,26 +401,79 @@ def run_case(
     ``options``: PETSc options for this TS (keys without prefix, e.g. ``{"ts_rk_type": "5dp"}``).
     ``progress(window, windows, t, amplitude)`` is called after every window.
     """
+    return run_cases(model, cfg, [angles_deg], options, progress, prefix,
+                     None if u0 is None else [u0], rhs_kind)[0]  # fmt: skip
+
+
+def _adaptive(options: dict | None, prefix: str) -> bool:
+    """Whether the TS of these options adapts its step (then cases are not batched: a shared
+    step would make a case's result depend on the others)."""
     PETSc = petsc()
+    value = (options or {}).get("ts_adapt_type")
+    if value is None:
+        opts = PETSc.Options()
+        value = opts.getString(prefix + "ts_adapt_type", "none")
+    return str(value) != "none"
+
+
+def run_cases(
+    model: ReducedModel,
+    cfg: Config,
+    angles: list[dict | None],
+    options: dict | None = None,
+    progress=None,
+    prefix: str = "wheel_",
+    u0: list[np.ndarray] | None = None,
+    rhs_kind: str = "compiled",
+) -> list[CaseResult]:
+    """Integrate a batch of cases (one per entry of ``angles``) in one TS, window by window.
+
+    The cases share the model and every setting but their contact angles; with fixed steps
+    each case's result is bitwise the one it has alone (a batch only runs faster: the kernel
+    vectorises across cases and PETSc's per-step work is shared). A diverging case is frozen
+    and reported failed while the others go on. Adaptive steps run the cases one by one.
+    ``u0``: optional initial modal states ``(q, q')``, one per case. ``progress(window,
+    windows, t, amplitude)`` after every window (largest amplitude over running cases).
+    """
+    PETSc = petsc()
+    if len(angles) > 1 and _adaptive(options, prefix):
+        return [
+            run_cases(
+                model,
+                cfg,
+                [a],
+                options,
+                progress,
+                prefix,
+                None if u0 is None else [u0[i]],
+                rhs_kind,
+            )[0]  # fmt: skip
+            for i, a in enumerate(angles)
+        ]
     t_wall = time.perf_counter()
-    forces = ForceModel(model, cfg, angles_deg)
-    problem = WheelProblem(model, cfg, forces)
-    result = CaseResult()
-    if u0 is None:
-        u0 = initial_state(problem, cfg, result)
-    else:
-        u0 = np.concatenate([u0, np.zeros(N_WORK)])
+    problem = WheelProblem(model, cfg, [ForceModel(model, cfg, a) for a in angles])
+    B, n, context = problem.B, problem.n, problem.context
+    results = [CaseResult() for _ in range(B)]
+    states = np.zeros((B, problem.size()))
+    for b in range(B):
+        if u0 is None:
+            states[b] = initial_state(problem, cfg, results[b], case=b)
+        else:
+            states[b, : 2 * n] = u0[b]
+        results[b].energy0 = problem.energy(states[b], case=b)
+    # the TS state: kernel layout for the compiled callbacks, blade-major for the Python one
+    compiled = rhs_kind == "compiled"
     ts, fvec, used = make_ts(problem, cfg, prefix, options, rhs_kind)
-    result.options = used
-    samples = Samples(problem)
-    u = PETSc.Vec().createSeq(problem.size(), comm=problem.comm)
-    u.setArray(u0)
-    result.energy0 = problem.energy(u0)
+    u = PETSc.Vec().createSeq(fvec.getSize(), comm=problem.comm)
+    u.setArray(context.pack(states) if compiled else states[0])
+    samples = [Samples(problem, b) for b in range(B)]
+    running = [True] * B
     windows = max(1, int(round(cfg.time.end / cfg.time.window)))
-    rows = {key: [] for key in ("end", "amp", "energy", "work", "spec")}
-    fn_rows = {k: [] for k in forces.contacts.kinds}
-    open_rows = {k: [] for k in forces.contacts.kinds}
-    t_now = 0.0
+    rows = [{key: [] for key in ("end", "amp", "energy", "work", "spec")} for _ in range(B)]
+    kinds = problem.forces.contacts.kinds
+    fn_rows = [{k: [] for k in kinds} for _ in range(B)]
+    open_rows = [{k: [] for k in kinds} for _ in range(B)]
+    steps = [0] * B
     # Fixed steps: a window ends after a step count, not at a time, because TS "matchstep"
     # shortens (or splits in two) the steps before a window end and keeps the short step.
     dt0 = ts.getTimeStep()
@@ -413,45 +491,69 @@ def run_case(
             ts.solve(u)
             t_now = ts.getTime()
             ua = u.getArray(readonly=True)
-            stats = samples.take_window()
-            reason = samples.stop_reason()
-            if reason:
-                result.status = f"failed: {reason}"
-                break
-            rows["end"].append(t_now)
-            rows["amp"].append(stats["amp"])
-            rows["spec"].append(stats["spec"])
-            rows["energy"].append(problem.energy(ua))
-            rows["work"].append(ua[2 * problem.n :].copy())
-            for k in forces.contacts.kinds:
-                fn_rows[k].append(stats["min_fn"][k])
-                open_rows[k].append(stats["open"][k])
-            if progress:
-                progress(w + 1, windows, t_now, rows["amp"][-1])
-            if t_now < t_end - (0.5 * dt0 if fixed else 1e-9 * max(1.0, t_end)):
-                result.status = (
-                    f"failed: TS stopped at t = {t_now:.6g} s ({ts.getConvergedReason()})"
-                )
+            states = context.unpack(ua) if compiled else ua[None, :].copy()
+            early = t_now < t_end - (0.5 * dt0 if fixed else 1e-9 * max(1.0, t_end))
+            for b in range(B):
+                if not running[b]:
+                    continue
+                res, row = results[b], rows[b]
+                stats = samples[b].take_window()
+                reason = samples[b].stop_reason()
+                steps[b] = ts.getStepNumber()
+                if reason:
+                    res.status = f"failed: {reason}"
+                    running[b] = False
+                    stopped = samples[b].stop_time()
+                    if fixed and stopped is not None:  # frozen: the steps up to then
+                        steps[b] = int(round(stopped / dt0))
+                    continue
+                row["end"].append(t_now)
+                row["amp"].append(stats["amp"])
+                row["spec"].append(stats["spec"])
+                row["energy"].append(problem.energy(states[b], case=b))
+                row["work"].append(states[b, 2 * n :].copy())
+                for k in kinds:
+                    fn_rows[b][k].append(stats["min_fn"][k])
+                    open_rows[b][k].append(stats["open"][k])
+                if early:
+                    res.status = (
+                        f"failed: TS stopped at t = {t_now:.6g} s ({ts.getConvergedReason()})"
+                    )
+                    running[b] = False
+            if progress and any(running):
+                amps = [rows[b]["amp"][-1] for b in range(B) if running[b]]
+                progress(w + 1, windows, t_now, max(amps))
+            if not any(running):
                 break
     except PETSc.Error as exc:
-        result.status = f"failed: PETSc error {exc}"
-    result.window_end = np.array(rows["end"])
-    result.max_tip_amplitude = np.array(rows["amp"])
-    result.nd_spectrum = np.array(rows["spec"]).reshape(-1, problem.N // 2 + 1)
-    result.energy = np.array(rows["energy"])
-    result.work = np.array(rows["work"]).reshape(-1, N_WORK)
-    result.min_normal_force = {k: np.array(v) for k, v in fn_rows.items()}
-    result.open_fraction = {k: np.array(v) for k, v in open_rows.items()}
-    result.sample_time = np.concatenate(samples.times)
-    result.tip_history = np.concatenate(samples.tips).reshape(-1, problem.N, 3)
-    result.steps = ts.getStepNumber()
-    result.rhs_evaluations = int(problem.context.header(rhs.H_RHS_CALLS))
-    result.final_state = u.getArray().copy()
-    result.wall_s = time.perf_counter() - t_wall
+        for b in range(B):
+            if running[b]:
+                results[b].status = f"failed: PETSc error {exc}"
+                steps[b] = ts.getStepNumber()
+    ua = u.getArray(readonly=True)
+    finals = context.unpack(ua) if compiled else ua[None, :].copy()
+    wall = time.perf_counter() - t_wall
+    for b, res in enumerate(results):
+        row = rows[b]
+        res.options = used
+        res.window_end = np.array(row["end"])
+        res.max_tip_amplitude = np.array(row["amp"])
+        res.nd_spectrum = np.array(row["spec"]).reshape(-1, problem.N // 2 + 1)
+        res.energy = np.array(row["energy"])
+        res.work = np.array(row["work"]).reshape(-1, N_WORK)
+        res.min_normal_force = {k: np.array(v) for k, v in fn_rows[b].items()}
+        res.open_fraction = {k: np.array(v) for k, v in open_rows[b].items()}
+        res.sample_time = np.concatenate(samples[b].times)
+        res.tip_history = np.concatenate(samples[b].tips).reshape(-1, problem.N, 3)
+        res.steps = steps[b]
+        res.rhs_evaluations = int(context.header(rhs.H_RHS_CALLS))
+        res.final_state = finals[b].copy()
+        res.batch = B
+        res.wall_s = wall / B
     for obj in (ts, fvec, u):
         obj.destroy()
     problem.destroy()
-    return result
+    return results
 
 
 # Bogacki-Shampine tableau (explicit RK3, FSAL; the 3rd-order solution is used)
