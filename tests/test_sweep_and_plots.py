@@ -27,12 +27,16 @@ def sweep(out, *extra, ranks=1, check=True):
     return subprocess.run(cmd, env=ENV, capture_output=True, text=True, check=check, timeout=600)
 
 
+NOT_PHYSICS = ("cases/wall_s", "cases/batch")  # depend on the rank count, not on the physics
+
+
 def case_data(path):
     out = {}
     with h5py.File(path, "r") as f:
 
         def visit(name, obj):
-            if isinstance(obj, h5py.Dataset) and name.startswith("cases/") and "wall_s" not in name:
+            physics = name.startswith("cases/") and name not in NOT_PHYSICS
+            if isinstance(obj, h5py.Dataset) and physics:
                 out[name] = obj[()]
 
         f.visititems(visit)

@@ -10,6 +10,9 @@ Figures (all on the configuration's reduced model, single core):
 - ``ts_overhead_us_per_step``: wall per step minus the right-hand sides it evaluated;
 - ``paper_case_s``: ``time.end / time.step`` steps at that rate (the paper case with the
   default configuration);
+- ``batch``, ``us_per_rhs_in_batch``, ``steps_per_s_in_batch``, ``paper_case_s_in_batch``:
+  the same for ``batch`` angle cases integrated together in one TS (as ``wheelrom sweep``
+  does; the sweep's shroud angles), per case: the throughput of a sweep on one core;
 - ``ratio_vs_numpy_reference``: wall of the plain-numpy serial reference (same steps, same
   force model) over ours;
 - ``ratio_vs_scipy``: wall of ``scipy.integrate.solve_ivp`` (RK23, adaptive, on the same
@@ -29,7 +32,7 @@ from wheelrom import rhs
 from wheelrom.config import Config
 from wheelrom.cyclic import ReducedModel
 from wheelrom.forces import ForceModel
-from wheelrom.transient import WheelProblem, reference_solution, run_case
+from wheelrom.transient import WheelProblem, reference_solution, run_case, run_cases
 
 
 def _tip(model: ReducedModel, states: np.ndarray) -> np.ndarray:
@@ -85,7 +88,7 @@ def _scipy_run(problem: WheelProblem, t_end: float, rtol: float, t_eval: np.ndar
 
 
 def run(model: ReducedModel, cfg: Config, steps: int = 20000, compare_steps: int = 2000,
-        log=None) -> dict:  # fmt: skip
+        log=None, batch: int = 10) -> dict:  # fmt: skip
     """Run the workload; returns the figures (see the module docstring)."""
     say = log or (lambda m: None)
     h = cfg.time.step
@@ -106,6 +109,20 @@ def run(model: ReducedModel, cfg: Config, steps: int = 20000, compare_steps: int
     rhs_per_step = res.rhs_evaluations / max(res.steps, 1)
     say(f"PETSc TS: {res.steps} steps in {res.wall_s:.2f} s = {steps_per_s:.0f} steps/s")
     paper_steps = cfg.time.end / h
+
+    # the same run for a batch of angle cases in one TS (sweep throughput per case)
+    shroud = list(cfg.sweep.shroud_angles_deg) or [cfg.contacts.shroud.angle_deg]
+    angles = [{"shroud": shroud[i % len(shroud)]} for i in range(batch)]
+    t0 = time.perf_counter()
+    batch_res = run_cases(model, timed, angles)
+    batch_wall = time.perf_counter() - t0
+    batch_problem = WheelProblem(model, cfg, [ForceModel(model, cfg, a) for a in angles])
+    batch_states = np.array([r.final_state for r in batch_res])
+    us_rhs_batch = rhs_microseconds(batch_problem, calls=max(2000, 20000 // batch),
+                                    state=batch_states) / batch  # fmt: skip
+    batch_steps_per_s = batch * batch_res[0].steps / batch_wall
+    say(f"batch of {batch} cases: {batch_wall:.2f} s, {us_rhs_batch:.2f} us per RHS and case, "
+        f"{batch_steps_per_s:.0f} case-steps/s")  # fmt: skip
 
     # plain-numpy serial reference over compare_steps
     _, ref_states, ref_wall = reference_solution(model, cfg, compare_steps,
@@ -147,6 +164,10 @@ def run(model: ReducedModel, cfg: Config, steps: int = 20000, compare_steps: int
         "ts_overhead_us_per_step": per_step_us - rhs_per_step * us_rhs,
         "paper_case_steps": paper_steps,
         "paper_case_s": paper_steps / steps_per_s,
+        "batch": batch,
+        "us_per_rhs_in_batch": us_rhs_batch,
+        "steps_per_s_in_batch": batch_steps_per_s,
+        "paper_case_s_in_batch": paper_steps / batch_steps_per_s,
         "reference_steps": compare_steps,
         "ratio_vs_numpy_reference": ratio_numpy,
         "tip_error_fixed_step": our_error,

@@ -356,9 +356,12 @@ def cmd_bench(args: argparse.Namespace) -> int:
     cfg = _load(args)
     if args.steps < 20000:
         raise InputError(f"bench --steps must be at least 20000 (got {args.steps})")
+    if args.batch < 1:
+        raise InputError(f"bench --batch must be at least 1 (got {args.batch})")
     say = None if args.json else _log
     model = build_model(cfg, log=say)
-    out = run(model, cfg, steps=args.steps, compare_steps=args.reference_steps, log=say)
+    out = run(model, cfg, steps=args.steps, compare_steps=args.reference_steps, log=say,
+              batch=args.batch)  # fmt: skip
     _print_result(out, args.json)
     return 0
 
@@ -430,6 +433,9 @@ def _args_bench(p):
     p.add_argument("--steps", type=int, default=20000, help="TS steps timed (>= 20000)")
     p.add_argument(
         "--reference-steps", type=int, default=2000, help="steps of the numpy/scipy comparisons"
+    )
+    p.add_argument(
+        "--batch", type=int, default=10, help="angle cases in one TS for the batched figures"
     )
 
 

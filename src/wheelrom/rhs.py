@@ -78,8 +78,8 @@ _ARRAYS = (
     ("QT", lambda N, m, K, B, c: (m, (N + 2) * B)),
     ("VT", lambda N, m, K, B, c: (m, (N + 2) * B)),
     ("WT", lambda N, m, K, B, c: (m, (N + 2) * B)),
-    ("KW", lambda N, m, K, B, c: (m, N * B)),
-    ("DV", lambda N, m, K, B, c: (m, N * B)),
+    ("KW", lambda N, m, K, B, c: (1, N * B)),  # one row of K_R w
+    ("DV", lambda N, m, K, B, c: (1, N * B)),  # one row of A0 v_s + 2 A1 v_{s+1}
     ("FT", lambda N, m, K, B, c: (m, N * B)),  # generalised nonlinear force
     ("nozzle", lambda N, m, K, B, c: (N * B,)),
     ("y", lambda N, m, K, B, c: ((N + 2) * B,)),
@@ -390,34 +390,11 @@ def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
     A1 = _get(ctx, I_A1, m * m).reshape((m, m))
     A1T = _get(ctx, I_A1T, m * m).reshape((m, m))
     QT, VT, WT = _load_state(u, ctx, N, m, B, beta)
-    KW = _get(ctx, I_KW, m * NB).reshape((m, NB))
-    DV = _get(ctx, I_DV, m * NB).reshape((m, NB))
+    KW = _get(ctx, I_KW, NB).reshape((1, NB))
+    DV = _get(ctx, I_DV, NB).reshape((1, NB))
     FT = _get(ctx, I_FT, m * NB).reshape((m, NB))
     column = _get(ctx, I_COL, NB)
     power = _get(ctx, I_POWER, 4 * B).reshape((4, B))
-    # KW = K_R w, row s = A0 w_s + A1 w_{s+1} + A1^T w_{s-1}; and for the damping power
-    # q'^T K_R q' = sum_s v_s^T (A0 v_s + 2 A1 v_{s+1}) the vectors DV_s = A0 v_s + 2 A1 v_{s+1}
-    linear = ctx[H_SKIP_LINEAR] == 0.0
-    B2 = 2 * B
-    for i in range(m):
-        kw = KW[i]
-        dv = DV[i]
-        for c in range(NB):
-            kw[c] = 0.0
-            dv[c] = 0.0
-        for j in range(m if linear else 0):
-            a0 = A0[i, j]
-            a1 = A1[i, j]
-            a1t = A1T[i, j]
-            a1x2 = 2.0 * a1
-            w_prev = WT[j]
-            w_this = w_prev[B:]
-            w_next = w_prev[B2:]
-            v_this = VT[j, B:]
-            v_next = VT[j, B2:]
-            for c in range(NB):
-                kw[c] += a0 * w_this[c] + a1 * w_next[c] + a1t * w_prev[c]
-                dv[c] += a0 * v_this[c] + a1x2 * v_next[c]
     # nozzle (eq. 13) and Van der Pol displacements y_s = p^T q_s (y, yd with ghost blades)
     p_exc = _get(ctx, I_PEXC, m)
     p_aero = _get(ctx, I_PAERO, m)
@@ -490,20 +467,64 @@ def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
     for kind in range(K):
         _contacts(ctx, kind, N, m, K, B, QT, VT, FT, column)
     _case_sums(column, power[2], N, B)
-    # assemble f and the damping power -beta q'^T K_R q'
+    # K_R w row by row (row s = A0 w_s + A1 w_{s+1} + A1^T w_{s-1}), written straight into f
+    # with the forces; for the damping power q'^T K_R q' = sum_s v_s^T (A0 v_s + 2 A1 v_{s+1})
+    # the row of A0 v_s + 2 A1 v_{s+1} is dotted with v at once (two row scratches, no
+    # m x NB temporaries: the batch's arrays do not fit in L1). Modes j in pairs: one pass
+    # over the columns serves two modes (fewer loads and stores per multiply-add).
+    linear = ctx[H_SKIP_LINEAR] == 0.0
+    B2 = 2 * B
+    kw = KW[0]
+    dv = DV[0]
     for c in range(NB):
         column[c] = 0.0
-    for j in range(m):
-        vj = VT[j, B:]
-        dv = DV[j]
-        ft = FT[j]
-        kw = KW[j]
-        fq = f[j * NB : (j + 1) * NB]
-        fv = f[n + j * NB : n + (j + 1) * NB]
+    pairs = (m // 2) if linear else 0
+    single = (m % 2 == 1) and linear
+    for i in range(m):
         for c in range(NB):
-            fq[c] = vj[c]
+            kw[c] = 0.0
+            dv[c] = 0.0
+        for jp in range(pairs):
+            j = 2 * jp
+            a0, b0 = A0[i, j], A0[i, j + 1]
+            a1, b1 = A1[i, j], A1[i, j + 1]
+            a1t, b1t = A1T[i, j], A1T[i, j + 1]
+            a1x2, b1x2 = 2.0 * a1, 2.0 * b1
+            w_prev = WT[j]
+            w_this = w_prev[B:]
+            w_next = w_prev[B2:]
+            x_prev = WT[j + 1]
+            x_this = x_prev[B:]
+            x_next = x_prev[B2:]
+            v_this = VT[j, B:]
+            v_next = VT[j, B2:]
+            y_this = VT[j + 1, B:]
+            y_next = VT[j + 1, B2:]
+            for c in range(NB):
+                kw[c] += (a0 * w_this[c] + a1 * w_next[c] + a1t * w_prev[c]
+                          + b0 * x_this[c] + b1 * x_next[c] + b1t * x_prev[c])  # fmt: skip
+                dv[c] += (a0 * v_this[c] + a1x2 * v_next[c]
+                          + b0 * y_this[c] + b1x2 * y_next[c])  # fmt: skip
+        if single:
+            j = m - 1
+            a0, a1, a1t = A0[i, j], A1[i, j], A1T[i, j]
+            a1x2 = 2.0 * a1
+            w_prev = WT[j]
+            w_this = w_prev[B:]
+            w_next = w_prev[B2:]
+            v_this = VT[j, B:]
+            v_next = VT[j, B2:]
+            for c in range(NB):
+                kw[c] += a0 * w_this[c] + a1 * w_next[c] + a1t * w_prev[c]
+                dv[c] += a0 * v_this[c] + a1x2 * v_next[c]
+        vi = VT[i, B:]
+        ft = FT[i]
+        fq = f[i * NB : (i + 1) * NB]
+        fv = f[n + i * NB : n + (i + 1) * NB]
+        for c in range(NB):
+            fq[c] = vi[c]
             fv[c] = ft[c] - kw[c]
-            column[c] += vj[c] * dv[c]
+            column[c] += vi[c] * dv[c]
     _case_sums(column, power[3], N, B)
     for b in range(B):
         f[2 * n + b] = power[0, b]
@@ -536,7 +557,8 @@ def _contacts(ctx, kind, N, m, K, B, QT, VT, FT, column):
     FA = _get(ctx, I_FA, 3 * NB).reshape((3, NB))
     FB = _get(ctx, I_FB, 3 * NB).reshape((3, NB))
     FN = _get(ctx, I_FN, 3 * W).reshape((3, W))
-    # displacements and velocities of A and B of every column (ghost blade N = blade 0 for A)
+    # displacements and velocities of A and B of every column (ghost blade N = blade 0 for A);
+    # modes in pairs: one pass over the columns serves two modes
     for a in range(3):
         ua = UA[a]
         ub = UB[a]
@@ -547,7 +569,21 @@ def _contacts(ctx, kind, N, m, K, B, QT, VT, FT, column):
             ub[col] = 0.0
             va[col] = 0.0
             vb[col] = 0.0
-        for j in range(m):
+        for jp in range(m // 2):
+            j = 2 * jp
+            xa, ya = XA[c, a, j], XA[c, a, j + 1]
+            xb, yb = XB[c, a, j], XB[c, a, j + 1]
+            qj = QT[j, B:]
+            vj = VT[j, B:]
+            qk = QT[j + 1, B:]
+            vk = VT[j + 1, B:]
+            for col in range(NB):
+                ua[col] += xa * qj[col] + ya * qk[col]
+                ub[col] += xb * qj[col] + yb * qk[col]
+                va[col] += xa * vj[col] + ya * vk[col]
+                vb[col] += xb * vj[col] + yb * vk[col]
+        if m % 2 == 1:
+            j = m - 1
             xa = XA[c, a, j]
             xb = XB[c, a, j]
             qj = QT[j, B:]

@@ -87,6 +87,7 @@ def _create_layout(f, cfg: Config, model: ReducedModel) -> None:
     st = cases.create_dataset("status", (C,), dtype=f"S{STATUS_LEN}")
     cases.create_dataset("wall_s", (C,), dtype="f8", fillvalue=np.nan)
     cases.create_dataset("steps", (C,), dtype="i8")
+    cases.create_dataset("batch", (C,), dtype="i8")
     cases.create_dataset("windows_done", (C,), dtype="i8")
     cases.create_dataset("samples_done", (C,), dtype="i8")
     cases.create_dataset("options", (C,), dtype=f"S{STATUS_LEN}")
@@ -118,6 +119,7 @@ def _write_case(cases, i: int, res: CaseResult) -> None:
     cases["status"][i] = res.status.encode()[:STATUS_LEN]
     cases["wall_s"][i] = res.wall_s
     cases["steps"][i] = res.steps
+    cases["batch"][i] = res.batch
     cases["windows_done"][i] = w
     cases["samples_done"][i] = s
     cases["options"][i] = json.dumps(res.options).encode()[:STATUS_LEN]
