@@ -78,8 +78,8 @@ _ARRAYS = (
     ("QT", lambda N, m, K, B, c: (m, (N + 2) * B)),
     ("VT", lambda N, m, K, B, c: (m, (N + 2) * B)),
     ("WT", lambda N, m, K, B, c: (m, (N + 2) * B)),
-    ("KW", lambda N, m, K, B, c: (1, N * B)),  # one row of K_R w
-    ("DV", lambda N, m, K, B, c: (1, N * B)),  # one row of A0 v_s + 2 A1 v_{s+1}
+    ("KW", lambda N, m, K, B, c: (N * B,)),  # one row of K_R w
+    ("DV", lambda N, m, K, B, c: (N * B,)),  # one row of A0 v_s + 2 A1 v_{s+1}
     ("FT", lambda N, m, K, B, c: (m, N * B)),  # generalised nonlinear force
     ("nozzle", lambda N, m, K, B, c: (N * B,)),
     ("y", lambda N, m, K, B, c: ((N + 2) * B,)),
@@ -223,11 +223,6 @@ class Context:
         w = u[2 * n :].reshape(4, B).T
         return np.concatenate([q, v, w], axis=1)
 
-    def case_columns(self, name: str) -> np.ndarray:
-        """A ``(..., N B)`` work array as ``(B, ..., N)`` (per-case views for Python)."""
-        a = self.view(name)
-        return np.moveaxis(a.reshape(*a.shape[:-1], self.N, self.B), -1, 0)
-
 
 def _check_batchable(forces) -> None:
     """Cases of a batch share everything but the contact frames and stiffnesses."""
@@ -330,9 +325,9 @@ def fexp(x):
 @numba.njit(cache=True, inline="always")
 def _load_state(u, ctx, N, m, B, beta):
     """Column copies of the state with one ghost blade (B columns) on each side:
-    ``QT[j, B + c] = q[j, c]``, ``QT[j, :B]`` = blade ``N-1``, ``QT[j, (N+1) B:]`` = blade 0;
-    likewise ``VT`` for ``q'`` and ``WT`` for ``w = q + beta_D q'`` (one ``K_R`` product gives
-    the elastic and the damping force)."""
+    ``VT[j, B + c] = q'[j, c]``, ``VT[j, :B]`` = blade ``N-1``, ``VT[j, (N+1) B:]`` = blade 0;
+    likewise ``WT`` for ``w = q + beta_D q'`` (one ``K_R`` product gives the elastic and the
+    damping force), and ``QT`` for ``q`` (its ghosts are never read and left unset)."""
     NB = N * B
     n = m * NB
     W = (N + 2) * B
@@ -354,9 +349,7 @@ def _load_state(u, ctx, N, m, B, beta):
             qs[c] = uq[c]
             vs[c] = uv[c]
             ws[c] = uq[c] + beta * uv[c]
-        for b in range(B):
-            qt[b] = qt[NB + b]
-            qt[NB + B + b] = qt[B + b]
+        for b in range(B):  # (q itself is only read blade by blade: no ghosts needed)
             vt[b] = vt[NB + b]
             vt[NB + B + b] = vt[B + b]
             wt[b] = wt[NB + b]
@@ -390,8 +383,6 @@ def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
     A1 = _get(ctx, I_A1, m * m).reshape((m, m))
     A1T = _get(ctx, I_A1T, m * m).reshape((m, m))
     QT, VT, WT = _load_state(u, ctx, N, m, B, beta)
-    KW = _get(ctx, I_KW, NB).reshape((1, NB))
-    DV = _get(ctx, I_DV, NB).reshape((1, NB))
     FT = _get(ctx, I_FT, m * NB).reshape((m, NB))
     column = _get(ctx, I_COL, NB)
     power = _get(ctx, I_POWER, 4 * B).reshape((4, B))
@@ -474,8 +465,8 @@ def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
     # over the columns serves two modes (fewer loads and stores per multiply-add).
     linear = ctx[H_SKIP_LINEAR] == 0.0
     B2 = 2 * B
-    kw = KW[0]
-    dv = DV[0]
+    kw = _get(ctx, I_KW, NB)
+    dv = _get(ctx, I_DV, NB)
     for c in range(NB):
         column[c] = 0.0
     pairs = (m // 2) if linear else 0
@@ -557,8 +548,7 @@ def _contacts(ctx, kind, N, m, K, B, QT, VT, FT, column):
     FA = _get(ctx, I_FA, 3 * NB).reshape((3, NB))
     FB = _get(ctx, I_FB, 3 * NB).reshape((3, NB))
     FN = _get(ctx, I_FN, 3 * W).reshape((3, W))
-    # displacements and velocities of A and B of every column (ghost blade N = blade 0 for A);
-    # modes in pairs: one pass over the columns serves two modes
+    # displacements and velocities of A and B of every column (ghost blade N = blade 0 for A)
     for a in range(3):
         ua = UA[a]
         ub = UB[a]
@@ -569,21 +559,7 @@ def _contacts(ctx, kind, N, m, K, B, QT, VT, FT, column):
             ub[col] = 0.0
             va[col] = 0.0
             vb[col] = 0.0
-        for jp in range(m // 2):
-            j = 2 * jp
-            xa, ya = XA[c, a, j], XA[c, a, j + 1]
-            xb, yb = XB[c, a, j], XB[c, a, j + 1]
-            qj = QT[j, B:]
-            vj = VT[j, B:]
-            qk = QT[j + 1, B:]
-            vk = VT[j + 1, B:]
-            for col in range(NB):
-                ua[col] += xa * qj[col] + ya * qk[col]
-                ub[col] += xb * qj[col] + yb * qk[col]
-                va[col] += xa * vj[col] + ya * vk[col]
-                vb[col] += xb * vj[col] + yb * vk[col]
-        if m % 2 == 1:
-            j = m - 1
+        for j in range(m):
             xa = XA[c, a, j]
             xb = XB[c, a, j]
             qj = QT[j, B:]

@@ -170,7 +170,9 @@ def run_sweep(
     rank, size = comm.rank, comm.size
     say = log if rank == 0 else (lambda *_: None)
 
-    # decide what to do with the output file before computing anything
+    # check the input and decide what to do with the output file before computing anything
+    if batch < 0:
+        raise InputError(f"--batch must be >= 0, not {batch}")
     problem = None
     if rank == 0:
         exists = os.path.exists(out)
@@ -208,8 +210,6 @@ def run_sweep(
         todo = [i for i in range(C) if status[i] == "pending"]
         say(f"{C} cases, {len(todo)} to run on {size} rank(s)")
         done = C - len(todo)
-        if batch < 0:
-            raise InputError(f"--batch must be >= 0, not {batch}")
         mine = todo[rank::size]
         per_rank = math.ceil(len(todo) / size)
         width = batch or max(per_rank, 1)
