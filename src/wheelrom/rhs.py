@@ -79,7 +79,6 @@ _ARRAYS = (
     ("WT", lambda N, m, K, B, c: (m, (N + 2) * B)),
     ("KW", lambda N, m, K, B, c: (N * B,)),  # one row of K_R w
     ("DV", lambda N, m, K, B, c: (N * B,)),  # one row of 2 A1 v_{s+1}
-    ("FT", lambda N, m, K, B, c: (m, N * B)),  # generalised nonlinear force
     ("nozzle", lambda N, m, K, B, c: (N * B,)),
     ("y", lambda N, m, K, B, c: ((N + 2) * B,)),
     ("yd", lambda N, m, K, B, c: ((N + 2) * B,)),
@@ -90,8 +89,8 @@ _ARRAYS = (
     ("UB", lambda N, m, K, B, c: (3, N * B)),
     ("VA", lambda N, m, K, B, c: (3, (N + 1) * B)),
     ("VB", lambda N, m, K, B, c: (3, N * B)),
-    ("FA", lambda N, m, K, B, c: (3, N * B)),
-    ("FB", lambda N, m, K, B, c: (3, N * B)),
+    ("FA", lambda N, m, K, B, c: (K, 3, N * B)),  # contact forces on A (and A from s-1) [N]
+    ("FB", lambda N, m, K, B, c: (K, 3, N * B)),  # and on B, per kind
     ("FN", lambda N, m, K, B, c: (3, (N + 1) * B)),
     ("normal_force", lambda N, m, K, B, c: (K, N * B)),
     ("contact_state", lambda N, m, K, B, c: (K, N * B)),
@@ -105,7 +104,7 @@ _ARRAYS = (
 _INDEX = {name: i for i, (name, _) in enumerate(_ARRAYS)}
 (
     I_A0D, I_A1, I_A1T, I_PEXC, I_COS, I_SIN, I_PAERO, I_R, I_XA, I_XB, I_AP, I_BP, I_ARM, I_T,
-    I_KC, I_PRELOAD, I_TIP, I_ACTIVE, I_STOP, I_STOPT, I_COUNT, I_VT, I_WT, I_KW, I_DV, I_FT, I_NOZ,
+    I_KC, I_PRELOAD, I_TIP, I_ACTIVE, I_STOP, I_STOPT, I_COUNT, I_VT, I_WT, I_KW, I_DV, I_NOZ,
     I_Y, I_YD, I_PAIR, I_G, I_COL, I_UA, I_UB, I_VA, I_VB, I_FA, I_FB, I_FN, I_NORMAL, I_STATE,
     I_POWER, I_STIME, I_STIP, I_SMIN, I_SOPEN,
 ) = range(len(_ARRAYS))  # fmt: skip
@@ -413,7 +412,6 @@ def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
     A1 = _get(ctx, I_A1, m * m).reshape((m, m))
     A1T = _get(ctx, I_A1T, m * m).reshape((m, m))
     Q, VT, WT = _load_state(u, ctx, N, m, B, beta)
-    FT = _get(ctx, I_FT, m * NB).reshape((m, NB))
     column = _get(ctx, I_COL, NB)
     power = _get(ctx, I_POWER, 4 * B).reshape((4, B))
     # nozzle (eq. 13) and Van der Pol displacements y_s = p^T q_s (y, yd with ghost blades)
@@ -442,9 +440,7 @@ def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
         pa = p_aero[j]
         qj = Q[j]
         vj = VT[j, B:]
-        ft = FT[j]
         for c in range(NB):
-            ft[c] = pe * nozzle[c]
             y_this[c] += pa * qj[c]
             yd_this[c] += pa * vj[c]
             column[c] += pe * vj[c]
@@ -474,22 +470,19 @@ def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
             column[c] = g[c] * yd_this[c]
     else:
         for c in range(NB):
+            g[c] = 0.0
             column[c] = 0.0
     _case_sums(column, power[1], N, B)
-    if vdp != 0:
-        for j in range(m):
-            pa = p_aero[j]
-            ft = FT[j]
-            for c in range(NB):
-                ft[c] += pa * g[c]
     # contacts: the arm of blade s (A_s, B_s, end C_s) against A_{s+1}
     for c in range(NB):
         column[c] = 0.0
     for kind in range(K):
-        _contacts(ctx, kind, N, m, K, B, Q, VT, FT, column)
+        _contacts(ctx, kind, N, m, K, B, Q, VT, column)
     _case_sums(column, power[2], N, B)
     # K_R w row by row (row s = A0 w_s + A1 w_{s+1} + A1^T w_{s-1}; A0 diagonal in the
-    # kernel's basis), written straight into f with the forces; for the damping power
+    # kernel's basis), written straight into f with the forces: the contact forces are
+    # projected back to the modes in the same row scratch (one row stays in L1; a whole
+    # m x NB force array would not), XA^T (F_A + F_N) + XB^T F_B; for the damping power
     # q'^T K_R q' = sum_s v_s^T (A0 v_s + 2 A1 v_{s+1}) the row of 2 A1 v_{s+1} is dotted with
     # v at once (two row scratches, no m x NB temporaries: the batch's arrays do not fit in
     # L1). Modes j in pairs: one pass over the columns serves two modes (fewer loads and
@@ -498,6 +491,10 @@ def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
     B2 = 2 * B
     kw = _get(ctx, I_KW, NB)
     dv = _get(ctx, I_DV, NB)
+    XA = _get(ctx, I_XA, K * 3 * m).reshape((K, 3, m))
+    XB = _get(ctx, I_XB, K * 3 * m).reshape((K, 3, m))
+    FA = _get(ctx, I_FA, K * 3 * NB).reshape((K, 3, NB))
+    FB = _get(ctx, I_FB, K * 3 * NB).reshape((K, 3, NB))
     for c in range(NB):
         column[c] = 0.0
     pairs = (m // 2) if linear else 0
@@ -530,15 +527,24 @@ def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
             for c in range(NB):
                 kw[c] += a1 * w_next[c] + a1t * w_prev[c]
                 dv[c] += a1x2 * v_next[c]
+        for kind in range(K):
+            xa0, xa1, xa2 = XA[kind, 0, i], XA[kind, 1, i], XA[kind, 2, i]
+            xb0, xb1, xb2 = XB[kind, 0, i], XB[kind, 1, i], XB[kind, 2, i]
+            fa0, fa1, fa2 = FA[kind, 0], FA[kind, 1], FA[kind, 2]
+            fb0, fb1, fb2 = FB[kind, 0], FB[kind, 1], FB[kind, 2]
+            for c in range(NB):
+                kw[c] -= (xa0 * fa0[c] + xa1 * fa1[c] + xa2 * fa2[c]
+                          + xb0 * fb0[c] + xb1 * fb1[c] + xb2 * fb2[c])  # fmt: skip
         a0 = A0_diag[i] if linear else 0.0
+        pe = p_exc[i]
+        pa = p_aero[i]
         wi = WT[i, B:]
         vi = VT[i, B:]
-        ft = FT[i]
         fq = f[i * NB : (i + 1) * NB]
         fv = f[n + i * NB : n + (i + 1) * NB]
         for c in range(NB):
             fq[c] = vi[c]
-            fv[c] = ft[c] - (a0 * wi[c] + kw[c])
+            fv[c] = pe * nozzle[c] + pa * g[c] - (a0 * wi[c] + kw[c])
             column[c] += vi[c] * (a0 * vi[c] + dv[c])
     _case_sums(column, power[3], N, B)
     for b in range(B):
@@ -557,9 +563,10 @@ def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
 
 
 @numba.njit(cache=True, fastmath={"contract"}, error_model="numpy")
-def _contacts(ctx, kind, N, m, K, B, Q, VT, FT, column):
-    """Contact forces of contact ``kind`` added to ``FT``, its friction power per column
-    added to ``column`` [W]; normal forces and states left in the context."""
+def _contacts(ctx, kind, N, m, K, B, Q, VT, column):
+    """Contact forces of contact ``kind`` at A (with the neighbour's push on it) and B of
+    every column left in ``FA[kind]``, ``FB[kind]`` [N], its friction power per column added
+    to ``column`` [W]; normal forces and states left in the context."""
     NB = N * B
     W = (N + 1) * B
     c = kind
@@ -569,10 +576,12 @@ def _contacts(ctx, kind, N, m, K, B, Q, VT, FT, column):
     UB = _get(ctx, I_UB, 3 * NB).reshape((3, NB))
     VA = _get(ctx, I_VA, 3 * W).reshape((3, W))
     VB = _get(ctx, I_VB, 3 * NB).reshape((3, NB))
-    FA = _get(ctx, I_FA, 3 * NB).reshape((3, NB))
-    FB = _get(ctx, I_FB, 3 * NB).reshape((3, NB))
+    FA = _get(ctx, I_FA, K * 3 * NB).reshape((K, 3, NB))[c]
+    FB = _get(ctx, I_FB, K * 3 * NB).reshape((K, 3, NB))[c]
     FN = _get(ctx, I_FN, 3 * W).reshape((3, W))
-    # displacements and velocities of A and B of every column (ghost blade N = blade 0 for A)
+    # displacements and velocities of A and B of every column (ghost blade N = blade 0 for A):
+    # five modes per pass over the columns (a pass of one mode is bound by the four
+    # read-modify-writes of the sums; with five, by the multiply-adds)
     for a in range(3):
         ua = UA[a]
         ub = UB[a]
@@ -583,7 +592,30 @@ def _contacts(ctx, kind, N, m, K, B, Q, VT, FT, column):
             ub[col] = 0.0
             va[col] = 0.0
             vb[col] = 0.0
-        for j in range(m):
+        j = 0
+        while j + 5 <= m:
+            xa = XA[c, a]
+            xb = XB[c, a]
+            xa0, xa1, xa2, xa3, xa4 = xa[j], xa[j + 1], xa[j + 2], xa[j + 3], xa[j + 4]
+            xb0, xb1, xb2, xb3, xb4 = xb[j], xb[j + 1], xb[j + 2], xb[j + 3], xb[j + 4]
+            q0, q1, q2, q3, q4 = Q[j], Q[j + 1], Q[j + 2], Q[j + 3], Q[j + 4]
+            v0, v1, v2 = VT[j, B:], VT[j + 1, B:], VT[j + 2, B:]
+            v3, v4 = VT[j + 3, B:], VT[j + 4, B:]
+            for col in range(NB):
+                ua[col] += (
+                    xa0 * q0[col] + xa1 * q1[col] + xa2 * q2[col] + xa3 * q3[col] + xa4 * q4[col]
+                )
+                ub[col] += (
+                    xb0 * q0[col] + xb1 * q1[col] + xb2 * q2[col] + xb3 * q3[col] + xb4 * q4[col]
+                )
+                va[col] += (
+                    xa0 * v0[col] + xa1 * v1[col] + xa2 * v2[col] + xa3 * v3[col] + xa4 * v4[col]
+                )
+                vb[col] += (
+                    xb0 * v0[col] + xb1 * v1[col] + xb2 * v2[col] + xb3 * v3[col] + xb4 * v4[col]
+                )
+            j += 5
+        while j < m:
             xa = XA[c, a, j]
             xb = XB[c, a, j]
             qj = Q[j]
@@ -593,6 +625,7 @@ def _contacts(ctx, kind, N, m, K, B, Q, VT, FT, column):
                 ub[col] += xb * qj[col]
                 va[col] += xa * vj[col]
                 vb[col] += xb * vj[col]
+            j += 1
         for b in range(B):
             ua[NB + b] = ua[b]
             va[NB + b] = va[b]
@@ -619,16 +652,6 @@ def _contacts(ctx, kind, N, m, K, B, Q, VT, FT, column):
             fn[b] = fn[NB + b]
         for col in range(NB):
             fa[col] += fn[col]
-    # back to the modes: FT[j, col] += XA[:, j] . (F_A + F_N) + XB[:, j] . F_B
-    fa0, fa1, fa2 = FA[0], FA[1], FA[2]
-    fb0, fb1, fb2 = FB[0], FB[1], FB[2]
-    for j in range(m):
-        xa0, xa1, xa2 = XA[c, 0, j], XA[c, 1, j], XA[c, 2, j]
-        xb0, xb1, xb2 = XB[c, 0, j], XB[c, 1, j], XB[c, 2, j]
-        ft = FT[j]
-        for col in range(NB):
-            ft[col] += (xa0 * fa0[col] + xa1 * fa1[col] + xa2 * fa2[col]
-                        + xb0 * fb0[col] + xb1 * fb1[col] + xb2 * fb2[col])  # fmt: skip
 
 
 @numba.njit(cache=True, fastmath={"contract"}, error_model="numpy", **_NOALIAS)
@@ -790,12 +813,11 @@ def sample_core(t, u, ctx):
             _freeze(ctx, b, STOP_AMPLITUDE, t)
     if K > 0 and recorded > 0:
         # the contact forces at this state (no K_R product, nozzle or Van der Pol needed;
-        # FT and column are scratch here: the next rhs_core overwrites them)
+        # column is scratch here: the next rhs_core overwrites it)
         Q, VT, _ = _load_state(u, ctx, N, m, B, ctx[H_BETA])
-        FT = _get(ctx, I_FT, m * NB).reshape((m, NB))
         column = _get(ctx, I_COL, NB)
         for kind in range(K):
-            _contacts(ctx, kind, N, m, K, B, Q, VT, FT, column)
+            _contacts(ctx, kind, N, m, K, B, Q, VT, column)
         normal = _get(ctx, I_NORMAL, K * NB).reshape((K, NB))
         state = _get(ctx, I_STATE, K * NB).reshape((K, NB))
         for b in range(B):
