@@ -200,3 +200,29 @@ def test_batch_gives_each_case_bitwise_its_single_result(small_model, small_cfg)
             assert np.array_equal(alone.min_normal_force[kind], res.min_normal_force[kind])
             assert np.array_equal(alone.open_fraction[kind], res.open_fraction[kind])
     assert batch[0].window_end.size == 4 and batch[1].window_end.size < 4
+
+
+def test_kernel_exp_is_within_two_ulp_of_libm():
+    """The kernel's own branch-free exp against libm over the whole double range it
+    accepts (and its clamping outside), in units in the last place."""
+    import numba
+
+    from wheelrom import rhs
+
+    @numba.njit
+    def kernel_exp(x):
+        out = np.empty_like(x)
+        for i in range(x.size):
+            out[i] = rhs.fexp(x[i])
+        return out
+
+    rng = np.random.default_rng(3)
+    x = np.concatenate([np.linspace(-708.0, 709.0, 200_001), rng.uniform(-3.0, 3.0, 100_000)])
+    x = np.concatenate([x, [0.0, -0.0, 1e-300, -1e-20, math.log(2.0)]])
+    expected = np.exp(x)
+    ulps = np.abs(kernel_exp(x) - expected) / np.spacing(expected)
+    assert ulps.max() <= 2.0
+    assert kernel_exp(np.array([0.0]))[0] == 1.0
+    clamped = kernel_exp(np.array([-1e4, 1e4]))
+    np.testing.assert_array_equal(clamped, kernel_exp(np.array([-708.0, 709.0])))
+    assert np.isfinite(clamped).all() and clamped[0] > 0.0
