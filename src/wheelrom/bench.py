@@ -17,8 +17,9 @@ Figures (all on the configuration's reduced model, single core):
   force model) over ours;
 - ``ratio_vs_scipy``: wall of ``scipy.integrate.solve_ivp`` (RK23, adaptive, on the same
   compiled right-hand side) over ours for the same simulated time, its ``rtol`` chosen as the
-  loosest of 1e-2..1e-9 whose tip-history error against a fine-step reference is not larger
-  than our fixed-step error.
+  loosest of 1e-2..1e-9 (steps of 1, 3 per decade: a decade grid made the ratio jump by 3x
+  with round-off-level changes of the state's coordinates) whose tip-history error against
+  a fine-step reference is not larger than our fixed-step error.
 """
 
 from __future__ import annotations
@@ -138,7 +139,7 @@ def run(model: ReducedModel, cfg: Config, steps: int = 20000, compare_steps: int
     scale = np.abs(fine.tip_history).max()
     our_error = float(np.abs(ours.tip_history - fine.tip_history).max() / scale)
     chosen, sp_wall, sp_error = None, math.nan, math.nan
-    for rtol in (1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9):
+    for rtol in [f * 10.0**-e for e in range(2, 10) for f in (1.0, 0.3)][:-1]:
         sol, wall = _scipy_run(problem, t_cmp, rtol, fine.sample_time)
         if not sol.success:
             continue
