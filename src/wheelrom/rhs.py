@@ -361,8 +361,8 @@ def fexp(x):
 
 @numba.njit(cache=True, inline="always")
 def _load_state(u, ctx, N, m, B, beta):
-    """``(Q, VT, WT)``: ``Q`` the rows ``q[j]`` of ``u`` (a view; ``q`` is only read blade by
-    blade) and column copies with one ghost blade (B columns) on each side:
+    """``(Q, V, VT, WT)``: ``Q``, ``V`` the rows ``q[j]``, ``q'[j]`` of ``u`` (views, for what
+    reads them blade by blade) and column copies with one ghost blade (B columns) on each side:
     ``VT[j, B + c] = q'[j, c]``, ``VT[j, :B]`` = blade ``N-1``, ``VT[j, (N+1) B:]`` = blade 0;
     likewise ``WT`` for ``w = q + beta_D q'`` (one ``K_R`` product gives the elastic and the
     damping force)."""
@@ -388,7 +388,7 @@ def _load_state(u, ctx, N, m, B, beta):
             vt[NB + B + b] = vt[B + b]
             wt[b] = wt[NB + b]
             wt[NB + B + b] = wt[B + b]
-    return u[:n].reshape((m, NB)), VT, WT
+    return u[:n].reshape((m, NB)), u[n : 2 * n].reshape((m, NB)), VT, WT
 
 
 @numba.njit(inline="always")
@@ -416,7 +416,7 @@ def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
     A0_diag = _get(ctx, I_A0D, m)
     A1 = _get(ctx, I_A1, m * m).reshape((m, m))
     A1T = _get(ctx, I_A1T, m * m).reshape((m, m))
-    Q, VT, WT = _load_state(u, ctx, N, m, B, beta)
+    Q, V, VT, WT = _load_state(u, ctx, N, m, B, beta)
     column = _get(ctx, I_COL, NB)
     power = _get(ctx, I_POWER, 4 * B).reshape((4, B))
     # nozzle (eq. 13) and Van der Pol displacements y_s = p^T q_s (y, yd with ghost blades)
@@ -444,7 +444,7 @@ def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
         pe = p_exc[j]
         pa = p_aero[j]
         qj = Q[j]
-        vj = VT[j, B:]
+        vj = V[j]
         for c in range(NB):
             y_this[c] += pa * qj[c]
             yd_this[c] += pa * vj[c]
@@ -482,7 +482,7 @@ def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
     for c in range(NB):
         column[c] = 0.0
     for kind in range(K):
-        _contacts(ctx, kind, N, m, K, B, Q, VT, column)
+        _contacts(ctx, kind, N, m, K, B, Q, V, column)
     _case_sums(column, power[2], N, B)
     # K_R w row by row (row s = A0 w_s + A1 w_{s+1} + A1^T w_{s-1}; A0 diagonal in the
     # kernel's basis), written straight into f with the forces: the contact forces are
@@ -568,7 +568,7 @@ def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
 
 
 @numba.njit(cache=True, fastmath={"contract"}, error_model="numpy")
-def _contacts(ctx, kind, N, m, K, B, Q, VT, column):
+def _contacts(ctx, kind, N, m, K, B, Q, V, column):
     """Contact forces of contact ``kind`` at A (with the neighbour's push on it) and B of
     every column left in ``FA[kind]``, ``FB[kind]`` [N], its friction power per column added
     to ``column`` [W]; normal forces and states left in the context."""
@@ -604,8 +604,7 @@ def _contacts(ctx, kind, N, m, K, B, Q, VT, column):
             xa0, xa1, xa2, xa3, xa4 = xa[j], xa[j + 1], xa[j + 2], xa[j + 3], xa[j + 4]
             xb0, xb1, xb2, xb3, xb4 = xb[j], xb[j + 1], xb[j + 2], xb[j + 3], xb[j + 4]
             q0, q1, q2, q3, q4 = Q[j], Q[j + 1], Q[j + 2], Q[j + 3], Q[j + 4]
-            v0, v1, v2 = VT[j, B:], VT[j + 1, B:], VT[j + 2, B:]
-            v3, v4 = VT[j + 3, B:], VT[j + 4, B:]
+            v0, v1, v2, v3, v4 = V[j], V[j + 1], V[j + 2], V[j + 3], V[j + 4]
             for col in range(NB):
                 ua[col] += (
                     xa0 * q0[col] + xa1 * q1[col] + xa2 * q2[col] + xa3 * q3[col] + xa4 * q4[col]
@@ -624,7 +623,7 @@ def _contacts(ctx, kind, N, m, K, B, Q, VT, column):
             xa = XA[c, a, j]
             xb = XB[c, a, j]
             qj = Q[j]
-            vj = VT[j, B:]
+            vj = V[j]
             for col in range(NB):
                 ua[col] += xa * qj[col]
                 ub[col] += xb * qj[col]
@@ -819,10 +818,12 @@ def sample_core(t, u, ctx):
     if K > 0 and recorded > 0:
         # the contact forces at this state (no K_R product, nozzle or Van der Pol needed;
         # column is scratch here: the next rhs_core overwrites it)
-        Q, VT, _ = _load_state(u, ctx, N, m, B, ctx[H_BETA])
+        n = m * NB  # the state's rows as they are: no ghost copies needed here
+        Q = u[:n].reshape((m, NB))
+        V = u[n : 2 * n].reshape((m, NB))
         column = _get(ctx, I_COL, NB)
         for kind in range(K):
-            _contacts(ctx, kind, N, m, K, B, Q, VT, column)
+            _contacts(ctx, kind, N, m, K, B, Q, V, column)
         normal = _get(ctx, I_NORMAL, K * NB).reshape((K, NB))
         state = _get(ctx, I_STATE, K * NB).reshape((K, NB))
         for b in range(B):
