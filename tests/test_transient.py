@@ -174,6 +174,29 @@ def test_compiled_and_python_callbacks_agree(small_model, small_cfg):
     np.testing.assert_allclose(a.max_tip_amplitude, b.max_tip_amplitude, rtol=1e-9)
 
 
+def test_noop_integrator_steps_and_leaves_the_state_alone(small_model, small_cfg):
+    """`wheelrom bench`'s floor (PETSc's integrator with a no-op right-hand side) must be the
+    configured TS really stepping, with the real kernel and sampling detached: the steps are
+    taken, the kernel is never called, and the state does not move (every stage adds zero)."""
+    from wheelrom import rhs
+    from wheelrom.forces import ForceModel
+
+    problem = transient.WheelProblem(small_model, small_cfg, ForceModel(small_model, small_cfg))
+    ts, f, used = transient.make_ts(problem, small_cfg, options={"ts_rk_type": "3bs"})
+    assert used["ts_rk_type"] == "3bs"
+    rhs.attach_null(ts, f)
+    u = f.duplicate()
+    start = np.random.default_rng(3).normal(size=u.getSize())
+    u.setArray(start)
+    ts.setMaxSteps(37)
+    ts.solve(u)
+    assert ts.getStepNumber() == 37
+    assert ts.getTime() == pytest.approx(37 * small_cfg.time.step, rel=1e-12)
+    assert problem.context.header(rhs.H_RHS_CALLS) == 0
+    np.testing.assert_array_equal(u.getArray(), start)
+    ts.destroy()
+
+
 def test_batch_gives_each_case_bitwise_its_single_result(small_model, small_cfg):
     """Cases integrated together in one TS (SIMD across cases) equal their runs alone,
     bit for bit, including a case that diverges (frozen, reported, the others go on)."""

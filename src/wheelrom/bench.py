@@ -13,6 +13,16 @@ Figures (all on the configuration's reduced model, single core):
 - ``batch``, ``us_per_rhs_in_batch``, ``steps_per_s_in_batch``, ``paper_case_s_in_batch``:
   the same for ``batch`` angle cases integrated together in one TS (as ``wheelrom sweep``
   does; the sweep's shroud angles), per case: the throughput of a sweep on one core;
+- floors (what bounds ``paper_case_s`` on this machine): ``ts_null_us_per_step`` (and
+  ``ts_null_us_per_case_step_in_batch``), the configured TS with a no-op right-hand side;
+  ``multiply_adds_per_rhs`` (:func:`wheelrom.rhs.multiply_adds`, contact laws not counted);
+  ``machine_gmadd_per_s``, a one-thread 1024^3 BLAS ``dgemm`` (this core's attainable
+  multiply-add rate), and ``shape_gmadd_per_s``, ``dgemm`` on the kernel's product shape
+  ``(m x 3m)(3m x N batch)``; ``kernel_gmadd_per_s`` (``_in_batch``), our kernel's rate
+  counted the same way; ``paper_case_bound_s``: ``time.end / time.step`` steps of the no-op
+  TS plus ``rhs_per_step`` evaluations of the multiply-adds at ``machine_gmadd_per_s`` (a
+  lower bound: contact laws free, every operand in a register), and
+  ``paper_case_bound_at_shape_rate_s`` the same at ``shape_gmadd_per_s``;
 - ``ratio_vs_numpy_reference``: wall of the plain-numpy serial reference (same steps, same
   force model) over ours;
 - ``ratio_vs_scipy``: wall of ``scipy.integrate.solve_ivp`` (RK23, adaptive, on the same
@@ -70,6 +80,50 @@ def rhs_microseconds(problem: WheelProblem, calls: int = 20000, linear: bool = T
     return best
 
 
+def integrator_microseconds(problem: WheelProblem, cfg: Config, steps: int = 20000) -> float:
+    """Best-of-3 wall per step [us] of the configured TS (``make_ts``: the same type, tableau
+    and ``-wheel_`` options) on ``problem``'s state size with a right-hand side that does
+    nothing and no monitor: what PETSc's integrator costs by itself (stage copies and
+    ``VecMAXPY`` updates over ``B (2 N m + 4)`` doubles, call chain), a floor under any
+    right-hand side."""
+    from wheelrom.transient import make_ts
+
+    ts, f, _ = make_ts(problem, cfg)
+    rhs.attach_null(ts, f)
+    u = f.duplicate()
+    best = math.inf
+    for _ in range(3):
+        u.set(1e-6)
+        ts.setTime(0.0)
+        ts.setStepNumber(0)
+        ts.setMaxSteps(steps)
+        ts.setMaxTime(2 * steps * cfg.time.step)
+        t0 = time.perf_counter()
+        ts.solve(u)
+        best = min(best, time.perf_counter() - t0)
+        if ts.getStepNumber() != steps:
+            raise RuntimeError(f"no-op TS run stopped after {ts.getStepNumber()} of {steps}")
+    ts.destroy()
+    return best / steps * 1e6
+
+
+def dgemm_gmadd_per_s(rows: int, inner: int, cols: int, calls: int) -> float:
+    """Best-of-3 rate [1e9 multiply-adds/s] of the BLAS product ``(rows x inner)(inner x cols)``
+    (one BLAS thread, as set for every wheelrom process): a large square one measures what
+    this core can do, the kernel's own shape what an optimised library reaches on it."""
+    rng = np.random.default_rng(0)
+    a, b = rng.random((rows, inner)), rng.random((inner, cols))
+    c = np.empty((rows, cols))
+    np.dot(a, b, out=c)
+    best = math.inf
+    for _ in range(3):
+        t0 = time.perf_counter()
+        for _ in range(calls):
+            np.dot(a, b, out=c)
+        best = min(best, (time.perf_counter() - t0) / calls)
+    return rows * inner * cols / best / 1e9
+
+
 def _scipy_run(problem: WheelProblem, t_end: float, rtol: float, t_eval: np.ndarray):
     from scipy.integrate import solve_ivp
 
@@ -125,6 +179,20 @@ def run(model: ReducedModel, cfg: Config, steps: int = 20000, compare_steps: int
     say(f"batch of {batch} cases: {batch_wall:.2f} s, {us_rhs_batch:.2f} us per RHS and case, "
         f"{batch_steps_per_s:.0f} case-steps/s")  # fmt: skip
 
+    # floors: PETSc's integrator alone, and the multiply-adds at this core's dgemm rate
+    ts_null = integrator_microseconds(problem, cfg)
+    ts_null_batch = integrator_microseconds(batch_problem, cfg, max(2000, steps // batch)) / batch
+    m, kinds = model.modes, len(problem.forces.contacts.kinds)
+    madds = rhs.multiply_adds(model.blades, m, kinds)
+    peak = dgemm_gmadd_per_s(1024, 1024, 1024, 1)
+    shape = dgemm_gmadd_per_s(m, 3 * m, model.blades * batch, max(100, 20000 // batch))
+    bound_us = ts_null + rhs_per_step * madds / peak / 1e3
+    bound_shape_us = ts_null + rhs_per_step * madds / shape / 1e3
+    say(f"floors: no-op TS {ts_null:.2f} us per step ({ts_null_batch:.2f} per case in the "
+        f"batch); {madds} multiply-adds per RHS; dgemm {peak:.1f} G/s (1024^3), {shape:.1f} "
+        f"G/s ({m}x{3 * m})({3 * m}x{model.blades * batch}); paper case >= "
+        f"{paper_steps * bound_us / 1e6:.1f} s")  # fmt: skip
+
     # plain-numpy serial reference over compare_steps
     _, ref_states, ref_wall = reference_solution(model, cfg, compare_steps,
                                                  sample_every=compare_steps)  # fmt: skip
@@ -169,6 +237,15 @@ def run(model: ReducedModel, cfg: Config, steps: int = 20000, compare_steps: int
         "us_per_rhs_in_batch": us_rhs_batch,
         "steps_per_s_in_batch": batch_steps_per_s,
         "paper_case_s_in_batch": paper_steps / batch_steps_per_s,
+        "ts_null_us_per_step": ts_null,
+        "ts_null_us_per_case_step_in_batch": ts_null_batch,
+        "multiply_adds_per_rhs": madds,
+        "machine_gmadd_per_s": peak,
+        "shape_gmadd_per_s": shape,
+        "kernel_gmadd_per_s": madds / us_rhs / 1e3,
+        "kernel_gmadd_per_s_in_batch": madds / us_rhs_batch / 1e3,
+        "paper_case_bound_s": paper_steps * bound_us / 1e6,
+        "paper_case_bound_at_shape_rate_s": paper_steps * bound_shape_us / 1e6,
         "reference_steps": compare_steps,
         "ratio_vs_numpy_reference": ratio_numpy,
         "tip_error_fixed_step": our_error,

@@ -937,6 +937,40 @@ def callbacks():
     return rhs, monitor, set_rhs, set_monitor
 
 
+@functools.cache
+def _null_rhs():
+    @numba.cfunc(types.int32(types.int64, types.float64, types.int64, types.int64, types.int64))
+    def nothing(ts, t, U, F, ctx_addr):
+        return 0
+
+    return nothing
+
+
+def attach_null(ts, f) -> None:
+    """Register a compiled right-hand side that does nothing (``F`` keeps its values) and no
+    monitor: what the integrator costs by itself (``wheelrom bench``'s floor figures)."""
+    set_rhs = callbacks()[2]
+    ts.cancelMonitor()
+    if set_rhs(ts.handle, f.handle, _null_rhs().address, 0):
+        raise RuntimeError("PETSc error while registering the no-op right-hand side")
+
+
+def multiply_adds(N: int, m: int, K: int) -> int:
+    """Multiply-adds of one :func:`rhs_core` evaluation of one case in its modal loops
+    (everything that scales with the mode count ``m``), per column (blade):
+
+    - ``3 m``: ``y = p_aero^T q``, ``y' = p_aero^T q'``, ``p_exc^T q'``;
+    - ``3 m^2 + 5 m``: the ``K_R`` rows (``A1``, ``A1^T`` on ``w``: ``2 m^2``; ``2 A1`` on
+      ``q'`` for the damping power: ``m^2``; ``A0``, nozzle, Van der Pol, power: ``5 m``);
+    - ``18 K m``: per contact kind, ``A`` and ``B`` of ``q`` and ``q'`` in 3 directions
+      (``12 m``) and the forces back to the modes (``6 m``).
+
+    The contact laws themselves (~60 flops, 2 square roots, 2 divisions and an ``exp`` per
+    contact) are not counted: a lower bound of the work.
+    """
+    return N * (3 * m * m + 8 * m + 18 * K * m)
+
+
 def attach(ts, f, context: Context) -> None:
     """Register the compiled RHS (residual Vec ``f``) and sampling monitor on ``ts``.
 
