@@ -174,6 +174,22 @@ def test_compiled_and_python_callbacks_agree(small_model, small_cfg):
     np.testing.assert_allclose(a.max_tip_amplitude, b.max_tip_amplitude, rtol=1e-9)
 
 
+def test_batch_refuses_cases_that_differ_beyond_contact_angles(small_model, small_cfg):
+    """A batch shares every force parameter but the contact frames and stiffnesses (the
+    context takes them from its first case): other differences are refused, not ignored."""
+    from wheelrom import rhs
+    from wheelrom.forces import ForceModel
+
+    def context(cases):
+        return rhs.Context(cases, small_model, 0.0, 1e-4, 1.0, 4)
+
+    base = ForceModel(small_model, small_cfg, {"shroud": 20.0})
+    assert context([base, ForceModel(small_model, small_cfg, {"shroud": 60.0})]).B == 2
+    louder = small_cfg.replace(**{"excitation.force": 2.0 * small_cfg.excitation.force + 1.0})
+    with pytest.raises(ValueError, match="differ only in contact angles"):
+        context([base, ForceModel(small_model, louder, {"shroud": 20.0})])
+
+
 def test_noop_integrator_steps_and_leaves_the_state_alone(small_model, small_cfg):
     """`wheelrom bench`'s floor (PETSc's integrator with a no-op right-hand side) must be the
     configured TS really stepping, with the real kernel and sampling detached: the steps are

@@ -103,7 +103,8 @@ def integrator_microseconds(problem: WheelProblem, cfg: Config, steps: int = 200
         best = min(best, time.perf_counter() - t0)
         if ts.getStepNumber() != steps:
             raise RuntimeError(f"no-op TS run stopped after {ts.getStepNumber()} of {steps}")
-    ts.destroy()
+    for obj in (ts, f, u):
+        obj.destroy()
     return best / steps * 1e6
 
 

@@ -256,22 +256,19 @@ def diagonal_basis(A0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return P, lam
 
 
+def _shared(f) -> tuple:
+    """What :class:`Context` takes from the first case for the whole batch."""
+    c = f.contacts
+    return (f.N, f.m, c.kinds, f.vdp_model, f.stator_vanes, f.omega, f.nozzle_force, f.vdp_mu,
+            f.vdp_r, f.friction, f.p_exc, f.p_aero, f.nozzle_phase, f.R, c.preload, c.arm,
+            c.XA, c.XB, c.A0, c.B0)  # fmt: skip
+
+
 def _check_batchable(forces) -> None:
     """Cases of a batch share everything but the contact frames and stiffnesses."""
-    first = forces[0]
+    first = _shared(forces[0])
     for f in forces[1:]:
-        same = (
-            f.N == first.N and f.m == first.m and f.contacts.kinds == first.contacts.kinds
-            and f.vdp_model == first.vdp_model and f.stator_vanes == first.stator_vanes
-            and (f.omega, f.nozzle_force, f.vdp_mu, f.vdp_r)
-            == (first.omega, first.nozzle_force, first.vdp_mu, first.vdp_r)
-            and np.array_equal(f.friction, first.friction)
-            and np.array_equal(f.p_exc, first.p_exc) and np.array_equal(f.p_aero, first.p_aero)
-            and np.array_equal(f.contacts.preload, first.contacts.preload)
-            and np.array_equal(f.contacts.arm, first.contacts.arm)
-            and np.array_equal(f.contacts.XA, first.contacts.XA)
-        )  # fmt: skip
-        if not same:
+        if not all(np.array_equal(a, b) for a, b in zip(_shared(f), first, strict=True)):
             raise ValueError("cases of one batch may differ only in contact angles and stiffnesses")
 
 
