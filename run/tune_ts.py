@@ -2,7 +2,7 @@
 """Scripted TS option tuning: one model, many PETSc TS settings, accuracy against wall time.
 
 Builds the reduced model once (library API), runs the same case with each TS setting through
-``wheelrom.transient.run_case(model, cfg, options=...)``, and compares the final blade-tip
+``wheelrom.transient.run.run_case(model, cfg, options=...)``, and compares the final blade-tip
 displacements of every blade with a fine-step reference (RK 5dp at a quarter of the step).
 This is also the work-precision study of ``docs/performance.md``.
 
@@ -17,12 +17,17 @@ import json
 import sys
 import time
 
-import numpy as np
+from wheelrom._environment import bootstrap
 
-import wheelrom  # noqa: F401  (environment bootstrap)
-from wheelrom import config
-from wheelrom.cyclic import build_model
-from wheelrom.transient import run_case
+bootstrap()  # before numpy's BLAS loads: one thread per process
+
+import numpy as np  # noqa: E402
+
+from wheelrom import config  # noqa: E402
+from wheelrom._environment import petsc  # noqa: E402
+from wheelrom.rom.build import build_model, quiet  # noqa: E402
+from wheelrom.transient.run import run_case  # noqa: E402
+from wheelrom.transient.ts import time_step  # noqa: E402
 
 
 def settings(step: float) -> list[tuple[str, dict]]:
@@ -52,17 +57,17 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     cfg = config.load(args.config, args.overrides)
     cfg = cfg.replace(**{"time.end": args.end, "time.window": args.end})
-    model = build_model(cfg, log=None if args.json else print)
-    run_case(model, cfg.replace(**{"time.end": 20 * cfg.time.step,
-                                   "time.window": 20 * cfg.time.step}))  # fmt: skip
-    reference = run_case(model, cfg, options={"ts_rk_type": "5dp", "ts_dt": cfg.time.step / 4})
+    model = build_model(cfg, petsc().COMM_SELF, log=quiet if args.json else print)
+    step = time_step(cfg)  # the TS's step: -wheel_ts_dt overrides time.step
+    run_case(model, cfg.replace(**{"time.end": 20 * step, "time.window": 20 * step}))
+    reference = run_case(model, cfg, options={"ts_rk_type": "5dp", "ts_dt": step / 4})
     if reference.status != "done":
         print(f"reference run failed: {reference.status}", file=sys.stderr)
         return 1
     tip_ref = final_tip(model, reference)
     scale = float(np.abs(tip_ref).max())
     rows = []
-    for label, opts in settings(cfg.time.step):
+    for label, opts in settings(step):
         t0 = time.perf_counter()
         res = run_case(model, cfg, options=opts)
         wall = time.perf_counter() - t0

@@ -16,12 +16,16 @@ import json
 import sys
 import time
 
-import numpy as np
+from wheelrom._environment import bootstrap
 
-import wheelrom  # noqa: F401
-from wheelrom import config, fullwheel, mesh
-from wheelrom._environment import petsc
-from wheelrom.prestress import segment_matrices
+bootstrap()  # before numpy's BLAS loads: one thread per rank
+
+import numpy as np  # noqa: E402
+
+from wheelrom import config  # noqa: E402
+from wheelrom._environment import petsc  # noqa: E402
+from wheelrom.rom import references  # noqa: E402
+from wheelrom.rom.build import build_segment  # noqa: E402
 
 
 def main(argv=None) -> int:
@@ -34,16 +38,16 @@ def main(argv=None) -> int:
     PETSc = petsc()
     comm = PETSc.COMM_WORLD
     cfg = config.load(args.config, args.overrides)
-    seg = mesh.build_builtin(cfg)
-    mats = segment_matrices(cfg, seg, PETSc.COMM_SELF)
+    segment = build_segment(cfg, PETSc.COMM_SELF)  # the matrices the model is built from
+    seg, mats = segment.mesh, segment.matrices
     c1, N, fam = cfg.wheel.coupling_stiffness, seg.sectors, args.families
     t0 = time.perf_counter()
-    assembled = np.sort(fullwheel.assembled_wheel_modes(seg, mats, c1, fam * N, comm))
+    assembled = np.sort(references.assembled_wheel_modes(seg, mats, c1, fam * N, comm))
     wall_a = time.perf_counter() - t0
     if comm.getRank() != 0:
         return 0
     t0 = time.perf_counter()
-    table = fullwheel.cyclic_table(seg, mats, c1, fam, PETSc.COMM_SELF)
+    table = references.cyclic_table(seg, mats, c1, fam, PETSc.COMM_SELF)
     wall_b = time.perf_counter() - t0
     cyclic = np.sort(np.concatenate(
         [table[k] if k in (0, N / 2) else np.repeat(table[k], 2) for k in range(N // 2 + 1)]

@@ -4,11 +4,20 @@ import os
 
 import pytest
 
-import wheelrom  # noqa: F401  (environment bootstrap before numpy/petsc)
+from wheelrom._environment import bootstrap
 
+bootstrap()  # PETSc location and one BLAS thread per process, before numpy loads
 os.environ.setdefault("MPLBACKEND", "Agg")
 HERE = os.path.dirname(__file__)
 SMALL = os.path.join(HERE, "data", "small.toml")
+
+
+@pytest.fixture(scope="session")
+def comm():
+    """``PETSc.COMM_SELF``: the communicator of serial builds."""
+    from wheelrom._environment import petsc
+
+    return petsc().COMM_SELF
 
 
 @pytest.fixture(scope="session")
@@ -20,19 +29,20 @@ def coarse_cfg():
 
 @pytest.fixture(scope="session")
 def coarse_segment(coarse_cfg):
-    from wheelrom import assembly, mesh
+    """The coarse built-in segment with its standstill matrices (no prestress)."""
+    from wheelrom.segment import assembly, builtin
 
-    seg = mesh.build_builtin(coarse_cfg)
+    seg = builtin.build_builtin(coarse_cfg)
     mats = assembly.assemble(seg, 2.1e11, 0.3, 7850.0)
     return seg, mats
 
 
 @pytest.fixture(scope="session")
-def coarse_model(coarse_cfg):
+def coarse_model(coarse_cfg, comm):
     """66 blades x 10 modes on the coarse segment (the paper's ROM size)."""
-    from wheelrom import cyclic
+    from wheelrom.rom.build import build_model
 
-    return cyclic.build_model(coarse_cfg)
+    return build_model(coarse_cfg, comm)
 
 
 @pytest.fixture(scope="session")
@@ -43,7 +53,7 @@ def small_cfg():
 
 
 @pytest.fixture(scope="session")
-def small_model(small_cfg):
-    from wheelrom import cyclic
+def small_model(small_cfg, comm):
+    from wheelrom.rom.build import build_model
 
-    return cyclic.build_model(small_cfg)
+    return build_model(small_cfg, comm)

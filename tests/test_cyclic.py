@@ -3,7 +3,10 @@
 import numpy as np
 import pytest
 
-from wheelrom import cyclic
+from wheelrom._environment import petsc
+from wheelrom.rom import model as rom
+
+SELF = petsc().COMM_SELF  # serial builds
 
 
 def test_reduced_stiffness_symmetric_and_block_circulant(coarse_model):
@@ -15,7 +18,7 @@ def test_reduced_stiffness_symmetric_and_block_circulant(coarse_model):
 
 
 def test_petsc_baij_matches_dense(coarse_model):
-    A = coarse_model.petsc_stiffness()
+    A = coarse_model.petsc_stiffness(SELF)
     assert A.getType() == "seqbaij" and A.getBlockSize() == coarse_model.modes
     x, y = A.createVecs()
     rng = np.random.default_rng(1)
@@ -27,13 +30,13 @@ def test_petsc_baij_matches_dense(coarse_model):
 
 
 def test_uncoupled_wheel_repeats_segment_frequencies(coarse_cfg, coarse_segment):
-    from wheelrom import modes
+    from wheelrom.segment import modes
 
     seg, mats = coarse_segment
     cfg = coarse_cfg.replace(**{"wheel.coupling_stiffness": 0.0, "wheel.blades": 66})
-    eig = modes.segment_modes(mats, 4)
-    model = cyclic.reduce(seg, eig.vectors, np.diag(eig.eigenvalues), cfg)
-    hz, nd, kind = cyclic.wheel_modes(model)
+    eig = modes.segment_modes(mats, 4, SELF)
+    model = rom.reduce(seg, eig.vectors, np.diag(eig.eigenvalues), cfg)
+    hz, nd, kind = rom.wheel_modes(model)
     expect = np.repeat(eig.frequencies_hz, 66)
     np.testing.assert_allclose(hz, expect, rtol=1e-10)
 
@@ -51,7 +54,7 @@ def test_rigid_rotation_gives_zero_spring_gap(coarse_segment):
 
 
 def test_nodal_diameters_of_wheel_modes(coarse_model):
-    hz, nd, kind = cyclic.wheel_modes(coarse_model)
+    hz, nd, kind = rom.wheel_modes(coarse_model)
     table = coarse_model.frequencies_by_nodal_diameter()
     for k in (0, 2, 5, 33):
         f = table[k, 0]

@@ -5,8 +5,15 @@ import math
 import numpy as np
 import pytest
 
-from wheelrom import config, forces
-from wheelrom.cyclic import ReducedModel
+from wheelrom import config
+from wheelrom.forces.parameters import OPEN, contact_frame, force_parameters
+from wheelrom.forces.reference import ReferenceForces
+from wheelrom.rom.model import ReducedModel
+
+
+def _forces(model, cfg, angles=None):
+    """The reference force model of ``cfg`` on ``model``."""
+    return ReferenceForces(force_parameters(model, cfg, angles))
 
 
 def _all_off(cfg):
@@ -22,7 +29,7 @@ def _all_off(cfg):
 
 def test_nozzle_contains_only_nodal_diameter_N_minus_ns(coarse_model, coarse_cfg):
     cfg = _all_off(coarse_cfg).replace(**{"excitation.force": 50.0})
-    fm = forces.ForceModel(coarse_model, cfg)
+    fm = _forces(coarse_model, cfg)
     N, m = coarse_model.blades, coarse_model.modes
     t = 1.234e-3
     f = fm.evaluate(t, np.zeros((N, m)), np.zeros((N, m))).copy()
@@ -40,7 +47,7 @@ def test_nozzle_contains_only_nodal_diameter_N_minus_ns(coarse_model, coarse_cfg
 @pytest.mark.parametrize("model", ["absolute", "relative"])
 def test_van_der_pol_power_sign(coarse_model, coarse_cfg, model):
     cfg = _all_off(coarse_cfg).replace(**{"flutter.model": model})
-    fm = forces.ForceModel(coarse_model, cfg)
+    fm = _forces(coarse_model, cfg)
     N, m = coarse_model.blades, coarse_model.modes
     p = coarse_model.aero
     rng = np.random.default_rng(3)
@@ -56,7 +63,7 @@ def test_van_der_pol_power_sign(coarse_model, coarse_cfg, model):
 
 def test_relative_van_der_pol_is_internal(coarse_model, coarse_cfg):
     cfg = _all_off(coarse_cfg).replace(**{"flutter.model": "relative"})
-    fm = forces.ForceModel(coarse_model, cfg)
+    fm = _forces(coarse_model, cfg)
     rng = np.random.default_rng(4)
     q, v = rng.normal(size=(2, coarse_model.blades, coarse_model.modes)) * 1e-3
     f = fm.evaluate(0.0, q, v)
@@ -67,7 +74,7 @@ def test_relative_van_der_pol_is_internal(coarse_model, coarse_cfg):
 
 def test_contacts_at_rest_carry_preload_without_friction(coarse_model, coarse_cfg):
     cfg = coarse_cfg.replace(**{"flutter.model": "off", "excitation.force": 0.0})
-    fm = forces.ForceModel(coarse_model, cfg)
+    fm = _forces(coarse_model, cfg)
     z = np.zeros((coarse_model.blades, coarse_model.modes))
     fm.evaluate(0.0, z, z)
     np.testing.assert_allclose(fm.normal_force, 400.0)
@@ -76,10 +83,11 @@ def test_contacts_at_rest_carry_preload_without_friction(coarse_model, coarse_cf
 
 def _point_model(N=8, kind="shroud", H=2.0, l=0.03):
     """A one-'mode' model whose shapes are prescribed point motions (for kinematics)."""
-    from wheelrom.mesh import _arm_geometry, rotation_z
+    from wheelrom.segment.builtin import arm_geometry
+    from wheelrom.segment.mesh import rotation_z
 
     phi = 2 * math.pi / N
-    alpha, A, B = _arm_geometry(H, l, phi)
+    alpha, A, B = arm_geometry(H, l, phi)
     model = ReducedModel(
         blades=N,
         modes=3,
@@ -115,7 +123,7 @@ def test_rigid_wheel_rotation_gives_no_relative_displacement():
     ez = np.array([0.0, 0.0, 1.0])
     model.contact_A["shroud"] = np.column_stack([theta * np.cross(ez, A), np.zeros(3), np.zeros(3)])
     model.contact_B["shroud"] = np.column_stack([theta * np.cross(ez, B), np.zeros(3), np.zeros(3)])
-    fm = forces.ForceModel(model, cfg)
+    fm = _forces(model, cfg)
     q = np.zeros((8, 3))
     q[:, 0] = 1.0
     fm.evaluate(0.0, q, q)
@@ -126,16 +134,16 @@ def test_rigid_wheel_rotation_gives_no_relative_displacement():
 
 def test_separation_opens_contact():
     model, cfg, A, B = _point_model()
-    fm = forces.ForceModel(model, cfg)
-    k = fm.contacts.k[0, 0]
-    eta = forces.contact_frame(cfg.contacts.shroud.angle_deg)[1]
+    fm = _forces(model, cfg)
+    k = fm.params.contacts.stiffness[0, 0]
+    eta = contact_frame(cfg.contacts.shroud.angle_deg)[1]
     q = np.zeros((8, 3))
     v = np.zeros((8, 3))
     R = model.rotation
     q[1] = R.T @ eta * (1.5 * 400.0 / k)  # A_1 moves along +eta (sector 0 frame)
     v[1] = R.T @ np.array([0.0, -np.sin(0.3), np.cos(0.3)]) * 0.1
     fm.evaluate(0.0, q, v)
-    assert fm.normal_force[0, 0] == 0.0 and fm.contact_state[0, 0] == forces.OPEN
+    assert fm.normal_force[0, 0] == 0.0 and fm.contact_state[0, 0] == OPEN
     q[1] *= 0.5 / 1.5  # closed again: F_n = F_N0 - k g
     fm.evaluate(0.0, q, v)
     assert fm.normal_force[0, 0] == pytest.approx(400.0 - k * 0.5 * 400.0 / k)
@@ -147,7 +155,7 @@ def test_arm_transfer_preserves_force_and_moment_about_A():
     model.contact_A["shroud"] = np.hstack([np.eye(3), np.zeros((3, 3))])
     model.contact_B["shroud"] = np.hstack([np.zeros((3, 3)), np.eye(3)])
     model.modes = 6
-    fm = forces.ForceModel(model, cfg)
+    fm = _forces(model, cfg)
     rng = np.random.default_rng(7)
     q = rng.normal(size=(8, 6)) * 1e-8
     v = rng.normal(size=(8, 6)) * 1e-1
@@ -156,7 +164,7 @@ def test_arm_transfer_preserves_force_and_moment_about_A():
     FA, FB = f[0, :3], f[0, 3:]
     # contact force on A_1 in sector 0 frame = R (own-frame force of blade 1 at A) minus the
     # part blade 1 gets as an arm owner (its own arm to blade 2) -> isolate blade 0's arm:
-    T = fm.contacts.T[0, 0]
+    T = fm.params.contacts.frame[0, 0]
     ul = fm.relative_displacement[0, 0]
     vl = fm.relative_velocity[0, 0]
     Fn = fm.normal_force[0, 0]
@@ -166,9 +174,9 @@ def test_arm_transfer_preserves_force_and_moment_about_A():
     )
     Fl = np.array([-coef * Fn * vl[0] / vt, Fn, -coef * Fn * vl[2] / vt])
     F = T.T @ Fl
-    assert Fn == pytest.approx(400.0 - fm.contacts.k[0, 0] * ul[1])
+    assert Fn == pytest.approx(400.0 - fm.params.contacts.stiffness[0, 0] * ul[1])
     # blade 0 also receives the contact force of blade 7's arm at its own A
-    Tp = fm.contacts.T[0, 7]
+    Tp = fm.params.contacts.frame[0, 7]
     vlp = fm.relative_velocity[0, 7]
     Fnp = fm.normal_force[0, 7]
     vtp = math.hypot(vlp[0], vlp[2])
@@ -189,7 +197,7 @@ def test_arm_transfer_preserves_force_and_moment_about_A():
 
 def test_friction_power_never_positive(coarse_model, coarse_cfg):
     cfg = coarse_cfg.replace(**{"flutter.model": "off", "excitation.force": 0.0})
-    fm = forces.ForceModel(coarse_model, cfg)
+    fm = _forces(coarse_model, cfg)
     rng = np.random.default_rng(11)
     for _ in range(50):
         q = rng.normal(size=(coarse_model.blades, coarse_model.modes)) * 1e-5
@@ -198,30 +206,56 @@ def test_friction_power_never_positive(coarse_model, coarse_cfg):
         assert fm.power[2] <= 0.0
 
 
-def test_friction_law_continuous_at_vk_and_tends_to_dynamic():
-    def mu(v, fs=0.6, fd=0.4, d=2.0, vk=0.6):
-        return fs * v / vk if v <= vk else fd + (fs - fd) * math.exp(-d * (v - vk))
+def _slip_power(implementation, model, cfg, speed):
+    """Friction power [W] and the slip speeds and normal forces of contacts 0 and 1 when
+    blade 1 slides at ``speed`` [m/s] along the tangent xi of contact 0 (it slips against
+    arm 0's end and, carrying its own arm 1 along, against blade 2), from the reference
+    force model or the compiled kernel."""
+    from wheelrom._environment import petsc
+    from wheelrom.transient import bridge
+    from wheelrom.transient.problem import WheelProblem
 
-    assert mu(0.6 - 1e-12) == pytest.approx(mu(0.6 + 1e-12), abs=1e-10)
-    assert mu(50.0) == pytest.approx(0.4, abs=1e-12)
+    params = force_parameters(model, cfg)
+    N, m = model.blades, model.modes
+    q, v = np.zeros((N, m)), np.zeros((N, m))
+    v[1] = model.rotation.T @ (params.contacts.frame[0, 0].T @ np.array([speed, 0.0, 0.0]))
+    reference = ReferenceForces(params)
+    reference.evaluate(0.0, q, v)
+    slip, normal = reference.slip_velocity[0, :2], reference.normal_force[0, :2]
+    if implementation == "reference":
+        return reference.power[2], slip, normal
+    problem = WheelProblem(model, cfg, [params], petsc().COMM_SELF)
+    state = np.concatenate([q.ravel(), v.ravel(), np.zeros(4)])
+    return bridge.evaluate(problem.context, 0.0, state)[2 * N * m + 2], slip, normal
+
+
+@pytest.mark.parametrize("implementation", ["reference", "compiled"])
+def test_friction_law_continuous_at_vk_and_tends_to_dynamic(implementation):
+    """The friction power the implementation produces against the law of docs/theory.md
+    (f_s = 0.6, f_d = 0.4, d = 2 s/m, v_k = 0.6 m/s): micro-slip f_s v / v_k below v_k,
+    f_d + (f_s - f_d) exp(-d (v - v_k)) above; continuous across v_k, f_d far above."""
     model, cfg, A, B = _point_model()
-    fm = forces.ForceModel(model, cfg)
-    q = np.zeros((8, 3))
-    T = fm.contacts.T[0, 0]
-    for speed in (0.3, 0.6, 2.0, 40.0):
-        v = np.zeros((8, 3))
-        v[1] = model.rotation.T @ (T.T @ np.array([speed, 0.0, 0.0]))
-        fm.evaluate(0.0, q, v)
-        # blade 1 slips against arm 0's end and, carrying arm 1 along, against blade 2
-        assert fm.slip_velocity[0, 0] == pytest.approx(speed)
-        s1, fn = fm.slip_velocity[0, 1], fm.normal_force[0]
-        expect = -mu(speed) * fn[0] * speed - mu(s1) * fn[1] * s1
-        assert fm.power[2] == pytest.approx(expect, rel=1e-9)
+
+    def law(v):
+        return 0.6 * v / 0.6 if v <= 0.6 else 0.4 + 0.2 * math.exp(-2.0 * (v - 0.6))
+
+    powers = {}
+    for speed in (0.3, 0.6 * (1 - 1e-9), 0.6 * (1 + 1e-9), 2.0, 40.0):
+        power, slip, normal = _slip_power(implementation, model, cfg, speed)
+        assert slip[0] == pytest.approx(speed, rel=1e-12) and slip[1] > 0
+        expected = -sum(law(v) * fn * v for v, fn in zip(slip, normal, strict=True))
+        assert power == pytest.approx(expected, rel=1e-9)
+        powers[speed] = power
+    below, above = powers[0.6 * (1 - 1e-9)], powers[0.6 * (1 + 1e-9)]
+    assert abs(below - above) < 1e-8 * abs(below)  # no jump at v_k
+    _, slip, normal = _slip_power(implementation, model, cfg, 40.0)
+    friction_0 = -powers[40.0] - law(slip[1]) * normal[1] * slip[1]
+    assert friction_0 / (normal[0] * slip[0]) == pytest.approx(0.4, rel=1e-9)
 
 
 def test_relative_velocity_is_derivative_of_relative_displacement(coarse_model, coarse_cfg):
     cfg = coarse_cfg.replace(**{"flutter.model": "off", "excitation.force": 0.0})
-    fm = forces.ForceModel(coarse_model, cfg)
+    fm = _forces(coarse_model, cfg)
     rng = np.random.default_rng(5)
     q = rng.normal(size=(coarse_model.blades, coarse_model.modes)) * 1e-3
     v = rng.normal(size=q.shape)

@@ -3,8 +3,12 @@
 import numpy as np
 import pytest
 
-from wheelrom import fullwheel, mesh
-from wheelrom.prestress import segment_matrices
+from wheelrom._environment import petsc
+from wheelrom.rom import references
+from wheelrom.rom.build import build, build_model, build_segment
+from wheelrom.segment import mesh
+
+SELF = petsc().COMM_SELF  # serial builds
 
 
 def small_model_nd5_hz(model):
@@ -13,10 +17,10 @@ def small_model_nd5_hz(model):
 
 
 def test_reduced_model_is_an_upper_bound_of_the_cyclic_fe(small_cfg, small_model):
-    seg = mesh.build_builtin(small_cfg)
-    mats = segment_matrices(small_cfg, seg)
+    segment = build_segment(small_cfg, SELF)
+    seg, mats = segment.mesh, segment.matrices
     m = small_model.modes
-    fe = fullwheel.cyclic_table(seg, mats, small_cfg.wheel.coupling_stiffness, m)
+    fe = references.cyclic_table(seg, mats, small_cfg.wheel.coupling_stiffness, m, SELF)
     rom = small_model.frequencies_by_nodal_diameter()
     assert fe.shape == rom.shape == (small_cfg.wheel.blades // 2 + 1, m)
     # Ritz projection of the same FE for every phase: never below, family by family
@@ -30,15 +34,13 @@ def test_reduced_model_is_an_upper_bound_of_the_cyclic_fe(small_cfg, small_model
 def test_enriched_basis_reaches_one_percent_on_two_families(small_cfg):
     """Free modes + the two lowest sector modes of ND 0, N/8, N/4, N/2: those are exact and
     the first two families within 1 % (the free basis alone misses the second by ~2 %)."""
-    from wheelrom import cyclic
-
     cfg = small_cfg.replace(**{"wheel.basis": "enriched"})  # 6 modes per part
-    model = cyclic.build_model(cfg)
+    model = build_model(cfg, SELF)
     # m + 2 (ND 0) + 4 (ND 2, complex) + 4 (ND 3) + 2 (ND 6) = 18, dependent ones dropped
     assert 16 <= model.modes <= 18
-    seg = mesh.build_builtin(cfg)
-    mats = segment_matrices(cfg, seg)
-    fe = fullwheel.cyclic_table(seg, mats, cfg.wheel.coupling_stiffness, 4)
+    segment = build_segment(cfg, SELF)
+    fe = references.cyclic_table(segment.mesh, segment.matrices, cfg.wheel.coupling_stiffness, 4,
+                                 SELF)
     rom = model.frequencies_by_nodal_diameter()[:, :4]
     assert np.all(rom >= fe * (1 - 1e-7))
     err = rom / fe - 1
@@ -50,12 +52,12 @@ def test_enriched_basis_reaches_one_percent_on_two_families(small_cfg):
 def test_wheel_mode_vtu_has_the_nodal_diameter_and_a_continuous_cut(small_cfg, tmp_path):
     import meshio
 
-    from wheelrom import cyclic, wheelmesh
+    from wheelrom.rom import wheelmesh
 
-    model = cyclic.build_model(small_cfg, keep_segment=True)
-    seg, N = model.segment, model.blades
+    wheel = build(small_cfg, SELF)
+    model, seg, N = wheel.model, wheel.segment.mesh, wheel.model.blades
     path = tmp_path / "nd5.vtu"
-    hz = wheelmesh.write_wheel_mode(str(path), seg, model.shapes, model, nd=5)
+    hz = wheelmesh.write_wheel_mode(str(path), seg, wheel.shapes, model, nd=5)
     out = meshio.read(path)
     n_nodes = seg.nodes.shape[0]
     assert out.points.shape == (N * n_nodes, 3)

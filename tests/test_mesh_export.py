@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from wheelrom.mesh_export import write_segment
+from wheelrom.segment.export import write_segment
 
 
 def test_inp_round_trip_nodes_elements_and_sets(coarse_cfg, coarse_segment, tmp_path):

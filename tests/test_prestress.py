@@ -6,7 +6,10 @@ import numpy as np
 import pytest
 from skfem import MeshHex
 
-from wheelrom import assembly, mesh, modes, prestress
+from wheelrom._environment import petsc
+from wheelrom.segment import assembly, mesh, modes, prestress
+
+SELF = petsc().COMM_SELF  # serial builds
 
 E, NU, RHO = 2.1e11, 0.3, 7850.0
 
@@ -19,16 +22,16 @@ def radial_bar():
     m = MeshHex.init_tensor(
         np.linspace(0, L, 21), np.linspace(-b / 2, b / 2, 3), np.linspace(-h / 2, h / 2, 3)
     )
-    seg = mesh._with_edges(m, "hex20", {"clamped": np.flatnonzero(m.p[0] < 1e-12)}, {}, 1)
+    seg = mesh.with_edges(m, {"clamped": np.flatnonzero(m.p[0] < 1e-12)}, {}, 1)
     return seg, assembly.assemble(seg, E, NU, RHO)
 
 
 def _omegas(seg, mats, rpm):
     Om = rpm * 2 * math.pi / 60
-    ps = prestress.prestress(seg, mats, E, NU, RHO, Om, 0.0)
+    ps = prestress.prestress(seg, mats, E, NU, RHO, Om, 0.0, SELF)
     assert ps.residual < 1e-9
     return Om, 2 * math.pi * modes.lowest_modes(
-        ps.stiffness(mats), mats.M, 2, prefix="bar_"
+        ps.stiffness(mats), mats.M, 2, SELF, prefix="bar_"
     ).frequencies_hz
 
 
@@ -44,18 +47,18 @@ def test_rotating_cantilever_follows_southwell(radial_bar):
 
 
 def test_stiffening_is_monotonic_and_off_means_standstill(coarse_cfg):
-    from wheelrom import cyclic
+    from wheelrom.rom.build import build_model
 
     base = coarse_cfg.replace(**{"wheel.modes_per_segment": 4})
-    still = cyclic.build_model(base.replace(**{"segment.prestress": False}))
+    still = build_model(base.replace(**{"segment.prestress": False}), SELF)
     hz = [still.segment_hz]
     for speed in (25.0, 50.0):
-        model = cyclic.build_model(base.replace(**{"segment.prestress": True,
-                                                   "wheel.speed_hz": speed}))  # fmt: skip
+        model = build_model(base.replace(**{"segment.prestress": True,
+                                            "wheel.speed_hz": speed}), SELF)  # fmt: skip
         hz.append(model.segment_hz)
     hz = np.array(hz)
     assert np.all(np.diff(hz[:, :2], axis=0) > 0)  # blade-dominated modes stiffen with speed
     # prestress = false: exactly the standstill modes (speed does not matter)
-    other = cyclic.build_model(base.replace(**{"segment.prestress": False, "wheel.speed_hz": 7.0}))
+    other = build_model(base.replace(**{"segment.prestress": False, "wheel.speed_hz": 7.0}), SELF)
     np.testing.assert_array_equal(other.segment_hz, still.segment_hz)
     np.testing.assert_array_equal(other.A0, still.A0)

@@ -6,7 +6,12 @@ import numpy as np
 import pytest
 from skfem import MeshHex
 
-from wheelrom import assembly, mesh, stiffness
+from wheelrom import config
+from wheelrom._environment import petsc
+from wheelrom.segment import assembly, mesh
+from wheelrom.segment import contact_stiffness as stiffness
+
+SELF = petsc().COMM_SELF  # serial builds
 
 
 def _bar_with_tip_points(L, b, h, n):
@@ -17,7 +22,7 @@ def _bar_with_tip_points(L, b, h, n):
     tip = np.flatnonzero(np.linalg.norm(m.p.T - [L, 0, 0], axis=1) < 1e-12)
     mid = np.flatnonzero(np.linalg.norm(m.p.T - [L / 2, 0, 0], axis=1) < 1e-12)
     sets = {"clamped": clamped, "bar_A": mid, "bar_B": tip}
-    return mesh._with_edges(m, "hex20", sets, {}, sectors=1)
+    return mesh.with_edges(m, sets, {}, sectors=1)
 
 
 def test_flexibility_of_a_cantilever_matches_beam_theory():
@@ -25,7 +30,7 @@ def test_flexibility_of_a_cantilever_matches_beam_theory():
     seg = _bar_with_tip_points(L, b, h, 40)
     mats = assembly.assemble(seg, E, nu, 7850.0)
     radius = {"bar": 0.6 * math.hypot(b, h)}  # the whole end face / mid section
-    flex = stiffness.flexibility(seg, mats, ["bar"], {"bar": 0.1}, radius)["bar"]
+    flex = stiffness.flexibility(seg, mats, ["bar"], {"bar": 0.1}, radius, SELF)["bar"]
     G = flex.G
     Iz, Iy = b * h**3 / 12, h * b**3 / 12  # bending about y (deflection z) / about z
     # tip (B) under a tip load, Euler-Bernoulli L^3 / 3EI; mid (A) under a tip load
@@ -40,7 +45,7 @@ def test_flexibility_of_a_cantilever_matches_beam_theory():
 
 def test_contact_stiffness_composition_in_series(coarse_cfg, coarse_segment):
     seg, mats = coarse_segment
-    tables = stiffness.stiffness_tables(coarse_cfg, seg, mats, ["shroud"])
+    tables = stiffness.stiffness_tables(coarse_cfg, seg, mats, ["shroud"], SELF)
     angles, k, flex = tables["shroud"]
     assert angles[0] == 0 and angles[-1] == 90
     assert np.all(np.isfinite(k)) and np.all(k > 0)
@@ -66,15 +71,40 @@ def test_contact_stiffness_composition_in_series(coarse_cfg, coarse_segment):
 
 
 def test_fe_stiffness_reaches_the_force_model(coarse_cfg):
-    from wheelrom import cyclic
-    from wheelrom.forces import ForceModel
+    from wheelrom.forces.parameters import force_parameters
+    from wheelrom.rom.build import build_model
 
     cfg = coarse_cfg.replace(**{"contacts.shroud.stiffness": "fe", "wheel.modes_per_segment": 4})
-    model = cyclic.build_model(cfg)
+    model = build_model(cfg, SELF)
     table = model.contact_stiffness["shroud"]
     assert "tieboss" not in model.contact_stiffness  # that kind keeps its number
-    fm = ForceModel(model, cfg, {"shroud": 42.5})
-    i = fm.contacts.kinds.index("shroud")
+    contacts = force_parameters(model, cfg, {"shroud": 42.5}).contacts
+    i = contacts.kinds.index("shroud")
     k40, k45 = table[8, 1], table[9, 1]
-    assert fm.contacts.k[i, 0] == pytest.approx(math.exp(0.5 * (math.log(k40) + math.log(k45))))
-    assert fm.contacts.k[fm.contacts.kinds.index("tieboss"), 0] == cfg.contacts.tieboss.stiffness
+    assert contacts.stiffness[i, 0] == pytest.approx(
+        math.exp(0.5 * (math.log(k40) + math.log(k45))))
+    assert contacts.stiffness[contacts.kinds.index("tieboss"), 0] == (
+        cfg.contacts.tieboss.stiffness)
+
+
+def test_contact_stiffness_command_prints_the_table_the_model_uses(capsys):
+    """The command and the model take k_c from the same (prestressed) segment matrices; the
+    standstill segment would give a different table (so this comparison can fail)."""
+    import json
+
+    from conftest import SMALL
+    from wheelrom import cli
+    from wheelrom.rom.build import build_model
+
+    sets = ["--set", 'contacts.shroud.stiffness="fe"', "--set", 'contacts.tieboss.stiffness="fe"']
+    assert cli.main(["contact-stiffness", SMALL, *sets, "--json"]) == 0
+    printed = json.loads(capsys.readouterr().out)
+    cfg = config.load(SMALL, [s for s in sets if s != "--set"])
+    model = build_model(cfg, SELF)
+    for kind in ("tieboss", "shroud"):
+        table = model.contact_stiffness[kind]
+        np.testing.assert_array_equal(printed[kind]["angle_deg"], table[:, 0])
+        np.testing.assert_allclose(printed[kind]["fe_stiffness_n_per_m"], table[:, 1], rtol=1e-12)
+    still = build_model(cfg.replace(**{"segment.prestress": False}), SELF)
+    assert np.abs(still.contact_stiffness["shroud"][:, 1] / model.contact_stiffness["shroud"][:, 1]
+                  - 1).max() > 1e-3

@@ -45,10 +45,21 @@ def test_tune_ts_script_orders_and_options(capsys, tmp_path):
     assert fig.stat().st_size > 1000
 
 
-@pytest.mark.parametrize("bad", [["--end", "-1"]])
-def test_tune_ts_rejects_bad_end(bad):
+@pytest.mark.parametrize("bad", [["--end", "-1"], ["--set", "time.step=0"]])
+def test_tune_ts_rejects_bad_input(bad):
     from wheelrom.config import ConfigError
 
     tune = _load_script("tune_ts")
     with pytest.raises(ConfigError):
         tune.main(bad)
+
+
+def test_validate_full_wheel_script_on_a_small_wheel(capsys):
+    """The validation script's two references (assembled wheel, exact cyclic symmetry) agree
+    on the 12-blade test wheel; its exit status says so."""
+    validate = _load_script("validate_full_wheel")
+    small = os.path.join(HERE, "data", "small.toml")
+    assert validate.main([small, "--families", "1"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["modes"] == 12 and out["ranks"] == 1
+    assert out["max_relative_difference"] < 1e-6

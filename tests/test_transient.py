@@ -5,23 +5,54 @@ import math
 import numpy as np
 import pytest
 
-from wheelrom import transient
+from wheelrom._environment import petsc
+from wheelrom.forces.parameters import OPEN, SLIP, STICK, force_parameters
+from wheelrom.transient import bridge, layout
+from wheelrom.transient.problem import WheelProblem, nd_amplitudes
+from wheelrom.transient.reference import BOGACKI_SHAMPINE, reference_solution, rk_step
+from wheelrom.transient.run import run_case, run_cases
+from wheelrom.transient.ts import make_ts, time_grid
+
+SELF = petsc().COMM_SELF
+
+
+def _problem(model, cfg, angles=(None,)):
+    return WheelProblem(model, cfg, [force_parameters(model, cfg, a) for a in angles], SELF)
 
 
 def test_petsc_ts_equals_serial_reference_all_forces_on(coarse_model, coarse_cfg):
     steps = 2000
     cfg = coarse_cfg.replace(**{"time.end": steps * 5e-6, "time.window": steps * 5e-6})
-    res = transient.run_case(coarse_model, cfg)
+    res = run_case(coarse_model, cfg)
     assert res.status == "done" and res.steps == steps
-    _, states, _ = transient.reference_solution(coarse_model, cfg, steps, sample_every=steps)
+    _, states, _ = reference_solution(coarse_model, cfg, steps, 5e-6, sample_every=steps)
     n = coarse_model.size
     ref, got = states[-1][: 2 * n], res.final_state[: 2 * n]
     assert np.abs(ref).max() > 0
     assert np.abs(got - ref).max() <= 1e-9 * np.abs(ref).max()
 
 
+def test_tableau_step_is_third_order_on_an_oscillator():
+    """The generic tableau step against the analytic solution of u'' = -u: the global error
+    falls by 2^3 when the step halves."""
+
+    def fun(t, u):
+        return np.array([u[1], -u[0]])
+
+    def error(h):
+        u = np.array([1.0, 0.0])
+        steps = int(round(2.0 / h))
+        for i in range(steps):
+            u = rk_step(fun, i * h, u, h, BOGACKI_SHAMPINE)
+        return abs(u[0] - math.cos(steps * h))
+
+    e1, e2 = error(0.02), error(0.01)
+    assert 7.0 < e1 / e2 < 9.0
+
+
 def test_linear_steady_state_matches_frequency_domain(small_model, small_cfg):
-    """Started on the frequency-domain steady state, the TS must stay on it."""
+    """Started on the frequency-domain steady state, the TS must stay on it; the ND spectrum
+    of that travelling wave reports the tip amplitude at its nodal diameter."""
     cfg = small_cfg.replace(
         **{
             "flutter.model": "off",
@@ -41,131 +72,210 @@ def test_linear_steady_state_matches_frequency_domain(small_model, small_cfg):
     F = (cfg.excitation.force * np.exp(-1j * phase)[:, None] * small_model.excitation).ravel()
     X = np.linalg.solve(K - w * w * np.eye(N * m) + 1j * w * cfg.wheel.damping_beta * K, F)
     u0 = np.concatenate([X.real, (1j * w * X).real])
-    res = transient.run_case(small_model, cfg, u0=u0)
+    res = run_case(small_model, cfg, u0=u0)
     t = res.sample_time
     expect = np.real(np.exp(1j * w * t)[:, None, None] * (X.reshape(N, m) @ small_model.tip.T))
     amp = np.abs(X.reshape(N, m) @ small_model.tip[1]).max()
     assert amp > 0
     assert np.abs(res.tip_history - expect).max() < 5e-3 * amp
+    nd = abs(N - cfg.wheel.stator_vanes)  # the nozzle's travelling wave
+    np.testing.assert_allclose(res.nd_spectrum[:, nd], amp, rtol=5e-3)
+    others = np.delete(res.nd_spectrum, nd, axis=1)
+    assert others.max() < 5e-3 * amp
 
 
-def _free_energy_drift(model, cfg, step):
-    cfg = cfg.replace(
-        **{
-            "time.step": step,
-            "time.end": 0.004,
-            "time.window": 0.004,
-            "output.sample_rate_hz": 1.0 / step,
-        }
-    )
+@pytest.mark.parametrize("nd", [0, 3, 6])
+def test_nd_amplitude_of_a_pure_wave_is_its_amplitude(nd):
+    """A travelling wave (or, at ND 0 and N/2, a standing pattern) of amplitude a reports a
+    at its nodal diameter and nothing elsewhere."""
+    N, a = 12, 2.5e-4
+    theta = 2 * np.pi * np.arange(N) / N
+    t = np.linspace(0.0, 1e-2, 7)[:, None]
+    wave = a * np.cos(nd * theta[None, :] - 2 * np.pi * 150.0 * t + 0.3)
+    spec = nd_amplitudes(wave)
+    assert spec.shape == (7, N // 2 + 1)
+    if nd in (0, N // 2):  # a standing pattern: its amplitude at the peak sample
+        assert spec[:, nd].max() <= a * (1 + 1e-12)
+    else:
+        np.testing.assert_allclose(spec[:, nd], a, rtol=1e-12)
+    assert np.delete(spec, nd, axis=1).max() < 1e-12 * a
+
+
+def _free_oscillation(model, cfg, step):
+    """The undamped, force-free wheel from a random velocity for 4 ms at ``step``."""
     forces_off = {
         "flutter.model": "off",
         "excitation.force": 0.0,
         "wheel.damping_beta": 0.0,
         "contacts.tieboss.enabled": False,
         "contacts.shroud.enabled": False,
+        "time.step": step,
+        "time.end": 0.004,
+        "time.window": 0.004,
+        "output.sample_rate_hz": 1.0 / step,
     }
     cfg = cfg.replace(**forces_off)
-    from wheelrom.forces import ForceModel
-
-    fm = ForceModel(model, cfg)
-    problem = transient.WheelProblem(model, cfg, fm)
     rng = np.random.default_rng(2)
-    u = np.zeros(problem.size())
-    u[problem.n : 2 * problem.n] = rng.normal(size=problem.n) * 1e-2
-    e0 = problem.energy(u)
-    t, h = 0.0, step
-    for _ in range(int(round(0.004 / step))):
-        k1 = problem.rhs_numpy(t, u)
-        k2 = problem.rhs_numpy(t + h / 2, u + h / 2 * k1)
-        k3 = problem.rhs_numpy(t + 0.75 * h, u + 0.75 * h * k2)
-        u = u + h * (2 * k1 + 3 * k2 + 4 * k3) / 9
-        t += h
-    return abs(problem.energy(u) - e0) / e0
+    u0 = np.zeros(2 * model.size)
+    u0[model.size :] = rng.normal(size=model.size) * 1e-2
+    return cfg, u0, run_case(model, cfg, u0=u0)
 
 
-def test_undamped_energy_drift_is_third_order(small_model, small_cfg):
-    d1 = _free_energy_drift(small_model, small_cfg, 2e-5)
-    d2 = _free_energy_drift(small_model, small_cfg, 1e-5)
-    assert d1 > 0
-    assert 6.0 < d1 / d2 < 20.0  # ~2^3; RK3 dissipation ~ h^4 per period -> 8-16
+def test_petsc_ts_is_the_tableau_and_third_order(small_model, small_cfg):
+    """PETSc's RK "3bs" against the tableau-driven reference (same step: equal to round-off),
+    and its energy drift of order 3 in the step (RK3 dissipation ~ h^4 per period)."""
+    drift = []
+    for step in (2e-5, 1e-5):
+        cfg, u0, res = _free_oscillation(small_model, small_cfg, step)
+        assert res.status == "done" and res.steps == round(0.004 / step)
+        steps = res.steps
+        _, states, _ = reference_solution(small_model, cfg, steps, step, sample_every=steps,
+                                          u0=u0)  # fmt: skip
+        n2 = 2 * small_model.size
+        ref = states[-1][:n2]
+        assert np.abs(res.final_state[:n2] - ref).max() < 1e-10 * np.abs(ref).max()
+        drift.append(abs(res.energy[-1] - res.energy0) / res.energy0)
+    assert drift[0] > 0
+    assert 6.0 < drift[0] / drift[1] < 20.0
 
 
 def test_energy_balance_closes_with_all_forces(coarse_model, coarse_cfg):
     cfg = coarse_cfg.replace(**{"time.end": 0.01, "time.window": 0.0025})
-    res = transient.run_case(coarse_model, cfg)
+    res = run_case(coarse_model, cfg)
     assert res.status == "done"
     assert np.abs(res.work[-1]).sum() > 0
     assert res.energy_balance_error() < 1e-3
     assert res.work[-1, 2] < 0 and res.work[-1, 3] < 0  # friction and damping dissipate
 
 
-def test_preload_start_is_static_equilibrium(small_model, small_cfg):
-    cfg = small_cfg.replace(**{"time.start": "preload"})
-    from wheelrom.forces import ForceModel
+def test_preload_start_is_static_equilibrium_in_a_batch(small_model, small_cfg):
+    """time.start = "preload": every case of a batch starts on its own static equilibrium
+    (accelerations zero), the same as alone."""
+    from wheelrom.transient.preload import initial_state
 
-    problem = transient.WheelProblem(small_model, cfg, ForceModel(small_model, cfg))
-    res = transient.CaseResult()
-    u0 = transient.initial_state(problem, cfg, res)
-    assert np.abs(u0).max() > 0
-    acc = problem.rhs_numpy(0.0, u0)[problem.n : 2 * problem.n]
-    scale = np.abs(problem.Kd @ u0[: problem.n]).max()
-    assert np.abs(acc).max() < 1e-9 * scale
-    assert res.preload_residual < 1e-9 * scale
+    cfg = small_cfg.replace(**{"time.start": "preload", "time.end": 5e-4,
+                               "time.window": 5e-4})  # fmt: skip
+    angles = [{"shroud": 20.0}, {"shroud": 80.0}]
+    problem = _problem(small_model, cfg, angles)
+    starts = []
+    for b in range(2):
+        u0, residual = initial_state(problem, case=b)
+        acc = problem.rhs_numpy(0.0, u0, case=b)[problem.n : 2 * problem.n]
+        scale = np.abs(problem.Kd @ u0[: problem.n]).max()
+        assert scale > 0 and np.abs(acc).max() < 1e-9 * scale
+        assert residual < 1e-9 * scale
+        starts.append(u0)
+    assert np.abs(starts[0] - starts[1]).max() > 1e-6 * np.abs(starts[0]).max()
+    batch = run_cases(small_model, cfg, angles)
+    for res, a, u0 in zip(batch, angles, starts, strict=True):
+        alone = run_case(small_model, cfg, a)
+        assert res.batch == 2 and res.preload_residual == alone.preload_residual
+        assert res.energy0 == alone.energy0 == problem.energy(u0, case=angles.index(a))
+        assert np.array_equal(res.tip_history, alone.tip_history)
+
+
+def test_adaptive_steps_run_a_batch_case_by_case(small_model, small_cfg):
+    """An adaptive step would be shared by the cases of a batch: the batch falls back to one
+    TS per case, each equal to its run alone."""
+    cfg = small_cfg.replace(**{"time.end": 1e-3, "time.window": 5e-4})
+    options = {"ts_adapt_type": "basic", "ts_rk_type": "5dp"}
+    angles = [{"shroud": 20.0}, {"shroud": 80.0}]
+    batch = run_cases(small_model, cfg, angles, options=options)
+    for res, a in zip(batch, angles, strict=True):
+        alone = run_case(small_model, cfg, a, options=options)
+        assert res.batch == 1 and res.status == "done"
+        assert res.options["ts_adapt_type"] == "basic"
+        assert res.steps == alone.steps and np.array_equal(res.tip_history, alone.tip_history)
+    fixed = run_case(small_model, cfg, angles[0])
+    assert batch[0].steps != fixed.steps  # it did adapt
 
 
 def test_divergence_stops_case_and_keeps_windows(small_model, small_cfg):
     cfg = small_cfg.replace(
         **{
             "time.step": 4e-4,
-            "time.window": 4e-4 * 2,
+            "time.window": 4e-4 * 5,  # two samples per window
             "time.end": 0.02,
             "output.sample_rate_hz": 1000.0,
         }
     )
-    res = transient.run_case(small_model, cfg)
-    assert res.status.startswith("failed:")
-    assert "t =" in res.status
+    res = run_case(small_model, cfg)
+    assert res.status.startswith("failed:") and "t =" in res.status
+    stopped = float(res.status.split("t = ")[1].split()[0])
+    # the windows before the divergence are kept, with finite statistics
+    kept = res.window_end.size
+    assert 1 <= kept < len(time_grid(cfg).window_end)
+    assert res.window_end[-1] < stopped
+    assert np.isfinite(res.max_tip_amplitude).all() and res.energy.size == kept
 
 
-@pytest.mark.parametrize("rk", ["3bs", "4", "5dp"])
+def test_window_ends_when_end_is_not_a_multiple_of_the_window(small_model, small_cfg):
+    """The last window runs to time.end (up to 1.5 windows long), as the time grid says."""
+    cfg = small_cfg.replace(**{"time.end": 0.0025, "time.window": 0.001})
+    grid = time_grid(cfg)
+    assert grid.window_end == (0.001, 0.0025)
+    res = run_case(small_model, cfg)
+    np.testing.assert_allclose(res.window_end, grid.window_end, rtol=1e-12)
+    assert res.sample_time[-1] == pytest.approx(0.0025, abs=1e-4)
+
+
+@pytest.mark.parametrize("rk", ["3bs", "5dp"])
 def test_ts_options_reach_the_solver(small_model, small_cfg, rk):
     cfg = small_cfg.replace(**{"time.end": 1e-3, "time.window": 1e-3})
-    res = transient.run_case(small_model, cfg, options={"ts_rk_type": rk})
+    res = run_case(small_model, cfg, options={"ts_rk_type": rk})
     assert res.options["ts_rk_type"] == rk and res.status == "done"
+    # the 5-stage scheme takes more right-hand sides per step than the 3-stage FSAL one
+    per_step = res.rhs_evaluations / res.steps
+    assert per_step == pytest.approx(3.0 if rk == "3bs" else 6.0, abs=0.1)
+
+
+def test_ts_options_are_scoped_and_recorded_by_prefix(small_model, small_cfg):
+    """Options of other solvers in the database stay out of the TS record; a dict of options
+    lives in the database only while the TS reads it, and a user's value is restored."""
+    db = petsc().Options()
+    cfg = small_cfg.replace(**{"time.end": 5e-4, "time.window": 5e-4})
+    db.setValue("segment_eps_ncv", "40")
+    db.setValue("wheel_ts_rk_type", "4")
+    try:
+        res = run_case(small_model, cfg, options={"ts_rk_type": "5dp", "ts_max_snes_failures": 3})
+        assert res.options["ts_rk_type"] == "5dp"
+        assert all(k.startswith("ts_") for k in res.options), res.options
+        assert db.getString("wheel_ts_rk_type") == "4"  # restored
+        assert not db.hasName("wheel_ts_max_snes_failures")  # removed again
+        assert run_case(small_model, cfg).options["ts_rk_type"] == "4"
+    finally:
+        db.delValue("segment_eps_ncv")
+        db.delValue("wheel_ts_rk_type")
 
 
 @pytest.mark.parametrize("vdp", ["off", "absolute", "relative"])
-def test_compiled_rhs_equals_force_model_and_dense_stiffness(coarse_model, coarse_cfg, vdp):
-    """Two implementations: the fused compiled RHS against ForceModel + dense K_R (numpy),
-    on states that open, stick and slip contacts with per-blade angles."""
-    from wheelrom import rhs
-    from wheelrom.forces import OPEN, SLIP, STICK, ForceModel
-
+def test_compiled_rhs_equals_reference_forces_and_dense_stiffness(coarse_model, coarse_cfg, vdp):
+    """Two implementations: the fused compiled RHS against the reference force model + dense
+    K_R (numpy), on states that open, stick and slip contacts with per-blade angles."""
     cfg = coarse_cfg.replace(**{"flutter.model": vdp, "flutter.mu": 2e3})
     N = coarse_model.blades
     angles = {"shroud": np.linspace(10.0, 80.0, N), "tieboss": 45.0}
-    fm = ForceModel(coarse_model, cfg, angles)
-    problem = transient.WheelProblem(coarse_model, cfg, fm)
+    problem = _problem(coarse_model, cfg, [angles])
+    forces = problem.forces[0]
     rng = np.random.default_rng(7)
     u = rng.normal(size=problem.size()) * 2e-3
     u[problem.n : 2 * problem.n] *= 1000.0
     expected = problem.rhs_numpy(0.0123, u)
-    states = set(np.unique(fm.contact_state))
-    assert {OPEN, STICK, SLIP} <= states
-    got = rhs.evaluate(problem.context, 0.0123, u)
+    assert {OPEN, STICK, SLIP} <= set(np.unique(forces.contact_state))
+    got = bridge.evaluate(problem.context, 0.0123, u)
     scale = np.abs(expected[problem.n : 2 * problem.n]).max()
     assert np.abs(got[: 2 * problem.n] - expected[: 2 * problem.n]).max() < 1e-12 * scale
     np.testing.assert_allclose(got[2 * problem.n :], expected[2 * problem.n :], rtol=1e-10)
-    np.testing.assert_array_equal(problem.context.view("contact_state"), fm.contact_state)
-    np.testing.assert_allclose(problem.context.view("normal_force"), fm.normal_force, atol=1e-9)
+    np.testing.assert_array_equal(problem.context.view("contact_state"), forces.contact_state)
+    np.testing.assert_allclose(problem.context.view("normal_force"), forces.normal_force,
+                               atol=1e-9)  # fmt: skip
 
 
 def test_compiled_and_python_callbacks_agree(small_model, small_cfg):
     """The C callbacks and the petsc4py callbacks (BAIJ products) give the same TS run."""
     cfg = small_cfg.replace(**{"time.end": 0.001, "time.window": 0.0005})
-    a = transient.run_case(small_model, cfg, rhs_kind="compiled")
-    b = transient.run_case(small_model, cfg, rhs_kind="python")
+    a = run_case(small_model, cfg, rhs_kind="compiled")
+    b = run_case(small_model, cfg, rhs_kind="python")
     assert a.status == b.status == "done"
     assert a.steps == b.steps == 200 and a.rhs_evaluations == b.rhs_evaluations
     scale = np.abs(b.tip_history).max()
@@ -177,30 +287,25 @@ def test_compiled_and_python_callbacks_agree(small_model, small_cfg):
 def test_batch_refuses_cases_that_differ_beyond_contact_angles(small_model, small_cfg):
     """A batch shares every force parameter but the contact frames and stiffnesses (the
     context takes them from its first case): other differences are refused, not ignored."""
-    from wheelrom import rhs
-    from wheelrom.forces import ForceModel
 
     def context(cases):
-        return rhs.Context(cases, small_model, 0.0, 1e-4, 1.0, 4)
+        return layout.Context(cases, small_model, 0.0, 1e-4, 1.0, 4)
 
-    base = ForceModel(small_model, small_cfg, {"shroud": 20.0})
-    assert context([base, ForceModel(small_model, small_cfg, {"shroud": 60.0})]).B == 2
+    base = force_parameters(small_model, small_cfg, {"shroud": 20.0})
+    assert context([base, force_parameters(small_model, small_cfg, {"shroud": 60.0})]).B == 2
     louder = small_cfg.replace(**{"excitation.force": 2.0 * small_cfg.excitation.force + 1.0})
     with pytest.raises(ValueError, match="differ only in contact angles"):
-        context([base, ForceModel(small_model, louder, {"shroud": 20.0})])
+        context([base, force_parameters(small_model, louder, {"shroud": 20.0})])
 
 
 def test_noop_integrator_steps_and_leaves_the_state_alone(small_model, small_cfg):
     """`wheelrom bench`'s floor (PETSc's integrator with a no-op right-hand side) must be the
     configured TS really stepping, with the real kernel and sampling detached: the steps are
     taken, the kernel is never called, and the state does not move (every stage adds zero)."""
-    from wheelrom import rhs
-    from wheelrom.forces import ForceModel
-
-    problem = transient.WheelProblem(small_model, small_cfg, ForceModel(small_model, small_cfg))
-    ts, f, used = transient.make_ts(problem, small_cfg, options={"ts_rk_type": "3bs"})
-    assert used["ts_rk_type"] == "3bs"
-    rhs.attach_null(ts, f)
+    problem = _problem(small_model, small_cfg)
+    ts, f, used = make_ts(problem, small_cfg, options={"ts_rk_type": "3bs"})
+    assert used["ts_rk_type"] == "3bs" and used["ts_adapt_type"] == "none"
+    bridge.attach_null(ts, f)
     u = f.duplicate()
     start = np.random.default_rng(3).normal(size=u.getSize())
     u.setArray(start)
@@ -208,7 +313,7 @@ def test_noop_integrator_steps_and_leaves_the_state_alone(small_model, small_cfg
     ts.solve(u)
     assert ts.getStepNumber() == 37
     assert ts.getTime() == pytest.approx(37 * small_cfg.time.step, rel=1e-12)
-    assert problem.context.header(rhs.H_RHS_CALLS) == 0
+    assert problem.context.header(layout.H_RHS_CALLS) == 0
     np.testing.assert_array_equal(u.getArray(), start)
     ts.destroy()
 
@@ -224,12 +329,12 @@ def test_batch_gives_each_case_bitwise_its_single_result(small_model, small_cfg)
         }
     )
     angles = [{"shroud": a, "tieboss": 45.0} for a in (20.0, 90.0, 50.0)]
-    batch = transient.run_cases(small_model, cfg, angles)
+    batch = run_cases(small_model, cfg, angles)
     assert [r.batch for r in batch] == [3, 3, 3]
     assert batch[0].status == batch[2].status == "done"
     assert batch[1].status.startswith("failed:") and "t =" in batch[1].status
     for res, a in zip(batch, angles, strict=True):
-        alone = transient.run_case(small_model, cfg, a)
+        alone = run_case(small_model, cfg, a)
         assert alone.status == res.status and alone.steps == res.steps
         assert np.array_equal(alone.sample_time, res.sample_time)
         assert np.array_equal(alone.tip_history, res.tip_history, equal_nan=True)
@@ -246,13 +351,13 @@ def test_kernel_exp_is_within_two_ulp_of_libm():
     accepts (and its clamping outside), in units in the last place."""
     import numba
 
-    from wheelrom import rhs
+    from wheelrom.transient.fastmath import fexp
 
     @numba.njit
     def kernel_exp(x):
         out = np.empty_like(x)
         for i in range(x.size):
-            out[i] = rhs.fexp(x[i])
+            out[i] = fexp(x[i])
         return out
 
     rng = np.random.default_rng(3)

@@ -1,7 +1,8 @@
 """Process environment: PETSc/SLEPc location, BLAS threads, parallel HDF5.
 
-This runs before numpy, petsc4py or h5py are imported by the package. It only fills in
-variables the user did not set.
+:func:`bootstrap` is called by the command line before numpy, petsc4py or h5py are imported;
+it only fills in variables the user did not set. :func:`petsc` locates PETSc by itself, so
+library code works without it (but then BLAS may start one thread per core).
 """
 
 from __future__ import annotations
@@ -39,6 +40,12 @@ def bootstrap() -> None:
     # Debian's h5py picks its MPI build only under mpirun unless told otherwise; we always
     # want the mpio driver available (also for single-process sweeps).
     os.environ.setdefault("H5PY_ALWAYS_USE_MPI", "1")
+    locate_petsc()
+
+
+def locate_petsc() -> None:
+    """Set ``PETSC_DIR``/``SLEPC_DIR`` to Debian's real-valued builds when unset and put their
+    Python packages on ``sys.path``."""
     if "PETSC_DIR" not in os.environ:
         petsc_dir = _newest("/usr/lib/petscdir/petsc*/*-real")
         if petsc_dir:
@@ -63,6 +70,8 @@ def set_init_args(args: list[str]) -> None:
 
 def petsc():
     """Return the initialised ``petsc4py.PETSc`` module (one clear error when missing)."""
+    if "petsc4py.PETSc" not in sys.modules:
+        locate_petsc()
     if importlib.util.find_spec("petsc4py") is None:
         raise MissingPETSc(_INSTALL_HINT)
     if "petsc4py.PETSc" not in sys.modules:

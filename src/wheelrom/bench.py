@@ -15,7 +15,8 @@ Figures (all on the configuration's reduced model, single core):
   does; the sweep's shroud angles), per case: the throughput of a sweep on one core;
 - floors (what bounds ``paper_case_s`` on this machine): ``ts_null_us_per_step`` (and
   ``ts_null_us_per_case_step_in_batch``), the configured TS with a no-op right-hand side;
-  ``multiply_adds_per_rhs`` (:func:`wheelrom.rhs.multiply_adds`, contact laws not counted);
+  ``multiply_adds_per_rhs`` (:func:`wheelrom.transient.kernel.multiply_adds`, contact laws
+  not counted);
   ``machine_gmadd_per_s``, a one-thread 1024^3 BLAS ``dgemm`` (this core's attainable
   multiply-add rate), and ``shape_gmadd_per_s``, ``dgemm`` on the kernel's product shape
   ``(m x 3m)(3m x N batch)``; ``kernel_gmadd_per_s`` (``_in_batch``), our kernel's rate
@@ -39,11 +40,16 @@ import time
 
 import numpy as np
 
-from wheelrom import rhs
+from wheelrom._environment import petsc
 from wheelrom.config import Config
-from wheelrom.cyclic import ReducedModel
-from wheelrom.forces import ForceModel
-from wheelrom.transient import WheelProblem, reference_solution, run_case, run_cases
+from wheelrom.forces.parameters import force_parameters
+from wheelrom.rom.model import ReducedModel
+from wheelrom.transient import bridge, layout
+from wheelrom.transient.kernel import multiply_adds, rhs_core
+from wheelrom.transient.problem import WheelProblem
+from wheelrom.transient.reference import reference_solution
+from wheelrom.transient.run import run_case, run_cases
+from wheelrom.transient.ts import make_ts, time_step
 
 
 def _tip(model: ReducedModel, states: np.ndarray) -> np.ndarray:
@@ -62,15 +68,15 @@ def rhs_microseconds(problem: WheelProblem, calls: int = 20000, linear: bool = T
     @numba.njit
     def loop(count, u, f, ctx):
         for i in range(count):
-            rhs.rhs_core(1e-3 * (i % 7), u, f, ctx)
+            rhs_core(1e-3 * (i % 7), u, f, ctx)
 
     if state is None:
         state = np.random.default_rng(0).normal(size=(problem.B, problem.size())) * 1e-4
     u = problem.context.pack(state)
     f = np.empty_like(u)
-    ctx = rhs.aligned_zeros(problem.context.array.size)  # leave the case's context untouched
+    ctx = layout.aligned_zeros(problem.context.array.size)  # leave the case's context untouched
     ctx[:] = problem.context.array
-    ctx[rhs.H_SKIP_LINEAR] = 0.0 if linear else 1.0
+    ctx[layout.H_SKIP_LINEAR] = 0.0 if linear else 1.0
     loop(10, u, f, ctx)
     best = math.inf
     for _ in range(3):
@@ -86,10 +92,8 @@ def integrator_microseconds(problem: WheelProblem, cfg: Config, steps: int = 200
     nothing and no monitor: what PETSc's integrator costs by itself (stage copies and
     ``VecMAXPY`` updates over ``B (2 N m + 4)`` doubles, call chain), a floor under any
     right-hand side."""
-    from wheelrom.transient import make_ts
-
     ts, f, _ = make_ts(problem, cfg)
-    rhs.attach_null(ts, f)
+    bridge.attach_null(ts, f)
     u = f.duplicate()
     best = math.inf
     for _ in range(3):
@@ -97,7 +101,7 @@ def integrator_microseconds(problem: WheelProblem, cfg: Config, steps: int = 200
         ts.setTime(0.0)
         ts.setStepNumber(0)
         ts.setMaxSteps(steps)
-        ts.setMaxTime(2 * steps * cfg.time.step)
+        ts.setMaxTime(2 * steps * ts.getTimeStep())
         t0 = time.perf_counter()
         ts.solve(u)
         best = min(best, time.perf_counter() - t0)
@@ -125,6 +129,11 @@ def dgemm_gmadd_per_s(rows: int, inner: int, cols: int, calls: int) -> float:
     return rows * inner * cols / best / 1e9
 
 
+def _problem(model: ReducedModel, cfg: Config, angles: list) -> WheelProblem:
+    return WheelProblem(model, cfg, [force_parameters(model, cfg, a) for a in angles],
+                        petsc().COMM_SELF)  # fmt: skip
+
+
 def _scipy_run(problem: WheelProblem, t_end: float, rtol: float, t_eval: np.ndarray):
     from scipy.integrate import solve_ivp
 
@@ -132,7 +141,7 @@ def _scipy_run(problem: WheelProblem, t_end: float, rtol: float, t_eval: np.ndar
     f = np.empty(problem.size())
 
     def fun(t, u):  # kernel layout (one case): unpacked for the tips afterwards
-        rhs.rhs_core(t, u, f, ctx)
+        rhs_core(t, u, f, ctx)
         return f.copy()
 
     u0 = np.zeros(problem.size())
@@ -147,8 +156,8 @@ def run(model: ReducedModel, cfg: Config, steps: int = 20000, compare_steps: int
         log=None, batch: int = 10) -> dict:  # fmt: skip
     """Run the workload; returns the figures (see the module docstring)."""
     say = log or (lambda m: None)
-    h = cfg.time.step
-    problem = WheelProblem(model, cfg, ForceModel(model, cfg))
+    h = time_step(cfg)  # the TS's step (-wheel_ts_dt overrides time.step)
+    problem = _problem(model, cfg, [None])
     # TS run of `steps` steps (warm-up first: the C callbacks compile once per process)
     short = cfg.replace(**{"time.end": 20 * h, "time.window": 20 * h})
     run_case(model, short)
@@ -172,7 +181,7 @@ def run(model: ReducedModel, cfg: Config, steps: int = 20000, compare_steps: int
     t0 = time.perf_counter()
     batch_res = run_cases(model, timed, angles)
     batch_wall = time.perf_counter() - t0
-    batch_problem = WheelProblem(model, cfg, [ForceModel(model, cfg, a) for a in angles])
+    batch_problem = _problem(model, cfg, angles)
     batch_states = np.array([r.final_state for r in batch_res])
     us_rhs_batch = rhs_microseconds(batch_problem, calls=max(2000, 20000 // batch),
                                     state=batch_states) / batch  # fmt: skip
@@ -183,8 +192,8 @@ def run(model: ReducedModel, cfg: Config, steps: int = 20000, compare_steps: int
     # floors: PETSc's integrator alone, and the multiply-adds at this core's dgemm rate
     ts_null = integrator_microseconds(problem, cfg)
     ts_null_batch = integrator_microseconds(batch_problem, cfg, max(2000, steps // batch)) / batch
-    m, kinds = model.modes, len(problem.forces.contacts.kinds)
-    madds = rhs.multiply_adds(model.blades, m, kinds)
+    m, kinds = model.modes, len(problem.kinds)
+    madds = multiply_adds(model.blades, m, kinds)
     peak = dgemm_gmadd_per_s(1024, 1024, 1024, 1)
     shape = dgemm_gmadd_per_s(m, 3 * m, model.blades * batch, max(100, 20000 // batch))
     bound_us = ts_null + rhs_per_step * madds / peak / 1e3
@@ -195,7 +204,7 @@ def run(model: ReducedModel, cfg: Config, steps: int = 20000, compare_steps: int
         f"{paper_steps * bound_us / 1e6:.1f} s")  # fmt: skip
 
     # plain-numpy serial reference over compare_steps
-    _, ref_states, ref_wall = reference_solution(model, cfg, compare_steps,
+    _, ref_states, ref_wall = reference_solution(model, cfg, compare_steps, h,
                                                  sample_every=compare_steps)  # fmt: skip
     ratio_numpy = (ref_wall / compare_steps) / (res.wall_s / res.steps)
     say(f"numpy reference: {compare_steps} steps in {ref_wall:.2f} s")
@@ -223,7 +232,7 @@ def run(model: ReducedModel, cfg: Config, steps: int = 20000, compare_steps: int
     return {
         "blades": model.blades,
         "modes": model.modes,
-        "contact_kinds": problem.forces.contacts.kinds,
+        "contact_kinds": list(problem.kinds),
         "us_per_rhs": us_rhs,
         "us_per_force_evaluation": us_forces,
         "us_per_linear_product": us_rhs - us_forces,

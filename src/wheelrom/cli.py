@@ -13,7 +13,8 @@ import sys
 from collections.abc import Callable, Sequence
 
 from wheelrom import config as config_mod
-from wheelrom.errors import InputError
+from wheelrom._environment import bootstrap
+from wheelrom.errors import InputError, OutputExists
 
 EXIT_CONFIG = 2
 
@@ -73,84 +74,72 @@ def _log(msg: str) -> None:
     print(msg, file=sys.stderr, flush=True)
 
 
-def _options_dict(args: argparse.Namespace) -> dict:
-    """PETSc options after ``--`` as a dict for the case TS (prefix ``wheel_`` stripped)."""
-    out: dict = {}
-    key = None
-    for token in getattr(args, "petsc_args", []):
-        if token.startswith("-") and not _is_number(token):
-            key = token.lstrip("-")
-            key = key[len("wheel_") :] if key.startswith("wheel_") else key
-            out[key] = None
-        elif key is not None:
-            out[key] = token
-            key = None
-    return out
+def _comm_self():
+    from wheelrom._environment import petsc
 
-
-def _is_number(token: str) -> bool:
-    try:
-        float(token)
-        return True
-    except ValueError:
-        return False
+    return petsc().COMM_SELF
 
 
 def cmd_modes(args: argparse.Namespace) -> int:
     """Segment modes (SLEPc) and wheel frequencies by nodal diameter (cyclic synthesis)."""
-    from wheelrom.cyclic import build_model, wheel_modes
+    from wheelrom.rom.build import build, quiet
+    from wheelrom.rom.model import wheel_modes
 
     cfg = _load(args)
-    say = None if args.json else _log
-    model = build_model(cfg, log=say, keep_segment=bool(args.vtu or args.full_wheel))
-    hz, nd, kind = wheel_modes(model)
+    say = quiet if args.json else _log
+    wheel = build(cfg, _comm_self(), log=say)
+    model = wheel.model
+    hz, nd, _ = wheel_modes(model)
     if args.vtu:
-        from wheelrom.wheelmesh import write_wheel_mode
+        from wheelrom.rom.wheelmesh import write_wheel_mode
 
-        f_mode = write_wheel_mode(args.vtu, model.segment, model.shapes, model, args.vtu_nd,
-                                  args.vtu_family)  # fmt: skip
-        if say:
-            say(f"wrote {args.vtu}: ND {args.vtu_nd} mode at {f_mode:.2f} Hz on the whole wheel")
-    reference = assembled = None
+        f_mode = write_wheel_mode(args.vtu, wheel.segment.mesh, wheel.shapes, model,
+                                  args.vtu_nd, args.vtu_family)  # fmt: skip
+        say(f"wrote {args.vtu}: ND {args.vtu_nd} mode at {f_mode:.2f} Hz on the whole wheel")
+    extra = {"wheel_hz": hz, "wheel_nd": nd}
     if args.full_wheel:
-        from wheelrom import fullwheel
-
-        seg, mats = model.segment, model.matrices  # the matrices the model was built from
-        c1, m = cfg.wheel.coupling_stiffness, model.modes
-        if args.full_wheel in ("cyclic", "both"):
-            reference = fullwheel.cyclic_table(seg, mats, c1, m, log=say)
-        if args.full_wheel in ("assembled", "both"):
-            assembled = fullwheel.assembled_wheel_modes(seg, mats, c1, args.full_wheel_modes)
+        extra.update(_full_wheel(args, cfg, wheel, say))
     if args.out:
         import h5py
 
-        from wheelrom.config import to_toml
-        from wheelrom.sweep import write_model
+        from wheelrom.results import write_model_file
 
         with h5py.File(args.out, "w") as f:
-            f.attrs["config"] = to_toml(cfg)
-            write_model(f.create_group("model"), model)
-            f["model/wheel_hz"], f["model/wheel_nd"] = hz, nd
-            if reference is not None:
-                f["model/full_wheel_hz"] = reference
-            if assembled is not None:
-                f["model/assembled_wheel_hz"] = assembled
+            write_model_file(f, cfg, model, extra)
     table = model.frequencies_by_nodal_diameter()
+    reference, assembled = extra.get("full_wheel_hz"), extra.get("assembled_wheel_hz")
     if args.json:
-        out = {
-            "segment_hz": model.segment_hz.tolist(),
-            "wheel_hz": hz.tolist(),
-            "wheel_nd": nd.tolist(),
-            "reduced_hz_by_nd": table.tolist(),
-            "info": model.info,
-        }
+        out = {"segment_hz": model.segment_hz.tolist(), "wheel_hz": hz.tolist(),
+               "wheel_nd": nd.tolist(), "reduced_hz_by_nd": table.tolist(), "info": model.info}
         if reference is not None:
             out["full_wheel_hz"] = reference.tolist()
             out["relative_error_by_nd"] = (table / reference - 1).tolist()
         if assembled is not None:
             out["assembled_wheel_hz"] = assembled.tolist()
-        print_json(out)
+        print_json(out)  # fmt: skip
         return 0
+    _print_modes(model, table, reference, assembled)
+    return 0
+
+
+def _full_wheel(args: argparse.Namespace, cfg, wheel, say) -> dict:
+    """The full-wheel FE references of ``modes --full-wheel`` on the model's own matrices."""
+    from wheelrom.rom import references
+
+    seg, mats = wheel.segment.mesh, wheel.segment.matrices
+    c1, m = cfg.wheel.coupling_stiffness, wheel.model.modes
+    out = {}
+    if args.full_wheel in ("cyclic", "both"):
+        out["full_wheel_hz"] = references.cyclic_table(seg, mats, c1, m, _comm_self(), log=say)
+    if args.full_wheel in ("assembled", "both"):
+        from wheelrom._environment import petsc
+
+        out["assembled_wheel_hz"] = references.assembled_wheel_modes(
+            seg, mats, c1, args.full_wheel_modes, petsc().COMM_WORLD)
+    return out
+
+
+def _print_modes(model, table, reference, assembled) -> None:
     print("segment modes [Hz]: " + ", ".join(f"{x:.2f}" for x in model.segment_hz))
     for kind_name, rep in model.info.items():
         if isinstance(rep, dict) and "arm_length" in rep:
@@ -170,36 +159,29 @@ def cmd_modes(args: argparse.Namespace) -> int:
         print("  mean:    " + "  ".join(f"{x:7.2f}" for x in err.mean(axis=0)))
     if assembled is not None:
         print("assembled full wheel, lowest [Hz]: " + ", ".join(f"{x:.3f}" for x in assembled))
-    return 0
 
 
 def cmd_run(args: argparse.Namespace) -> int:
     """One transient case on PETSc TS (options after -- go to the TS, prefix wheel_)."""
-    from wheelrom.cyclic import build_model
-    from wheelrom.transient import run_case
+    from wheelrom.rom.build import build_model, quiet
+    from wheelrom.transient.run import run_case
 
     cfg = _load(args)
-    model = build_model(cfg, log=None if args.json else _log)
+    model = build_model(cfg, _comm_self(), log=quiet if args.json else _log)
 
     def progress(w, total, t, amp):
         if not args.json:
             _log(f"window {w}/{total}: t = {t:.4f} s, max tip amplitude {amp:.3e} m")
 
-    res = run_case(model, cfg, options=_options_dict(args), progress=progress)
+    res = run_case(model, cfg, progress=progress)
     if args.out:
         import h5py
 
-        from wheelrom.sweep import _create_layout, _write_case
+        from wheelrom import results
 
-        cfg1 = cfg.replace(
-            **{
-                "sweep.tieboss_angles_deg": [cfg.contacts.tieboss.angle_deg],
-                "sweep.shroud_angles_deg": [cfg.contacts.shroud.angle_deg],
-            }
-        )
         with h5py.File(args.out, "w") as f:
-            _create_layout(f, cfg1, model)
-            _write_case(f["cases"], 0, res)
+            results.create_layout(f, results.single_case(cfg), model)
+            results.write_case(f, 0, res)
     _print_result(res.summary(), args.json)
     return 0 if res.status == "done" else 1
 
@@ -208,21 +190,24 @@ def cmd_compare(args: argparse.Namespace) -> int:
     """PETSc TS against the plain-numpy serial reference on the same model."""
     import numpy as np
 
-    from wheelrom.cyclic import build_model
-    from wheelrom.transient import reference_solution, run_case
+    from wheelrom.rom.build import build_model, quiet
+    from wheelrom.transient.reference import reference_solution
+    from wheelrom.transient.run import run_case
+    from wheelrom.transient.ts import time_step
 
     cfg = _load(args)
-    steps = args.steps
-    cfg = cfg.replace(**{"time.end": steps * cfg.time.step, "time.window": steps * cfg.time.step})
-    model = build_model(cfg, log=None if args.json else _log)
+    steps, step = args.steps, time_step(cfg)  # the TS's step: -wheel_ts_dt overrides
+    cfg = cfg.replace(**{"time.end": steps * step, "time.window": steps * step})
+    model = build_model(cfg, _comm_self(), log=quiet if args.json else _log)
     res = run_case(model, cfg)
-    _, states, ref_wall = reference_solution(model, cfg, steps, sample_every=steps)
+    _, states, ref_wall = reference_solution(model, cfg, steps, step, sample_every=steps)
     n = model.size
     ref_tip = states[-1][:n].reshape(model.blades, model.modes) @ model.tip.T
     ts_tip = res.final_state[:n].reshape(model.blades, model.modes) @ model.tip.T
     diff = float(np.abs(ref_tip - ts_tip).max() / max(np.abs(ref_tip).max(), 1e-300))
     out = {
         "steps": steps,
+        "step_s": step,
         "max_relative_difference": diff,
         "petsc_wall_s": res.wall_s,
         "reference_wall_s": ref_wall,
@@ -233,37 +218,35 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
 def cmd_sweep(args: argparse.Namespace) -> int:
     """Angle sweep across MPI ranks into one parallel HDF5 file (mpirun -n P wheelrom sweep)."""
+    from mpi4py import MPI
+
     from wheelrom.sweep import run_sweep
 
     cfg = _load(args)
-    failed = run_sweep(
-        cfg,
-        args.out,
-        resume=args.resume,
-        force=args.force,
-        log=lambda m: print(m, flush=True),
-        options=_options_dict(args),
-        model_comm=args.model_comm,
-        batch=args.batch,
-    )
+    try:
+        failed = run_sweep(cfg, args.out, MPI.COMM_WORLD, resume=args.resume, force=args.force,
+                           log=lambda m: print(m, flush=True), model_comm=args.model_comm,
+                           batch=args.batch)  # fmt: skip
+    except OutputExists as exc:
+        raise InputError(f"{exc.path} exists: pass --resume to complete it or --force to "
+                         "overwrite it") from None  # fmt: skip
     return 1 if failed else 0
 
 
 def cmd_contact_stiffness(args: argparse.Namespace) -> int:
-    """Contact stiffness k_c(beta) from the segment FE by static unit loads (paper Fig. 5)."""
-    from wheelrom.assembly import assemble
+    """Contact stiffness k_c(beta) from the segment FE by static unit loads (paper Fig. 5),
+    on the segment matrices the model uses (prestressed when the configuration says so)."""
     from wheelrom.config import CONTACT_KINDS
-    from wheelrom.forces import stiffness_at
-    from wheelrom.mesh import load_segment
-    from wheelrom.stiffness import stiffness_tables
+    from wheelrom.forces.parameters import stiffness_at
+    from wheelrom.rom.build import build_segment, contact_stiffness_tables, quiet
 
     cfg = _load(args)
-    seg = load_segment(cfg)
-    s = cfg.segment
-    mats = assemble(seg, s.young, s.poisson, s.density)
+    segment = build_segment(cfg, _comm_self(), log=quiet if args.json else _log)
+    seg = segment.mesh
     kinds = [k for k in CONTACT_KINDS if f"{k}_A" in seg.node_sets]
     out = {}
-    for kind, (angles, values, flex) in stiffness_tables(cfg, seg, mats, kinds).items():
+    for kind, (angles, values, flex) in contact_stiffness_tables(segment, kinds,
+                                                                 _comm_self()).items():  # fmt: skip
         configured = cfg.contact(kind).stiffness
         out[kind] = {
             "angle_deg": angles.tolist(),
@@ -291,11 +274,12 @@ def cmd_accuracy(args: argparse.Namespace) -> int:
     """Reduced-model frequencies against the exact cyclic-symmetry FE: error per family."""
     import numpy as np
 
-    from wheelrom.fullwheel import accuracy_table
+    from wheelrom.rom.accuracy import accuracy_table
+    from wheelrom.rom.build import quiet
 
     cfg = _load(args)
-    say = None if args.json else _log
-    table = accuracy_table(cfg, tuple(args.modes), args.enriched_modes, args.families, log=say)
+    table = accuracy_table(cfg, _comm_self(), tuple(args.modes), args.enriched_modes,
+                           args.families, log=quiet if args.json else _log)  # fmt: skip
     if args.json:
         print_json({
             "reference_hz": table["reference_hz"].tolist(),
@@ -317,8 +301,8 @@ def cmd_accuracy(args: argparse.Namespace) -> int:
 
 def cmd_mesh(args: argparse.Namespace) -> int:
     """Write the segment mesh and node sets (.inp with a CalculiX modal step, .vtu, ...)."""
-    from wheelrom.mesh import load_segment
-    from wheelrom.mesh_export import write_segment
+    from wheelrom.segment.export import write_segment
+    from wheelrom.segment.load import load_segment
 
     cfg = _load(args)
     seg = load_segment(cfg)
@@ -330,15 +314,13 @@ def cmd_mesh(args: argparse.Namespace) -> int:
 
 def cmd_campbell(args: argparse.Namespace) -> int:
     """Segment and wheel frequencies versus speed (prestressed), with engine orders."""
-    from wheelrom.campbell import campbell, parse_speeds
     from wheelrom.plots import plot_campbell
+    from wheelrom.rom.build import quiet
+    from wheelrom.rom.campbell import campbell
 
     cfg = _load(args)
-    try:
-        speeds = parse_speeds(args.speeds)
-    except ValueError as exc:
-        raise InputError(str(exc)) from exc
-    data = campbell(cfg, speeds, log=None if args.json else _log)
+    speeds = _parse_speeds(args.speeds)
+    data = campbell(cfg, speeds, _comm_self(), log=quiet if args.json else _log)
     written = plot_campbell(data, args.outdir, pdf=args.pdf)
     if args.json:
         print_json({k: (v.tolist() if hasattr(v, "tolist") else v) for k, v in data.items()}
@@ -348,18 +330,34 @@ def cmd_campbell(args: argparse.Namespace) -> int:
     return 0
 
 
+def _parse_speeds(text: str):
+    """``--speeds``: ``"start:stop:count"`` [Hz] (inclusive, like numpy.linspace) or
+    ``"a,b,c"``."""
+    import numpy as np
+
+    try:
+        if ":" in text:
+            start, stop, count = text.split(":")
+            return np.linspace(float(start), float(stop), int(count))
+        return np.array([float(x) for x in text.split(",")])
+    except ValueError:
+        raise InputError(
+            f"--speeds: expected start:stop:count or a,b,c in Hz, got {text!r}"
+        ) from None
+
+
 def cmd_bench(args: argparse.Namespace) -> int:
     """Speed of the transient hot path on this machine (one core): RHS, TS steps, ratios."""
     from wheelrom.bench import run
-    from wheelrom.cyclic import build_model
+    from wheelrom.rom.build import build_model, quiet
 
     cfg = _load(args)
     if args.steps < 20000:
         raise InputError(f"bench --steps must be at least 20000 (got {args.steps})")
     if args.batch < 1:
         raise InputError(f"bench --batch must be at least 1 (got {args.batch})")
-    say = None if args.json else _log
-    model = build_model(cfg, log=say)
+    say = quiet if args.json else _log
+    model = build_model(cfg, _comm_self(), log=say)
     out = run(model, cfg, steps=args.steps, compare_steps=args.reference_steps, log=say,
               batch=args.batch)  # fmt: skip
     _print_result(out, args.json)
@@ -534,6 +532,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     args.petsc_args = petsc_args
+    bootstrap()  # PETSc/SLEPc location, one BLAS thread per process (before numpy loads)
     try:
         _petsc_options(args)
         return int(args.func(args) or 0)

@@ -7,3 +7,11 @@ status 2 and a message naming the offending file, key or node set.
 
 class InputError(ValueError):
     """Bad input other than configuration keys."""
+
+
+class OutputExists(InputError):
+    """An output file exists and neither resuming nor overwriting it was asked for."""
+
+    def __init__(self, path: str):
+        self.path = path
+        super().__init__(f"{path} exists: resume to complete it, or overwrite it")

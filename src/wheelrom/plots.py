@@ -8,13 +8,13 @@ call raises :class:`InputError` naming the dataset.
 from __future__ import annotations
 
 import os
-import tomllib
 
 import numpy as np
 
-from wheelrom.config import CONTACT_KINDS, from_dict
+from wheelrom.config import CONTACT_KINDS
 from wheelrom.errors import InputError
-from wheelrom.forces import stiffness_at
+from wheelrom.forces.parameters import stiffness_at
+from wheelrom.results import read_config
 
 FONT = {"font.size": 11, "axes.titlesize": 12, "axes.labelsize": 11, "figure.dpi": 110}
 
@@ -53,9 +53,7 @@ def plot_file(path: str, outdir: str | None = None, pdf: bool = False,
     except OSError as exc:
         raise InputError(f"{path}: not a readable HDF5 file ({exc})") from None
     with f, plt.rc_context(FONT):
-        if "config" not in f.attrs:
-            raise InputError(f"{path}: attribute 'config' is missing (not a wheelrom file)")
-        cfg = from_dict(tomllib.loads(f.attrs["config"]), source=path)
+        cfg = read_config(f, path)
         if "model" in f:
             _modal_figures(f, cfg, path, outdir, pdf, written, plt)
         if "cases" in f:
@@ -223,7 +221,7 @@ def _sweep_figures(f, cfg, path, outdir, pdf, written, plt, nd_angles=None) -> N
             i = int(np.argmin(np.abs(shroud - a)))
             if abs(shroud[i] - a) > 1e-6:
                 raise InputError(
-                    f"--nd-angles: shroud angle {a:g} deg is not in {path} "
+                    f"ND-spectrum figure: shroud angle {a:g} deg is not in {path} "
                     f"(has {', '.join(f'{x:g}' for x in np.unique(shroud))})"
                 )
             picks.append((i, "chosen"))

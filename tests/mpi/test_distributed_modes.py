@@ -1,16 +1,19 @@
 """Segment eigen-solve distributed over COMM_WORLD equals the serial (COMM_SELF) solve."""
 
-import numpy as np
+from wheelrom._environment import bootstrap, petsc
 
-import wheelrom  # noqa: F401
-from wheelrom import assembly, config, mesh, modes
-from wheelrom._environment import petsc
+bootstrap()  # one BLAS thread per rank, before numpy loads
+
+import numpy as np  # noqa: E402
+
+from wheelrom import config  # noqa: E402
+from wheelrom.segment import assembly, builtin, modes  # noqa: E402
 
 
 def test_distributed_segment_modes_equal_serial():
     PETSc = petsc()
     cfg = config.load(overrides=['segment.preset="coarse"'])
-    seg = mesh.build_builtin(cfg)
+    seg = builtin.build_builtin(cfg)
     mats = assembly.assemble(seg, 2.1e11, 0.3, 7850.0)
     par = modes.segment_modes(mats, 6, PETSc.COMM_WORLD)
     ser = modes.segment_modes(mats, 6, PETSc.COMM_SELF)

@@ -1,9 +1,10 @@
 """The MPI stack under mpirun -n 2: PETSc sees both ranks, parallel HDF5 (mpio) works."""
 
-import numpy as np
+from wheelrom._environment import bootstrap, petsc
 
-import wheelrom  # noqa: F401  (environment bootstrap)
-from wheelrom._environment import petsc
+bootstrap()  # one BLAS thread per rank, parallel HDF5, before numpy and h5py load
+
+import numpy as np  # noqa: E402
 
 
 def test_two_ranks_and_distributed_vec():

@@ -10,10 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from wheelrom.cyclic import ReducedModel, nodal_diameter
-from wheelrom.mesh import SegmentMesh, rotation_z
-
-VTK_CELL = {20: "hexahedron20", 10: "tetra10"}
+from wheelrom.rom.model import ReducedModel, wheel_eigenpairs
+from wheelrom.segment.mesh import SegmentMesh, rotation_z
 
 
 def wheel_points(seg: SegmentMesh) -> np.ndarray:
@@ -28,11 +26,8 @@ def wheel_mode(model: ReducedModel, nd: int, family: int = 0):
     ``family`` counts the modes of that nodal diameter from the lowest (0). Of a degenerate
     pair the first (standing) eigenvector is taken.
     """
-    lam, vec = np.linalg.eigh(model.dense_stiffness())
-    N, m = model.blades, model.modes
-    shapes = vec.T.reshape(-1, N, m)
-    energy = (np.abs(np.fft.fft(shapes, axis=1)) ** 2).sum(axis=2)
-    nds = np.array([nodal_diameter(int(np.argmax(e)), N) for e in energy])
+    lam, shapes, nds = wheel_eigenpairs(model)
+    N = model.blades
     picks = np.flatnonzero(nds == nd)
     if nd > N // 2 or picks.size == 0:
         raise ValueError(f"no wheel mode with nodal diameter {nd} (N = {N})")
@@ -75,7 +70,7 @@ def write_wheel_mode(path: str, seg: SegmentMesh, shapes: np.ndarray, model: Red
     blade = np.repeat(np.arange(seg.sectors), cells.shape[0])
     mesh = meshio.Mesh(
         wheel_points(seg),
-        [(VTK_CELL[cells.shape[1]], conn)],
+        [("hexahedron20", conn)],
         point_data={"displacement": u},
         cell_data={"sector": [blade]},
         field_data={"frequency_hz": np.array([hz]), "nodal_diameter": np.array([nd])},

@@ -30,9 +30,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wheelrom.assembly import SegmentMatrices, direct_solve
 from wheelrom.errors import InputError
-from wheelrom.mesh import SegmentMesh
+from wheelrom.segment.assembly import SegmentMatrices
+from wheelrom.segment.mesh import SegmentMesh
+from wheelrom.segment.petsc import direct_solve
 
 ANGLES_DEG = np.arange(0.0, 90.0 + 1e-9, 5.0)
 
@@ -84,7 +85,7 @@ def flexibility(
     kinds,
     arm_lengths: dict,
     load_radius: dict,
-    comm=None,
+    comm,
     prefix: str = "stiffness_",
 ) -> dict[str, ContactFlexibility]:
     """Static flexibility at ``A``/``B`` of every kind in ``kinds`` (one factorisation)."""
@@ -124,9 +125,10 @@ def flexibility(
     return out
 
 
-def stiffness_tables(cfg, seg: SegmentMesh, mats: SegmentMatrices, kinds=None, comm=None):
-    """``{kind: (angles_deg, k_c [N/m], ContactFlexibility)}`` for the configured contacts."""
-    kinds = list(kinds if kinds is not None else cfg.contacts.enabled_kinds())
+def stiffness_tables(cfg, seg: SegmentMesh, mats: SegmentMatrices, kinds, comm):
+    """``{kind: (angles_deg, k_c [N/m], ContactFlexibility)}`` for the contact ``kinds`` of
+    the segment ``seg`` with the matrices ``mats`` (those the model is built from)."""
+    kinds = list(kinds)
     if not kinds:
         return {}
     radius = {k: 0.5 * cfg.contact(k).profile_thickness for k in kinds}

@@ -9,29 +9,16 @@ from __future__ import annotations
 import numpy as np
 
 from wheelrom.config import Config
-from wheelrom.cyclic import build_model
+from wheelrom.rom.build import build_model, quiet
 
 
-def parse_speeds(text: str) -> np.ndarray:
-    """``"start:stop:count"`` [Hz] (inclusive, like numpy.linspace) or ``"a,b,c"``."""
-    try:
-        if ":" in text:
-            start, stop, count = text.split(":")
-            return np.linspace(float(start), float(stop), int(count))
-        return np.array([float(x) for x in text.split(",")])
-    except ValueError as exc:
-        raise ValueError(
-            f"--speeds: expected start:stop:count or a,b,c in Hz, got {text!r}"
-        ) from exc
-
-
-def campbell(cfg: Config, speeds_hz, log=None) -> dict:
+def campbell(cfg: Config, speeds_hz, comm, log=quiet) -> dict:
     """``{"speeds_hz": (S,), "segment_hz": (S, m), "wheel_hz_by_nd": (S, N//2+1, m)}``."""
-    say = log or (lambda msg: None)
+    say = log
     seg_hz, wheel_hz = [], []
     for speed in speeds_hz:
         model = build_model(cfg.replace(**{"wheel.speed_hz": float(speed),
-                                           "segment.prestress": True}))  # fmt: skip
+                                           "segment.prestress": True}), comm)  # fmt: skip
         seg_hz.append(model.segment_hz)
         wheel_hz.append(model.frequencies_by_nodal_diameter())
         say(f"{speed:7.2f} Hz: segment " + ", ".join(f"{f:.1f}" for f in model.segment_hz[:4]))

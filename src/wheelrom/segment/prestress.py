@@ -22,22 +22,16 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from wheelrom.assembly import (
-    SegmentMatrices,
-    basis_arrays,
-    direct_solve,
-    phase_stiffness,
-    scalar_to_vector,
-    scatter,
-    spring_parts,
-)
-from wheelrom.mesh import SegmentMesh
+from wheelrom.segment.assembly import SegmentMatrices, basis_arrays, scalar_to_vector, scatter
+from wheelrom.segment.mesh import SegmentMesh
+from wheelrom.segment.petsc import direct_solve
+from wheelrom.segment.springs import phase_stiffness, spring_parts
 
 
 def centrifugal_load(seg: SegmentMesh, density: float, omega: float, arrays=None) -> np.ndarray:
     """``(n_dofs,)`` consistent nodal forces [N] of ``rho Omega^2 (x, y, 0)``.
 
-    ``arrays``: :func:`~wheelrom.assembly.basis_arrays` of ``seg`` when already at hand."""
+    ``arrays``: :func:`~wheelrom.segment.assembly.basis_arrays` of ``seg`` when already at hand."""
     values, _, dx, dofs, bs = arrays or basis_arrays(seg)
     xq = bs.mapping.F(bs.X)  # (3, nel, nq) quadrature point coordinates
     f = np.zeros(seg.n_dofs)
@@ -87,7 +81,7 @@ class Prestress:
 
 
 def prestress(seg: SegmentMesh, mats: SegmentMatrices, young: float, poisson: float,
-              density: float, omega: float, c1: float, comm=None,
+              density: float, omega: float, c1: float, comm,
               prefix: str = "prestress_") -> Prestress:  # fmt: skip
     """Centrifugal static solve at ``omega`` [rad/s] and the prestress matrices."""
     t0 = time.perf_counter()
@@ -103,27 +97,3 @@ def prestress(seg: SegmentMesh, mats: SegmentMatrices, young: float, poisson: fl
     Ks = geometric_stiffness(seg, young, poisson, u_full, arrays)[mats.free][:, mats.free]
     Ms = spin_softening_mass(seg, density, arrays)[mats.free][:, mats.free]
     return Prestress(omega, u_full, Ks.tocsr(), Ms.tocsr(), residual, time.perf_counter() - t0)
-
-
-def segment_matrices(cfg, seg: SegmentMesh, comm=None, log=None) -> SegmentMatrices:
-    """The segment matrices a configuration's wheel uses: assembled, and with
-    ``segment.prestress`` the stiffness ``K + K_sigma - Omega^2 M_s`` at ``wheel.speed_hz``."""
-    from dataclasses import replace
-
-    from wheelrom.assembly import assemble
-
-    say = log or (lambda msg: None)
-    s = cfg.segment
-    mats = assemble(seg, s.young, s.poisson, s.density)
-    say(f"segment: {seg.n_dofs} DOFs ({seg.element}), assembled in {mats.assembly_s:.2f} s")
-    if s.prestress and cfg.wheel.speed_hz > 0:
-        omega = 2 * np.pi * cfg.wheel.speed_hz
-        ps = prestress(seg, mats, s.young, s.poisson, s.density, omega,
-                       cfg.wheel.coupling_stiffness, comm)  # fmt: skip
-        mats = replace(mats, K=ps.stiffness(mats))
-        say(
-            f"prestress at {cfg.wheel.speed_hz:g} Hz: static residual {ps.residual:.1e}, "
-            f"largest displacement {np.abs(ps.displacement).max() * 1e3:.3f} mm "
-            f"({ps.solve_s:.1f} s)"
-        )
-    return mats

@@ -1,188 +1,60 @@
-"""Forces on the reduced wheel: nozzle (eq. 13), Van der Pol (eqs. 1, 2/14), dry friction
-contacts on rigid arms (eqs. 16-20). Equations, frames and signs: ``docs/theory.md``.
+"""The reference force model: nozzle (eq. 13), Van der Pol (eqs. 1, 2/14), dry-friction
+contacts on rigid arms (eqs. 16-20), written plainly blade by blade (numba, no fast math).
+Equations, frames and signs: docs/theory.md.
 
-One compiled kernel (numba) evaluates everything in a single pass over the blades into
-preallocated arrays; the same :class:`ForceModel` serves the PETSc TS right-hand side, the
-static preload solve and the plain-numpy serial reference.
-
-Units: modal coordinates ``q`` [sqrt(kg) m], velocities ``v`` [sqrt(kg) m/s], generalised
-force [sqrt(kg) m/s^2] (= N / sqrt(kg), since ``M_R = I``).
+It serves the static preload solve, the plain-numpy serial reference of the transient and the
+energy bookkeeping; the compiled right-hand side (:mod:`wheelrom.transient.kernel`) is a
+second, independent implementation that the tests hold equal to this one to round-off.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numba
 import numpy as np
 
-from wheelrom.config import Config
-from wheelrom.cyclic import ReducedModel
-
-VDP_OFF, VDP_ABSOLUTE, VDP_RELATIVE = 0, 1, 2
-OPEN, STICK, SLIP = 0, 1, 2  # contact states (STICK: micro-slip branch |v| <= v_k)
+from wheelrom.forces.parameters import ForceParameters
 
 
-def contact_frame(angle_deg: float) -> np.ndarray:
-    """``T_g2l`` of eq. 18: rows xi = x, eta = (0, cos b, sin b), zeta = (0, -sin b, cos b)."""
-    b = math.radians(angle_deg)
-    return np.array(
-        [[1.0, 0.0, 0.0], [0.0, math.cos(b), math.sin(b)], [0.0, -math.sin(b), math.cos(b)]]
-    )
+class ReferenceForces:
+    """Nonlinear generalised forces of the whole wheel for one case's
+    :class:`~wheelrom.forces.parameters.ForceParameters`.
 
-
-def stiffness_at(stiffness, angle_deg: float) -> float:
-    """Normal contact stiffness ``k_c(beta)`` [N/m] from a number or an (angle, value) table.
-
-    Tables are interpolated linearly in ``log k`` (the curve spans decades, paper Fig. 5).
-    """
-    if isinstance(stiffness, int | float):
-        return float(stiffness)
-    if isinstance(stiffness, str):
-        raise ValueError("stiffness = 'fe' must be resolved before building the force model")
-    angles = np.array([a for a, _ in stiffness])
-    values = np.log(np.array([k for _, k in stiffness]))
-    return float(np.exp(np.interp(angle_deg, angles, values)))
-
-
-@dataclass
-class ContactArrays:
-    """Per contact kind: geometry and parameters, as the kernel wants them.
-
-    ``XA``, ``XB``: ``(K, 3, m)`` shapes at A and B; ``A0``, ``B0``: ``(K, 3)`` [m];
-    ``arm``: ``(K,)`` L [m]; ``T``: ``(K, N, 3, 3)`` local frames per blade;
-    ``k``: ``(K, N)`` [N/m]; ``preload``: ``(K,)`` [N].
-    """
-
-    kinds: list[str]
-    XA: np.ndarray
-    XB: np.ndarray
-    A0: np.ndarray
-    B0: np.ndarray
-    arm: np.ndarray
-    T: np.ndarray
-    k: np.ndarray
-    preload: np.ndarray
-
-
-class ForceModel:
-    """Nonlinear generalised forces of the whole wheel.
-
-    Build once per case; :meth:`evaluate` is allocation-free (writes into ``self`` arrays):
+    :meth:`evaluate` is allocation-free (writes into these arrays):
 
     - ``force``: ``(N, m)`` generalised force (nozzle + Van der Pol + contacts);
     - ``normal_force``, ``slip_velocity``, ``normal_gap``: ``(K, N)`` [N, m/s, m] per contact
       kind and blade pair ``(s, s+1)``; ``contact_state``: ``(K, N)`` OPEN/STICK/SLIP;
+    - ``relative_displacement``, ``relative_velocity``: ``(K, N, 3)`` local (xi, eta, zeta);
     - ``vdp_displacement``: ``(N,)`` Van der Pol reference displacement ``y_s`` [m];
     - ``power``: ``(3,)`` power of nozzle, Van der Pol and friction forces [W].
     """
 
-    def __init__(
-        self,
-        model: ReducedModel,
-        cfg: Config,
-        angles_deg: dict[str, float | np.ndarray] | None = None,
-    ):
-        N, m = model.blades, model.modes
-        self.N, self.m = N, m
-        angles_deg = angles_deg or {}
-        w = cfg.wheel
-        self.omega = 2 * math.pi * w.speed_hz
-        self.stator_vanes = w.stator_vanes
-        self.nozzle_force = cfg.excitation.force
-        self.p_exc = np.ascontiguousarray(model.excitation, dtype=float)
-        self.nozzle_phase = 2 * math.pi * (1 - w.stator_vanes / N) * np.arange(N)
-        fl = cfg.flutter
-        self.vdp_model = {"off": VDP_OFF, "absolute": VDP_ABSOLUTE, "relative": VDP_RELATIVE}[
-            fl.model
-        ]
-        p = np.array(model.aero, dtype=float)
-        if fl.mode >= 0:
-            keep = np.zeros_like(p)
-            keep[fl.mode] = p[fl.mode]
-            p = keep
-        self.p_aero = p
-        self.vdp_mu, self.vdp_r = fl.mu, fl.r
-        fr = cfg.friction
-        self.friction = np.array([fr.static, fr.dynamic, fr.decay, fr.microslip_velocity])
-        self.R = np.ascontiguousarray(model.rotation)
-        kinds = [k for k in cfg.contacts.enabled_kinds() if k in model.contact_A]
-        K = len(kinds)
-        T = np.zeros((K, N, 3, 3))
-        k_c = np.zeros((K, N))
-        self.angles_deg = {}
-        for i, kind in enumerate(kinds):
-            c = cfg.contact(kind)
-            ang = np.broadcast_to(np.asarray(angles_deg.get(kind, c.angle_deg), float), (N,))
-            stiffness = c.stiffness
-            if stiffness == "fe":
-                if kind not in model.contact_stiffness:
-                    raise ValueError(f"contacts.{kind}.stiffness = 'fe' but the model has no table")
-                stiffness = [tuple(row) for row in model.contact_stiffness[kind]]
-            self.angles_deg[kind] = ang.copy()
-            for s in range(N):
-                T[i, s] = contact_frame(ang[s])
-                k_c[i, s] = stiffness_at(stiffness, ang[s])
-        self.contacts = ContactArrays(
-            kinds=kinds,
-            XA=np.array([model.contact_A[k] for k in kinds]).reshape(K, 3, m),
-            XB=np.array([model.contact_B[k] for k in kinds]).reshape(K, 3, m),
-            A0=np.array([model.contact_points[k][0] for k in kinds]).reshape(K, 3),
-            B0=np.array([model.contact_points[k][1] for k in kinds]).reshape(K, 3),
-            arm=np.array([cfg.contact(k).arm_length for k in kinds], dtype=float),
-            T=T,
-            k=k_c,
-            preload=np.array([cfg.contact(k).normal_preload for k in kinds], dtype=float),
-        )
+    def __init__(self, params: ForceParameters):
+        self.params = params
+        N, m, K = params.blades, params.modes, len(params.contacts.kinds)
         self.force = np.zeros((N, m))
         self.normal_force = np.zeros((K, N))
         self.slip_velocity = np.zeros((K, N))
         self.normal_gap = np.zeros((K, N))
         self.contact_state = np.zeros((K, N), dtype=np.int8)
-        self.relative_displacement = np.zeros((K, N, 3))  # local (xi, eta, zeta) [m]
-        self.relative_velocity = np.zeros((K, N, 3))  # local [m/s]
+        self.relative_displacement = np.zeros((K, N, 3))
+        self.relative_velocity = np.zeros((K, N, 3))
         self.vdp_displacement = np.zeros(N)
         self.power = np.zeros(3)
         self._work = np.zeros((N, 4))
 
     def evaluate(self, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """Fill and return ``self.force`` ``(N, m)`` for modal state ``q, v`` at time ``t`` [s]."""
-        c = self.contacts
-        _kernel(
-            t,
-            q,
-            v,
-            self.force,
-            self.omega,
-            self.stator_vanes,
-            self.nozzle_force,
-            self.p_exc,
-            self.nozzle_phase,
-            self.vdp_model,
-            self.vdp_mu,
-            self.vdp_r,
-            self.p_aero,
-            self.friction,
-            self.R,
-            c.XA,
-            c.XB,
-            c.A0,
-            c.B0,
-            c.arm,
-            c.T,
-            c.k,
-            c.preload,
-            self.normal_force,
-            self.slip_velocity,
-            self.normal_gap,
-            self.contact_state,
-            self.relative_displacement,
-            self.relative_velocity,
-            self.vdp_displacement,
-            self.power,
-            self._work,
-        )
+        """Fill and return ``self.force`` ``(N, m)`` for modal state ``q, v`` ``(N, m)`` at
+        time ``t`` [s]."""
+        p, c = self.params, self.params.contacts
+        _kernel(t, q, v, self.force, p.omega, p.stator_vanes, p.nozzle_force, p.excitation,
+                p.nozzle_phase, p.vdp_model, p.vdp_mu, p.vdp_r, p.aero, p.friction, p.rotation,
+                c.shape_A, c.shape_B, c.point_A, c.point_B, c.arm_length, c.frame, c.stiffness,
+                c.preload, self.normal_force, self.slip_velocity, self.normal_gap,
+                self.contact_state, self.relative_displacement, self.relative_velocity,
+                self.vdp_displacement, self.power, self._work)  # fmt: skip
         return self.force
 
     def contact_energy(self) -> float:
@@ -191,48 +63,20 @@ class ForceModel:
         ``V = -F_N0 g + k g^2 / 2`` for ``g < F_N0 / k`` (closed), ``-F_N0^2 / (2 k)`` when open;
         ``-dV/dg`` is the normal force, so the contact normal forces are conservative.
         """
-        c = self.contacts
+        c = self.params.contacts
         g = self.normal_gap
-        open_ = g >= c.preload[:, None] / c.k
-        closed = -c.preload[:, None] * g + 0.5 * c.k * g * g
-        return float(np.where(open_, -(c.preload[:, None] ** 2) / (2 * c.k), closed).sum())
+        preload = c.preload[:, None]
+        open_ = g >= preload / c.stiffness
+        closed = -preload * g + 0.5 * c.stiffness * g * g
+        return float(np.where(open_, -(preload**2) / (2 * c.stiffness), closed).sum())
 
 
 @numba.njit(cache=True, fastmath=False)
-def _kernel(
-    t,
-    q,
-    v,
-    out,
-    omega,
-    n_s,
-    Fb,
-    p_exc,
-    phase,
-    vdp_model,
-    mu,
-    r,
-    p_aero,
-    friction,
-    R,
-    XA,
-    XB,
-    A0,
-    B0,
-    arm,
-    T,
-    kc,
-    preload,
-    normal,
-    slip,
-    gap,
-    state,
-    rel_u,
-    rel_v,
-    y_vdp,
-    power,
-    work,
-):
+def _kernel(t, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p_aero, friction, R,
+            XA, XB, A_pt, B_pt, arm, T, kc, preload, normal, slip, gap, state, rel_u, rel_v,
+            y_vdp, power, work):  # fmt: skip  # noqa: PLR0915 - the reference is one plain pass
+    """The forces of :class:`ReferenceForces` (argument names as in docs/theory.md: ``XA``,
+    ``XB`` contact shapes, ``A_pt``, ``B_pt`` undeformed contact points, ``T`` frames)."""
     N, m = q.shape
     f_s, f_d, decay, v_k = friction[0], friction[1], friction[2], friction[3]
     p_noz = 0.0
@@ -295,7 +139,7 @@ def _kernel(
         L = arm[c]
         l0 = 0.0
         for a in range(3):
-            l0 += (B0[c, a] - A0[c, a]) ** 2
+            l0 += (B_pt[c, a] - A_pt[c, a]) ** 2
         l0 = math.sqrt(l0)
         for s in range(N):
             sn = (s + 1) % N
@@ -322,7 +166,7 @@ def _kernel(
             # deformed arm direction e = (B' - A') / |B' - A'| and its rate (eq. 16)
             nd = 0.0
             for a in range(3):
-                d[a] = B0[c, a] + uB[a] - A0[c, a] - uA[a]
+                d[a] = B_pt[c, a] + uB[a] - A_pt[c, a] - uA[a]
                 dd[a] = vB[a] - vA[a]
                 nd += d[a] * d[a]
             nd = math.sqrt(nd)
@@ -337,7 +181,7 @@ def _kernel(
             for a in range(3):
                 RuN = R[a, 0] * uN[0] + R[a, 1] * uN[1] + R[a, 2] * uN[2]
                 RvN = R[a, 0] * vN[0] + R[a, 1] * vN[1] + R[a, 2] * vN[2]
-                e0 = (B0[c, a] - A0[c, a]) / l0
+                e0 = (B_pt[c, a] - A_pt[c, a]) / l0
                 uc[a] = RuN - uA[a] - L * (e[a] - e0)
                 vc[a] = RvN - vA[a] - L * ed[a]
             for a in range(3):  # local frame (eq. 18)

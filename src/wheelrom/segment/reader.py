@@ -23,17 +23,15 @@ import numpy as np
 
 from wheelrom.config import Config
 from wheelrom.errors import InputError
-from wheelrom.mesh import (
+from wheelrom.segment.mesh import (
+    HEX20_EDGES,
     REQUIRED_SETS,
     SegmentMesh,
-    _arm_report,
-    _with_edges,
+    arm_report,
     edge_nodes,
     pair_cut_faces,
+    with_edges,
 )
-
-_HEX20_VTK_EDGES = [(0, 1), (1, 2), (2, 3), (3, 0), (4, 5), (5, 6), (6, 7), (7, 4),
-                    (0, 4), (1, 5), (2, 6), (3, 7)]  # fmt: skip
 
 
 def source_path(cfg: Config) -> str:
@@ -45,6 +43,7 @@ def source_path(cfg: Config) -> str:
 
 
 def read_segment(cfg: Config) -> SegmentMesh:
+    """The segment mesh of ``segment.source`` with its node sets (see the module doc)."""
     import meshio
     from skfem.io.meshio import from_meshio
 
@@ -69,12 +68,12 @@ def read_segment(cfg: Config) -> SegmentMesh:
     to_vertex[vertex_ids] = np.arange(vertex_ids.size)
     linear = meshio.Mesh(raw.points[vertex_ids], [("hexahedron", to_vertex[corners_user])])
     mesh = from_meshio(linear)
-    seg = _with_edges(mesh, "hex20", {}, {}, cfg.wheel.blades)
+    seg = with_edges(mesh, {}, {}, cfg.wheel.blades)
     # user node id -> our node index (corners and mid-side nodes)
     user_to_ours = np.full(raw.points.shape[0], -1, dtype=np.int64)
     user_to_ours[vertex_ids] = np.arange(vertex_ids.size)
     corners = to_vertex[corners_user]
-    for e, (i, j) in enumerate(_HEX20_VTK_EDGES):
+    for e, (i, j) in enumerate(HEX20_EDGES):
         user_to_ours[cells[:, 8 + e]] = edge_nodes(seg, corners[:, i], corners[:, j])
     used = np.flatnonzero(user_to_ours >= 0)
     offset = np.linalg.norm(raw.points[used] - seg.nodes[user_to_ours[used]], axis=1).max()
@@ -86,7 +85,7 @@ def read_segment(cfg: Config) -> SegmentMesh:
     seg.node_sets.update(sets)
     _check_required(cfg, seg, path)
     pair_cut_faces(seg)
-    seg.info.update(_arm_report(seg, cfg))
+    seg.info.update(arm_report(seg, cfg))
     return seg
 
 

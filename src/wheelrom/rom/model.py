@@ -1,4 +1,4 @@
-"""Cyclic modal synthesis: the reduced wheel model (paper section 3, MODEL.md).
+"""Cyclic modal synthesis: the reduced wheel model (paper section 3, docs/theory.md).
 
 Blade ``s`` has modal coordinates ``q_s`` (``m`` of them, [sqrt(kg) m]), ``u(s) = Xb q_s`` in
 sector ``s``'s own frame. Springs ``c1`` join node ``k`` of ``right(s)`` with node ``k`` of
@@ -19,8 +19,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from wheelrom._environment import petsc
 from wheelrom.config import CONTACT_KINDS, Config
-from wheelrom.mesh import SegmentMesh
+from wheelrom.segment.mesh import SegmentMesh
 
 
 @dataclass
@@ -55,11 +56,6 @@ class ReducedModel:
     contact_points: dict[str, np.ndarray] = field(default_factory=dict)
     # kind -> (k, 2) table (angle [deg], k_c [N/m]) computed from the segment FE
     contact_stiffness: dict[str, np.ndarray] = field(default_factory=dict)
-    # build_model(keep_segment=True) only: the segment mesh, its (prestressed) matrices and
-    # the basis (n_dofs, m), for export and the full-wheel references
-    segment: object = field(default=None, repr=False, compare=False)
-    matrices: object = field(default=None, repr=False, compare=False)
-    shapes: np.ndarray | None = field(default=None, repr=False, compare=False)
     info: dict = field(default_factory=dict)
 
     @property
@@ -77,12 +73,9 @@ class ReducedModel:
             K[t, :, s, :] += self.A1.T
         return K.reshape(N * m, N * m)
 
-    def petsc_stiffness(self, comm=None, prefix: str = "wheel_K_"):
-        """``K_R`` as a PETSc BAIJ matrix with block size m on ``comm`` (default COMM_SELF)."""
-        from wheelrom._environment import petsc
-
+    def petsc_stiffness(self, comm, prefix: str = "wheel_K_"):
+        """``K_R`` as a PETSc BAIJ matrix with block size m on ``comm``."""
         PETSc = petsc()
-        comm = comm or PETSc.COMM_SELF
         N, m = self.blades, self.modes
         A = PETSc.Mat().create(comm=comm)
         A.setOptionsPrefix(prefix)
@@ -128,21 +121,35 @@ def nodal_diameter(k: int | np.ndarray, blades: int):
     return np.minimum(k, blades - k)
 
 
+def nodal_diameters_of(shapes: np.ndarray) -> np.ndarray:
+    """Nodal diameter of wheel mode shapes ``(k, N, m)`` (modal coordinates per blade): the
+    ND holding most of the mode's energy, harmonics ``k`` and ``N - k`` counted together (a
+    standing mode splits its energy evenly between them)."""
+    N = shapes.shape[1]
+    energy = (np.abs(np.fft.fft(shapes, axis=1)) ** 2).sum(axis=2)  # (modes, N)
+    nd_energy = np.zeros((shapes.shape[0], N // 2 + 1))
+    for k in range(N):
+        nd_energy[:, nodal_diameter(k, N)] += energy[:, k]
+    return np.argmax(nd_energy, axis=1)
+
+
+def wheel_eigenpairs(model: ReducedModel):
+    """All ``N m`` eigenpairs of ``K_R``: ``(lambda (N m,) [1/s^2] ascending, shapes
+    (N m, N, m), nodal diameters (N m,))``."""
+    lam, vec = np.linalg.eigh(model.dense_stiffness())
+    shapes = vec.T.reshape(-1, model.blades, model.modes)
+    return lam, shapes, nodal_diameters_of(shapes)
+
+
 def wheel_modes(model: ReducedModel):
     """All ``N m`` wheel frequencies [Hz] from ``K_R``, each with its nodal diameter.
 
-    Returns ``(hz, nd, kind)``: ascending frequencies, nodal diameter (DFT of the mode over
-    the blades: the harmonic holding most of its energy) and ``"standing"`` for ND 0 and
-    N/2 (single modes), ``"pair"`` for the doubly repeated travelling/standing pairs.
+    Returns ``(hz, nd, kind)``: ascending frequencies, nodal diameter
+    (:func:`nodal_diameters_of`) and ``"standing"`` for ND 0 and N/2 (single modes),
+    ``"pair"`` for the doubly repeated travelling/standing pairs.
     """
-    lam, vec = np.linalg.eigh(model.dense_stiffness())
-    N, m = model.blades, model.modes
-    shapes = vec.T.reshape(-1, N, m)
-    energy = (abs(np.fft.fft(shapes, axis=1)) ** 2).sum(axis=2)  # (modes, N)
-    nd_energy = np.zeros((lam.size, N // 2 + 1))
-    for k in range(N):
-        nd_energy[:, nodal_diameter(k, N)] += energy[:, k]
-    nd = np.argmax(nd_energy, axis=1)
+    lam, _, nd = wheel_eigenpairs(model)
+    N = model.blades
     kind = np.where((nd == 0) | ((N % 2 == 0) & (nd == N // 2)), "standing", "pair")
     return np.sqrt(np.maximum(lam, 0.0)) / (2 * np.pi), nd, kind
 
@@ -195,66 +202,4 @@ def reduce(
             model.contact_B[kind] = rows_at(shapes, seg.node_sets[f"{kind}_B"])[0]
             model.contact_points[kind] = np.stack([seg.point(f"{kind}_A"), seg.point(f"{kind}_B")])
     model.info.update(seg.info)
-    return model
-
-
-def build_model(cfg: Config, comm=None, log=None, keep_segment: bool = False) -> ReducedModel:
-    """Segment mesh -> matrices -> modes -> reduced wheel, for one configuration.
-
-    ``comm`` is the communicator of the segment eigen-solve (default ``COMM_SELF``); the
-    result is the same on every rank of it. ``log`` receives progress lines.
-    """
-    import time
-
-    from wheelrom._environment import petsc
-    from wheelrom.mesh import load_segment
-    from wheelrom.modes import segment_modes
-    from wheelrom.prestress import segment_matrices
-
-    say = log or (lambda msg: None)
-    comm = comm or petsc().COMM_SELF
-    t0 = time.perf_counter()
-    seg = load_segment(cfg)
-    mats = segment_matrices(cfg, seg, comm, log=say)
-    eig = segment_modes(mats, cfg.wheel.modes_per_segment, comm)
-    say(
-        f"segment modes: {eig.frequencies_hz.size} in {eig.solve_s:.2f} s, "
-        f"max residual {eig.residuals.max():.1e}"
-    )
-    if cfg.wheel.basis == "enriched":
-        from wheelrom.fullwheel import ENRICH_FAMILIES, enriched_basis, enrichment_phases
-
-        t1 = time.perf_counter()
-        phases = enrichment_phases(seg.sectors)
-        X, lam = enriched_basis(seg, mats, cfg.wheel.coupling_stiffness, eig.vectors[mats.free],
-                                ENRICH_FAMILIES, comm, phases)  # fmt: skip
-        say(
-            f"enriched basis: {X.shape[1]} vectors (free modes + {ENRICH_FAMILIES} sector modes "
-            f"of ND {', '.join(map(str, phases))}) in {time.perf_counter() - t1:.2f} s"
-        )
-        hz = np.sqrt(np.maximum(lam, 0.0)) / (2 * np.pi)
-        shapes = mats.expand(X)
-        model = reduce(seg, shapes, np.diag(lam), cfg, hz)
-    else:
-        shapes = eig.vectors
-        model = reduce(seg, shapes, np.diag(eig.eigenvalues), cfg, eig.frequencies_hz)
-    if keep_segment:
-        model.segment, model.matrices, model.shapes = seg, mats, shapes
-    fe_kinds = [k for k in cfg.contacts.enabled_kinds() if cfg.contact(k).stiffness == "fe"]
-    if fe_kinds:
-        from wheelrom.stiffness import stiffness_tables
-
-        for kind, (angles, values, flex) in stiffness_tables(cfg, seg, mats, fe_kinds).items():
-            model.contact_stiffness[kind] = np.stack([angles, values], axis=1)
-            say(
-                f"contact stiffness '{kind}' from FE ({flex.solve_s:.1f} s): "
-                f"{values.min():.3g}..{values.max():.3g} N/m over 0..90 deg"
-            )
-    model.info.update(
-        segment_dofs=seg.n_dofs,
-        assembly_s=mats.assembly_s,
-        eigen_solve_s=eig.solve_s,
-        eigen_residual_max=float(eig.residuals.max()),
-        build_s=time.perf_counter() - t0,
-    )
     return model

@@ -1,7 +1,7 @@
 """Write the segment mesh with its node sets (``wheelrom mesh --out``), for ParaView and for
 checking our modes with an independent FE code (CalculiX/Abaqus).
 
-- ``.inp``: nodes, C3D20 (or C10D10) elements, every node set as ``*NSET``; with a
+- ``.inp``: nodes, C3D20 elements, every node set as ``*NSET``; with a
   configuration also what CalculiX needs for the same segment modal analysis: material,
   ``*SOLID SECTION``, the clamped bore as ``*BOUNDARY`` and a ``*FREQUENCY`` step for the
   ``m`` lowest modes (free cut faces, no rotation: exactly ``wheelrom modes``' segment
@@ -17,10 +17,7 @@ import os
 import numpy as np
 
 from wheelrom.errors import InputError
-from wheelrom.mesh import SegmentMesh
-
-MESHIO_CELL = {20: "hexahedron20", 10: "tetra10"}
-ABAQUS_ELEMENT = {20: "C3D20", 10: "C3D10"}
+from wheelrom.segment.mesh import SegmentMesh
 
 
 def _meshio_mesh(seg: SegmentMesh, with_masks: bool):
@@ -33,7 +30,7 @@ def _meshio_mesh(seg: SegmentMesh, with_masks: bool):
             mask = np.zeros(seg.nodes.shape[0], dtype=np.int32)
             mask[idx] = 1
             point_data[f"set_{name}"] = mask
-    return meshio.Mesh(seg.nodes, [(MESHIO_CELL[cells.shape[1]], cells)], point_data=point_data)
+    return meshio.Mesh(seg.nodes, [("hexahedron20", cells)], point_data=point_data)
 
 
 def _abaqus_text(seg: SegmentMesh, cfg=None) -> str:
@@ -41,7 +38,7 @@ def _abaqus_text(seg: SegmentMesh, cfg=None) -> str:
     cells = seg.quadratic_cells()
     lines = ["*HEADING", "wheelrom segment (x radial, y tangential, z axial; m)", "*NODE"]
     lines += [f"{i + 1}, {x:.12g}, {y:.12g}, {z:.12g}" for i, (x, y, z) in enumerate(seg.nodes)]
-    lines.append(f"*ELEMENT, TYPE={ABAQUS_ELEMENT[cells.shape[1]]}, ELSET=SEGMENT")
+    lines.append("*ELEMENT, TYPE=C3D20, ELSET=SEGMENT")
     for e, conn in enumerate(cells + 1):
         ids = [str(e + 1), *map(str, conn)]
         # Abaqus allows 16 entries per line; continue long element lines

@@ -15,7 +15,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from wheelrom._environment import petsc, slepc
-from wheelrom.assembly import SegmentMatrices, to_petsc
+from wheelrom.segment.assembly import SegmentMatrices
+from wheelrom.segment.petsc import to_petsc
 
 
 @dataclass
@@ -50,14 +51,13 @@ def lowest_modes(
     K: sp.csr_matrix,
     M: sp.csr_matrix,
     nev: int,
-    comm=None,
-    prefix: str = "segment_",
+    comm,
+    prefix: str,
     target: float = 0.0,
 ) -> EigenResult:
     """The ``nev`` eigenpairs of ``K x = lambda M x`` nearest ``target`` (shift-and-invert)."""
     PETSc = petsc()
     SLEPc = slepc()
-    comm = comm or PETSc.COMM_WORLD
     t0 = time.perf_counter()
     A = to_petsc(K, comm)
     B = to_petsc(M, comm)
@@ -104,8 +104,8 @@ def lowest_modes(
     return EigenResult(lam, X, res, time.perf_counter() - t0)
 
 
-def segment_modes(mats: SegmentMatrices, m: int, comm=None) -> EigenResult:
+def segment_modes(mats: SegmentMatrices, m: int, comm, prefix: str = "segment_") -> EigenResult:
     """First ``m`` modes of the clamped segment; vectors returned on the *full* DOFs."""
-    res = lowest_modes(mats.K, mats.M, m, comm, prefix="segment_")
+    res = lowest_modes(mats.K, mats.M, m, comm, prefix)
     res.vectors = mats.expand(res.vectors)
     return res

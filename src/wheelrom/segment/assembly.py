@@ -1,4 +1,4 @@
-"""Segment matrices: consistent mass and linear-elastic stiffness (scikit-fem), PETSc AIJ.
+"""Segment matrices: consistent mass and linear-elastic stiffness (scikit-fem quadrature).
 
 The ``clamped`` DOFs are removed: the returned matrices act on the *free* DOFs only, listed in
 ``SegmentMatrices.free`` (indices into the full DOF vector ``3 * node + component``).
@@ -12,10 +12,10 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from wheelrom.mesh import SegmentMesh
+from wheelrom.segment.mesh import SegmentMesh
 
-# 3x3x3 Gauss points on a hexahedron, 11 points (degree 4) on a tetrahedron: the usual
-# rules for quadratic solid elements (scikit-fem's default is exact for the full degree).
+# 3x3x3 Gauss points on the 20-node hexahedron: the usual rule for quadratic solid elements
+# (scikit-fem's default is exact for the full polynomial degree: 343 points, ~30x slower).
 INTORDER = 4
 
 
@@ -43,19 +43,17 @@ class SegmentMatrices:
 
 
 def vector_basis(seg: SegmentMesh):
-    """scikit-fem vector basis of the segment's quadratic element."""
-    from skfem import Basis, ElementHexS2, ElementTetP2, ElementVector
+    """scikit-fem vector basis of the segment's 20-node hexahedra."""
+    from skfem import Basis, ElementHexS2, ElementVector
 
-    elem = ElementHexS2() if seg.element == "hex20" else ElementTetP2()
-    return Basis(seg.mesh, ElementVector(elem), intorder=INTORDER)
+    return Basis(seg.mesh, ElementVector(ElementHexS2()), intorder=INTORDER)
 
 
 def scalar_basis(seg: SegmentMesh):
-    """scikit-fem scalar basis of the segment's quadratic element (one DOF per node)."""
-    from skfem import Basis, ElementHexS2, ElementTetP2
+    """scikit-fem scalar basis of the segment's 20-node hexahedra (one DOF per node)."""
+    from skfem import Basis, ElementHexS2
 
-    elem = ElementHexS2() if seg.element == "hex20" else ElementTetP2()
-    return Basis(seg.mesh, elem, intorder=INTORDER)
+    return Basis(seg.mesh, ElementHexS2(), intorder=INTORDER)
 
 
 def basis_arrays(seg: SegmentMesh):
@@ -147,111 +145,3 @@ def assemble(
     K = ((K + K.T) * 0.5).tocsr()
     M = ((M + M.T) * 0.5).tocsr()
     return SegmentMatrices(K, M, free, seg.n_dofs, time.perf_counter() - t0)
-
-
-def to_petsc(A: sp.csr_matrix, comm, prefix: str | None = None):
-    """A scipy CSR matrix as a PETSc AIJ matrix on ``comm`` (rows split by PETSc's layout).
-
-    Every rank holds the full CSR (the segment is built redundantly); each inserts its rows.
-    """
-    from wheelrom._environment import petsc
-
-    PETSc = petsc()
-    n = A.shape[0]
-    M = PETSc.Mat().create(comm=comm)
-    M.setSizes(((PETSc.DECIDE, n), (PETSc.DECIDE, n)))
-    M.setType(PETSc.Mat.Type.AIJ)
-    if prefix:
-        M.setOptionsPrefix(prefix)
-    rlo, rhi = _ownership(n, comm)
-    local = A[rlo:rhi]
-    M.setPreallocationCSR((local.indptr, local.indices))
-    M.setValuesCSR(local.indptr, local.indices, local.data)
-    M.assemble()
-    return M
-
-
-def direct_solve(A: sp.csr_matrix, B: np.ndarray, comm=None, prefix: str | None = None):
-    """``X = A^-1 B`` for the columns of ``B`` ``(n, k)`` with one factorisation: PETSc KSP
-    ``preonly`` + Cholesky (LU in parallel) with MUMPS, options prefix ``prefix``.
-
-    Every rank holds ``A`` and ``B`` (built redundantly) and gets the whole ``X``.
-    """
-    from wheelrom._environment import petsc
-
-    PETSc = petsc()
-    comm = comm or PETSc.COMM_SELF
-    K = to_petsc(A, comm)
-    ksp = PETSc.KSP().create(comm=comm)
-    if prefix:
-        ksp.setOptionsPrefix(prefix)
-    ksp.setOperators(K)
-    ksp.setType("preonly")
-    pc = ksp.getPC()
-    pc.setType("cholesky" if comm.getSize() == 1 else "lu")
-    pc.setFactorSolverType("mumps")
-    ksp.setFromOptions()
-    x, b = K.createVecs()
-    lo, hi = b.getOwnershipRange()
-    B = np.asarray(B, dtype=float).reshape(A.shape[0], -1)
-    X = np.zeros_like(B)
-    for j in range(B.shape[1]):
-        b.setArray(B[lo:hi, j])
-        ksp.solve(b, x)
-        X[lo:hi, j] = x.getArray(readonly=True)
-    if comm.getSize() > 1:
-        from mpi4py import MPI
-
-        X = comm.tompi4py().allreduce(X, op=MPI.SUM)
-    for obj in (ksp, K, x, b):
-        obj.destroy()
-    return X
-
-
-def _ownership(n: int, comm) -> tuple[int, int]:
-    """PETSc's default row split of ``n`` rows over ``comm``."""
-    size, rank = comm.getSize(), comm.getRank()
-    base, extra = divmod(n, size)
-    lo = rank * base + min(rank, extra)
-    return lo, lo + base + (1 if rank < extra else 0)
-
-
-# cut-face coupling springs (c1 on every right(s)/left(s+1) node pair, sector rotation R)
-
-
-def selection(seg: SegmentMesh, mats: SegmentMatrices, name: str) -> sp.csr_matrix:
-    """``(3 p, n_free)`` picking the DOFs of node set ``name`` (clamped DOFs give zero rows)."""
-    dofs = seg.dofs(name).ravel()
-    where = np.full(mats.n_full, -1)
-    where[mats.free] = np.arange(mats.free.size)
-    cols = where[dofs]
-    rows = np.arange(dofs.size)
-    keep = cols >= 0
-    return sp.csr_matrix(
-        (np.ones(keep.sum()), (rows[keep], cols[keep])), shape=(dofs.size, mats.free.size)
-    )
-
-
-def spring_parts(seg: SegmentMesh, mats: SegmentMatrices, c1: float):
-    """``(D, X)``: ``D = c1 (Pl^T Pl + Pr^T Pr)`` and ``X = c1 Pr^T R Pl`` on the free DOFs."""
-    Pr = selection(seg, mats, "right")
-    Pl = selection(seg, mats, "left")
-    pairs = Pr.shape[0] // 3
-    Rb = sp.block_diag([seg.rotation] * pairs, format="csr")
-    D = c1 * (Pl.T @ Pl + Pr.T @ Pr)
-    X = c1 * (Pr.T @ Rb @ Pl)
-    return D.tocsr(), X.tocsr()
-
-
-def phase_stiffness(mats: SegmentMatrices, parts, phi: float):
-    """The sector stiffness of the wheel modes with phase ``phi`` between neighbours
-    (``u(s+1) = e^{i phi} u(s)``): ``K + D - (e^{i phi} X + e^{-i phi} X^T) = A + i B``.
-
-    ``parts = (D, X)`` from :func:`spring_parts`. Returns ``(A, B)``, ``B = None`` when the
-    problem is real (``phi`` = 0 or pi).
-    """
-    D, X = parts
-    A = (mats.K + D - np.cos(phi) * (X + X.T)).tocsr()
-    if abs(np.sin(phi)) < 1e-12:
-        return A, None
-    return A, (-np.sin(phi) * (X - X.T)).tocsr()

@@ -1,0 +1,166 @@
+"""Force parameters of one case: a frozen record built once from the reduced model and the
+configuration, consumed by the reference force model and the compiled kernel alike (nozzle
+eq. 13, Van der Pol eqs. 1, 2/14, dry-friction contacts on rigid arms eqs. 16-20;
+docs/theory.md).
+
+Units: modal coordinates ``q`` [sqrt(kg) m], velocities ``q'`` [sqrt(kg) m/s], generalised
+force [sqrt(kg) m/s^2] (= N / sqrt(kg), since ``M_R = I``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from wheelrom.config import Config
+from wheelrom.rom.model import ReducedModel
+
+VDP_OFF, VDP_ABSOLUTE, VDP_RELATIVE = 0, 1, 2
+VDP_MODELS = {"off": VDP_OFF, "absolute": VDP_ABSOLUTE, "relative": VDP_RELATIVE}
+OPEN, STICK, SLIP = 0, 1, 2  # contact states (STICK: micro-slip branch |v| <= v_k)
+
+
+def contact_frame(angle_deg: float) -> np.ndarray:
+    """``T_g2l`` of eq. 18: rows xi = x, eta = (0, cos b, sin b), zeta = (0, -sin b, cos b)."""
+    b = math.radians(angle_deg)
+    return np.array(
+        [[1.0, 0.0, 0.0], [0.0, math.cos(b), math.sin(b)], [0.0, -math.sin(b), math.cos(b)]]
+    )
+
+
+def stiffness_at(stiffness, angle_deg: float) -> float:
+    """Normal contact stiffness ``k_c(beta)`` [N/m] from a number or an (angle, value) table.
+
+    Tables are interpolated linearly in ``log k`` (the curve spans decades, paper Fig. 5).
+    """
+    if isinstance(stiffness, int | float):
+        return float(stiffness)
+    if isinstance(stiffness, str):
+        raise ValueError("stiffness = 'fe' must be resolved before building the force model")
+    angles = np.array([a for a, _ in stiffness])
+    values = np.log(np.array([k for _, k in stiffness]))
+    return float(np.exp(np.interp(angle_deg, angles, values)))
+
+
+@dataclass(frozen=True)
+class ContactParameters:
+    """Per contact kind (``K`` of them), as the force implementations want them.
+
+    ``shape_A``, ``shape_B``: ``(K, 3, m)`` displacement of the profile points A, B per modal
+    coordinate; ``point_A``, ``point_B``: ``(K, 3)`` undeformed A, B [m]; ``arm_length``:
+    ``(K,)`` rigid arm L [m]; ``frame``: ``(K, N, 3, 3)`` local frame ``T_g2l`` per blade;
+    ``stiffness``: ``(K, N)`` normal stiffness k_c [N/m]; ``preload``: ``(K,)`` F_N0 [N];
+    ``angles_deg``: kind -> ``(N,)`` contact surface angle per blade.
+    """
+
+    kinds: tuple[str, ...]
+    shape_A: np.ndarray
+    shape_B: np.ndarray
+    point_A: np.ndarray
+    point_B: np.ndarray
+    arm_length: np.ndarray
+    frame: np.ndarray
+    stiffness: np.ndarray
+    preload: np.ndarray
+    angles_deg: dict
+
+
+@dataclass(frozen=True)
+class ForceParameters:
+    """Everything the forces of one case need (``N`` blades, ``m`` modes).
+
+    ``omega`` [rad/s] rotor speed; ``stator_vanes`` n_s; ``nozzle_force`` F_b [N];
+    ``excitation``: ``(m,)`` generalised force of a unit ``y`` force on the excitation nodes;
+    ``nozzle_phase``: ``(N,)`` phi_s [rad]; ``vdp_model``: VDP_OFF/ABSOLUTE/RELATIVE;
+    ``vdp_mu`` [N s/m], ``vdp_r`` [m]; ``aero``: ``(m,)`` Van der Pol direction (mean aero
+    ``y`` per modal coordinate, restricted to ``flutter.mode`` when set); ``friction``:
+    ``(4,)`` (f_s, f_d, decay [s/m], v_k [m/s]); ``rotation``: ``(3, 3)`` R.
+    """
+
+    blades: int
+    modes: int
+    omega: float
+    stator_vanes: int
+    nozzle_force: float
+    excitation: np.ndarray
+    nozzle_phase: np.ndarray
+    vdp_model: int
+    vdp_mu: float
+    vdp_r: float
+    aero: np.ndarray
+    friction: np.ndarray
+    rotation: np.ndarray
+    contacts: ContactParameters
+
+    def shared(self) -> tuple:
+        """Everything but the contact frames and stiffnesses (what the cases of one batch
+        must share: the compiled kernel takes it from the batch's first case)."""
+        c = self.contacts
+        return (self.blades, self.modes, c.kinds, self.vdp_model, self.stator_vanes,
+                self.omega, self.nozzle_force, self.vdp_mu, self.vdp_r, self.friction,
+                self.excitation, self.aero, self.nozzle_phase, self.rotation, c.preload,
+                c.arm_length, c.shape_A, c.shape_B, c.point_A, c.point_B)  # fmt: skip
+
+
+def force_parameters(model: ReducedModel, cfg: Config,
+                     angles_deg: dict | None = None) -> ForceParameters:  # fmt: skip
+    """The force parameters of ``cfg`` on ``model``; ``angles_deg``: kind -> contact angle
+    [deg] (a number or one per blade) instead of ``contacts.<kind>.angle_deg``."""
+    N, m = model.blades, model.modes
+    w, fl, fr = cfg.wheel, cfg.flutter, cfg.friction
+    aero = np.array(model.aero, dtype=float)
+    if fl.mode >= 0:  # Van der Pol on one segment mode only
+        keep = np.zeros_like(aero)
+        keep[fl.mode] = aero[fl.mode]
+        aero = keep
+    return ForceParameters(
+        blades=N,
+        modes=m,
+        omega=2 * math.pi * w.speed_hz,
+        stator_vanes=w.stator_vanes,
+        nozzle_force=cfg.excitation.force,
+        excitation=np.ascontiguousarray(model.excitation, dtype=float),
+        nozzle_phase=2 * math.pi * (1 - w.stator_vanes / N) * np.arange(N),
+        vdp_model=VDP_MODELS[fl.model],
+        vdp_mu=fl.mu,
+        vdp_r=fl.r,
+        aero=aero,
+        friction=np.array([fr.static, fr.dynamic, fr.decay, fr.microslip_velocity]),
+        rotation=np.ascontiguousarray(model.rotation),
+        contacts=_contact_parameters(model, cfg, angles_deg or {}),
+    )
+
+
+def _contact_parameters(model: ReducedModel, cfg: Config, angles_deg: dict) -> ContactParameters:
+    N, m = model.blades, model.modes
+    kinds = [k for k in cfg.contacts.enabled_kinds() if k in model.contact_A]
+    K = len(kinds)
+    frame = np.zeros((K, N, 3, 3))
+    k_c = np.zeros((K, N))
+    angles = {}
+    for i, kind in enumerate(kinds):
+        c = cfg.contact(kind)
+        ang = np.broadcast_to(np.asarray(angles_deg.get(kind, c.angle_deg), float), (N,))
+        stiffness = c.stiffness
+        if stiffness == "fe":
+            if kind not in model.contact_stiffness:
+                raise ValueError(f"contacts.{kind}.stiffness = 'fe' but the model has no table")
+            stiffness = [tuple(row) for row in model.contact_stiffness[kind]]
+        angles[kind] = ang.copy()
+        for s in range(N):
+            frame[i, s] = contact_frame(ang[s])
+            k_c[i, s] = stiffness_at(stiffness, ang[s])
+    return ContactParameters(
+        kinds=tuple(kinds),
+        shape_A=np.array([model.contact_A[k] for k in kinds]).reshape(K, 3, m),
+        shape_B=np.array([model.contact_B[k] for k in kinds]).reshape(K, 3, m),
+        point_A=np.array([model.contact_points[k][0] for k in kinds]).reshape(K, 3),
+        point_B=np.array([model.contact_points[k][1] for k in kinds]).reshape(K, 3),
+        arm_length=np.array([cfg.contact(k).arm_length for k in kinds], dtype=float),
+        frame=frame,
+        stiffness=k_c,
+        preload=np.array([cfg.contact(k).normal_preload for k in kinds], dtype=float),
+        angles_deg=angles,
+    )

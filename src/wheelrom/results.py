@@ -1,0 +1,164 @@
+"""The HDF5 results file, owned here: its layout (docs/output.md), creating it, writing the
+model and the cases, reading it back. Used by ``sweep``, ``run --out``, ``modes --out`` and
+``plot``; works on a serial ``h5py.File`` and on one opened with the ``mpio`` driver (every
+rank creates the layout identically; each case is written by the rank that ran it).
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import tomllib
+
+import numpy as np
+
+from wheelrom import config as config_mod
+from wheelrom.config import CONTACT_KINDS, Config
+from wheelrom.errors import InputError
+from wheelrom.rom.model import ReducedModel
+from wheelrom.transient.problem import N_WORK, WORK_NAMES, CaseResult
+from wheelrom.transient.ts import time_grid
+
+STATUS_LEN = 256
+FORMAT = "wheelrom-sweep-1"
+
+
+def case_angles(cfg: Config) -> np.ndarray:
+    """``(C, 2)`` (tie-boss, shroud) angle of every case of the sweep [deg], tie-boss major."""
+    pairs = itertools.product(cfg.sweep.tieboss_angles_deg, cfg.sweep.shroud_angles_deg)
+    return np.array(list(pairs), dtype=float).reshape(-1, 2)
+
+
+def angles_of(row: np.ndarray) -> dict:
+    """The contact angles of one case, kind -> [deg]."""
+    return {"tieboss": float(row[0]), "shroud": float(row[1])}
+
+
+def single_case(cfg: Config) -> Config:
+    """``cfg`` with a sweep of one case at its configured contact angles (``run --out``)."""
+    return cfg.replace(**{"sweep.tieboss_angles_deg": [cfg.contacts.tieboss.angle_deg],
+                          "sweep.shroud_angles_deg": [cfg.contacts.shroud.angle_deg]})  # fmt: skip
+
+
+def write_model(group, model: ReducedModel) -> None:
+    """Reduced-model data (``/model``): small arrays, written by one rank or serially."""
+    from scipy.sparse import csr_matrix
+
+    K = csr_matrix(model.dense_stiffness())
+    red = group.create_group("reduced")
+    red["K/data"], red["K/indices"], red["K/indptr"] = K.data, K.indices, K.indptr
+    red["K/shape"] = np.array(K.shape)
+    group["segment_hz"] = model.segment_hz
+    group["A0"], group["A1"] = model.A0, model.A1
+    group["excitation"], group["aero"], group["tip"] = model.excitation, model.aero, model.tip
+    group["frequencies_by_nd"] = model.frequencies_by_nodal_diameter()
+    for kind, XA in model.contact_A.items():
+        group[f"contacts/{kind}/A_shape"] = XA
+        group[f"contacts/{kind}/B_shape"] = model.contact_B[kind]
+        group[f"contacts/{kind}/points"] = model.contact_points[kind]
+    for kind, table in model.contact_stiffness.items():
+        group[f"contacts/{kind}/stiffness"] = table
+    group.attrs["blades"] = model.blades
+    group.attrs["modes"] = model.modes
+    group.attrs["info"] = json.dumps(model.info, default=float)
+
+
+def write_model_file(f, cfg: Config, model: ReducedModel, extra: dict | None = None) -> None:
+    """A model file (``modes --out``): the configuration, ``/model`` and ``extra`` datasets
+    (path under ``/model`` -> array)."""
+    f.attrs["config"] = config_mod.to_toml(cfg)
+    write_model(f.create_group("model"), model)
+    for name, value in (extra or {}).items():
+        f[f"model/{name}"] = value
+
+
+def create_layout(f, cfg: Config, model: ReducedModel) -> None:
+    """Create every dataset of a sweep of ``cfg`` (collective: all ranks call this
+    identically); every case ``pending``."""
+    C = case_angles(cfg).shape[0]
+    grid = time_grid(cfg)
+    W, S, N = grid.windows, grid.samples_max, model.blades
+    f.attrs["format"] = FORMAT
+    f.attrs["config"] = config_mod.to_toml(cfg)
+    f.attrs["config_source"] = cfg.source
+    cases = f.create_group("cases")
+    cases.create_dataset("angles_deg", data=case_angles(cfg))
+    cases.attrs["angle_columns"] = "tieboss, shroud"
+    st = cases.create_dataset("status", (C,), dtype=f"S{STATUS_LEN}")
+    cases.create_dataset("wall_s", (C,), dtype="f8", fillvalue=np.nan)
+    for name in ("steps", "batch", "windows_done", "samples_done"):
+        cases.create_dataset(name, (C,), dtype="i8")
+    cases.create_dataset("options", (C,), dtype=f"S{STATUS_LEN}")
+    cases.create_dataset("window_end", data=np.array(grid.window_end))
+    nan = dict(dtype="f8", fillvalue=np.nan)
+    cases.create_dataset("max_tip_amplitude", (C, W), **nan)
+    cases.create_dataset("nd_spectrum", (C, W, N // 2 + 1), **nan)
+    cases.create_dataset("energy", (C, W), **nan)
+    cases.create_dataset("energy0", (C,), **nan)
+    cases.create_dataset("work", (C, W, N_WORK), **nan)
+    cases["work"].attrs["columns"] = ", ".join(WORK_NAMES)
+    cases.create_dataset("sample_time", (C, S), **nan)
+    cases.create_dataset("tip_history", (C, S, N, 3), chunks=(1, S, N, 3), **nan)
+    for kind in CONTACT_KINDS:
+        cases.create_dataset(f"min_normal_force/{kind}", (C, W), **nan)
+        cases.create_dataset(f"open_fraction/{kind}", (C, W), **nan)
+    # every rank writes the same small model arrays; identical values, so this is safe and
+    # keeps creation collective
+    write_model(f.create_group("model"), model)
+    st[...] = np.array([b"pending"] * C, dtype=f"S{STATUS_LEN}")
+
+
+def write_case(f, i: int, res: CaseResult) -> None:
+    """Case ``i``'s result into a file made by :func:`create_layout`."""
+    cases = f["cases"]
+    w = res.window_end.size
+    s = res.sample_time.size
+    cases["status"][i] = res.status.encode()[:STATUS_LEN]
+    cases["wall_s"][i] = res.wall_s
+    cases["steps"][i] = res.steps
+    cases["batch"][i] = res.batch
+    cases["windows_done"][i] = w
+    cases["samples_done"][i] = s
+    cases["options"][i] = json.dumps(res.options).encode()[:STATUS_LEN]
+    cases["energy0"][i] = res.energy0
+    if w:
+        cases["max_tip_amplitude"][i, :w] = res.max_tip_amplitude
+        cases["nd_spectrum"][i, :w] = res.nd_spectrum
+        cases["energy"][i, :w] = res.energy
+        cases["work"][i, :w] = res.work
+        for kind, values in res.min_normal_force.items():
+            cases[f"min_normal_force/{kind}"][i, :w] = values
+            cases[f"open_fraction/{kind}"][i, :w] = res.open_fraction[kind]
+    if s:
+        cases["sample_time"][i, :s] = res.sample_time
+        cases["tip_history"][i, :s] = res.tip_history
+
+
+def statuses(f) -> list[str]:
+    """The status of every case (``pending``, ``done``, ``failed: ...``)."""
+    return [s.decode() for s in f["cases/status"][:]]
+
+
+def resume_problem(path: str, cfg: Config) -> str | None:
+    """Why the file at ``path`` cannot be completed for ``cfg`` (None: it can)."""
+    import h5py
+
+    try:
+        with h5py.File(path, "r") as f:
+            if f.attrs.get("format") != FORMAT:
+                return f"{path} is not a wheelrom sweep file"
+            if f.attrs.get("config") != config_mod.to_toml(cfg):
+                return (
+                    f"{path} was written for a different configuration "
+                    "(compare 'wheelrom config show'); use --force to start again"
+                )
+    except OSError as exc:
+        return f"{path} cannot be opened for --resume ({exc}); use --force to start again"
+    return None
+
+
+def read_config(f, path: str) -> Config:
+    """The configuration a results file was written with."""
+    if "config" not in f.attrs:
+        raise InputError(f"{path}: attribute 'config' is missing (not a wheelrom file)")
+    return config_mod.from_dict(tomllib.loads(f.attrs["config"]), source=path)

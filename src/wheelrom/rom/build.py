@@ -1,0 +1,132 @@
+"""The one pipeline from a configuration to the reduced wheel, used by every command:
+
+    segment mesh -> matrices (-> centrifugal prestress) -> segment modes (SLEPc) -> basis
+    (free or enriched) -> reduced wheel (cyclic synthesis) -> contact stiffness tables
+
+:func:`build_segment` stops after the matrices (what the contact-stiffness, accuracy and
+full-wheel references need: the *same* matrices the model is built from); :func:`build`
+goes on to the reduced model and keeps what it was built from; :func:`build_model` returns
+the model alone (a few kilobytes, what the transient and the sweep broadcast).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from wheelrom.config import Config
+from wheelrom.rom.bases import ENRICH_FAMILIES, enriched_basis, enrichment_phases
+from wheelrom.rom.model import ReducedModel, reduce
+from wheelrom.segment.assembly import SegmentMatrices, assemble
+from wheelrom.segment.contact_stiffness import stiffness_tables
+from wheelrom.segment.load import load_segment
+from wheelrom.segment.mesh import SegmentMesh
+from wheelrom.segment.modes import segment_modes
+from wheelrom.segment.prestress import prestress
+
+
+def quiet(msg: str) -> None:
+    """A ``log`` that drops progress lines."""
+
+
+@dataclass
+class SegmentBuild:
+    """The segment of a configuration as the reduced model uses it.
+
+    ``matrices``: free-DOF mass and stiffness; with ``segment.prestress`` at
+    ``wheel.speed_hz > 0`` the stiffness is ``K + K_sigma - Omega^2 M_s`` (docs/theory.md).
+    """
+
+    mesh: SegmentMesh
+    matrices: SegmentMatrices
+    cfg: Config
+
+
+@dataclass
+class WheelBuild:
+    """A reduced model with what it was built from: the segment and the basis ``shapes``
+    ``(n_dofs, r)`` on the full DOFs (M-orthonormal), for exports and references."""
+
+    segment: SegmentBuild
+    shapes: np.ndarray
+    model: ReducedModel
+
+
+def build_segment(cfg: Config, comm, log=quiet) -> SegmentBuild:
+    """Mesh and matrices of the segment of ``cfg`` (``comm``: communicator of the prestress
+    solve; every rank of it gets the same result)."""
+    seg = load_segment(cfg)
+    s = cfg.segment
+    mats = assemble(seg, s.young, s.poisson, s.density)
+    log(f"segment: {seg.n_dofs} DOFs (hex20), assembled in {mats.assembly_s:.2f} s")
+    if s.prestress and cfg.wheel.speed_hz > 0:
+        omega = 2 * np.pi * cfg.wheel.speed_hz
+        ps = prestress(seg, mats, s.young, s.poisson, s.density, omega,
+                       cfg.wheel.coupling_stiffness, comm)  # fmt: skip
+        mats = replace(mats, K=ps.stiffness(mats))
+        log(
+            f"prestress at {cfg.wheel.speed_hz:g} Hz: static residual {ps.residual:.1e}, "
+            f"largest displacement {np.abs(ps.displacement).max() * 1e3:.3f} mm "
+            f"({ps.solve_s:.1f} s)"
+        )
+    return SegmentBuild(seg, mats, cfg)
+
+
+def contact_stiffness_tables(segment: SegmentBuild, kinds, comm) -> dict:
+    """``{kind: (angles_deg, k_c [N/m], ContactFlexibility)}`` from the segment's matrices
+    (the table ``stiffness = "fe"`` uses; :mod:`wheelrom.segment.contact_stiffness`)."""
+    return stiffness_tables(segment.cfg, segment.mesh, segment.matrices, kinds, comm)
+
+
+def build(cfg: Config, comm, log=quiet, segment: SegmentBuild | None = None) -> WheelBuild:
+    """Segment -> modes -> basis -> reduced wheel for ``cfg`` (``segment``: reuse a segment
+    already built for the same configuration).
+
+    ``comm``: communicator of the segment solves (SLEPc, MUMPS); the result is the same on
+    every rank of it. ``log`` receives progress lines.
+    """
+    t0 = time.perf_counter()
+    segment = segment or build_segment(cfg, comm, log)
+    seg, mats = segment.mesh, segment.matrices
+    eig = segment_modes(mats, cfg.wheel.modes_per_segment, comm)
+    log(
+        f"segment modes: {eig.frequencies_hz.size} in {eig.solve_s:.2f} s, "
+        f"max residual {eig.residuals.max():.1e}"
+    )
+    if cfg.wheel.basis == "enriched":
+        t1 = time.perf_counter()
+        phases = enrichment_phases(seg.sectors)
+        X, lam = enriched_basis(seg, mats, cfg.wheel.coupling_stiffness, eig.vectors[mats.free],
+                                ENRICH_FAMILIES, comm, phases)  # fmt: skip
+        log(
+            f"enriched basis: {X.shape[1]} vectors (free modes + {ENRICH_FAMILIES} sector modes "
+            f"of ND {', '.join(map(str, phases))}) in {time.perf_counter() - t1:.2f} s"
+        )
+        hz = np.sqrt(np.maximum(lam, 0.0)) / (2 * np.pi)
+        shapes = mats.expand(X)
+        model = reduce(seg, shapes, np.diag(lam), cfg, hz)
+    else:
+        shapes = eig.vectors
+        model = reduce(seg, shapes, np.diag(eig.eigenvalues), cfg, eig.frequencies_hz)
+    fe_kinds = [k for k in cfg.contacts.enabled_kinds() if cfg.contact(k).stiffness == "fe"]
+    for kind, (angles, values, flex) in contact_stiffness_tables(segment, fe_kinds, comm).items():
+        model.contact_stiffness[kind] = np.stack([angles, values], axis=1)
+        log(
+            f"contact stiffness '{kind}' from FE ({flex.solve_s:.1f} s): "
+            f"{values.min():.3g}..{values.max():.3g} N/m over 0..90 deg"
+        )
+    model.info.update(
+        segment_dofs=seg.n_dofs,
+        assembly_s=mats.assembly_s,
+        eigen_solve_s=eig.solve_s,
+        eigen_residual_max=float(eig.residuals.max()),
+        build_s=time.perf_counter() - t0,
+    )
+    return WheelBuild(segment, shapes, model)
+
+
+def build_model(cfg: Config, comm, log=quiet) -> ReducedModel:
+    """The reduced model of ``cfg`` alone (see :func:`build`)."""
+    return build(cfg, comm, log).model

@@ -1,0 +1,215 @@
+"""The contact part of the compiled kernel: per contact kind, the displacements and velocities
+of the profile points of every column (blade, case) and the contact law of eqs. 16-20,
+branch-free so that it vectorises (docs/theory.md, docs/performance.md)."""
+
+from __future__ import annotations
+
+import math
+
+import numba
+
+from wheelrom.transient.fastmath import NOALIAS, fexp
+from wheelrom.transient.layout import (
+    H_DECAY,
+    H_FD,
+    H_FS,
+    H_VK,
+    I_AP,
+    I_ARM,
+    I_BP,
+    I_FA,
+    I_FB,
+    I_FN,
+    I_KC,
+    I_NORMAL,
+    I_PRELOAD,
+    I_R,
+    I_STATE,
+    I_T,
+    I_UA,
+    I_UB,
+    I_VA,
+    I_VB,
+    I_XA,
+    I_XB,
+    get,
+)
+
+
+@numba.njit(cache=True, fastmath={"contract"}, error_model="numpy")
+def contacts(ctx, kind, N, m, K, B, Q, V, column):
+    """Contact forces of contact ``kind`` at A (with the neighbour's push on it) and B of
+    every column left in ``FA[kind]``, ``FB[kind]`` [N], its friction power per column added
+    to ``column`` [W]; normal forces and states left in the context."""
+    NB = N * B
+    W = (N + 1) * B
+    c = kind
+    XA = get(ctx, I_XA, K * 3 * m).reshape((K, 3, m))
+    XB = get(ctx, I_XB, K * 3 * m).reshape((K, 3, m))
+    UA = get(ctx, I_UA, 3 * W).reshape((3, W))
+    UB = get(ctx, I_UB, 3 * NB).reshape((3, NB))
+    VA = get(ctx, I_VA, 3 * W).reshape((3, W))
+    VB = get(ctx, I_VB, 3 * NB).reshape((3, NB))
+    FA = get(ctx, I_FA, K * 3 * NB).reshape((K, 3, NB))[c]
+    FB = get(ctx, I_FB, K * 3 * NB).reshape((K, 3, NB))[c]
+    FN = get(ctx, I_FN, 3 * W).reshape((3, W))
+    # displacements and velocities of A and B of every column (ghost blade N = blade 0 for A):
+    # five modes per pass over the columns (a pass of one mode is bound by the four
+    # read-modify-writes of the sums; with five, by the multiply-adds)
+    for a in range(3):
+        ua = UA[a]
+        ub = UB[a]
+        va = VA[a]
+        vb = VB[a]
+        for col in range(NB):
+            ua[col] = 0.0
+            ub[col] = 0.0
+            va[col] = 0.0
+            vb[col] = 0.0
+        j = 0
+        while j + 5 <= m:
+            xa = XA[c, a]
+            xb = XB[c, a]
+            xa0, xa1, xa2, xa3, xa4 = xa[j], xa[j + 1], xa[j + 2], xa[j + 3], xa[j + 4]
+            xb0, xb1, xb2, xb3, xb4 = xb[j], xb[j + 1], xb[j + 2], xb[j + 3], xb[j + 4]
+            q0, q1, q2, q3, q4 = Q[j], Q[j + 1], Q[j + 2], Q[j + 3], Q[j + 4]
+            v0, v1, v2, v3, v4 = V[j], V[j + 1], V[j + 2], V[j + 3], V[j + 4]
+            for col in range(NB):
+                ua[col] += (
+                    xa0 * q0[col] + xa1 * q1[col] + xa2 * q2[col] + xa3 * q3[col] + xa4 * q4[col]
+                )
+                ub[col] += (
+                    xb0 * q0[col] + xb1 * q1[col] + xb2 * q2[col] + xb3 * q3[col] + xb4 * q4[col]
+                )
+                va[col] += (
+                    xa0 * v0[col] + xa1 * v1[col] + xa2 * v2[col] + xa3 * v3[col] + xa4 * v4[col]
+                )
+                vb[col] += (
+                    xb0 * v0[col] + xb1 * v1[col] + xb2 * v2[col] + xb3 * v3[col] + xb4 * v4[col]
+                )
+            j += 5
+        while j < m:
+            xa = XA[c, a, j]
+            xb = XB[c, a, j]
+            qj = Q[j]
+            vj = V[j]
+            for col in range(NB):
+                ua[col] += xa * qj[col]
+                ub[col] += xb * qj[col]
+                va[col] += xa * vj[col]
+                vb[col] += xb * vj[col]
+            j += 1
+        for b in range(B):
+            ua[NB + b] = ua[b]
+            va[NB + b] = va[b]
+    Apt = get(ctx, I_AP, K * 3).reshape((K, 3))
+    Bpt = get(ctx, I_BP, K * 3).reshape((K, 3))
+    T = get(ctx, I_T, K * 9 * NB).reshape((K, 9, NB))
+    kc = get(ctx, I_KC, K * NB).reshape((K, NB))
+    normal = get(ctx, I_NORMAL, K * NB).reshape((K, NB))
+    state = get(ctx, I_STATE, K * NB).reshape((K, NB))
+    R = get(ctx, I_R, 9).reshape((3, 3))
+    law = (ctx[H_FS], ctx[H_FD], ctx[H_DECAY], ctx[H_VK])
+    geometry = (Apt[c, 0], Apt[c, 1], Apt[c, 2], Bpt[c, 0], Bpt[c, 1], Bpt[c, 2],
+                get(ctx, I_ARM, K)[c], get(ctx, I_PRELOAD, K)[c])  # fmt: skip
+    # the next blade's rows as 1-D views (a 2-D view UA[:, B:] would not be contiguous)
+    next_a = (UA[0, B:], UA[1, B:], UA[2, B:], VA[0, B:], VA[1, B:], VA[2, B:])
+    next_f = (FN[0, B:], FN[1, B:], FN[2, B:])
+    _contact_columns(NB, UA, UB, VA, VB, *next_a, T[c], kc[c], R, geometry, law,
+                     FA, FB, *next_f, normal[c], state[c], column)  # fmt: skip
+    # the force on A_{s+1} of the last blade's arm went to the ghost column: blade 0
+    for a in range(3):
+        fa = FA[a]
+        fn = FN[a]
+        for b in range(B):
+            fn[b] = fn[NB + b]
+        for col in range(NB):
+            fa[col] += fn[col]
+
+
+@numba.njit(cache=True, fastmath={"contract"}, error_model="numpy", **NOALIAS)
+def _contact_columns(NB, UA, UB, VA, VB, uax, uay, uaz, vax, vay, vaz, T, kc, R, geometry, law,
+                     FA, FB, fnx, fny, fnz, normal, state, column):  # fmt: skip
+    """The contact law of every column (eqs. 16-20), branch-free so that it vectorises.
+
+    ``uax ... vaz``, ``fnx ... fnz``: the rows of ``UA``, ``VA``, ``FN`` from the next blade
+    on (entry ``c`` is blade ``s + 1``), as views: see :func:`_load_state` on offset indices.
+
+    ``noalias``: the arrays are disjoint parts of the context; telling LLVM so removes the
+    runtime overlap checks that otherwise keep this loop scalar.
+    """
+    ax, ay, az, bx, by, bz, L, preload = geometry
+    f_s, f_d, decay, v_k = law
+    d0x, d0y, d0z = bx - ax, by - ay, bz - az
+    l0 = math.sqrt(d0x * d0x + d0y * d0y + d0z * d0z)
+    e0x, e0y, e0z = d0x / l0, d0y / l0, d0z / l0
+    inv_vk = 1.0 / v_k
+    r00, r01, r02 = R[0, 0], R[0, 1], R[0, 2]
+    r10, r11, r12 = R[1, 0], R[1, 1], R[1, 2]
+    r20, r21, r22 = R[2, 0], R[2, 1], R[2, 2]
+    for col in range(NB):
+        # deformed arm direction e and its rate (eq. 16)
+        dx = d0x + UB[0, col] - UA[0, col]
+        dy = d0y + UB[1, col] - UA[1, col]
+        dz = d0z + UB[2, col] - UA[2, col]
+        ddx = VB[0, col] - VA[0, col]
+        ddy = VB[1, col] - VA[1, col]
+        ddz = VB[2, col] - VA[2, col]
+        inv_nd = 1.0 / math.sqrt(dx * dx + dy * dy + dz * dz)
+        ex, ey, ez = dx * inv_nd, dy * inv_nd, dz * inv_nd
+        edd = ex * ddx + ey * ddy + ez * ddz
+        edx = (ddx - ex * edd) * inv_nd
+        edy = (ddy - ey * edd) * inv_nd
+        edz = (ddz - ez * edd) * inv_nd
+        # gap change in sector s's frame (eq. 17): R u_A(s+1) - u_A(s) - L (e - e0)
+        ucx = r00 * uax[col] + r01 * uay[col] + r02 * uaz[col]
+        ucy = r10 * uax[col] + r11 * uay[col] + r12 * uaz[col]
+        ucz = r20 * uax[col] + r21 * uay[col] + r22 * uaz[col]
+        vcx = r00 * vax[col] + r01 * vay[col] + r02 * vaz[col]
+        vcy = r10 * vax[col] + r11 * vay[col] + r12 * vaz[col]
+        vcz = r20 * vax[col] + r21 * vay[col] + r22 * vaz[col]
+        ucx -= UA[0, col] + L * (ex - e0x)
+        ucy -= UA[1, col] + L * (ey - e0y)
+        ucz -= UA[2, col] + L * (ez - e0z)
+        vcx -= VA[0, col] + L * edx
+        vcy -= VA[1, col] + L * edy
+        vcz -= VA[2, col] + L * edz
+        t00, t01, t02 = T[0, col], T[1, col], T[2, col]
+        t10, t11, t12 = T[3, col], T[4, col], T[5, col]
+        t20, t21, t22 = T[6, col], T[7, col], T[8, col]
+        gap = t10 * ucx + t11 * ucy + t12 * ucz  # local eta (eq. 18)
+        v_xi = t00 * vcx + t01 * vcy + t02 * vcz
+        v_zeta = t20 * vcx + t21 * vcy + t22 * vcz
+        trial = preload - kc[col] * gap  # eq. 19; open when <= 0
+        Fn = max(trial, 0.0)
+        vt = math.sqrt(v_xi * v_xi + v_zeta * v_zeta)
+        micro = vt <= v_k  # micro-slip branch (Fig. 4)
+        coef_slip = f_d + (f_s - f_d) * fexp(-decay * (vt - v_k))
+        coef = f_s * vt * inv_vk if micro else coef_slip
+        # vt = 0 gives coef = 0 and zero force, as the law's limit
+        scale = -coef * Fn / max(vt, 1e-300)
+        F_xi = scale * v_xi
+        F_zeta = scale * v_zeta
+        column[col] += F_xi * v_xi + F_zeta * v_zeta
+        normal[col] = Fn
+        state[col] = 0.0 if trial <= 0.0 else (1.0 if micro else 2.0)
+        # force on A_{s+1} in sector s's frame: T^T (F_xi, F_n, F_zeta)
+        Fx = t00 * F_xi + t10 * Fn + t20 * F_zeta
+        Fy = t01 * F_xi + t11 * Fn + t21 * F_zeta
+        Fz = t02 * F_xi + t12 * Fn + t22 * F_zeta
+        # blade s+1 in its own frame: R^T F (column nxt; the last blade's lands in the ghost)
+        fnx[col] = r00 * Fx + r10 * Fy + r20 * Fz
+        fny[col] = r01 * Fx + r11 * Fy + r21 * Fz
+        fnz[col] = r02 * Fx + r12 * Fy + r22 * Fz
+        # -F at the arm end moved exactly onto A and B: F_B = (L/|d|) F_perp
+        Fe = -(Fx * ex + Fy * ey + Fz * ez)
+        arm_scale = L * inv_nd
+        fbx = arm_scale * (-Fx - Fe * ex)
+        fby = arm_scale * (-Fy - Fe * ey)
+        fbz = arm_scale * (-Fz - Fe * ez)
+        FB[0, col] = fbx
+        FB[1, col] = fby
+        FB[2, col] = fbz
+        FA[0, col] = -Fx - fbx
+        FA[1, col] = -Fy - fby
+        FA[2, col] = -Fz - fbz

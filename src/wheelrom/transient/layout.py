@@ -1,0 +1,259 @@
+"""The context of the compiled right-hand side: one float64 array holding a header of scalars
+and offsets, the model and force parameters, work arrays and the sample buffers of the current
+window, with named numpy views into it (:class:`Context`), and the kernel's state layout.
+
+**Batches.** One kernel call evaluates ``B`` cases of the same wheel at once (angle cases of a
+sweep: they differ only in their contact frames and stiffnesses). The kernel's state layout
+puts the case index innermost::
+
+    u = ( q[j, s, b],  q'[j, s, b],  W[k, b] )      mode j, blade s, case b
+
+so every loop runs over the ``N B`` contiguous *columns* ``(s, b)``: the neighbouring blade of
+column ``c`` is column ``c + B``, and the loops vectorise (AVX2) over blades and cases alike.
+Every operation on a column reads and writes that column's case only, so a case's result does
+not depend on the batch it runs in (the sweep tests hold batches of 1 and 3 bitwise equal).
+``B = 1`` is a single case. :meth:`Context.pack` / :meth:`Context.unpack` convert from and to
+the blade-major single-case state ``(q[s, j], q'[s, j], W[k])`` used everywhere else.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from wheelrom._environment import petsc
+from wheelrom.forces.parameters import ForceParameters
+
+H_LEN, H_N, H_M, H_K, H_VDP, H_NS, H_OMEGA, H_FB, H_MU, H_R, H_BETA = range(11)
+H_FS, H_FD, H_DECAY, H_VK, H_USER_REASON, H_SAMPLE_DT, H_NEXT_SAMPLE = range(11, 18)
+H_CAP, H_LIMIT, H_RHS_CALLS, H_SLOT_U, H_SLOT_F, H_OVERFLOW, H_NSTATE = range(19, 26)
+H_SKIP_LINEAR = 26  # 1: leave out the K_R product (benchmarks of the force part alone)
+H_B = 27  # cases in the batch
+H_ACTIVE = 28  # cases still running (a diverged case is frozen)
+H_OFFSETS = 32  # offsets of the arrays below start here
+
+# arrays in the context, in order; shapes from (N, m, K, B, capacity)
+_ARRAYS = (
+    ("A0_diag", lambda N, m, K, B, c: (m,)),  # the eigenvalues of A0 [1/s^2]
+    ("A1", lambda N, m, K, B, c: (m, m)),
+    ("A1T", lambda N, m, K, B, c: (m, m)),
+    ("p_exc", lambda N, m, K, B, c: (m,)),
+    ("cos_phase", lambda N, m, K, B, c: (N * B,)),
+    ("sin_phase", lambda N, m, K, B, c: (N * B,)),
+    ("p_aero", lambda N, m, K, B, c: (m,)),
+    ("R", lambda N, m, K, B, c: (3, 3)),
+    ("XA", lambda N, m, K, B, c: (K, 3, m)),
+    ("XB", lambda N, m, K, B, c: (K, 3, m)),
+    ("A_point", lambda N, m, K, B, c: (K, 3)),
+    ("B_point", lambda N, m, K, B, c: (K, 3)),
+    ("arm", lambda N, m, K, B, c: (K,)),
+    ("T", lambda N, m, K, B, c: (K, 9, N * B)),  # local frame rows per column
+    ("k_c", lambda N, m, K, B, c: (K, N * B)),
+    ("preload", lambda N, m, K, B, c: (K,)),
+    ("tip", lambda N, m, K, B, c: (3, m)),
+    ("active", lambda N, m, K, B, c: (B,)),  # 1: running, 0: frozen (diverged)
+    ("stop", lambda N, m, K, B, c: (B,)),  # STOP_* reason per case
+    ("stop_t", lambda N, m, K, B, c: (B,)),
+    ("count", lambda N, m, K, B, c: (B,)),  # samples of the current window per case
+    # work arrays: columns (s, b); one ghost blade (B columns) on each side where needed
+    ("VT", lambda N, m, K, B, c: (m, (N + 2) * B)),
+    ("WT", lambda N, m, K, B, c: (m, (N + 2) * B)),
+    ("KW", lambda N, m, K, B, c: (N * B,)),  # one row of K_R w
+    ("DV", lambda N, m, K, B, c: (N * B,)),  # one row of 2 A1 v_{s+1}
+    ("nozzle", lambda N, m, K, B, c: (N * B,)),
+    ("y", lambda N, m, K, B, c: ((N + 2) * B,)),
+    ("yd", lambda N, m, K, B, c: ((N + 2) * B,)),
+    ("pair", lambda N, m, K, B, c: ((N + 2) * B,)),
+    ("g", lambda N, m, K, B, c: (N * B,)),
+    ("column", lambda N, m, K, B, c: (N * B,)),  # per-column power before the case sums
+    ("UA", lambda N, m, K, B, c: (3, (N + 1) * B)),
+    ("UB", lambda N, m, K, B, c: (3, N * B)),
+    ("VA", lambda N, m, K, B, c: (3, (N + 1) * B)),
+    ("VB", lambda N, m, K, B, c: (3, N * B)),
+    ("FA", lambda N, m, K, B, c: (K, 3, N * B)),  # contact forces on A (and A from s-1) [N]
+    ("FB", lambda N, m, K, B, c: (K, 3, N * B)),  # and on B, per kind
+    ("FN", lambda N, m, K, B, c: (3, (N + 1) * B)),
+    ("normal_force", lambda N, m, K, B, c: (K, N * B)),
+    ("contact_state", lambda N, m, K, B, c: (K, N * B)),
+    ("power", lambda N, m, K, B, c: (4, B)),
+    # samples of the current window
+    ("sample_time", lambda N, m, K, B, c: (B, c)),
+    ("sample_tip", lambda N, m, K, B, c: (B, c, N, 3)),
+    ("sample_min_normal", lambda N, m, K, B, c: (B, c, K)),
+    ("sample_open", lambda N, m, K, B, c: (B, c, K)),
+)
+_INDEX = {name: i for i, (name, _) in enumerate(_ARRAYS)}
+(
+    I_A0D, I_A1, I_A1T, I_PEXC, I_COS, I_SIN, I_PAERO, I_R, I_XA, I_XB, I_AP, I_BP, I_ARM, I_T,
+    I_KC, I_PRELOAD, I_TIP, I_ACTIVE, I_STOP, I_STOPT, I_COUNT, I_VT, I_WT, I_KW, I_DV, I_NOZ,
+    I_Y, I_YD, I_PAIR, I_G, I_COL, I_UA, I_UB, I_VA, I_VB, I_FA, I_FB, I_FN, I_NORMAL, I_STATE,
+    I_POWER, I_STIME, I_STIP, I_SMIN, I_SOPEN,
+) = range(len(_ARRAYS))  # fmt: skip
+
+STOP_NONFINITE, STOP_AMPLITUDE = 1, 2
+
+ALIGN = 8  # doubles: 64 bytes
+
+
+def aligned_zeros(size: int) -> np.ndarray:
+    """A zeroed float64 array whose data starts on a 64-byte boundary. Measured: shifting the
+    context's arrays by 8 bytes made the right-hand side ~15 % slower."""
+    raw = np.zeros(size + ALIGN)
+    start = (-raw.ctypes.data // 8) % ALIGN
+    return raw[start : start + size]
+
+
+class Context:
+    """The float64 context array of a batch of ``B`` cases and named numpy views into it.
+
+    Built from one :class:`~wheelrom.forces.parameters.ForceParameters` per case (the cases
+    may differ only in their contact frames ``T`` and stiffnesses ``k_c``) and the reduced
+    model; ``capacity`` output samples per window and case.
+    """
+
+    def __init__(self, cases: list[ForceParameters], model, beta: float, sample_dt: float,
+                 limit: float, capacity: int):  # fmt: skip
+        first = cases[0]
+        N, m, K, B = first.blades, first.modes, len(first.contacts.kinds), len(cases)
+        check_batchable(cases)
+        self.N, self.m, self.K, self.B, self.capacity = N, m, K, B, capacity
+        self.shapes = [fn(N, m, K, B, capacity) for _, fn in _ARRAYS]
+        offsets, pos = [], H_OFFSETS + len(_ARRAYS)
+        for shape in self.shapes:
+            pos += -pos % ALIGN  # every array starts on a 64-byte boundary (AVX loads)
+            offsets.append(pos)
+            pos += int(np.prod(shape))
+        self.array = aligned_zeros(pos)
+        self._offsets = offsets
+        self._fill_header(first, beta, sample_dt, limit, pos)
+        # the kernel's modal basis: the segment modes rotated to diagonalise A0 (see
+        # :func:`diagonal_basis`); every modal vector and the state are rotated with it
+        self.basis, A0_diag = diagonal_basis(model.A0)
+        for name, value in self._values(cases, model, A0_diag).items():
+            self.view(name)[...] = value
+
+    def _fill_header(self, first: ForceParameters, beta, sample_dt, limit, length) -> None:
+        h = self.array
+        N, m, K, B = self.N, self.m, self.K, self.B
+        h[H_LEN], h[H_N], h[H_M], h[H_K], h[H_B], h[H_ACTIVE] = length, N, m, K, B, B
+        h[H_VDP], h[H_NS], h[H_OMEGA] = first.vdp_model, first.stator_vanes, first.omega
+        h[H_FB], h[H_MU], h[H_R], h[H_BETA] = first.nozzle_force, first.vdp_mu, first.vdp_r, beta
+        h[H_FS : H_VK + 1] = first.friction
+        h[H_USER_REASON] = int(petsc().TS.ConvergedReason.CONVERGED_USER)
+        h[H_SAMPLE_DT], h[H_CAP], h[H_LIMIT] = sample_dt, self.capacity, limit
+        h[H_NSTATE] = B * (2 * N * m + 4)
+        h[H_OFFSETS : H_OFFSETS + len(_ARRAYS)] = self._offsets
+
+    def _values(self, cases: list[ForceParameters], model, A0_diag) -> dict:
+        """The parameter arrays of the context, in the kernel's basis and column layout."""
+        N, K, B, P = self.N, self.K, self.B, self.basis
+        first = cases[0]
+        c = first.contacts
+        A1 = P.T @ model.A1 @ P
+
+        def columns(per_case):  # (B, ..., N) -> (..., N * B), case innermost
+            a = np.asarray(per_case, dtype=float)
+            return np.moveaxis(a, 0, -1).reshape(*a.shape[1:-1], N * B)
+
+        return {
+            "A0_diag": A0_diag,
+            "A1": A1,
+            "A1T": A1.T,
+            "p_exc": P.T @ first.excitation,
+            "cos_phase": np.repeat(np.cos(first.nozzle_phase), B),
+            "sin_phase": np.repeat(np.sin(first.nozzle_phase), B),
+            "p_aero": P.T @ first.aero,
+            "R": first.rotation,
+            "XA": c.shape_A @ P,
+            "XB": c.shape_B @ P,
+            "A_point": c.point_A,
+            "B_point": c.point_B,
+            "arm": c.arm_length,
+            # (B, K, N, 3, 3) -> (K, 9, N, B)
+            "T": columns([f.contacts.frame.reshape(K, N, 9).transpose(0, 2, 1) for f in cases]),
+            "k_c": columns([f.contacts.stiffness for f in cases]),
+            "preload": c.preload,
+            "tip": model.tip @ P,
+            "active": np.ones(B),
+        }
+
+    @property
+    def address(self) -> int:
+        return self.array.ctypes.data
+
+    def view(self, name: str) -> np.ndarray:
+        i = _INDEX[name]
+        o = self._offsets[i]
+        return self.array[o : o + int(np.prod(self.shapes[i]))].reshape(self.shapes[i])
+
+    def header(self, slot: int) -> float:
+        return float(self.array[slot])
+
+    def set_header(self, slot: int, value: float) -> None:
+        self.array[slot] = value
+
+    def pack(self, states: np.ndarray) -> np.ndarray:
+        """Kernel state (length ``B (2 N m + 4)``) from blade-major case states
+        ``(B, 2 N m + 4)`` (or ``(2 N m + 4,)`` when ``B = 1``)."""
+        N, m, B = self.N, self.m, self.B
+        s = np.asarray(states, dtype=float).reshape(B, -1)
+        n = N * m
+        P = self.basis  # z_s = P^T q_s, i.e. z_s^T = q_s^T P
+        q = _times(s[:, :n].reshape(B, N, m), P).transpose(2, 1, 0)  # (m, N, B)
+        v = _times(s[:, n : 2 * n].reshape(B, N, m), P).transpose(2, 1, 0)
+        w = s[:, 2 * n :].T  # (4, B)
+        return np.concatenate([q.ravel(), v.ravel(), w.ravel()])
+
+    def unpack(self, u: np.ndarray) -> np.ndarray:
+        """Blade-major case states ``(B, 2 N m + 4)`` from a kernel state (inverse of
+        :meth:`pack`)."""
+        N, m, B = self.N, self.m, self.B
+        n = N * m * B
+        u = np.asarray(u)
+        PT = self.basis.T  # q_s = P z_s
+        q = _times(u[:n].reshape(m, N, B).transpose(2, 1, 0), PT).reshape(B, N * m)
+        v = _times(u[n : 2 * n].reshape(m, N, B).transpose(2, 1, 0), PT).reshape(B, N * m)
+        w = u[2 * n :].reshape(4, B).T
+        return np.concatenate([q, v, w], axis=1)
+
+
+def _times(x: np.ndarray, M: np.ndarray) -> np.ndarray:
+    """``x @ M`` over the last axis, summed in a fixed order by elementwise operations: the
+    same bits for a case whatever the batch (a BLAS product may block differently by shape,
+    which would break the batch independence of the results)."""
+    out = x[..., :1] * M[0]
+    for j in range(1, M.shape[0]):
+        out = out + x[..., j : j + 1] * M[j]
+    return out
+
+
+def diagonal_basis(A0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(P, lam)``: the orthogonal ``P`` (m, m) with ``P^T A0 P = diag(lam)`` [1/s^2].
+
+    Why: the kernel works in the segment modes rotated by ``P`` (``q_s = P z_s``). The mass
+    stays the identity, the diagonal block of ``K_R`` becomes ``diag(lam)`` and the row of
+    ``K_R`` costs ``2 m^2 + m`` multiply-adds instead of ``3 m^2``, the damping power
+    ``m^2 + m`` instead of ``2 m^2``: a third of the linear work. The same wheel, only
+    rounded differently (``pack``/``unpack`` rotate the state; the samples are physical).
+    """
+    A0 = np.asarray(A0, dtype=float)
+    scale = max(float(np.abs(A0).max()), np.finfo(float).tiny)
+    if not np.allclose(A0, A0.T, rtol=0.0, atol=1e-12 * scale):
+        raise ValueError("the reduced model's A0 (diagonal block of K_R) must be symmetric")
+    lam, P = np.linalg.eigh(0.5 * (A0 + A0.T))
+    return P, lam
+
+
+def check_batchable(cases: list[ForceParameters]) -> None:
+    """Cases of a batch share everything but the contact frames and stiffnesses."""
+    first = cases[0].shared()
+    for f in cases[1:]:
+        if not all(np.array_equal(a, b) for a, b in zip(f.shared(), first, strict=True)):
+            raise ValueError("cases of one batch may differ only in contact angles and stiffnesses")
+
+
+@numba.njit(inline="always")
+def get(ctx, index, size):
+    """The context array ``index`` (of ``size`` doubles) as a 1-D view, in compiled code."""
+    o = int(ctx[H_OFFSETS + index])
+    return ctx[o : o + size]

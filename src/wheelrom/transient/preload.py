@@ -1,0 +1,77 @@
+"""The static equilibrium under the contact preloads (``time.start = "preload"``): PETSc SNES
+on ``K_R q = f(q, 0, t = 0)``, so the accelerations vanish at ``t = 0``."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from wheelrom._environment import petsc
+from wheelrom.transient.problem import WheelProblem
+
+
+def static_preload(problem: WheelProblem, case: int = 0,
+                   prefix: str = "preload_") -> tuple[np.ndarray, float]:  # fmt: skip
+    """Solve ``K_R q = f(q, 0, t=0)`` for one case; returns ``q`` and ``|residual|``.
+
+    Jacobian by finite differences of the residual (dense, ``N m`` unknowns). Options prefix
+    ``preload_`` (``-preload_snes_rtol`` ...), ``setFromOptions`` last.
+    """
+    PETSc = petsc()
+    n = problem.n
+    zeros_v = np.zeros((problem.N, problem.m))
+    forces = problem.forces[case]
+
+    def residual_np(q):
+        force = forces.evaluate(0.0, q.reshape(problem.N, problem.m), zeros_v)
+        return problem.Kd @ q - force.ravel()
+
+    def residual(snes, x, r):
+        r.setArray(residual_np(x.getArray(readonly=True)))
+
+    def jacobian(snes, x, J, P):
+        q = x.getArray(readonly=True).copy()
+        base = residual_np(q)
+        h = 1e-9 * max(1.0, np.abs(q).max())
+        Jd = np.empty((n, n))
+        for j in range(n):
+            qj = q.copy()
+            qj[j] += h
+            Jd[:, j] = (residual_np(qj) - base) / h
+        P.setValues(range(n), range(n), Jd)
+        P.assemble()
+
+    snes = PETSc.SNES().create(comm=problem.comm)
+    snes.setOptionsPrefix(prefix)
+    J = PETSc.Mat().createDense((n, n), comm=problem.comm)
+    J.setUp()
+    r = PETSc.Vec().createSeq(n, comm=problem.comm)
+    x = PETSc.Vec().createSeq(n, comm=problem.comm)
+    snes.setFunction(residual, r)
+    snes.setJacobian(jacobian, J, J)
+    snes.setTolerances(rtol=1e-12, atol=1e-12 * max(1.0, problem.cases[case].nozzle_force),
+                       max_it=50)  # fmt: skip
+    snes.getKSP().setType("preonly")
+    snes.getKSP().getPC().setType("lu")
+    snes.setFromOptions()
+    x.set(0.0)
+    snes.solve(None, x)
+    q = x.getArray().copy()
+    res = float(np.linalg.norm(residual_np(q)))
+    reason = snes.getConvergedReason()
+    for obj in (snes, J, r, x):
+        obj.destroy()
+    if reason <= 0:
+        raise RuntimeError(f"preload SNES did not converge (reason {reason}, |F| = {res:.3g})")
+    return q, res
+
+
+def initial_state(problem: WheelProblem, case: int = 0) -> tuple[np.ndarray, float | None]:
+    """One case's blade-major state at ``t = 0`` per ``time.start``: zero, or the static
+    equilibrium under the preloads (and the t = 0 nozzle force). Returns ``(u0, preload
+    residual or None)``."""
+    u0 = np.zeros(problem.size())
+    if problem.cfg.time.start != "preload":
+        return u0, None
+    q, residual = static_preload(problem, case=case)
+    u0[: problem.n] = q
+    return u0, residual

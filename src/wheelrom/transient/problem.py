@@ -1,0 +1,218 @@
+"""The transient problem of the reduced wheel (paper eq. 15) and what a case run returns.
+
+State ``u = (q, q', W)`` with ``q, q'`` of length ``N m`` and four work accumulators
+``W = (W_nozzle, W_vdp, W_friction, W_damping)`` [J] integrated with the same stages as the
+motion, so the energy balance ``E(t) - E(0) = sum W`` is a check of the integration itself:
+
+    q''  = -K_R (q + beta_D q') + f(q, q', t)
+    W'   = (P_nozzle, P_vdp, P_friction, -beta_D q'^T K_R q')
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from wheelrom._environment import petsc
+from wheelrom.config import Config
+from wheelrom.forces.parameters import ForceParameters
+from wheelrom.forces.reference import ReferenceForces
+from wheelrom.rom.model import ReducedModel
+from wheelrom.transient.layout import H_RHS_CALLS, Context
+
+N_WORK = 4
+WORK_NAMES = ("nozzle", "van_der_pol", "friction", "damping")
+
+
+@dataclass(frozen=True)
+class WindowStats:
+    """Statistics of one case over one window's output samples (NaN when it has none).
+
+    ``max_tip_amplitude`` [m]: largest tip displacement magnitude over blades and samples;
+    ``nd_spectrum``: ``(N // 2 + 1,)`` largest amplitude over the samples of each nodal
+    diameter component of the tip ``y`` displacement [m] (:func:`nd_amplitudes`);
+    ``min_normal_force``: kind -> smallest normal force [N]; ``open_fraction``: kind ->
+    fraction of (blade, sample) pairs with the contact open.
+    """
+
+    max_tip_amplitude: float
+    nd_spectrum: np.ndarray
+    min_normal_force: dict
+    open_fraction: dict
+
+
+def nd_amplitudes(tip_y: np.ndarray) -> np.ndarray:
+    """Amplitude [m] of every nodal-diameter component of blade displacements ``tip_y``
+    ``(..., N)``: ``(..., N // 2 + 1)``.
+
+    A travelling wave ``a cos(k theta_s - w t)`` of ND ``0 < k < N/2`` appears with DFT
+    magnitude ``a N / 2`` at ``k`` (and at ``N - k``), a pattern of ND 0 or ``N/2`` with
+    ``a N``: scaled by ``2/N`` and ``1/N`` respectively, every ND reports the amplitude ``a``.
+    """
+    N = tip_y.shape[-1]
+    scale = np.full(N // 2 + 1, 2.0 / N)
+    scale[0] = 1.0 / N
+    if N % 2 == 0:
+        scale[-1] = 1.0 / N
+    return np.abs(np.fft.rfft(tip_y, axis=-1)) * scale
+
+
+@dataclass
+class CaseResult:
+    """Monitor output of one case (arrays per window ``w`` unless noted).
+
+    Attributes:
+        status: ``"done"`` or ``"failed: <reason>"``.
+        window_end: ``(W,)`` end time of each window [s].
+        max_tip_amplitude, nd_spectrum, min_normal_force, open_fraction: the
+            :class:`WindowStats` of every window, stacked: ``(W,)``, ``(W, N//2+1)``,
+            kind -> ``(W,)``.
+        energy: ``(W,)`` kinetic + potential energy at window end [J]; ``energy0`` at t = 0.
+        work: ``(W, 4)`` cumulative work of nozzle, Van der Pol, friction, damping [J].
+        sample_time: ``(S,)`` [s]; tip_history: ``(S, N, 3)`` tip displacement [m].
+        steps, rhs_evaluations, wall_s, options: TS steps taken, right-hand sides of the
+            TS (of the whole batch), wall time [s] (of a batch: its wall time over its number
+            of cases), TS options used (prefix stripped).
+        preload_residual: ``|K_R q - f|`` of the static preload start, when used.
+        final_state: ``(2 N m + 4,)`` blade-major state at the end.
+        batch: number of cases integrated together in the TS of this case.
+    """
+
+    status: str = "done"
+    window_end: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    max_tip_amplitude: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    min_normal_force: dict = field(default_factory=dict)
+    open_fraction: dict = field(default_factory=dict)
+    nd_spectrum: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    energy: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    energy0: float = 0.0
+    work: np.ndarray = field(default_factory=lambda: np.zeros((0, N_WORK)))
+    sample_time: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    tip_history: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 3)))
+    steps: int = 0
+    rhs_evaluations: int = 0
+    wall_s: float = 0.0
+    options: dict = field(default_factory=dict)
+    preload_residual: float | None = None
+    final_state: np.ndarray | None = None
+    batch: int = 1
+
+    def energy_balance_error(self) -> float:
+        """``|E - E0 - sum W| / sum |W|`` at the last window (0 when nothing happened)."""
+        if self.energy.size == 0:
+            return 0.0
+        total = self.work[-1].sum()
+        scale = np.abs(self.work[-1]).sum()
+        return float(abs(self.energy[-1] - self.energy0 - total) / scale) if scale else 0.0
+
+    def summary(self) -> dict:
+        """The last window's figures as plain Python values (for printing and JSON)."""
+        last = -1 if self.window_end.size else None
+        return {
+            "status": self.status,
+            "steps": self.steps,
+            "wall_s": self.wall_s,
+            "simulated_s": float(self.window_end[-1]) if last is not None else 0.0,
+            "max_tip_amplitude": float(self.max_tip_amplitude[-1]) if last is not None else None,
+            "min_normal_force": {
+                k: float(v[-1]) for k, v in self.min_normal_force.items() if v.size
+            },
+            "open_fraction": {k: float(v[-1]) for k, v in self.open_fraction.items() if v.size},
+            "energy_balance_error": self.energy_balance_error(),
+            "preload_residual": self.preload_residual,
+            "options": self.options,
+        }
+
+
+class WheelProblem:
+    """The ODE of one case or of a batch of cases: sizes, the compiled context and the TS
+    callbacks (``comm``: ``COMM_SELF``, a case is serial).
+
+    ``cases``: one :class:`ForceParameters` per case of the batch (cases differing only in
+    contact angles, integrated together in one TS: see :mod:`wheelrom.transient.layout`).
+    Two right-hand sides: the compiled one (:mod:`wheelrom.transient.kernel`, registered as C
+    callbacks, the default) and :meth:`rhs`, a petsc4py Python callback using the PETSc BAIJ
+    ``K_R`` and the reference force model (one case: slower, a second implementation).
+    ``n``, :meth:`size`, :meth:`rhs_numpy`, :meth:`energy` refer to one case.
+    """
+
+    def __init__(self, model: ReducedModel, cfg: Config, cases: list[ForceParameters], comm,
+                 capacity: int = 4):  # fmt: skip
+        self.comm = comm
+        self.cases = list(cases)
+        self.model, self.cfg = model, cfg
+        self.B = len(self.cases)
+        self.N, self.m = model.blades, model.modes
+        self.n = self.N * self.m
+        self.kinds = self.cases[0].contacts.kinds
+        self.beta = cfg.wheel.damping_beta
+        self.Kd = model.dense_stiffness()  # for energies and the reference (small)
+        self.context = Context(
+            self.cases,
+            model,
+            self.beta,
+            sample_dt=1.0 / cfg.output.sample_rate_hz,
+            limit=cfg.time.divergence_amplitude,
+            capacity=capacity,
+        )
+        self.forces = [ReferenceForces(p) for p in self.cases]
+        self._petsc: list = []  # BAIJ K_R and work Vecs of the Python path, made on demand
+
+    def size(self) -> int:
+        """Length of one case's state ``(q, q', W)``."""
+        return 2 * self.n + N_WORK
+
+    def rhs(self, ts, t, u, f):
+        """Python TS callback (one case): ``f = (q', q'', W')`` with BAIJ products."""
+        PETSc = petsc()
+        if not self._petsc:
+            K = self.model.petsc_stiffness(self.comm)
+            self._petsc = [K] + [PETSc.Vec().createSeq(self.n, comm=self.comm) for _ in "xqv"]
+        K, x, Kq, Kv = self._petsc
+        self.context.array[H_RHS_CALLS] += 1
+        n, forces = self.n, self.forces[0]
+        ua = u.getArray(readonly=True)
+        fa = f.getArray()
+        q = ua[:n]
+        v = ua[n : 2 * n]
+        x.setArray(q)
+        K.mult(x, Kq)
+        x.setArray(v)
+        K.mult(x, Kv)
+        force = forces.evaluate(t, q.reshape(self.N, self.m), v.reshape(self.N, self.m))
+        Kqa = Kq.getArray(readonly=True)
+        Kva = Kv.getArray(readonly=True)
+        fa[:n] = v
+        fa[n : 2 * n] = force.ravel() - Kqa - self.beta * Kva
+        fa[2 * n : 2 * n + 3] = forces.power
+        fa[2 * n + 3] = -self.beta * float(v @ Kva)
+
+    def rhs_numpy(self, t: float, u: np.ndarray, case: int = 0) -> np.ndarray:
+        """The same right-hand side with numpy only (serial reference), one case."""
+        n = self.n
+        q, v = u[:n], u[n : 2 * n]
+        forces = self.forces[case]
+        force = forces.evaluate(t, q.reshape(self.N, self.m), v.reshape(self.N, self.m))
+        Kv = self.Kd @ v
+        out = np.empty_like(u)
+        out[:n] = v
+        out[n : 2 * n] = force.ravel() - self.Kd @ q - self.beta * Kv
+        out[2 * n : 2 * n + 3] = forces.power
+        out[2 * n + 3] = -self.beta * float(v @ Kv)
+        return out
+
+    def energy(self, u: np.ndarray, case: int = 0) -> float:
+        """Kinetic + modal strain + contact spring energy [J] of one case's blade-major state
+        (evaluates the contacts)."""
+        n = self.n
+        q, v = u[:n], u[n : 2 * n]
+        forces = self.forces[case]
+        forces.evaluate(0.0, q.reshape(self.N, self.m), v.reshape(self.N, self.m))
+        return 0.5 * float(v @ v) + 0.5 * float(q @ (self.Kd @ q)) + forces.contact_energy()
+
+    def destroy(self) -> None:
+        """Free the PETSc objects of the Python right-hand side."""
+        for obj in self._petsc:
+            obj.destroy()
+        self._petsc = []

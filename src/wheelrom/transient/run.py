@@ -1,0 +1,247 @@
+"""Integrate cases window by window on PETSc TS and harvest their statistics.
+
+:func:`run_cases` integrates a batch of cases (one per entry of ``angles``) in one TS: the
+initial states, then every window (the TS steps to the window end, the compiled monitor has
+recorded the samples, :class:`Samples` turns them into :class:`WindowStats`), then the
+results. With fixed steps each case's result is bitwise the one it has alone.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from wheelrom._environment import petsc
+from wheelrom.config import Config
+from wheelrom.forces.parameters import force_parameters
+from wheelrom.rom.model import ReducedModel
+from wheelrom.transient.layout import H_OVERFLOW, H_RHS_CALLS, STOP_AMPLITUDE, STOP_NONFINITE
+from wheelrom.transient.preload import initial_state
+from wheelrom.transient.problem import (
+    N_WORK,
+    CaseResult,
+    WheelProblem,
+    WindowStats,
+    nd_amplitudes,
+)
+from wheelrom.transient.ts import PREFIX, make_ts, scoped_options, time_grid
+
+
+class Samples:
+    """Output samples of one case of a batch, collected window by window from the context.
+
+    Window statistics are taken over the samples (rate ``output.sample_rate_hz``), which the
+    compiled monitor records at the first step at or after each sample time.
+    """
+
+    def __init__(self, problem: WheelProblem, case: int = 0):
+        self.p, self.case = problem, case
+        self.kinds = problem.kinds
+        self.times: list[np.ndarray] = []
+        self.tips: list[np.ndarray] = []
+
+    def take_window(self) -> WindowStats:
+        """Move the window's samples out of the context; return its statistics."""
+        ctx, b = self.p.context, self.case
+        count = int(ctx.view("count")[b])
+        if ctx.header(H_OVERFLOW):
+            raise RuntimeError("output sample buffer overflow (report this as a bug)")
+        N = self.p.N
+        t = ctx.view("sample_time")[b, :count].copy()
+        tip = ctx.view("sample_tip")[b, :count].copy()
+        low = ctx.view("sample_min_normal")[b, :count]
+        opened = ctx.view("sample_open")[b, :count]
+        ctx.view("count")[b] = 0
+        self.times.append(t)
+        self.tips.append(tip)
+        if count == 0:
+            return WindowStats(math.nan, np.full(N // 2 + 1, math.nan),
+                               {k: math.nan for k in self.kinds},
+                               {k: math.nan for k in self.kinds})  # fmt: skip
+        return WindowStats(
+            max_tip_amplitude=float(np.sqrt((tip * tip).sum(axis=2)).max()),
+            nd_spectrum=nd_amplitudes(tip[:, :, 1]).max(axis=0),
+            min_normal_force={k: float(low[:, i].min()) for i, k in enumerate(self.kinds)},
+            open_fraction={k: float(opened[:, i].sum() / (count * N))
+                           for i, k in enumerate(self.kinds)},
+        )  # fmt: skip
+
+    def stop(self) -> tuple[float | None, str | None]:
+        """``(time [s], reason)`` when the monitor froze this case, else ``(None, None)``."""
+        ctx, b = self.p.context, self.case
+        flag = int(ctx.view("stop")[b])
+        t = float(ctx.view("stop_t")[b])
+        if flag == STOP_NONFINITE:
+            return t, f"non-finite state at t = {t:.6g} s"
+        if flag == STOP_AMPLITUDE:
+            return t, f"tip amplitude exceeds time.divergence_amplitude at t = {t:.6g} s"
+        return None, None
+
+
+class _CaseRecord:
+    """The rows of one case while its batch runs."""
+
+    def __init__(self, problem: WheelProblem, case: int):
+        self.result = CaseResult()
+        self.samples = Samples(problem, case)
+        self.running = True
+        self.steps = 0
+        self.ends: list[float] = []
+        self.stats: list[WindowStats] = []
+        self.energy: list[float] = []
+        self.work: list[np.ndarray] = []
+
+    def fail(self, reason: str) -> None:
+        self.result.status = f"failed: {reason}"
+        self.running = False
+
+
+def run_case(model: ReducedModel, cfg: Config, angles_deg: dict | None = None,
+             options: dict | None = None, progress=None, prefix: str = PREFIX,
+             u0: np.ndarray | None = None, rhs_kind: str = "compiled") -> CaseResult:  # fmt: skip
+    """Integrate one case window by window; a divergence stops it and keeps what was done.
+
+    ``u0``: optional initial modal state ``(q, q')`` of length ``2 N m`` (else ``time.start``).
+    ``options``: PETSc options for this TS (keys without prefix, e.g. ``{"ts_rk_type": "5dp"}``).
+    ``progress(window, windows, t, amplitude)`` is called after every window.
+    """
+    return run_cases(model, cfg, [angles_deg], options, progress, prefix,
+                     None if u0 is None else [u0], rhs_kind)[0]  # fmt: skip
+
+
+def adaptive(options: dict | None, prefix: str = PREFIX) -> bool:
+    """Whether the TS of these options adapts its step (then cases are not batched: a shared
+    step would make a case's result depend on the others)."""
+    with scoped_options(prefix, options):
+        value = petsc().Options().getString(prefix + "ts_adapt_type", "none")
+    return str(value) != "none"
+
+
+def run_cases(model: ReducedModel, cfg: Config, angles: list[dict | None],
+              options: dict | None = None, progress=None, prefix: str = PREFIX,
+              u0: list[np.ndarray] | None = None,
+              rhs_kind: str = "compiled") -> list[CaseResult]:  # fmt: skip
+    """Integrate a batch of cases (one per entry of ``angles``) in one TS, window by window.
+
+    The cases share the model and every setting but their contact angles; with fixed steps
+    each case's result is bitwise the one it has alone (a batch only runs faster: the kernel
+    vectorises across cases and PETSc's per-step work is shared). A diverging case is frozen
+    and reported failed while the others go on. Adaptive steps run the cases one by one.
+    ``u0``: optional initial modal states ``(q, q')``, one per case. ``progress(window,
+    windows, t, amplitude)`` after every window (largest amplitude over running cases).
+    """
+    if len(angles) > 1 and adaptive(options, prefix):
+        return [run_cases(model, cfg, [a], options, progress, prefix,
+                          None if u0 is None else [u0[i]], rhs_kind)[0]
+                for i, a in enumerate(angles)]  # fmt: skip
+    t_wall = time.perf_counter()
+    grid = time_grid(cfg)
+    params = [force_parameters(model, cfg, a) for a in angles]
+    problem = WheelProblem(model, cfg, params, petsc().COMM_SELF, grid.sample_capacity)
+    records = [_CaseRecord(problem, b) for b in range(problem.B)]
+    states = _initial_states(problem, records, u0)
+    ts, fvec, used = make_ts(problem, cfg, prefix, options, rhs_kind)
+    compiled = rhs_kind == "compiled"
+    u = fvec.duplicate()
+    u.setArray(problem.context.pack(states) if compiled else states[0])
+    try:
+        _integrate(ts, u, problem, records, grid.window_end, used, compiled, progress)
+    except petsc().Error as exc:
+        for rec in records:
+            if rec.running:
+                rec.fail(f"PETSc error {exc}")
+                rec.steps = ts.getStepNumber()
+    ua = u.getArray(readonly=True)
+    finals = problem.context.unpack(ua) if compiled else ua[None, :].copy()
+    wall = time.perf_counter() - t_wall
+    results = [_finish(rec, problem, used, finals[b], wall) for b, rec in enumerate(records)]
+    for obj in (ts, fvec, u):
+        obj.destroy()
+    problem.destroy()
+    return results
+
+
+def _initial_states(problem: WheelProblem, records, u0) -> np.ndarray:
+    """``(B, 2 N m + 4)`` blade-major states at ``t = 0``; records ``energy0`` and the
+    preload residual."""
+    states = np.zeros((problem.B, problem.size()))
+    for b, rec in enumerate(records):
+        if u0 is None:
+            states[b], rec.result.preload_residual = initial_state(problem, case=b)
+        else:
+            states[b, : 2 * problem.n] = u0[b]
+        rec.result.energy0 = problem.energy(states[b], case=b)
+    return states
+
+
+def _integrate(ts, u, problem, records, window_end, used, compiled, progress) -> None:
+    """Step the TS through the windows, harvesting every running case after each."""
+    PETSc = petsc()
+    dt0 = ts.getTimeStep()
+    fixed = used.get("ts_adapt_type", "none") == "none"
+    windows = len(window_end)
+    for w, t_end in enumerate(window_end):
+        if fixed:  # step over, never clip: the step count ends the window
+            # (TS "matchstep" would shorten or split the last step of a window and keep it)
+            ts.setExactFinalTime(PETSc.TS.ExactFinalTime.STEPOVER)
+            ts.setTimeStep(dt0)
+            ts.setMaxSteps(int(round(t_end / dt0)))
+            ts.setMaxTime(t_end + 0.5 * dt0)
+        else:
+            ts.setMaxTime(t_end)
+        ts.solve(u)
+        t_now = ts.getTime()
+        ua = u.getArray(readonly=True)
+        states = problem.context.unpack(ua) if compiled else ua[None, :].copy()
+        early = t_now < t_end - (0.5 * dt0 if fixed else 1e-9 * max(1.0, t_end))
+        for b, rec in enumerate(records):
+            if rec.running:
+                _harvest(rec, problem, b, states[b], ts, t_now, dt0 if fixed else None, early)
+        running = [rec for rec in records if rec.running]
+        if progress and running:
+            progress(w + 1, windows, t_now, max(rec.stats[-1].max_tip_amplitude
+                                                for rec in running))  # fmt: skip
+        if not running:
+            break
+
+
+def _harvest(rec: _CaseRecord, problem, b: int, state, ts, t_now, fixed_dt, early) -> None:
+    """One window of one case: its statistics, energy and work, or its stop."""
+    stats = rec.samples.take_window()
+    stopped, reason = rec.samples.stop()
+    rec.steps = ts.getStepNumber()
+    if reason:
+        rec.fail(reason)
+        if fixed_dt is not None and stopped is not None:  # frozen: the steps up to then
+            rec.steps = int(round(stopped / fixed_dt))
+        return
+    rec.ends.append(t_now)
+    rec.stats.append(stats)
+    rec.energy.append(problem.energy(state, case=b))
+    rec.work.append(state[2 * problem.n :].copy())
+    if early:
+        rec.fail(f"TS stopped at t = {t_now:.6g} s ({ts.getConvergedReason()})")
+
+
+def _finish(rec: _CaseRecord, problem, used, final_state, wall) -> CaseResult:
+    """The :class:`CaseResult` of one case from its rows."""
+    res, kinds = rec.result, problem.kinds
+    res.options = used
+    res.window_end = np.array(rec.ends)
+    res.max_tip_amplitude = np.array([s.max_tip_amplitude for s in rec.stats])
+    res.nd_spectrum = np.array([s.nd_spectrum for s in rec.stats]).reshape(-1, problem.N // 2 + 1)
+    res.energy = np.array(rec.energy)
+    res.work = np.array(rec.work).reshape(-1, N_WORK)
+    res.min_normal_force = {k: np.array([s.min_normal_force[k] for s in rec.stats]) for k in kinds}
+    res.open_fraction = {k: np.array([s.open_fraction[k] for s in rec.stats]) for k in kinds}
+    times, tips = rec.samples.times, rec.samples.tips
+    res.sample_time = np.concatenate(times) if times else np.zeros(0)
+    res.tip_history = (np.concatenate(tips) if tips else np.zeros(0)).reshape(-1, problem.N, 3)
+    res.steps = rec.steps
+    res.rhs_evaluations = int(problem.context.header(H_RHS_CALLS))
+    res.final_state = final_state.copy()
+    res.batch = problem.B
+    res.wall_s = wall / problem.B
+    return res

@@ -1,0 +1,151 @@
+"""The PETSc TS of a case and its time grid.
+
+Default TS: ``rk`` / ``3bs`` (Bogacki-Shampine = Simulink ode3), fixed step ``time.step``, no
+adaptivity, set in code; options under the prefix (default ``wheel_``: ``-wheel_ts_type``,
+``-wheel_ts_rk_type``, ``-wheel_ts_adapt_type``, ``-wheel_ts_dt`` ...) are applied last
+(``setFromOptions``). Options a caller passes as a dict are inserted under the prefix only
+while the TS reads them (:func:`scoped_options`); the global database is left as it was.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+from dataclasses import dataclass
+
+from wheelrom._environment import petsc
+from wheelrom.config import Config
+from wheelrom.transient import bridge
+from wheelrom.transient.problem import WheelProblem
+
+PREFIX = "wheel_"
+
+
+@contextlib.contextmanager
+def scoped_options(prefix: str, options: dict | None):
+    """Insert ``options`` (keys without prefix, ``None`` for a flag) under ``prefix`` into
+    the PETSc options database for the duration of the block, then restore what was there."""
+    db = petsc().Options()
+    saved = {}
+    for key, value in (options or {}).items():
+        name = prefix + key.lstrip("-")
+        if name not in saved:
+            saved[name] = db.getString(name) if db.hasName(name) else None
+        db.setValue(name, "" if value is None else str(value))
+    try:
+        yield
+    finally:
+        for name, old in saved.items():
+            if old is None:
+                db.delValue(name)
+            else:
+                db.setValue(name, old)
+
+
+def ts_options_used(ts, prefix: str) -> dict:
+    """The TS settings in effect (type, RK scheme, step) and every ``<prefix>ts_`` option of
+    the database, prefix stripped: what a result records about its integrator."""
+    used = {
+        "ts_type": ts.getType(),
+        "ts_rk_type": ts.getRKType() if ts.getType() == "rk" else None,
+        "ts_dt": ts.getTimeStep(),
+    }
+    ours = prefix + "ts_"
+    everything = petsc().Options().getAll()
+    used.update({k[len(prefix) :]: v for k, v in everything.items() if k.startswith(ours)})
+    return {k: v for k, v in used.items() if v is not None}
+
+
+def make_ts(problem: WheelProblem, cfg: Config, prefix: str = PREFIX,
+            options: dict | None = None, rhs_kind: str = "compiled"):  # fmt: skip
+    """A configured TS (defaults in code, ``setFromOptions`` last): ``(ts, f, used)``.
+
+    ``options``: PETSc options (keys without prefix) for this TS only. ``rhs_kind``:
+    ``"compiled"`` (C callbacks, default) or ``"python"`` (petsc4py callbacks, one case).
+    ``used``: :func:`ts_options_used`.
+    """
+    PETSc = petsc()
+    ts = PETSc.TS().create(comm=problem.comm)
+    ts.setOptionsPrefix(prefix)
+    ts.setProblemType(PETSc.TS.ProblemType.NONLINEAR)
+    ts.setType(PETSc.TS.Type.RK)
+    ts.setRKType("3bs")
+    bridge.set_adapt_type(ts, "none")  # fixed steps unless -<prefix>ts_adapt_type says else
+    ts.setTimeStep(cfg.time.step)
+    ts.setMaxTime(cfg.time.end)
+    ts.setMaxSteps(10**9)
+    ts.setExactFinalTime(PETSc.TS.ExactFinalTime.MATCHSTEP)
+    if rhs_kind == "compiled":
+        f = PETSc.Vec().createSeq(problem.B * problem.size(), comm=problem.comm)
+        bridge.attach(ts, f, problem.context)
+    elif rhs_kind == "python":
+        if problem.B != 1:
+            raise ValueError("rhs_kind='python' integrates one case, not a batch")
+        f = PETSc.Vec().createSeq(problem.size(), comm=problem.comm)
+        _attach_python(ts, f, problem)
+    else:
+        raise ValueError(f"rhs_kind must be 'compiled' or 'python', not {rhs_kind!r}")
+    with scoped_options(prefix, options):
+        ts.setFromOptions()
+        used = ts_options_used(ts, prefix)
+    used.setdefault("ts_adapt_type", bridge.adapt_type(ts))
+    return ts, f, used
+
+
+def _attach_python(ts, f, problem: WheelProblem) -> None:
+    """The petsc4py right-hand side and a Python sampling monitor (blade-major state)."""
+    PETSc = petsc()
+    context = problem.context
+
+    def monitor(ts, step, t, x):
+        if bridge.sample(t, context.pack(x.getArray(readonly=True)), context):
+            ts.setConvergedReason(PETSc.TS.ConvergedReason.CONVERGED_USER)
+
+    ts.setRHSFunction(problem.rhs, f)
+    ts.setMonitor(monitor)
+
+
+def time_step(cfg: Config, prefix: str = PREFIX, options: dict | None = None) -> float:
+    """The step [s] a case's TS takes: ``time.step``, or ``-<prefix>ts_dt`` when given."""
+    PETSc = petsc()
+    ts = PETSc.TS().create(comm=PETSc.COMM_SELF)
+    ts.setOptionsPrefix(prefix)
+    ts.setTimeStep(cfg.time.step)
+    with scoped_options(prefix, options):
+        ts.setFromOptions()
+    step = ts.getTimeStep()
+    ts.destroy()
+    return step
+
+
+@dataclass(frozen=True)
+class TimeGrid:
+    """Windows and samples of a run, computed once (every writer and reader uses these).
+
+    ``window_end``: ``(W,)`` end time [s] of every window: multiples of ``time.window``, the
+    last window ending at ``time.end`` (it may be up to 1.5 windows long);
+    ``sample_capacity``: output samples one window can hold; ``samples_max``: samples of the
+    whole run at most.
+    """
+
+    window_end: tuple[float, ...]
+    sample_capacity: int
+    samples_max: int
+
+    @property
+    def windows(self) -> int:
+        return len(self.window_end)
+
+
+def time_grid(cfg: Config) -> TimeGrid:
+    """The :class:`TimeGrid` of ``cfg``."""
+    t = cfg.time
+    windows = max(1, int(round(t.end / t.window)))
+    ends = tuple((w + 1) * t.window for w in range(windows - 1)) + (t.end,)
+    longest = max(t.window, t.end - (windows - 1) * t.window)
+    rate = cfg.output.sample_rate_hz
+    return TimeGrid(
+        window_end=ends,
+        sample_capacity=int(math.ceil(longest * rate)) + 4,
+        samples_max=int(math.ceil(t.end * rate)) + 2,
+    )
