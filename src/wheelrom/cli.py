@@ -12,6 +12,7 @@ import json
 import sys
 from collections.abc import Callable, Sequence
 
+from wheelrom import cli_args
 from wheelrom import config as config_mod
 from wheelrom._environment import bootstrap
 from wheelrom.errors import InputError, OutputExists
@@ -374,120 +375,26 @@ def cmd_plot(args: argparse.Namespace) -> int:
     return 0
 
 
-def _json_out(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
-
-
-def _args_modes(p):
-    _json_out(p)
-    p.add_argument("--out", help="write the reduced model to this HDF5 file")
-    p.add_argument(
-        "--full-wheel",
-        nargs="?",
-        const="cyclic",
-        choices=("cyclic", "assembled", "both"),
-        help="full-wheel FE reference: exact cyclic symmetry per ND (default, any preset) "
-        "and/or N assembled segment copies (SLEPc on all ranks; coarse preset)",
-    )
-    p.add_argument("--full-wheel-modes", type=int, default=20, help="modes of the assembled wheel")
-    p.add_argument("--vtu", help="write a wheel mode on the whole-wheel mesh (.vtu, meshio)")
-    p.add_argument("--vtu-nd", type=int, default=5, help="nodal diameter of that mode")
-    p.add_argument("--vtu-family", type=int, default=0, help="mode family (0 = lowest)")
-
-
-def _args_run(p):
-    _json_out(p)
-    p.add_argument("--out", help="write the case to this HDF5 file (sweep layout)")
-
-
-def _args_compare(p):
-    _json_out(p)
-    p.add_argument("--steps", type=int, default=2000, help="steps to compare (default 2000)")
-
-
-def _args_sweep(p):
-    p.add_argument("--out", required=True, help="HDF5 results file")
-    p.add_argument("--resume", action="store_true", help="run only the cases still pending")
-    p.add_argument("--force", action="store_true", help="overwrite an existing file")
-    p.add_argument(
-        "--model-comm",
-        choices=("rank0", "world"),
-        default="rank0",
-        help="build the model on rank 0 and broadcast it (default: results independent of "
-        "the rank count), or solve the segment eigenproblem on all ranks (large segments)",
-    )
-    p.add_argument(
-        "--batch",
-        type=int,
-        default=0,
-        metavar="B",
-        help="cases integrated together in one TS per rank (results are the same for any B): "
-        "0 (default) = all of a rank's cases, fastest; 1 = every case written as soon as done",
-    )
-
-
-def _args_bench(p):
-    _json_out(p)
-    p.add_argument("--steps", type=int, default=20000, help="TS steps timed (>= 20000)")
-    p.add_argument(
-        "--reference-steps", type=int, default=2000, help="steps of the numpy/scipy comparisons"
-    )
-    p.add_argument(
-        "--batch", type=int, default=10, help="angle cases in one TS for the batched figures"
-    )
-
-
-def _args_campbell(p):
-    _json_out(p)
-    p.add_argument(
-        "--speeds", default="0:60:13", help="rotor speeds [Hz]: start:stop:count or a,b,c"
-    )
-    p.add_argument("--outdir", default="out/figures", help="directory for campbell.png")
-    p.add_argument("--pdf", action="store_true", help="also write PDF")
-
-
-def _args_mesh(p):
-    p.add_argument("--out", required=True, help="output file: .inp (CalculiX), .vtu, .xdmf ...")
-
-
-def _args_accuracy(p):
-    _json_out(p)
-    p.add_argument("--modes", type=int, nargs="+", default=[10, 20, 40], help="free bases m")
-    p.add_argument("--enriched-modes", type=int, default=10, help="m of the enriched basis")
-    p.add_argument("--families", type=int, default=4, help="families compared")
-
-
-def _args_plot(p):
-    p.add_argument("--outdir", default=None, help="directory for the figures")
-    p.add_argument("--pdf", action="store_true", help="also write PDF")
-    p.add_argument(
-        "--nd-angles",
-        type=float,
-        nargs=2,
-        metavar=("A", "B"),
-        help="shroud angles [deg] of the two ND-spectrum panels (default: most and least "
-        "suppressed)",
-    )
-
-
 COMMANDS: dict[
     str, tuple[Callable[[argparse.Namespace], int], str, Callable[[argparse.ArgumentParser], None]]
 ] = {
-    "modes": (cmd_modes, "segment and wheel modal analysis", _args_modes),
-    "run": (cmd_run, "one transient case", _args_run),
-    "compare": (cmd_compare, "PETSc TS against the serial numpy reference", _args_compare),
-    "sweep": (cmd_sweep, "contact-angle sweep under mpirun, parallel HDF5", _args_sweep),
-    "plot": (cmd_plot, "figures from a results file", _args_plot),
-    "bench": (cmd_bench, "speed of the transient hot path (one core)", _args_bench),
-    "campbell": (cmd_campbell, "frequencies versus rotor speed (prestressed)", _args_campbell),
-    "mesh": (cmd_mesh, "write the segment mesh and node sets", _args_mesh),
-    "accuracy": (cmd_accuracy, "reduced model vs exact cyclic FE, per family", _args_accuracy),
-    "contact-stiffness": (
-        cmd_contact_stiffness,
-        "k_c(beta) from the segment FE (static unit loads)",
-        _json_out,
-    ),
-}
+    "modes": (cmd_modes, "segment and wheel modal analysis", cli_args.args_modes),
+    "run": (cmd_run, "one transient case", cli_args.args_run),
+    "compare": (cmd_compare, "PETSc TS against the serial numpy reference",
+                cli_args.args_compare),
+    "sweep": (cmd_sweep, "contact-angle sweep under mpirun, parallel HDF5",
+              cli_args.args_sweep),
+    "plot": (cmd_plot, "figures from a results file", cli_args.args_plot),
+    "bench": (cmd_bench, "speed of the transient hot path (one core)", cli_args.args_bench),
+    "campbell": (cmd_campbell, "frequencies versus rotor speed (prestressed)",
+                 cli_args.args_campbell),
+    "mesh": (cmd_mesh, "write the segment mesh and node sets", cli_args.args_mesh),
+    "accuracy": (cmd_accuracy, "reduced model vs exact cyclic FE, per family",
+                 cli_args.args_accuracy),
+    "contact-stiffness": (cmd_contact_stiffness,
+                          "k_c(beta) from the segment FE (static unit loads)",
+                          cli_args.json_out),
+}  # fmt: skip
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -10,12 +10,19 @@ from __future__ import annotations
 
 import dataclasses
 import difflib
-import math
 import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
+
+from wheelrom._config_values import (
+    check_number,
+    convert_node_sets,
+    convert_stiffness,
+    is_number,
+)
+from wheelrom._config_values import to_toml as to_toml  # re-exported: config.to_toml
 
 CONTACT_KINDS = ("tieboss", "shroud")
 
@@ -284,38 +291,13 @@ def _suggest(name: str, valid: Sequence[str]) -> str:
     return f" (did you mean '{close[0]}'?)" if close else f" (valid: {', '.join(valid)})"
 
 
-def _is_number(v: Any) -> bool:
-    return isinstance(v, int | float) and not isinstance(v, bool)
-
-
-def _check_number(where: str, value: Any, meta: Mapping[str, Any], problems: list[str]) -> bool:
-    if not _is_number(value):
-        problems.append(f"{where}: expected a number, got {value!r}")
-        return False
-    if not math.isfinite(value):
-        problems.append(f"{where}: must be finite, got {value!r}")
-        return False
-    unit = meta.get("unit", "")
-    unit = "" if unit == "-" else f" {unit}"
-    if "gt" in meta and not value > meta["gt"]:
-        problems.append(f"{where}: must be > {meta['gt']}{unit}, got {value!r}")
-        return False
-    if "min" in meta and value < meta["min"]:
-        problems.append(f"{where}: must be >= {meta['min']}{unit}, got {value!r}")
-        return False
-    if "max" in meta and value > meta["max"]:
-        problems.append(f"{where}: must be <= {meta['max']}{unit}, got {value!r}")
-        return False
-    return True
-
-
 def _convert_field(where: str, f: dataclasses.Field, value: Any, problems: list[str]) -> Any:
     meta = f.metadata
     default = f.default if f.default is not dataclasses.MISSING else f.default_factory()
     if f.name == "stiffness":
-        return _convert_stiffness(where, value, problems)
+        return convert_stiffness(where, value, problems)
     if f.name == "node_sets":
-        return _convert_node_sets(where, value, problems)
+        return convert_node_sets(where, value, problems)
     if isinstance(default, bool):
         if not isinstance(value, bool):
             problems.append(f"{where}: expected true or false, got {value!r}")
@@ -324,10 +306,10 @@ def _convert_field(where: str, f: dataclasses.Field, value: Any, problems: list[
         if not isinstance(value, int) or isinstance(value, bool):
             problems.append(f"{where}: expected an integer, got {value!r}")
             return value
-        _check_number(where, value, meta, problems)
+        check_number(where, value, meta, problems)
         return value
     if isinstance(default, float):
-        if _check_number(where, value, meta, problems):
+        if check_number(where, value, meta, problems):
             return float(value)
         return value
     if isinstance(default, str):
@@ -342,56 +324,9 @@ def _convert_field(where: str, f: dataclasses.Field, value: Any, problems: list[
         if not isinstance(value, list | tuple) or not value:
             problems.append(f"{where}: expected a non-empty list of numbers, got {value!r}")
             return value
-        ok = all(_check_number(f"{where}[{i}]", v, meta, problems) for i, v in enumerate(value))
+        ok = all(check_number(f"{where}[{i}]", v, meta, problems) for i, v in enumerate(value))
         return tuple(float(v) for v in value) if ok else value
     raise AssertionError(f"no converter for {where}")  # pragma: no cover
-
-
-def _convert_stiffness(where: str, value: Any, problems: list[str]) -> Any:
-    if isinstance(value, str):
-        if value != "fe":
-            problems.append(f"{where}: expected a number, a table or 'fe', got {value!r}")
-        return value
-    if _is_number(value):
-        _check_number(where, value, {"gt": 0.0, "unit": "N/m"}, problems)
-        return float(value)
-    if isinstance(value, list | tuple) and len(value) >= 2:
-        rows = []
-        for i, row in enumerate(value):
-            if not (isinstance(row, list | tuple) and len(row) == 2):
-                problems.append(f"{where}[{i}]: expected [angle_deg, stiffness], got {row!r}")
-                return value
-            a_ok = _check_number(f"{where}[{i}][0]", row[0], {"min": 0.0, "max": 90.0}, problems)
-            k_ok = _check_number(f"{where}[{i}][1]", row[1], {"gt": 0.0}, problems)
-            if not (a_ok and k_ok):
-                return value
-            rows.append((float(row[0]), float(row[1])))
-        angles = [r[0] for r in rows]
-        if any(b <= a for a, b in zip(angles, angles[1:], strict=False)):
-            problems.append(f"{where}: table angles must increase strictly")
-        return tuple(rows)
-    problems.append(f"{where}: expected a number, a table [[angle, N/m], ...] or 'fe'")
-    return value
-
-
-def _convert_node_sets(where: str, value: Any, problems: list[str]) -> Any:
-    if not isinstance(value, Mapping):
-        problems.append(f"{where}: expected a table name = [[x, y, z], ...]")
-        return {}
-    out = {}
-    for name, pts in value.items():
-        ok = (
-            isinstance(pts, list)
-            and pts
-            and all(
-                isinstance(p, list) and len(p) == 3 and all(_is_number(c) for c in p) for p in pts
-            )
-        )
-        if not ok:
-            problems.append(f"{where}.{name}: expected a list of [x, y, z] points in m")
-            continue
-        out[name] = tuple(tuple(float(c) for c in p) for p in pts)
-    return out
 
 
 def _build(cls: type, data: Mapping[str, Any], prefix: str, problems: list[str]) -> Any:
@@ -426,16 +361,16 @@ def _build_from(default: Any, data: Mapping[str, Any], prefix: str, problems: li
 
 def _cross_checks(cfg: Config, problems: list[str]) -> None:
     fr, t = cfg.friction, cfg.time
-    if _is_number(fr.dynamic) and _is_number(fr.static) and fr.dynamic > fr.static:
+    if is_number(fr.dynamic) and is_number(fr.static) and fr.dynamic > fr.static:
         problems.append(
             f"friction.dynamic: must not exceed friction.static ({fr.dynamic} > {fr.static})"
         )
-    if all(_is_number(v) for v in (t.step, t.window, t.end)):
+    if all(is_number(v) for v in (t.step, t.window, t.end)):
         if t.step > t.window:
             problems.append(f"time.step: larger than time.window ({t.step} > {t.window} s)")
         if t.window > t.end:
             problems.append(f"time.window: larger than time.end ({t.window} > {t.end} s)")
-        if _is_number(cfg.output.sample_rate_hz) and cfg.output.sample_rate_hz * t.step > 1.0:
+        if is_number(cfg.output.sample_rate_hz) and cfg.output.sample_rate_hz * t.step > 1.0:
             problems.append(
                 f"output.sample_rate_hz: {cfg.output.sample_rate_hz} Hz exceeds 1/time.step"
             )
@@ -448,7 +383,7 @@ def _cross_checks(cfg: Config, problems: list[str]) -> None:
             )
     for kind in CONTACT_KINDS:
         c = cfg.contact(kind)
-        if _is_number(c.profile_thickness) and _is_number(c.arm_length):
+        if is_number(c.profile_thickness) and is_number(c.arm_length):
             if c.profile_thickness >= c.arm_length:
                 problems.append(
                     f"contacts.{kind}.profile_thickness: must be shorter than arm_length"
@@ -494,52 +429,3 @@ def load(path: str | Path | None = None, overrides: Sequence[str] = ()) -> Confi
     if changes:
         source += " + --set " + " ".join(f"{k}={v!r}" for k, v in changes.items())
     return from_dict(_set_nested(data, changes), source=source)
-
-
-# --------------------------------------------------------------------------------------
-# TOML output
-# --------------------------------------------------------------------------------------
-
-
-def _toml_value(v: Any) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, str):
-        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
-    if isinstance(v, float):
-        return repr(v)
-    if isinstance(v, int):
-        return str(v)
-    if isinstance(v, list | tuple):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
-    raise TypeError(v)
-
-
-def to_toml(cfg: Config, comments: bool = True) -> str:
-    """The effective configuration as TOML (with units and help as comments)."""
-    lines: list[str] = []
-
-    def section(obj: Any, name: str) -> None:
-        plain = [f for f in fields(obj) if not dataclasses.is_dataclass(getattr(obj, f.name))]
-        skip = ("node_sets",) if name else ("source", "node_sets")
-        plain = [f for f in plain if f.name not in skip]
-        if plain:
-            lines.append(f"[{name}]")
-            for f in plain:
-                text = f"{f.name} = {_toml_value(getattr(obj, f.name))}"
-                if comments and f.metadata:
-                    text = f"{text:<40} # [{f.metadata['unit']}] {f.metadata['help']}"
-                lines.append(text)
-            lines.append("")
-        if name == "segment" and obj.node_sets:
-            lines.append("[segment.node_sets]")
-            for k, pts in obj.node_sets.items():
-                lines.append(f"{k} = {_toml_value([list(p) for p in pts])}")
-            lines.append("")
-        for f in fields(obj):
-            value = getattr(obj, f.name)
-            if dataclasses.is_dataclass(value):
-                section(value, f"{name}.{f.name}" if name else f.name)
-
-    section(cfg, "")
-    return "\n".join(lines).rstrip() + "\n"

@@ -70,18 +70,29 @@ class ReferenceForces:
         closed = -preload * g + 0.5 * c.stiffness * g * g
         return float(np.where(open_, -(preload**2) / (2 * c.stiffness), closed).sum())
 
-
 @numba.njit(cache=True, fastmath=False)
 def _kernel(t, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p_aero, friction, R,
             XA, XB, A_pt, B_pt, arm, T, kc, preload, normal, slip, gap, state, rel_u, rel_v,
-            y_vdp, power, work):  # fmt: skip  # noqa: PLR0915 - the reference is one plain pass
+            y_vdp, power, work):  # fmt: skip
     """The forces of :class:`ReferenceForces` (argument names as in docs/theory.md: ``XA``,
     ``XB`` contact shapes, ``A_pt``, ``B_pt`` undeformed contact points, ``T`` frames)."""
+    p_noz, p_vdp = _nozzle_and_van_der_pol(t, q, v, out, omega, n_s, Fb, p_exc, phase,
+                                           vdp_model, mu, r, p_aero, y_vdp, work)  # fmt: skip
+    p_fric = _contact_forces(q, v, out, friction, R, XA, XB, A_pt, B_pt, arm, T, kc, preload,
+                             normal, slip, gap, state, rel_u, rel_v)  # fmt: skip
+    power[0] = p_noz
+    power[1] = p_vdp
+    power[2] = p_fric
+
+
+@numba.njit(cache=True, fastmath=False)
+def _nozzle_and_van_der_pol(t, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r,
+                            p_aero, y_vdp, work):  # fmt: skip
+    """Nozzle (eq. 13) and Van der Pol (eqs. 1, 2/14) generalised forces written into ``out``;
+    returns their powers [W]."""
     N, m = q.shape
-    f_s, f_d, decay, v_k = friction[0], friction[1], friction[2], friction[3]
     p_noz = 0.0
     p_vdp = 0.0
-    p_fric = 0.0
     # nozzle excitation (eq. 13) and the Van der Pol displacements
     for s in range(N):
         FE = Fb * math.cos(n_s * omega * t - phase[s])
@@ -118,7 +129,17 @@ def _kernel(t, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p_aero
             p_vdp += g * work[s, 1]
             for j in range(m):
                 out[s, j] += p_aero[j] * g
-    # contacts: arm of blade s (A_s, B_s, arm end C_s) against A_{s+1}
+    return p_noz, p_vdp
+
+
+@numba.njit(cache=True, fastmath=False)
+def _contact_forces(q, v, out, friction, R, XA, XB, A_pt, B_pt, arm, T, kc, preload, normal,
+                    slip, gap, state, rel_u, rel_v):  # fmt: skip
+    """Contact forces (eqs. 16-20) added to ``out``, contact states left in the arrays;
+    returns the friction power [W]."""
+    N, m = q.shape
+    f_s, f_d, decay, v_k = friction[0], friction[1], friction[2], friction[3]
+    p_fric = 0.0
     uA = np.empty(3)
     uB = np.empty(3)
     vA = np.empty(3)
@@ -143,26 +164,7 @@ def _kernel(t, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p_aero
         l0 = math.sqrt(l0)
         for s in range(N):
             sn = (s + 1) % N
-            for a in range(3):
-                x1 = 0.0
-                x2 = 0.0
-                x3 = 0.0
-                x4 = 0.0
-                x5 = 0.0
-                x6 = 0.0
-                for j in range(m):
-                    x1 += XA[c, a, j] * q[s, j]
-                    x2 += XB[c, a, j] * q[s, j]
-                    x3 += XA[c, a, j] * v[s, j]
-                    x4 += XB[c, a, j] * v[s, j]
-                    x5 += XA[c, a, j] * q[sn, j]
-                    x6 += XA[c, a, j] * v[sn, j]
-                uA[a] = x1
-                uB[a] = x2
-                vA[a] = x3
-                vB[a] = x4
-                uN[a] = x5
-                vN[a] = x6
+            _point_motion(c, s, sn, q, v, XA, XB, uA, uB, vA, vB, uN, vN)
             # deformed arm direction e = (B' - A') / |B' - A'| and its rate (eq. 16)
             nd = 0.0
             for a in range(3):
@@ -211,29 +213,63 @@ def _kernel(t, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p_aero
                     Ft2 = -coef * Fn * vl[2] / vt
                 p_fric += Ft0 * vl[0] + Ft2 * vl[2]
             normal[c, s] = Fn
-            # force on A_{s+1} in sector s's frame: T^T (F_xi, F_n, F_zeta)
-            for a in range(3):
-                F[a] = T[c, s, 0, a] * Ft0 + T[c, s, 1, a] * Fn + T[c, s, 2, a] * Ft2
-            # blade s+1 (own frame: R^T F) at A
-            for a in range(3):
-                FN[a] = R[0, a] * F[0] + R[1, a] * F[1] + R[2, a] * F[2]
-            for j in range(m):
-                acc = 0.0
-                for a in range(3):
-                    acc += XA[c, a, j] * FN[a]
-                out[sn, j] += acc
-            # arm end of blade s gets -F; moved exactly onto A and B (virtual work of
-            # C' = A' + L e): F_B = (L/|d|) F_perp, F_A = -F - F_B
-            Fe = 0.0
-            for a in range(3):
-                Fe += -F[a] * e[a]
-            for j in range(m):
-                acc = 0.0
-                for a in range(3):
-                    FB = (L / nd) * (-F[a] - Fe * e[a])
-                    FA = -F[a] - FB
-                    acc += XA[c, a, j] * FA + XB[c, a, j] * FB
-                out[s, j] += acc
-    power[0] = p_noz
-    power[1] = p_vdp
-    power[2] = p_fric
+            _apply_contact_force(c, s, sn, T, R, XA, XB, Ft0, Fn, Ft2, e, L / nd, out, F, FN)
+    return p_fric
+
+
+@numba.njit(cache=True, fastmath=False)
+def _point_motion(c, s, sn, q, v, XA, XB, uA, uB, vA, vB, uN, vN):
+    """Displacements and velocities of contact ``c``'s points A and B of blade ``s`` and of A
+    of the next blade ``sn`` (each in its own sector's frame) [m, m/s]."""
+    m = q.shape[1]
+    for a in range(3):
+        x1 = 0.0
+        x2 = 0.0
+        x3 = 0.0
+        x4 = 0.0
+        x5 = 0.0
+        x6 = 0.0
+        for j in range(m):
+            x1 += XA[c, a, j] * q[s, j]
+            x2 += XB[c, a, j] * q[s, j]
+            x3 += XA[c, a, j] * v[s, j]
+            x4 += XB[c, a, j] * v[s, j]
+            x5 += XA[c, a, j] * q[sn, j]
+            x6 += XA[c, a, j] * v[sn, j]
+        uA[a] = x1
+        uB[a] = x2
+        vA[a] = x3
+        vB[a] = x4
+        uN[a] = x5
+        vN[a] = x6
+
+
+@numba.njit(cache=True, fastmath=False)
+def _apply_contact_force(c, s, sn, T, R, XA, XB, Ft0, Fn, Ft2, e, arm_scale, out, F, FN):
+    """The contact force (local ``Ft0, Fn, Ft2`` [N]) on A of blade ``sn`` and, reversed and
+    moved from the arm end onto A and B (``arm_scale = L / |d|``), on blade ``s``, projected
+    onto their modal coordinates (added to ``out``)."""
+    m = out.shape[1]
+    # force on A_{s+1} in sector s's frame: T^T (F_xi, F_n, F_zeta)
+    for a in range(3):
+        F[a] = T[c, s, 0, a] * Ft0 + T[c, s, 1, a] * Fn + T[c, s, 2, a] * Ft2
+    # blade s+1 (own frame: R^T F) at A
+    for a in range(3):
+        FN[a] = R[0, a] * F[0] + R[1, a] * F[1] + R[2, a] * F[2]
+    for j in range(m):
+        acc = 0.0
+        for a in range(3):
+            acc += XA[c, a, j] * FN[a]
+        out[sn, j] += acc
+    # arm end of blade s gets -F; moved exactly onto A and B (virtual work of
+    # C' = A' + L e): F_B = (L/|d|) F_perp, F_A = -F - F_B
+    Fe = 0.0
+    for a in range(3):
+        Fe += -F[a] * e[a]
+    for j in range(m):
+        acc = 0.0
+        for a in range(3):
+            FB = arm_scale * (-F[a] - Fe * e[a])
+            FA = -F[a] - FB
+            acc += XA[c, a, j] * FA + XB[c, a, j] * FB
+        out[s, j] += acc

@@ -1,0 +1,101 @@
+"""The arguments of each ``wheelrom`` subcommand (argparse), apart from the commands."""
+
+from __future__ import annotations
+
+import argparse
+
+
+def json_out(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+
+
+def args_modes(p):
+    json_out(p)
+    p.add_argument("--out", help="write the reduced model to this HDF5 file")
+    p.add_argument(
+        "--full-wheel",
+        nargs="?",
+        const="cyclic",
+        choices=("cyclic", "assembled", "both"),
+        help="full-wheel FE reference: exact cyclic symmetry per ND (default, any preset) "
+        "and/or N assembled segment copies (SLEPc on all ranks; coarse preset)",
+    )
+    p.add_argument("--full-wheel-modes", type=int, default=20, help="modes of the assembled wheel")
+    p.add_argument("--vtu", help="write a wheel mode on the whole-wheel mesh (.vtu, meshio)")
+    p.add_argument("--vtu-nd", type=int, default=5, help="nodal diameter of that mode")
+    p.add_argument("--vtu-family", type=int, default=0, help="mode family (0 = lowest)")
+
+
+def args_run(p):
+    json_out(p)
+    p.add_argument("--out", help="write the case to this HDF5 file (sweep layout)")
+
+
+def args_compare(p):
+    json_out(p)
+    p.add_argument("--steps", type=int, default=2000, help="steps to compare (default 2000)")
+
+
+def args_sweep(p):
+    p.add_argument("--out", required=True, help="HDF5 results file")
+    p.add_argument("--resume", action="store_true", help="run only the cases still pending")
+    p.add_argument("--force", action="store_true", help="overwrite an existing file")
+    p.add_argument(
+        "--model-comm",
+        choices=("rank0", "world"),
+        default="rank0",
+        help="build the model on rank 0 and broadcast it (default: results independent of "
+        "the rank count), or solve the segment eigenproblem on all ranks (large segments)",
+    )
+    p.add_argument(
+        "--batch",
+        type=int,
+        default=0,
+        metavar="B",
+        help="cases integrated together in one TS per rank (results are the same for any B): "
+        "0 (default) = all of a rank's cases, fastest; 1 = every case written as soon as done",
+    )
+
+
+def args_bench(p):
+    json_out(p)
+    p.add_argument("--steps", type=int, default=20000, help="TS steps timed (>= 20000)")
+    p.add_argument(
+        "--reference-steps", type=int, default=2000, help="steps of the numpy/scipy comparisons"
+    )
+    p.add_argument(
+        "--batch", type=int, default=10, help="angle cases in one TS for the batched figures"
+    )
+
+
+def args_campbell(p):
+    json_out(p)
+    p.add_argument(
+        "--speeds", default="0:60:13", help="rotor speeds [Hz]: start:stop:count or a,b,c"
+    )
+    p.add_argument("--outdir", default="out/figures", help="directory for campbell.png")
+    p.add_argument("--pdf", action="store_true", help="also write PDF")
+
+
+def args_mesh(p):
+    p.add_argument("--out", required=True, help="output file: .inp (CalculiX), .vtu, .xdmf ...")
+
+
+def args_accuracy(p):
+    json_out(p)
+    p.add_argument("--modes", type=int, nargs="+", default=[10, 20, 40], help="free bases m")
+    p.add_argument("--enriched-modes", type=int, default=10, help="m of the enriched basis")
+    p.add_argument("--families", type=int, default=4, help="families compared")
+
+
+def args_plot(p):
+    p.add_argument("--outdir", default=None, help="directory for the figures")
+    p.add_argument("--pdf", action="store_true", help="also write PDF")
+    p.add_argument(
+        "--nd-angles",
+        type=float,
+        nargs=2,
+        metavar=("A", "B"),
+        help="shroud angles [deg] of the two ND-spectrum panels (default: most and least "
+        "suppressed)",
+    )
