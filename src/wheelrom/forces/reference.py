@@ -70,6 +70,7 @@ class ReferenceForces:
         closed = -preload * g + 0.5 * c.stiffness * g * g
         return float(np.where(open_, -(preload**2) / (2 * c.stiffness), closed).sum())
 
+
 @numba.njit(cache=True, fastmath=False)
 def _kernel(t, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p_aero, friction, R,
             XA, XB, A_pt, B_pt, arm, T, kc, preload, normal, slip, gap, state, rel_u, rel_v,
@@ -140,22 +141,11 @@ def _contact_forces(q, v, out, friction, R, XA, XB, A_pt, B_pt, arm, T, kc, prel
     N, m = q.shape
     f_s, f_d, decay, v_k = friction[0], friction[1], friction[2], friction[3]
     p_fric = 0.0
-    uA = np.empty(3)
-    uB = np.empty(3)
-    vA = np.empty(3)
-    vB = np.empty(3)
-    uN = np.empty(3)
-    vN = np.empty(3)
-    d = np.empty(3)
-    dd = np.empty(3)
-    e = np.empty(3)
-    ed = np.empty(3)
-    uc = np.empty(3)
-    vc = np.empty(3)
-    ul = np.empty(3)
-    vl = np.empty(3)
-    F = np.empty(3)
-    FN = np.empty(3)
+    rows = np.empty((16, 3))  # 3-vectors of one contact, as row views
+    uA, uB, vA, vB, uN, vN, d, dd = rows[0], rows[1], rows[2], rows[3], rows[4], rows[5], \
+        rows[6], rows[7]  # fmt: skip
+    e, ed, uc, vc, ul, vl, F, FN = rows[8], rows[9], rows[10], rows[11], rows[12], rows[13], \
+        rows[14], rows[15]  # fmt: skip
     for c in range(XA.shape[0]):
         L = arm[c]
         l0 = 0.0
