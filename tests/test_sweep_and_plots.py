@@ -205,3 +205,42 @@ def test_nd_spectrum_for_chosen_angles(serial_run, tmp_path):
     assert str(tmp_path / "fig12_nd_spectrum.png") in written
     with pytest.raises(InputError, match="shroud angle 33 deg is not in"):
         plot_file(str(serial_run), str(tmp_path), nd_angles=(33.0, 80.0))
+
+
+def test_single_run_file_draws_amplitude_panels(tmp_path):
+    """A `run --out` file holds one case: the Fig. 10 line and map must hold visible data (the
+    map once drew a zero-height cell at the single shroud angle, an empty panel)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.collections import QuadMesh
+
+    from wheelrom.plots import _fig10_amplitude, _Sweep, plot_file
+
+    out = tmp_path / "one.h5"
+    subprocess.run(
+        WHEELROM + ["run", SMALL, "--set", "time.end=0.001", "--out", str(out)],
+        env=ENV,
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    written = plot_file(str(out), str(tmp_path / "fig"))
+    assert str(tmp_path / "fig" / "fig10_amplitude.png") in written
+    with h5py.File(out, "r") as f:
+        fig = _fig10_amplitude(_Sweep(f, str(out)), plt)
+    try:
+        panels = {ax.get_title(): ax for ax in fig.axes}  # colorbars have no title
+        line_ax, map_ax = panels["Blade-tip amplitude per window"], panels["Amplitude map"]
+        (line,) = line_ax.get_lines()
+        y = np.asarray(line.get_ydata(), dtype=float)
+        assert y.size >= 1 and np.isfinite(y).all() and (y > 0).all()
+        assert line.get_marker() not in (None, "", "None", " ")  # one window shows as a point
+        (mesh,) = [c for c in map_ax.collections if isinstance(c, QuadMesh)]
+        xy = mesh.get_coordinates()  # (rows + 1, cols + 1, 2) cell corners
+        assert xy.shape[:2] == (2, 3)  # one angle x two windows
+        assert np.ptp(xy[..., 1]) > 0 and np.ptp(xy[..., 0]) > 0
+        assert np.isfinite(mesh.get_array()).all()
+    finally:
+        plt.close(fig)

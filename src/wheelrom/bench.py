@@ -152,12 +152,10 @@ def _scipy_run(problem: WheelProblem, t_end: float, rtol: float, t_eval: np.ndar
     return sol, time.perf_counter() - t0
 
 
-def run(model: ReducedModel, cfg: Config, steps: int = 20000, compare_steps: int = 2000,
-        log=None, batch: int = 10) -> dict:  # fmt: skip
-    """Run the workload; returns the figures (see the module docstring)."""
-    say = log or (lambda m: None)
-    h = time_step(cfg)  # the TS's step (-wheel_ts_dt overrides time.step)
-    problem = _problem(model, cfg, [None])
+def _timed_single(model: ReducedModel, cfg: Config, problem: WheelProblem, steps: int,
+                  h: float, say):  # fmt: skip
+    """One case: a TS run of ``steps`` steps of ``h`` [s] and the compiled right-hand side
+    timed at the state it reached; returns ``(figures, res)`` (``res`` the timed run)."""
     # TS run of `steps` steps (warm-up first: the C callbacks compile once per process)
     short = cfg.replace(**{"time.end": 20 * h, "time.window": 20 * h})
     run_case(model, short)
@@ -174,8 +172,27 @@ def run(model: ReducedModel, cfg: Config, steps: int = 20000, compare_steps: int
     rhs_per_step = res.rhs_evaluations / max(res.steps, 1)
     say(f"PETSc TS: {res.steps} steps in {res.wall_s:.2f} s = {steps_per_s:.0f} steps/s")
     paper_steps = cfg.time.end / h
+    figures = {
+        "us_per_rhs": us_rhs,
+        "us_per_force_evaluation": us_forces,
+        "us_per_linear_product": us_rhs - us_forces,
+        "rhs_per_step": rhs_per_step,
+        "steps": res.steps,
+        "steps_per_s": steps_per_s,
+        "us_per_step": per_step_us,
+        "ts_overhead_us_per_step": per_step_us - rhs_per_step * us_rhs,
+        "paper_case_steps": paper_steps,
+        "paper_case_s": paper_steps / steps_per_s,
+    }
+    return figures, res
 
-    # the same run for a batch of angle cases in one TS (sweep throughput per case)
+
+def _batch_figures(model: ReducedModel, cfg: Config, steps: int, h: float, batch: int,
+                   paper_steps: float, say):  # fmt: skip
+    """The timed run for ``batch`` angle cases in one TS (sweep throughput per case);
+    returns ``(figures, batch_problem)``."""
+    t_end = steps * h
+    timed = cfg.replace(**{"time.end": t_end, "time.window": t_end})
     shroud = list(cfg.sweep.shroud_angles_deg) or [cfg.contacts.shroud.angle_deg]
     angles = [{"shroud": shroud[i % len(shroud)]} for i in range(batch)]
     t0 = time.perf_counter()
@@ -188,8 +205,22 @@ def run(model: ReducedModel, cfg: Config, steps: int = 20000, compare_steps: int
     batch_steps_per_s = batch * batch_res[0].steps / batch_wall
     say(f"batch of {batch} cases: {batch_wall:.2f} s, {us_rhs_batch:.2f} us per RHS and case, "
         f"{batch_steps_per_s:.0f} case-steps/s")  # fmt: skip
+    figures = {
+        "batch": batch,
+        "us_per_rhs_in_batch": us_rhs_batch,
+        "steps_per_s_in_batch": batch_steps_per_s,
+        "paper_case_s_in_batch": paper_steps / batch_steps_per_s,
+    }
+    return figures, batch_problem
 
-    # floors: PETSc's integrator alone, and the multiply-adds at this core's dgemm rate
+
+def _floors(model: ReducedModel, cfg: Config, problem: WheelProblem,
+            batch_problem: WheelProblem, steps: int, batch: int, single: dict,
+            in_batch: dict, say) -> dict:  # fmt: skip
+    """Floors: PETSc's integrator alone [us/step], and the multiply-adds at this core's
+    ``dgemm`` rate [1e9/s]; ``single``/``in_batch`` the figures of the timed runs."""
+    us_rhs, rhs_per_step = single["us_per_rhs"], single["rhs_per_step"]
+    paper_steps = single["paper_case_steps"]
     ts_null = integrator_microseconds(problem, cfg)
     ts_null_batch = integrator_microseconds(batch_problem, cfg, max(2000, steps // batch)) / batch
     m, kinds = model.modes, len(problem.kinds)
@@ -202,14 +233,34 @@ def run(model: ReducedModel, cfg: Config, steps: int = 20000, compare_steps: int
         f"batch); {madds} multiply-adds per RHS; dgemm {peak:.1f} G/s (1024^3), {shape:.1f} "
         f"G/s ({m}x{3 * m})({3 * m}x{model.blades * batch}); paper case >= "
         f"{paper_steps * bound_us / 1e6:.1f} s")  # fmt: skip
+    return {
+        "ts_null_us_per_step": ts_null,
+        "ts_null_us_per_case_step_in_batch": ts_null_batch,
+        "multiply_adds_per_rhs": madds,
+        "machine_gmadd_per_s": peak,
+        "shape_gmadd_per_s": shape,
+        "kernel_gmadd_per_s": madds / us_rhs / 1e3,
+        "kernel_gmadd_per_s_in_batch": madds / in_batch["us_per_rhs_in_batch"] / 1e3,
+        "paper_case_bound_s": paper_steps * bound_us / 1e6,
+        "paper_case_bound_at_shape_rate_s": paper_steps * bound_shape_us / 1e6,
+    }
 
-    # plain-numpy serial reference over compare_steps
+
+def _numpy_comparison(model: ReducedModel, cfg: Config, compare_steps: int, h: float, res,
+                      say) -> dict:  # fmt: skip
+    """Plain-numpy serial reference over ``compare_steps``: its wall per step over ours."""
     _, ref_states, ref_wall = reference_solution(model, cfg, compare_steps, h,
                                                  sample_every=compare_steps)  # fmt: skip
     ratio_numpy = (ref_wall / compare_steps) / (res.wall_s / res.steps)
     say(f"numpy reference: {compare_steps} steps in {ref_wall:.2f} s")
+    return {"reference_steps": compare_steps, "ratio_vs_numpy_reference": ratio_numpy}
 
-    # accuracy of our fixed step on the tip history over compare_steps, against a 4x finer step
+
+def _scipy_comparison(model: ReducedModel, cfg: Config, problem: WheelProblem,
+                      compare_steps: int, h: float, res, t_end: float, say) -> dict:  # fmt: skip
+    """Accuracy of our fixed step on the tip history over ``compare_steps`` against a 4x finer
+    step, and ``solve_ivp`` RK23 at the loosest ``rtol`` as accurate: its wall per simulated
+    second over ours (``res`` our timed run of ``t_end`` [s])."""
     t_cmp = compare_steps * h
     cmp_cfg = cfg.replace(**{"time.end": t_cmp, "time.window": t_cmp})
     ours = run_case(model, cmp_cfg)
@@ -230,36 +281,32 @@ def run(model: ReducedModel, cfg: Config, steps: int = 20000, compare_steps: int
     say(f"scipy RK23: rtol {chosen}, error {sp_error:.2e} (ours {our_error:.2e}), "
         f"{sp_wall:.2f} s for {t_cmp * 1e3:.0f} ms")  # fmt: skip
     return {
-        "blades": model.blades,
-        "modes": model.modes,
-        "contact_kinds": list(problem.kinds),
-        "us_per_rhs": us_rhs,
-        "us_per_force_evaluation": us_forces,
-        "us_per_linear_product": us_rhs - us_forces,
-        "rhs_per_step": rhs_per_step,
-        "steps": res.steps,
-        "steps_per_s": steps_per_s,
-        "us_per_step": per_step_us,
-        "ts_overhead_us_per_step": per_step_us - rhs_per_step * us_rhs,
-        "paper_case_steps": paper_steps,
-        "paper_case_s": paper_steps / steps_per_s,
-        "batch": batch,
-        "us_per_rhs_in_batch": us_rhs_batch,
-        "steps_per_s_in_batch": batch_steps_per_s,
-        "paper_case_s_in_batch": paper_steps / batch_steps_per_s,
-        "ts_null_us_per_step": ts_null,
-        "ts_null_us_per_case_step_in_batch": ts_null_batch,
-        "multiply_adds_per_rhs": madds,
-        "machine_gmadd_per_s": peak,
-        "shape_gmadd_per_s": shape,
-        "kernel_gmadd_per_s": madds / us_rhs / 1e3,
-        "kernel_gmadd_per_s_in_batch": madds / us_rhs_batch / 1e3,
-        "paper_case_bound_s": paper_steps * bound_us / 1e6,
-        "paper_case_bound_at_shape_rate_s": paper_steps * bound_shape_us / 1e6,
-        "reference_steps": compare_steps,
-        "ratio_vs_numpy_reference": ratio_numpy,
         "tip_error_fixed_step": our_error,
         "scipy_rtol": chosen,
         "scipy_tip_error": sp_error,
         "ratio_vs_scipy": ratio_scipy,
+    }
+
+
+def run(model: ReducedModel, cfg: Config, steps: int = 20000, compare_steps: int = 2000,
+        log=None, batch: int = 10) -> dict:  # fmt: skip
+    """Run the workload; returns the figures (see the module docstring)."""
+    say = log or (lambda m: None)
+    h = time_step(cfg)  # the TS's step (-wheel_ts_dt overrides time.step)
+    problem = _problem(model, cfg, [None])
+    single, res = _timed_single(model, cfg, problem, steps, h, say)
+    in_batch, batch_problem = _batch_figures(model, cfg, steps, h, batch,
+                                             single["paper_case_steps"], say)  # fmt: skip
+    floors = _floors(model, cfg, problem, batch_problem, steps, batch, single, in_batch, say)
+    numpy_cmp = _numpy_comparison(model, cfg, compare_steps, h, res, say)
+    scipy_cmp = _scipy_comparison(model, cfg, problem, compare_steps, h, res, steps * h, say)
+    return {
+        "blades": model.blades,
+        "modes": model.modes,
+        "contact_kinds": list(problem.kinds),
+        **single,
+        **in_batch,
+        **floors,
+        **numpy_cmp,
+        **scipy_cmp,
     }

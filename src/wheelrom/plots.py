@@ -62,14 +62,26 @@ def plot_file(path: str, outdir: str | None = None, pdf: bool = False,
 
 
 def _modal_figures(f, cfg, path, outdir, pdf, written, plt) -> None:
-    table = _need(f, "model/frequencies_by_nd", path)  # (ND, m)
-    N = cfg.wheel.blades
+    """Figs. 8 and 5 and the interference diagram, from ``/model``."""
+    table = _need(f, "model/frequencies_by_nd", path)  # (ND, m) [Hz]
+    reference = f["model/full_wheel_hz"][()] if "model/full_wheel_hz" in f else None
+    for name, fig in (
+        ("fig08_frequencies", _fig08_frequencies(table, reference, plt)),
+        ("interference", _interference_figure(table, cfg, plt)),
+        ("fig05_contact_stiffness", _fig05_contact_stiffness(f, cfg, plt)),
+    ):
+        _save(fig, outdir, name, pdf, written)
+        plt.close(fig)
+
+
+def _fig08_frequencies(table: np.ndarray, reference: np.ndarray | None, plt):
+    """Fig. 8: frequency [Hz] vs nodal diameter and vs mode order; ``table`` is ``(ND, m)``,
+    ``reference`` the full-wheel FE frequencies of the same shape (or None)."""
     nd = np.arange(table.shape[0])
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), layout="constrained")
     families = min(table.shape[1], 6)
     for j in range(families):
         axes[0].plot(nd, table[:, j], "o-", ms=3, label=f"family {j + 1}")
-    reference = f["model/full_wheel_hz"][()] if "model/full_wheel_hz" in f else None
     if reference is not None:  # exact cyclic-symmetry FE of the same wheel
         for j in range(min(families, reference.shape[1])):
             axes[0].plot(nd, reference[:, j], "k--", lw=0.8,
@@ -94,10 +106,14 @@ def _modal_figures(f, cfg, path, outdir, pdf, written, plt) -> None:
     )
     for ax in axes:
         ax.grid(alpha=0.3)
-    _save(fig, outdir, "fig08_frequencies", pdf, written)
-    plt.close(fig)
+    return fig
 
-    # interference view: nozzle engine order n_s aliased onto ND |N - n_s|
+
+def _interference_figure(table: np.ndarray, cfg, plt):
+    """Interference diagram: frequencies ``(ND, m)`` [Hz] and the nozzle engine order ``n_s``
+    aliased onto ND ``|N - n_s|``."""
+    N = cfg.wheel.blades
+    nd = np.arange(table.shape[0])
     n_s, f_rev = cfg.wheel.stator_vanes, cfg.wheel.speed_hz
     nd_exc = abs(N - n_s) % N
     nd_exc = min(nd_exc, N - nd_exc)
@@ -117,10 +133,11 @@ def _modal_figures(f, cfg, path, outdir, pdf, written, plt) -> None:
     )
     ax.legend(fontsize=9)
     ax.grid(alpha=0.3)
-    _save(fig, outdir, "interference", pdf, written)
-    plt.close(fig)
+    return fig
 
-    # contact stiffness vs surface angle (Fig. 5)
+
+def _fig05_contact_stiffness(f, cfg, plt):
+    """Fig. 5: normal contact stiffness k_c [N/m] vs contact surface angle [deg] per kind."""
     fig, ax = plt.subplots(figsize=(6, 4), layout="constrained")
     angles = np.linspace(0, 90, 91)
     for kind in CONTACT_KINDS:
@@ -140,114 +157,179 @@ def _modal_figures(f, cfg, path, outdir, pdf, written, plt) -> None:
     )
     ax.legend()
     ax.grid(alpha=0.3, which="both")
-    _save(fig, outdir, "fig05_contact_stiffness", pdf, written)
-    plt.close(fig)
+    return fig
+
+
+def _cell_edges(centres: np.ndarray, half: float) -> np.ndarray:
+    """Cell edges ``(n + 1,)`` around sorted ``centres`` ``(n,)``: midpoints between
+    neighbours and mirrored outer edges (matplotlib's ``shading="nearest"``); a single centre
+    gets a cell ``half`` either side, so one case or one window still draws a visible cell."""
+    c = np.asarray(centres, dtype=float)
+    if c.size == 1:
+        return np.array([c[0] - half, c[0] + half])
+    mid = 0.5 * (c[1:] + c[:-1])
+    return np.concatenate([[c[0] - (mid[0] - c[0])], mid, [c[-1] + (c[-1] - mid[-1])]])
+
+
+class _Sweep:
+    """The ``/cases`` data the sweep figures share: ``angles`` ``(C, 2)`` [deg] (shroud in
+    column 1), ``t`` window ends ``(W,)`` [s], ``amp`` max tip amplitude ``(C, W)`` [m],
+    ``final`` the last finite window amplitude ``(C,)`` [m], ``status`` ``C`` strings."""
+
+    def __init__(self, f, path: str):
+        from matplotlib import colors
+
+        self.f, self.path = f, path
+        self.angles = _need(f, "cases/angles_deg", path)
+        self.t = _need(f, "cases/window_end", path)
+        self.amp = _need(f, "cases/max_tip_amplitude", path)
+        self.status = [s.decode() for s in _need(f, "cases/status", path)]
+        self.shroud = self.angles[:, 1]
+        self.order = np.argsort(self.shroud)
+        self.norm = colors.Normalize(vmin=0, vmax=90)
+        self.final = np.array(
+            [a[np.isfinite(a)][-1] if np.isfinite(a).any() else np.inf for a in self.amp]
+        )
+
+    def t_edges_ms(self) -> np.ndarray:
+        """Map cell edges in time [ms] (one window: a cell of its end time's width)."""
+        t_ms = self.t * 1e3
+        return _cell_edges(t_ms, 0.5 * t_ms[0] if t_ms[0] > 0 else 0.5)
+
+    def shroud_edges(self) -> np.ndarray:
+        """Map cell edges in shroud angle [deg] (one case: +-2.5 deg)."""
+        return _cell_edges(self.shroud[self.order], 2.5)
 
 
 def _sweep_figures(f, cfg, path, outdir, pdf, written, plt, nd_angles=None) -> None:
+    """Figs. 10, 11, 12 and the summary, from ``/cases``."""
+    d = _Sweep(f, path)
+    drawers = (
+        ("fig10_amplitude", lambda: _fig10_amplitude(d, plt)),
+        ("fig11_normal_force", lambda: _fig11_normal_force(d, plt)),
+        ("fig12_nd_spectrum", lambda: _fig12_nd_spectrum(d, plt, nd_angles)),
+        ("summary", lambda: _summary_figure(d, plt)),
+    )
+    for name, draw in drawers:  # one at a time: a missing dataset stops at its figure
+        fig = draw()
+        _save(fig, outdir, name, pdf, written)
+        plt.close(fig)
+
+
+def _fig10_amplitude(d: _Sweep, plt):
+    """Fig. 10: max tip amplitude [mm] vs time [ms], one line per angle (markers: one window
+    shows as a point), and a shroud angle x time map."""
     from matplotlib import colors
 
-    angles = _need(f, "cases/angles_deg", path)
-    t = _need(f, "cases/window_end", path)
-    amp = _need(f, "cases/max_tip_amplitude", path)
-    status = [s.decode() for s in _need(f, "cases/status", path)]
-    shroud = angles[:, 1]
     cmap = plt.get_cmap("viridis")
-    norm = colors.Normalize(vmin=0, vmax=90)
-
-    # Fig. 10: amplitude vs time, one line per angle, and an angle x time map
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.5), layout="constrained")
-    for i in range(len(angles)):
-        axes[0].semilogy(t * 1e3, amp[i] * 1e3, color=cmap(norm(shroud[i])), lw=1.2)
-    sm = plt.cm.ScalarMappable(norm=norm, cmap=cmap)
+    for i in range(len(d.angles)):
+        axes[0].semilogy(d.t * 1e3, d.amp[i] * 1e3, "o-", ms=3,
+                         color=cmap(d.norm(d.shroud[i])), lw=1.2)  # fmt: skip
+    sm = plt.cm.ScalarMappable(norm=d.norm, cmap=cmap)
     fig.colorbar(sm, ax=axes[0], label="shroud angle [deg]")
     axes[0].set(
         xlabel="time [ms]", ylabel="max tip amplitude [mm]", title="Blade-tip amplitude per window"
     )
-    order = np.argsort(shroud)
-    positive = amp[np.isfinite(amp) & (amp > 0)]
+    positive = d.amp[np.isfinite(d.amp) & (d.amp > 0)]
     lo = positive.min() * 1e3 if positive.size else 1e-6
     mesh = axes[1].pcolormesh(
-        t * 1e3,
-        shroud[order],
-        amp[order] * 1e3,
-        shading="nearest",
-        norm=colors.LogNorm(vmin=lo, vmax=max(lo * 10, np.nanmax(amp) * 1e3)),
+        d.t_edges_ms(),
+        d.shroud_edges(),
+        d.amp[d.order] * 1e3,
+        shading="flat",
+        norm=colors.LogNorm(vmin=lo, vmax=max(lo * 10, np.nanmax(d.amp) * 1e3)),
         cmap="magma",
     )
     fig.colorbar(mesh, ax=axes[1], label="max tip amplitude [mm]")
     axes[1].set(xlabel="time [ms]", ylabel="shroud angle [deg]", title="Amplitude map")
     for ax in axes:
         ax.grid(alpha=0.3)
-    _save(fig, outdir, "fig10_amplitude", pdf, written)
-    plt.close(fig)
+    return fig
 
-    # Fig. 11: minimum normal force per kind; open periods show as zero
+
+def _fig11_normal_force(d: _Sweep, plt):
+    """Fig. 11: minimum normal force [N] per contact kind vs time [ms] (open periods show as
+    zero) and the fraction of open contacts [-] as a shroud angle x time map."""
+    f, path = d.f, d.path
     kinds = [k for k in CONTACT_KINDS if f"cases/min_normal_force/{k}" in f]
     if not kinds:
         raise InputError(f"{path}: dataset 'cases/min_normal_force' is missing")
+    cmap = plt.get_cmap("viridis")
     fig, axes = plt.subplots(
         len(kinds), 2, figsize=(12, 3.8 * len(kinds)), squeeze=False, layout="constrained"
     )
     for r, kind in enumerate(kinds):
         fn = f[f"cases/min_normal_force/{kind}"][()]
         opened = f[f"cases/open_fraction/{kind}"][()]
-        for i in range(len(angles)):
-            axes[r, 0].plot(t * 1e3, fn[i], color=cmap(norm(shroud[i])), lw=1.2)
+        for i in range(len(d.angles)):
+            axes[r, 0].plot(d.t * 1e3, fn[i], "o-", ms=3,
+                            color=cmap(d.norm(d.shroud[i])), lw=1.2)  # fmt: skip
         axes[r, 0].set(
             xlabel="time [ms]",
             ylabel="min normal force [N]",
             title=f"{kind}: minimum normal force (0 = contact open)",
         )
-        m2 = axes[r, 1].pcolormesh(
-            t * 1e3, shroud[order], opened[order], shading="nearest", vmin=0, vmax=1, cmap="Reds"
-        )
+        m2 = axes[r, 1].pcolormesh(d.t_edges_ms(), d.shroud_edges(), opened[d.order],
+                                   shading="flat", vmin=0, vmax=1, cmap="Reds")  # fmt: skip
         fig.colorbar(m2, ax=axes[r, 1], label="fraction of contacts open [-]")
         axes[r, 1].set(
             xlabel="time [ms]", ylabel="shroud angle [deg]", title=f"{kind}: open contacts"
         )
         axes[r, 0].grid(alpha=0.3)
-    _save(fig, outdir, "fig11_normal_force", pdf, written)
-    plt.close(fig)
+    return fig
 
-    # Fig. 12: ND spectrum vs time for the least and most suppressed cases
-    spec = _need(f, "cases/nd_spectrum", path)
-    final = np.array([a[np.isfinite(a)][-1] if np.isfinite(a).any() else np.inf for a in amp])
-    best, worst = int(np.argmin(final)), int(np.argmax(np.where(np.isfinite(final), final, -1)))
+
+def _fig12_nd_spectrum(d: _Sweep, plt, nd_angles=None):
+    """Fig. 12: tip y amplitude [mm] per nodal diameter vs time [ms] (``cases/nd_spectrum``,
+    ``(C, W, ND)``) for the least and most suppressed cases, or the two chosen shroud angles;
+    a single case gets one panel."""
+    from matplotlib import colors
+
+    spec = _need(d.f, "cases/nd_spectrum", d.path)
+    best = int(np.argmin(d.final))
+    worst = int(np.argmax(np.where(np.isfinite(d.final), d.final, -1)))
     picks = [(best, "most suppressed"), (worst, "least")]
+    if len(d.angles) == 1:
+        picks = [(0, "only case")]
     if nd_angles is not None:  # the user's two shroud angles: nearest cases
         picks = []
         for a in nd_angles:
-            i = int(np.argmin(np.abs(shroud - a)))
-            if abs(shroud[i] - a) > 1e-6:
+            i = int(np.argmin(np.abs(d.shroud - a)))
+            if abs(d.shroud[i] - a) > 1e-6:
                 raise InputError(
-                    f"ND-spectrum figure: shroud angle {a:g} deg is not in {path} "
-                    f"(has {', '.join(f'{x:g}' for x in np.unique(shroud))})"
+                    f"ND-spectrum figure: shroud angle {a:g} deg is not in {d.path} "
+                    f"(has {', '.join(f'{x:g}' for x in np.unique(d.shroud))})"
                 )
             picks.append((i, "chosen"))
-    fig, axes = plt.subplots(2, 1, figsize=(9, 7), sharex=True, layout="constrained")
+    fig, axes = plt.subplots(len(picks), 1, figsize=(9, 0.5 + 3.25 * len(picks)), sharex=True,
+                             squeeze=False, layout="constrained")  # fmt: skip
+    axes = axes[:, 0]
     vmax = np.nanmax(spec[[i for i, _ in picks]]) * 1e3
     vmin = max(vmax * 1e-4, 1e-12)
     for ax, (i, label) in zip(axes, picks, strict=True):
         m3 = ax.pcolormesh(
-            t * 1e3,
-            np.arange(spec.shape[2]),
+            d.t_edges_ms(),
+            _cell_edges(np.arange(spec.shape[2]), 0.5),
             spec[i].T * 1e3,
-            shading="nearest",
+            shading="flat",
             cmap="inferno",
             norm=colors.LogNorm(vmin=vmin, vmax=vmax),
         )
         fig.colorbar(m3, ax=ax, label="tip y amplitude [mm]")
         ax.set(
-            ylabel="nodal diameter [-]", title=f"shroud {shroud[i]:g} deg ({label}): ND spectrum"
+            ylabel="nodal diameter [-]", title=f"shroud {d.shroud[i]:g} deg ({label}): ND spectrum"
         )
-    axes[1].set_xlabel("time [ms]")
-    _save(fig, outdir, "fig12_nd_spectrum", pdf, written)
-    plt.close(fig)
+    axes[-1].set_xlabel("time [ms]")
+    return fig
 
-    # summary: final amplitude vs shroud angle, suppression interval marked
+
+def _summary_figure(d: _Sweep, plt):
+    """Summary: final max tip amplitude [mm] vs shroud angle [deg], the not-growing interval
+    (final < 3x first window) shaded."""
+    shroud, final, amp = d.shroud, d.final, d.amp
     fig, ax = plt.subplots(figsize=(7, 4.2), layout="constrained")
-    ok = np.array([s == "done" for s in status])
+    ok = np.array([s == "done" for s in d.status])
     ax.semilogy(shroud[ok], final[ok] * 1e3, "o-", label="done")
     if (~ok).any():
         ax.semilogy(
@@ -279,8 +361,7 @@ def _sweep_figures(f, cfg, path, outdir, pdf, written, plt, nd_angles=None) -> N
     )
     ax.legend(fontsize=9)
     ax.grid(alpha=0.3, which="both")
-    _save(fig, outdir, "summary", pdf, written)
-    plt.close(fig)
+    return fig
 
 
 def plot_campbell(data: dict, outdir: str, pdf: bool = False) -> list[str]:
