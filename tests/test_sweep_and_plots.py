@@ -246,13 +246,12 @@ def test_single_run_file_draws_amplitude_panels(tmp_path):
         plt.close(fig)
 
 
-def test_existing_file_is_refused_on_every_rank(serial_run):
-    """Under mpirun the refusal is decided on rank 0 and broadcast: every rank names the
-    file, once, and nothing is written."""
+def test_existing_file_is_refused_once_under_mpirun(serial_run):
+    """Under mpirun the refusal is decided on rank 0 and broadcast: every rank stops, the
+    file is named once (rank 0), and nothing is written."""
     before = os.path.getmtime(serial_run)
     res = sweep(serial_run, ranks=2, check=False)
     assert res.returncode != 0 and os.path.getmtime(serial_run) == before
     lines = [ln for ln in res.stderr.splitlines() if "exists: pass --resume" in ln]
-    assert len(lines) == 2
-    assert all(ln == f"wheelrom: {serial_run} exists: pass --resume to complete it or --force "
-               "to overwrite it" for ln in lines), lines  # fmt: skip
+    assert lines == [f"wheelrom: {serial_run} exists: pass --resume to complete it or --force "
+                     "to overwrite it"], res.stderr  # fmt: skip

@@ -8,32 +8,23 @@ Configuration errors exit with status 2 before anything is computed or written.
 from __future__ import annotations
 
 import argparse
-import json
+import os
 import sys
 from collections.abc import Callable, Sequence
 
 from wheelrom import cli_args
 from wheelrom import config as config_mod
 from wheelrom._environment import bootstrap
+from wheelrom.cli_output import (
+    fail,
+    log,
+    print_json,
+    print_modes,
+    print_result,
+    warn_unused,
+)
 from wheelrom.errors import InputError, OutputExists
-
-EXIT_CONFIG = 2
-
-
-def _add_config_args(p: argparse.ArgumentParser, required: bool = False) -> None:
-    p.add_argument(
-        "config",
-        nargs=None if required else "?",
-        help="TOML configuration file" + ("" if required else " (default: built-in case)"),
-    )
-    p.add_argument(
-        "--set",
-        dest="overrides",
-        action="append",
-        default=[],
-        metavar="KEY=VALUE",
-        help="override one key, e.g. --set time.end=0.2 (repeatable)",
-    )
+from wheelrom.outputs import check_outdir, check_output, replacing
 
 
 def _load(args: argparse.Namespace) -> config_mod.Config:
@@ -51,6 +42,9 @@ def _petsc_options(args: argparse.Namespace) -> None:
             petsc()
         else:
             petsc().Options().insertString(" ".join(args.petsc_args))
+        from wheelrom.transient.options import check
+
+        check(args.petsc_args)  # a value a solver refuses: one line naming it, exit 2
 
 
 # --------------------------------------------------------------------------------------
@@ -71,10 +65,6 @@ def cmd_config_check(args: argparse.Namespace) -> int:
     return 0
 
 
-def _log(msg: str) -> None:
-    print(msg, file=sys.stderr, flush=True)
-
-
 def _comm_self():
     from wheelrom._environment import petsc
 
@@ -87,15 +77,22 @@ def cmd_modes(args: argparse.Namespace) -> int:
     from wheelrom.rom.model import wheel_modes
 
     cfg = _load(args)
-    say = quiet if args.json else _log
+    cli_args.check_vtu_arguments(args, cfg)
+    if args.out:
+        check_output(args.out, args.force)
+    say = quiet if args.json else log
     wheel = build(cfg, _comm_self(), log=say)
     model = wheel.model
     hz, nd, _ = wheel_modes(model)
     if args.vtu:
         from wheelrom.rom.wheelmesh import write_wheel_mode
 
-        f_mode = write_wheel_mode(args.vtu, wheel.segment.mesh, wheel.shapes, model,
-                                  args.vtu_nd, args.vtu_family)  # fmt: skip
+        if args.vtu_family >= model.modes:
+            raise InputError(f"--vtu-family {args.vtu_family}: the model has families "
+                             f"0..{model.modes - 1}")  # fmt: skip
+        with replacing(args.vtu) as partial:
+            f_mode = write_wheel_mode(partial, wheel.segment.mesh, wheel.shapes, model,
+                                      args.vtu_nd, args.vtu_family)  # fmt: skip
         say(f"wrote {args.vtu}: ND {args.vtu_nd} mode at {f_mode:.2f} Hz on the whole wheel")
     extra = {"wheel_hz": hz, "wheel_nd": nd}
     if args.full_wheel:
@@ -105,7 +102,7 @@ def cmd_modes(args: argparse.Namespace) -> int:
 
         from wheelrom.results import write_model_file
 
-        with h5py.File(args.out, "w") as f:
+        with replacing(args.out) as partial, h5py.File(partial, "w") as f:
             write_model_file(f, cfg, model, extra)
     table = model.frequencies_by_nodal_diameter()
     reference, assembled = extra.get("full_wheel_hz"), extra.get("assembled_wheel_hz")
@@ -119,7 +116,7 @@ def cmd_modes(args: argparse.Namespace) -> int:
             out["assembled_wheel_hz"] = assembled.tolist()
         print_json(out)  # fmt: skip
         return 0
-    _print_modes(model, table, reference, assembled)
+    print_modes(model, table, reference, assembled)
     return 0
 
 
@@ -140,39 +137,19 @@ def _full_wheel(args: argparse.Namespace, cfg, wheel, say) -> dict:
     return out
 
 
-def _print_modes(model, table, reference, assembled) -> None:
-    print("segment modes [Hz]: " + ", ".join(f"{x:.2f}" for x in model.segment_hz))
-    for kind_name, rep in model.info.items():
-        if isinstance(rep, dict) and "arm_length" in rep:
-            print(
-                f"{kind_name}: arm L = {rep['arm_length']:.4g} m, pitch chord "
-                f"{rep['pitch_chord']:.4g} m, arm end misses next A by "
-                f"{rep['tip_to_next_A'] * 1e3:.2f} mm"
-            )
-    print("wheel frequencies by nodal diameter [Hz] (first 4 families):")
-    for k, row in enumerate(table):
-        print(f"  ND {k:3d}: " + "  ".join(f"{x:9.2f}" for x in row[:4]))
-    if reference is not None:
-        err = 100 * (table / reference - 1)
-        print("reduced model vs full-wheel FE (exact cyclic symmetry), error [%] by family:")
-        print("  family:  " + "  ".join(f"{j + 1:7d}" for j in range(table.shape[1])))
-        print("  max:     " + "  ".join(f"{x:7.2f}" for x in err.max(axis=0)))
-        print("  mean:    " + "  ".join(f"{x:7.2f}" for x in err.mean(axis=0)))
-    if assembled is not None:
-        print("assembled full wheel, lowest [Hz]: " + ", ".join(f"{x:.3f}" for x in assembled))
-
-
 def cmd_run(args: argparse.Namespace) -> int:
     """One transient case on PETSc TS (options after -- go to the TS, prefix wheel_)."""
     from wheelrom.rom.build import build_model, quiet
     from wheelrom.transient.run import run_case
 
     cfg = _load(args)
-    model = build_model(cfg, _comm_self(), log=quiet if args.json else _log)
+    if args.out:
+        check_output(args.out, args.force)
+    model = build_model(cfg, _comm_self(), log=quiet if args.json else log)
 
     def progress(w, total, t, amp):
         if not args.json:
-            _log(f"window {w}/{total}: t = {t:.4f} s, max tip amplitude {amp:.3e} m")
+            log(f"window {w}/{total}: t = {t:.4f} s, max tip amplitude {amp:.3e} m")
 
     res = run_case(model, cfg, progress=progress)
     if args.out:
@@ -180,10 +157,10 @@ def cmd_run(args: argparse.Namespace) -> int:
 
         from wheelrom import results
 
-        with h5py.File(args.out, "w") as f:
+        with replacing(args.out) as partial, h5py.File(partial, "w") as f:
             results.create_layout(f, results.single_case(cfg), model)
             results.write_case(f, 0, res)
-    _print_result(res.summary(), args.json)
+    print_result(res.summary(), args.json)
     return 0 if res.status == "done" else 1
 
 
@@ -199,7 +176,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     cfg = _load(args)
     steps, step = args.steps, time_step(cfg)  # the TS's step: -wheel_ts_dt overrides
     cfg = cfg.replace(**{"time.end": steps * step, "time.window": steps * step})
-    model = build_model(cfg, _comm_self(), log=quiet if args.json else _log)
+    model = build_model(cfg, _comm_self(), log=quiet if args.json else log)
     res = run_case(model, cfg)
     _, states, ref_wall = reference_solution(model, cfg, steps, step, sample_every=steps)
     n = model.size
@@ -213,7 +190,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
         "petsc_wall_s": res.wall_s,
         "reference_wall_s": ref_wall,
     }
-    _print_result(out, args.json)
+    print_result(out, args.json)
     return 0
 
 
@@ -224,13 +201,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     from wheelrom.sweep import run_sweep
 
     cfg = _load(args)
-    try:
-        failed = run_sweep(cfg, args.out, MPI.COMM_WORLD, resume=args.resume, force=args.force,
-                           log=lambda m: print(m, flush=True), model_comm=args.model_comm,
-                           batch=args.batch)  # fmt: skip
-    except OutputExists as exc:
-        raise InputError(f"{exc.path} exists: pass --resume to complete it or --force to "
-                         "overwrite it") from None  # fmt: skip
+    failed = run_sweep(cfg, args.out, MPI.COMM_WORLD, resume=args.resume, force=args.force,
+                       log=lambda m: print(m, flush=True), model_comm=args.model_comm,
+                       batch=args.batch)  # fmt: skip
     return 1 if failed else 0
 
 
@@ -242,7 +215,7 @@ def cmd_contact_stiffness(args: argparse.Namespace) -> int:
     from wheelrom.rom.build import build_segment, contact_stiffness_tables, quiet
 
     cfg = _load(args)
-    segment = build_segment(cfg, _comm_self(), log=quiet if args.json else _log)
+    segment = build_segment(cfg, _comm_self(), log=quiet if args.json else log)
     seg = segment.mesh
     kinds = [k for k in CONTACT_KINDS if f"{k}_A" in seg.node_sets]
     out = {}
@@ -280,7 +253,7 @@ def cmd_accuracy(args: argparse.Namespace) -> int:
 
     cfg = _load(args)
     table = accuracy_table(cfg, _comm_self(), tuple(args.modes), args.enriched_modes,
-                           args.families, log=quiet if args.json else _log)  # fmt: skip
+                           args.families, log=quiet if args.json else log)  # fmt: skip
     if args.json:
         print_json({
             "reference_hz": table["reference_hz"].tolist(),
@@ -302,14 +275,21 @@ def cmd_accuracy(args: argparse.Namespace) -> int:
 
 def cmd_mesh(args: argparse.Namespace) -> int:
     """Write the segment mesh and node sets (.inp with a CalculiX modal step, .vtu, ...)."""
-    from wheelrom.segment.export import write_segment
+    from wheelrom.segment.export import cyclic_deck_path, write_segment
     from wheelrom.segment.load import load_segment
 
     cfg = _load(args)
+    check_output(args.out, args.force)
+    if os.path.splitext(args.out)[1].lower() == ".inp":
+        check_output(cyclic_deck_path(args.out), args.force)
     seg = load_segment(cfg)
-    write_segment(seg, args.out, cfg)
+    written = write_segment(seg, args.out, cfg)
     sets = ", ".join(f"{k} ({v.size})" for k, v in sorted(seg.node_sets.items()))
     print(f"wrote {args.out}: {seg.nodes.shape[0]} nodes, {seg.n_dofs} DOFs; node sets: {sets}")
+    for deck in written[1:]:
+        folder, name = os.path.split(os.path.abspath(deck))
+        print(f"wrote {deck}: CalculiX wheel modes per nodal diameter "
+              f"(cd {folder} && ccx -i {os.path.splitext(name)[0]})")  # fmt: skip
     return 0
 
 
@@ -320,8 +300,9 @@ def cmd_campbell(args: argparse.Namespace) -> int:
     from wheelrom.rom.campbell import campbell
 
     cfg = _load(args)
-    speeds = _parse_speeds(args.speeds)
-    data = campbell(cfg, speeds, _comm_self(), log=quiet if args.json else _log)
+    check_outdir(args.outdir)
+    speeds = cli_args.parse_speeds(args.speeds)
+    data = campbell(cfg, speeds, _comm_self(), log=quiet if args.json else log)
     written = plot_campbell(data, args.outdir, pdf=args.pdf)
     if args.json:
         print_json({k: (v.tolist() if hasattr(v, "tolist") else v) for k, v in data.items()}
@@ -329,22 +310,6 @@ def cmd_campbell(args: argparse.Namespace) -> int:
     else:
         print("\n".join(written))
     return 0
-
-
-def _parse_speeds(text: str):
-    """``--speeds``: ``"start:stop:count"`` [Hz] (inclusive, like numpy.linspace) or
-    ``"a,b,c"``."""
-    import numpy as np
-
-    try:
-        if ":" in text:
-            start, stop, count = text.split(":")
-            return np.linspace(float(start), float(stop), int(count))
-        return np.array([float(x) for x in text.split(",")])
-    except ValueError:
-        raise InputError(
-            f"--speeds: expected start:stop:count or a,b,c in Hz, got {text!r}"
-        ) from None
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
@@ -357,11 +322,11 @@ def cmd_bench(args: argparse.Namespace) -> int:
         raise InputError(f"bench --steps must be at least 20000 (got {args.steps})")
     if args.batch < 1:
         raise InputError(f"bench --batch must be at least 1 (got {args.batch})")
-    say = quiet if args.json else _log
+    say = quiet if args.json else log
     model = build_model(cfg, _comm_self(), log=say)
     out = run(model, cfg, steps=args.steps, compare_steps=args.reference_steps, log=say,
               batch=args.batch)  # fmt: skip
-    _print_result(out, args.json)
+    print_result(out, args.json)
     return 0
 
 
@@ -369,6 +334,8 @@ def cmd_plot(args: argparse.Namespace) -> int:
     """Figures (PNG, PDF with --pdf) from a sweep/run/modes HDF5 file."""
     from wheelrom.plots import plot_file
 
+    if args.outdir:
+        check_outdir(args.outdir)
     written = plot_file(args.results, args.outdir, pdf=args.pdf, nd_angles=args.nd_angles)
     for path in written:
         print(path)
@@ -413,10 +380,10 @@ def build_parser() -> argparse.ArgumentParser:
     cfg_sub = p_cfg.add_subparsers(dest="config_command", metavar="ACTION")
     cfg_sub.required = True
     p = cfg_sub.add_parser("show", help="print the effective configuration as TOML")
-    _add_config_args(p)
+    cli_args.add_config_args(p)
     p.set_defaults(func=cmd_config_show)
     p = cfg_sub.add_parser("check", help="validate a configuration file (exit 2 if invalid)")
-    _add_config_args(p, required=True)
+    cli_args.add_config_args(p, required=True)
     p.set_defaults(func=cmd_config_check)
 
     for name, (func, help_text, extra) in COMMANDS.items():
@@ -424,7 +391,7 @@ def build_parser() -> argparse.ArgumentParser:
         if name == "plot":
             p.add_argument("results", help="HDF5 file from sweep, run or modes --out")
         else:
-            _add_config_args(p)
+            cli_args.add_config_args(p)
         extra(p)
         p.set_defaults(func=func)
     return parser
@@ -442,27 +409,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     bootstrap()  # PETSc/SLEPc location, one BLAS thread per process (before numpy loads)
     try:
         _petsc_options(args)
-        return int(args.func(args) or 0)
+        status = int(args.func(args) or 0)
     except config_mod.ConfigError as exc:
-        print(f"wheelrom: {exc}", file=sys.stderr)
-        return EXIT_CONFIG
+        return fail(str(exc))
+    except OutputExists as exc:
+        again = "--resume to complete it or --force" if args.command == "sweep" else "--force"
+        return fail(f"{exc.path} exists: pass {again} to overwrite it")
     except InputError as exc:
-        print(f"wheelrom: {exc}", file=sys.stderr)
-        return EXIT_CONFIG
-
-
-def _print_result(out: dict, as_json: bool) -> None:
-    """One JSON object on stdout, or ``key: value`` lines."""
-    if as_json:
-        print_json(out)
-    else:
-        for key, value in out.items():
-            print(f"{key}: {value}")
-
-
-def print_json(obj: object) -> None:
-    json.dump(obj, sys.stdout, indent=1, default=float)
-    sys.stdout.write("\n")
+        return fail(str(exc))
+    warn_unused(args.petsc_args)
+    return status
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -4,9 +4,16 @@ from __future__ import annotations
 
 import argparse
 
+from wheelrom.errors import InputError
+from wheelrom.outputs import check_output
+
 
 def json_out(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+
+
+def force(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--force", action="store_true", help="overwrite existing output files")
 
 
 def args_modes(p):
@@ -22,13 +29,15 @@ def args_modes(p):
     )
     p.add_argument("--full-wheel-modes", type=int, default=20, help="modes of the assembled wheel")
     p.add_argument("--vtu", help="write a wheel mode on the whole-wheel mesh (.vtu, meshio)")
-    p.add_argument("--vtu-nd", type=int, default=5, help="nodal diameter of that mode")
-    p.add_argument("--vtu-family", type=int, default=0, help="mode family (0 = lowest)")
+    p.add_argument("--vtu-nd", type=int, help="nodal diameter of that mode (default 5)")
+    p.add_argument("--vtu-family", type=int, help="mode family (default 0 = the lowest)")
+    force(p)
 
 
 def args_run(p):
     json_out(p)
     p.add_argument("--out", help="write the case to this HDF5 file (sweep layout)")
+    force(p)
 
 
 def args_compare(p):
@@ -38,8 +47,14 @@ def args_compare(p):
 
 def args_sweep(p):
     p.add_argument("--out", required=True, help="HDF5 results file")
-    p.add_argument("--resume", action="store_true", help="run only the cases still pending")
-    p.add_argument("--force", action="store_true", help="overwrite an existing file")
+    existing = p.add_mutually_exclusive_group()
+    existing.add_argument(
+        "--resume",
+        action="store_true",
+        help="complete an existing file: run only the cases still pending (a missing file is "
+        "started afresh)",
+    )
+    existing.add_argument("--force", action="store_true", help="overwrite an existing file")
     p.add_argument(
         "--model-comm",
         choices=("rank0", "world"),
@@ -73,12 +88,21 @@ def args_campbell(p):
     p.add_argument(
         "--speeds", default="0:60:13", help="rotor speeds [Hz]: start:stop:count or a,b,c"
     )
-    p.add_argument("--outdir", default="out/figures", help="directory for campbell.png")
+    p.add_argument(
+        "--outdir",
+        default="out/figures",
+        help="directory for campbell.png (default: out/figures, created if missing)",
+    )
     p.add_argument("--pdf", action="store_true", help="also write PDF")
 
 
 def args_mesh(p):
-    p.add_argument("--out", required=True, help="output file: .inp (CalculiX), .vtu, .xdmf ...")
+    p.add_argument(
+        "--out",
+        required=True,
+        help="output file: .inp (+ <name>_cyclic.inp, a CalculiX deck), .vtu, .xdmf ...",
+    )
+    force(p)
 
 
 def args_accuracy(p):
@@ -89,7 +113,12 @@ def args_accuracy(p):
 
 
 def args_plot(p):
-    p.add_argument("--outdir", default=None, help="directory for the figures")
+    p.add_argument(
+        "--outdir",
+        default=None,
+        help="directory for the figures (default: <results>_figures next to the file, created "
+        "if missing)",
+    )
     p.add_argument("--pdf", action="store_true", help="also write PDF")
     p.add_argument(
         "--nd-angles",
@@ -99,3 +128,54 @@ def args_plot(p):
         help="shroud angles [deg] of the two ND-spectrum panels (default: most and least "
         "suppressed)",
     )
+
+
+def add_config_args(p: argparse.ArgumentParser, required: bool = False) -> None:
+    p.add_argument(
+        "config",
+        nargs=None if required else "?",
+        help="TOML configuration file" + ("" if required else " (default: built-in case)"),
+    )
+    p.add_argument(
+        "--set",
+        dest="overrides",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override one key, e.g. --set time.end=0.2 (repeatable)",
+    )
+
+
+def check_vtu_arguments(args: argparse.Namespace, cfg) -> None:
+    """``--vtu-nd`` / ``--vtu-family`` ranges, before anything is computed."""
+    given = [flag for flag, value in (("--vtu-nd", args.vtu_nd), ("--vtu-family", args.vtu_family))
+             if value is not None]  # fmt: skip
+    if not args.vtu:
+        if given:
+            raise InputError(f"{given[0]} needs --vtu FILE (the file the mode is written to)")
+        return
+    check_output(args.vtu, args.force, "--vtu")
+    args.vtu_nd = 5 if args.vtu_nd is None else args.vtu_nd
+    args.vtu_family = 0 if args.vtu_family is None else args.vtu_family
+    largest = cfg.wheel.blades // 2
+    if not 0 <= args.vtu_nd <= largest:
+        raise InputError(f"--vtu-nd {args.vtu_nd}: nodal diameters of a {cfg.wheel.blades}-blade "
+                         f"wheel are 0..{largest}")  # fmt: skip
+    if args.vtu_family < 0:
+        raise InputError(f"--vtu-family {args.vtu_family}: families count from 0 (the lowest)")
+
+
+def parse_speeds(text: str):
+    """``--speeds``: ``"start:stop:count"`` [Hz] (inclusive, like numpy.linspace) or
+    ``"a,b,c"``."""
+    import numpy as np
+
+    try:
+        if ":" in text:
+            start, stop, count = text.split(":")
+            return np.linspace(float(start), float(stop), int(count))
+        return np.array([float(x) for x in text.split(",")])
+    except ValueError:
+        raise InputError(
+            f"--speeds: expected start:stop:count or a,b,c in Hz, got {text!r}"
+        ) from None

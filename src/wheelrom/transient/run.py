@@ -26,7 +26,7 @@ from wheelrom.transient.problem import (
     WindowStats,
     nd_amplitudes,
 )
-from wheelrom.transient.ts import PREFIX, make_ts, scoped_options, time_grid
+from wheelrom.transient.ts import PREFIX, make_ts, reason_words, scoped_options, time_grid
 
 
 class Samples:
@@ -222,7 +222,7 @@ def _harvest(rec: _CaseRecord, problem, b: int, state, ts, t_now, fixed_dt, earl
     rec.energy.append(problem.energy(state, case=b))
     rec.work.append(state[2 * problem.n :].copy())
     if early:
-        rec.fail(f"TS stopped at t = {t_now:.6g} s ({ts.getConvergedReason()})")
+        rec.fail(f"TS stopped early at t = {t_now:.6g} s: {reason_words(ts.getConvergedReason())}")
 
 
 def _finish(rec: _CaseRecord, problem, used, final_state, wall) -> CaseResult:

@@ -42,6 +42,24 @@ def scoped_options(prefix: str, options: dict | None):
                 db.setValue(name, old)
 
 
+# TSConvergedReason in words (petsc/include/petscts.h)
+_REASONS = {
+    0: "still iterating",
+    1: "reached its final time",
+    2: "reached its step limit",
+    3: "stopped by the sampling monitor",
+    4: "stopped at an event",
+    -1: "a nonlinear solve diverged",
+    -2: "a step was rejected too often",
+}
+
+
+def reason_words(reason: int) -> str:
+    """A TS converged reason for people: ``-2`` -> ``"a step was rejected too often (PETSc
+    TS reason -2)"``."""
+    return f"{_REASONS.get(int(reason), 'unknown reason')} (PETSc TS reason {int(reason)})"
+
+
 def ts_options_used(ts, prefix: str) -> dict:
     """The TS settings in effect (type, RK scheme, step) and every ``<prefix>ts_`` option of
     the database, prefix stripped: what a result records about its integrator."""

@@ -1,0 +1,92 @@
+"""Output files that never lose what a user computed.
+
+Every command that writes calls :func:`check_output` (or :func:`check_outdir`) before it
+computes anything: a directory given as a file, a missing or read-only directory, or an
+existing file without ``--force`` is one line naming the path (exit 2), in under a second.
+Files are then written under a temporary name next to their destination and renamed into
+place once complete (:func:`replacing`), so an interrupted write never leaves a half file
+under the name the user asked for, nor destroys the file that was there before.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+
+from wheelrom.errors import InputError, OutputExists
+
+
+def _directory_problem(directory: str, flag: str, path: str) -> str | None:
+    if not os.path.exists(directory):
+        return f"{flag} {path}: directory '{directory}' does not exist"
+    if not os.path.isdir(directory):
+        return f"{flag} {path}: '{directory}' is not a directory"
+    if not os.access(directory, os.W_OK | os.X_OK):
+        return f"{flag} {path}: directory '{directory}' is not writable"
+    return None
+
+
+def output_problem(path: str, force: bool = False, flag: str = "--out") -> InputError | None:
+    """Why ``path`` cannot be written (``None``: it can). An existing file is an
+    :class:`OutputExists` unless ``force``; a directory, or a missing or read-only parent
+    directory, an :class:`InputError` naming the path and ``flag``."""
+    if os.path.isdir(path):
+        return InputError(f"{flag} {path}: is a directory, not a file")
+    directory = os.path.dirname(os.path.abspath(path))
+    why = _directory_problem(directory, flag, path)
+    if why:
+        return InputError(why)
+    if os.path.exists(path):
+        if not force:
+            return OutputExists(path)
+        if not os.access(path, os.W_OK):
+            return InputError(f"{flag} {path}: the existing file is not writable")
+    return None
+
+
+def check_output(path: str, force: bool = False, flag: str = "--out") -> None:
+    """Raise :func:`output_problem`'s error, if any."""
+    problem = output_problem(path, force, flag)
+    if problem:
+        raise problem
+
+
+def check_outdir(path: str, flag: str = "--outdir") -> None:
+    """An output directory: existing and writable, or creatable (its nearest existing
+    ancestor is a writable directory). Creates nothing."""
+    if os.path.exists(path):
+        if not os.path.isdir(path):
+            raise InputError(f"{flag} {path}: is a file, not a directory")
+        if not os.access(path, os.W_OK | os.X_OK):
+            raise InputError(f"{flag} {path}: directory is not writable")
+        return
+    ancestor = os.path.dirname(os.path.abspath(path))
+    while not os.path.exists(ancestor):
+        ancestor = os.path.dirname(ancestor)
+    why = _directory_problem(ancestor, flag, path)
+    if why:
+        raise InputError(f"{flag} {path}: cannot be created ({why.split(': ', 1)[1]})")
+
+
+def partial_name(path: str) -> str:
+    """The temporary name a file is built under: hidden, in the destination's directory (so
+    that the final rename is atomic), the same for every MPI rank: ``dir/.seg.partial.vtu``
+    for ``dir/seg.vtu``."""
+    directory, name = os.path.split(os.path.abspath(path))
+    stem, ext = os.path.splitext(name)
+    # the extension stays last: writers that choose the format by it (meshio) still work
+    return os.path.join(directory, f".{stem}.partial{ext}")
+
+
+@contextlib.contextmanager
+def replacing(path: str):
+    """Yield a temporary path to write; on success it atomically replaces ``path``, on any
+    error (or Ctrl-C) it is removed and ``path`` is untouched."""
+    partial = partial_name(path)
+    try:
+        yield partial
+    except BaseException:
+        with contextlib.suppress(FileNotFoundError):
+            os.remove(partial)
+        raise
+    os.replace(partial, path)

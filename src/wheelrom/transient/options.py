@@ -1,0 +1,199 @@
+"""The PETSc options a user gives after ``--``, checked before anything is computed.
+
+Each solver of wheelrom reads its own prefix (docs/usage.md): ``wheel_`` (the case TS),
+``wheel_K_`` (the ``K_R`` matrix), ``preload_`` (SNES), ``segment_``, ``cyclic_``,
+``fullwheel_`` (SLEPc EPS), ``prestress_``, ``stiffness_`` (KSP). :func:`check` builds a
+throw-away object of each prefix the user's options name and lets it read them
+(``setFromOptions``, PETSc's own error printing switched off): a value PETSc refuses
+(``-wheel_ts_type nosuch``, ``-wheel_ts_dt abc``, ``-segment_eps_type nosuch``) becomes one
+:class:`~wheelrom.errors.InputError` naming that option, found by trying the options of the
+failing prefix one at a time. :func:`unused` lists, at the end of a command, the options no
+solver read (PETSc's ``-options_left``): typically a misspelt name.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import functools
+
+from wheelrom._environment import petsc, slepc
+from wheelrom.errors import InputError
+
+# PETSc error codes a bad option value raises (petsc/include/petscerror.h)
+_PETSC_ERRORS = {
+    56: "not supported",
+    60: "nonconforming arguments",
+    62: "invalid argument",
+    63: "argument out of range",
+    73: "object in the wrong state",
+    75: "incompatible arguments",
+    83: "invalid input",
+    86: "unknown type",
+}
+
+
+def _ts(comm):
+    from wheelrom.transient import bridge
+
+    PETSc = petsc()
+    ts = PETSc.TS().create(comm=comm)
+    ts.setType(PETSc.TS.Type.RK)
+    ts.setRKType("3bs")
+    bridge.set_adapt_type(ts, "none")
+    ts.setTimeStep(1e-6)
+    return ts
+
+
+def _matrix(comm):
+    PETSc = petsc()
+    A = PETSc.Mat().create(comm=comm)
+    A.setSizes((1, 1))
+    return A
+
+
+def _ksp(comm):
+    ksp = petsc().KSP().create(comm=comm)
+    ksp.setType("preonly")
+    return ksp
+
+
+def _eps(comm):
+    return slepc().EPS().create(comm=comm)
+
+
+def _snes(comm):
+    return petsc().SNES().create(comm=comm)
+
+
+# longest prefix first: "wheel_K_" before "wheel_"
+SOLVERS = {
+    "wheel_K_": ("Mat", _matrix),
+    "wheel_": ("TS", _ts),
+    "preload_": ("SNES", _snes),
+    "segment_": ("EPS", _eps),
+    "cyclic_": ("EPS", _eps),
+    "fullwheel_": ("EPS", _eps),
+    "prestress_": ("KSP", _ksp),
+    "stiffness_": ("KSP", _ksp),
+}
+
+
+def option_names(args: list[str]) -> list[str]:
+    """The option names (without dash) among command-line tokens: ``-wheel_ts_dt 1e-6`` ->
+    ``["wheel_ts_dt"]`` (a negative number is a value, not an option)."""
+    names = []
+    for token in args:
+        if token.startswith("-") and len(token) > 1 and not _is_number(token):
+            names.append(token.lstrip("-"))
+    return names
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def solver_of(name: str) -> str | None:
+    """The prefix of the wheelrom solver that reads option ``name``, if any."""
+    return next((prefix for prefix in SOLVERS if name.startswith(prefix)), None)
+
+
+@contextlib.contextmanager
+def _silent():
+    """PETSc errors raise ``PETSc.Error`` without PETSc printing its traceback."""
+    PETSc = petsc()
+    PETSc.Sys.pushErrorHandler("ignore")
+    try:
+        yield
+    finally:
+        PETSc.Sys.popErrorHandler()
+
+
+def _accepts(prefix: str) -> int:
+    """0 if a fresh object of ``prefix`` reads the database without error, else the error
+    code."""
+    PETSc = petsc()
+    kind, create = SOLVERS[prefix]
+    obj = create(PETSc.COMM_SELF)
+    try:
+        obj.setOptionsPrefix(prefix)
+        with _silent():
+            obj.setFromOptions()
+        if kind == "TS" and obj.getTimeStep() <= 0:
+            return 63
+        return 0
+    except PETSc.Error as exc:
+        return int(exc.ierr)
+    finally:
+        obj.destroy()
+
+
+def _alone(names: list[str], keep: str):
+    """Context: every option of ``names`` but ``keep`` taken out of the database."""
+    db = petsc().Options()
+    saved = {n: db.getString(n) for n in names if n != keep and db.hasName(n)}
+
+    @contextlib.contextmanager
+    def scope():
+        for n in saved:
+            db.delValue(n)
+        try:
+            yield
+        finally:
+            for n, value in saved.items():
+                db.setValue(n, value)
+
+    return scope()
+
+
+def check(args: list[str]) -> None:
+    """Raise an :class:`InputError` naming the first option of ``args`` (the tokens after
+    ``--``, already in the database) that its solver refuses."""
+    db = petsc().Options()
+    names = option_names(args)
+    for prefix in SOLVERS:
+        mine = [n for n in names if solver_of(n) == prefix]
+        if not mine or not (code := _accepts(prefix)):
+            continue
+        kind = SOLVERS[prefix][0]
+        for name in mine:  # which one: try each alone
+            with _alone(mine, name):
+                code_alone = _accepts(prefix)
+            if code_alone:
+                code = code_alone
+                break
+        else:
+            name = " ".join("-" + n for n in mine)
+        value = db.getString(name, "") if db.hasName(name) else ""
+        why = _PETSC_ERRORS.get(code, f"PETSc error {code}")
+        if code == 63 and value and not _is_number(value):
+            why = "expects a number"  # PETSc: "Input string ... has no numeric value"
+        elif code == 63 and name == "wheel_ts_dt":
+            why = "the time step must be positive"
+        shown = f"-{name} {value}".strip() if " " not in name else name
+        raise InputError(f"PETSc option {shown}: refused by the {kind} '{prefix}' ({why})")
+
+
+@functools.cache
+def _options_used():
+    fn = ctypes.CDLL(petsc().__file__).PetscOptionsUsed
+    fn.argtypes = [ctypes.c_void_p, ctypes.c_char_p, ctypes.POINTER(ctypes.c_int)]
+    fn.restype = ctypes.c_int
+    return fn
+
+
+def unused(args: list[str]) -> list[str]:
+    """The options of ``args`` that nothing has read so far (``PetscOptionsUsed``)."""
+    if not args:
+        return []
+    petsc()
+    flag = ctypes.c_int()
+    left = []
+    for name in option_names(args):
+        if _options_used()(None, ("-" + name).encode(), ctypes.byref(flag)) == 0 and not flag.value:
+            left.append(name)
+    return left
