@@ -16,6 +16,7 @@ from wheelrom import cli_args
 from wheelrom import config as config_mod
 from wheelrom._environment import bootstrap
 from wheelrom.cli_output import (
+    EXIT_INTERRUPTED,
     fail,
     log,
     print_json,
@@ -23,7 +24,7 @@ from wheelrom.cli_output import (
     print_result,
     warn_unused,
 )
-from wheelrom.errors import InputError, OutputExists
+from wheelrom.errors import InputError, Interrupted, OutputExists
 from wheelrom.outputs import check_outdir, check_output, replacing
 
 
@@ -60,7 +61,15 @@ def cmd_config_show(args: argparse.Namespace) -> int:
 
 
 def cmd_config_check(args: argparse.Namespace) -> int:
+    """The keys, and for a user mesh (``segment.source``) the file and its node sets: what
+    a run would refuse, found without computing anything."""
     cfg = _load(args)
+    if cfg.segment.source != "builtin":
+        from wheelrom.segment.load import load_segment
+
+        seg = load_segment(cfg)
+        print(f"{cfg.segment.source}: {seg.nodes.shape[0]} nodes, node sets "
+              + ", ".join(sorted(seg.node_sets)))  # fmt: skip
     print(f"{cfg.source}: OK")
     return 0
 
@@ -174,6 +183,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
     from wheelrom.transient.ts import time_step
 
     cfg = _load(args)
+    if args.steps < 1:
+        raise InputError(f"compare --steps: at least 1 step to compare (got {args.steps})")
     steps, step = args.steps, time_step(cfg)  # the TS's step: -wheel_ts_dt overrides
     cfg = cfg.replace(**{"time.end": steps * step, "time.window": steps * step})
     model = build_model(cfg, _comm_self(), log=quiet if args.json else log)
@@ -202,7 +213,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
     cfg = _load(args)
     failed = run_sweep(cfg, args.out, MPI.COMM_WORLD, resume=args.resume, force=args.force,
-                       log=lambda m: print(m, flush=True), model_comm=args.model_comm,
+                       log=log, model_comm=args.model_comm,
                        batch=args.batch)  # fmt: skip
     return 1 if failed else 0
 
@@ -417,6 +428,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         return fail(f"{exc.path} exists: pass {again} to overwrite it")
     except InputError as exc:
         return fail(str(exc))
+    except Interrupted as exc:  # what was finished is saved; the message says where
+        return fail(str(exc), EXIT_INTERRUPTED)
+    except KeyboardInterrupt:
+        return fail("interrupted (nothing was being saved)", EXIT_INTERRUPTED)
     warn_unused(args.petsc_args)
     return status
 

@@ -8,6 +8,7 @@ import os
 import sys
 
 EXIT_CONFIG = 2
+EXIT_INTERRUPTED = 130  # 128 + SIGINT, as a shell reports Ctrl-C
 
 
 def log(msg: str) -> None:

@@ -359,6 +359,14 @@ def _build_from(default: Any, data: Mapping[str, Any], prefix: str, problems: li
     return dataclasses.replace(default, **changes)
 
 
+def _shortest_window(end: float, window: float) -> float:
+    """The shortest evaluation window [s] of the time grid (``transient.ts.time_grid``: the
+    last window ends at ``end``, a ``window`` longer than ``end`` is shortened to it)."""
+    windows = max(1, int(round(end / window)))
+    last = end - (windows - 1) * window
+    return last if windows == 1 else min(window, last)
+
+
 def _cross_checks(cfg: Config, problems: list[str]) -> None:
     fr, t = cfg.friction, cfg.time
     if is_number(fr.dynamic) and is_number(fr.static) and fr.dynamic > fr.static:
@@ -368,11 +376,14 @@ def _cross_checks(cfg: Config, problems: list[str]) -> None:
     if all(is_number(v) for v in (t.step, t.window, t.end)):
         if t.step > t.window:
             problems.append(f"time.step: larger than time.window ({t.step} > {t.window} s)")
-        if t.window > t.end:
-            problems.append(f"time.window: larger than time.end ({t.window} > {t.end} s)")
-        if is_number(cfg.output.sample_rate_hz) and cfg.output.sample_rate_hz * t.step > 1.0:
+        rate = cfg.output.sample_rate_hz
+        if is_number(rate) and rate * t.step > 1.0:
+            problems.append(f"output.sample_rate_hz: {rate} Hz exceeds 1/time.step")
+        elif is_number(rate) and rate * _shortest_window(t.end, t.window) < 1.0:
+            shortest = _shortest_window(t.end, t.window)
             problems.append(
-                f"output.sample_rate_hz: {cfg.output.sample_rate_hz} Hz exceeds 1/time.step"
+                f"output.sample_rate_hz: {rate} Hz leaves a window of {shortest:.6g} s without "
+                f"a sample (its statistics would all be NaN); use at least {1 / shortest:.6g} Hz"
             )
     w = cfg.wheel
     if isinstance(cfg.flutter.mode, int) and isinstance(w.modes_per_segment, int):
@@ -423,6 +434,14 @@ def load(path: str | Path | None = None, overrides: Sequence[str] = ()) -> Confi
                 data = tomllib.load(fh)
         except FileNotFoundError:
             raise ConfigError([f"{source}: file not found"]) from None
+        except IsADirectoryError:
+            raise ConfigError([f"{source}: is a directory, not a TOML file"]) from None
+        except PermissionError:
+            raise ConfigError([f"{source}: not readable (permission denied)"]) from None
+        except UnicodeDecodeError as exc:
+            raise ConfigError(
+                [f"{source}: not UTF-8 text (byte {exc.start}); TOML files are UTF-8"]
+            ) from None
         except tomllib.TOMLDecodeError as exc:
             raise ConfigError([f"{source}: not valid TOML: {exc}"]) from None
     changes = dict(parse_override(o) for o in overrides)

@@ -15,3 +15,8 @@ class OutputExists(InputError):
     def __init__(self, path: str):
         self.path = path
         super().__init__(f"{path} exists: resume to complete it, or overwrite it")
+
+
+class Interrupted(Exception):
+    """A computation stopped on Ctrl-C / SIGTERM after saving what was finished; the message
+    says what is kept and how to go on. The CLI exits with status 130."""

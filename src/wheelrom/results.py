@@ -157,6 +157,31 @@ def resume_problem(path: str, cfg: Config) -> str | None:
     return None
 
 
+def options_problem(path: str, settings: dict) -> str | None:
+    """Why the cases still to run in ``path`` must not use the TS ``settings``
+    (:func:`wheelrom.transient.ts.ts_settings`): the finished cases ran with other ones, and one
+    file must not mix integrators. None: they agree (or no case ran yet)."""
+    import h5py
+
+    with h5py.File(path, "r") as f:
+        recorded = [
+            (i, json.loads(raw.decode() or "{}"))
+            for i, (raw, status) in enumerate(zip(f["cases/options"][:], statuses(f), strict=True))
+            if status != "pending" and raw
+        ]
+    wanted = json.loads(json.dumps(settings))  # the same number formats as the file
+    for i, used in recorded:
+        differ = sorted(k for k in set(used) | set(wanted) if used.get(k) != wanted.get(k))
+        if differ:
+            then = ", ".join(f"{k}={used.get(k, '-')}" for k in differ)
+            now = ", ".join(f"{k}={wanted.get(k, '-')}" for k in differ)
+            return (
+                f"{path}: case {i + 1} ran with {then}; this run would use {now}. Resume with "
+                "the same PETSc options (see 'wheelrom info'), or use --force to start again"
+            )
+    return None
+
+
 def read_config(f, path: str) -> Config:
     """The configuration a results file was written with."""
     if "config" not in f.attrs:

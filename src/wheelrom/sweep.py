@@ -17,13 +17,15 @@ import math
 import os
 import time
 
-from wheelrom import results
+from wheelrom import interrupts, results
 from wheelrom._environment import petsc, slepc
 from wheelrom.config import Config
-from wheelrom.errors import InputError, OutputExists
+from wheelrom.errors import InputError, Interrupted
+from wheelrom.outputs import output_problem, partial_name
 from wheelrom.rom.build import build_model
 from wheelrom.transient.problem import CaseResult
 from wheelrom.transient.run import run_cases
+from wheelrom.transient.ts import PREFIX, ts_settings
 
 
 def run_sweep(cfg: Config, out: str, comm, resume: bool = False, force: bool = False,
@@ -37,7 +39,8 @@ def run_sweep(cfg: Config, out: str, comm, resume: bool = False, force: bool = F
     over all ranks (for segments too large for one rank; the modes then agree with a serial
     build to the eigen-solver tolerance, not bitwise). ``batch``: cases per TS on a rank (0:
     all of the rank's cases at once; see the module docstring). ``options``: PETSc options
-    of the case TS (keys without the ``wheel_`` prefix).
+    of the case TS (keys without the ``wheel_`` prefix). Raises :class:`Interrupted` after a
+    Ctrl-C / SIGTERM, once the finished rounds are safely in the file.
     """
     import h5py
 
@@ -50,36 +53,57 @@ def run_sweep(cfg: Config, out: str, comm, resume: bool = False, force: bool = F
         raise InputError(f"sweep batch must be >= 0, not {batch}")
     if model_comm not in ("rank0", "world"):
         raise InputError(f"model_comm must be 'rank0' or 'world', not {model_comm!r}")
+    if resume and force:
+        raise InputError("--resume and --force exclude each other (complete the file, or "
+                         "start it again)")  # fmt: skip
     # decide what to do with the output file before computing anything
-    problem = _output_problem(out, cfg, resume, force) if comm.rank == 0 else None
+    settings = ts_settings(cfg, PREFIX, options)
+    problem = _output_problem(out, cfg, resume, force, settings) if comm.rank == 0 else None
     problem = comm.bcast(problem)
     if problem:
         raise problem
-    mode = "r+" if (resume and os.path.exists(out)) else "w"
+    fresh = not (resume and os.path.exists(out))
     t0 = time.perf_counter()
     model = _shared_model(cfg, comm, model_comm, say)
     say(f"model ready in {time.perf_counter() - t0:.1f} s: {model.blades} blades x "
         f"{model.modes} modes")  # fmt: skip
-    with h5py.File(out, mode, driver="mpio", comm=comm) as f:
-        if mode == "w":
-            results.create_layout(f, cfg, model)
-            f.flush()
-        _run_rounds(f, cfg, model, comm, batch, options, say)
-        failed = sum(1 for s in results.statuses(f) if s.startswith("failed"))
+    if fresh:
+        _create(out, cfg, model, comm)
+    with interrupts.deferred(), h5py.File(out, "r+", driver="mpio", comm=comm) as f:
+        stopped = _run_rounds(f, cfg, model, comm, batch, options, say)
+        status = results.statuses(f)
+    failed = sum(1 for s in status if s.startswith("failed"))
+    done = sum(1 for s in status if s != "pending")
+    if stopped:
+        raise Interrupted(f"interrupted: {done} of {len(status)} cases done and saved in {out}; "
+                          "rerun with --resume to complete it")  # fmt: skip
     say(f"sweep finished in {time.perf_counter() - t0:.1f} s; {failed} case(s) failed")
     return failed
 
 
-def _output_problem(out: str, cfg: Config, resume: bool, force: bool) -> InputError | None:
+def _create(out: str, cfg: Config, model, comm) -> None:
+    """The file with its full layout, every case pending: built under a temporary name
+    (collectively) and renamed into place by rank 0, so ``out`` is readable from the moment
+    it exists; an existing ``out`` (``--force``) is replaced only then."""
+    import h5py
+
+    partial = partial_name(out)
+    with h5py.File(partial, "w", driver="mpio", comm=comm) as f:
+        results.create_layout(f, cfg, model)
+    comm.Barrier()
+    if comm.rank == 0:
+        os.replace(partial, out)
+    comm.Barrier()
+
+
+def _output_problem(out: str, cfg: Config, resume: bool, force: bool,
+                    settings: dict) -> InputError | None:  # fmt: skip
     """Why ``out`` must not be written (None: go ahead)."""
-    if not os.path.exists(out):
-        return None
-    if not (resume or force):
-        return OutputExists(out)
-    if resume:
-        why = results.resume_problem(out, cfg)
-        return InputError(why) if why else None
-    return None
+    problem = output_problem(out, force=resume or force)
+    if problem or not (resume and os.path.exists(out)):
+        return problem
+    why = results.resume_problem(out, cfg) or results.options_problem(out, settings)
+    return InputError(why) if why else None
 
 
 def _shared_model(cfg: Config, comm, model_comm: str, say):
@@ -90,9 +114,10 @@ def _shared_model(cfg: Config, comm, model_comm: str, say):
     return comm.bcast(model)
 
 
-def _run_rounds(f, cfg: Config, model, comm, batch: int, options, say) -> None:
+def _run_rounds(f, cfg: Config, model, comm, batch: int, options, say) -> bool:
     """Deal the pending cases to the ranks and run them in rounds of one batch per rank;
-    after every round all ranks flush the file (collective) and rank 0 reports."""
+    after every round all ranks flush the file (collective) and rank 0 reports. Returns
+    whether a stop was requested (then the unfinished batch stays pending)."""
     angles = results.case_angles(cfg)
     C = angles.shape[0]
     status = results.statuses(f)
@@ -103,15 +128,17 @@ def _run_rounds(f, cfg: Config, model, comm, batch: int, options, say) -> None:
     per_rank = math.ceil(len(todo) / comm.size)
     width = batch or max(per_rank, 1)
     rounds = math.ceil(per_rank / width)
-    t_sweep = time.perf_counter()
+    clock = _Progress(say, cfg, rounds, options)
     for r in range(rounds):
         chunk = mine[r * width : (r + 1) * width]
         finished: list[CaseResult] = []
         if chunk:
-            progress = _progress_printer(say, len(chunk), cfg.time.end, r, rounds)
             try:
-                finished = run_cases(model, cfg, [results.angles_of(angles[i]) for i in chunk],
-                                     options=options, progress=progress)  # fmt: skip
+                cases = [results.angles_of(angles[i]) for i in chunk]
+                finished = run_cases(model, cfg, cases, options=options,
+                                     progress=clock.window(r, len(chunk)))  # fmt: skip
+            except KeyboardInterrupt:  # a stop asked for: this batch stays pending
+                finished, chunk = [], []
             except Exception as exc:  # a solver error fails this batch, not the sweep
                 finished = [CaseResult(status=f"failed: {type(exc).__name__}: {exc}")
                             for _ in chunk]  # fmt: skip
@@ -122,29 +149,68 @@ def _run_rounds(f, cfg: Config, model, comm, batch: int, options, say) -> None:
                   for i, res in zip(chunk, finished, strict=True)]  # fmt: skip
         gathered = comm.gather(report, root=0)
         if comm.rank == 0:
-            eta = (time.perf_counter() - t_sweep) / (r + 1) * (rounds - r - 1)
             for i, st, wall, width_used in sorted(item for part in gathered for item in part):
                 done += 1
                 tb, sh = angles[i]
-                share = f"{wall:.1f} s" + ("" if width_used == 1 else f", batch of {width_used}")
-                say(f"[{done}/{C}] tie-boss {tb:g} deg, shroud {sh:g} deg: {st} ({share}); "
-                    f"about {eta:.0f} s left")  # fmt: skip
+                share = f"{wall:.3g} s" + ("" if width_used == 1 else f", batch of {width_used}")
+                say(f"[{done}/{C}] tie-boss {tb:g} deg, shroud {sh:g} deg: {st} ({share})")
+        if comm.allreduce(interrupts.requested(), op=_lor()):
+            return True
+    return False
 
 
-def _progress_printer(say, cases: int, t_end: float, round_index: int, rounds: int):
-    """Progress of a long batch (rank 0's view): about every tenth of the simulated time."""
-    t0 = time.perf_counter()
-    last = [0.0]
+def _lor():
+    from mpi4py import MPI
 
-    def progress(window, windows, t, amplitude):
-        if t - last[0] < 0.1 * t_end and window < windows:
-            return
-        last[0] = t
-        elapsed = time.perf_counter() - t0
-        left = elapsed * (t_end - t) / max(t, 1e-300)
-        say(
-            f"  round {round_index + 1}/{rounds}: {cases} case(s), t = {t:.4g} of {t_end:g} s, "
-            f"largest tip amplitude {amplitude:.3g} m, {elapsed:.0f} s, about {left:.0f} s left"
-        )
+    return MPI.LOR
 
-    return progress
+
+class _Progress:
+    """Rank 0's progress lines while its batch integrates: simulated time reached, steps per
+    second and an ETA from the integration rate alone (measured from the end of the first
+    window, so kernel compilation and the static preload do not count), at most one line a
+    second. Its window callback also stops the batch when a stop was requested."""
+
+    def __init__(self, say, cfg: Config, rounds: int, options: dict | None):
+        self.say, self.rounds = say, rounds
+        self.t_end, self.step = cfg.time.end, ts_settings(cfg, PREFIX, options)["ts_dt"]
+
+    def window(self, round_index: int, cases: int):
+        first: list[tuple[float, float]] = []  # (simulated, wall) at the end of window 1
+        last_line = [-math.inf]
+
+        def progress(window, windows, t, amplitude):
+            if interrupts.requested():
+                raise KeyboardInterrupt  # caught by the round: the batch stays pending
+            now = time.perf_counter()
+            if not first:
+                first.append((t, now))
+            if now - last_line[0] < 1.0 and window < windows:
+                return
+            last_line[0] = now
+            t1, wall1 = first[0]
+            rate = (t - t1) / (now - wall1) if now > wall1 and t > t1 else 0.0  # [s / s]
+            left = (self.t_end - t) + (self.rounds - round_index - 1) * self.t_end  # [s]
+            if rate > 0:
+                eta = f", {_duration(left / rate)} left" if left > 0.5 * self.step else ""
+                pace = f"{rate / self.step:,.0f} steps/s{eta}"
+            else:
+                pace = "measuring the rate"
+            self.say(
+                f"  round {round_index + 1}/{self.rounds} ({cases} case(s)): window "
+                f"{window}/{windows}, t = {t:.4g} of {self.t_end:g} s, largest tip amplitude "
+                f"{amplitude:.3g} m; {pace}"
+            )
+
+        return progress
+
+
+def _duration(seconds: float) -> str:
+    """``75.2`` -> ``"about 1 min 15 s"``; under a second: ``"under a second"``."""
+    if seconds < 1:
+        return "under a second"
+    minutes, secs = divmod(round(seconds), 60)
+    hours, minutes = divmod(minutes, 60)
+    if hours:
+        return f"about {hours} h {minutes} min"
+    return f"about {minutes} min {secs} s" if minutes else f"about {secs} s"

@@ -17,6 +17,8 @@ midpoints, as in the built-in mesh); curved mid-side nodes are reported in ``inf
 
 from __future__ import annotations
 
+import contextlib
+import io
 import os
 
 import numpy as np
@@ -50,10 +52,15 @@ def read_segment(cfg: Config) -> SegmentMesh:
     path = source_path(cfg)
     if not os.path.isfile(path):
         raise InputError(f"segment.source: mesh file '{path}' not found")
+    said = io.StringIO()
     try:
-        raw = meshio.read(path)
+        with contextlib.redirect_stdout(said), contextlib.redirect_stderr(said):
+            raw = meshio.read(path)
     except Exception as exc:  # meshio raises many types; the message names the file
         raise InputError(f"segment.source: cannot read '{path}' ({exc})") from exc
+    except SystemExit:  # some meshio readers print and call sys.exit on a garbage file
+        why = " ".join(said.getvalue().split()) or "meshio gave up"
+        raise InputError(f"segment.source: cannot read '{path}' ({why})") from None
     blocks = [b.data for b in raw.cells if b.type == "hexahedron20"]
     if not blocks:
         found = sorted({b.type for b in raw.cells}) or ["no cells"]

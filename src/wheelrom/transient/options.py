@@ -194,6 +194,7 @@ def unused(args: list[str]) -> list[str]:
     flag = ctypes.c_int()
     left = []
     for name in option_names(args):
-        if _options_used()(None, ("-" + name).encode(), ctypes.byref(flag)) == 0 and not flag.value:
+        # PETSc keeps the names without the dash
+        if _options_used()(None, name.encode(), ctypes.byref(flag)) == 0 and not flag.value:
             left.append(name)
     return left

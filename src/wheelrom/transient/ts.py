@@ -74,6 +74,37 @@ def ts_options_used(ts, prefix: str) -> dict:
     return {k: v for k, v in used.items() if v is not None}
 
 
+def _defaults(ts, cfg: Config) -> None:
+    """The TS settings in code, before ``setFromOptions``: RK 3bs, fixed step ``time.step``."""
+    PETSc = petsc()
+    ts.setProblemType(PETSc.TS.ProblemType.NONLINEAR)
+    ts.setType(PETSc.TS.Type.RK)
+    ts.setRKType("3bs")
+    bridge.set_adapt_type(ts, "none")  # fixed steps unless -<prefix>ts_adapt_type says else
+    ts.setTimeStep(cfg.time.step)
+    ts.setMaxTime(cfg.time.end)
+    ts.setMaxSteps(10**9)
+    ts.setExactFinalTime(PETSc.TS.ExactFinalTime.MATCHSTEP)
+
+
+def ts_settings(cfg: Config, prefix: str = PREFIX, options: dict | None = None) -> dict:
+    """The ``options`` record (:func:`ts_options_used`) a case TS of ``cfg`` would have with
+    the current database and ``options``, without a problem: what a sweep compares with the
+    cases already in a file before it resumes."""
+    PETSc = petsc()
+    ts = PETSc.TS().create(comm=PETSc.COMM_SELF)
+    try:
+        ts.setOptionsPrefix(prefix)
+        _defaults(ts, cfg)
+        with scoped_options(prefix, options):
+            ts.setFromOptions()
+            used = ts_options_used(ts, prefix)
+        used.setdefault("ts_adapt_type", bridge.adapt_type(ts))
+        return used
+    finally:
+        ts.destroy()
+
+
 def make_ts(problem: WheelProblem, cfg: Config, prefix: str = PREFIX,
             options: dict | None = None, rhs_kind: str = "compiled"):  # fmt: skip
     """A configured TS (defaults in code, ``setFromOptions`` last): ``(ts, f, used)``.
@@ -85,14 +116,7 @@ def make_ts(problem: WheelProblem, cfg: Config, prefix: str = PREFIX,
     PETSc = petsc()
     ts = PETSc.TS().create(comm=problem.comm)
     ts.setOptionsPrefix(prefix)
-    ts.setProblemType(PETSc.TS.ProblemType.NONLINEAR)
-    ts.setType(PETSc.TS.Type.RK)
-    ts.setRKType("3bs")
-    bridge.set_adapt_type(ts, "none")  # fixed steps unless -<prefix>ts_adapt_type says else
-    ts.setTimeStep(cfg.time.step)
-    ts.setMaxTime(cfg.time.end)
-    ts.setMaxSteps(10**9)
-    ts.setExactFinalTime(PETSc.TS.ExactFinalTime.MATCHSTEP)
+    _defaults(ts, cfg)
     if rhs_kind == "compiled":
         f = PETSc.Vec().createSeq(problem.B * problem.size(), comm=problem.comm)
         bridge.attach(ts, f, problem.context)

@@ -1,0 +1,322 @@
+"""Nothing a user computed is lost, bad input is one clear line (issue #18): existing outputs
+refused without --force, output paths checked before computing, sweep files readable from
+their first byte (a kill during creation included), resume with other TS options refused,
+Ctrl-C saves and says how to go on, bad PETSc options named, config check catches what a run
+would refuse."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import h5py
+import pytest
+
+from conftest import SMALL
+from wheelrom import cli
+
+QUICK = ["--set", "time.end=0.001", "--set", "time.window=0.0005"]
+ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+           OMPI_MCA_rmaps_base_oversubscribe="1", MPLBACKEND="Agg")  # fmt: skip
+
+
+def wheelrom(*args, timeout=300, ranks=None, **kw):
+    """The CLI in a subprocess (its own PETSc database), optionally under mpirun."""
+    cmd = [sys.executable, "-m", "wheelrom.cli", *args]
+    if ranks:
+        cmd = ["mpirun", "-n", str(ranks), *cmd]
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=ENV, **kw)
+
+
+def _one_error_line(res, *words):
+    lines = [ln for ln in res.stderr.splitlines() if ln.startswith("wheelrom:")]
+    assert len(lines) == 1, res.stderr
+    for word in words:
+        assert word in lines[0], lines[0]
+    return lines[0]
+
+
+# --- existing outputs -----------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["run", SMALL, *QUICK],
+        ["modes", SMALL],
+        ["mesh", SMALL],
+    ],
+)
+def test_existing_output_is_refused_without_force(argv, tmp_path, capsys):
+    out = tmp_path / ("seg.vtu" if argv[0] == "mesh" else "x.h5")
+    out.write_bytes(b"precious")
+    t0 = time.perf_counter()
+    assert cli.main([*argv, "--out", str(out)]) == 2
+    assert time.perf_counter() - t0 < 1.0  # refused before anything is computed
+    assert out.read_bytes() == b"precious"
+    err = capsys.readouterr().err
+    assert f"{out} exists: pass --force to overwrite it" in err
+
+
+def test_force_replaces_and_leaves_no_temporary_file(tmp_path, capsys):
+    out = tmp_path / "seg.inp"
+    out.write_text("old")
+    assert cli.main(["mesh", SMALL, "--out", str(out), "--force"]) == 0
+    assert out.read_text().startswith("** wheelrom segment")
+    assert sorted(os.listdir(tmp_path)) == ["seg.inp", "seg_cyclic.inp"]  # no .partial left
+
+
+def test_sweep_resume_and_force_together_is_a_usage_error(tmp_path, capsys):
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["sweep", SMALL, "--out", str(tmp_path / "s.h5"), "--resume", "--force"])
+    assert exc.value.code == 2
+    assert "not allowed with argument" in capsys.readouterr().err
+
+
+# --- output paths checked before any computation --------------------------------------
+
+
+@pytest.mark.parametrize("command", ["run", "modes", "mesh", "sweep"])
+@pytest.mark.parametrize("where", ["missing", "directory"])
+def test_bad_output_path_fails_at_once_naming_it(command, where, tmp_path, capsys):
+    out = tmp_path / "nowhere" / "x.h5" if where == "missing" else tmp_path
+    argv = [command, SMALL, "--out", str(out)] + (QUICK if command in ("run", "sweep") else [])
+    t0 = time.perf_counter()
+    assert cli.main(argv) == 2
+    assert time.perf_counter() - t0 < 1.0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(out) in err[0]
+    assert ("does not exist" if where == "missing" else "is a directory") in err[0]
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root writes into read-only directories")
+def test_read_only_directory_fails_at_once(tmp_path, capsys):
+    folder = tmp_path / "ro"
+    folder.mkdir(mode=0o500)
+    assert cli.main(["run", SMALL, *QUICK, "--out", str(folder / "r.h5")]) == 2
+    assert "is not writable" in capsys.readouterr().err
+
+
+def test_outdir_that_is_a_file_fails_at_once(tmp_path, capsys):
+    not_a_dir = tmp_path / "figs"
+    not_a_dir.write_text("")
+    assert cli.main(["campbell", SMALL, "--speeds", "0,50", "--outdir", str(not_a_dir)]) == 2
+    assert f"--outdir {not_a_dir}: is a file, not a directory" in capsys.readouterr().err
+
+
+# --- the sweep file ---------------------------------------------------------------------
+
+KILL_DURING_CREATION = """
+import os, signal, sys
+from wheelrom import cli, results
+real = results.create_layout
+def dying(f, cfg, model):
+    real(f, cfg, model)
+    f.flush()
+    os.kill(os.getpid(), signal.SIGKILL)  # killed with the layout half on disk
+results.create_layout = dying
+sys.exit(cli.main(sys.argv[1:]))
+"""
+
+
+def test_sweep_killed_while_creating_its_file_leaves_nothing_to_trip_over(tmp_path):
+    out = tmp_path / "s.h5"
+    argv = ["sweep", SMALL, "--out", str(out), *QUICK]
+    res = subprocess.run([sys.executable, "-c", KILL_DURING_CREATION, *argv],
+                         capture_output=True, text=True, timeout=300, env=ENV)  # fmt: skip
+    assert res.returncode == -signal.SIGKILL
+    assert not out.exists()  # the name appears only with a complete layout
+    # what run/paper does on every run: --resume starts afresh and completes
+    res = wheelrom(*argv, "--resume")
+    assert res.returncode == 0, res.stderr
+    with h5py.File(out, "r") as f:
+        assert [s.decode() for s in f["cases/status"][:]] == ["done"] * 3
+    assert [p for p in os.listdir(tmp_path) if "partial" in p] == []
+
+
+@pytest.fixture(scope="module")
+def small_sweep(tmp_path_factory):
+    out = tmp_path_factory.mktemp("sweep") / "s.h5"
+    res = wheelrom("sweep", SMALL, "--out", str(out), *QUICK)
+    assert res.returncode == 0, res.stderr
+    return out
+
+
+def test_resume_with_other_ts_options_is_refused_naming_them(small_sweep):
+    with h5py.File(small_sweep, "r+") as f:  # case 3 still to run
+        f["cases/status"][2] = b"pending"
+    before = os.path.getmtime(small_sweep)
+    res = wheelrom("sweep", SMALL, "--out", str(small_sweep), *QUICK, "--resume",
+                   "--", "-wheel_ts_rk_type", "5dp")  # fmt: skip
+    assert res.returncode == 2
+    _one_error_line(res, "ts_rk_type=3bs", "ts_rk_type=5dp", "--force")
+    assert os.path.getmtime(small_sweep) == before
+    res = wheelrom("sweep", SMALL, "--out", str(small_sweep), *QUICK, "--resume")
+    assert res.returncode == 0, res.stderr
+    with h5py.File(small_sweep, "r") as f:
+        assert [json.loads(o)["ts_rk_type"] for o in f["cases/options"][:]] == ["3bs"] * 3
+
+
+def _interrupt_after_progress(cmd, sig=signal.SIGINT, targets=None):
+    """Start ``cmd``, wait for its first progress line, send ``sig`` (to ``targets()`` pids
+    when given, else to the process), return (exit status, stderr)."""
+    proc = subprocess.Popen(cmd, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True,
+                            env=ENV)  # fmt: skip
+    seen = []
+    for line in proc.stderr:
+        seen.append(line)
+        if "round 1/" in line and "window" in line:
+            for pid in targets() if targets else [proc.pid]:
+                os.kill(pid, sig)
+            break
+    seen += proc.stderr.readlines()
+    return proc.wait(timeout=300), "".join(seen)
+
+
+LONG = ["--set", "time.end=0.5", "--set", "time.window=0.01", "--batch", "1"]
+
+
+def test_ctrl_c_saves_finished_cases_and_says_how_to_resume(tmp_path):
+    out = tmp_path / "s.h5"
+    cmd = [sys.executable, "-m", "wheelrom.cli", "sweep", SMALL, "--out", str(out), *LONG]
+    status, err = _interrupt_after_progress(cmd)
+    assert status == 130, err
+    lines = [ln for ln in err.splitlines() if ln.startswith("wheelrom:")]
+    assert len(lines) == 1 and "Traceback" not in err
+    assert lines[0].startswith("wheelrom: interrupted: ") and "rerun with --resume" in lines[0]
+    done = int(lines[0].split("interrupted: ")[1].split(" of ")[0])
+    with h5py.File(out, "r") as f:  # readable, and it says what the message said
+        status_of = [s.decode() for s in f["cases/status"][:]]
+    assert status_of.count("done") == done < 3
+    assert status_of.count("pending") == 3 - done
+
+
+def test_sigterm_under_mpirun_stops_every_rank_with_one_line(tmp_path):
+    """mpirun forwards Ctrl-C to the ranks as SIGTERM: here sent to the ranks directly."""
+    out = tmp_path / "s.h5"
+    cmd = ["mpirun", "-n", "2", sys.executable, "-m", "wheelrom.cli", "sweep", SMALL,
+           "--out", str(out), *LONG]  # fmt: skip
+
+    def ranks():
+        found = subprocess.run(["pgrep", "-f", f"wheelrom.cli sweep {SMALL} --out {out}"],
+                               capture_output=True, text=True).stdout.split()  # fmt: skip
+        return [int(p) for p in found if int(p) != os.getpid()]
+
+    status, err = _interrupt_after_progress(cmd, signal.SIGTERM, ranks)
+    assert status != 0
+    lines = [ln for ln in err.splitlines() if ln.startswith("wheelrom: interrupted")]
+    assert len(lines) == 1 and "Traceback" not in err, err
+    with h5py.File(out, "r") as f:
+        assert "pending" in [s.decode() for s in f["cases/status"][:]]
+
+
+# --- clear errors -----------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "option, words",
+    [
+        (["-wheel_ts_type", "nosuchtype"], ["-wheel_ts_type nosuchtype", "unknown type"]),
+        (["-wheel_ts_rk_type", "nosuch"], ["-wheel_ts_rk_type nosuch"]),
+        (["-wheel_ts_dt", "abc"], ["-wheel_ts_dt abc", "expects a number"]),
+        (["-wheel_ts_dt", "-1"], ["-wheel_ts_dt -1", "must be positive"]),
+        (["-segment_eps_type", "nosuch"], ["-segment_eps_type nosuch", "EPS"]),
+        (["-wheel_ts_rk_type", "5dp", "-wheel_ts_type", "nosuch"], ["-wheel_ts_type nosuch"]),
+    ],
+)
+def test_bad_petsc_option_is_one_line_naming_it(option, words):
+    res = wheelrom("run", SMALL, *QUICK, "--", *option)
+    assert res.returncode == 2 and "Traceback" not in res.stderr, res.stderr
+    _one_error_line(res, *words)
+
+
+def test_unused_petsc_option_is_a_warning(tmp_path):
+    res = wheelrom("mesh", SMALL, "--out", str(tmp_path / "s.vtu"), "--",
+                   "-wheel_ts_typo", "3", "-wheel_ts_rk_type", "5dp")  # fmt: skip
+    assert res.returncode == 0, res.stderr
+    assert "warning: PETSc option -wheel_ts_typo was not used" in res.stderr
+    assert "-wheel_ts_rk_type" not in res.stderr
+
+
+def test_ts_reason_in_words():
+    from wheelrom.transient.ts import reason_words
+
+    assert reason_words(-2) == "a step was rejected too often (PETSc TS reason -2)"
+
+
+@pytest.mark.parametrize(
+    "argv, words",
+    [
+        (["--vtu", "w.vtu", "--vtu-nd", "40"], ["--vtu-nd 40", "0..6"]),
+        (["--vtu", "w.vtu", "--vtu-nd", "-3"], ["--vtu-nd -3", "0..6"]),
+        (["--vtu", "w.vtu", "--vtu-family", "10"], ["--vtu-family 10", "0..5"]),
+        (["--vtu-nd", "3"], ["--vtu-nd needs --vtu"]),
+    ],
+)
+def test_modes_vtu_arguments_are_usage_errors(argv, words, tmp_path, capsys):
+    argv = [a if a != "w.vtu" else str(tmp_path / a) for a in argv]
+    assert cli.main(["modes", SMALL, *argv]) == 2
+    err = capsys.readouterr().err
+    assert all(w in err for w in words), err
+    assert not (tmp_path / "w.vtu").exists()
+
+
+def test_compare_with_no_steps_names_the_argument(capsys):
+    assert cli.main(["compare", SMALL, "--steps", "0"]) == 2
+    assert "compare --steps" in capsys.readouterr().err
+
+
+# --- config check catches what a run would refuse ----------------------------------------
+
+
+def _config(tmp_path, text):
+    path = tmp_path / "c.toml"
+    path.write_text(text)
+    return str(path)
+
+
+def test_config_check_reads_the_user_mesh(tmp_path, capsys):
+    missing = _config(tmp_path, '[segment]\nsource = "nope.inp"\n')
+    assert cli.main(["config", "check", missing]) == 2
+    assert "segment.source: mesh file" in capsys.readouterr().err
+    (tmp_path / "bad.vtu").write_text("x")  # meshio's vtu reader calls sys.exit on this
+    garbage = _config(tmp_path, '[segment]\nsource = "bad.vtu"\n')
+    assert cli.main(["config", "check", garbage]) == 2
+    assert "segment.source: cannot read" in capsys.readouterr().err
+
+
+def test_config_check_needs_the_node_sets(tmp_path, capsys):
+    assert cli.main(["mesh", SMALL, "--out", str(tmp_path / "seg.inp")]) == 0
+    text = (tmp_path / "seg.inp").read_text()
+    (tmp_path / "notip.inp").write_text(text.replace("*NSET, NSET=TIP", "*NSET, NSET=TOP"))
+    cfg = _config(tmp_path, '[wheel]\nblades = 12\n[segment]\nsource = "notip.inp"\n')
+    capsys.readouterr()
+    assert cli.main(["config", "check", cfg]) == 2
+    assert "'tip'" in capsys.readouterr().err
+
+
+def test_config_check_refuses_windows_without_a_sample(capsys):
+    assert cli.main(["config", "check", SMALL, "--set", "output.sample_rate_hz=1000"]) == 2
+    assert "output.sample_rate_hz: 1000.0 Hz leaves a window" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("what", ["directory", "latin-1"])
+def test_config_path_that_is_no_toml_text_is_named(what, tmp_path, capsys):
+    path = tmp_path
+    if what == "latin-1":
+        path = tmp_path / "c.toml"
+        path.write_bytes("# Schaufelkr\xe4nze\n".encode("latin-1"))
+    assert cli.main(["config", "check", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert str(path) in err and ("is a directory" in err or "not UTF-8" in err)
+
+
+def test_window_longer_than_the_run_is_shortened_to_it(capsys):
+    assert cli.main(["config", "check", SMALL, "--set", "time.end=0.0002"]) == 0
+    from wheelrom import config
+    from wheelrom.transient.ts import time_grid
+
+    grid = time_grid(config.load(SMALL, ["time.end=0.0002"]))
+    assert grid.window_end == (0.0002,)
