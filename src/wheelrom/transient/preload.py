@@ -16,40 +16,52 @@ def static_preload(problem: WheelProblem, case: int = 0,
     Jacobian by finite differences of the residual (dense, ``N m`` unknowns). Options prefix
     ``preload_`` (``-preload_snes_rtol`` ...), ``setFromOptions`` last.
     """
+    return static_equilibrium(problem.forces[case], problem.Kd, problem.comm,
+                              problem.cases[case].nozzle_force, prefix)  # fmt: skip
+
+
+def static_equilibrium(forces, K: np.ndarray, comm, force_scale: float, prefix: str = "preload_",
+                       tangent=None) -> tuple[np.ndarray, float]:  # fmt: skip
+    """``K q = f(q, 0, t=0)`` for the :class:`~wheelrom.forces.reference.ReferenceForces`
+    ``forces`` and the dense ``K`` ``(N m, N m)``; ``tangent(q)``: the analytic ``df/dq``
+    (sparse) if known, else finite differences. ``force_scale`` [N] sets the absolute
+    tolerance. Returns ``q`` and ``|residual|``."""
     PETSc = petsc()
-    n = problem.n
-    zeros_v = np.zeros((problem.N, problem.m))
-    forces = problem.forces[case]
+    n = K.shape[0]
+    N, m = forces.params.blades, forces.params.modes
+    zeros_v = np.zeros((N, m))
 
     def residual_np(q):
-        force = forces.evaluate(0.0, q.reshape(problem.N, problem.m), zeros_v)
-        return problem.Kd @ q - force.ravel()
+        force = forces.evaluate(0.0, q.reshape(N, m), zeros_v)
+        return K @ q - force.ravel()
 
     def residual(snes, x, r):
         r.setArray(residual_np(x.getArray(readonly=True)))
 
     def jacobian(snes, x, J, P):
         q = x.getArray(readonly=True).copy()
-        base = residual_np(q)
-        h = 1e-9 * max(1.0, np.abs(q).max())
-        Jd = np.empty((n, n))
-        for j in range(n):
-            qj = q.copy()
-            qj[j] += h
-            Jd[:, j] = (residual_np(qj) - base) / h
+        if tangent is not None:
+            Jd = K - tangent(q.reshape(N, m)).toarray()
+        else:
+            base = residual_np(q)
+            h = 1e-9 * max(1.0, np.abs(q).max())
+            Jd = np.empty((n, n))
+            for j in range(n):
+                qj = q.copy()
+                qj[j] += h
+                Jd[:, j] = (residual_np(qj) - base) / h
         P.setValues(range(n), range(n), Jd)
         P.assemble()
 
-    snes = PETSc.SNES().create(comm=problem.comm)
+    snes = PETSc.SNES().create(comm=comm)
     snes.setOptionsPrefix(prefix)
-    J = PETSc.Mat().createDense((n, n), comm=problem.comm)
+    J = PETSc.Mat().createDense((n, n), comm=comm)
     J.setUp()
-    r = PETSc.Vec().createSeq(n, comm=problem.comm)
-    x = PETSc.Vec().createSeq(n, comm=problem.comm)
+    r = PETSc.Vec().createSeq(n, comm=comm)
+    x = PETSc.Vec().createSeq(n, comm=comm)
     snes.setFunction(residual, r)
     snes.setJacobian(jacobian, J, J)
-    snes.setTolerances(rtol=1e-12, atol=1e-12 * max(1.0, problem.cases[case].nozzle_force),
-                       max_it=50)  # fmt: skip
+    snes.setTolerances(rtol=1e-12, atol=1e-12 * max(1.0, force_scale), max_it=50)
     snes.getKSP().setType("preonly")
     snes.getKSP().getPC().setType("lu")
     snes.setFromOptions()
@@ -61,7 +73,7 @@ def static_preload(problem: WheelProblem, case: int = 0,
     for obj in (snes, J, r, x):
         obj.destroy()
     if reason <= 0:
-        raise RuntimeError(f"preload SNES did not converge (reason {reason}, |F| = {res:.3g})")
+        raise RuntimeError(f"{prefix}snes did not converge (reason {reason}, |F| = {res:.3g})")
     return q, res
 
 

@@ -1,0 +1,261 @@
+"""Linear stability of a case: the static equilibrium under the contact preloads (nozzle
+excluded), the analytic Jacobian there (:mod:`wheelrom.transient.jacobian`) and its
+eigenvalues per nodal diameter.
+
+A tuned wheel with the same contact angles on every blade has a cyclic equilibrium, and its
+Jacobian is block-circulant over the blades: with ``x_s = x_0 e^{i s phi}``,
+``phi = 2 pi k / N``, the spectrum is the union over ``k`` of the eigenvalues of the
+``2m x 2m`` blocks ``J(k) = sum_d J_{0,d} e^{i d phi}`` (LAPACK). ``k`` and ``N - k`` give
+complex conjugates, so ND ``0..N/2`` hold every growth rate. A wheel that is not cyclic (or
+as a check) goes through the assembled real ``2 N m`` Jacobian: SLEPc, non-Hermitian,
+rightmost eigenvalues, options prefix ``stability_`` (:func:`rightmost_eigenvalues`, any
+communicator).
+
+Per eigenvalue ``lambda``: growth rate ``Re lambda`` [1/s] (> 0: the equilibrium is unstable,
+the mode grows as ``e^{Re lambda t}``), frequency ``|Im lambda| / 2 pi`` [Hz], damping ratio
+``-Re lambda / |lambda|``, and what the mode does: its tip amplitude, the normal and tangential
+amplitudes of every contact kind's gap relative to the tip, and the share of each segment mode.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from wheelrom._environment import petsc, slepc
+from wheelrom.config import Config
+from wheelrom.forces.parameters import force_parameters
+from wheelrom.forces.reference import ReferenceForces
+from wheelrom.rom.model import ReducedModel
+from wheelrom.transient.jacobian import force_derivatives, jacobian
+from wheelrom.transient.preload import static_equilibrium
+
+PREFIX = "stability_"
+
+
+@dataclass
+class StabilityResult:
+    """One case's linear stability (``E`` eigenvalues: ``2 m`` per ND ``0..N/2``; ``K``
+    contact kinds, ``N`` blades, ``m`` modes).
+
+    ``angles_deg``: kind -> contact angle; ``equilibrium``: ``(N, m)`` static ``q``;
+    ``residual``: its SNES residual; ``normal_force``, ``margin``: ``(K, N)`` [N], [m]
+    (margin: normal opening left before lift-off, 0 = open); ``nodal_diameter`` ``(E,)``;
+    ``eigenvalue`` ``(E,)`` complex [1/s]; ``growth_rate`` [1/s], ``frequency_hz``,
+    ``damping_ratio`` ``(E,)``; ``tip_amplitude`` ``(E,)`` (eigenvector scaled to unit modal
+    norm); ``contact_normal``, ``contact_tangential`` ``(E, K)`` gap amplitudes relative to
+    the tip; ``modal_share`` ``(E, m)`` (rows sum to 1); ``cyclic``: per-ND blocks were used;
+    ``wall_s``.
+    """
+
+    angles_deg: dict
+    kinds: tuple
+    equilibrium: np.ndarray
+    residual: float
+    normal_force: np.ndarray
+    margin: np.ndarray
+    nodal_diameter: np.ndarray
+    eigenvalue: np.ndarray
+    tip_amplitude: np.ndarray
+    contact_normal: np.ndarray
+    contact_tangential: np.ndarray
+    modal_share: np.ndarray
+    cyclic: bool
+    wall_s: float = 0.0
+    jacobian: object = field(default=None, repr=False)
+
+    @property
+    def growth_rate(self) -> np.ndarray:
+        return self.eigenvalue.real
+
+    @property
+    def frequency_hz(self) -> np.ndarray:
+        return np.abs(self.eigenvalue.imag) / (2 * math.pi)
+
+    @property
+    def damping_ratio(self) -> np.ndarray:
+        return -self.eigenvalue.real / np.maximum(np.abs(self.eigenvalue), 1e-300)
+
+    def critical(self) -> int:
+        """Index of the eigenvalue with the largest growth rate."""
+        return int(np.argmax(self.growth_rate))
+
+    def verdict(self, tolerance: float = 1e-6) -> str:
+        """``"stable"`` or ``"unstable"``: any growth rate above ``tolerance`` [1/s]."""
+        return "unstable" if self.growth_rate.max() > tolerance else "stable"
+
+    def describe(self, i: int | None = None) -> str:
+        """One line on eigenvalue ``i`` (default: the critical one) for people."""
+        i = self.critical() if i is None else i
+        parts = [f"ND {self.nodal_diameter[i]}", f"{self.frequency_hz[i]:.1f} Hz",
+                 f"growth {self.growth_rate[i]:+.3g} /s"]  # fmt: skip
+        for c, kind in enumerate(self.kinds):
+            parts.append(f"{kind} gap n/t {self.contact_normal[i, c]:.2g}/"
+                         f"{self.contact_tangential[i, c]:.2g} x tip")  # fmt: skip
+        j = int(np.argmax(self.modal_share[i]))
+        parts.append(f"mostly segment mode {j + 1} ({100 * self.modal_share[i, j]:.0f} %)")
+        return ", ".join(parts)
+
+
+def linearise(model: ReducedModel, cfg: Config, angles_deg: dict | None = None, comm=None,
+              prefix: str = PREFIX):  # fmt: skip
+    """``(params, q, residual, J, contacts)``: the case's force parameters with the nozzle
+    off, its static equilibrium ``q`` ``(N, m)`` (SNES, options prefix ``<prefix>preload_``,
+    analytic tangent), the sparse Jacobian there and the contact linearisations."""
+    comm = comm or petsc().COMM_SELF
+    params = force_parameters(model, cfg, angles_deg)
+    params = dataclasses.replace(params, nozzle_force=0.0)  # the equilibrium, not the forcing
+    N, m = model.blades, model.modes
+    K = model.dense_stiffness()
+    scale = float(max(1.0, params.contacts.preload.max(initial=1.0)))
+    q, residual = static_equilibrium(
+        ReferenceForces(params), K, comm, scale, prefix + "preload_",
+        tangent=lambda q: force_derivatives(params, q)[0],
+    )  # fmt: skip
+    q = q.reshape(N, m)
+    Fq, Fv, contacts = force_derivatives(params, q)
+    return params, q, residual, jacobian(K, cfg.wheel.damping_beta, Fq, Fv), contacts
+
+
+def analyse(model: ReducedModel, cfg: Config, angles_deg: dict | None = None, comm=None,
+            keep_jacobian: bool = False) -> StabilityResult:  # fmt: skip
+    """The linear stability of one case (contact angles ``angles_deg``, kind -> [deg])."""
+    t0 = time.perf_counter()
+    params, q, residual, J, contacts = linearise(model, cfg, angles_deg, comm)
+    N, m = q.shape
+    blocks = blade_blocks(J, N, m)
+    cyclic = is_circulant(blocks)
+    if cyclic:
+        nds, values, vectors = nd_spectrum(blocks)
+    else:
+        nds, values, vectors = _assembled_spectrum(J, N, m)
+    tip, normal, tangential, share = _describe_modes(model, contacts, nds, vectors)
+    K = len(params.contacts.kinds)
+    return StabilityResult(
+        angles_deg={k: float(np.atleast_1d(v)[0]) for k, v in params.contacts.angles_deg.items()},
+        kinds=params.contacts.kinds,
+        equilibrium=q,
+        residual=residual,
+        normal_force=np.array([[c.normal_force for c in row] for row in contacts]).reshape(K, N),
+        margin=np.array([[c.margin for c in row] for row in contacts]).reshape(K, N),
+        nodal_diameter=nds,
+        eigenvalue=values,
+        tip_amplitude=tip,
+        contact_normal=normal,
+        contact_tangential=tangential,
+        modal_share=share,
+        cyclic=cyclic,
+        wall_s=time.perf_counter() - t0,
+        jacobian=J if keep_jacobian else None,
+    )
+
+
+def blade_blocks(J, N: int, m: int) -> np.ndarray:
+    """``(N, N, 2m, 2m)`` blade blocks of ``J`` (state ``(q, q')``, ``q`` blade-major):
+    block ``[s, t]`` maps ``(q_t, q'_t)`` to ``(q'_s, q''_s)``."""
+    n = N * m
+    order = np.concatenate([np.r_[s * m : (s + 1) * m, n + s * m : n + (s + 1) * m]
+                            for s in range(N)])  # fmt: skip
+    dense = J.toarray() if hasattr(J, "toarray") else np.asarray(J)
+    return dense[np.ix_(order, order)].reshape(N, 2 * m, N, 2 * m).transpose(0, 2, 1, 3)
+
+
+def is_circulant(blocks: np.ndarray, rtol: float = 1e-10) -> bool:
+    """Whether block ``[s, s + d]`` equals ``[0, d]`` for every ``s``, ``d`` (a tuned wheel)."""
+    N = blocks.shape[0]
+    scale = np.abs(blocks).max()
+    for s in range(1, N):
+        shifted = np.roll(blocks[s], -s, axis=0)  # [d] = block [s, s + d]
+        if np.abs(shifted - blocks[0]).max() > rtol * scale:
+            return False
+    return True
+
+
+def nd_block(blocks: np.ndarray, k: int) -> np.ndarray:
+    """``J(k) = sum_d J_{0,d} e^{i 2 pi k d / N}`` ``(2m, 2m)`` complex."""
+    N = blocks.shape[0]
+    phase = np.exp(2j * math.pi * k * np.arange(N) / N)
+    return np.einsum("d,dij->ij", phase, blocks[0])
+
+
+def nd_spectrum(blocks: np.ndarray):
+    """``(nd, eigenvalues, vectors)`` over ND ``0..N/2``: ``(E,)``, ``(E,)``, ``(E, 2m)``
+    (vectors: the blade-0 part ``(q_0, q'_0)`` of each Bloch mode)."""
+    N = blocks.shape[0]
+    nds, values, vectors = [], [], []
+    for k in range(N // 2 + 1):
+        lam, vec = np.linalg.eig(nd_block(blocks, k))
+        nds.append(np.full(lam.size, k))
+        values.append(lam)
+        vectors.append(vec.T)
+    return np.concatenate(nds), np.concatenate(values), np.concatenate(vectors)
+
+
+def _assembled_spectrum(J, N: int, m: int):
+    """All eigenvalues of the assembled ``J`` (dense LAPACK) with the ND of each mode: the
+    dominant Fourier harmonic of its ``q`` over the blades; vectors as in :func:`nd_spectrum`
+    (the blade with the largest motion)."""
+    lam, vec = np.linalg.eig(J.toarray() if hasattr(J, "toarray") else J)
+    n = N * m
+    q = vec[:n].T.reshape(-1, N, m)
+    spectrum = np.abs(np.fft.fft(q, axis=1)).sum(axis=2)  # (E, N)
+    k = np.argmax(spectrum, axis=1)
+    nds = np.minimum(k, N - k)
+    blade = np.argmax(np.abs(q).sum(axis=2), axis=1)
+    rows = np.arange(lam.size)
+    v = vec[n:].T.reshape(-1, N, m)
+    vectors = np.concatenate([q[rows, blade], v[rows, blade]], axis=1)
+    return nds, lam, vectors
+
+
+def _describe_modes(model: ReducedModel, contacts, nds, vectors):
+    """Tip amplitude, contact gap amplitudes relative to the tip (normal, tangential, per
+    kind) and segment-mode shares of every mode (see :class:`StabilityResult`)."""
+    m, N = model.modes, model.blades
+    q0 = vectors[:, :m]
+    q0 = q0 / np.maximum(np.linalg.norm(q0, axis=1, keepdims=True), 1e-300)
+    tip = np.linalg.norm(q0 @ model.tip.T, axis=1)
+    K, E = len(contacts), len(nds)
+    normal, tangential = np.zeros((E, K)), np.zeros((E, K))
+    phase = np.exp(2j * math.pi * nds / N)[:, None]
+    for c in range(K):
+        pair = np.concatenate([q0, q0 * phase], axis=1)  # (q_0, q_1) of the Bloch mode
+        local = pair @ contacts[c][0].gap_map.T  # (E, 3) xi, eta, zeta
+        normal[:, c] = np.abs(local[:, 1])
+        tangential[:, c] = np.hypot(np.abs(local[:, 0]), np.abs(local[:, 2]))
+    ref = np.maximum(tip, 1e-300)[:, None]
+    share = np.abs(q0) ** 2
+    return tip, normal / ref, tangential / ref, share / share.sum(axis=1, keepdims=True)
+
+
+def rightmost_eigenvalues(J, comm, nev: int = 10, prefix: str = PREFIX,
+                          ncv: int | None = None) -> np.ndarray:  # fmt: skip
+    """The ``nev`` eigenvalues of largest real part of the assembled real ``J`` (scipy
+    sparse, every rank holds it) with SLEPc on ``comm`` (non-Hermitian, Krylov-Schur;
+    ``-stability_eps_*`` options apply, ``setFromOptions`` last). Complex ``(nev,)``."""
+    from wheelrom.segment.petsc import to_petsc
+
+    SLEPc = slepc()
+    A = to_petsc(J.tocsr(), comm)
+    eps = SLEPc.EPS().create(comm=comm)
+    eps.setOptionsPrefix(prefix)
+    eps.setOperators(A)
+    eps.setProblemType(SLEPc.EPS.ProblemType.NHEP)
+    eps.setWhichEigenpairs(SLEPc.EPS.Which.LARGEST_REAL)
+    # the spectrum spreads along the imaginary axis (frequencies up to kHz) while the growth
+    # rates are small: the rightmost eigenvalues need a wide subspace
+    eps.setDimensions(nev=nev, ncv=ncv or min(J.shape[0], max(4 * nev, 200)))
+    eps.setTolerances(tol=1e-12, max_it=5000)
+    eps.setFromOptions()
+    eps.solve()
+    found = eps.getConverged()
+    if found < nev:
+        raise RuntimeError(f"{prefix}eps: only {found} of {nev} eigenvalues converged")
+    values = np.array([complex(eps.getEigenvalue(i)) for i in range(nev)])
+    eps.destroy()
+    A.destroy()
+    return values

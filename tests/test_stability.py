@@ -1,0 +1,168 @@
+"""Linear stability per nodal diameter against independent truth: the analytic Van der Pol
+growth from the ND blocks of K_R, finite differences of the compiled right-hand side, SLEPc on
+the assembled Jacobian, and a transient that grows at the linear rate."""
+
+import math
+
+import numpy as np
+import pytest
+
+from conftest import SMALL
+from wheelrom import config
+from wheelrom.forces.parameters import force_parameters
+from wheelrom.transient import bridge
+from wheelrom.transient.problem import WheelProblem
+from wheelrom.transient.stability import analyse, linearise, rightmost_eigenvalues
+
+
+def _matched(a, b) -> float:
+    """Largest distance from an eigenvalue of either set to the nearest of the other,
+    relative to the largest magnitude (eigenvalues with ties in any order)."""
+    a, b = np.asarray(a), np.asarray(b)
+    assert a.shape == b.shape
+    far = max(np.abs(a[:, None] - b[None]).min(axis=1).max(),
+              np.abs(b[:, None] - a[None]).min(axis=1).max())  # fmt: skip
+    return far / np.abs(b).max()
+
+
+@pytest.fixture(scope="module")
+def vdp_only():
+    """The small wheel without contacts: only K_R, beta_D and Van der Pol act."""
+    return config.load(SMALL, ["contacts.tieboss.enabled=false", "contacts.shroud.enabled=false",
+                               "flutter.mu=2.0"])  # fmt: skip
+
+
+@pytest.mark.parametrize("model_name", ["absolute", "relative"])
+def test_van_der_pol_growth_per_nd_is_the_analytic_one(small_model, vdp_only, model_name):
+    """Per ND k: eig([[0, I], [-K(k), -beta K(k) + c_k mu p p^T]]) with K(k) = A0 + A1 e^{i phi}
+    + A1^T e^{-i phi} straight from the model, c_k = 1 (absolute) or 2 (1 - cos phi)
+    (relative: D_s = y_s - y_{s-1}); and, for weak Van der Pol, the single-mode limit
+    (mu c_k |p^T phi_j|^2 - beta w_j^2) / 2 of every wheel mode j."""
+    cfg = vdp_only.replace(**{"flutter.model": model_name})
+    res = analyse(small_model, cfg)
+    assert res.cyclic and np.abs(res.equilibrium).max() == 0.0
+    model, beta, mu = small_model, cfg.wheel.damping_beta, cfg.flutter.mu
+    N, m, p = model.blades, model.modes, model.aero
+    for k in range(N // 2 + 1):
+        phi = 2 * math.pi * k / N
+        Kk = model.A0 + model.A1 * np.exp(1j * phi) + model.A1.T * np.exp(-1j * phi)
+        ck = 1.0 if model_name == "absolute" else 2 * (1 - math.cos(phi))
+        block = np.block([[np.zeros((m, m)), np.eye(m)],
+                          [-Kk, -beta * Kk + ck * mu * np.outer(p, p)]])  # fmt: skip
+        expected = np.linalg.eigvals(block)
+        ours = res.eigenvalue[res.nodal_diameter == k]
+        assert _matched(ours, expected) < 1e-9
+        # single-mode limit: growth of mode j = (mu c_k |p.phi_j|^2 - beta w_j^2) / 2
+        w2, phis = np.linalg.eigh(Kk)
+        limit = (mu * ck * np.abs(p @ phis) ** 2 - beta * w2) / 2
+        rates = ours.real[ours.imag > 0] if k in (0, N // 2) else None
+        if rates is not None:  # real blocks: one of each conjugate pair
+            np.testing.assert_allclose(np.sort(rates), np.sort(limit), rtol=0.05, atol=0.02)
+
+
+def test_analytic_jacobian_equals_finite_differences_of_the_compiled_rhs(small_model, small_cfg):
+    """At the preloaded equilibrium with both contact kinds closed (shroud 30 deg); central
+    differences with a step on the scale of each state component."""
+    params, q, _, J, contacts = linearise(small_model, small_cfg, {"shroud": 30.0})
+    assert all(c.normal_force > 0 for row in contacts for c in row)  # both kinds closed
+    problem = WheelProblem(small_model, small_cfg, [params], small_model_comm())
+    n = q.size
+    x0 = np.zeros(2 * n + 4)
+    x0[:n] = q.ravel()
+    J = J.toarray()
+    scale = {"q": 1e-4 * np.abs(q).max(), "v": 1e-4}  # [sqrt(kg) m], [sqrt(kg) m/s]
+    fd = np.empty((2 * n, 2 * n))
+    for j in range(2 * n):
+        h = scale["q" if j < n else "v"]
+        up, down = x0.copy(), x0.copy()
+        up[j] += h
+        down[j] -= h
+        rhs = bridge.evaluate(problem.context, 0.0, up)
+        rhs -= bridge.evaluate(problem.context, 0.0, down)
+        fd[:, j] = rhs[: 2 * n] / (2 * h)
+    for rows, cols in ((slice(n, 2 * n), slice(0, n)), (slice(n, 2 * n), slice(n, 2 * n))):
+        error = np.abs(J[rows, cols] - fd[rows, cols]).max() / np.abs(fd[rows, cols]).max()
+        assert error < 1e-6, error
+    # and the contact parts are really there: without them the two would differ
+    K = small_model.dense_stiffness()
+    assert np.abs(J[n:, :n] + K).max() > 1e-3 * np.abs(K).max()
+    problem.destroy()
+
+
+def small_model_comm():
+    from wheelrom._environment import petsc
+
+    return petsc().COMM_SELF
+
+
+def test_per_nd_spectrum_is_the_assembled_spectrum(small_model, small_cfg, comm):
+    """The union over ND 0..N-1 of the block eigenvalues == SLEPc on the assembled real
+    Jacobian (rightmost 12, matched one by one), and the ND 0..N/2 growth rates cover them."""
+    res = analyse(small_model, small_cfg, {"shroud": 50.0}, keep_jacobian=True)
+    reference = rightmost_eigenvalues(res.jacobian, comm, nev=12)
+    ours = res.eigenvalue
+    for value in reference:
+        nearest = np.min(np.abs(np.concatenate([ours, ours.conj()]) - value))
+        assert nearest < 1e-8 * abs(value), (value, nearest)
+    assert res.growth_rate.max() == pytest.approx(reference.real.max(), rel=1e-8)
+
+
+def test_non_cyclic_path_agrees(small_model, small_cfg):
+    """The assembled dense path (for wheels that are not cyclic) gives the same growth rates
+    and NDs as the per-ND blocks on a tuned wheel."""
+    from wheelrom.transient import stability
+
+    res = analyse(small_model, small_cfg, {"shroud": 20.0}, keep_jacobian=True)
+    N, m = small_model.blades, small_model.modes
+    nds, values, _ = stability._assembled_spectrum(res.jacobian, N, m)
+    top = np.argsort(values.real)[-4:]
+    assert values.real[top].max() == pytest.approx(res.growth_rate.max(), rel=1e-8)
+    assert nds[top[-1]] == res.nodal_diameter[res.critical()]
+
+
+def test_contact_states_at_the_equilibrium(small_model, small_cfg):
+    """Normal forces are the preload minus the spring's share; margins F_n / k_c."""
+    res = analyse(small_model, small_cfg, {"shroud": 30.0})
+    params = force_parameters(small_model, small_cfg, {"shroud": 30.0})
+    k_c = params.contacts.stiffness
+    np.testing.assert_allclose(res.margin, res.normal_force / k_c, rtol=1e-12)
+    # cyclic equilibrium: every blade pair carries the same force
+    assert np.ptp(res.normal_force, axis=1).max() < 1e-9 * res.normal_force.max()
+    assert res.residual < 1e-8
+
+
+def test_transient_from_the_equilibrium_grows_at_the_linear_rate(small_model, small_cfg):
+    """Start at the equilibrium plus a tiny multiple of the critical mode (contacts stay
+    closed): the tip amplitude of the transient grows at the linear rate within 1 %."""
+    from wheelrom.transient.run import run_case
+    from wheelrom.transient.stability import blade_blocks, nd_block
+
+    angles = {"shroud": 20.0}
+    res = analyse(small_model, small_cfg, angles, keep_jacobian=True)
+    i = res.critical()
+    rate, k = res.growth_rate[i], res.nodal_diameter[i]
+    assert rate > 1.0
+    N, m = small_model.blades, small_model.modes
+    lam, vec = np.linalg.eig(nd_block(blade_blocks(res.jacobian, N, m), k))
+    x0 = vec[:, np.argmax(lam.real)]
+    phase = np.exp(2j * math.pi * k * np.arange(N) / N)
+    mode = np.real(np.outer(phase, x0))  # (N, 2m) real Bloch mode, blade-major
+    q_mode = mode[:, :m].ravel()
+    amplitude = 1e-9 / np.abs(q_mode).max()
+    u0 = np.concatenate([res.equilibrium.ravel() + amplitude * q_mode,
+                         amplitude * mode[:, m:].ravel()])  # fmt: skip
+    t_end = 3.0 / rate
+    cfg = small_cfg.replace(**{"time.end": t_end, "time.window": t_end / 6,
+                               "excitation.force": 0.0})  # fmt: skip
+    out = run_case(small_model, cfg, angles, u0=u0)
+    assert out.status == "done"
+    for kind in out.min_normal_force:
+        assert (out.min_normal_force[kind] > 0).all()  # closed throughout
+    # the motion about the equilibrium: tip samples minus the static tip displacement
+    static_tip = res.equilibrium @ small_model.tip.T  # (N, 3)
+    deviation = np.abs(out.tip_history - static_tip[None]).max(axis=(1, 2))
+    window = np.minimum((out.sample_time / (t_end / 6)).astype(int), 5)
+    envelope = np.array([deviation[window == w].max() for w in range(6)])
+    centre = (np.arange(6) + 0.5) * t_end / 6
+    fitted = np.polyfit(centre[2:], np.log(envelope[2:]), 1)[0]
+    assert fitted == pytest.approx(rate, rel=0.01)
