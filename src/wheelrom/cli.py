@@ -22,6 +22,7 @@ from wheelrom.cli_output import (
     print_json,
     print_modes,
     print_result,
+    print_stability,
     warn_unused,
 )
 from wheelrom.errors import InputError, Interrupted, OutputExists
@@ -218,6 +219,67 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     return 1 if failed else 0
 
 
+def cmd_stability(args: argparse.Namespace) -> int:
+    """Linear stability of every case at its preloaded equilibrium (nozzle off): eigenvalues
+    per nodal diameter, the fastest-growing mode and what it does at the contacts. Under
+    mpirun the cases are spread over the ranks."""
+    from wheelrom.rom.build import quiet
+    from wheelrom.stability_study import run_stability
+
+    cfg = _load(args)
+    if args.out:
+        check_output(args.out, args.force)
+    comm = _world_if_parallel()
+    model, cases = run_stability(cfg, comm, log=quiet if args.json else log)
+    if not cases:  # ranks other than 0
+        return 0
+    if args.out:
+        import h5py
+
+        from wheelrom.results import write_stability
+
+        with replacing(args.out) as partial, h5py.File(partial, "w") as f:
+            write_stability(f, cfg, model, cases)
+    summary = [_stability_summary(r) for r in cases]
+    if args.json:
+        print_json({"cases": summary})
+    else:
+        print_stability(summary)
+    return 0
+
+
+def _world_if_parallel():
+    """mpi4py's COMM_WORLD under mpirun with more than one rank, else None (serial)."""
+    if int(os.environ.get("OMPI_COMM_WORLD_SIZE", os.environ.get("PMI_SIZE", "1"))) <= 1:
+        return None
+    from mpi4py import MPI
+
+    return MPI.COMM_WORLD
+
+
+def _stability_summary(res) -> dict:
+    i = res.critical()
+    return {
+        "angles_deg": res.angles_deg,
+        "verdict": res.verdict(),
+        "max_growth_rate": float(res.growth_rate[i]),
+        "nodal_diameter": int(res.nodal_diameter[i]),
+        "frequency_hz": float(res.frequency_hz[i]),
+        "damping_ratio": float(res.damping_ratio[i]),
+        "mode": res.describe(i),
+        "contact_gap_per_tip": {kind: {"normal": float(res.contact_normal[i, c]),
+                                       "tangential": float(res.contact_tangential[i, c])}
+                                for c, kind in enumerate(res.kinds)},  # fmt: skip
+        "min_normal_force_n": {k: float(res.normal_force[c].min())
+                               for c, k in enumerate(res.kinds)},  # fmt: skip
+        "min_margin_m": {k: float(res.margin[c].min()) for c, k in enumerate(res.kinds)},
+        "unstable_nodal_diameters": sorted({int(k) for k, g in
+                                            zip(res.nodal_diameter, res.growth_rate, strict=True)
+                                            if g > 1e-6}),  # fmt: skip
+        "wall_s": res.wall_s,
+    }
+
+
 def cmd_contact_stiffness(args: argparse.Namespace) -> int:
     """Contact stiffness k_c(beta) from the segment FE by static unit loads (paper Fig. 5),
     on the segment matrices the model uses (prestressed when the configuration says so)."""
@@ -369,6 +431,8 @@ COMMANDS: dict[
     "mesh": (cmd_mesh, "write the segment mesh and node sets", cli_args.args_mesh),
     "accuracy": (cmd_accuracy, "reduced model vs exact cyclic FE, per family",
                  cli_args.args_accuracy),
+    "stability": (cmd_stability, "linear stability per nodal diameter of every case",
+                  cli_args.args_stability),
     "contact-stiffness": (cmd_contact_stiffness,
                           "k_c(beta) from the segment FE (static unit loads)",
                           cli_args.json_out),

@@ -72,6 +72,12 @@ def args_sweep(p):
     )
 
 
+def args_stability(p):
+    json_out(p)
+    p.add_argument("--out", help="write the stability of every case to this HDF5 file")
+    force(p)
+
+
 def args_bench(p):
     json_out(p)
     p.add_argument("--steps", type=int, default=20000, help="TS steps timed (>= 20000)")

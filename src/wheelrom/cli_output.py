@@ -76,3 +76,33 @@ def print_result(out: dict, as_json: bool) -> None:
 def print_json(obj: object) -> None:
     json.dump(obj, sys.stdout, indent=1, default=float)
     sys.stdout.write("\n")
+
+
+def print_stability(cases: list[dict]) -> None:
+    """One line per case (verdict, fastest mode), then contact states and the count."""
+    for case in cases:
+        angles = ", ".join(f"{k} {v:g} deg" for k, v in case["angles_deg"].items())
+        verdict = case["verdict"].upper() if case["verdict"] == "unstable" else case["verdict"]
+        print(f"{angles}: {verdict}; {case['mode']}")
+        contacts = "; ".join(
+            f"{k} min F_n {case['min_normal_force_n'][k]:.4g} N, margin "
+            f"{case['min_margin_m'][k] * 1e6:.3g} um"
+            for k in case["min_normal_force_n"]
+        )
+        nds = case["unstable_nodal_diameters"]
+        unstable = f"; unstable NDs {_ranges(nds)}" if nds else ""
+        print(f"    {contacts}{unstable}")
+    bad = sum(c["verdict"] == "unstable" for c in cases)
+    print(f"{len(cases)} case(s): {len(cases) - bad} stable, {bad} unstable")
+
+
+def _ranges(values: list[int]) -> str:
+    """``[3, 4, 5, 9]`` -> ``"3..5, 9"``."""
+    out, start = [], None
+    for i, v in enumerate(values):
+        if start is None:
+            start = v
+        if i + 1 == len(values) or values[i + 1] != v + 1:
+            out.append(f"{start}" if start == v else f"{start}..{v}")
+            start = None
+    return ", ".join(out)

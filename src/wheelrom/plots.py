@@ -58,6 +58,10 @@ def plot_file(path: str, outdir: str | None = None, pdf: bool = False,
             _modal_figures(f, cfg, path, outdir, pdf, written, plt)
         if "cases" in f:
             _sweep_figures(f, cfg, path, outdir, pdf, written, plt, nd_angles)
+        if "stability" in f:
+            from wheelrom.plots_stability import stability_figures
+
+            stability_figures(f, path, outdir, pdf, written, plt)
     return written
 
 

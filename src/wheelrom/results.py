@@ -21,6 +21,7 @@ from wheelrom.transient.ts import time_grid
 
 STATUS_LEN = 256
 FORMAT = "wheelrom-sweep-1"
+STABILITY_FORMAT = "wheelrom-stability-1"
 
 
 def case_angles(cfg: Config) -> np.ndarray:
@@ -180,6 +181,34 @@ def options_problem(path: str, settings: dict) -> str | None:
                 "the same PETSc options (see 'wheelrom info'), or use --force to start again"
             )
     return None
+
+
+def write_stability(f, cfg: Config, model: ReducedModel, cases: list) -> None:
+    """``/stability`` of a stability file (``wheelrom stability --out``; docs/output.md) from
+    :class:`~wheelrom.transient.stability.StabilityResult` per case of ``cfg``'s grid, with
+    the configuration and ``/model``."""
+    f.attrs["format"] = STABILITY_FORMAT
+    f.attrs["config"] = config_mod.to_toml(cfg)
+    f.attrs["config_source"] = cfg.source
+    write_model(f.create_group("model"), model)
+    g = f.create_group("stability")
+    g.attrs["kinds"] = ", ".join(cases[0].kinds)
+    g["angles_deg"] = case_angles(cfg)
+    g["angles_deg"].attrs["columns"] = "tieboss, shroud"
+    E = min(len(r.eigenvalue) for r in cases)  # the same for tuned wheels: 2 m (N/2 + 1)
+    order = [np.argsort(-r.growth_rate, kind="stable")[:E] for r in cases]  # fastest first
+    per_mode = ("nodal_diameter", "growth_rate", "frequency_hz", "damping_ratio",
+                "tip_amplitude", "contact_normal", "contact_tangential", "modal_share")  # fmt: skip
+    for name in per_mode:
+        g[name] = np.array([getattr(r, name)[o] for r, o in zip(cases, order, strict=True)])
+    g["max_growth_rate"] = np.array([r.growth_rate.max() for r in cases])
+    g["verdict"] = np.array([r.verdict().encode() for r in cases])
+    g["normal_force"] = np.array([r.normal_force for r in cases])
+    g["margin"] = np.array([r.margin for r in cases])
+    g["equilibrium"] = np.array([r.equilibrium for r in cases])
+    g["residual"] = np.array([r.residual for r in cases])
+    g["cyclic"] = np.array([r.cyclic for r in cases])
+    g["wall_s"] = np.array([r.wall_s for r in cases])
 
 
 def read_config(f, path: str) -> Config:

@@ -1,0 +1,52 @@
+"""Linear stability over the case grid (``wheelrom stability``): every case of the sweep's
+contact angles analysed at its preloaded equilibrium (:mod:`wheelrom.transient.stability`),
+cases dealt round-robin to the MPI ranks and gathered on rank 0, written by rank 0 (a
+stability file is small: no parallel HDF5 needed).
+
+The model is built once on rank 0 and broadcast, as in the transient sweep, so the results do
+not depend on the number of ranks.
+"""
+
+from __future__ import annotations
+
+import time
+
+from wheelrom import results
+from wheelrom.config import Config
+from wheelrom.rom.build import build_model
+from wheelrom.transient.stability import StabilityResult, analyse
+
+
+def run_stability(cfg: Config, comm=None, log=print) -> tuple[object, list[StabilityResult]]:
+    """``(model, results)`` of every case of ``cfg``'s grid, in case order, on rank 0 of the
+    mpi4py ``comm`` (``None``: serial); other ranks get ``(model, [])``."""
+    from wheelrom._environment import petsc, slepc
+
+    # PetscInitialize is collective on COMM_WORLD: every rank, before rank 0 builds alone
+    petsc()
+    slepc()
+    rank, size = (comm.rank, comm.size) if comm is not None else (0, 1)
+    say = log if rank == 0 else (lambda *_: None)
+    t0 = time.perf_counter()
+    model = build_model(cfg, petsc().COMM_SELF, log=say) if rank == 0 else None
+    if comm is not None:
+        model = comm.bcast(model)
+    say(f"model ready in {time.perf_counter() - t0:.1f} s: {model.blades} blades x "
+        f"{model.modes} modes")  # fmt: skip
+    angles = results.case_angles(cfg)
+    mine = []
+    for i in range(rank, angles.shape[0], size):
+        res = analyse(model, cfg, results.angles_of(angles[i]))
+        mine.append((i, res))
+        if rank == 0:
+            say(f"[{i + 1}/{angles.shape[0]}] {_case_label(angles[i])}: {res.verdict()}, "
+                f"{res.describe()} ({res.wall_s:.2f} s)")  # fmt: skip
+    gathered = comm.gather(mine, root=0) if comm is not None else [mine]
+    if rank != 0:
+        return model, []
+    ordered = sorted((item for part in gathered for item in part), key=lambda item: item[0])
+    return model, [res for _, res in ordered]
+
+
+def _case_label(row) -> str:
+    return f"tie-boss {row[0]:g} deg, shroud {row[1]:g} deg"
