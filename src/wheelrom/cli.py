@@ -19,6 +19,7 @@ from wheelrom.cli_output import (
     EXIT_INTERRUPTED,
     fail,
     log,
+    print_info,
     print_json,
     print_modes,
     print_result,
@@ -353,6 +354,19 @@ def cmd_plot(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_info(args: argparse.Namespace) -> int:
+    """What a results or model file holds: format, configuration source, model size, and
+    per case the contact angles, status (failure reasons), windows done and wall time."""
+    from wheelrom.info import file_info
+
+    info = file_info(args.file)
+    if args.json:
+        print_json(info)
+    else:
+        print_info(info, show_all=args.all)
+    return 0
+
+
 COMMANDS: dict[
     str, tuple[Callable[[argparse.Namespace], int], str, Callable[[argparse.ArgumentParser], None]]
 ] = {
@@ -363,6 +377,7 @@ COMMANDS: dict[
     "sweep": (cmd_sweep, "contact-angle sweep under mpirun, parallel HDF5",
               cli_args.args_sweep),
     "plot": (cmd_plot, "figures from a results file", cli_args.args_plot),
+    "info": (cmd_info, "summary of a results or model file", cli_args.args_info),
     "bench": (cmd_bench, "speed of the transient hot path (one core)", cli_args.args_bench),
     "campbell": (cmd_campbell, "frequencies versus rotor speed (prestressed)",
                  cli_args.args_campbell),
@@ -401,7 +416,7 @@ def build_parser() -> argparse.ArgumentParser:
         p = sub.add_parser(name, help=help_text, description=func.__doc__)
         if name == "plot":
             p.add_argument("results", help="HDF5 file from sweep, run or modes --out")
-        else:
+        elif name != "info":  # info: a file, no configuration (cli_args.args_info)
             cli_args.add_config_args(p)
         extra(p)
         p.set_defaults(func=func)

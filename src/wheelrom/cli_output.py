@@ -230,3 +230,65 @@ def null_reason(path: str, seen: dict) -> str:
         return f"{label}: {known}"
     return "not finite (NaN)" if label == "NaN" else f"infinite ({label})"
 
+
+LONG_LISTING = 40  # cases above which `info` lists only the ends and the failed ones
+ENDS_SHOWN = 5
+
+
+def print_info(info: dict, show_all: bool = False) -> None:
+    """``wheelrom info`` for people: a header, then one line per case (a long sweep: the
+    first and last few and every failed one, unless ``show_all``)."""
+    model = info.get("model") or {}
+    if info["kind"] == "model":
+        print(f"{info['file']}: reduced model (modes --out)")
+    else:
+        n = info["counts"]["total"]
+        print(f"{info['file']}: {info['format']} results, {n} case{'s' * (n != 1)}")
+    source = info.get("config_source") or "not recorded (the configuration is in attribute config)"
+    print(f"  config source: {source}")
+    if model:
+        where = ", ".join(x for x in (model.get("preset") and f"{model['preset']} segment",
+                                      model.get("segment_dofs") and f"{model['segment_dofs']} DOFs")
+                          if x)  # fmt: skip
+        print(f"  model:         {model['blades']} blades x {model['modes']} modes"
+              + (f" ({where})" if where else ""))  # fmt: skip
+        print(f"  segment modes: {human_value(model['segment_hz'], 'Hz')}")
+        if model.get("nodal_diameters"):
+            print(f"  wheel modes:   ND 0..{model['nodal_diameters'] - 1} x {model['modes']} "
+                  "families (frequencies_by_nd)")  # fmt: skip
+        for name, what in model.get("extras", {}).items():
+            print(f"  also:          {name}: {what}")
+    if info["kind"] != "results":
+        return
+    window = human_value(info["window_s"], "s")
+    print(f"  time:          end {human_value(info['time_end_s'], 's')}, window {window} "
+          f"({info['windows']} windows)")  # fmt: skip
+    c = info["counts"]
+    print(f"  cases:         {c['done']} done, {c['failed']} failed, {c['pending']} pending; "
+          f"total wall time {human_value(info['total_wall_s'], 's')} (sum over cases)")  # fmt: skip
+    _print_cases(info["cases"], info["windows"], show_all)
+    if info.get("hint"):
+        print(info["hint"])
+
+
+def _print_cases(rows: list[dict], windows: int, show_all: bool) -> None:
+    """The case table of :func:`print_info`; gaps in a shortened one say how many are left."""
+    shown = set(range(len(rows)))
+    if len(rows) > LONG_LISTING and not show_all:
+        ends = [*range(ENDS_SHOWN), *range(len(rows) - ENDS_SHOWN, len(rows))]
+        shown = {*ends, *(r["index"] for r in rows if r["status"] == "failed")}
+    print(f"{'case':>5s} {'tie-boss':>8s} {'shroud':>7s}  {'status':8s} {'windows':>7s} "
+          f"{'wall [s]':>9s}  TS")  # fmt: skip
+    hidden = 0
+    for row in rows:
+        if row["index"] not in shown:
+            hidden += 1
+            continue
+        if hidden:
+            print(f"  ... {hidden} case(s) not shown (--all lists every case)")
+            hidden = 0
+        wall = "-" if row["wall_s"] is None else f"{row['wall_s']:.4g}"
+        reason = f"  {row['reason']}" if row["reason"] else ""
+        print(f"{row['index']:5d} {row['tieboss_deg']:8g} {row['shroud_deg']:7g}  "
+              f"{row['status']:8s} {str(row['windows_done']) + '/' + str(windows):>7s} "
+              f"{wall:>9s}  {row['scheme']}{reason}")  # fmt: skip
