@@ -91,21 +91,35 @@ def test_print_json_is_strict_with_null_fields(capsys):
     assert nulls["energy_balance_error"].startswith("NaN: no energy balance")
     assert nulls["table"].startswith("2 of 4 values NaN/inf")
     assert nulls["peak"] == "infinite (-inf)" and nulls["cases[1].wall_s"] == "not finite (NaN)"
-    assert "output.sample_rate_hz" in nulls["min_normal_force.tieboss"]
+    assert "no output sample" in nulls["min_normal_force.tieboss"]
 
 
-def test_run_json_without_samples_is_strict_json(capsys):
-    """A sample rate below one per window leaves the window statistics NaN: null in JSON,
-    with the reason in null_fields."""
-    argv = ["run", SMALL, "--json", "--set", "time.end=0.001", "--set",
-            "output.sample_rate_hz=1"]  # fmt: skip
-    assert cli.main(argv) == 0
+def test_run_json_with_non_finite_statistics_is_strict_json(capsys, monkeypatch):
+    """Window statistics that are NaN (a window without a sample, a non-finite state) print
+    as null in run --json, with the reason in null_fields."""
+    from wheelrom.transient import run
+
+    real = run.run_case
+
+    def nan_statistics(*args, **kwargs):
+        res = real(*args, **kwargs)
+        res.max_tip_amplitude[-1] = res.energy[-1] = np.nan
+        for kind in res.min_normal_force:
+            res.min_normal_force[kind][-1] = res.open_fraction[kind][-1] = np.nan
+        return res
+
+    monkeypatch.setattr(run, "run_case", nan_statistics)
+    assert cli.main(["run", SMALL, "--json", "--set", "time.end=0.001"]) == 0
     out = json.loads(capsys.readouterr().out, parse_constant=no_constants)
     assert out["status"] == "done" and out["max_tip_amplitude"] is None
     assert out["min_normal_force"] == {"tieboss": None, "shroud": None}
+    assert out["energy_balance_error"] is None and out["steps"] == 200
     reasons = out["null_fields"]
-    assert {"max_tip_amplitude", "min_normal_force.tieboss", "open_fraction.shroud"} <= set(reasons)
-    assert "output.sample_rate_hz" in reasons["max_tip_amplitude"]
+    assert set(reasons) == {"max_tip_amplitude", "energy_balance_error",
+                            *(f"{key}.{kind}" for key in ("min_normal_force", "open_fraction")
+                              for kind in ("tieboss", "shroud"))}  # fmt: skip
+    assert reasons["max_tip_amplitude"].startswith("NaN: no output sample in the last window")
+    assert reasons["energy_balance_error"].startswith("NaN: no energy balance")
 
 
 def test_plain_output_is_for_people(capsys):

@@ -166,8 +166,7 @@ def human_value(value, unit: str = "", max_items: int = 8) -> str:
 #: why a value of this key may be non-finite (the JSON says so next to its null)
 NULL_REASONS = {
     **dict.fromkeys(("max_tip_amplitude", "min_normal_force", "open_fraction"),
-                    "no output sample in the window (output.sample_rate_hz too low for "
-                    "time.window) or the case stopped before it"),
+                    "no output sample in the last window, or a non-finite state (see status)"),
     "energy_balance_error": "no energy balance (energy or work not finite in the last window)",
     "relative_error_by_nd": "no full-wheel reference value",
 }  # fmt: skip
