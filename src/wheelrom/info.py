@@ -173,7 +173,7 @@ def case_rows(cases) -> list[dict]:
 
 def resume_hint(path: str, source: str | None, counts: dict) -> str | None:
     """What to do about the pending and failed cases of a file (None: all done)."""
-    failed = (f"{counts['failed']} case(s) failed (reasons above); --resume does not rerun "
+    failed = (f"{counts['failed']} case(s) failed (see their reasons); --resume does not rerun "
               "them") if counts["failed"] else None  # fmt: skip
     if not counts["pending"]:
         return failed
