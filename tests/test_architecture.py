@@ -16,8 +16,8 @@ STAGES = (
     ("wheelrom.config", 0), ("wheelrom.outputs", 0), ("wheelrom.interrupts", 0),
     ("wheelrom.segment", 1), ("wheelrom.rom", 2),
     ("wheelrom.forces", 3), ("wheelrom.transient", 4), ("wheelrom.results", 5),
-    ("wheelrom.sweep", 6), ("wheelrom.stability_study", 6), ("wheelrom.bench", 7),
-    ("wheelrom.plots", 7), ("wheelrom.plots_stability", 7),
+    ("wheelrom.info", 5), ("wheelrom.sweep", 6), ("wheelrom.stability_study", 6),
+    ("wheelrom.bench", 7), ("wheelrom.plots", 7), ("wheelrom.plots_stability", 7),
     ("wheelrom.cli_args", 8), ("wheelrom.cli_output", 8), ("wheelrom.cli", 8), ("wheelrom", 0),
 )  # fmt: skip
 

@@ -20,7 +20,15 @@ def test_reduced_model_is_an_upper_bound_of_the_cyclic_fe(small_cfg, small_model
     segment = build_segment(small_cfg, SELF)
     seg, mats = segment.mesh, segment.matrices
     m = small_model.modes
-    fe = references.cyclic_table(seg, mats, small_cfg.wheel.coupling_stiffness, m, SELF)
+    progress = []
+    fe = references.cyclic_table(seg, mats, small_cfg.wheel.coupling_stiffness, m, SELF,
+                                 log=progress.append)  # fmt: skip
+    # one line per ND with the count and the time left (modes --full-wheel on stderr)
+    assert len(progress) == 7 and progress[0].startswith("cyclic FE: ND 0 done (")
+    assert all(f", {k + 1} of 7, about " in line and line.endswith(" s left")
+               or f", {k + 1} of 7, less than 1 s left" in line
+               for k, line in enumerate(progress[:-1]))  # fmt: skip
+    assert progress[-1].endswith(", 7 of 7")
     rom = small_model.frequencies_by_nodal_diameter()
     assert fe.shape == rom.shape == (small_cfg.wheel.blades // 2 + 1, m)
     # Ritz projection of the same FE for every phase: never below, family by family
@@ -47,6 +55,28 @@ def test_enriched_basis_reaches_one_percent_on_two_families(small_cfg):
     assert err[:, :2].max() < 0.01
     # the enrichment NDs are exact for the two families taken
     np.testing.assert_allclose(rom[[0, 2, 3, 6], :2], fe[[0, 2, 3, 6], :2], rtol=1e-7)
+
+
+def test_accuracy_table_reports_progress_with_time_left(small_cfg):
+    from wheelrom.rom.accuracy import accuracy_table
+
+    progress = []
+    table = accuracy_table(small_cfg, SELF, modes=(6,), enriched_modes=6, families=2,
+                           log=progress.append)  # fmt: skip
+    assert table["reference_hz"].shape == (7, 2) and list(table["bases"]) == ["free m=6",
+                                                                            "enriched m=6"]
+    per_nd = [line for line in progress if line.startswith("cyclic FE: ND ")]
+    assert len(per_nd) == 7 and all(" left" in line for line in per_nd[:-1])
+    assert any(line.startswith("enriched basis: 4 sector phase solves, ") and " left" in line
+               for line in progress)  # fmt: skip
+    # the free basis is the model's: its error is the Ritz error, never negative
+    assert table["bases"]["free m=6"]["relative_error"].min() > -1e-7
+
+
+def test_time_left_reads_well():
+    assert references.time_left(0.4) == "less than 1 s left"
+    assert references.time_left(42.4) == "about 42 s left"
+    assert references.time_left(390) == "about 6.5 min left"
 
 
 def test_wheel_mode_vtu_has_the_nodal_diameter_and_a_continuous_cut(small_cfg, tmp_path):

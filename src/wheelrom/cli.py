@@ -19,6 +19,7 @@ from wheelrom.cli_output import (
     EXIT_INTERRUPTED,
     fail,
     log,
+    print_info,
     print_json,
     print_modes,
     print_result,
@@ -224,12 +225,12 @@ def cmd_stability(args: argparse.Namespace) -> int:
     per nodal diameter, the fastest-growing mode and what it does at the contacts. Under
     mpirun the cases are spread over the ranks."""
     from wheelrom.rom.build import quiet
-    from wheelrom.stability_study import run_stability
+    from wheelrom.stability_study import run_stability, summary, world_if_parallel
 
     cfg = _load(args)
     if args.out:
         check_output(args.out, args.force)
-    comm = _world_if_parallel()
+    comm = world_if_parallel()
     model, cases = run_stability(cfg, comm, log=quiet if args.json else log)
     if not cases:  # ranks other than 0
         return 0
@@ -240,44 +241,12 @@ def cmd_stability(args: argparse.Namespace) -> int:
 
         with replacing(args.out) as partial, h5py.File(partial, "w") as f:
             write_stability(f, cfg, model, cases)
-    summary = [_stability_summary(r) for r in cases]
+    rows = [summary(r) for r in cases]
     if args.json:
-        print_json({"cases": summary})
+        print_json({"cases": rows})
     else:
-        print_stability(summary)
+        print_stability(rows)
     return 0
-
-
-def _world_if_parallel():
-    """mpi4py's COMM_WORLD under mpirun with more than one rank, else None (serial)."""
-    if int(os.environ.get("OMPI_COMM_WORLD_SIZE", os.environ.get("PMI_SIZE", "1"))) <= 1:
-        return None
-    from mpi4py import MPI
-
-    return MPI.COMM_WORLD
-
-
-def _stability_summary(res) -> dict:
-    i = res.critical()
-    return {
-        "angles_deg": res.angles_deg,
-        "verdict": res.verdict(),
-        "max_growth_rate": float(res.growth_rate[i]),
-        "nodal_diameter": int(res.nodal_diameter[i]),
-        "frequency_hz": float(res.frequency_hz[i]),
-        "damping_ratio": float(res.damping_ratio[i]),
-        "mode": res.describe(i),
-        "contact_gap_per_tip": {kind: {"normal": float(res.contact_normal[i, c]),
-                                       "tangential": float(res.contact_tangential[i, c])}
-                                for c, kind in enumerate(res.kinds)},  # fmt: skip
-        "min_normal_force_n": {k: float(res.normal_force[c].min())
-                               for c, k in enumerate(res.kinds)},  # fmt: skip
-        "min_margin_m": {k: float(res.margin[c].min()) for c, k in enumerate(res.kinds)},
-        "unstable_nodal_diameters": sorted({int(k) for k, g in
-                                            zip(res.nodal_diameter, res.growth_rate, strict=True)
-                                            if g > 1e-6}),  # fmt: skip
-        "wall_s": res.wall_s,
-    }
 
 
 def cmd_contact_stiffness(args: argparse.Namespace) -> int:
@@ -415,6 +384,19 @@ def cmd_plot(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_info(args: argparse.Namespace) -> int:
+    """What a results or model file holds: format, configuration source, model size, and
+    per case the contact angles, status (failure reasons), windows done and wall time."""
+    from wheelrom.info import file_info
+
+    info = file_info(args.file)
+    if args.json:
+        print_json(info)
+    else:
+        print_info(info, show_all=args.all)
+    return 0
+
+
 COMMANDS: dict[
     str, tuple[Callable[[argparse.Namespace], int], str, Callable[[argparse.ArgumentParser], None]]
 ] = {
@@ -425,6 +407,7 @@ COMMANDS: dict[
     "sweep": (cmd_sweep, "contact-angle sweep under mpirun, parallel HDF5",
               cli_args.args_sweep),
     "plot": (cmd_plot, "figures from a results file", cli_args.args_plot),
+    "info": (cmd_info, "summary of a results or model file", cli_args.args_info),
     "bench": (cmd_bench, "speed of the transient hot path (one core)", cli_args.args_bench),
     "campbell": (cmd_campbell, "frequencies versus rotor speed (prestressed)",
                  cli_args.args_campbell),
@@ -465,7 +448,7 @@ def build_parser() -> argparse.ArgumentParser:
         p = sub.add_parser(name, help=help_text, description=func.__doc__)
         if name == "plot":
             p.add_argument("results", help="HDF5 file from sweep, run or modes --out")
-        else:
+        elif name != "info":  # info: a file, no configuration (cli_args.args_info)
             cli_args.add_config_args(p)
         extra(p)
         p.set_defaults(func=func)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from wheelrom.cli_output import LONG_LISTING
 from wheelrom.errors import InputError
 from wheelrom.outputs import check_output
 
@@ -134,6 +135,14 @@ def args_plot(p):
         help="shroud angles [deg] of the two ND-spectrum panels (default: most and least "
         "suppressed)",
     )
+
+
+def args_info(p):
+    p.add_argument("file", help="HDF5 file from sweep, run --out or modes --out")
+    json_out(p)
+    p.add_argument("--all", action="store_true",
+                   help=f"list every case (default: a sweep of more than {LONG_LISTING} cases "
+                   "lists the first and last few and the failed ones)")  # fmt: skip
 
 
 def add_config_args(p: argparse.ArgumentParser, required: bool = False) -> None:

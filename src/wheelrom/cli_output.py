@@ -4,6 +4,7 @@ under mpirun), progress on stderr."""
 from __future__ import annotations
 
 import json
+import math
 import os
 import sys
 
@@ -65,17 +66,231 @@ def print_modes(model, table, reference, assembled) -> None:
 
 
 def print_result(out: dict, as_json: bool) -> None:
-    """One JSON object on stdout, or ``key: value`` lines."""
+    """One JSON object on stdout (:func:`print_json`), or aligned ``key: value`` lines for
+    people (:func:`human_value`)."""
     if as_json:
         print_json(out)
-    else:
-        for key, value in out.items():
-            print(f"{key}: {value}")
+        return
+    width = max((len(str(k)) for k in out), default=0)
+    for key, value in out.items():
+        print_human(str(key), value, width)
+
+
+def print_human(key: str, value, width: int = 0, indent: str = "", unit: str = "") -> None:
+    """``key: value`` for people; a dict holding dicts or tables as indented lines."""
+    unit = unit_of(key) or unit
+    if isinstance(value, (list, tuple)) and any(isinstance(v, dict) for v in value):
+        print(f"{indent}{key}:")
+        for i, item in enumerate(value):
+            print(f"{indent}  [{i}] {human_value(item, unit)}")
+        return
+    if isinstance(value, dict) and any(_is_nested(v) for v in value.values()):
+        print(f"{indent}{key}:")
+        inner = max((len(str(k)) for k in value), default=0)
+        for k, v in value.items():
+            print_human(str(k), v, inner, indent + "  ", unit)
+        return
+    print(f"{indent}{key + ':':{width + 1}s} {human_value(value, unit)}")
+
+
+def _is_nested(value) -> bool:
+    """A dict, or a list holding lists or dicts (printed on lines of their own)."""
+    return isinstance(value, dict) or (
+        isinstance(value, (list, tuple)) and any(isinstance(v, (list, tuple, dict)) for v in value)
+    )
+
+
+#: units of keys whose names do not carry them
+KEY_UNITS = {"max_tip_amplitude": "m", "min_normal_force": "N"}
+#: unit from how a key ends (checked in order)
+SUFFIX_UNITS = (("gmadd_per_s", "Gmadd/s"), ("_per_s", "/s"), ("_n_per_m", "N/m"),
+                ("_m_per_n", "m/N"), ("_hz", "Hz"), ("_deg", "deg"), ("_s", "s"), ("_m", "m"),
+                ("_n", "N"), ("_j", "J"))  # fmt: skip
+
+
+def unit_of(key: str) -> str:
+    """The unit a key names (``wall_s`` -> s, ``us_per_rhs`` -> us, ``segment_hz`` -> Hz),
+    "" when it names none."""
+    base = key.lower().removesuffix("_in_batch")
+    if base in KEY_UNITS:
+        return KEY_UNITS[base]
+    if base.startswith("us_per_") or "_us_per_" in base:
+        return "us"
+    return next((unit for end, unit in SUFFIX_UNITS if base.endswith(end)), "")
+
+
+def human_number(x) -> str:
+    """An int as is, a float to 4 significant digits (``0.020000000000000788`` -> 0.02)."""
+    if isinstance(x, bool):
+        return "yes" if x else "no"
+    if isinstance(x, int):
+        return str(x)
+    x = float(x)
+    if math.isnan(x):
+        return "NaN"
+    if math.isinf(x):
+        return "inf" if x > 0 else "-inf"
+    return f"{x:.4g}"
+
+
+def human_value(value, unit: str = "", max_items: int = 8) -> str:
+    """One value on one line: numbers with ``unit``, None as ``n/a``, dicts as ``name value``
+    pairs, lists compact (a long one as its first and last values and its length)."""
+    if hasattr(value, "tolist") and not isinstance(value, (str, bytes)):
+        value = value.tolist()  # numpy arrays and scalars
+    if value is None:
+        return "n/a"
+    if isinstance(value, str):
+        return value
+    if isinstance(value, dict):
+        return ", ".join(f"{k} {human_value(v, unit_of(str(k)) or unit)}"
+                         for k, v in value.items()) or "-"  # fmt: skip
+    if isinstance(value, (list, tuple)):
+        if not value:
+            return "-"
+        if any(isinstance(v, (list, tuple)) for v in value):
+            return f"table of {len(value)} rows (--json for the values)"
+        shown = [human_value(v) for v in value]
+        count = f" ({len(shown)} values)" if len(shown) > max_items else ""
+        if count:
+            shown = [*shown[:3], "...", shown[-1]]
+        return ", ".join(shown) + (f" {unit}" if unit else "") + count
+    try:
+        text = human_number(value)
+    except (TypeError, ValueError):
+        return str(value)
+    finite = unit and text not in ("NaN", "inf", "-inf")
+    return f"{text} {unit}" if finite else text
+
+
+#: why a value of this key may be non-finite (the JSON says so next to its null)
+NULL_REASONS = {
+    **dict.fromkeys(("max_tip_amplitude", "min_normal_force", "open_fraction"),
+                    "no output sample in the last window, or a non-finite state (see status)"),
+    "energy_balance_error": "no energy balance (energy or work not finite in the last window)",
+    "relative_error_by_nd": "no full-wheel reference value",
+}  # fmt: skip
 
 
 def print_json(obj: object) -> None:
-    json.dump(obj, sys.stdout, indent=1, default=float)
+    """``obj`` as strict JSON on stdout: non-finite floats (also in numpy arrays) become null
+    and a top-level ``null_fields`` says, per key, which values were not finite and why."""
+    found: dict = {}
+    clean = jsonable(obj, "", found)
+    nulls = {path: null_reason(path, seen) for path, seen in found.items()
+             if seen["NaN"] or seen["inf"] or seen["-inf"]}  # fmt: skip
+    if nulls and isinstance(clean, dict):
+        clean["null_fields"] = nulls
+    json.dump(clean, sys.stdout, indent=1, allow_nan=False)
     sys.stdout.write("\n")
+
+
+def jsonable(value, path: str, found: dict):
+    """``value`` with JSON types only (numpy arrays and scalars converted, tuples as lists,
+    non-finite floats as None). ``found[path]`` counts what was replaced under each key path
+    (``a.b``, ``a[3].b`` for dicts in lists): ``{"NaN": n, "inf": n, "-inf": n, "values":
+    numbers seen, "list": inside a list}``."""
+    if hasattr(value, "tolist") and not isinstance(value, (str, bytes)):
+        value = value.tolist()
+    if isinstance(value, dict):
+        return {str(k): jsonable(v, f"{path}.{k}" if path else str(k), found)
+                for k, v in value.items()}  # fmt: skip
+    if isinstance(value, (list, tuple)):
+        out = [jsonable(v, f"{path}[{i}]" if isinstance(v, dict) else path, found)
+               for i, v in enumerate(value)]  # fmt: skip
+        if path in found:
+            found[path]["list"] = True
+        return out
+    if value is None or isinstance(value, (str, bool, int)):
+        return value
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        return str(value)
+    seen = found.setdefault(path, {"NaN": 0, "inf": 0, "-inf": 0, "values": 0, "list": False})
+    seen["values"] += 1
+    if math.isfinite(x):
+        return x
+    seen["NaN" if math.isnan(x) else "inf" if x > 0 else "-inf"] += 1
+    return None
+
+
+def null_reason(path: str, seen: dict) -> str:
+    """Why the value(s) at ``path`` are null (:data:`NULL_REASONS` by key, else generic)."""
+    keys = [part.partition("[")[0] for part in path.split(".")]
+    known = next((NULL_REASONS[k] for k in reversed(keys) if k in NULL_REASONS), None)
+    kinds = [k for k in ("NaN", "inf", "-inf") if seen[k]]
+    label = "/".join(kinds)
+    if seen["list"]:
+        bad = sum(seen[k] for k in kinds)
+        what = f"{bad} of {seen['values']} values {label}"
+        return f"{what}: {known}" if known else f"{what} (not finite)"
+    if known:
+        return f"{label}: {known}"
+    return "not finite (NaN)" if label == "NaN" else f"infinite ({label})"
+
+
+LONG_LISTING = 40  # cases above which `info` lists only the ends and the failed ones
+ENDS_SHOWN = 5
+
+
+def print_info(info: dict, show_all: bool = False) -> None:
+    """``wheelrom info`` for people: a header, then one line per case (a long sweep: the
+    first and last few and every failed one, unless ``show_all``)."""
+    model = info.get("model") or {}
+    if info["kind"] == "model":
+        print(f"{info['file']}: reduced model (modes --out)")
+    else:
+        n = info["counts"]["total"]
+        print(f"{info['file']}: {info['format']} results, {n} case{'s' * (n != 1)}")
+    source = info.get("config_source") or "not recorded (the configuration is in attribute config)"
+    print(f"  config source: {source}")
+    if model:
+        where = ", ".join(x for x in (model.get("preset") and f"{model['preset']} segment",
+                                      model.get("segment_dofs") and f"{model['segment_dofs']} DOFs")
+                          if x)  # fmt: skip
+        print(f"  model:         {model['blades']} blades x {model['modes']} modes"
+              + (f" ({where})" if where else ""))  # fmt: skip
+        print(f"  segment modes: {human_value(model['segment_hz'], 'Hz')}")
+        if model.get("nodal_diameters"):
+            print(f"  wheel modes:   ND 0..{model['nodal_diameters'] - 1} x {model['modes']} "
+                  "families (frequencies_by_nd)")  # fmt: skip
+        for name, what in model.get("extras", {}).items():
+            print(f"  also:          {name}: {what}")
+    if info["kind"] != "results":
+        return
+    window = human_value(info["window_s"], "s")
+    print(f"  time:          end {human_value(info['time_end_s'], 's')}, window {window} "
+          f"({info['windows']} windows)")  # fmt: skip
+    c = info["counts"]
+    print(f"  cases:         {c['done']} done, {c['failed']} failed, {c['pending']} pending; "
+          f"total wall time {human_value(info['total_wall_s'], 's')} (sum over cases)")  # fmt: skip
+    _print_cases(info["cases"], info["windows"], show_all)
+    if info.get("hint"):
+        print(info["hint"])
+
+
+def _print_cases(rows: list[dict], windows: int, show_all: bool) -> None:
+    """The case table of :func:`print_info`; gaps in a shortened one say how many are left."""
+    shown = set(range(len(rows)))
+    if len(rows) > LONG_LISTING and not show_all:
+        ends = [*range(ENDS_SHOWN), *range(len(rows) - ENDS_SHOWN, len(rows))]
+        shown = {*ends, *(r["index"] for r in rows if r["status"] == "failed")}
+    print(f"{'case':>5s} {'tie-boss':>8s} {'shroud':>7s}  {'status':8s} {'windows':>7s} "
+          f"{'wall [s]':>9s}  TS")  # fmt: skip
+    hidden = 0
+    for row in rows:
+        if row["index"] not in shown:
+            hidden += 1
+            continue
+        if hidden:
+            print(f"  ... {hidden} case(s) not shown (--all lists every case)")
+            hidden = 0
+        wall = "-" if row["wall_s"] is None else f"{row['wall_s']:.4g}"
+        reason = f"  {row['reason']}" if row["reason"] else ""
+        print(f"{row['index']:5d} {row['tieboss_deg']:8g} {row['shroud_deg']:7g}  "
+              f"{row['status']:8s} {str(row['windows_done']) + '/' + str(windows):>7s} "
+              f"{wall:>9s}  {row['scheme']}{reason}")  # fmt: skip
 
 
 def print_stability(cases: list[dict]) -> None:

@@ -68,6 +68,7 @@ def write_model_file(f, cfg: Config, model: ReducedModel, extra: dict | None = N
     """A model file (``modes --out``): the configuration, ``/model`` and ``extra`` datasets
     (path under ``/model`` -> array)."""
     f.attrs["config"] = config_mod.to_toml(cfg)
+    f.attrs["config_source"] = cfg.source
     write_model(f.create_group("model"), model)
     for name, value in (extra or {}).items():
         f[f"model/{name}"] = value

@@ -9,6 +9,7 @@ not depend on the number of ranks.
 
 from __future__ import annotations
 
+import os
 import time
 
 from wheelrom import results
@@ -50,3 +51,36 @@ def run_stability(cfg: Config, comm=None, log=print) -> tuple[object, list[Stabi
 
 def _case_label(row) -> str:
     return f"tie-boss {row[0]:g} deg, shroud {row[1]:g} deg"
+
+
+def world_if_parallel():
+    """mpi4py's COMM_WORLD under mpirun with more than one rank, else None (serial)."""
+    if int(os.environ.get("OMPI_COMM_WORLD_SIZE", os.environ.get("PMI_SIZE", "1"))) <= 1:
+        return None
+    from mpi4py import MPI
+
+    return MPI.COMM_WORLD
+
+
+def summary(res: StabilityResult) -> dict:
+    """The case's verdict and fastest mode as plain data (``stability --json``)."""
+    i = res.critical()
+    return {
+        "angles_deg": res.angles_deg,
+        "verdict": res.verdict(),
+        "max_growth_rate": float(res.growth_rate[i]),
+        "nodal_diameter": int(res.nodal_diameter[i]),
+        "frequency_hz": float(res.frequency_hz[i]),
+        "damping_ratio": float(res.damping_ratio[i]),
+        "mode": res.describe(i),
+        "contact_gap_per_tip": {kind: {"normal": float(res.contact_normal[i, c]),
+                                       "tangential": float(res.contact_tangential[i, c])}
+                                for c, kind in enumerate(res.kinds)},  # fmt: skip
+        "min_normal_force_n": {k: float(res.normal_force[c].min())
+                               for c, k in enumerate(res.kinds)},  # fmt: skip
+        "min_margin_m": {k: float(res.margin[c].min()) for c, k in enumerate(res.kinds)},
+        "unstable_nodal_diameters": sorted({int(k) for k, g in
+                                            zip(res.nodal_diameter, res.growth_rate, strict=True)
+                                            if g > 1e-6}),  # fmt: skip
+        "wall_s": res.wall_s,
+    }

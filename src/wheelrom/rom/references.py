@@ -67,15 +67,39 @@ def cyclic_modes(
     return np.sqrt(np.maximum(lam, 0.0)) / (2 * np.pi)
 
 
+def time_left(seconds: float) -> str:
+    """``about 40 s left`` / ``about 5.5 min left``."""
+    if seconds < 1:
+        return "less than 1 s left"
+    if seconds < 120:
+        return f"about {seconds:.0f} s left"
+    return f"about {seconds / 60:.1f} min left"
+
+
+def phase_weight(k: int, sectors: int) -> float:
+    """Relative cost of the sector eigenproblem of phase ``k``: 0.5 for the real phases
+    (ND 0 and N/2, ``n`` DOFs), 1 for the complex ones (``2 n``: the pairs cost about twice)."""
+    return 0.5 if 2 * k in (0, sectors) else 1.0
+
+
 def cyclic_table(seg, mats, c1: float, nev: int, comm, log=None) -> np.ndarray:
-    """``(N // 2 + 1, nev)`` frequencies [Hz] per nodal diameter by (b)."""
+    """``(N // 2 + 1, nev)`` frequencies [Hz] per nodal diameter by (b).
+
+    ``log``: called after every ND with the elapsed time, the count done and the time left,
+    estimated from the time per phase so far (ND 0 and N/2 are real problems of half the
+    size: counted as half a phase)."""
     parts = spring_parts(seg, mats, c1)
+    count = seg.sectors // 2 + 1
+    weight = [phase_weight(k, seg.sectors) for k in range(count)]
     out = []
     t0 = time.perf_counter()
-    for k in range(seg.sectors // 2 + 1):
+    for k in range(count):
         out.append(cyclic_modes(seg, mats, c1, k, nev, comm, parts))
         if log:
-            log(f"cyclic FE: ND {k} done ({time.perf_counter() - t0:.1f} s)")
+            elapsed = time.perf_counter() - t0
+            left = sum(weight[k + 1 :]) * elapsed / sum(weight[: k + 1])
+            eta = f", {time_left(left)}" if k + 1 < count else ""
+            log(f"cyclic FE: ND {k} done ({elapsed:.1f} s), {k + 1} of {count}{eta}")
     return np.array(out)
 
 

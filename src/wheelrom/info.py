@@ -1,0 +1,213 @@
+"""What a wheelrom HDF5 file holds (``wheelrom info FILE``): format, configuration source,
+model size, and per case the contact angles, status, windows done and wall time.
+
+Works on sweep files and ``run --out`` files (docs/output.md, format ``wheelrom-sweep-1``)
+and on ``modes --out`` model files (``/model`` and the configuration only). Returns plain
+Python values (no NaN: a value that is not there is ``None``), ready for JSON.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tomllib
+
+import numpy as np
+
+from wheelrom.errors import InputError
+from wheelrom.results import FORMAT, statuses
+
+#: model datasets beyond the sweep's, with what they are (``modes --out``)
+MODEL_EXTRAS = {
+    "wheel_hz": "all wheel frequencies with their ND",
+    "full_wheel_hz": "exact cyclic-symmetry FE frequencies per ND (--full-wheel)",
+    "assembled_wheel_hz": "assembled full-wheel FE frequencies (--full-wheel assembled)",
+}
+
+
+def file_info(path: str) -> dict:
+    """Summary of the wheelrom file at ``path``.
+
+    Returns ``{"file", "kind": "results" | "model", "format", "config_source", "model": {...},
+    ...}``; a results file adds its time grid (``time_end_s``, ``window_s``, ``windows``),
+    ``counts`` (done/failed/pending/total), ``total_wall_s``, ``cases`` (one dict per case,
+    see :func:`case_rows`) and ``hint`` (what to do about pending cases, or None). Raises
+    :class:`InputError` naming the file when it is missing or not a wheelrom file.
+    """
+    import h5py
+
+    if not os.path.exists(path):
+        raise InputError(f"{path}: no such file")
+    try:
+        # no lock: a sweep still running holds the file open for writing; what it has
+        # flushed (every finished round) is readable
+        f = h5py.File(path, "r", locking=False)
+    except OSError as exc:
+        what = "not an HDF5 file" if "signature" in str(exc) else "cannot be read as HDF5"
+        raise InputError(f"{path}: {what}, not a wheelrom results or model file ({exc})") \
+            from None  # fmt: skip
+    with f:
+        fmt = f.attrs.get("format")
+        if fmt == FORMAT and "cases" in f:
+            return _results_info(f, path)
+        if fmt is None and "model" in f and "config" in f.attrs:
+            return _model_file_info(f, path)
+        found = f"format {fmt!r}" if fmt is not None else "no 'format' attribute"
+        raise InputError(f"{path}: not a wheelrom results or model file ({found}; "
+                         f"expected {FORMAT!r} or a modes --out model)")  # fmt: skip
+
+
+def _text(value) -> str | None:
+    """An HDF5 string attribute as ``str`` (h5py gives ``str`` or ``bytes``)."""
+    if value is None:
+        return None
+    return value.decode() if isinstance(value, bytes) else str(value)
+
+
+def _configured_time(f) -> dict:
+    """``time.end`` and ``time.window`` [s] of the configuration stored in the file."""
+    try:
+        section = tomllib.loads(_text(f.attrs["config"])).get("time", {})
+    except (KeyError, tomllib.TOMLDecodeError):
+        return {}
+    return {k: float(section[k]) for k in ("end", "window") if k in section}
+
+
+def model_summary(group) -> dict:
+    """The reduced model of a ``/model`` group: ``blades``, ``modes``, ``segment_hz``
+    (m,) [Hz], ``nodal_diameters`` (rows of ``frequencies_by_nd``), ``preset``,
+    ``segment_dofs`` and the extra datasets present (``extras``: name -> meaning)."""
+    info = {}
+    try:
+        info = json.loads(_text(group.attrs.get("info")) or "{}")
+    except ValueError:
+        pass
+    extras = {name: what for name, what in MODEL_EXTRAS.items() if name in group}
+    fe_stiffness = [k for k in group.get("contacts", {}) if f"contacts/{k}/stiffness" in group]
+    if fe_stiffness:
+        extras["contacts/*/stiffness"] = "FE contact stiffness k_c(beta) of " + \
+            ", ".join(fe_stiffness)  # fmt: skip
+    segment_hz = group["segment_hz"][()] if "segment_hz" in group else np.zeros(0)
+    by_nd = group.get("frequencies_by_nd")
+    nodal_diameters = int(by_nd.shape[0]) if by_nd is not None else None
+    return {
+        "blades": int(group.attrs["blades"]) if "blades" in group.attrs else None,
+        "modes": int(group.attrs["modes"]) if "modes" in group.attrs else None,
+        "segment_hz": [float(x) for x in segment_hz],
+        "nodal_diameters": nodal_diameters,
+        "preset": info.get("preset"),
+        "segment_dofs": info.get("segment_dofs"),
+        "extras": extras,
+    }
+
+
+def _model_file_info(f, path: str) -> dict:
+    return {
+        "file": path,
+        "kind": "model",
+        "format": None,
+        "config_source": _text(f.attrs.get("config_source")),
+        "model": model_summary(f["model"]),
+    }
+
+
+def ts_scheme(options: dict) -> str:
+    """Short TS description from a case's options, e.g. ``rk/3bs dt=5e-06``
+    (``adapt=basic`` when adaptive, other ``ts_*`` options as ``name=value``)."""
+    if not options:
+        return "-"
+    rest = dict(options)
+    scheme = "/".join(str(rest.pop(k)) for k in ("ts_type", "ts_rk_type") if k in rest)
+    parts = [scheme] if scheme else []
+    if "ts_dt" in rest:
+        parts.append(f"dt={rest.pop('ts_dt'):g}" if isinstance(rest["ts_dt"], float)
+                     else f"dt={rest.pop('ts_dt')}")  # fmt: skip
+    adapt = rest.pop("ts_adapt_type", "none")
+    if adapt != "none":
+        parts.append(f"adapt={adapt}")
+    parts += [f"{k.removeprefix('ts_')}={v}" for k, v in rest.items()]
+    return " ".join(parts)
+
+
+def _options(raw: bytes) -> dict | str:
+    """A case's ``/cases/options`` entry: the JSON dict, or the raw text if it is not JSON
+    (the field is cut at 256 bytes)."""
+    text = raw.decode(errors="replace").rstrip("\x00")
+    if not text:
+        return {}
+    try:
+        return json.loads(text)
+    except ValueError:
+        return text
+
+
+def case_rows(cases) -> list[dict]:
+    """One dict per case of a ``/cases`` group: ``index``, ``tieboss_deg``, ``shroud_deg``,
+    ``status`` (``done``/``failed``/``pending``), ``reason`` (of a failure, else None),
+    ``windows_done``, ``steps``, ``batch``, ``wall_s`` [s] (None if not run), ``options``
+    and ``scheme`` (:func:`ts_scheme`)."""
+    angles = cases["angles_deg"][()]
+    wall = cases["wall_s"][()]
+    windows, steps = cases["windows_done"][()], cases["steps"][()]
+    batch = cases["batch"][()] if "batch" in cases else np.ones_like(steps)
+    rows = []
+    for i, status in enumerate(statuses(cases.file)):
+        state, _, reason = status.partition(": ")
+        state = state.strip() or "pending"  # a layout killed before the statuses were set
+        options = _options(cases["options"][i])
+        rows.append({
+            "index": i,
+            "tieboss_deg": float(angles[i, 0]),
+            "shroud_deg": float(angles[i, 1]),
+            "status": state,
+            "reason": reason or None,
+            "windows_done": int(windows[i]),
+            "steps": int(steps[i]),
+            "batch": int(batch[i]),
+            "wall_s": float(wall[i]) if np.isfinite(wall[i]) else None,
+            "options": options,
+            "scheme": ts_scheme(options) if isinstance(options, dict) else options,
+        })  # fmt: skip
+    return rows
+
+
+def resume_hint(path: str, source: str | None, counts: dict) -> str | None:
+    """What to do about the pending and failed cases of a file (None: all done)."""
+    failed = (f"{counts['failed']} case(s) failed (see their reasons); --resume does not rerun "
+              "them") if counts["failed"] else None  # fmt: skip
+    if not counts["pending"]:
+        return failed
+    what = f"{counts['pending']} case(s) pending: rerun the sweep with --resume"
+    if source == "<built-in default>":
+        what += f": wheelrom sweep --out {path} --resume"
+    elif source and " + --set " not in source and not source.startswith("<"):
+        what += f": wheelrom sweep {source} --out {path} --resume"
+    else:
+        what += f" and the same configuration ({source or 'the file attribute config'})"
+    return what + (f"; {failed}" if failed else "")
+
+
+def _results_info(f, path: str) -> dict:
+    cases = f["cases"]
+    rows = case_rows(cases)
+    counts = {state: sum(r["status"] == state for r in rows)
+              for state in ("done", "failed", "pending")}  # fmt: skip
+    counts["total"] = len(rows)
+    window_end = cases["window_end"][()]
+    configured = _configured_time(f)
+    walls = [r["wall_s"] for r in rows if r["wall_s"] is not None]
+    source = _text(f.attrs.get("config_source"))
+    return {
+        "file": path,
+        "kind": "results",
+        "format": _text(f.attrs["format"]),
+        "config_source": source,
+        "model": model_summary(f["model"]) if "model" in f else None,
+        "time_end_s": float(window_end[-1]) if window_end.size else configured.get("end"),
+        "window_s": configured.get("window"),
+        "windows": int(window_end.size),
+        "counts": counts,
+        "total_wall_s": float(sum(walls)),
+        "cases": rows,
+        "hint": resume_hint(path, source, counts),
+    }

@@ -1,0 +1,180 @@
+"""`wheelrom info FILE`: what a sweep, run --out or modes --out file holds; pending and failed
+cases counted with their reasons; foreign files refused with one line naming them."""
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+
+import h5py
+import numpy as np
+import pytest
+
+from conftest import SMALL
+from wheelrom import cli
+from wheelrom.cli_output import LONG_LISTING, print_info
+from wheelrom.info import file_info, resume_hint, ts_scheme
+
+END = ["--set", "time.end=0.001"]  # two windows of 0.5 ms: a short sweep
+ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+           OMPI_MCA_rmaps_base_oversubscribe="1")  # fmt: skip
+
+
+def no_constants(name):
+    raise AssertionError(f"bare {name} in JSON output")
+
+
+def info_json(capsys, path) -> dict:
+    assert cli.main(["info", str(path), "--json"]) == 0
+    return json.loads(capsys.readouterr().out, parse_constant=no_constants)
+
+
+@pytest.fixture(scope="module")
+def sweep_file(tmp_path_factory):
+    """The 3-case small sweep (45 deg tie-boss; shroud 20, 50, 80 deg), 2 windows."""
+    path = tmp_path_factory.mktemp("info") / "sweep.h5"
+    subprocess.run([sys.executable, "-m", "wheelrom.cli", "sweep", SMALL, *END, "--out",
+                    str(path)], env=ENV, check=True, capture_output=True, timeout=600)  # fmt: skip
+    return path
+
+
+def test_info_json_of_a_sweep_lists_its_cases(sweep_file, capsys):
+    info = info_json(capsys, sweep_file)
+    with h5py.File(sweep_file, "r") as f:
+        windows_done = f["cases/windows_done"][()].tolist()
+        wall = f["cases/wall_s"][()]
+        source = f.attrs["config_source"]
+    assert info["kind"] == "results" and info["format"] == "wheelrom-sweep-1"
+    assert info["config_source"] == source and source.startswith(SMALL)
+    assert info["counts"] == {"done": 3, "failed": 0, "pending": 0, "total": 3}
+    assert [(c["tieboss_deg"], c["shroud_deg"]) for c in info["cases"]] == [
+        (45.0, 20.0), (45.0, 50.0), (45.0, 80.0)]  # fmt: skip
+    assert [c["status"] for c in info["cases"]] == ["done"] * 3
+    assert [c["windows_done"] for c in info["cases"]] == windows_done == [2, 2, 2]
+    assert info["windows"] == 2 and info["time_end_s"] == pytest.approx(0.001)
+    assert info["window_s"] == 0.0005
+    assert info["total_wall_s"] == pytest.approx(wall.sum())
+    assert {c["scheme"] for c in info["cases"]} == {"rk/3bs dt=5e-06"}
+    assert info["model"]["blades"] == 12 and info["model"]["modes"] == 6
+    assert len(info["model"]["segment_hz"]) == 6 and info["hint"] is None
+
+
+def test_info_human_output_has_a_header_and_a_line_per_case(sweep_file, capsys):
+    assert cli.main(["info", str(sweep_file)]) == 0
+    out = capsys.readouterr().out
+    assert "wheelrom-sweep-1 results, 3 cases" in out
+    assert f"config source: {SMALL}" in out
+    assert "12 blades x 6 modes" in out and "end 0.001 s, window 0.0005 s (2 windows)" in out
+    assert "3 done, 0 failed, 0 pending" in out
+    rows = [line.split() for line in out.splitlines() if line.split()[:1] in (["0"], ["1"],
+                                                                               ["2"])]  # fmt: skip
+    assert [r[:5] for r in rows] == [["0", "45", "20", "done", "2/2"], ["1", "45", "50", "done",
+                                     "2/2"], ["2", "45", "80", "done", "2/2"]]  # fmt: skip
+    assert all(r[-2:] == ["rk/3bs", "dt=5e-06"] for r in rows)
+    assert "{" not in out and "None" not in out
+
+
+def test_pending_and_failed_cases_are_counted_with_reasons(sweep_file, tmp_path, capsys):
+    path = tmp_path / "partial.h5"
+    shutil.copy(sweep_file, path)
+    with h5py.File(path, "r+") as f:
+        f["cases/status"][0] = b"failed: diverged at t = 0.0004 s (amplitude 2 m)"
+        f["cases/status"][2] = b"pending"
+        f["cases/windows_done"][2] = 0
+        f["cases/wall_s"][2] = np.nan
+    info = info_json(capsys, path)
+    assert info["counts"] == {"done": 1, "failed": 1, "pending": 1, "total": 3}
+    failed, pending = info["cases"][0], info["cases"][2]
+    assert failed["status"] == "failed"
+    assert failed["reason"] == "diverged at t = 0.0004 s (amplitude 2 m)"
+    assert pending["status"] == "pending" and pending["wall_s"] is None
+    # the sweep was configured with --set: the hint names the configuration to use again
+    assert "1 case(s) pending: rerun the sweep with --resume" in info["hint"]
+    assert info["config_source"] in info["hint"] and "1 case(s) failed" in info["hint"]
+    assert cli.main(["info", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "1 done, 1 failed, 1 pending" in out and "rerun the sweep with --resume" in out
+    assert "diverged at t = 0.0004 s" in out
+
+
+def test_a_long_sweep_lists_its_ends_and_failed_cases(sweep_file, capsys):
+    info = file_info(str(sweep_file))
+    count = LONG_LISTING + 20
+    info["cases"] = [dict(info["cases"][0], index=i, shroud_deg=float(i)) for i in range(count)]
+    info["cases"][30] |= {"status": "failed", "reason": "TS diverged"}
+    info["counts"] = {"done": count - 1, "failed": 1, "pending": 0, "total": count}
+    print_info(info)
+    out = capsys.readouterr().out.splitlines()
+    listed = [int(line.split()[0]) for line in out if line.split()[0].isdigit()]
+    assert listed == [0, 1, 2, 3, 4, 30, count - 5, count - 4, count - 3, count - 2, count - 1]
+    assert any("25 case(s) not shown (--all" in line for line in out)
+    assert any(line.split()[:2] == ["30", "45"] and "TS diverged" in line for line in out)
+    print_info(info, show_all=True)
+    listed = [line for line in capsys.readouterr().out.splitlines() if line.split()[0].isdigit()]
+    assert len(listed) == count
+
+
+def test_info_of_a_run_out_file(tmp_path, capsys, small_cfg):
+    path = tmp_path / "run.h5"
+    assert cli.main(["run", SMALL, *END, "--json", "--out", str(path)]) == 0
+    capsys.readouterr()
+    info = info_json(capsys, path)
+    assert info["counts"] == {"done": 1, "failed": 0, "pending": 0, "total": 1}
+    (case,) = info["cases"]
+    assert case["tieboss_deg"] == small_cfg.contacts.tieboss.angle_deg
+    assert case["shroud_deg"] == small_cfg.contacts.shroud.angle_deg
+    assert case["windows_done"] == info["windows"] == 2 and case["batch"] == 1
+
+
+def test_info_of_a_model_file_says_what_it_holds(tmp_path, capsys):
+    path = tmp_path / "model.h5"
+    assert cli.main(["modes", SMALL, "--json", "--out", str(path)]) == 0
+    hz = json.loads(capsys.readouterr().out)["segment_hz"]
+    info = info_json(capsys, path)
+    assert info["kind"] == "model" and "cases" not in info
+    model = info["model"]
+    assert model["blades"] == 12 and model["modes"] == 6 and model["nodal_diameters"] == 7
+    np.testing.assert_allclose(model["segment_hz"], hz, rtol=1e-12)
+    assert "wheel_hz" in model["extras"] and "full_wheel_hz" not in model["extras"]
+    assert cli.main(["info", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "reduced model (modes --out)" in out and "12 blades x 6 modes" in out
+    assert f"{hz[0]:.4g}" in out and "ND 0..6 x 6 families" in out
+
+
+@pytest.mark.parametrize("kind", ["missing", "text", "foreign_hdf5"])
+def test_a_file_not_made_by_wheelrom_is_one_line_exit_2(kind, tmp_path, capsys):
+    path = tmp_path / f"{kind}.h5"
+    if kind == "text":
+        path.write_text("not HDF5\n")
+    elif kind == "foreign_hdf5":
+        with h5py.File(path, "w") as f:
+            f["x"] = np.arange(3)
+    assert cli.main(["info", str(path), "--json"]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    lines = captured.err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"wheelrom: {path}: ")
+    expected = {"missing": "no such file", "text": "not an HDF5 file",
+                "foreign_hdf5": "not a wheelrom results or model file"}  # fmt: skip
+    assert expected[kind] in lines[0]
+
+
+def test_ts_scheme_names_the_method_step_and_adaptor():
+    assert ts_scheme({"ts_type": "rk", "ts_rk_type": "3bs", "ts_dt": 5e-06,
+                      "ts_adapt_type": "none"}) == "rk/3bs dt=5e-06"  # fmt: skip
+    assert ts_scheme({"ts_type": "rk", "ts_rk_type": "5dp", "ts_dt": 1e-05,
+                      "ts_adapt_type": "basic", "ts_rtol": "1e-6"}) == \
+        "rk/5dp dt=1e-05 adapt=basic rtol=1e-6"  # fmt: skip
+    assert ts_scheme({}) == "-"
+
+
+def test_resume_hint_gives_the_command_for_a_plain_configuration():
+    counts = {"done": 1, "failed": 0, "pending": 2, "total": 3}
+    assert resume_hint("s.h5", "run/paper.toml", counts) == (
+        "2 case(s) pending: rerun the sweep with --resume: "
+        "wheelrom sweep run/paper.toml --out s.h5 --resume")
+    assert resume_hint("s.h5", "<built-in default>", counts).endswith(
+        "wheelrom sweep --out s.h5 --resume")
+    assert resume_hint("s.h5", "a.toml", dict(counts, pending=0)) is None
