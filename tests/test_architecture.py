@@ -18,6 +18,7 @@ STAGES = (
     ("wheelrom.forces", 3), ("wheelrom.transient", 4), ("wheelrom.results", 5),
     ("wheelrom.info", 5), ("wheelrom.sweep", 6), ("wheelrom.stability_study", 6),
     ("wheelrom.bench", 7), ("wheelrom.plots", 7), ("wheelrom.plots_stability", 7),
+    ("wheelrom.plot_helpers", 7),
     ("wheelrom.cli_args", 8), ("wheelrom.cli_output", 8), ("wheelrom.cli", 8), ("wheelrom", 0),
 )  # fmt: skip
 

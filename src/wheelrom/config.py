@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import difflib
+import math
 import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields
@@ -373,7 +374,7 @@ def _cross_checks(cfg: Config, problems: list[str]) -> None:
         problems.append(
             f"friction.dynamic: must not exceed friction.static ({fr.dynamic} > {fr.static})"
         )
-    if all(is_number(v) for v in (t.step, t.window, t.end)):
+    if all(is_number(v) and math.isfinite(v) for v in (t.step, t.window, t.end)):
         if t.step > t.window:
             problems.append(f"time.step: larger than time.window ({t.step} > {t.window} s)")
         rate = cfg.output.sample_rate_hz

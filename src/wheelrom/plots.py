@@ -14,24 +14,12 @@ import numpy as np
 from wheelrom.config import CONTACT_KINDS
 from wheelrom.errors import InputError
 from wheelrom.forces.parameters import stiffness_at
+from wheelrom.plot_helpers import cell_edges as _cell_edges
+from wheelrom.plot_helpers import need as _need
+from wheelrom.plot_helpers import save as _save
 from wheelrom.results import read_config
 
 FONT = {"font.size": 11, "axes.titlesize": 12, "axes.labelsize": 11, "figure.dpi": 110}
-
-
-def _need(f, name: str, path: str):
-    if name not in f:
-        raise InputError(f"{path}: dataset '{name}' is missing; cannot draw this figure")
-    return f[name][()]
-
-
-def _save(fig, outdir: str, name: str, pdf: bool, written: list[str]) -> None:
-    png = os.path.join(outdir, f"{name}.png")
-    fig.savefig(png, bbox_inches="tight")
-    written.append(png)
-    if pdf:
-        fig.savefig(os.path.join(outdir, f"{name}.pdf"), bbox_inches="tight")
-        written.append(os.path.join(outdir, f"{name}.pdf"))
 
 
 def plot_file(path: str, outdir: str | None = None, pdf: bool = False,
@@ -162,17 +150,6 @@ def _fig05_contact_stiffness(f, cfg, plt):
     ax.legend()
     ax.grid(alpha=0.3, which="both")
     return fig
-
-
-def _cell_edges(centres: np.ndarray, half: float) -> np.ndarray:
-    """Cell edges ``(n + 1,)`` around sorted ``centres`` ``(n,)``: midpoints between
-    neighbours and mirrored outer edges (matplotlib's ``shading="nearest"``); a single centre
-    gets a cell ``half`` either side, so one case or one window still draws a visible cell."""
-    c = np.asarray(centres, dtype=float)
-    if c.size == 1:
-        return np.array([c[0] - half, c[0] + half])
-    mid = 0.5 * (c[1:] + c[:-1])
-    return np.concatenate([[c[0] - (mid[0] - c[0])], mid, [c[-1] + (c[-1] - mid[-1])]])
 
 
 class _Sweep:

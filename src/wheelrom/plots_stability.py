@@ -9,7 +9,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from wheelrom.plots import _cell_edges, _need, _save
+from wheelrom.plot_helpers import cell_edges as _cell_edges
+from wheelrom.plot_helpers import need as _need
+from wheelrom.plot_helpers import save as _save
 
 
 def stability_figures(f, path: str, outdir: str, pdf: bool, written: list[str], plt) -> None:
