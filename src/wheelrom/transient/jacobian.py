@@ -31,74 +31,75 @@ from wheelrom.forces.parameters import VDP_ABSOLUTE, VDP_RELATIVE, ForceParamete
 
 @dataclass
 class ContactLinearisation:
-    """Contact kind ``c``, blade pair ``(s, s+1)`` at the equilibrium.
+    """Contact kind ``c`` at the equilibrium, every blade pair ``(s, s+1)`` (``N`` of them).
 
-    ``gap_map``: ``(3, 2 m)`` d(local relative displacement xi, eta, zeta) / d(q_s, q_{s+1})
-    [m / (sqrt(kg) m)]; ``normal_force`` [N] (0: open); ``margin`` [m]: how far the normal
-    gap may still open before the contact lifts off (``F_n / k_c``; 0 when open);
-    ``stiffness``, ``damping``: ``(2 m, 2 m)`` rows (force on s, force on s+1), columns
-    (q_s, q_{s+1}) or (q'_s, q'_{s+1}) of ``F_q`` and ``F_v``.
+    ``gap_map``: ``(N, 3, 2 m)`` d(local relative displacement xi, eta, zeta) / d(q_s,
+    q_{s+1}) [m / (sqrt(kg) m)]; ``normal_force`` ``(N,)`` [N] (0: open); ``margin``
+    ``(N,)`` [m]: how far the normal gap may still open before the contact lifts off
+    (``F_n / k_c``; 0 when open); ``stiffness``, ``damping``: ``(N, 2 m, 2 m)`` rows (force on
+    s, force on s+1), columns (q_s, q_{s+1}) or (q'_s, q'_{s+1}) of ``F_q`` and ``F_v``.
     """
 
     gap_map: np.ndarray
-    normal_force: float
-    margin: float
+    normal_force: np.ndarray
+    margin: np.ndarray
     stiffness: np.ndarray
     damping: np.ndarray
 
 
-def contact_linearisation(params: ForceParameters, q: np.ndarray, c: int,
-                          s: int) -> ContactLinearisation:  # fmt: skip
-    """Linearise contact kind ``c`` of pair ``(s, s+1)`` at the static state ``q`` ``(N, m)``."""
+def contact_linearisation(params: ForceParameters, q: np.ndarray, c: int) -> ContactLinearisation:
+    """Linearise contact kind ``c`` of every blade pair at the static state ``q`` ``(N, m)``
+    (vectorised over the pairs; formulas in docs/theory.md, "Linear stability")."""
     cp, R = params.contacts, params.rotation
     N, m = q.shape
-    sn = (s + 1) % N
     XA, XB = cp.shape_A[c], cp.shape_B[c]  # (3, m)
     D = XB - XA
-    T = cp.frame[c, s]
-    n = T[1]  # surface normal eta in sector s's frame
-    L, k, preload = cp.arm_length[c], cp.stiffness[c, s], cp.preload[c]
+    T = cp.frame[c]  # (N, 3, 3)
+    n = T[:, 1]  # surface normal eta of each pair, sector s's frame
+    L, k, preload = cp.arm_length[c], cp.stiffness[c], cp.preload[c]
     f_s, v_k = params.friction[0], params.friction[3]
     chord0 = cp.point_B[c] - cp.point_A[c]
     e0 = chord0 / np.linalg.norm(chord0)
-    d = chord0 + D @ q[s]
-    nd = np.linalg.norm(d)
-    e = d / nd
-    P = np.eye(3) - np.outer(e, e)
-    uc = R @ (XA @ q[sn]) - XA @ q[s] - L * (e - e0)
-    gap = float(n @ uc)
-    normal_force = preload - k * gap
-    # d(d)/dy and d(e)/dy over y = (q_s, q_{s+1})
-    dd = np.hstack([D, np.zeros((3, m))])
-    de = P @ dd / nd
+    d = chord0 + q @ D.T  # (N, 3)
+    nd = np.linalg.norm(d, axis=1)[:, None, None]  # (N, 1, 1)
+    e = d / nd[:, :, 0]
+    P = np.eye(3) - e[:, :, None] * e[:, None, :]  # (N, 3, 3)
+    uc = np.roll(q, -1, axis=0) @ XA.T @ R.T - q @ XA.T - L * (e - e0)
+    normal_force = preload - k * np.einsum("ni,ni->n", n, uc)
+    # variations over y = (q_s, q_{s+1}): d(d)/dy, d(e)/dy, d(u_c)/dy
+    dd = np.hstack([D, np.zeros((3, m))])  # (3, 2m)
+    de = P @ dd / nd  # (N, 3, 2m)
     duc = np.hstack([-XA, R @ XA]) - L * de
     gap_map = T @ duc
-    stiffness = np.zeros((2 * m, 2 * m))
-    damping = np.zeros((2 * m, 2 * m))
-    if normal_force > 0.0:
-        F = normal_force * n  # the force on A_{s+1}, sector s's frame
-        dF = np.outer(n, -k * (n @ duc))
-        # the arm end's share moved onto B: F_B = -(L/|d|) P F, and its variation
-        d_inv = -(e @ dd) / nd**2
-        PF = P @ F
-        # d(P F) = -(de (e.F) + e (F^T de)) + P dF, d(1/|d|) = d_inv
-        dFB = -L * (np.outer(PF, d_inv) + (P @ dF - (e @ F) * de - np.outer(e, F @ de)) / nd)
-        stiffness = _transfer(XA, D, R, dF, dFB)
-        # micro-slip friction: a linear damper in the tangent plane
-        tangent = np.eye(3) - np.outer(n, n)
-        dvc = np.hstack([-XA - L * P @ D / nd, R @ XA])
-        dF_v = -(f_s * normal_force / v_k) * tangent @ dvc
-        damping = _transfer(XA, D, R, dF_v, -(L / nd) * P @ dF_v)
-    return ContactLinearisation(gap_map, float(max(normal_force, 0.0)),
-                                float(max(normal_force, 0.0) / k), stiffness, damping)  # fmt: skip
+    closed = normal_force > 0.0
+    F = normal_force[:, None] * n  # the force on A_{s+1}
+    dF = n[:, :, None] * (-k[:, None] * np.einsum("ni,nij->nj", n, duc))[:, None, :]
+    # the arm end's share moved onto B: F_B = -(L/|d|) P F; d(1/|d|) = d_inv,
+    # d(P F) = P dF - (e.F) de - e (F^T de)
+    d_inv = -(e @ dd) / nd[:, :, 0] ** 2  # (N, 2m)
+    eF = np.einsum("ni,ni->n", e, F)[:, None, None]
+    FdE = np.einsum("ni,nij->nj", F, de)[:, None, :]
+    dFB = -L * ((P @ F[:, :, None]) * d_inv[:, None, :]
+                + (P @ dF - eF * de - e[:, :, None] * FdE) / nd)  # fmt: skip
+    stiffness = _transfer(XA, D, R, dF, dFB)
+    # micro-slip friction at rest: a linear damper in the tangent plane
+    tangent = np.eye(3) - n[:, :, None] * n[:, None, :]
+    dvc = np.concatenate([-XA - L * P @ D / nd, np.broadcast_to(R @ XA, (N, 3, m))], axis=2)
+    dF_v = -(f_s * normal_force / v_k)[:, None, None] * (tangent @ dvc)
+    damping = _transfer(XA, D, R, dF_v, -(L / nd) * (P @ dF_v))
+    stiffness[~closed] = 0.0
+    damping[~closed] = 0.0
+    held = np.where(closed, normal_force, 0.0)
+    return ContactLinearisation(gap_map, held, held / k, stiffness, damping)
 
 
 def _transfer(XA, D, R, dF, dFB) -> np.ndarray:
-    """Generalised forces on (s, s+1) of a variation ``dF`` of the force on ``A_{s+1}`` and
-    ``dFB`` of the arm end's share on ``B`` (``F_A = -F - F_B`` on blade s)."""
+    """``(N, 2m, 2m)`` generalised forces on (s, s+1) of variations ``dF`` ``(N, 3, 2m)`` of
+    the force on ``A_{s+1}`` and ``dFB`` of the arm end's share on ``B`` (``F_A = -F - F_B``
+    on blade s)."""
     on_s = -XA.T @ dF + D.T @ dFB
     on_next = XA.T @ R.T @ dF
-    return np.vstack([on_s, on_next])
+    return np.concatenate([on_s, on_next], axis=1)
 
 
 def van_der_pol_damping(params: ForceParameters, q: np.ndarray) -> sp.csr_matrix:
@@ -108,17 +109,17 @@ def van_der_pol_damping(params: ForceParameters, q: np.ndarray) -> sp.csr_matrix
     ppT = np.outer(p, p)
     y = q @ p
     blocks = _BlockSum(N, m)
+    blades = np.arange(N)
     if params.vdp_model == VDP_ABSOLUTE:
-        for s, c in enumerate(params.vdp_mu * (1.0 - (y / params.vdp_r) ** 2)):
-            blocks.add(s, s, c * ppT)
+        c = params.vdp_mu * (1.0 - (y / params.vdp_r) ** 2)
+        blocks.add(blades, blades, c[:, None, None] * ppT)
     elif params.vdp_model == VDP_RELATIVE:
         # g_s = c_s D'_s, D_s = y_s - y_{s-1}; blade s gets p (g_s - g_{s+1})
         c = params.vdp_mu * (1.0 - ((y - np.roll(y, 1)) / params.vdp_r) ** 2)
-        for s in range(N):
-            sn, sp_ = (s + 1) % N, (s - 1) % N
-            blocks.add(s, s, (c[s] + c[sn]) * ppT)
-            blocks.add(s, sp_, -c[s] * ppT)
-            blocks.add(s, sn, -c[sn] * ppT)
+        c_next = np.roll(c, -1)
+        blocks.add(blades, blades, (c + c_next)[:, None, None] * ppT)
+        blocks.add(blades, (blades - 1) % N, -c[:, None, None] * ppT)
+        blocks.add(blades, (blades + 1) % N, -c_next[:, None, None] * ppT)
     return blocks.matrix()
 
 
@@ -127,42 +128,46 @@ class _BlockSum:
 
     def __init__(self, N: int, m: int):
         self.N, self.m = N, m
-        self.rows, self.cols, self.values = [], [], []
+        self.rows, self.cols, self.blocks = [], [], []
 
-    def add(self, s: int, t: int, block: np.ndarray) -> None:
-        m = self.m
-        r, c = np.meshgrid(np.arange(m) + s * m, np.arange(m) + t * m, indexing="ij")
-        self.rows.append(r.ravel())
-        self.cols.append(c.ravel())
-        self.values.append(np.asarray(block, float).ravel())
+    def add(self, s, t, blocks: np.ndarray) -> None:
+        """Add ``blocks`` ``(..., m, m)`` at block rows ``s`` (force on blade s) and block
+        columns ``t`` (integers or arrays of them)."""
+        blocks = np.asarray(blocks, float).reshape(-1, self.m, self.m)
+        self.rows.append(np.broadcast_to(s, blocks.shape[:1]))
+        self.cols.append(np.broadcast_to(t, blocks.shape[:1]))
+        self.blocks.append(blocks)
 
     def matrix(self) -> sp.csr_matrix:
-        n = self.N * self.m
-        if not self.values:
-            return sp.csr_matrix((n, n))
-        data = (np.concatenate(self.values), (np.concatenate(self.rows), np.concatenate(self.cols)))
-        return sp.coo_matrix(data, shape=(n, n)).tocsr()  # duplicates are summed
+        N, m = self.N, self.m
+        if not self.blocks:
+            return sp.csr_matrix((N * m, N * m))
+        s, t = np.concatenate(self.rows), np.concatenate(self.cols)
+        local = np.arange(m)
+        rows = np.broadcast_to(s[:, None, None] * m + local[None, :, None], (s.size, m, m))
+        cols = np.broadcast_to(t[:, None, None] * m + local[None, None, :], (s.size, m, m))
+        data = (np.concatenate(self.blocks).ravel(), (rows.ravel(), cols.ravel()))
+        return sp.coo_matrix(data, shape=(N * m, N * m)).tocsr()  # duplicates are summed
 
 
-def force_derivatives(params: ForceParameters, q: np.ndarray):
+def force_derivatives(params: ForceParameters, q: np.ndarray, stiffness_only: bool = False):
     """``(F_q, F_v, contacts)`` at the static state ``q`` ``(N, m)``: sparse ``(N m, N m)``
     derivatives of the generalised force and the :class:`ContactLinearisation` of every
-    contact, ``contacts[c][s]``."""
+    contact kind (``F_v`` is None with ``stiffness_only``: the static tangent)."""
     N, m = q.shape
     Fq, Fv = _BlockSum(N, m), _BlockSum(N, m)
     contacts = []
+    pairs = np.arange(N)
     for c in range(len(params.contacts.kinds)):
-        row = []
-        for s in range(N):
-            lin = contact_linearisation(params, q, c, s)
-            row.append(lin)
-            if lin.normal_force > 0.0:
-                for a, blade in enumerate((s, (s + 1) % N)):
-                    for b, other in enumerate((s, (s + 1) % N)):
-                        rows, cols = slice(a * m, (a + 1) * m), slice(b * m, (b + 1) * m)
-                        Fq.add(blade, other, lin.stiffness[rows, cols])
-                        Fv.add(blade, other, lin.damping[rows, cols])
-        contacts.append(row)
+        lin = contact_linearisation(params, q, c)
+        contacts.append(lin)
+        for a, blade in enumerate((pairs, (pairs + 1) % N)):
+            for b, other in enumerate((pairs, (pairs + 1) % N)):
+                rows, cols = slice(a * m, (a + 1) * m), slice(b * m, (b + 1) * m)
+                Fq.add(blade, other, lin.stiffness[:, rows, cols])
+                Fv.add(blade, other, lin.damping[:, rows, cols])
+    if stiffness_only:
+        return Fq.matrix(), None, contacts
     return Fq.matrix(), Fv.matrix() + van_der_pol_damping(params, q), contacts
 
 

@@ -114,7 +114,7 @@ def linearise(model: ReducedModel, cfg: Config, angles_deg: dict | None = None, 
     scale = float(max(1.0, params.contacts.preload.max(initial=1.0)))
     q, residual = static_equilibrium(
         ReferenceForces(params), K, comm, scale, prefix + "preload_",
-        tangent=lambda q: force_derivatives(params, q)[0],
+        tangent=lambda q: force_derivatives(params, q, stiffness_only=True)[0],
     )  # fmt: skip
     q = q.reshape(N, m)
     Fq, Fv, contacts = force_derivatives(params, q)
@@ -140,8 +140,8 @@ def analyse(model: ReducedModel, cfg: Config, angles_deg: dict | None = None, co
         kinds=params.contacts.kinds,
         equilibrium=q,
         residual=residual,
-        normal_force=np.array([[c.normal_force for c in row] for row in contacts]).reshape(K, N),
-        margin=np.array([[c.margin for c in row] for row in contacts]).reshape(K, N),
+        normal_force=np.array([c.normal_force for c in contacts]).reshape(K, N),
+        margin=np.array([c.margin for c in contacts]).reshape(K, N),
         nodal_diameter=nds,
         eigenvalue=values,
         tip_amplitude=tip,
@@ -224,7 +224,7 @@ def _describe_modes(model: ReducedModel, contacts, nds, vectors):
     phase = np.exp(2j * math.pi * nds / N)[:, None]
     for c in range(K):
         pair = np.concatenate([q0, q0 * phase], axis=1)  # (q_0, q_1) of the Bloch mode
-        local = pair @ contacts[c][0].gap_map.T  # (E, 3) xi, eta, zeta
+        local = pair @ contacts[c].gap_map[0].T  # (E, 3) xi, eta, zeta
         normal[:, c] = np.abs(local[:, 1])
         tangential[:, c] = np.hypot(np.abs(local[:, 0]), np.abs(local[:, 2]))
     ref = np.maximum(tip, 1e-300)[:, None]
