@@ -2,7 +2,8 @@
 
 Each solver of wheelrom reads its own prefix (docs/usage.md): ``wheel_`` (the case TS),
 ``wheel_K_`` (the ``K_R`` matrix), ``preload_`` (SNES), ``segment_``, ``cyclic_``,
-``fullwheel_`` (SLEPc EPS), ``prestress_``, ``stiffness_`` (KSP). :func:`check` builds a
+``fullwheel_``, ``stability_`` (SLEPc EPS), ``stability_preload_`` (SNES), ``prestress_``,
+``stiffness_`` (KSP). :func:`check` builds a
 throw-away object of each prefix the user's options name and lets it read them
 (``setFromOptions``, PETSc's own error printing switched off): a value PETSc refuses
 (``-wheel_ts_type nosuch``, ``-wheel_ts_dt abc``, ``-segment_eps_type nosuch``) becomes one
@@ -70,7 +71,9 @@ def _snes(comm):
 SOLVERS = {
     "wheel_K_": ("Mat", _matrix),
     "wheel_": ("TS", _ts),
+    "stability_preload_": ("SNES", _snes),
     "preload_": ("SNES", _snes),
+    "stability_": ("EPS", _eps),
     "segment_": ("EPS", _eps),
     "cyclic_": ("EPS", _eps),
     "fullwheel_": ("EPS", _eps),
