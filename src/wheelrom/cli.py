@@ -12,7 +12,7 @@ import os
 import sys
 from collections.abc import Callable, Sequence
 
-from wheelrom import cli_args
+from wheelrom import _kernel_cache, cli_args
 from wheelrom import config as config_mod
 from wheelrom._environment import bootstrap
 from wheelrom.cli_output import (
@@ -22,6 +22,7 @@ from wheelrom.cli_output import (
     print_modes,
     print_result,
     warn_unused,
+    world_rank,
 )
 from wheelrom.errors import InputError, OutputExists
 from wheelrom.outputs import check_outdir, check_output, replacing
@@ -407,6 +408,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     args.petsc_args = petsc_args
     bootstrap()  # PETSc/SLEPc location, one BLAS thread per process (before numpy loads)
+    if world_rank() == 0:  # "compiling kernels (first run only)" on a kernel-cache miss
+        _kernel_cache.set_log(log)
     try:
         _petsc_options(args)
         status = int(args.func(args) or 0)

@@ -26,7 +26,8 @@ def static_preload(problem: WheelProblem, case: int = 0,
         return problem.Kd @ q - force.ravel()
 
     def residual(snes, x, r):
-        r.setArray(residual_np(x.getArray(readonly=True)))
+        # a writable copy: the compiled force model has one specialisation (writable arrays)
+        r.setArray(residual_np(x.getArray(readonly=True).copy()))
 
     def jacobian(snes, x, J, P):
         q = x.getArray(readonly=True).copy()

@@ -1,0 +1,68 @@
+"""What a fresh process costs before its first TS step (``wheelrom bench``'s ``startup_s``).
+
+``python -m wheelrom.transient.startup CASE`` (``CASE``: a pickled ``(model, cfg)``) imports
+what ``wheelrom run`` imports, makes the compiled kernels ready (:func:`load_kernels`: from the
+kernel cache, else compiled), integrates one TS step of the case and prints JSON on stdout:
+
+- ``first_step_at``: ``time.monotonic()`` [s] at the end of the first step (the caller
+  subtracts its own ``time.monotonic()`` at the spawn: one system-wide clock on Linux);
+- ``compile_s``: seconds spent loading or compiling the kernels;
+- ``kernel_cache``: this process's cache look-ups (``hits``: loaded, ``misses``: compiled);
+- ``compiled_in_run``: numba compile events and kernel-cache look-ups during the run (0:
+  :func:`load_kernels` covers everything a run needs, so ``wall_s`` is integration only);
+- ``run_compile_s``: the ``compile_s`` the run reports (0: the kernels were ready).
+
+The model is given, not built: building it is the configuration's physics (mesh, FE matrices,
+SLEPc modes: ``model.info["build_s"]``), not start-up overhead.
+"""
+
+from __future__ import annotations
+
+import time
+
+
+def _first_step(path: str) -> dict:
+    """Load the case at ``path``, run its first step; the figures of the module docstring."""
+    import pickle
+
+    from numba.core import event
+
+    from wheelrom import _kernel_cache
+    from wheelrom.forces.parameters import force_parameters
+    from wheelrom.transient.run import load_kernels, run_case
+    from wheelrom.transient.ts import time_step
+
+    with open(path, "rb") as f:
+        model, cfg = pickle.load(f)
+    h = time_step(cfg)
+    cfg = cfg.replace(**{"time.end": h, "time.window": h})
+    compile_s = load_kernels(force_parameters(model, cfg, None))
+    looked_up = dict(_kernel_cache.lookups)
+    marks = []
+    with event.install_recorder("numba:compile") as recorded:
+        res = run_case(model, cfg, progress=lambda *_: marks.append(time.monotonic()))
+    in_run = sum(_kernel_cache.lookups.values()) - sum(looked_up.values())
+    return {
+        "first_step_at": marks[0] if marks else None,
+        "status": res.status,
+        "compile_s": compile_s,
+        "kernel_cache": looked_up,
+        "compiled_in_run": in_run + len(recorded.buffer),
+        "run_compile_s": res.compile_s,
+    }
+
+
+def main(argv: list[str]) -> int:
+    from wheelrom._environment import bootstrap
+
+    bootstrap()  # as the command line: before numpy loads
+    import json
+
+    print(json.dumps(_first_step(argv[0])))
+    return 0
+
+
+if __name__ == "__main__":
+    import sys
+
+    sys.exit(main(sys.argv[1:]))
