@@ -3,7 +3,7 @@
 Every numba kernel of the package (the transient right-hand side and monitor, their C
 callbacks, the reference force model) is compiled once per machine and then loaded from
 numba's cache directory (``NUMBA_CACHE_DIR``, else ``__pycache__`` beside the sources):
-~0.1 s instead of ~10 s (docs/performance.md, "Startup").
+~0.25 s instead of ~20 s for what a run needs (docs/performance.md, "Start-up").
 
 Why not numba's ``cache=True`` alone: it keys a function's machine code on its own file
 (modification time and size) only, so a change in a function it calls from another module
@@ -20,6 +20,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import os
+import warnings
 from collections.abc import Callable
 
 # modules whose code (or constants) a cached kernel contains, relative to the package
@@ -88,8 +89,12 @@ def _count(hit: bool) -> None:
 
 
 def _enable(compiled, py_func) -> None:
-    """Give a numba dispatcher or ``CFunc`` the source-keyed cache."""
-    compiled._cache = _cache_class()(py_func)
+    """Give a numba dispatcher or ``CFunc`` the source-keyed cache (numba internals: a numba
+    without them leaves the kernels uncached, with a warning, rather than keyed on one file)."""
+    try:
+        compiled._cache = _cache_class()(py_func)
+    except (ImportError, AttributeError, TypeError) as exc:
+        warnings.warn(f"wheelrom: kernels not cached on disk (this numba: {exc})", stacklevel=3)
 
 
 def njit(**options):
