@@ -2,6 +2,12 @@
 
 Figures (all on the configuration's reduced model, single core):
 
+- ``startup_s`` (``{"cold", "warm"}``): a fresh process from its spawn to the end of its first
+  TS step on the configuration's model (given: ``model_build_s`` is what building it took),
+  with an empty kernel cache (it compiles the kernels) and then with that cache (it loads
+  them); ``startup_compile_s`` the part of each spent compiling or loading the kernels
+  (:mod:`wheelrom.transient.startup`, :mod:`wheelrom._kernel_cache`);
+
 - ``us_per_rhs``: one compiled right-hand side evaluation (``K_R`` product + all forces),
   timed in a compiled loop (no call overhead) at the state the timed run reached;
   ``us_per_force_evaluation`` the same without the ``K_R`` product;
@@ -40,11 +46,12 @@ import time
 
 import numpy as np
 
+from wheelrom import _kernel_cache
 from wheelrom._environment import petsc
 from wheelrom.config import Config
 from wheelrom.forces.parameters import force_parameters
 from wheelrom.rom.model import ReducedModel
-from wheelrom.transient import bridge, layout
+from wheelrom.transient import bridge, layout, startup
 from wheelrom.transient.kernel import multiply_adds, rhs_core
 from wheelrom.transient.problem import WheelProblem
 from wheelrom.transient.reference import reference_solution
@@ -59,17 +66,18 @@ def _tip(model: ReducedModel, states: np.ndarray) -> np.ndarray:
     return q @ model.tip.T
 
 
+@_kernel_cache.njit()
+def _rhs_loop(count, u, f, ctx):
+    """``count`` right-hand sides in a compiled loop (cached like the kernel)."""
+    for i in range(count):
+        rhs_core(1e-3 * (i % 7), u, f, ctx)
+
+
 def rhs_microseconds(problem: WheelProblem, calls: int = 20000, linear: bool = True,
                      state: np.ndarray | None = None) -> float:  # fmt: skip
     """Best-of-3 mean wall time of one compiled RHS evaluation [us] (compiled loop, warm);
     ``linear=False`` leaves out the ``K_R`` product (the force model alone)."""
-    import numba
-
-    @numba.njit
-    def loop(count, u, f, ctx):
-        for i in range(count):
-            rhs_core(1e-3 * (i % 7), u, f, ctx)
-
+    loop = _rhs_loop
     if state is None:
         state = np.random.default_rng(0).normal(size=(problem.B, problem.size())) * 1e-4
     u = problem.context.pack(state)
@@ -156,7 +164,7 @@ def _timed_single(model: ReducedModel, cfg: Config, problem: WheelProblem, steps
                   h: float, say):  # fmt: skip
     """One case: a TS run of ``steps`` steps of ``h`` [s] and the compiled right-hand side
     timed at the state it reached; returns ``(figures, res)`` (``res`` the timed run)."""
-    # TS run of `steps` steps (warm-up first: the C callbacks compile once per process)
+    # TS run of `steps` steps (warm-up first: caches and branch predictors warm)
     short = cfg.replace(**{"time.end": 20 * h, "time.window": 20 * h})
     run_case(model, short)
     t_end = steps * h
@@ -288,22 +296,98 @@ def _scipy_comparison(model: ReducedModel, cfg: Config, problem: WheelProblem,
     }
 
 
+def _startup_figures(model: ReducedModel, cfg: Config, say) -> dict:
+    """``startup_s``: a fresh process from its spawn to the end of its first TS step on this
+    model (given, not built), cold (empty kernel cache: compiles) and warm (loads);
+    ``startup_compile_s``: the part of it spent compiling or loading the kernels;
+    ``model_build_s``: what building this model took (not in ``startup_s``)."""
+    probe = startup.measure(model, cfg)
+    cold, warm = probe["cold"], probe["warm"]
+    say(f"start-up to the first step: cold {cold['startup_s']:.2f} s (compiling "
+        f"{cold['compile_s']:.2f} s), warm {warm['startup_s']:.2f} s (loading the kernels "
+        f"{warm['compile_s']:.2f} s)")  # fmt: skip
+    return {
+        "startup_s": {"cold": cold["startup_s"], "warm": warm["startup_s"]},
+        "startup_compile_s": {"cold": cold["compile_s"], "warm": warm["compile_s"]},
+        "model_build_s": model.info.get("build_s"),
+    }
+
+
+class _Progress:
+    """Progress of the bench's groups on ``say`` with an estimate of the time left: the work
+    of each group in single-case TS step equivalents (:func:`_work`), at the rate the timed
+    groups done so far ran (the start-up group, compile-bound, is not counted in the rate)."""
+
+    def __init__(self, say, work: dict):
+        self.say, self.work = say, work
+        self.names = list(work)
+        self.t0 = self.t_group = time.perf_counter()
+        self.timed_s = self.timed_work = 0.0
+
+    def start(self, name: str) -> None:
+        self.t_group = time.perf_counter()
+        self.say(f"bench [{self.names.index(name) + 1}/{len(self.names)}] {name} ...")
+
+    def done(self, name: str) -> None:
+        now = time.perf_counter()
+        if self.work[name]:
+            self.timed_s += now - self.t_group
+            self.timed_work += self.work[name]
+        left = sum(self.work[n] for n in self.names[self.names.index(name) + 1 :])
+        eta = f", about {left * self.timed_s / self.timed_work:.0f} s left" if (
+            self.timed_work and left) else ""  # fmt: skip
+        self.say(f"bench [{self.names.index(name) + 1}/{len(self.names)}] {name}: "
+                 f"{now - self.t_group:.1f} s ({now - self.t0:.0f} s in all{eta})")  # fmt: skip
+
+
+def _work(steps: int, compare_steps: int, batch: int) -> dict:
+    """Each group's work in single-case TS step equivalents (measured proportions: a case-step
+    in a batch ~0.7 of a single step, a no-op TS step ~0.1, three right-hand sides ~0.6, a
+    numpy reference step ~10, the scipy search ~15 steps per compared step); ``0``: not
+    counted (the start-up group, whose time is compiling)."""
+    rhs_timed = 2 * 3 * 20000 * 0.2
+    batch_rhs = 3 * max(2000, 20000 // batch) * batch * 0.2
+    null_ts = 3 * (steps + max(2000, steps // batch) * batch) * 0.1
+    return {
+        "start-up of fresh processes (cold: compiles the kernels)": 0,
+        "one case": 20 + steps + rhs_timed,
+        f"batch of {batch} cases": 0.7 * batch * steps + batch_rhs,
+        "floors (no-op TS, dgemm)": null_ts + 5000,
+        "numpy reference": 10 * compare_steps,
+        "scipy solve_ivp": 20 * compare_steps,
+    }
+
+
 def run(model: ReducedModel, cfg: Config, steps: int = 20000, compare_steps: int = 2000,
         log=None, batch: int = 10) -> dict:  # fmt: skip
-    """Run the workload; returns the figures (see the module docstring)."""
+    """Run the workload; returns the figures (see the module docstring). Progress lines with
+    the time left go to ``log``."""
     say = log or (lambda m: None)
+    progress = _Progress(say, _work(steps, compare_steps, batch))
+    groups = iter(progress.names)
+
+    def group(name, figures, *args):
+        progress.start(name)
+        out = figures(*args)
+        progress.done(name)
+        return out
+
     h = time_step(cfg)  # the TS's step (-wheel_ts_dt overrides time.step)
     problem = _problem(model, cfg, [None])
-    single, res = _timed_single(model, cfg, problem, steps, h, say)
-    in_batch, batch_problem = _batch_figures(model, cfg, steps, h, batch,
-                                             single["paper_case_steps"], say)  # fmt: skip
-    floors = _floors(model, cfg, problem, batch_problem, steps, batch, single, in_batch, say)
-    numpy_cmp = _numpy_comparison(model, cfg, compare_steps, h, res, say)
-    scipy_cmp = _scipy_comparison(model, cfg, problem, compare_steps, h, res, steps * h, say)
+    start = group(next(groups), _startup_figures, model, cfg, say)
+    single, res = group(next(groups), _timed_single, model, cfg, problem, steps, h, say)
+    in_batch, batch_problem = group(next(groups), _batch_figures, model, cfg, steps, h, batch,
+                                    single["paper_case_steps"], say)  # fmt: skip
+    floors = group(next(groups), _floors, model, cfg, problem, batch_problem, steps, batch,
+                   single, in_batch, say)  # fmt: skip
+    numpy_cmp = group(next(groups), _numpy_comparison, model, cfg, compare_steps, h, res, say)
+    scipy_cmp = group(next(groups), _scipy_comparison, model, cfg, problem, compare_steps, h,
+                      res, steps * h, say)  # fmt: skip
     return {
         "blades": model.blades,
         "modes": model.modes,
         "contact_kinds": list(problem.kinds),
+        **start,
         **single,
         **in_batch,
         **floors,

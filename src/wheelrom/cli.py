@@ -12,7 +12,7 @@ import os
 import sys
 from collections.abc import Callable, Sequence
 
-from wheelrom import cli_args
+from wheelrom import _kernel_cache, cli_args
 from wheelrom import config as config_mod
 from wheelrom._environment import bootstrap
 from wheelrom.cli_output import (
@@ -25,6 +25,7 @@ from wheelrom.cli_output import (
     print_result,
     print_stability,
     warn_unused,
+    world_rank,
 )
 from wheelrom.errors import InputError, Interrupted, OutputExists
 from wheelrom.outputs import check_outdir, check_output, replacing
@@ -465,6 +466,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     args.petsc_args = petsc_args
     bootstrap()  # PETSc/SLEPc location, one BLAS thread per process (before numpy loads)
+    if world_rank() == 0:  # "compiling kernels (first run only)" on a kernel-cache miss
+        _kernel_cache.set_log(log)
     try:
         _petsc_options(args)
         status = int(args.func(args) or 0)

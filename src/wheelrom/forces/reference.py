@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
+from wheelrom import _kernel_cache
 from wheelrom.forces.parameters import ForceParameters
 
 
@@ -71,7 +71,7 @@ class ReferenceForces:
         return float(np.where(open_, -(preload**2) / (2 * c.stiffness), closed).sum())
 
 
-@numba.njit(cache=True, fastmath=False)
+@_kernel_cache.njit(fastmath=False)
 def _kernel(t, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p_aero, friction, R,
             XA, XB, A_pt, B_pt, arm, T, kc, preload, normal, slip, gap, state, rel_u, rel_v,
             y_vdp, power, work):  # fmt: skip
@@ -86,7 +86,7 @@ def _kernel(t, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p_aero
     power[2] = p_fric
 
 
-@numba.njit(cache=True, fastmath=False)
+@_kernel_cache.njit(fastmath=False)
 def _nozzle_and_van_der_pol(t, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r,
                             p_aero, y_vdp, work):  # fmt: skip
     """Nozzle (eq. 13) and Van der Pol (eqs. 1, 2/14) generalised forces written into ``out``;
@@ -133,7 +133,7 @@ def _nozzle_and_van_der_pol(t, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_mode
     return p_noz, p_vdp
 
 
-@numba.njit(cache=True, fastmath=False)
+@_kernel_cache.njit(fastmath=False)
 def _contact_forces(q, v, out, friction, R, XA, XB, A_pt, B_pt, arm, T, kc, preload, normal,
                     slip, gap, state, rel_u, rel_v):  # fmt: skip
     """Contact forces (eqs. 16-20) added to ``out``, contact states left in the arrays;
@@ -207,7 +207,7 @@ def _contact_forces(q, v, out, friction, R, XA, XB, A_pt, B_pt, arm, T, kc, prel
     return p_fric
 
 
-@numba.njit(cache=True, fastmath=False)
+@_kernel_cache.njit(fastmath=False)
 def _point_motion(c, s, sn, q, v, XA, XB, uA, uB, vA, vB, uN, vN):
     """Displacements and velocities of contact ``c``'s points A and B of blade ``s`` and of A
     of the next blade ``sn`` (each in its own sector's frame) [m, m/s]."""
@@ -234,7 +234,7 @@ def _point_motion(c, s, sn, q, v, XA, XB, uA, uB, vA, vB, uN, vN):
         vN[a] = x6
 
 
-@numba.njit(cache=True, fastmath=False)
+@_kernel_cache.njit(fastmath=False)
 def _apply_contact_force(c, s, sn, T, R, XA, XB, Ft0, Fn, Ft2, e, arm_scale, out, F, FN):
     """The contact force (local ``Ft0, Fn, Ft2`` [N]) on A of blade ``sn`` and, reversed and
     moved from the arm end onto A and B (``arm_scale = L / |d|``), on blade ``s``, projected

@@ -1,6 +1,8 @@
 """PETSc TS calls the compiled kernel without Python: ``rhs_core`` and ``sample_core`` wrapped
 as C functions (numba ``cfunc``) that get and restore the Vec arrays through PETSc's C API
-(ctypes), registered with ``TSSetRHSFunction`` / ``TSMonitorSet``.
+(external symbols resolved to libpetsc's), registered with ``TSSetRHSFunction`` /
+``TSMonitorSet`` (ctypes). The callbacks are cached on disk like the kernel
+(:mod:`wheelrom._kernel_cache`): a process loads them instead of compiling them.
 
 Why: a petsc4py Python callback costs several microseconds per call (wrapping the Vecs, numpy
 views, the numba dispatch of ~30 arguments); the paper case needs ~900,000 evaluations.
@@ -13,8 +15,10 @@ import functools
 
 import numba
 import numpy as np
+from llvmlite import binding as llvm
 from numba import types
 
+from wheelrom import _kernel_cache
 from wheelrom._environment import petsc
 from wheelrom.transient.fastmath import double_ptr, long_ptr
 from wheelrom.transient.kernel import rhs_core, sample_core
@@ -83,66 +87,92 @@ def adapt_type(ts) -> str:
     return name.value.decode()
 
 
+# PETSc's C API as called by the C callbacks: external symbols that the JIT resolves to the
+# addresses :func:`_register_petsc_symbols` gives it (cacheable machine code, unlike calls of
+# ctypes function objects, whose addresses numba freezes into the code)
+_I64, _I32 = types.int64, types.int32
+_vec_get_array_read = types.ExternalFunction("VecGetArrayRead", _I32(_I64, _I64))
+_vec_restore_array_read = types.ExternalFunction("VecRestoreArrayRead", _I32(_I64, _I64))
+_vec_get_array = types.ExternalFunction("VecGetArray", _I32(_I64, _I64))
+_vec_restore_array = types.ExternalFunction("VecRestoreArray", _I32(_I64, _I64))
+_ts_set_converged_reason = types.ExternalFunction("TSSetConvergedReason", _I32(_I64, _I32))
+_PETSC_SYMBOLS = ("VecGetArrayRead", "VecRestoreArrayRead", "VecGetArray", "VecRestoreArray",
+                  "TSSetConvergedReason")  # fmt: skip
+_RHS_SIGNATURE = types.int32(types.int64, types.float64, types.int64, types.int64, types.int64)
+_MONITOR_SIGNATURE = types.int32(types.int64, types.int32, types.float64, types.int64,
+                                 types.int64)  # fmt: skip
+
+
+def _rhs_callback(ts, t, U, F, ctx_addr):
+    """``TSRHSFunction`` (C): ``F = rhs(t, U)`` through :func:`rhs_core`; ``ctx_addr`` the
+    context array's address."""
+    ctx, slots = _context_at(ctx_addr)
+    slot_u = ctx_addr + 8 * H_SLOT_U
+    slot_f = ctx_addr + 8 * H_SLOT_F
+    err = _vec_get_array_read(U, slot_u)
+    if err:
+        return err
+    err = _vec_get_array(F, slot_f)
+    if err:
+        return err
+    u = _state_at(slots[H_SLOT_U], ctx)
+    f = _state_at(slots[H_SLOT_F], ctx)
+    rhs_core(t, u, f, ctx)
+    ctx[H_RHS_CALLS] += 1.0
+    err = _vec_restore_array_read(U, slot_u)
+    if err:
+        return err
+    return _vec_restore_array(F, slot_f)
+
+
+def _monitor_callback(ts, step, t, U, ctx_addr):
+    """``TSMonitor`` (C): the output samples through :func:`sample_core`; stops the TS (user
+    reason) when no case is left running."""
+    ctx, slots = _context_at(ctx_addr)
+    slot_u = ctx_addr + 8 * H_SLOT_U
+    err = _vec_get_array_read(U, slot_u)
+    if err:
+        return err
+    u = _state_at(slots[H_SLOT_U], ctx)
+    stop = sample_core(t, u, ctx)
+    err = _vec_restore_array_read(U, slot_u)
+    if err:
+        return err
+    if stop:
+        return _ts_set_converged_reason(ts, np.int32(ctx[H_USER_REASON]))
+    return 0
+
+
+def _null_callback(ts, t, U, F, ctx_addr):
+    """``TSRHSFunction`` (C) that leaves ``F`` as it is."""
+    return 0
+
+
+@functools.cache
+def _register_petsc_symbols() -> None:
+    """Tell the JIT's linker where PETSc's functions of the callbacks are in this process."""
+    lib = _library()
+    for name in _PETSC_SYMBOLS:
+        llvm.add_symbol(name, ctypes.cast(getattr(lib, name), ctypes.c_void_p).value)
+
+
 @functools.cache
 def callbacks():
-    """``(rhs, monitor, TSSetRHSFunction, TSMonitorSet)``: C callbacks compiled once per
-    process (~1 s) and the PETSc setters. Pointers travel as int64 (same ABI on x86-64)."""
-    lib = _library()
-    i64, i32 = ctypes.c_int64, ctypes.c_int32
-    get_read = _petsc_function(lib, "VecGetArrayRead", i64, i64)
-    restore_read = _petsc_function(lib, "VecRestoreArrayRead", i64, i64)
-    get_write = _petsc_function(lib, "VecGetArray", i64, i64)
-    restore_write = _petsc_function(lib, "VecRestoreArray", i64, i64)
-    set_reason = _petsc_function(lib, "TSSetConvergedReason", i64, i32)
-
-    @numba.cfunc(types.int32(types.int64, types.float64, types.int64, types.int64, types.int64))
-    def rhs(ts, t, U, F, ctx_addr):
-        ctx, slots = _context_at(ctx_addr)
-        slot_u = ctx_addr + 8 * H_SLOT_U
-        slot_f = ctx_addr + 8 * H_SLOT_F
-        err = get_read(U, slot_u)
-        if err:
-            return err
-        err = get_write(F, slot_f)
-        if err:
-            return err
-        u = _state_at(slots[H_SLOT_U], ctx)
-        f = _state_at(slots[H_SLOT_F], ctx)
-        rhs_core(t, u, f, ctx)
-        ctx[H_RHS_CALLS] += 1.0
-        err = restore_read(U, slot_u)
-        if err:
-            return err
-        return restore_write(F, slot_f)
-
-    @numba.cfunc(types.int32(types.int64, types.int32, types.float64, types.int64, types.int64))
-    def monitor(ts, step, t, U, ctx_addr):
-        ctx, slots = _context_at(ctx_addr)
-        slot_u = ctx_addr + 8 * H_SLOT_U
-        err = get_read(U, slot_u)
-        if err:
-            return err
-        u = _state_at(slots[H_SLOT_U], ctx)
-        stop = sample_core(t, u, ctx)
-        err = restore_read(U, slot_u)
-        if err:
-            return err
-        if stop:
-            return set_reason(ts, int(ctx[H_USER_REASON]))
-        return 0
-
-    set_rhs = _petsc_function(lib, "TSSetRHSFunction", i64, i64, i64, i64)
-    set_monitor = _petsc_function(lib, "TSMonitorSet", i64, i64, i64, i64)
+    """``(rhs, monitor, TSSetRHSFunction, TSMonitorSet)``: the C callbacks, loaded from the
+    kernel cache (:mod:`wheelrom._kernel_cache`, ~0.05 s) or compiled once per machine (~10 s),
+    and the PETSc setters. Pointers travel as int64 (same ABI on x86-64)."""
+    _register_petsc_symbols()
+    rhs = _kernel_cache.cfunc(_RHS_SIGNATURE, _rhs_callback)
+    monitor = _kernel_cache.cfunc(_MONITOR_SIGNATURE, _monitor_callback)
+    i64 = ctypes.c_int64
+    set_rhs = _petsc_function(_library(), "TSSetRHSFunction", i64, i64, i64, i64)
+    set_monitor = _petsc_function(_library(), "TSMonitorSet", i64, i64, i64, i64)
     return rhs, monitor, set_rhs, set_monitor
 
 
 @functools.cache
 def _null_rhs():
-    @numba.cfunc(types.int32(types.int64, types.float64, types.int64, types.int64, types.int64))
-    def nothing(ts, t, U, F, ctx_addr):
-        return 0
-
-    return nothing
+    return _kernel_cache.cfunc(_RHS_SIGNATURE, _null_callback)
 
 
 def attach_null(ts, f) -> None:

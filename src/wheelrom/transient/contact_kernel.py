@@ -6,8 +6,7 @@ from __future__ import annotations
 
 import math
 
-import numba
-
+from wheelrom import _kernel_cache
 from wheelrom.transient.fastmath import NOALIAS, fexp
 from wheelrom.transient.layout import (
     H_DECAY,
@@ -36,7 +35,7 @@ from wheelrom.transient.layout import (
 )
 
 
-@numba.njit(cache=True, fastmath={"contract"}, error_model="numpy")
+@_kernel_cache.njit(fastmath={"contract"}, error_model="numpy")
 def contacts(ctx, kind, N, m, K, B, Q, V, column):
     """Contact forces of contact ``kind`` at A (with the neighbour's push on it) and B of
     every column left in ``FA[kind]``, ``FB[kind]`` [N], its friction power per column added
@@ -127,7 +126,7 @@ def contacts(ctx, kind, N, m, K, B, Q, V, column):
             fa[col] += fn[col]
 
 
-@numba.njit(cache=True, fastmath={"contract"}, error_model="numpy", **NOALIAS)
+@_kernel_cache.njit(fastmath={"contract"}, error_model="numpy", **NOALIAS)
 def _contact_columns(NB, UA, UB, VA, VB, uax, uay, uaz, vax, vay, vaz, T, kc, R, geometry, law,
                      FA, FB, fnx, fny, fnz, normal, state, column):  # fmt: skip
     """The contact law of every column (eqs. 16-20), branch-free so that it vectorises.

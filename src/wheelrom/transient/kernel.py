@@ -15,6 +15,7 @@ import math
 
 import numba
 
+from wheelrom import _kernel_cache
 from wheelrom.transient.contact_kernel import contacts
 from wheelrom.transient.layout import (
     H_ACTIVE,
@@ -75,7 +76,7 @@ from wheelrom.transient.layout import (
 )  # fmt: skip
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(inline="always")
 def _load_state(u, ctx, N, m, B, beta):
     """``(Q, V, VT, WT)``: ``Q``, ``V`` the rows ``q[j]``, ``q'[j]`` of ``u`` (views, for what
     reads them blade by blade) and column copies with one ghost blade (B columns) on each side:
@@ -118,7 +119,7 @@ def _case_sums(column, out, N, B):
             out[b] += part[b]
 
 
-@numba.njit(cache=True, fastmath={"contract"}, error_model="numpy")
+@_kernel_cache.njit(fastmath={"contract"}, error_model="numpy")
 def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
     """``f = (q', q'', W')`` for the batch state ``u = (q, q', W)`` at ``t`` [s] (kernel
     layout, length ``B (2 N m + 4)``; see the module docstring)."""
@@ -294,7 +295,7 @@ def _freeze(ctx, b, reason, t):
         get(ctx, I_STOPT, B)[b] = t
 
 
-@numba.njit(cache=True, fastmath={"contract"}, error_model="numpy")
+@_kernel_cache.njit(fastmath={"contract"}, error_model="numpy")
 def sample_core(t, u, ctx):
     """Output samples at ``t`` when due, for every running case: tip displacements, minimum
     normal force and open contacts per kind. A case whose tips are non-finite or too large is

@@ -36,7 +36,8 @@ def static_equilibrium(forces, K: np.ndarray, comm, force_scale: float, prefix: 
         return K @ q - force.ravel()
 
     def residual(snes, x, r):
-        r.setArray(residual_np(x.getArray(readonly=True)))
+        # a writable copy: the compiled force model has one specialisation (writable arrays)
+        r.setArray(residual_np(x.getArray(readonly=True).copy()))
 
     def jacobian(snes, x, J, P):
         q = x.getArray(readonly=True).copy()

@@ -72,8 +72,12 @@ class CaseResult:
         work: ``(W, 4)`` cumulative work of nozzle, Van der Pol, friction, damping [J].
         sample_time: ``(S,)`` [s]; tip_history: ``(S, N, 3)`` tip displacement [m].
         steps, rhs_evaluations, wall_s, options: TS steps taken, right-hand sides of the
-            TS (of the whole batch), wall time [s] (of a batch: its wall time over its number
-            of cases), TS options used (prefix stripped).
+            TS (of the whole batch), wall time [s] of the integration (of a batch: its wall
+            time over its number of cases; compiling or loading kernels not included), TS
+            options used (prefix stripped).
+        compile_s: seconds this process spent loading the compiled kernels from the cache or
+            compiling them before the integration (0 when it had them already; of a batch:
+            over its number of cases, as ``wall_s``).
         preload_residual: ``|K_R q - f|`` of the static preload start, when used.
         final_state: ``(2 N m + 4,)`` blade-major state at the end.
         batch: number of cases integrated together in the TS of this case.
@@ -93,6 +97,7 @@ class CaseResult:
     steps: int = 0
     rhs_evaluations: int = 0
     wall_s: float = 0.0
+    compile_s: float = 0.0
     options: dict = field(default_factory=dict)
     preload_residual: float | None = None
     final_state: np.ndarray | None = None
@@ -113,6 +118,7 @@ class CaseResult:
             "status": self.status,
             "steps": self.steps,
             "wall_s": self.wall_s,
+            "compile_s": self.compile_s,
             "simulated_s": float(self.window_end[-1]) if last is not None else 0.0,
             "max_tip_amplitude": float(self.max_tip_amplitude[-1]) if last is not None else None,
             "min_normal_force": {

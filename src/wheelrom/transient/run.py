@@ -11,12 +11,16 @@ from __future__ import annotations
 import math
 import time
 
+import numba
 import numpy as np
 
 from wheelrom._environment import petsc
 from wheelrom.config import Config
-from wheelrom.forces.parameters import force_parameters
+from wheelrom.forces.parameters import ForceParameters, force_parameters
+from wheelrom.forces.reference import ReferenceForces
 from wheelrom.rom.model import ReducedModel
+from wheelrom.transient import bridge
+from wheelrom.transient.kernel import sample_core
 from wheelrom.transient.layout import H_OVERFLOW, H_RHS_CALLS, STOP_AMPLITUDE, STOP_NONFINITE
 from wheelrom.transient.preload import initial_state
 from wheelrom.transient.problem import (
@@ -136,9 +140,10 @@ def run_cases(model: ReducedModel, cfg: Config, angles: list[dict | None],
         return [run_cases(model, cfg, [a], options, progress, prefix,
                           None if u0 is None else [u0[i]], rhs_kind)[0]
                 for i, a in enumerate(angles)]  # fmt: skip
+    params = [force_parameters(model, cfg, a) for a in angles]
+    compile_s = load_kernels(params[0], rhs_kind)
     t_wall = time.perf_counter()
     grid = time_grid(cfg)
-    params = [force_parameters(model, cfg, a) for a in angles]
     problem = WheelProblem(model, cfg, params, petsc().COMM_SELF, grid.sample_capacity)
     records = [_CaseRecord(problem, b) for b in range(problem.B)]
     states = _initial_states(problem, records, u0)
@@ -156,11 +161,37 @@ def run_cases(model: ReducedModel, cfg: Config, angles: list[dict | None],
     ua = u.getArray(readonly=True)
     finals = problem.context.unpack(ua) if compiled else ua[None, :].copy()
     wall = time.perf_counter() - t_wall
-    results = [_finish(rec, problem, used, finals[b], wall) for b, rec in enumerate(records)]
+    results = [_finish(rec, problem, used, finals[b], wall, compile_s)
+               for b, rec in enumerate(records)]  # fmt: skip
     for obj in (ts, fvec, u):
         obj.destroy()
     problem.destroy()
     return results
+
+
+_LOADED: set[str] = set()  # right-hand side kinds whose kernels this process has
+
+
+def load_kernels(case: ForceParameters, rhs_kind: str = "compiled") -> float:
+    """Make the compiled code a run of ``rhs_kind`` needs ready in this process (loaded from
+    the kernel cache, else compiled: :mod:`wheelrom._kernel_cache`); returns the seconds it
+    took, 0 when this process had it already. ``case``: any case (the reference force model,
+    used for the preload and the energies, is compiled for its argument types).
+
+    :func:`run_cases` calls it before its clock starts: ``wall_s`` is integration only.
+    """
+    if rhs_kind in _LOADED:
+        return 0.0
+    t0 = time.perf_counter()
+    if rhs_kind == "compiled":
+        bridge.callbacks()
+    elif rhs_kind == "python":
+        vector = numba.float64[::1]
+        sample_core.compile((numba.float64, vector, vector))
+    zeros = np.zeros((case.blades, case.modes))
+    ReferenceForces(case).evaluate(0.0, zeros, zeros)
+    _LOADED.add(rhs_kind)
+    return time.perf_counter() - t0
 
 
 def _initial_states(problem: WheelProblem, records, u0) -> np.ndarray:
@@ -225,8 +256,9 @@ def _harvest(rec: _CaseRecord, problem, b: int, state, ts, t_now, fixed_dt, earl
         rec.fail(f"TS stopped early at t = {t_now:.6g} s: {reason_words(ts.getConvergedReason())}")
 
 
-def _finish(rec: _CaseRecord, problem, used, final_state, wall) -> CaseResult:
-    """The :class:`CaseResult` of one case from its rows."""
+def _finish(rec: _CaseRecord, problem, used, final_state, wall, compile_s) -> CaseResult:
+    """The :class:`CaseResult` of one case from its rows (``wall``, ``compile_s`` [s]: of the
+    batch)."""
     res, kinds = rec.result, problem.kinds
     res.options = used
     res.window_end = np.array(rec.ends)
@@ -244,4 +276,5 @@ def _finish(rec: _CaseRecord, problem, used, final_state, wall) -> CaseResult:
     res.final_state = final_state.copy()
     res.batch = problem.B
     res.wall_s = wall / problem.B
+    res.compile_s = compile_s / problem.B
     return res

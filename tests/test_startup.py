@@ -1,0 +1,60 @@
+"""Start-up: the compiled kernels are cached on disk (a second process loads them), keyed on
+every source they contain, and the time spent getting them is reported apart from the
+integration (``compile_s`` beside ``wall_s``). Mechanisms only: nothing here is timed."""
+
+import ast
+import os
+
+from wheelrom import _kernel_cache
+from wheelrom.transient import startup
+from wheelrom.transient.run import run_case
+
+PACKAGE = os.path.dirname(_kernel_cache.__file__)
+# wheelrom modules a kernel module may import for its Python side only (no compiled code)
+PYTHON_SIDE = {"wheelrom._environment", "wheelrom._kernel_cache", "wheelrom.forces.parameters"}
+
+
+def test_a_second_process_loads_the_kernels_from_the_cache(small_model, small_cfg):
+    probe = startup.measure(small_model, small_cfg)  # two processes, one fresh cache dir
+    cold, warm = probe["cold"], probe["warm"]
+    assert cold["status"] == warm["status"] == "done"
+    assert cold["kernel_cache"]["misses"] > 0 and cold["compile_s"] > 0
+    assert cold["messages"] == [_kernel_cache.COMPILING_MESSAGE]  # once per process
+    assert warm["kernel_cache"] == {"hits": 3, "misses": 0}  # rhs, monitor, reference forces
+    assert warm["messages"] == []
+    for proc in (cold, warm):  # nothing compiled or loaded once the run's clock started
+        assert proc["compiled_in_run"] == 0 and proc["run_compile_s"] == 0.0
+        assert proc["startup_s"] > 0
+
+
+def test_compile_time_is_reported_apart_from_wall_time(small_model, small_cfg):
+    short = small_cfg.replace(**{"time.end": 1e-4, "time.window": 1e-4})
+    run_case(small_model, short)
+    again = run_case(small_model, short)
+    assert again.compile_s == 0.0 and again.wall_s > 0
+    assert again.summary()["compile_s"] == 0.0
+
+
+def _wheelrom_imports(path):
+    found = set()
+    for node in ast.walk(ast.parse(open(path).read())):
+        if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("wheelrom"):
+            names = {f"{node.module}.{a.name}" for a in node.names}
+            found |= ({node.module} - {"wheelrom"}) | names
+    return found
+
+
+def test_the_cache_key_covers_every_module_a_kernel_contains():
+    """A kernel module imports (so may freeze into its code) only kernel modules."""
+    kernels = {"wheelrom." + name[:-3].replace("/", ".") for name in _kernel_cache.KERNEL_SOURCES}
+    for name in _kernel_cache.KERNEL_SOURCES:
+        for imported in _wheelrom_imports(os.path.join(PACKAGE, name)):
+            module = imported if imported in kernels | PYTHON_SIDE else imported.rpartition(".")[0]
+            assert module in kernels | PYTHON_SIDE, f"{name} imports {imported}: a kernel source?"
+    # every module with cached kernels is a kernel source (bench's loop: its own file is its key)
+    for root, _, files in os.walk(PACKAGE):
+        for file in files:
+            path = os.path.join(root, file)
+            rel = os.path.relpath(path, PACKAGE).replace(os.sep, "/")
+            if file.endswith(".py") and "_kernel_cache.njit(" in open(path).read():
+                assert rel in _kernel_cache.KERNEL_SOURCES + ("bench.py",), rel
