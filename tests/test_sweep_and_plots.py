@@ -27,7 +27,8 @@ def sweep(out, *extra, ranks=1, check=True):
     return subprocess.run(cmd, env=ENV, capture_output=True, text=True, check=check, timeout=600)
 
 
-NOT_PHYSICS = ("cases/wall_s", "cases/batch")  # depend on the rank count, not on the physics
+# timing and the rank count, not the physics
+NOT_PHYSICS = ("cases/wall_s", "cases/compile_s", "cases/batch")
 
 
 def case_data(path):

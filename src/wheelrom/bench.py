@@ -355,6 +355,7 @@ def _work(steps: int, compare_steps: int, batch: int) -> dict:
         "floors (no-op TS, dgemm)": null_ts + 5000,
         "numpy reference": 10 * compare_steps,
         "scipy solve_ivp": 20 * compare_steps,
+        "linear stability of the configured angles": 30000,
     }
 
 
@@ -383,6 +384,7 @@ def run(model: ReducedModel, cfg: Config, steps: int = 20000, compare_steps: int
     numpy_cmp = group(next(groups), _numpy_comparison, model, cfg, compare_steps, h, res, say)
     scipy_cmp = group(next(groups), _scipy_comparison, model, cfg, problem, compare_steps, h,
                       res, steps * h, say)  # fmt: skip
+    stability = group(next(groups), _stability_figures, model, cfg)
     return {
         "blades": model.blades,
         "modes": model.modes,
@@ -393,4 +395,19 @@ def run(model: ReducedModel, cfg: Config, steps: int = 20000, compare_steps: int
         **floors,
         **numpy_cmp,
         **scipy_cmp,
+        **stability,
     }
+
+
+def _stability_figures(model: ReducedModel, cfg: Config) -> dict:
+    """``stability_s_per_case``: equilibrium, analytic Jacobian and per-ND eigenvalues of one
+    case, over the configured shroud angles (after one untimed case)."""
+    from wheelrom.transient.stability import analyse
+
+    angles = list(cfg.sweep.shroud_angles_deg)
+    analyse(model, cfg, {"shroud": angles[0]})
+    t0 = time.perf_counter()
+    for angle in angles:
+        analyse(model, cfg, {"shroud": angle})
+    per_case = (time.perf_counter() - t0) / len(angles)
+    return {"stability_cases": len(angles), "stability_s_per_case": per_case}

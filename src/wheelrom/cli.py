@@ -189,7 +189,9 @@ def cmd_compare(args: argparse.Namespace) -> int:
     if args.steps < 1:
         raise InputError(f"compare --steps: at least 1 step to compare (got {args.steps})")
     steps, step = args.steps, time_step(cfg)  # the TS's step: -wheel_ts_dt overrides
-    cfg = cfg.replace(**{"time.end": steps * step, "time.window": steps * step})
+    span = steps * step  # one window over the compared steps, with at least one sample in it
+    rate = max(cfg.output.sample_rate_hz, 1.0 / span)
+    cfg = cfg.replace(**{"time.end": span, "time.window": span, "output.sample_rate_hz": rate})
     model = build_model(cfg, _comm_self(), log=quiet if args.json else log)
     res = run_case(model, cfg)
     _, states, ref_wall = reference_solution(model, cfg, steps, step, sample_every=steps)
@@ -367,7 +369,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
         raise InputError(f"bench --batch must be at least 1 (got {args.batch})")
     say = quiet if args.json else log
     model = build_model(cfg, _comm_self(), log=say)
-    out = run(model, cfg, steps=args.steps, compare_steps=args.reference_steps, log=say,
+    # the groups' progress goes to stderr even with --json (stdout holds the JSON only)
+    out = run(model, cfg, steps=args.steps, compare_steps=args.reference_steps, log=log,
               batch=args.batch)  # fmt: skip
     print_result(out, args.json)
     return 0

@@ -380,7 +380,7 @@ def _cross_checks(cfg: Config, problems: list[str]) -> None:
         rate = cfg.output.sample_rate_hz
         if is_number(rate) and rate * t.step > 1.0:
             problems.append(f"output.sample_rate_hz: {rate} Hz exceeds 1/time.step")
-        elif is_number(rate) and rate * _shortest_window(t.end, t.window) < 1.0:
+        elif is_number(rate) and rate * _shortest_window(t.end, t.window) < 1.0 - 1e-9:
             shortest = _shortest_window(t.end, t.window)
             problems.append(
                 f"output.sample_rate_hz: {rate} Hz leaves a window of {shortest:.6g} s without "

@@ -88,6 +88,7 @@ def create_layout(f, cfg: Config, model: ReducedModel) -> None:
     cases.attrs["angle_columns"] = "tieboss, shroud"
     st = cases.create_dataset("status", (C,), dtype=f"S{STATUS_LEN}")
     cases.create_dataset("wall_s", (C,), dtype="f8", fillvalue=np.nan)
+    cases.create_dataset("compile_s", (C,), dtype="f8", fillvalue=np.nan)
     for name in ("steps", "batch", "windows_done", "samples_done"):
         cases.create_dataset(name, (C,), dtype="i8")
     cases.create_dataset("options", (C,), dtype=f"S{STATUS_LEN}")
@@ -117,6 +118,7 @@ def write_case(f, i: int, res: CaseResult) -> None:
     s = res.sample_time.size
     cases["status"][i] = res.status.encode()[:STATUS_LEN]
     cases["wall_s"][i] = res.wall_s
+    cases["compile_s"][i] = res.compile_s
     cases["steps"][i] = res.steps
     cases["batch"][i] = res.batch
     cases["windows_done"][i] = w

@@ -145,14 +145,17 @@ def _run_rounds(f, cfg: Config, model, comm, batch: int, options, say) -> bool:
             for i, res in zip(chunk, finished, strict=True):
                 results.write_case(f, i, res)
         f.flush()  # collective: every finished round is on disk
-        report = [(i, res.status, res.wall_s, res.batch)
+        report = [(i, res.status, res.wall_s, res.batch, res.compile_s)
                   for i, res in zip(chunk, finished, strict=True)]  # fmt: skip
         gathered = comm.gather(report, root=0)
         if comm.rank == 0:
-            for i, st, wall, width_used in sorted(item for part in gathered for item in part):
+            for i, st, wall, width_used, compiled in sorted(
+                item for part in gathered for item in part
+            ):
                 done += 1
                 tb, sh = angles[i]
                 share = f"{wall:.3g} s" + ("" if width_used == 1 else f", batch of {width_used}")
+                share += f" + {compiled:.2g} s kernels" if compiled > 0.05 else ""
                 say(f"[{done}/{C}] tie-boss {tb:g} deg, shroud {sh:g} deg: {st} ({share})")
         if comm.allreduce(interrupts.requested(), op=_lor()):
             return True

@@ -42,7 +42,8 @@ def _first_step(path: str) -> dict:
     with open(path, "rb") as f:
         model, cfg = pickle.load(f)
     h = time_step(cfg)
-    cfg = cfg.replace(**{"time.end": h, "time.window": h})
+    # one step, one window, a sample in it (a window without one is refused)
+    cfg = cfg.replace(**{"time.end": h, "time.window": h, "output.sample_rate_hz": 1 / h})
     compile_s = load_kernels(force_parameters(model, cfg, None))
     looked_up = dict(_kernel_cache.lookups)
     marks = []
