@@ -115,7 +115,7 @@ def test_run_json_with_non_finite_statistics_is_strict_json(capsys, monkeypatch)
     assert out["min_normal_force"] == {"tieboss": None, "shroud": None}
     assert out["energy_balance_error"] is None and out["steps"] == 200
     reasons = out["null_fields"]
-    assert set(reasons) == {"max_tip_amplitude", "energy_balance_error",
+    assert set(reasons) == {"max_tip_amplitude", "energy_balance_error", "growth_rate",
                             *(f"{key}.{kind}" for key in ("min_normal_force", "open_fraction")
                               for kind in ("tieboss", "shroud"))}  # fmt: skip
     assert reasons["max_tip_amplitude"].startswith("NaN: no output sample in the last window")

@@ -166,3 +166,59 @@ def test_transient_from_the_equilibrium_grows_at_the_linear_rate(small_model, sm
     centre = (np.arange(6) + 0.5) * t_end / 6
     fitted = np.polyfit(centre[2:], np.log(envelope[2:]), 1)[0]
     assert fitted == pytest.approx(rate, rel=0.01)
+
+
+def test_start_perturbation_is_reproducible_and_seeds_every_nd(small_model, small_cfg):
+    from wheelrom.transient.preload import start_perturbation
+
+    cfg = small_cfg.replace(**{"time.perturbation": 1e-7, "time.seed": 3})
+    q = start_perturbation(small_model, cfg)
+    np.testing.assert_array_equal(q, start_perturbation(small_model, cfg))
+    tip = np.linalg.norm(q @ small_model.tip.T, axis=1)
+    assert tip.max() == pytest.approx(1e-7, rel=1e-12)
+    harmonics = np.abs(np.fft.rfft(q @ small_model.aero, axis=0))  # every ND 0..N/2 present
+    assert (harmonics > 1e-3 * harmonics.max()).all()
+    other = start_perturbation(small_model, cfg.replace(**{"time.seed": 4}))
+    assert not np.allclose(q, other)
+    assert not start_perturbation(small_model, small_cfg).any()  # default: none
+
+
+def test_window_growth_rates_are_the_exponential_slopes():
+    from wheelrom.transient.problem import CaseResult
+
+    t = np.linspace(0.1, 1.0, 10)
+    res = CaseResult(window_end=t, max_tip_amplitude=1e-6 * np.exp(3.0 * t),
+                     nd_spectrum=np.outer(np.exp(-2.0 * t), [1.0, 2.0, 3.0]))  # fmt: skip
+    tip, per_nd = res.growth_rates()
+    assert tip == pytest.approx(3.0, rel=1e-10)
+    np.testing.assert_allclose(per_nd, -2.0, rtol=1e-10)
+
+
+def test_classification_from_both_analyses():
+    from wheelrom.transient.stability import classify
+
+    assert classify(-0.1, 5.0, 1e-6, {"shroud": 0.0}) == "stable"
+    assert classify(10.0, 9.0, 1e-6, {"shroud": 0.0}).startswith("flutter, still growing")
+    assert classify(10.0, 0.1, 2e-6, {"shroud": 0.05}).startswith("small limit cycle (2 um")
+    assert classify(10.0, 0.1, 3e-4, {"shroud": 0.6}).startswith("flutter, limit cycle")
+
+
+def test_sweep_file_holds_both_analyses(small_model, small_cfg, tmp_path, capsys):
+    import h5py
+
+    from wheelrom import cli
+
+    out = tmp_path / "s.h5"
+    assert cli.main(["sweep", SMALL, "--out", str(out), "--set", "time.end=0.003"]) == 0
+    with h5py.File(out, "r") as f:
+        angles = f["cases/angles_deg"][()]
+        linear = f["cases/linear_growth_rate"][()]
+        nd = f["cases/linear_nodal_diameter"][()]
+        words = [c.decode() for c in f["cases/classification"][()]]
+        assert np.isfinite(f["cases/growth_rate"][()]).all()
+        assert f["cases/nd_growth_rate"].shape == (3, small_model.blades // 2 + 1)
+    cfg = small_cfg.replace(**{"time.end": 0.003})
+    for row, rate, k, word in zip(angles, linear, nd, words, strict=True):
+        res = analyse(small_model, cfg, {"tieboss": row[0], "shroud": row[1]})
+        assert rate == res.growth_rate.max() and k == res.nodal_diameter[res.critical()]
+        assert word and word != "unknown (no linear analysis)"

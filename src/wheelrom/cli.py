@@ -152,6 +152,7 @@ def _full_wheel(args: argparse.Namespace, cfg, wheel, say) -> dict:
 def cmd_run(args: argparse.Namespace) -> int:
     """One transient case on PETSc TS (options after -- go to the TS, prefix wheel_)."""
     from wheelrom.rom.build import build_model, quiet
+    from wheelrom.stability_study import attach_linear
     from wheelrom.transient.run import run_case
 
     cfg = _load(args)
@@ -164,6 +165,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             log(f"window {w}/{total}: t = {t:.4f} s, max tip amplitude {amp:.3e} m")
 
     res = run_case(model, cfg, progress=progress)
+    attach_linear(model, cfg, None, res)
     if args.out:
         import h5py
 

@@ -206,6 +206,16 @@ class TimeConfig:
         default=1.0,
         metadata=_key("m", "tip amplitude beyond which a case is stopped as diverged", gt=0.0),
     )
+    perturbation: float = field(
+        default=0.0,
+        metadata=_key(
+            "m", "largest tip displacement of a random start perturbation over all NDs", min=0.0
+        ),
+    )
+    seed: int = field(
+        default=0,
+        metadata=_key("-", "seed of the start perturbation (same for every case and rank)", min=0),
+    )
 
 
 @dataclass(frozen=True)

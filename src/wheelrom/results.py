@@ -102,6 +102,11 @@ def create_layout(f, cfg: Config, model: ReducedModel) -> None:
     cases["work"].attrs["columns"] = ", ".join(WORK_NAMES)
     cases.create_dataset("sample_time", (C, S), **nan)
     cases.create_dataset("tip_history", (C, S, N, 3), chunks=(1, S, N, 3), **nan)
+    cases.create_dataset("growth_rate", (C,), **nan)
+    cases.create_dataset("nd_growth_rate", (C, N // 2 + 1), **nan)
+    for name in ("linear_growth_rate", "linear_nodal_diameter", "linear_frequency_hz"):
+        cases.create_dataset(name, (C,), **nan)
+    cases.create_dataset("classification", (C,), dtype=f"S{STATUS_LEN}")
     for kind in CONTACT_KINDS:
         cases.create_dataset(f"min_normal_force/{kind}", (C, W), **nan)
         cases.create_dataset(f"open_fraction/{kind}", (C, W), **nan)
@@ -136,6 +141,12 @@ def write_case(f, i: int, res: CaseResult) -> None:
     if s:
         cases["sample_time"][i, :s] = res.sample_time
         cases["tip_history"][i, :s] = res.tip_history
+    if w >= 2:
+        cases["growth_rate"][i], cases["nd_growth_rate"][i] = res.growth_rates()
+    if res.linear:
+        for key, value in res.linear.items():
+            cases[f"linear_{key}"][i] = value
+    cases["classification"][i] = res.classification.encode()[:STATUS_LEN]
 
 
 def statuses(f) -> list[str]:

@@ -49,6 +49,30 @@ def run_stability(cfg: Config, comm=None, log=print) -> tuple[object, list[Stabi
     return model, [res for _, res in ordered]
 
 
+def attach_linear(model, cfg: Config, angles_deg: dict, result) -> None:
+    """Add the case's linear stability and the classification from both analyses to a
+    transient :class:`~wheelrom.transient.problem.CaseResult` (a failed analysis leaves
+    ``linear`` None and says so; it never fails the case)."""
+    from wheelrom.transient.stability import classify
+
+    try:
+        res = analyse(model, cfg, angles_deg)
+    except Exception as exc:  # e.g. an equilibrium SNES that does not converge
+        result.classification = f"unknown (linear analysis failed: {exc})"[:200]
+        return
+    i = res.critical()
+    result.linear = {"growth_rate": float(res.growth_rate[i]),
+                     "nodal_diameter": int(res.nodal_diameter[i]),
+                     "frequency_hz": float(res.frequency_hz[i])}  # fmt: skip
+    if not result.status.startswith("done") or result.window_end.size == 0:
+        result.classification = f"linear growth {res.growth_rate[i]:+.3g} /s; transient failed"
+        return
+    transient_rate, _ = result.growth_rates()
+    last_open = {k: float(v[-1]) for k, v in result.open_fraction.items() if v.size}
+    result.classification = classify(float(res.growth_rate[i]), transient_rate,
+                                     float(result.max_tip_amplitude[-1]), last_open)  # fmt: skip
+
+
 def _case_label(row) -> str:
     return f"tie-boss {row[0]:g} deg, shroud {row[1]:g} deg"
 

@@ -23,6 +23,7 @@ from wheelrom.config import Config
 from wheelrom.errors import InputError, Interrupted
 from wheelrom.outputs import output_problem, partial_name
 from wheelrom.rom.build import build_model
+from wheelrom.stability_study import attach_linear
 from wheelrom.transient.problem import CaseResult
 from wheelrom.transient.run import run_cases
 from wheelrom.transient.ts import PREFIX, ts_settings
@@ -143,20 +144,22 @@ def _run_rounds(f, cfg: Config, model, comm, batch: int, options, say) -> bool:
                 finished = [CaseResult(status=f"failed: {type(exc).__name__}: {exc}")
                             for _ in chunk]  # fmt: skip
             for i, res in zip(chunk, finished, strict=True):
+                attach_linear(model, cfg, results.angles_of(angles[i]), res)
                 results.write_case(f, i, res)
         f.flush()  # collective: every finished round is on disk
-        report = [(i, res.status, res.wall_s, res.batch, res.compile_s)
+        report = [(i, res.status, res.wall_s, res.batch, res.compile_s, res.classification)
                   for i, res in zip(chunk, finished, strict=True)]  # fmt: skip
         gathered = comm.gather(report, root=0)
         if comm.rank == 0:
-            for i, st, wall, width_used, compiled in sorted(
+            for i, st, wall, width_used, compiled, verdict in sorted(
                 item for part in gathered for item in part
             ):
                 done += 1
                 tb, sh = angles[i]
                 share = f"{wall:.3g} s" + ("" if width_used == 1 else f", batch of {width_used}")
                 share += f" + {compiled:.2g} s kernels" if compiled > 0.05 else ""
-                say(f"[{done}/{C}] tie-boss {tb:g} deg, shroud {sh:g} deg: {st} ({share})")
+                say(f"[{done}/{C}] tie-boss {tb:g} deg, shroud {sh:g} deg: {st} ({share}); "
+                    f"{verdict}")  # fmt: skip
         if comm.allreduce(interrupts.requested(), op=_lor()):
             return True
     return False

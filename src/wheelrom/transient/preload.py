@@ -80,11 +80,29 @@ def static_equilibrium(forces, K: np.ndarray, comm, force_scale: float, prefix: 
 
 def initial_state(problem: WheelProblem, case: int = 0) -> tuple[np.ndarray, float | None]:
     """One case's blade-major state at ``t = 0`` per ``time.start``: zero, or the static
-    equilibrium under the preloads (and the t = 0 nozzle force). Returns ``(u0, preload
-    residual or None)``."""
+    equilibrium under the preloads (and the t = 0 nozzle force); plus the start perturbation
+    (:func:`start_perturbation`). Returns ``(u0, preload residual or None)``."""
     u0 = np.zeros(problem.size())
-    if problem.cfg.time.start != "preload":
-        return u0, None
-    q, residual = static_preload(problem, case=case)
-    u0[: problem.n] = q
+    residual = None
+    if problem.cfg.time.start == "preload":
+        q, residual = static_preload(problem, case=case)
+        u0[: problem.n] = q
+    u0[: problem.n] += start_perturbation(problem.model, problem.cfg).ravel()
     return u0, residual
+
+
+def start_perturbation(model, cfg) -> np.ndarray:
+    """``(N, m)`` modal displacement of the start perturbation: every blade's modal
+    coordinates drawn from a standard normal (numpy ``default_rng(time.seed)``, so every
+    nodal diameter and segment mode is seeded, identically for every case and rank count),
+    scaled so that the largest tip displacement is ``time.perturbation`` [m]; zeros when 0.
+
+    A transient from rest seeds only what the start-up shakes (the nozzle's ND and the
+    preload transient); this lets it test stability fairly."""
+    N, m = model.blades, model.modes
+    amplitude = cfg.time.perturbation
+    if amplitude <= 0.0:
+        return np.zeros((N, m))
+    shape = np.random.default_rng(cfg.time.seed).standard_normal((N, m))
+    tip = np.linalg.norm(shape @ model.tip.T, axis=1).max()
+    return shape * (amplitude / tip)

@@ -81,6 +81,9 @@ class CaseResult:
         preload_residual: ``|K_R q - f|`` of the static preload start, when used.
         final_state: ``(2 N m + 4,)`` blade-major state at the end.
         batch: number of cases integrated together in the TS of this case.
+        linear: the case's linear stability (``growth_rate`` [1/s], ``nodal_diameter``,
+            ``frequency_hz`` of the fastest mode) when computed (sweeps do).
+        classification: both analyses in words (``wheelrom.transient.stability.classify``).
     """
 
     status: str = "done"
@@ -102,6 +105,22 @@ class CaseResult:
     preload_residual: float | None = None
     final_state: np.ndarray | None = None
     batch: int = 1
+    linear: dict | None = None
+    classification: str = ""
+
+    def growth_rates(self, tail: float = 0.5) -> tuple[float, np.ndarray]:
+        """``(tip, per ND)`` growth rates [1/s]: slopes of ``log`` of the window amplitudes
+        (``max_tip_amplitude``, ``nd_spectrum`` ``(N//2+1,)``) over the last ``tail`` of the
+        windows (at least 2); NaN with fewer than 2 windows."""
+        W = self.window_end.size
+        if W < 2:
+            return float("nan"), np.full(self.nd_spectrum.shape[1:], np.nan)
+        last = max(2, int(np.ceil(tail * W)))
+        t = self.window_end[-last:]
+        logs = np.log(np.maximum(np.column_stack([self.max_tip_amplitude[-last:],
+                                                  self.nd_spectrum[-last:]]), 1e-300))  # fmt: skip
+        slopes = np.polyfit(t - t.mean(), logs, 1)[0]
+        return float(slopes[0]), slopes[1:]
 
     def energy_balance_error(self) -> float:
         """``|E - E0 - sum W| / sum |W|`` at the last window (0 when nothing happened)."""
@@ -128,6 +147,9 @@ class CaseResult:
             "energy_balance_error": self.energy_balance_error(),
             "preload_residual": self.preload_residual,
             "options": self.options,
+            "growth_rate": self.growth_rates()[0],
+            "linear": self.linear,
+            "classification": self.classification,
         }
 
 

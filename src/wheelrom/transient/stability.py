@@ -259,3 +259,28 @@ def rightmost_eigenvalues(J, comm, nev: int = 10, prefix: str = PREFIX,
     eps.destroy()
     A.destroy()
     return values
+
+
+STILL_GROWING = 0.25  # transient growth over its last half above this share of the linear rate
+OPEN_FLUTTER = 0.2  # contact-open fraction in the last window that makes a limit cycle flutter
+
+
+def classify(linear_rate: float, transient_rate: float, final_amplitude: float,
+             open_fraction: dict) -> str:  # fmt: skip
+    """A case from both analyses: ``"stable"`` (no growing linear mode); ``"flutter, still
+    growing"`` (unstable and the transient's amplitude still grows over its last half at more
+    than a quarter of the linear rate: the run was too short to see where it ends);
+    ``"small limit cycle"`` (unstable, saturated, every contact kind open less than 20 % of
+    the last window) or ``"flutter, limit cycle"`` (saturated with contacts opening more),
+    each with the amplitude [um] and the open fractions."""
+    if not np.isfinite(linear_rate):
+        return "unknown (no linear analysis)"
+    if linear_rate <= 1e-6:
+        return "stable"
+    if np.isfinite(transient_rate) and transient_rate > STILL_GROWING * linear_rate:
+        return (f"flutter, still growing ({transient_rate:.3g} /s at the end, linear "
+                f"{linear_rate:.3g} /s)")  # fmt: skip
+    opening = ", ".join(f"{k} open {100 * v:.0f} %" for k, v in open_fraction.items())
+    kind = "small limit cycle" if max(open_fraction.values(), default=0.0) < OPEN_FLUTTER else (
+        "flutter, limit cycle")  # fmt: skip
+    return f"{kind} ({final_amplitude * 1e6:.3g} um; {opening})"
