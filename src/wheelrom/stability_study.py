@@ -12,6 +12,8 @@ from __future__ import annotations
 import os
 import time
 
+import numpy as np
+
 from wheelrom import results
 from wheelrom.config import Config
 from wheelrom.rom.build import build_model
@@ -67,10 +69,16 @@ def attach_linear(model, cfg: Config, angles_deg: dict, result) -> None:
     if not result.status.startswith("done") or result.window_end.size == 0:
         result.classification = f"linear growth {res.growth_rate[i]:+.3g} /s; transient failed"
         return
-    transient_rate, _ = result.growth_rates()
+    # compare like with like: the travelling-wave components, not ND 0 where the static
+    # preload deflection sits (unless the linear analysis says ND 0 is the one that grows)
+    _, per_nd = result.growth_rates()
+    first = 0 if res.nodal_diameter[i] == 0 else 1
+    transient_rate = float(np.nanmax(per_nd[first:])) if np.isfinite(per_nd[first:]).any() else (
+        float("nan"))  # fmt: skip
+    vibration = float(np.nanmax(result.nd_spectrum[-1][first:]))  # [m], last window
     last_open = {k: float(v[-1]) for k, v in result.open_fraction.items() if v.size}
-    result.classification = classify(float(res.growth_rate[i]), transient_rate,
-                                     float(result.max_tip_amplitude[-1]), last_open)  # fmt: skip
+    result.classification = classify(float(res.growth_rate[i]), transient_rate, vibration,
+                                     last_open)  # fmt: skip
 
 
 def _case_label(row) -> str:

@@ -268,11 +268,12 @@ OPEN_FLUTTER = 0.2  # contact-open fraction in the last window that makes a limi
 def classify(linear_rate: float, transient_rate: float, final_amplitude: float,
              open_fraction: dict) -> str:  # fmt: skip
     """A case from both analyses: ``"stable"`` (no growing linear mode); ``"flutter, still
-    growing"`` (unstable and the transient's amplitude still grows over its last half at more
-    than a quarter of the linear rate: the run was too short to see where it ends);
-    ``"small limit cycle"`` (unstable, saturated, every contact kind open less than 20 % of
-    the last window) or ``"flutter, limit cycle"`` (saturated with contacts opening more),
-    each with the amplitude [um] and the open fractions."""
+    growing"`` (unstable and the transient still grows over its last half at more than a
+    quarter of the linear rate: the run was too short to see where it ends); ``"small limit
+    cycle"`` (unstable, saturated, every contact kind open less than 20 % of the last window)
+    or ``"flutter, limit cycle"`` (saturated with contacts opening more), each with the
+    vibration amplitude ``final_amplitude`` [m] (shown in um) and the open fractions.
+    ``transient_rate`` [1/s]: the fastest ND component's growth over the last half."""
     if not np.isfinite(linear_rate):
         return "unknown (no linear analysis)"
     if linear_rate <= 1e-6:
