@@ -63,14 +63,19 @@ def test_accuracy_table_reports_progress_with_time_left(small_cfg):
     progress = []
     table = accuracy_table(small_cfg, SELF, modes=(6,), enriched_modes=6, families=2,
                            log=progress.append)  # fmt: skip
-    assert table["reference_hz"].shape == (7, 2) and list(table["bases"]) == ["free m=6",
-                                                                            "enriched m=6"]
+    assert table["reference_hz"].shape == (7, 2)
+    assert list(table["bases"]) == ["free m=6", "enriched m=6", "attachment m=6"]
     per_nd = [line for line in progress if line.startswith("cyclic FE: ND ")]
     assert len(per_nd) == 7 and all(" left" in line for line in per_nd[:-1])
     assert any(line.startswith("enriched basis: 4 sector phase solves, ") and " left" in line
                for line in progress)  # fmt: skip
     # the free basis is the model's: its error is the Ritz error, never negative
     assert table["bases"]["free m=6"]["relative_error"].min() > -1e-7
+    # attachment vectors only add directions: never worse than the free basis they extend
+    attached = table["bases"]["attachment m=6"]
+    assert attached["vectors"] == 6 + 12
+    assert (attached["relative_error"] <= table["bases"]["free m=6"]["relative_error"] + 1e-9).all()
+    assert attached["relative_error"].min() > -1e-7
 
 
 def test_time_left_reads_well():

@@ -222,3 +222,17 @@ def test_sweep_file_holds_both_analyses(small_model, small_cfg, tmp_path, capsys
         res = analyse(small_model, cfg, {"tieboss": row[0], "shroud": row[1]})
         assert rate == res.growth_rate.max() and k == res.nodal_diameter[res.critical()]
         assert word and word != "unknown (no linear analysis)"
+
+
+def test_a_wheel_that_is_not_cyclic_takes_the_assembled_path(small_model, small_cfg, comm):
+    """One blade pair with another shroud angle: the Jacobian is no longer block-circulant;
+    all eigenvalues of the assembled Jacobian (dense) agree with SLEPc's rightmost ones."""
+    angles = np.full(small_model.blades, 20.0)
+    angles[3] = 60.0
+    res = analyse(small_model, small_cfg, {"shroud": angles}, keep_jacobian=True)
+    assert not res.cyclic and res.eigenvalue.size == 2 * small_model.size
+    reference = rightmost_eigenvalues(res.jacobian, comm, nev=8)
+    for value in reference:
+        assert np.min(np.abs(res.eigenvalue - value)) < 1e-8 * abs(value)
+    tuned = analyse(small_model, small_cfg, {"shroud": 20.0})
+    assert tuned.cyclic and res.growth_rate.max() != pytest.approx(tuned.growth_rate.max())

@@ -61,9 +61,11 @@ class WheelConfig:
         default="free",
         metadata=_key(
             "-",
-            "segment basis: 'free' (paper: m free-interface modes) or 'enriched' (plus the "
-            "2 lowest exact cyclic sector modes of ND 0, N/8, N/4, N/2: m + 12 vectors)",
-            choices=("free", "enriched"),
+            "segment basis: 'free' (paper: m free-interface modes), 'enriched' (plus the "
+            "2 lowest exact cyclic sector modes of ND 0, N/8, N/4, N/2: m + 12 vectors), "
+            "'attachment' (plus static responses to unit forces at the contact nodes: "
+            "m + 6 per contact kind) or 'enriched+attachment'",
+            choices=("free", "enriched", "attachment", "enriched+attachment"),
         ),
     )
 

@@ -17,7 +17,13 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from wheelrom.config import Config
-from wheelrom.rom.bases import ENRICH_FAMILIES, enriched_basis, enrichment_phases
+from wheelrom.rom.bases import (
+    ENRICH_FAMILIES,
+    attachment_vectors,
+    enrichment_phases,
+    enrichment_vectors,
+    ritz_basis,
+)
 from wheelrom.rom.model import ReducedModel, reduce
 from wheelrom.segment.assembly import SegmentMatrices, assemble
 from wheelrom.segment.contact_stiffness import stiffness_tables
@@ -95,15 +101,22 @@ def build(cfg: Config, comm, log=quiet, segment: SegmentBuild | None = None) -> 
         f"segment modes: {eig.frequencies_hz.size} in {eig.solve_s:.2f} s, "
         f"max residual {eig.residuals.max():.1e}"
     )
-    if cfg.wheel.basis == "enriched":
+    parts = set(cfg.wheel.basis.split("+")) - {"free"}
+    if parts:
         t1 = time.perf_counter()
-        phases = enrichment_phases(seg.sectors)
-        X, lam = enriched_basis(seg, mats, cfg.wheel.coupling_stiffness, eig.vectors[mats.free],
-                                ENRICH_FAMILIES, comm, phases)  # fmt: skip
-        log(
-            f"enriched basis: {X.shape[1]} vectors (free modes + {ENRICH_FAMILIES} sector modes "
-            f"of ND {', '.join(map(str, phases))}) in {time.perf_counter() - t1:.2f} s"
-        )
+        vectors, said = [eig.vectors[mats.free]], []
+        if "enriched" in parts:
+            phases = enrichment_phases(seg.sectors)
+            vectors.append(enrichment_vectors(seg, mats, cfg.wheel.coupling_stiffness,
+                                              ENRICH_FAMILIES, comm, phases))  # fmt: skip
+            said.append(f"{ENRICH_FAMILIES} sector modes of ND {', '.join(map(str, phases))}")
+        if "attachment" in parts:
+            kinds = [k for k in cfg.contacts.enabled_kinds() if f"{k}_A" in seg.node_sets]
+            vectors.append(attachment_vectors(seg, mats, kinds, comm))
+            said.append(f"attachment vectors of {', '.join(kinds) or 'no'} contacts")
+        X, lam = ritz_basis(mats, vectors)
+        log(f"{cfg.wheel.basis} basis: {X.shape[1]} vectors (free modes + "
+            f"{' + '.join(said)}) in {time.perf_counter() - t1:.2f} s")  # fmt: skip
         hz = np.sqrt(np.maximum(lam, 0.0)) / (2 * np.pi)
         shapes = mats.expand(X)
         model = reduce(seg, shapes, np.diag(lam), cfg, hz)

@@ -79,6 +79,7 @@ SOLVERS = {
     "fullwheel_": ("EPS", _eps),
     "prestress_": ("KSP", _ksp),
     "stiffness_": ("KSP", _ksp),
+    "attachment_": ("KSP", _ksp),
 }
 
 

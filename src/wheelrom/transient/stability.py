@@ -25,6 +25,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.sparse as sp
 
 from wheelrom._environment import petsc, slepc
 from wheelrom.config import Config
@@ -127,10 +128,9 @@ def analyse(model: ReducedModel, cfg: Config, angles_deg: dict | None = None, co
     t0 = time.perf_counter()
     params, q, residual, J, contacts = linearise(model, cfg, angles_deg, comm)
     N, m = q.shape
-    blocks = blade_blocks(J, N, m)
-    cyclic = is_circulant(blocks)
+    cyclic = is_circulant(J, N, m)
     if cyclic:
-        nds, values, vectors = nd_spectrum(blocks)
+        nds, values, vectors = nd_spectrum(blade_blocks(J, N, m))
     else:
         nds, values, vectors = _assembled_spectrum(J, N, m)
     tip, normal, tangential, share = _describe_modes(model, contacts, nds, vectors)
@@ -154,41 +154,48 @@ def analyse(model: ReducedModel, cfg: Config, angles_deg: dict | None = None, co
     )
 
 
-def blade_blocks(J, N: int, m: int) -> np.ndarray:
-    """``(N, N, 2m, 2m)`` blade blocks of ``J`` (state ``(q, q')``, ``q`` blade-major):
-    block ``[s, t]`` maps ``(q_t, q'_t)`` to ``(q'_s, q''_s)``."""
+def _blade_order(N: int, m: int) -> np.ndarray:
+    """State indices blade by blade: ``(q_s, q'_s)`` of blade 0, then blade 1, ..."""
     n = N * m
-    order = np.concatenate([np.r_[s * m : (s + 1) * m, n + s * m : n + (s + 1) * m]
-                            for s in range(N)])  # fmt: skip
-    dense = J.toarray() if hasattr(J, "toarray") else np.asarray(J)
-    return dense[np.ix_(order, order)].reshape(N, 2 * m, N, 2 * m).transpose(0, 2, 1, 3)
+    return np.concatenate([np.r_[s * m : (s + 1) * m, n + s * m : n + (s + 1) * m]
+                           for s in range(N)])  # fmt: skip
 
 
-def is_circulant(blocks: np.ndarray, rtol: float = 1e-10) -> bool:
-    """Whether block ``[s, s + d]`` equals ``[0, d]`` for every ``s``, ``d`` (a tuned wheel)."""
-    N = blocks.shape[0]
-    scale = np.abs(blocks).max()
-    for s in range(1, N):
-        shifted = np.roll(blocks[s], -s, axis=0)  # [d] = block [s, s + d]
-        if np.abs(shifted - blocks[0]).max() > rtol * scale:
-            return False
-    return True
+def blade_blocks(J, N: int, m: int) -> np.ndarray:
+    """``(N, 2m, 2m)`` the first block row of ``J`` (state ``(q, q')``, ``q`` blade-major):
+    block ``d`` maps ``(q_d, q'_d)`` to ``(q'_0, q''_0)``."""
+    order = _blade_order(N, m)
+    J = sp.csr_matrix(J)
+    row = J[order[: 2 * m]][:, order].toarray()  # (2m, 2Nm)
+    return row.reshape(2 * m, N, 2 * m).transpose(1, 0, 2)
 
 
-def nd_block(blocks: np.ndarray, k: int) -> np.ndarray:
-    """``J(k) = sum_d J_{0,d} e^{i 2 pi k d / N}`` ``(2m, 2m)`` complex."""
-    N = blocks.shape[0]
+def is_circulant(J, N: int, m: int, rtol: float = 1e-10) -> bool:
+    """Whether block ``[s, s + d]`` of ``J`` equals ``[0, d]`` for every ``s``, ``d`` (a tuned
+    wheel): ``J`` in blade order is unchanged by a shift of one blade."""
+    order = _blade_order(N, m)
+    Jb = sp.csr_matrix(J)[order][:, order]
+    shift = np.roll(np.arange(2 * N * m), 2 * m)
+    difference = abs(Jb - Jb[shift][:, shift]).max()
+    return bool(difference <= rtol * abs(Jb).max())
+
+
+def nd_block(row: np.ndarray, k: int) -> np.ndarray:
+    """``J(k) = sum_d J_{0,d} e^{i 2 pi k d / N}`` ``(2m, 2m)`` complex from the first block
+    row ``(N, 2m, 2m)`` (:func:`blade_blocks`)."""
+    N = row.shape[0]
     phase = np.exp(2j * math.pi * k * np.arange(N) / N)
-    return np.einsum("d,dij->ij", phase, blocks[0])
+    return np.einsum("d,dij->ij", phase, row)
 
 
-def nd_spectrum(blocks: np.ndarray):
-    """``(nd, eigenvalues, vectors)`` over ND ``0..N/2``: ``(E,)``, ``(E,)``, ``(E, 2m)``
-    (vectors: the blade-0 part ``(q_0, q'_0)`` of each Bloch mode)."""
-    N = blocks.shape[0]
+def nd_spectrum(row: np.ndarray):
+    """``(nd, eigenvalues, vectors)`` over ND ``0..N/2`` from the first block row
+    (:func:`blade_blocks`): ``(E,)``, ``(E,)``, ``(E, 2m)`` (vectors: the blade-0 part
+    ``(q_0, q'_0)`` of each Bloch mode)."""
+    N = row.shape[0]
     nds, values, vectors = [], [], []
     for k in range(N // 2 + 1):
-        lam, vec = np.linalg.eig(nd_block(blocks, k))
+        lam, vec = np.linalg.eig(nd_block(row, k))
         nds.append(np.full(lam.size, k))
         values.append(lam)
         vectors.append(vec.T)

@@ -1,0 +1,42 @@
+"""Attachment vectors: the reduced segment's static flexibility at the contact nodes equals
+the FE's (they are what the contact springs load)."""
+
+import numpy as np
+
+from wheelrom.rom.build import build
+from wheelrom.segment.petsc import direct_solve
+
+
+def _contact_rows(seg, mats, kinds):
+    """``(6 K, n_free)`` unit-force vectors (x, y, z at A then B of every kind)."""
+    rows = []
+    for kind in kinds:
+        for end in ("A", "B"):
+            node = int(seg.node_sets[f"{kind}_{end}"][0])
+            for c in range(3):
+                force = np.zeros(seg.n_dofs)
+                force[3 * node + c] = 1.0
+                rows.append(force[mats.free])
+    return np.array(rows)
+
+
+def test_attachment_basis_has_the_fe_flexibility_at_the_contact_nodes(small_cfg, comm):
+    cfg = small_cfg.replace(**{"wheel.basis": "attachment"})
+    wheel = build(cfg, comm)
+    seg, mats = wheel.segment.mesh, wheel.segment.matrices
+    kinds = ("tieboss", "shroud")
+    P = _contact_rows(seg, mats, kinds)
+    fe = P @ direct_solve(mats.K, P.T, comm, "test_")  # (12, 12) [m/N]
+    X = wheel.shapes[mats.free]  # segment Ritz vectors of the model
+    reduced = (P @ X) @ np.linalg.solve(X.T @ (mats.K @ X), (P @ X).T)
+    assert X.shape[1] == cfg.wheel.modes_per_segment + 6 * len(kinds)
+    assert np.abs(reduced - fe).max() < 1e-8 * np.abs(fe).max()
+    # the free-interface basis alone is far from it: the test can fail
+    free = build(small_cfg, comm)
+    Xf = free.shapes[mats.free]
+    reduced_free = (P @ Xf) @ np.linalg.solve(Xf.T @ (mats.K @ Xf), (P @ Xf).T)
+    assert np.abs(reduced_free - fe).max() > 1e-2 * np.abs(fe).max()
+    # still a segment Ritz basis: M-orthonormal, K diagonal
+    np.testing.assert_allclose(X.T @ (mats.M @ X), np.eye(X.shape[1]), atol=1e-10)
+    KX = X.T @ (mats.K @ X)
+    assert np.abs(KX - np.diag(np.diag(KX))).max() < 1e-8 * np.abs(KX).max()
