@@ -73,6 +73,16 @@ class ReducedModel:
             K[t, :, s, :] += self.A1.T
         return K.reshape(N * m, N * m)
 
+    def sparse_stiffness(self):
+        """``K_R`` as a scipy CSR matrix [1/s^2]: the blade blocks only (``A0`` on the
+        diagonal, ``A1`` / ``A1^T`` to the next / previous blade)."""
+        import scipy.sparse as sp
+
+        N = self.blades
+        eye = sp.identity(N, format="csr")
+        nxt = sp.csr_matrix((np.ones(N), (np.arange(N), (np.arange(N) + 1) % N)), shape=(N, N))
+        return (sp.kron(eye, self.A0) + sp.kron(nxt, self.A1) + sp.kron(nxt.T, self.A1.T)).tocsr()
+
     def petsc_stiffness(self, comm, prefix: str = "wheel_K_"):
         """``K_R`` as a PETSc BAIJ matrix with block size m on ``comm``."""
         PETSc = petsc()

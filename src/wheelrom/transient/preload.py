@@ -4,6 +4,7 @@ on ``K_R q = f(q, 0, t = 0)``, so the accelerations vanish at ``t = 0``."""
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
 
 from wheelrom._environment import petsc
 from wheelrom.transient.problem import WheelProblem
@@ -24,7 +25,8 @@ def static_equilibrium(forces, K: np.ndarray, comm, force_scale: float, prefix: 
                        tangent=None) -> tuple[np.ndarray, float]:  # fmt: skip
     """``K q = f(q, 0, t=0)`` for the :class:`~wheelrom.forces.reference.ReferenceForces`
     ``forces`` and the dense ``K`` ``(N m, N m)``; ``tangent(q)``: the analytic ``df/dq``
-    (sparse) if known, else finite differences. ``force_scale`` [N] sets the absolute
+    (sparse, blocks of neighbouring blades only) if known, then the Jacobian is a sparse AIJ
+    (PETSc LU), else dense by finite differences. ``force_scale`` [N] sets the absolute
     tolerance. Returns ``q`` and ``|residual|``."""
     PETSc = petsc()
     n = K.shape[0]
@@ -39,10 +41,18 @@ def static_equilibrium(forces, K: np.ndarray, comm, force_scale: float, prefix: 
         # a writable copy: the compiled force model has one specialisation (writable arrays)
         r.setArray(residual_np(x.getArray(readonly=True).copy()))
 
+    if tangent is not None:  # the AIJ structure, and K once as CSR
+        structure, K_sparse = _blade_pattern(N, m), sp.csr_matrix(K)
+
     def jacobian(snes, x, J, P):
         q = x.getArray(readonly=True).copy()
-        if tangent is not None:
-            Jd = K - tangent(q.reshape(N, m)).toarray()
+        if tangent is not None:  # sparse: K_R and the contacts couple neighbours only
+            A = (K_sparse - tangent(q.reshape(N, m))).tocsr()  # within the structure
+            A.sort_indices()
+            P.zeroEntries()  # entries A leaves out (an exact zero) must not keep old values
+            P.setValuesCSR(A.indptr, A.indices, A.data)
+            P.assemble()
+            return
         else:
             base = residual_np(q)
             h = 1e-9 * max(1.0, np.abs(q).max())
@@ -56,8 +66,11 @@ def static_equilibrium(forces, K: np.ndarray, comm, force_scale: float, prefix: 
 
     snes = PETSc.SNES().create(comm=comm)
     snes.setOptionsPrefix(prefix)
-    J = PETSc.Mat().createDense((n, n), comm=comm)
-    J.setUp()
+    if tangent is not None:
+        J = PETSc.Mat().createAIJ((n, n), csr=(structure.indptr, structure.indices), comm=comm)
+    else:
+        J = PETSc.Mat().createDense((n, n), comm=comm)
+        J.setUp()
     r = PETSc.Vec().createSeq(n, comm=comm)
     x = PETSc.Vec().createSeq(n, comm=comm)
     snes.setFunction(residual, r)
@@ -76,6 +89,16 @@ def static_equilibrium(forces, K: np.ndarray, comm, force_scale: float, prefix: 
     if reason <= 0:
         raise RuntimeError(f"{prefix}snes did not converge (reason {reason}, |F| = {res:.3g})")
     return q, res
+
+
+def _blade_pattern(N: int, m: int) -> sp.csr_matrix:
+    """Ones on every ``(m, m)`` block of a blade and its two neighbours: the nonzero structure
+    of ``K_R`` and of the contact tangent (so their values fit a fixed AIJ)."""
+    neighbours = (np.arange(N)[:, None] + [-1, 0, 1]).ravel() % N
+    ring = sp.csr_matrix((np.ones(3 * N), (np.repeat(np.arange(N), 3), neighbours)), shape=(N, N))
+    structure = sp.kron(ring, np.ones((m, m)), format="csr")
+    structure.sort_indices()
+    return structure
 
 
 def initial_state(problem: WheelProblem, case: int = 0) -> tuple[np.ndarray, float | None]:

@@ -119,7 +119,8 @@ def linearise(model: ReducedModel, cfg: Config, angles_deg: dict | None = None, 
     )  # fmt: skip
     q = q.reshape(N, m)
     Fq, Fv, contacts = force_derivatives(params, q)
-    return params, q, residual, jacobian(K, cfg.wheel.damping_beta, Fq, Fv), contacts
+    return params, q, residual, jacobian(model.sparse_stiffness(), cfg.wheel.damping_beta, Fq,
+                                         Fv), contacts  # fmt: skip
 
 
 def analyse(model: ReducedModel, cfg: Config, angles_deg: dict | None = None, comm=None,
