@@ -40,3 +40,29 @@ def test_attachment_basis_has_the_fe_flexibility_at_the_contact_nodes(small_cfg,
     np.testing.assert_allclose(X.T @ (mats.M @ X), np.eye(X.shape[1]), atol=1e-10)
     KX = X.T @ (mats.K @ X)
     assert np.abs(KX - np.diag(np.diag(KX))).max() < 1e-8 * np.abs(KX).max()
+
+
+def test_von_mises_of_known_states_and_a_uniform_stretch(coarse_segment):
+    """Uniaxial sigma -> sigma, pure shear tau -> sqrt(3) tau; a displacement u = eps x of the
+    whole mesh gives the Lame stress at every Gauss point."""
+    from wheelrom.segment.prestress import gauss_stress, von_mises
+
+    assert von_mises(np.diag([2.0, 0, 0])) == 2.0
+    shear = np.zeros((3, 3))
+    shear[0, 1] = shear[1, 0] = 1.0
+    assert abs(von_mises(shear) - np.sqrt(3)) < 1e-15
+    seg, _ = coarse_segment
+    young, poisson, eps = 2.1e11, 0.3, 1e-4
+    u = np.zeros(seg.n_dofs)
+    u[0::3] = eps * seg.nodes[:, 0]  # eps_xx = eps
+    S = gauss_stress(seg, young, poisson, u)
+    lam = young * poisson / ((1 + poisson) * (1 - 2 * poisson))
+    mu = young / (2 * (1 + poisson))
+    expected = np.diag([lam + 2 * mu, lam, lam]) * eps
+    assert np.abs(S - expected).max() < 1e-6 * np.abs(expected).max()
+
+
+def test_modes_reports_the_prestress_peak_stress(small_model):
+    peak = small_model.info["prestress_peak_von_mises_pa"]
+    assert 1e8 < peak < 1e10  # a rotating steel disc at 3000 rpm: hundreds of MPa to GPa
+    assert 0.4 <= small_model.info["prestress_peak_radius_m"] <= 2.2  # inside the wheel

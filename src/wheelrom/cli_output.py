@@ -45,6 +45,11 @@ def warn_unused(petsc_args: list[str]) -> None:
 
 def print_modes(model, table, reference, assembled) -> None:
     print("segment modes [Hz]: " + ", ".join(f"{x:.2f}" for x in model.segment_hz))
+    if "prestress_peak_von_mises_pa" in model.info:
+        peak, radius = (model.info["prestress_peak_von_mises_pa"] / 1e6,
+                        model.info["prestress_peak_radius_m"])  # fmt: skip
+        print(f"prestress: peak von Mises stress {peak:.0f} MPa at r = {radius:.2f} m "
+              "(linear elastic, at the Gauss points)")  # fmt: skip
     for kind_name, rep in model.info.items():
         if isinstance(rep, dict) and "arm_length" in rep:
             print(

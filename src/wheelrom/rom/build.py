@@ -12,7 +12,7 @@ the model alone (a few kilobytes, what the transient and the sweep broadcast).
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -48,6 +48,7 @@ class SegmentBuild:
     mesh: SegmentMesh
     matrices: SegmentMatrices
     cfg: Config
+    info: dict = field(default_factory=dict)  # e.g. the prestress's peak von Mises stress
 
 
 @dataclass
@@ -74,10 +75,15 @@ def build_segment(cfg: Config, comm, log=quiet) -> SegmentBuild:
         mats = replace(mats, K=ps.stiffness(mats))
         log(
             f"prestress at {cfg.wheel.speed_hz:g} Hz: static residual {ps.residual:.1e}, "
-            f"largest displacement {np.abs(ps.displacement).max() * 1e3:.3f} mm "
+            f"largest displacement {np.abs(ps.displacement).max() * 1e3:.3f} mm, peak von "
+            f"Mises stress {ps.peak_von_mises / 1e6:.0f} MPa at r = {ps.peak_radius:.2f} m "
             f"({ps.solve_s:.1f} s)"
         )
-    return SegmentBuild(seg, mats, cfg)
+        stress = {"prestress_peak_von_mises_pa": ps.peak_von_mises,
+                  "prestress_peak_radius_m": ps.peak_radius}  # fmt: skip
+    else:
+        stress = {}
+    return SegmentBuild(seg, mats, cfg, stress)
 
 
 def contact_stiffness_tables(segment: SegmentBuild, kinds, comm) -> dict:
@@ -130,6 +136,7 @@ def build(cfg: Config, comm, log=quiet, segment: SegmentBuild | None = None) -> 
             f"contact stiffness '{kind}' from FE ({flex.solve_s:.1f} s): "
             f"{values.min():.3g}..{values.max():.3g} N/m over 0..90 deg"
         )
+    model.info.update(segment.info)
     model.info.update(
         segment_dofs=seg.n_dofs,
         assembly_s=mats.assembly_s,

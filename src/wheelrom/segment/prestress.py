@@ -48,9 +48,10 @@ def spin_softening_mass(seg: SegmentMesh, density: float, arrays=None) -> sp.csr
     return scatter(scalar_to_vector(m_loc, (1.0, 1.0, 0.0)), dofs, seg.n_dofs)
 
 
-def geometric_stiffness(seg: SegmentMesh, young: float, poisson: float, u: np.ndarray,
-                        arrays=None) -> sp.csr_matrix:  # fmt: skip
-    """``K_sigma`` [N/m] of the stress of the displacement ``u`` ``(n_dofs,)``."""
+def gauss_stress(seg: SegmentMesh, young: float, poisson: float, u: np.ndarray,
+                 arrays=None) -> np.ndarray:  # fmt: skip
+    """``(nel, nq, 3, 3)`` linear-elastic stress [Pa] of the displacement ``u`` ``(n_dofs,)``
+    at the Gauss points."""
     lam = young * poisson / ((1 + poisson) * (1 - 2 * poisson))
     mu = young / (2 * (1 + poisson))
     _, grads, dx, dofs, _ = arrays or basis_arrays(seg)
@@ -58,7 +59,20 @@ def geometric_stiffness(seg: SegmentMesh, young: float, poisson: float, u: np.nd
     G = np.einsum("eai,akeq->eqik", U, grads, optimize=True)  # du_i/dx_k
     eps = 0.5 * (G + G.transpose(0, 1, 3, 2))
     tr = np.trace(eps, axis1=2, axis2=3)
-    S = 2 * mu * eps + lam * tr[:, :, None, None] * np.eye(3)
+    return 2 * mu * eps + lam * tr[:, :, None, None] * np.eye(3)
+
+
+def von_mises(S: np.ndarray) -> np.ndarray:
+    """Von Mises stress ``sqrt(3/2 s:s)`` (``s`` the deviator) of stresses ``(..., 3, 3)``."""
+    dev = S - np.trace(S, axis1=-2, axis2=-1)[..., None, None] * np.eye(3) / 3
+    return np.sqrt(1.5 * np.einsum("...ij,...ij->...", dev, dev))
+
+
+def geometric_stiffness(seg: SegmentMesh, young: float, poisson: float, u: np.ndarray,
+                        arrays=None) -> sp.csr_matrix:  # fmt: skip
+    """``K_sigma`` [N/m] of the stress of the displacement ``u`` ``(n_dofs,)``."""
+    _, grads, dx, dofs, _ = arrays or basis_arrays(seg)
+    S = gauss_stress(seg, young, poisson, u, arrays)
     g_loc = np.einsum("akeq,eqkl,bleq,eq->eab", grads, S, grads, dx, optimize=True)
     return scatter(scalar_to_vector(g_loc), dofs, seg.n_dofs)
 
@@ -73,6 +87,8 @@ class Prestress:
     M_spin: sp.csr_matrix
     residual: float
     solve_s: float
+    peak_von_mises: float = 0.0  # [Pa] largest over the Gauss points
+    peak_radius: float = 0.0  # [m] distance from the axis of the element where it occurs
 
     def stiffness(self, mats: SegmentMatrices) -> sp.csr_matrix:
         """``K + K_sigma - Omega^2 M_s`` on the free DOFs."""
@@ -96,4 +112,8 @@ def prestress(seg: SegmentMesh, mats: SegmentMatrices, young: float, poisson: fl
     u_full = mats.expand(u)
     Ks = geometric_stiffness(seg, young, poisson, u_full, arrays)[mats.free][:, mats.free]
     Ms = spin_softening_mass(seg, density, arrays)[mats.free][:, mats.free]
-    return Prestress(omega, u_full, Ks.tocsr(), Ms.tocsr(), residual, time.perf_counter() - t0)
+    stress = von_mises(gauss_stress(seg, young, poisson, u_full, arrays))  # (nel, nq)
+    element = int(np.argmax(stress.max(axis=1)))
+    centre = seg.nodes[seg.quadratic_cells()[element]].mean(axis=0)
+    return Prestress(omega, u_full, Ks.tocsr(), Ms.tocsr(), residual, time.perf_counter() - t0,
+                     float(stress.max()), float(np.hypot(centre[0], centre[1])))  # fmt: skip
