@@ -66,3 +66,26 @@ def test_modes_reports_the_prestress_peak_stress(small_model):
     peak = small_model.info["prestress_peak_von_mises_pa"]
     assert 1e8 < peak < 1e10  # a rotating steel disc at 3000 rpm: hundreds of MPa to GPa
     assert 0.4 <= small_model.info["prestress_peak_radius_m"] <= 2.2  # inside the wheel
+
+
+def test_auto_flutter_mode_acts_on_that_mode_only(small_model, small_cfg):
+    """flutter.mode = "auto": the Van der Pol force of a random state projects on the chosen
+    segment mode only (the lowest with at least half the largest aero participation)."""
+    from wheelrom.forces.parameters import flutter_mode, force_parameters
+    from wheelrom.forces.reference import ReferenceForces
+
+    p = np.abs(small_model.aero)
+    j = flutter_mode(small_model.aero)
+    assert p[j] >= 0.5 * p.max() and (p[:j] < 0.5 * p.max()).all()
+    cfg = small_cfg.replace(**{"flutter.mode": "auto", "excitation.force": 0.0,
+                               "contacts.tieboss.enabled": False,
+                               "contacts.shroud.enabled": False})  # fmt: skip
+    forces = ReferenceForces(force_parameters(small_model, cfg))
+    rng = np.random.default_rng(1)
+    N, m = small_model.blades, small_model.modes
+    f = forces.evaluate(0.0, 1e-4 * rng.standard_normal((N, m)), rng.standard_normal((N, m)))
+    others = np.delete(f, j, axis=1)
+    assert np.abs(f[:, j]).max() > 0 and not others.any()
+    every = ReferenceForces(force_parameters(small_model, cfg.replace(**{"flutter.mode": -1})))
+    g = every.evaluate(0.0, 1e-4 * rng.standard_normal((N, m)), rng.standard_normal((N, m)))
+    assert np.count_nonzero(np.abs(g).max(axis=0)) > 1  # the all-modes reading differs

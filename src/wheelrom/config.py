@@ -127,10 +127,13 @@ class FlutterConfig:
     r: float = field(
         default=5e-3, metadata=_key("m", "amplitude where negative damping turns positive", gt=0.0)
     )
-    mode: int = field(
+    mode: int | str = field(
         default=-1,
         metadata=_key(
-            "-", "restrict Van der Pol to this segment mode (0-based); -1: all modes", min=-1
+            "-",
+            "restrict Van der Pol to this segment mode (0-based); -1: all modes; 'auto': the "
+            "lowest mode with at least half the largest aero participation (the paper's reading)",
+            min=-1,
         ),
     )
 
@@ -311,6 +314,11 @@ def _convert_field(where: str, f: dataclasses.Field, value: Any, problems: list[
         return convert_stiffness(where, value, problems)
     if f.name == "node_sets":
         return convert_node_sets(where, value, problems)
+    if where.endswith("flutter.mode") and isinstance(value, str):
+        if value != "auto":
+            problems.append(f"{where}: expected an integer (-1: all modes) or 'auto', got "
+                            f"{value!r}")  # fmt: skip
+        return value
     if isinstance(default, bool):
         if not isinstance(value, bool):
             problems.append(f"{where}: expected true or false, got {value!r}")

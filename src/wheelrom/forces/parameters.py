@@ -104,6 +104,15 @@ class ForceParameters:
                 c.arm_length, c.shape_A, c.shape_B, c.point_A, c.point_B)  # fmt: skip
 
 
+def flutter_mode(aero: np.ndarray) -> int:
+    """``flutter.mode = "auto"``: the segment mode the Van der Pol force acts on in the paper's
+    reading ("one selected mode of each blade"): the lowest mode whose aero participation
+    ``|p_j|`` (mean ``y`` motion of the aero nodes) is at least half the largest one, i.e. the
+    first mode that moves the aerofoil tangentially (the first bending mode of a blade)."""
+    size = np.abs(np.asarray(aero, dtype=float))
+    return int(np.flatnonzero(size >= 0.5 * size.max())[0])
+
+
 def force_parameters(model: ReducedModel, cfg: Config,
                      angles_deg: dict | None = None) -> ForceParameters:  # fmt: skip
     """The force parameters of ``cfg`` on ``model``; ``angles_deg``: kind -> contact angle
@@ -111,9 +120,10 @@ def force_parameters(model: ReducedModel, cfg: Config,
     N, m = model.blades, model.modes
     w, fl, fr = cfg.wheel, cfg.flutter, cfg.friction
     aero = np.array(model.aero, dtype=float)
-    if fl.mode >= 0:  # Van der Pol on one segment mode only
+    mode = flutter_mode(aero) if fl.mode == "auto" else fl.mode
+    if mode >= 0:  # Van der Pol on one segment mode only
         keep = np.zeros_like(aero)
-        keep[fl.mode] = aero[fl.mode]
+        keep[mode] = aero[mode]
         aero = keep
     return ForceParameters(
         blades=N,
