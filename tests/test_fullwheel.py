@@ -128,3 +128,13 @@ def test_accuracy_command_is_monotone_in_the_basis(capsys):
     assert e3.shape == e6.shape == (7, 2)
     assert np.all(e6 >= -1e-7) and np.all(e6 <= e3 + 1e-7)
     assert out["bases"]["enriched m=3"]["vectors"] <= 3 + 12
+
+
+def test_accuracy_table_with_more_families_than_vectors(small_cfg):
+    """A basis of r vectors has r families: the ones beyond are NaN, not a crash."""
+    from wheelrom.rom.accuracy import accuracy_table
+
+    table = accuracy_table(small_cfg, SELF, modes=(6,), enriched_modes=6, families=8)
+    free = table["bases"]["free m=6"]["relative_error"]
+    assert free.shape == (7, 8) and np.isnan(free[:, 6:]).all() and np.isfinite(free[:, :6]).all()
+    assert np.isfinite(table["bases"]["enriched m=6"]["relative_error"]).all()

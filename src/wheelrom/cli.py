@@ -315,7 +315,7 @@ def cmd_accuracy(args: argparse.Namespace) -> int:
         + " ".join(f"{'fam ' + str(j + 1):>9s}" for j in range(fam))
     )
     for label, row in table["bases"].items():
-        err = 100 * np.abs(row["relative_error"]).max(axis=0)
+        err = 100 * np.abs(row["relative_error"]).max(axis=0)  # NaN: basis has fewer families
         print(f"{label:18s} {row['vectors']:7d} " + " ".join(f"{x:9.3f}" for x in err))
     return 0
 

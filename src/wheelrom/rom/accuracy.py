@@ -43,7 +43,7 @@ def accuracy_table(cfg, comm, modes=(10, 20, 40), enriched_modes=10, families=4,
     bases = {}
     for m in modes:
         model = reduce(seg, eig.vectors[:, :m], np.diag(eig.eigenvalues[:m]), cfg)
-        rom = model.frequencies_by_nodal_diameter()[:, :families]
+        rom = _families(model, families)
         bases[f"free m={m}"] = {"vectors": m, "relative_error": rom / reference - 1}
         log(f"free basis m={m} done")
     log(f"enriched basis: {len(phases)} sector phase solves, "
@@ -54,7 +54,7 @@ def accuracy_table(cfg, comm, modes=(10, 20, 40), enriched_modes=10, families=4,
                             ENRICH_FAMILIES, comm, phases)  # fmt: skip
     log(f"enriched basis: {X.shape[1]} vectors ({time.perf_counter() - t0:.1f} s)")
     model = reduce(seg, mats.expand(X), np.diag(lam), cfg)
-    rom = model.frequencies_by_nodal_diameter()[:, :families]
+    rom = _families(model, families)
     bases[f"enriched m={enriched_modes}"] = {
         "vectors": int(X.shape[1]),
         "relative_error": rom / reference - 1,
@@ -65,8 +65,17 @@ def accuracy_table(cfg, comm, modes=(10, 20, 40), enriched_modes=10, families=4,
         for m in modes:
             X, lam = ritz_basis(mats, [eig.vectors[mats.free, :m], attach])
             model = reduce(seg, mats.expand(X), np.diag(lam), cfg)
-            rom = model.frequencies_by_nodal_diameter()[:, :families]
+            rom = _families(model, families)
             bases[f"attachment m={m}"] = {"vectors": int(X.shape[1]),
                                           "relative_error": rom / reference - 1}  # fmt: skip
             log(f"attachment basis m={m} done")
     return {"reference_hz": reference, "bases": bases}
+
+
+def _families(model, families: int) -> np.ndarray:
+    """``(ND, families)`` reduced frequencies [Hz]; NaN where the basis has fewer families
+    (a basis of r vectors has r per nodal diameter)."""
+    table = model.frequencies_by_nodal_diameter()[:, :families]
+    out = np.full((table.shape[0], families), np.nan)
+    out[:, : table.shape[1]] = table
+    return out
