@@ -487,6 +487,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return fail(str(exc), EXIT_INTERRUPTED)
     except KeyboardInterrupt:
         return fail("interrupted (nothing was being saved)", EXIT_INTERRUPTED)
+    except BrokenPipeError:  # the output was piped into head & co., which stopped reading
+        sys.stdout = open(os.devnull, "w")  # noqa: SIM115 -- the interpreter flushes it at exit
+        return 0
     warn_unused(args.petsc_args)
     return status
 
