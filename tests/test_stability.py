@@ -236,3 +236,21 @@ def test_a_wheel_that_is_not_cyclic_takes_the_assembled_path(small_model, small_
         assert np.min(np.abs(res.eigenvalue - value)) < 1e-8 * abs(value)
     tuned = analyse(small_model, small_cfg, {"shroud": 20.0})
     assert tuned.cyclic and res.growth_rate.max() != pytest.approx(tuned.growth_rate.max())
+
+
+def test_info_summarises_a_stability_file(small_model, small_cfg, tmp_path, capsys):
+    import json
+
+    from wheelrom import cli
+
+    out = tmp_path / "stab.h5"
+    assert cli.main(["stability", SMALL, "--out", str(out)]) == 0
+    capsys.readouterr()
+    assert cli.main(["info", str(out), "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["kind"] == "stability" and info["counts"]["total"] == 3
+    for row in info["cases"]:
+        res = analyse(small_model, small_cfg, {"tieboss": row["tieboss_deg"],
+                                               "shroud": row["shroud_deg"]})  # fmt: skip
+        assert row["max_growth_rate"] == res.growth_rate.max()
+        assert row["verdict"] == res.verdict()

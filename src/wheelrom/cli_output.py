@@ -245,6 +245,10 @@ def print_info(info: dict, show_all: bool = False) -> None:
     model = info.get("model") or {}
     if info["kind"] == "model":
         print(f"{info['file']}: reduced model (modes --out)")
+    elif info["kind"] == "stability":
+        n = info["counts"]
+        print(f"{info['file']}: linear stability, {n['total']} cases: {n['stable']} stable, "
+              f"{n['unstable']} unstable")  # fmt: skip
     else:
         n = info["counts"]["total"]
         print(f"{info['file']}: {info['format']} results, {n} case{'s' * (n != 1)}")
@@ -262,6 +266,13 @@ def print_info(info: dict, show_all: bool = False) -> None:
                   "families (frequencies_by_nd)")  # fmt: skip
         for name, what in model.get("extras", {}).items():
             print(f"  also:          {name}: {what}")
+    if info["kind"] == "stability":
+        print(" case tie-boss  shroud  verdict   growth [1/s]  ND  frequency [Hz]")
+        for row in info["cases"]:
+            print(f"{row['index']:5d} {row['tieboss_deg']:8g} {row['shroud_deg']:7g}  "
+                  f"{row['verdict']:9s} {row['max_growth_rate']:+12.4g} {row['nodal_diameter']:3d}"
+                  f"  {row['frequency_hz']:14.1f}")  # fmt: skip
+        return
     if info["kind"] != "results":
         return
     window = human_value(info["window_s"], "s")

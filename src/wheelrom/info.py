@@ -15,7 +15,7 @@ import tomllib
 import numpy as np
 
 from wheelrom.errors import InputError
-from wheelrom.results import FORMAT, statuses
+from wheelrom.results import FORMAT, STABILITY_FORMAT, statuses
 
 #: model datasets beyond the sweep's, with what they are (``modes --out``)
 MODEL_EXTRAS = {
@@ -52,9 +52,12 @@ def file_info(path: str) -> dict:
             return _results_info(f, path)
         if fmt is None and "model" in f and "config" in f.attrs:
             return _model_file_info(f, path)
+        if fmt == STABILITY_FORMAT and "stability" in f:
+            return _stability_info(f, path)
         found = f"format {fmt!r}" if fmt is not None else "no 'format' attribute"
         raise InputError(f"{path}: not a wheelrom results or model file ({found}; "
-                         f"expected {FORMAT!r} or a modes --out model)")  # fmt: skip
+                         f"expected {FORMAT!r}, {STABILITY_FORMAT!r} or a modes --out "
+                         "model)")  # fmt: skip
 
 
 def _text(value) -> str | None:
@@ -210,4 +213,28 @@ def _results_info(f, path: str) -> dict:
         "total_wall_s": float(sum(walls)),
         "cases": rows,
         "hint": resume_hint(path, source, counts),
+    }
+
+
+def _stability_info(f, path: str) -> dict:
+    """A stability file (``wheelrom stability --out``): per case the angles, the verdict and
+    the fastest mode (growth rate [1/s], ND, frequency [Hz]; modes are stored fastest first)."""
+    g = f["stability"]
+    verdicts = [v.decode() for v in g["verdict"][()]]
+    cases = [
+        {"index": i, "tieboss_deg": float(a[0]), "shroud_deg": float(a[1]), "verdict": v,
+         "max_growth_rate": float(g["growth_rate"][i, 0]),
+         "nodal_diameter": int(g["nodal_diameter"][i, 0]),
+         "frequency_hz": float(g["frequency_hz"][i, 0])}
+        for i, (a, v) in enumerate(zip(g["angles_deg"][()], verdicts, strict=True))
+    ]  # fmt: skip
+    return {
+        "file": path,
+        "kind": "stability",
+        "format": STABILITY_FORMAT,
+        "config_source": _text(f.attrs.get("config_source")),
+        "model": model_summary(f["model"]),
+        "counts": {"stable": verdicts.count("stable"), "unstable": verdicts.count("unstable"),
+                   "total": len(verdicts)},  # fmt: skip
+        "cases": cases,
     }
