@@ -19,6 +19,8 @@ from wheelrom.cli_output import (
     EXIT_INTERRUPTED,
     fail,
     log,
+    print_accuracy,
+    print_contact_stiffness,
     print_info,
     print_json,
     print_modes,
@@ -282,19 +284,13 @@ def cmd_contact_stiffness(args: argparse.Namespace) -> int:
         }
     if args.json:
         print_json(out)
-        return 0
-    for kind, row in out.items():
-        print(f"{kind}: k_c [N/m] from the segment FE ({seg.n_dofs} DOFs), configured value")
-        conf = row["configured_n_per_m"] or [None] * len(row["angle_deg"])
-        for a, k, c in zip(row["angle_deg"], row["fe_stiffness_n_per_m"], conf, strict=True):
-            print(f"  {a:5.1f} deg  {k:11.4g}  " + ("" if c is None else f"{c:11.4g}"))
+    else:
+        print_contact_stiffness(out, seg.n_dofs)
     return 0
 
 
 def cmd_accuracy(args: argparse.Namespace) -> int:
     """Reduced-model frequencies against the exact cyclic-symmetry FE: error per family."""
-    import numpy as np
-
     from wheelrom.rom.accuracy import accuracy_table
     from wheelrom.rom.build import quiet
 
@@ -307,16 +303,8 @@ def cmd_accuracy(args: argparse.Namespace) -> int:
             "bases": {k: {"vectors": v["vectors"], "relative_error": v["relative_error"].tolist()}
                       for k, v in table["bases"].items()},
         })  # fmt: skip
-        return 0
-    fam = table["reference_hz"].shape[1]
-    print("max over nodal diameters of |reduced / FE - 1| [%], by family")
-    print(
-        f"{'basis':18s} {'vectors':>7s} "
-        + " ".join(f"{'fam ' + str(j + 1):>9s}" for j in range(fam))
-    )
-    for label, row in table["bases"].items():
-        err = 100 * np.abs(row["relative_error"]).max(axis=0)  # NaN: basis has fewer families
-        print(f"{label:18s} {row['vectors']:7d} " + " ".join(f"{x:9.3f}" for x in err))
+    else:
+        print_accuracy(table)
     return 0
 
 
@@ -403,6 +391,14 @@ def cmd_info(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_export(args: argparse.Namespace) -> int:
+    """One case of a results file as CSV: tip histories and per-window statistics."""
+    from wheelrom.csv_export import export_case
+
+    print("\n".join(export_case(args.file, args.case, args.csv, args.what, args.force)))
+    return 0
+
+
 COMMANDS: dict[
     str, tuple[Callable[[argparse.Namespace], int], str, Callable[[argparse.ArgumentParser], None]]
 ] = {
@@ -414,6 +410,8 @@ COMMANDS: dict[
               cli_args.args_sweep),
     "plot": (cmd_plot, "figures from a results file", cli_args.args_plot),
     "info": (cmd_info, "summary of a results or model file", cli_args.args_info),
+    "export": (cmd_export, "one case as CSV (tip histories, window statistics)",
+               cli_args.args_export),
     "bench": (cmd_bench, "speed of the transient hot path (one core)", cli_args.args_bench),
     "campbell": (cmd_campbell, "frequencies versus rotor speed (prestressed)",
                  cli_args.args_campbell),
@@ -454,7 +452,7 @@ def build_parser() -> argparse.ArgumentParser:
         p = sub.add_parser(name, help=help_text, description=func.__doc__)
         if name == "plot":
             p.add_argument("results", help="HDF5 file from sweep, run or modes --out")
-        elif name != "info":  # info: a file, no configuration (cli_args.args_info)
+        elif name not in ("info", "export"):  # these read a file, no configuration
             cli_args.add_config_args(p)
         extra(p)
         p.set_defaults(func=func)

@@ -137,6 +137,18 @@ def args_plot(p):
     )
 
 
+def args_export(p):
+    p.add_argument("file", help="HDF5 file from sweep or run --out")
+    p.add_argument("--case", type=int, default=0, help="case index as 'wheelrom info' lists it")
+    p.add_argument("--csv", required=True, metavar="PREFIX",
+                   help="writes PREFIX_tips.csv and/or PREFIX_windows.csv")  # fmt: skip
+    p.add_argument("--what", choices=("all", "tips", "windows"), default="all",
+                   help="tips: tip displacement of every blade per sample; windows: per-window "
+                   "statistics (amplitude, contact forces and opening, energy, works, ND "
+                   "amplitudes); all (default): both")  # fmt: skip
+    force(p)
+
+
 def args_info(p):
     p.add_argument("file", help="HDF5 file from sweep, run --out or modes --out")
     json_out(p)

@@ -337,3 +337,26 @@ def _ranges(values: list[int]) -> str:
             out.append(f"{start}" if start == v else f"{start}..{v}")
             start = None
     return ", ".join(out)
+
+
+def print_contact_stiffness(out: dict, dofs: int) -> None:
+    """``contact-stiffness`` for people: per kind, k_c [N/m] from the FE and as configured."""
+    for kind, row in out.items():
+        print(f"{kind}: k_c [N/m] from the segment FE ({dofs} DOFs), configured value")
+        conf = row["configured_n_per_m"] or [None] * len(row["angle_deg"])
+        for a, k, c in zip(row["angle_deg"], row["fe_stiffness_n_per_m"], conf, strict=True):
+            print(f"  {a:5.1f} deg  {k:11.4g}  " + ("" if c is None else f"{c:11.4g}"))
+
+
+def print_accuracy(table: dict) -> None:
+    """``accuracy`` for people: per basis, the largest error over the NDs per family [%]
+    (``nan``: the basis has fewer families)."""
+    import numpy as np
+
+    families = table["reference_hz"].shape[1]
+    print("max over nodal diameters of |reduced / FE - 1| [%], by family")
+    print(f"{'basis':18s} {'vectors':>7s} "
+          + " ".join(f"{'fam ' + str(j + 1):>9s}" for j in range(families)))  # fmt: skip
+    for label, row in table["bases"].items():
+        err = 100 * np.abs(row["relative_error"]).max(axis=0)
+        print(f"{label:18s} {row['vectors']:7d} " + " ".join(f"{x:9.3f}" for x in err))

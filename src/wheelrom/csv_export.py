@@ -1,0 +1,103 @@
+"""One case of a results file as CSV for spreadsheet users (``wheelrom export``).
+
+Two tables (docs/output.md gives the datasets they come from):
+
+- ``tips``: one row per output sample: ``time_s``, then ``x_m``, ``y_m``, ``z_m`` of the tip
+  of every blade (``blade<s>_x_m`` ...), sector frames (x radial, y tangential, z axial);
+- ``windows``: one row per window: its end time, the largest tip amplitude, the smallest
+  normal force and the open fraction of every contact kind, the energy, the cumulative works
+  and the amplitude of every nodal-diameter component.
+
+Numbers are written with 17 significant digits, so a CSV reads back to the same doubles.
+Contact forces over time are not stored in a results file; only their per-window statistics
+are (in ``windows``).
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from wheelrom.errors import InputError
+from wheelrom.outputs import check_output, replacing
+from wheelrom.results import FORMAT
+
+TABLES = ("tips", "windows")
+
+
+def case_tables(path: str, case: int) -> dict[str, tuple[list[str], np.ndarray]]:
+    """``{"tips": (header, rows), "windows": (header, rows)}`` of case ``case`` (0-based, as
+    ``wheelrom info`` lists them) of the results file at ``path``."""
+    import h5py
+
+    if not os.path.isfile(path):
+        raise InputError(f"{path}: no such file")
+    try:
+        f = h5py.File(path, "r", locking=False)
+    except OSError as exc:
+        raise InputError(f"{path}: not an HDF5 file ({exc})") from None
+    with f:
+        if f.attrs.get("format") != FORMAT or "cases" not in f:
+            raise InputError(f"{path}: not a wheelrom results file (format {FORMAT!r} expected)")
+        c = f["cases"]
+        total = c["status"].shape[0]
+        if not 0 <= case < total:
+            raise InputError(f"--case {case}: the file has cases 0..{total - 1}")
+        status = c["status"][case].decode()
+        if status == "pending":
+            raise InputError(f"--case {case} is pending: nothing computed yet to export")
+        return {"tips": _tips(c, case), "windows": _windows(c, case)}
+
+
+def _tips(c, case: int) -> tuple[list[str], np.ndarray]:
+    samples = int(c["samples_done"][case])
+    tips = c["tip_history"][case, :samples]  # (S, N, 3)
+    header = ["time_s"] + [f"blade{s}_{axis}_m" for s in range(tips.shape[1]) for axis in "xyz"]
+    rows = np.column_stack([c["sample_time"][case, :samples], tips.reshape(samples, -1)])
+    return header, rows
+
+
+def _windows(c, case: int) -> tuple[list[str], np.ndarray]:
+    w = int(c["windows_done"][case])
+    header, columns = ["window_end_s", "max_tip_amplitude_m"], [
+        c["window_end"][:w], c["max_tip_amplitude"][case, :w]]  # fmt: skip
+    for kind in sorted(c["min_normal_force"]):
+        header += [f"min_normal_force_{kind}_N", f"open_fraction_{kind}"]
+        columns += [c[f"min_normal_force/{kind}"][case, :w], c[f"open_fraction/{kind}"][case, :w]]
+    header.append("energy_J")
+    columns.append(c["energy"][case, :w])
+    names = [n.strip() for n in c["work"].attrs["columns"].split(",")]
+    header += [f"work_{name}_J" for name in names]
+    columns += list(c["work"][case, :w].T)
+    spectrum = c["nd_spectrum"][case, :w]  # (W, N//2 + 1)
+    header += [f"nd{k}_amplitude_m" for k in range(spectrum.shape[1])]
+    columns += list(spectrum.T)
+    return header, np.column_stack(columns)
+
+
+def table_paths(prefix: str, what=TABLES) -> list[str]:
+    """``<prefix>_<table>.csv`` of each table in ``what``."""
+    return [f"{prefix}_{name}.csv" for name in what]
+
+
+def write_tables(tables: dict, prefix: str, what=TABLES) -> list[str]:
+    """Write ``<prefix>_<table>.csv`` for each table in ``what`` (each complete or not at
+    all: written under a temporary name); returns the paths."""
+    for name, path in zip(what, table_paths(prefix, what), strict=True):
+        header, rows = tables[name]
+        with replacing(path) as partial:
+            np.savetxt(partial, rows, delimiter=",", header=",".join(header), comments="",
+                       fmt="%.17g")  # fmt: skip
+    return table_paths(prefix, what)
+
+
+def export_case(path: str, case: int, prefix: str, what: str = "all",
+                force: bool = False) -> list[str]:  # fmt: skip
+    """``wheelrom export``: the tables ``what`` (``"all"``, ``"tips"`` or ``"windows"``) of
+    case ``case`` of ``path`` as ``<prefix>_<table>.csv``; the output files are checked
+    (existing ones need ``force``) before anything is read. Returns the paths written."""
+    tables = TABLES if what == "all" else (what,)
+    for target in table_paths(prefix, tables):
+        check_output(target, force, "--csv")
+    return write_tables(case_tables(path, case), prefix, tables)
