@@ -254,3 +254,29 @@ def test_info_summarises_a_stability_file(small_model, small_cfg, tmp_path, caps
                                                "shroud": row["shroud_deg"]})  # fmt: skip
         assert row["max_growth_rate"] == res.growth_rate.max()
         assert row["verdict"] == res.verdict()
+
+
+def test_two_angle_grid_draws_the_2d_map(tmp_path, capsys):
+    import h5py
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.collections import QuadMesh
+
+    from wheelrom import cli
+    from wheelrom.plots import plot_file
+    from wheelrom.plots_stability import _map_2d
+
+    out = tmp_path / "grid.h5"
+    argv = ["stability", SMALL, "--out", str(out), "--set", "sweep.tieboss_angles_deg=[30.0, 60.0]",
+            "--set", "sweep.shroud_angles_deg=[20.0, 50.0]"]  # fmt: skip
+    assert cli.main(argv) == 0
+    written = plot_file(str(out), str(tmp_path / "fig"))
+    assert str(tmp_path / "fig" / "stability_map_2d.png") in written
+    with h5py.File(out, "r") as f:
+        angles, rate = f["stability/angles_deg"][()], f["stability/max_growth_rate"][()]
+    fig = _map_2d(angles, rate, plt)
+    (mesh,) = [c for c in fig.axes[0].collections if isinstance(c, QuadMesh)]
+    np.testing.assert_array_equal(np.asarray(mesh.get_array()).ravel(), rate)  # row-major
+    plt.close(fig)

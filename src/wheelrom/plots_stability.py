@@ -15,8 +15,13 @@ from wheelrom.plot_helpers import save as _save
 
 
 def stability_figures(f, path: str, outdir: str, pdf: bool, written: list[str], plt) -> None:
-    """Write ``stability_map``, ``root_locus`` and ``stability_verdict``."""
+    """Write ``stability_map``, ``root_locus`` and ``stability_verdict`` (first tie-boss
+    angle) and, for a grid of several tie-boss and shroud angles, ``stability_map_2d``."""
     angles = _need(f, "stability/angles_deg", path)
+    if len(np.unique(angles[:, 0])) > 1 and len(np.unique(angles[:, 1])) > 1:
+        fig = _map_2d(angles, _need(f, "stability/max_growth_rate", path), plt)
+        _save(fig, outdir, "stability_map_2d", pdf, written)
+        plt.close(fig)
     rows = angles[:, 0] == angles[0, 0]
     data = {
         "shroud": angles[rows, 1],
@@ -99,4 +104,26 @@ def _verdict(data, plt):
     ax.set_ylabel("largest growth rate [1/s]")
     ax.set_title(f"Verdict per angle (tie-boss {data['tieboss']:g} deg): fastest mode")
     ax.legend()
+    return fig
+
+
+def _map_2d(angles: np.ndarray, rate: np.ndarray, plt):
+    """Largest growth rate [1/s] over tie-boss x shroud angle, zero contour (the stability
+    boundary); grid points without a case are blank."""
+    from matplotlib import colors
+
+    tieboss, shroud = np.unique(angles[:, 0]), np.unique(angles[:, 1])
+    grid = np.full((tieboss.size, shroud.size), np.nan)
+    grid[np.searchsorted(tieboss, angles[:, 0]), np.searchsorted(shroud, angles[:, 1])] = rate
+    limit = max(np.nanmax(np.abs(grid)), 1e-9)
+    fig, ax = plt.subplots(figsize=(7.5, 6))
+    norm = colors.TwoSlopeNorm(vcenter=0.0, vmin=-limit, vmax=limit)
+    mesh = ax.pcolormesh(_cell_edges(shroud, 2.5), _cell_edges(tieboss, 2.5), grid,
+                         cmap="RdBu_r", norm=norm)  # fmt: skip
+    if (grid > 0).any() and (grid < 0).any():
+        ax.contour(shroud, tieboss, grid, levels=[0.0], colors="k", linewidths=1.2)
+    fig.colorbar(mesh, ax=ax, label="largest growth rate [1/s] (> 0: unstable)")
+    ax.set_xlabel("shroud angle [deg]")
+    ax.set_ylabel("tie-boss angle [deg]")
+    ax.set_title("Linear stability over both contact angles")
     return fig
