@@ -280,3 +280,43 @@ def test_two_angle_grid_draws_the_2d_map(tmp_path, capsys):
     (mesh,) = [c for c in fig.axes[0].collections if isinstance(c, QuadMesh)]
     np.testing.assert_array_equal(np.asarray(mesh.get_array()).ravel(), rate)  # row-major
     plt.close(fig)
+
+
+def test_mistuning_enters_the_blade_blocks(small_model, small_cfg):
+    """No mistuning: K_R as before (bitwise). Uniform delta: still cyclic and the same as a
+    tuned model whose A0 is A0 + delta K_seg. Alternate: not cyclic, the assembled path, and
+    K_R's diagonal blocks alternate."""
+    import dataclasses
+
+    from wheelrom.rom.model import blade_mistuning
+
+    assert blade_mistuning(small_cfg) is None and small_model.tuned
+    uniform = dataclasses.replace(small_model, mistuning=np.full(small_model.blades, 0.03))
+    shifted = dataclasses.replace(small_model, A0=small_model.A0 + 0.03 * small_model.K_seg)
+    np.testing.assert_array_equal(uniform.dense_stiffness(), shifted.dense_stiffness())
+    angles = {"shroud": 50.0}
+    a, b = analyse(uniform, small_cfg, angles), analyse(shifted, small_cfg, angles)
+    assert a.cyclic and b.cyclic
+    np.testing.assert_allclose(np.sort(a.growth_rate), np.sort(b.growth_rate), rtol=1e-9, atol=1e-9)
+    cfg = small_cfg.replace(**{"mistuning.alternate": 0.02})
+    delta = blade_mistuning(cfg)
+    np.testing.assert_array_equal(delta, 0.02 * (-1.0) ** np.arange(small_model.blades))
+    alternate = dataclasses.replace(small_model, mistuning=delta)
+    m = small_model.modes
+    K = alternate.sparse_stiffness().toarray()
+    np.testing.assert_allclose(K[:m, :m] - K[m : 2 * m, m : 2 * m], 0.04 * small_model.K_seg,
+                               atol=1e-9 * np.abs(K).max())  # fmt: skip
+    res = analyse(alternate, small_cfg, {"shroud": 50.0})
+    assert not res.cyclic and res.eigenvalue.size == 2 * small_model.size
+    assert cfg.replace(**{"mistuning.seed": 1, "mistuning.std": 0.01}).mistuning.std == 0.01
+
+
+def test_transient_of_a_mistuned_wheel_is_refused(small_model, small_cfg):
+    import dataclasses
+
+    from wheelrom.errors import InputError
+    from wheelrom.transient.run import run_case
+
+    mistuned = dataclasses.replace(small_model, mistuning=np.full(small_model.blades, 0.01))
+    with pytest.raises(InputError, match="mistuned wheel is not implemented"):
+        run_case(mistuned, small_cfg)

@@ -247,6 +247,26 @@ class SweepConfig:
 
 
 @dataclass(frozen=True)
+class MistuningConfig:
+    pattern: tuple[float, ...] = field(
+        default=(),
+        metadata=_key("-", "per-blade modal stiffness deviation delta_s (Lambda_s = (1 + "
+                      "delta_s) Lambda), one per blade; [] = none", min=-0.5, max=0.5,
+                      allow_empty=True),  # fmt: skip
+    )
+    alternate: float = field(
+        default=0.0,
+        metadata=_key("-", "alternate mistuning: +a on even blades, -a on odd ones",
+                      min=-0.5, max=0.5),  # fmt: skip
+    )
+    std: float = field(
+        default=0.0,
+        metadata=_key("-", "standard deviation of random normal mistuning", min=0.0, max=0.2),
+    )
+    seed: int = field(default=0, metadata=_key("-", "seed of the random mistuning", min=0))
+
+
+@dataclass(frozen=True)
 class Config:
     wheel: WheelConfig = field(default_factory=WheelConfig)
     segment: SegmentConfig = field(default_factory=SegmentConfig)
@@ -257,6 +277,7 @@ class Config:
     time: TimeConfig = field(default_factory=TimeConfig)
     output: OutputConfig = field(default_factory=OutputConfig)
     sweep: SweepConfig = field(default_factory=SweepConfig)
+    mistuning: MistuningConfig = field(default_factory=MistuningConfig)
     source: str = field(default="<built-in default>", compare=False)
 
     def replace(self, **changes: Any) -> Config:
@@ -342,7 +363,7 @@ def _convert_field(where: str, f: dataclasses.Field, value: Any, problems: list[
             )
         return value
     if isinstance(default, tuple):
-        if not isinstance(value, list | tuple) or not value:
+        if not isinstance(value, list | tuple) or not (value or meta.get("allow_empty")):
             problems.append(f"{where}: expected a non-empty list of numbers, got {value!r}")
             return value
         ok = all(check_number(f"{where}[{i}]", v, meta, problems) for i, v in enumerate(value))
@@ -407,6 +428,11 @@ def _cross_checks(cfg: Config, problems: list[str]) -> None:
                 f"a sample (its statistics would all be NaN); use at least {1 / shortest:.6g} Hz"
             )
     w = cfg.wheel
+    pattern = cfg.mistuning.pattern
+    if isinstance(pattern, tuple) and pattern and isinstance(w.blades, int):
+        if len(pattern) != w.blades:
+            problems.append(f"mistuning.pattern: {len(pattern)} values for {w.blades} blades "
+                            "(one per blade)")  # fmt: skip
     if isinstance(cfg.flutter.mode, int) and isinstance(w.modes_per_segment, int):
         if cfg.flutter.mode >= w.modes_per_segment:
             problems.append(

@@ -59,6 +59,8 @@ def write_model(group, model: ReducedModel) -> None:
         group[f"contacts/{kind}/points"] = model.contact_points[kind]
     for kind, table in model.contact_stiffness.items():
         group[f"contacts/{kind}/stiffness"] = table
+    if not model.tuned:
+        group["mistuning"] = model.mistuning
     group.attrs["blades"] = model.blades
     group.attrs["modes"] = model.modes
     group.attrs["info"] = json.dumps(model.info, default=float)

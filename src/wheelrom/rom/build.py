@@ -24,7 +24,7 @@ from wheelrom.rom.bases import (
     enrichment_vectors,
     ritz_basis,
 )
-from wheelrom.rom.model import ReducedModel, reduce
+from wheelrom.rom.model import ReducedModel, blade_mistuning, reduce
 from wheelrom.segment.assembly import SegmentMatrices, assemble
 from wheelrom.segment.contact_stiffness import stiffness_tables
 from wheelrom.segment.load import load_segment
@@ -136,6 +136,10 @@ def build(cfg: Config, comm, log=quiet, segment: SegmentBuild | None = None) -> 
             f"contact stiffness '{kind}' from FE ({flex.solve_s:.1f} s): "
             f"{values.min():.3g}..{values.max():.3g} N/m over 0..90 deg"
         )
+    model.mistuning = blade_mistuning(cfg)
+    if model.mistuning is not None:
+        log(f"mistuning: delta_s from {model.mistuning.min():+.4f} to {model.mistuning.max():+.4f} "
+            "(blade modal stiffness x (1 + delta_s))")  # fmt: skip
     model.info.update(segment.info)
     model.info.update(
         segment_dofs=seg.n_dofs,

@@ -57,6 +57,18 @@ class ReducedModel:
     # kind -> (k, 2) table (angle [deg], k_c [N/m]) computed from the segment FE
     contact_stiffness: dict[str, np.ndarray] = field(default_factory=dict)
     info: dict = field(default_factory=dict)
+    # (N,) per-blade modal stiffness deviation delta_s: blade s's diagonal block is
+    # A0 + delta_s K_seg (None: a tuned wheel, K_R block-circulant)
+    mistuning: np.ndarray | None = None
+
+    @property
+    def tuned(self) -> bool:
+        """Whether every blade is the same (``K_R`` block-circulant)."""
+        return self.mistuning is None or not np.any(self.mistuning)
+
+    def diagonal_block(self, s: int) -> np.ndarray:
+        """``(m, m)`` blade ``s``'s diagonal block of ``K_R`` [1/s^2]."""
+        return self.A0 if self.tuned else self.A0 + self.mistuning[s] * self.K_seg
 
     @property
     def size(self) -> int:
@@ -68,7 +80,7 @@ class ReducedModel:
         K = np.zeros((N, m, N, m))
         for s in range(N):
             t = (s + 1) % N
-            K[s, :, s, :] += self.A0
+            K[s, :, s, :] += self.diagonal_block(s)
             K[s, :, t, :] += self.A1
             K[t, :, s, :] += self.A1.T
         return K.reshape(N * m, N * m)
@@ -79,9 +91,9 @@ class ReducedModel:
         import scipy.sparse as sp
 
         N = self.blades
-        eye = sp.identity(N, format="csr")
         nxt = sp.csr_matrix((np.ones(N), (np.arange(N), (np.arange(N) + 1) % N)), shape=(N, N))
-        return (sp.kron(eye, self.A0) + sp.kron(nxt, self.A1) + sp.kron(nxt.T, self.A1.T)).tocsr()
+        diagonal = sp.block_diag([self.diagonal_block(s) for s in range(N)])
+        return (diagonal + sp.kron(nxt, self.A1) + sp.kron(nxt.T, self.A1.T)).tocsr()
 
     def petsc_stiffness(self, comm, prefix: str = "wheel_K_"):
         """``K_R`` as a PETSc BAIJ matrix with block size m on ``comm``."""
@@ -96,11 +108,10 @@ class ReducedModel:
         A.setFromOptions()
         lo, hi = A.getOwnershipRange()
         # contiguous copies: a transposed view would hand PETSc the untransposed buffer
-        A0 = np.ascontiguousarray(self.A0)
         A1 = np.ascontiguousarray(self.A1)
         A1T = np.ascontiguousarray(self.A1.T)
         for s in range(lo // m, hi // m):
-            A.setValuesBlocked([s], [s], A0)
+            A.setValuesBlocked([s], [s], np.ascontiguousarray(self.diagonal_block(s)))
             A.setValuesBlocked([s], [(s + 1) % N], A1)
             A.setValuesBlocked([s], [(s - 1) % N], A1T)
         A.assemble()
@@ -213,3 +224,15 @@ def reduce(
             model.contact_points[kind] = np.stack([seg.point(f"{kind}_A"), seg.point(f"{kind}_B")])
     model.info.update(seg.info)
     return model
+
+
+def blade_mistuning(cfg: Config) -> np.ndarray | None:
+    """``(N,)`` per-blade modal stiffness deviations ``delta_s`` of ``[mistuning]``: the
+    pattern, plus ``+-alternate`` on even / odd blades, plus normal random values of
+    ``std`` (numpy ``default_rng(seed)``: the same on every rank); None when all are zero."""
+    mt, N = cfg.mistuning, cfg.wheel.blades
+    delta = np.zeros(N) if not mt.pattern else np.array(mt.pattern, dtype=float)
+    delta += mt.alternate * np.where(np.arange(N) % 2 == 0, 1.0, -1.0)
+    if mt.std > 0:
+        delta += mt.std * np.random.default_rng(mt.seed).standard_normal(N)
+    return delta if np.any(delta) else None
