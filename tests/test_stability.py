@@ -114,7 +114,7 @@ def test_non_cyclic_path_agrees(small_model, small_cfg):
 
     res = analyse(small_model, small_cfg, {"shroud": 20.0}, keep_jacobian=True)
     N, m = small_model.blades, small_model.modes
-    nds, values, _ = stability._assembled_spectrum(res.jacobian, N, m)
+    nds, values, *_ = stability._assembled_spectrum(res.jacobian, N, m)
     top = np.argsort(values.real)[-4:]
     assert values.real[top].max() == pytest.approx(res.growth_rate.max(), rel=1e-8)
     assert nds[top[-1]] == res.nodal_diameter[res.critical()]
@@ -320,3 +320,40 @@ def test_transient_of_a_mistuned_wheel_is_refused(small_model, small_cfg):
     mistuned = dataclasses.replace(small_model, mistuning=np.full(small_model.blades, 0.01))
     with pytest.raises(InputError, match="mistuned wheel is not implemented"):
         run_case(mistuned, small_cfg)
+
+
+@pytest.mark.parametrize("alternate", [0.0, 0.05])
+def test_contact_gap_descriptor_equals_a_direct_evaluation(small_model, small_cfg, alternate):
+    """The normal gap per tip of the fastest mode against the reference force model: move
+    the equilibrium along the real and imaginary parts of the whole eigenvector (central
+    differences) and read the relative displacement of the described blade pair."""
+    import dataclasses
+
+    from wheelrom.forces.parameters import force_parameters
+    from wheelrom.forces.reference import ReferenceForces
+
+    model = dataclasses.replace(small_model, mistuning=alternate * (-1.0) ** np.arange(12)
+                                if alternate else None)  # fmt: skip
+    angles = {"shroud": 50.0}
+    res = analyse(model, small_cfg, angles, keep_jacobian=True)
+    i = res.critical()
+    lam, vec = np.linalg.eig(res.jacobian.toarray())
+    x = vec[:, np.argmin(np.abs(lam - res.eigenvalue[i]))]
+    N, m = model.blades, model.modes
+    q = x[: N * m].reshape(N, m)
+    b = int(np.argmax(np.abs(q).sum(axis=1)))
+    forces = ReferenceForces(dataclasses.replace(force_parameters(model, small_cfg, angles),
+                                                 nozzle_force=0.0))  # fmt: skip
+    still = np.zeros((N, m))
+    eps = 1e-9 / np.abs(q).max()
+
+    def gap(shape):
+        forces.evaluate(0.0, res.equilibrium + eps * shape, still)
+        up = forces.relative_displacement.copy()
+        forces.evaluate(0.0, res.equilibrium - eps * shape, still)
+        return (up - forces.relative_displacement) / (2 * eps)  # (K, N, 3)
+
+    local = gap(q.real) + 1j * gap(q.imag)
+    tip = np.linalg.norm(model.tip @ q[b])
+    for c in range(len(res.kinds)):
+        assert abs(local[c, b, 1]) / tip == pytest.approx(res.contact_normal[i, c], rel=1e-4)

@@ -131,10 +131,10 @@ def analyse(model: ReducedModel, cfg: Config, angles_deg: dict | None = None, co
     N, m = q.shape
     cyclic = is_circulant(J, N, m)
     if cyclic:
-        nds, values, vectors = nd_spectrum(blade_blocks(J, N, m))
+        nds, values, _, blade, pair = nd_spectrum(blade_blocks(J, N, m))
     else:
-        nds, values, vectors = _assembled_spectrum(J, N, m)
-    tip, normal, tangential, share = _describe_modes(model, contacts, nds, vectors)
+        nds, values, _, blade, pair = _assembled_spectrum(J, N, m)
+    tip, normal, tangential, share = _describe_modes(model, contacts, blade, pair)
     K = len(params.contacts.kinds)
     return StabilityResult(
         angles_deg={k: float(np.atleast_1d(v)[0]) for k, v in params.contacts.angles_deg.items()},
@@ -190,9 +190,10 @@ def nd_block(row: np.ndarray, k: int) -> np.ndarray:
 
 
 def nd_spectrum(row: np.ndarray):
-    """``(nd, eigenvalues, vectors)`` over ND ``0..N/2`` from the first block row
-    (:func:`blade_blocks`): ``(E,)``, ``(E,)``, ``(E, 2m)`` (vectors: the blade-0 part
-    ``(q_0, q'_0)`` of each Bloch mode)."""
+    """``(nd, eigenvalues, vectors, blade, pair)`` over ND ``0..N/2`` from the first block
+    row (:func:`blade_blocks`): ``(E,)``, ``(E,)``, ``(E, 2m)`` (the blade-0 part
+    ``(q_0, q'_0)`` of each Bloch mode), ``(E,)`` zeros (the blade described) and ``(E, 2m)``
+    ``(q_0, q_1)`` with ``q_1 = q_0 e^{i 2 pi k / N}``."""
     N = row.shape[0]
     nds, values, vectors = [], [], []
     for k in range(N // 2 + 1):
@@ -200,13 +201,18 @@ def nd_spectrum(row: np.ndarray):
         nds.append(np.full(lam.size, k))
         values.append(lam)
         vectors.append(vec.T)
-    return np.concatenate(nds), np.concatenate(values), np.concatenate(vectors)
+    nds, values, vectors = np.concatenate(nds), np.concatenate(values), np.concatenate(vectors)
+    m = vectors.shape[1] // 2
+    q0 = vectors[:, :m]
+    pair = np.concatenate([q0, q0 * np.exp(2j * math.pi * nds / N)[:, None]], axis=1)
+    return nds, values, vectors, np.zeros(nds.size, dtype=int), pair
 
 
 def _assembled_spectrum(J, N: int, m: int):
-    """All eigenvalues of the assembled ``J`` (dense LAPACK) with the ND of each mode: the
-    dominant Fourier harmonic of its ``q`` over the blades; vectors as in :func:`nd_spectrum`
-    (the blade with the largest motion)."""
+    """All eigenvalues of the assembled ``J`` (dense LAPACK), returned as by
+    :func:`nd_spectrum`: the ND of a mode is the dominant Fourier harmonic of its ``q`` over
+    the blades, the blade described is the one with the largest motion, ``pair`` its ``q``
+    and the next blade's from the whole eigenvector (a mistuned mode is no Bloch wave)."""
     lam, vec = np.linalg.eig(J.toarray() if hasattr(J, "toarray") else J)
     n = N * m
     q = vec[:n].T.reshape(-1, N, m)
@@ -217,22 +223,23 @@ def _assembled_spectrum(J, N: int, m: int):
     rows = np.arange(lam.size)
     v = vec[n:].T.reshape(-1, N, m)
     vectors = np.concatenate([q[rows, blade], v[rows, blade]], axis=1)
-    return nds, lam, vectors
+    pair = np.concatenate([q[rows, blade], q[rows, (blade + 1) % N]], axis=1)
+    return nds, lam, vectors, blade, pair
 
 
-def _describe_modes(model: ReducedModel, contacts, nds, vectors):
+def _describe_modes(model: ReducedModel, contacts, blade, pair):
     """Tip amplitude, contact gap amplitudes relative to the tip (normal, tangential, per
-    kind) and segment-mode shares of every mode (see :class:`StabilityResult`)."""
-    m, N = model.modes, model.blades
-    q0 = vectors[:, :m]
-    q0 = q0 / np.maximum(np.linalg.norm(q0, axis=1, keepdims=True), 1e-300)
+    kind: pair ``(blade, blade + 1)``) and segment-mode shares of every mode (see
+    :class:`StabilityResult`); ``pair`` ``(E, 2m)``: ``(q_b, q_{b+1})`` of each mode."""
+    m = model.modes
+    scale = np.maximum(np.linalg.norm(pair[:, :m], axis=1, keepdims=True), 1e-300)
+    pair = pair / scale  # q_b of unit norm
+    q0 = pair[:, :m]
     tip = np.linalg.norm(q0 @ model.tip.T, axis=1)
-    K, E = len(contacts), len(nds)
+    K, E = len(contacts), len(pair)
     normal, tangential = np.zeros((E, K)), np.zeros((E, K))
-    phase = np.exp(2j * math.pi * nds / N)[:, None]
     for c in range(K):
-        pair = np.concatenate([q0, q0 * phase], axis=1)  # (q_0, q_1) of the Bloch mode
-        local = pair @ contacts[c].gap_map[0].T  # (E, 3) xi, eta, zeta
+        local = np.einsum("eij,ej->ei", contacts[c].gap_map[blade], pair)  # (E, 3) xi, eta, zeta
         normal[:, c] = np.abs(local[:, 1])
         tangential[:, c] = np.hypot(np.abs(local[:, 0]), np.abs(local[:, 2]))
     ref = np.maximum(tip, 1e-300)[:, None]
