@@ -233,11 +233,16 @@ def test_bad_petsc_option_is_one_line_naming_it(option, words):
 
 
 def test_unused_petsc_option_is_a_warning(tmp_path):
-    res = wheelrom("mesh", SMALL, "--out", str(tmp_path / "s.vtu"), "--",
-                   "-wheel_ts_typo", "3", "-wheel_ts_rk_type", "5dp")  # fmt: skip
+    """A typo is never read; a real TS option is read by run's TS, but not by mesh, which
+    has no TS (the up-front check's probes do not count as reading)."""
+    options = ["--", "-wheel_ts_typo", "3", "-wheel_ts_rk_type", "5dp"]
+    res = wheelrom("run", SMALL, *QUICK, *options)
     assert res.returncode == 0, res.stderr
     assert "warning: PETSc option -wheel_ts_typo was not used" in res.stderr
     assert "-wheel_ts_rk_type" not in res.stderr
+    res = wheelrom("mesh", SMALL, "--out", str(tmp_path / "s.vtu"), *options)
+    assert res.returncode == 0, res.stderr
+    assert "warning: PETSc option -wheel_ts_rk_type was not used" in res.stderr
 
 
 def test_ts_reason_in_words():
@@ -320,3 +325,36 @@ def test_window_longer_than_the_run_is_shortened_to_it(capsys):
 
     grid = time_grid(config.load(SMALL, ["time.end=0.0002"]))
     assert grid.window_end == (0.0002,)
+
+
+def test_too_many_ts_options_to_record_are_refused_up_front(tmp_path):
+    out = tmp_path / "s.h5"
+    many = [token for k in range(12) for token in (f"-wheel_ts_extra_setting_{k}", "1")]
+    res = wheelrom("sweep", SMALL, "--out", str(out), *QUICK, "--", *many)
+    assert res.returncode == 2 and not out.exists()
+    _one_error_line(res, "too many TS options to record")
+
+
+def test_a_failed_batch_does_not_block_resume(small_sweep):
+    """A batch that failed before its TS existed records the run's settings (older files
+    hold {}): resuming with the same options is allowed."""
+    from wheelrom.results import options_problem
+    from wheelrom.transient.ts import ts_settings
+
+    with h5py.File(small_sweep, "r+") as f:
+        f["cases/status"][0] = b"failed: RuntimeError: preload_snes did not converge"
+        f["cases/options"][0] = b"{}"
+    from wheelrom import config
+
+    assert options_problem(str(small_sweep), ts_settings(config.load(SMALL, QUICK[1::2]))) is None
+
+
+def test_a_failing_stability_case_under_mpirun_stops_every_rank(tmp_path):
+    """One rank's case fails (its equilibrium SNES is starved of iterations): one line, no
+    hang (every rank stops together)."""
+    res = wheelrom("stability", SMALL, "--set", "sweep.shroud_angles_deg=[20.0, 80.0, 50.0]",
+                   "--", "-stability_preload_snes_rtol", "0",
+                   "-stability_preload_snes_max_it", "3", ranks=2, timeout=120)  # fmt: skip
+    assert res.returncode != 0
+    lines = [ln for ln in res.stderr.splitlines() if ln.startswith("wheelrom:")]
+    assert len(lines) == 1 and "linear stability failed for 1 case(s)" in lines[0], res.stderr

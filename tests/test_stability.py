@@ -198,6 +198,7 @@ def test_classification_from_both_analyses():
     from wheelrom.transient.stability import classify
 
     assert classify(-0.1, 5.0, 1e-6, {"shroud": 0.0}) == "stable"
+    assert "too short to judge" in classify(10.0, float("nan"), 1e-6, {"shroud": 0.0})
     assert classify(10.0, 9.0, 1e-6, {"shroud": 0.0}).startswith("flutter, still growing")
     assert classify(10.0, 0.1, 2e-6, {"shroud": 0.05}).startswith("small limit cycle (2 um")
     assert classify(10.0, 0.1, 3e-4, {"shroud": 0.6}).startswith("flutter, limit cycle")

@@ -33,12 +33,21 @@ def fail(message: str, status: int = EXIT_CONFIG) -> int:
 
 
 def warn_unused(petsc_args: list[str]) -> None:
-    """PETSc options no solver read (as PETSc's -options_left): most likely misspelt."""
-    if not petsc_args or world_rank() != 0:
+    """PETSc options no solver read (as PETSc's -options_left): most likely misspelt. Under
+    mpirun an option counts as read when any rank read it (every rank calls this)."""
+    if not petsc_args:
         return
     from wheelrom.transient.options import unused
 
-    for name in unused(petsc_args):
+    left = set(unused(petsc_args))
+    MPI = sys.modules.get("mpi4py.MPI")
+    if MPI is not None and MPI.Is_initialized() and not MPI.Is_finalized():
+        if MPI.COMM_WORLD.size > 1:
+            for other in MPI.COMM_WORLD.allgather(left):
+                left &= other
+    if world_rank() != 0:
+        return
+    for name in sorted(left):
         print(f"wheelrom: warning: PETSc option -{name} was not used by any solver "
               "(misspelt? prefixes in docs/usage.md)", file=sys.stderr)  # fmt: skip
 

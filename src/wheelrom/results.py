@@ -180,12 +180,18 @@ def options_problem(path: str, settings: dict) -> str | None:
     file must not mix integrators. None: they agree (or no case ran yet)."""
     import h5py
 
+    recorded = []
     with h5py.File(path, "r") as f:
-        recorded = [
-            (i, json.loads(raw.decode() or "{}"))
-            for i, (raw, status) in enumerate(zip(f["cases/options"][:], statuses(f), strict=True))
-            if status != "pending" and raw
-        ]
+        for i, (raw, status) in enumerate(zip(f["cases/options"][:], statuses(f), strict=True)):
+            if status == "pending" or not raw:
+                continue
+            try:
+                used = json.loads(raw.decode())
+            except ValueError:
+                return (f"{path}: case {i + 1}'s recorded TS options are not readable JSON; "
+                        "use --force to start again")  # fmt: skip
+            if used:  # {}: a batch that failed before its TS existed records nothing to match
+                recorded.append((i, used))
     wanted = json.loads(json.dumps(settings))  # the same number formats as the file
     for i, used in recorded:
         differ = sorted(k for k in set(used) | set(wanted) if used.get(k) != wanted.get(k))

@@ -16,6 +16,7 @@ import numpy as np
 
 from wheelrom import results
 from wheelrom.config import Config
+from wheelrom.errors import InputError
 from wheelrom.rom.build import build_model
 from wheelrom.transient.stability import StabilityResult, analyse
 
@@ -39,15 +40,24 @@ def run_stability(cfg: Config, comm=None, log=print) -> tuple[object, list[Stabi
     angles = results.case_angles(cfg)
     mine = []
     for i in range(rank, angles.shape[0], size):
-        res = analyse(model, cfg, results.angles_of(angles[i]))
+        try:
+            res = analyse(model, cfg, results.angles_of(angles[i]))
+        except Exception as exc:  # one case's failure (e.g. its equilibrium) is reported,
+            res = f"{type(exc).__name__}: {exc}"  # never a hang of the other ranks
         mine.append((i, res))
         if rank == 0:
-            say(f"[{i + 1}/{angles.shape[0]}] {_case_label(angles[i])}: {res.verdict()}, "
-                f"{res.describe()} ({res.wall_s:.2f} s)")  # fmt: skip
+            said = res if isinstance(res, str) else (
+                f"{res.verdict()}, {res.describe()} ({res.wall_s:.2f} s)")  # fmt: skip
+            say(f"[{i + 1}/{angles.shape[0]}] {_case_label(angles[i])}: {said}")
     gathered = comm.gather(mine, root=0) if comm is not None else [mine]
-    if rank != 0:
-        return model, []
-    ordered = sorted((item for part in gathered for item in part), key=lambda item: item[0])
+    ordered = []
+    if rank == 0:
+        ordered = sorted((item for part in gathered for item in part), key=lambda it: it[0])
+    failed = [(i, why) for i, why in ordered if isinstance(why, str)]
+    failed = comm.bcast(failed) if comm is not None else failed  # every rank stops together
+    if failed:
+        listing = "; ".join(f"case {i} ({_case_label(angles[i])}): {why}" for i, why in failed)
+        raise InputError(f"linear stability failed for {len(failed)} case(s): {listing}"[:2000])
     return model, [res for _, res in ordered]
 
 

@@ -13,6 +13,7 @@ loses the whole round; ``batch = 1`` writes every case as soon as it is done.
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import time
@@ -59,7 +60,16 @@ def run_sweep(cfg: Config, out: str, comm, resume: bool = False, force: bool = F
                          "start it again)")  # fmt: skip
     # decide what to do with the output file before computing anything
     settings = ts_settings(cfg, PREFIX, options)
-    problem = _output_problem(out, cfg, resume, force, settings) if comm.rank == 0 else None
+    recorded = len(json.dumps(settings))  # /cases/options holds STATUS_LEN bytes per case
+    if recorded > results.STATUS_LEN:
+        raise InputError(f"too many TS options to record ({recorded} bytes of JSON, at most "
+                         f"{results.STATUS_LEN}): pass fewer -wheel_ts_* options")  # fmt: skip
+    problem = None
+    if comm.rank == 0:
+        try:
+            problem = _output_problem(out, cfg, resume, force, settings)
+        except Exception as exc:  # rank 0's surprise must not leave the others waiting
+            problem = InputError(f"{out}: cannot be checked for --resume ({exc})")
     problem = comm.bcast(problem)
     if problem:
         raise problem
@@ -74,7 +84,7 @@ def run_sweep(cfg: Config, out: str, comm, resume: bool = False, force: bool = F
     if fresh:
         _create(out, cfg, model, comm)
     with interrupts.deferred(), h5py.File(out, "r+", driver="mpio", comm=comm) as f:
-        stopped = _run_rounds(f, cfg, model, comm, batch, options, say)
+        stopped = _run_rounds(f, cfg, model, comm, batch, options, say, settings)
         status = results.statuses(f)
     failed = sum(1 for s in status if s.startswith("failed"))
     done = sum(1 for s in status if s != "pending")
@@ -92,8 +102,13 @@ def _create(out: str, cfg: Config, model, comm) -> None:
     import h5py
 
     partial = partial_name(out)
-    with h5py.File(partial, "w", driver="mpio", comm=comm) as f:
-        results.create_layout(f, cfg, model)
+    try:
+        with h5py.File(partial, "w", driver="mpio", comm=comm) as f:
+            results.create_layout(f, cfg, model)
+    except BaseException:
+        if comm.rank == 0 and os.path.exists(partial):
+            os.remove(partial)
+        raise
     comm.Barrier()
     if comm.rank == 0:
         os.replace(partial, out)
@@ -118,7 +133,8 @@ def _shared_model(cfg: Config, comm, model_comm: str, say):
     return comm.bcast(model)
 
 
-def _run_rounds(f, cfg: Config, model, comm, batch: int, options, say) -> bool:
+def _run_rounds(f, cfg: Config, model, comm, batch: int, options, say,
+                settings: dict) -> bool:  # fmt: skip
     """Deal the pending cases to the ranks and run them in rounds of one batch per rank;
     after every round all ranks flush the file (collective) and rank 0 reports. Returns
     whether a stop was requested (then the unfinished batch stays pending)."""
@@ -144,8 +160,8 @@ def _run_rounds(f, cfg: Config, model, comm, batch: int, options, say) -> bool:
             except KeyboardInterrupt:  # a stop asked for: this batch stays pending
                 finished, chunk = [], []
             except Exception as exc:  # a solver error fails this batch, not the sweep
-                finished = [CaseResult(status=f"failed: {type(exc).__name__}: {exc}")
-                            for _ in chunk]  # fmt: skip
+                finished = [CaseResult(status=f"failed: {type(exc).__name__}: {exc}",
+                                       options=settings) for _ in chunk]  # fmt: skip
             for i, res in zip(chunk, finished, strict=True):
                 attach_linear(model, cfg, results.angles_of(angles[i]), res)
                 results.write_case(f, i, res)

@@ -154,11 +154,29 @@ def _alone(names: list[str], keep: str):
     return scope()
 
 
+def _forget_reads(names: list[str]) -> None:
+    """Re-insert ``names`` so that PETSc forgets they were read (by the probes): the
+    unused-option warning must reflect the real solvers only."""
+    db = petsc().Options()
+    for name in names:
+        if db.hasName(name):
+            value = db.getString(name, "")
+            db.delValue(name)
+            db.setValue(name, value)
+
+
 def check(args: list[str]) -> None:
     """Raise an :class:`InputError` naming the first option of ``args`` (the tokens after
     ``--``, already in the database) that its solver refuses."""
-    db = petsc().Options()
     names = option_names(args)
+    try:
+        _check(names)
+    finally:
+        _forget_reads(names)
+
+
+def _check(names: list[str]) -> None:
+    db = petsc().Options()
     for prefix in SOLVERS:
         mine = [n for n in names if solver_of(n) == prefix]
         if not mine or not (code := _accepts(prefix)):

@@ -293,7 +293,9 @@ def classify(linear_rate: float, transient_rate: float, final_amplitude: float,
         return "unknown (no linear analysis)"
     if linear_rate <= 1e-6:
         return "stable"
-    if np.isfinite(transient_rate) and transient_rate > STILL_GROWING * linear_rate:
+    if not np.isfinite(transient_rate):
+        return f"unstable ({linear_rate:.3g} /s; the transient is too short to judge)"
+    if transient_rate > STILL_GROWING * linear_rate:
         return (f"flutter, still growing ({transient_rate:.3g} /s at the end, linear "
                 f"{linear_rate:.3g} /s)")  # fmt: skip
     opening = ", ".join(f"{k} open {100 * v:.0f} %" for k, v in open_fraction.items())
