@@ -1,6 +1,6 @@
 """Segment mesh export: .inp (CalculiX) and .vtu round trips through meshio; the cyclic
-CalculiX deck against our exact cyclic FE (an independent FE code, when ``ccx`` is installed:
-``run/setup`` installs it)."""
+CalculiX deck against our exact cyclic FE (an independent FE code; ``run/setup`` installs
+``ccx``)."""
 
 import os
 import re
@@ -74,7 +74,6 @@ def _calculix_frequencies(dat: str, families: int) -> np.ndarray:
     return np.sqrt(eig[:, 0::2]) / (2 * np.pi)
 
 
-@pytest.mark.skipif(shutil.which("ccx") is None, reason="CalculiX (ccx) not installed")
 @pytest.mark.parametrize("prestress, nodal_diameters", [(False, (0, 2)), (True, (4, 6))])
 def test_calculix_wheel_modes_match_our_cyclic_fe(
     small_cfg, comm, tmp_path, prestress, nodal_diameters
@@ -100,6 +99,7 @@ def test_calculix_wheel_modes_match_our_cyclic_fe(
     write_segment(seg, str(tmp_path / "seg.inp"))
     deck = calculix_deck(seg, cfg, "seg.inp", nodal_diameters)
     (tmp_path / "seg_cyclic.inp").write_text(deck)
+    assert shutil.which("ccx"), "CalculiX (ccx) is missing: run/setup installs calculix-ccx"
     env = dict(os.environ, OMP_NUM_THREADS="1")
     run = subprocess.run(["ccx", "-i", "seg_cyclic"], cwd=tmp_path, env=env,
                          capture_output=True, text=True)  # fmt: skip

@@ -104,14 +104,19 @@ def model_summary(group) -> dict:
     }
 
 
-def _model_file_info(f, path: str) -> dict:
+def _header(f, path: str, kind: str) -> dict:
+    """What every kind of file reports first: file, kind, format, config source, model."""
     return {
         "file": path,
-        "kind": "model",
-        "format": None,
+        "kind": kind,
+        "format": _text(f.attrs.get("format")),
         "config_source": _text(f.attrs.get("config_source")),
-        "model": model_summary(f["model"]),
+        "model": model_summary(f["model"]) if "model" in f else None,
     }
+
+
+def _model_file_info(f, path: str) -> dict:
+    return _header(f, path, "model")
 
 
 def ts_scheme(options: dict) -> str:
@@ -199,20 +204,16 @@ def _results_info(f, path: str) -> dict:
     window_end = cases["window_end"][()]
     configured = _configured_time(f)
     walls = [r["wall_s"] for r in rows if r["wall_s"] is not None]
-    source = _text(f.attrs.get("config_source"))
+    header = _header(f, path, "results")
     return {
-        "file": path,
-        "kind": "results",
-        "format": _text(f.attrs["format"]),
-        "config_source": source,
-        "model": model_summary(f["model"]) if "model" in f else None,
+        **header,
         "time_end_s": float(window_end[-1]) if window_end.size else configured.get("end"),
         "window_s": configured.get("window"),
         "windows": int(window_end.size),
         "counts": counts,
         "total_wall_s": float(sum(walls)),
         "cases": rows,
-        "hint": resume_hint(path, source, counts),
+        "hint": resume_hint(path, header["config_source"], counts),
     }
 
 
@@ -229,11 +230,7 @@ def _stability_info(f, path: str) -> dict:
         for i, (a, v) in enumerate(zip(g["angles_deg"][()], verdicts, strict=True))
     ]  # fmt: skip
     return {
-        "file": path,
-        "kind": "stability",
-        "format": STABILITY_FORMAT,
-        "config_source": _text(f.attrs.get("config_source")),
-        "model": model_summary(f["model"]),
+        **_header(f, path, "stability"),
         "counts": {"stable": verdicts.count("stable"), "unstable": verdicts.count("unstable"),
                    "total": len(verdicts)},  # fmt: skip
         "cases": cases,

@@ -148,7 +148,7 @@ def _run_rounds(f, cfg: Config, model, comm, batch: int, options, say,
     per_rank = math.ceil(len(todo) / comm.size)
     width = batch or max(per_rank, 1)
     rounds = math.ceil(per_rank / width)
-    clock = _Progress(say, cfg, rounds, options)
+    clock = _Progress(say, cfg.time.end, settings["ts_dt"], rounds)
     for r in range(rounds):
         chunk = mine[r * width : (r + 1) * width]
         finished: list[CaseResult] = []
@@ -196,9 +196,9 @@ class _Progress:
     window, so kernel compilation and the static preload do not count), at most one line a
     second. Its window callback also stops the batch when a stop was requested."""
 
-    def __init__(self, say, cfg: Config, rounds: int, options: dict | None):
+    def __init__(self, say, t_end: float, step: float, rounds: int):
         self.say, self.rounds = say, rounds
-        self.t_end, self.step = cfg.time.end, ts_settings(cfg, PREFIX, options)["ts_dt"]
+        self.t_end, self.step = t_end, step  # [s]: simulated end, the TS step
 
     def window(self, round_index: int, cases: int):
         first: list[tuple[float, float]] = []  # (simulated, wall) at the end of window 1

@@ -165,7 +165,8 @@ def force_derivatives(params: ForceParameters, q: np.ndarray, stiffness_only: bo
             for b, other in enumerate((pairs, (pairs + 1) % N)):
                 rows, cols = slice(a * m, (a + 1) * m), slice(b * m, (b + 1) * m)
                 Fq.add(blade, other, lin.stiffness[:, rows, cols])
-                Fv.add(blade, other, lin.damping[:, rows, cols])
+                if not stiffness_only:
+                    Fv.add(blade, other, lin.damping[:, rows, cols])
     if stiffness_only:
         return Fq.matrix(), None, contacts
     return Fq.matrix(), Fv.matrix() + van_der_pol_damping(params, q), contacts

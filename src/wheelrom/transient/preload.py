@@ -24,10 +24,10 @@ def static_preload(problem: WheelProblem, case: int = 0,
 def static_equilibrium(forces, K: np.ndarray, comm, force_scale: float, prefix: str = "preload_",
                        tangent=None) -> tuple[np.ndarray, float]:  # fmt: skip
     """``K q = f(q, 0, t=0)`` for the :class:`~wheelrom.forces.reference.ReferenceForces`
-    ``forces`` and the dense ``K`` ``(N m, N m)``; ``tangent(q)``: the analytic ``df/dq``
-    (sparse, blocks of neighbouring blades only) if known, then the Jacobian is a sparse AIJ
-    (PETSc LU), else dense by finite differences. ``force_scale`` [N] sets the absolute
-    tolerance. Returns ``q`` and ``|residual|``."""
+    ``forces`` and ``K`` ``(N m, N m)`` (dense, or scipy sparse when ``tangent`` is given).
+    ``tangent(q)``: the analytic ``df/dq`` (sparse, blocks of neighbouring blades only) if
+    known, then the Jacobian is a sparse AIJ (PETSc LU), else dense by finite differences.
+    ``force_scale`` [N] sets the absolute tolerance. Returns ``q`` and ``|residual|``."""
     PETSc = petsc()
     n = K.shape[0]
     N, m = forces.params.blades, forces.params.modes

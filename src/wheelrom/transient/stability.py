@@ -111,7 +111,7 @@ def linearise(model: ReducedModel, cfg: Config, angles_deg: dict | None = None, 
     params = force_parameters(model, cfg, angles_deg)
     params = dataclasses.replace(params, nozzle_force=0.0)  # the equilibrium, not the forcing
     N, m = model.blades, model.modes
-    K = model.dense_stiffness()
+    K = model.sparse_stiffness()  # the blade blocks only: no dense (N m)^2 array per case
     scale = float(max(1.0, params.contacts.preload.max(initial=1.0)))
     q, residual = static_equilibrium(
         ReferenceForces(params), K, comm, scale, prefix + "preload_",
@@ -119,8 +119,7 @@ def linearise(model: ReducedModel, cfg: Config, angles_deg: dict | None = None, 
     )  # fmt: skip
     q = q.reshape(N, m)
     Fq, Fv, contacts = force_derivatives(params, q)
-    return params, q, residual, jacobian(model.sparse_stiffness(), cfg.wheel.damping_beta, Fq,
-                                         Fv), contacts  # fmt: skip
+    return params, q, residual, jacobian(K, cfg.wheel.damping_beta, Fq, Fv), contacts
 
 
 def analyse(model: ReducedModel, cfg: Config, angles_deg: dict | None = None, comm=None,
