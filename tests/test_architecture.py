@@ -20,7 +20,8 @@ STAGES = (
     ("wheelrom.stability_study", 6),
     ("wheelrom.bench", 7), ("wheelrom.plots", 7), ("wheelrom.plots_stability", 7),
     ("wheelrom.plot_helpers", 7),
-    ("wheelrom.cli_args", 8), ("wheelrom.cli_output", 8), ("wheelrom.cli", 8), ("wheelrom", 0),
+    ("wheelrom.cli_args", 8), ("wheelrom.cli_output", 8), ("wheelrom.cli_tools", 8),
+    ("wheelrom.cli", 8), ("wheelrom", 0),
 )  # fmt: skip
 
 # compiled kernels kept as one fused pass each (docs/performance.md: the fusion is the

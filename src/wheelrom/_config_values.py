@@ -5,8 +5,9 @@ numbers or strings (contact stiffness tables, node-set coordinates) and the TOML
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import fields
 from typing import Any
 
@@ -126,3 +127,54 @@ def to_toml(cfg: Any, comments: bool = True) -> str:
 
     section(cfg, "")
     return "\n".join(lines).rstrip() + "\n"
+
+
+def suggest(name: str, valid: Sequence[str]) -> str:
+    """" (did you mean 'x'?)" for a close match of an unknown key, else the valid ones."""
+    close = difflib.get_close_matches(name, valid, n=1, cutoff=0.6)
+    return f" (did you mean '{close[0]}'?)" if close else f" (valid: {', '.join(valid)})"
+
+
+def convert_field(where: str, f: dataclasses.Field, value: Any, problems: list[str]) -> Any:
+    """``value`` of the dataclass field ``f`` checked against its default's type and its
+    metadata (``min``, ``gt``, ``choices``, ...); problems are appended, named by ``where``."""
+    meta = f.metadata
+    default = f.default if f.default is not dataclasses.MISSING else f.default_factory()
+    if f.name == "stiffness":
+        return convert_stiffness(where, value, problems)
+    if f.name == "node_sets":
+        return convert_node_sets(where, value, problems)
+    if where.endswith("flutter.mode") and isinstance(value, str):
+        if value != "auto":
+            problems.append(f"{where}: expected an integer (-1: all modes) or 'auto', got "
+                            f"{value!r}")  # fmt: skip
+        return value
+    if isinstance(default, bool):
+        if not isinstance(value, bool):
+            problems.append(f"{where}: expected true or false, got {value!r}")
+        return value
+    if isinstance(default, int):
+        if not isinstance(value, int) or isinstance(value, bool):
+            problems.append(f"{where}: expected an integer, got {value!r}")
+            return value
+        check_number(where, value, meta, problems)
+        return value
+    if isinstance(default, float):
+        if check_number(where, value, meta, problems):
+            return float(value)
+        return value
+    if isinstance(default, str):
+        if not isinstance(value, str):
+            problems.append(f"{where}: expected a string, got {value!r}")
+        elif "choices" in meta and value not in meta["choices"]:
+            problems.append(
+                f"{where}: '{value}' is not one of {', '.join(map(repr, meta['choices']))}"
+            )
+        return value
+    if isinstance(default, tuple):
+        if not isinstance(value, list | tuple) or not (value or meta.get("allow_empty")):
+            problems.append(f"{where}: expected a non-empty list of numbers, got {value!r}")
+            return value
+        ok = all(check_number(f"{where}[{i}]", v, meta, problems) for i, v in enumerate(value))
+        return tuple(float(v) for v in value) if ok else value
+    raise AssertionError(f"no converter for {where}")  # pragma: no cover

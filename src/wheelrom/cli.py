@@ -12,16 +12,14 @@ import os
 import sys
 from collections.abc import Callable, Sequence
 
-from wheelrom import _kernel_cache, cli_args
+from wheelrom import _kernel_cache, cli_args, cli_tools
 from wheelrom import config as config_mod
 from wheelrom._environment import bootstrap
+from wheelrom.cli_args import comm_self, load_config
 from wheelrom.cli_output import (
     EXIT_INTERRUPTED,
     fail,
     log,
-    print_accuracy,
-    print_contact_stiffness,
-    print_info,
     print_json,
     print_modes,
     print_result,
@@ -30,11 +28,7 @@ from wheelrom.cli_output import (
     world_rank,
 )
 from wheelrom.errors import InputError, Interrupted, OutputExists
-from wheelrom.outputs import check_outdir, check_output, replacing
-
-
-def _load(args: argparse.Namespace) -> config_mod.Config:
-    return config_mod.load(args.config, args.overrides)
+from wheelrom.outputs import check_output, replacing
 
 
 def _petsc_options(args: argparse.Namespace) -> None:
@@ -59,7 +53,7 @@ def _petsc_options(args: argparse.Namespace) -> None:
 
 
 def cmd_config_show(args: argparse.Namespace) -> int:
-    cfg = _load(args)
+    cfg = load_config(args)
     sys.stdout.write(f"# effective configuration from {cfg.source}\n")
     sys.stdout.write(config_mod.to_toml(cfg))
     return 0
@@ -68,7 +62,7 @@ def cmd_config_show(args: argparse.Namespace) -> int:
 def cmd_config_check(args: argparse.Namespace) -> int:
     """The keys, and for a user mesh (``segment.source``) the file and its node sets: what
     a run would refuse, found without computing anything."""
-    cfg = _load(args)
+    cfg = load_config(args)
     if cfg.segment.source != "builtin":
         from wheelrom.segment.load import load_segment
 
@@ -79,23 +73,17 @@ def cmd_config_check(args: argparse.Namespace) -> int:
     return 0
 
 
-def _comm_self():
-    from wheelrom._environment import petsc
-
-    return petsc().COMM_SELF
-
-
 def cmd_modes(args: argparse.Namespace) -> int:
     """Segment modes (SLEPc) and wheel frequencies by nodal diameter (cyclic synthesis)."""
     from wheelrom.rom.build import build, quiet
     from wheelrom.rom.model import wheel_modes
 
-    cfg = _load(args)
+    cfg = load_config(args)
     cli_args.check_vtu_arguments(args, cfg)
     if args.out:
         check_output(args.out, args.force)
     say = quiet if args.json else log
-    wheel = build(cfg, _comm_self(), log=say)
+    wheel = build(cfg, comm_self(), log=say)
     model = wheel.model
     hz, nd, _ = wheel_modes(model)
     if args.vtu:
@@ -142,7 +130,7 @@ def _full_wheel(args: argparse.Namespace, cfg, wheel, say) -> dict:
     c1, m = cfg.wheel.coupling_stiffness, wheel.model.modes
     out = {}
     if args.full_wheel in ("cyclic", "both"):
-        out["full_wheel_hz"] = references.cyclic_table(seg, mats, c1, m, _comm_self(), log=say)
+        out["full_wheel_hz"] = references.cyclic_table(seg, mats, c1, m, comm_self(), log=say)
     if args.full_wheel in ("assembled", "both"):
         from wheelrom._environment import petsc
 
@@ -157,10 +145,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     from wheelrom.stability_study import attach_linear
     from wheelrom.transient.run import run_case
 
-    cfg = _load(args)
+    cfg = load_config(args)
     if args.out:
         check_output(args.out, args.force)
-    model = build_model(cfg, _comm_self(), log=quiet if args.json else log)
+    model = build_model(cfg, comm_self(), log=quiet if args.json else log)
 
     def progress(w, total, t, amp):
         if not args.json:
@@ -189,14 +177,14 @@ def cmd_compare(args: argparse.Namespace) -> int:
     from wheelrom.transient.run import run_case
     from wheelrom.transient.ts import time_step
 
-    cfg = _load(args)
+    cfg = load_config(args)
     if args.steps < 1:
         raise InputError(f"compare --steps: at least 1 step to compare (got {args.steps})")
     steps, step = args.steps, time_step(cfg)  # the TS's step: -wheel_ts_dt overrides
     span = steps * step  # one window over the compared steps, with at least one sample in it
     rate = max(cfg.output.sample_rate_hz, 1.0 / span)
     cfg = cfg.replace(**{"time.end": span, "time.window": span, "output.sample_rate_hz": rate})
-    model = build_model(cfg, _comm_self(), log=quiet if args.json else log)
+    model = build_model(cfg, comm_self(), log=quiet if args.json else log)
     res = run_case(model, cfg)
     _, states, ref_wall = reference_solution(model, cfg, steps, step, sample_every=steps)
     n = model.size
@@ -220,7 +208,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
     from wheelrom.sweep import run_sweep
 
-    cfg = _load(args)
+    cfg = load_config(args)
     failed = run_sweep(cfg, args.out, MPI.COMM_WORLD, resume=args.resume, force=args.force,
                        log=log, model_comm=args.model_comm,
                        batch=args.batch)  # fmt: skip
@@ -234,7 +222,7 @@ def cmd_stability(args: argparse.Namespace) -> int:
     from wheelrom.rom.build import quiet
     from wheelrom.stability_study import run_stability, summary, world_if_parallel
 
-    cfg = _load(args)
+    cfg = load_config(args)
     if args.out:
         check_output(args.out, args.force)
     comm = world_if_parallel()
@@ -256,149 +244,6 @@ def cmd_stability(args: argparse.Namespace) -> int:
     return 0
 
 
-def cmd_contact_stiffness(args: argparse.Namespace) -> int:
-    """Contact stiffness k_c(beta) from the segment FE by static unit loads (paper Fig. 5),
-    on the segment matrices the model uses (prestressed when the configuration says so)."""
-    from wheelrom.config import CONTACT_KINDS
-    from wheelrom.forces.parameters import stiffness_at
-    from wheelrom.rom.build import build_segment, contact_stiffness_tables, quiet
-
-    cfg = _load(args)
-    segment = build_segment(cfg, _comm_self(), log=quiet if args.json else log)
-    seg = segment.mesh
-    kinds = [k for k in CONTACT_KINDS if f"{k}_A" in seg.node_sets]
-    out = {}
-    for kind, (angles, values, flex) in contact_stiffness_tables(segment, kinds,
-                                                                 _comm_self()).items():  # fmt: skip
-        configured = cfg.contact(kind).stiffness
-        out[kind] = {
-            "angle_deg": angles.tolist(),
-            "fe_stiffness_n_per_m": values.tolist(),
-            "configured_n_per_m": None
-            if configured == "fe"
-            else [stiffness_at(configured, a) for a in angles],
-            "arm_axial_stiffness_n_per_m": cfg.contact(kind).arm_axial_stiffness,
-            "flexibility_m_per_n": flex.G.tolist(),
-            "load_nodes": list(flex.load_nodes),
-            "solve_s": flex.solve_s,
-        }
-    if args.json:
-        print_json(out)
-    else:
-        print_contact_stiffness(out, seg.n_dofs)
-    return 0
-
-
-def cmd_accuracy(args: argparse.Namespace) -> int:
-    """Reduced-model frequencies against the exact cyclic-symmetry FE: error per family."""
-    from wheelrom.rom.accuracy import accuracy_table
-    from wheelrom.rom.build import quiet
-
-    cfg = _load(args)
-    table = accuracy_table(cfg, _comm_self(), tuple(args.modes), args.enriched_modes,
-                           args.families, log=quiet if args.json else log)  # fmt: skip
-    if args.json:
-        print_json({
-            "reference_hz": table["reference_hz"].tolist(),
-            "bases": {k: {"vectors": v["vectors"], "relative_error": v["relative_error"].tolist()}
-                      for k, v in table["bases"].items()},
-        })  # fmt: skip
-    else:
-        print_accuracy(table)
-    return 0
-
-
-def cmd_mesh(args: argparse.Namespace) -> int:
-    """Write the segment mesh and node sets (.inp with a CalculiX modal step, .vtu, ...)."""
-    from wheelrom.segment.export import cyclic_deck_path, write_segment
-    from wheelrom.segment.load import load_segment
-
-    cfg = _load(args)
-    check_output(args.out, args.force)
-    if os.path.splitext(args.out)[1].lower() == ".inp":
-        check_output(cyclic_deck_path(args.out), args.force)
-    seg = load_segment(cfg)
-    written = write_segment(seg, args.out, cfg)
-    sets = ", ".join(f"{k} ({v.size})" for k, v in sorted(seg.node_sets.items()))
-    print(f"wrote {args.out}: {seg.nodes.shape[0]} nodes, {seg.n_dofs} DOFs; node sets: {sets}")
-    for deck in written[1:]:
-        folder, name = os.path.split(os.path.abspath(deck))
-        print(f"wrote {deck}: CalculiX wheel modes per nodal diameter "
-              f"(cd {folder} && ccx -i {os.path.splitext(name)[0]})")  # fmt: skip
-    return 0
-
-
-def cmd_campbell(args: argparse.Namespace) -> int:
-    """Segment and wheel frequencies versus speed (prestressed), with engine orders."""
-    from wheelrom.plots import plot_campbell
-    from wheelrom.rom.build import quiet
-    from wheelrom.rom.campbell import campbell
-
-    cfg = _load(args)
-    check_outdir(args.outdir)
-    speeds = cli_args.parse_speeds(args.speeds)
-    data = campbell(cfg, speeds, _comm_self(), log=quiet if args.json else log)
-    written = plot_campbell(data, args.outdir, pdf=args.pdf)
-    if args.json:
-        print_json({k: (v.tolist() if hasattr(v, "tolist") else v) for k, v in data.items()}
-                   | {"figures": written})  # fmt: skip
-    else:
-        print("\n".join(written))
-    return 0
-
-
-def cmd_bench(args: argparse.Namespace) -> int:
-    """Speed of the transient hot path on this machine (one core): RHS, TS steps, ratios."""
-    from wheelrom.bench import run
-    from wheelrom.rom.build import build_model, quiet
-
-    cfg = _load(args)
-    if args.steps < 20000:
-        raise InputError(f"bench --steps must be at least 20000 (got {args.steps})")
-    if args.batch < 1:
-        raise InputError(f"bench --batch must be at least 1 (got {args.batch})")
-    say = quiet if args.json else log
-    model = build_model(cfg, _comm_self(), log=say)
-    # the groups' progress goes to stderr even with --json (stdout holds the JSON only)
-    out = run(model, cfg, steps=args.steps, compare_steps=args.reference_steps, log=log,
-              batch=args.batch)  # fmt: skip
-    print_result(out, args.json)
-    return 0
-
-
-def cmd_plot(args: argparse.Namespace) -> int:
-    """Figures (PNG, PDF with --pdf) from a sweep/run/modes HDF5 file."""
-    from wheelrom.plots import plot_file
-
-    if args.outdir:
-        check_outdir(args.outdir)
-    written = plot_file(args.results, args.outdir, pdf=args.pdf, nd_angles=args.nd_angles)
-    for path in written:
-        print(path)
-    return 0
-
-
-def cmd_info(args: argparse.Namespace) -> int:
-    """What a results or model file holds: format, configuration source, model size, and
-    per case the contact angles, status (failure reasons), windows done and wall time."""
-    from wheelrom.info import file_info
-
-    info = file_info(args.file)
-    if args.json:
-        print_json(info)
-    else:
-        print_info(info, show_all=args.all)
-    return 0
-
-
-def cmd_export(args: argparse.Namespace) -> int:
-    """One case of a results file as CSV: tip histories and per-window statistics."""
-    from wheelrom.csv_export import export_case
-
-    print("\n".join(export_case(args.file, args.case, args.csv, args.what, args.force)))
-    return 0
-
-
 COMMANDS: dict[
     str, tuple[Callable[[argparse.Namespace], int], str, Callable[[argparse.ArgumentParser], None]]
 ] = {
@@ -408,19 +253,20 @@ COMMANDS: dict[
                 cli_args.args_compare),
     "sweep": (cmd_sweep, "contact-angle sweep under mpirun, parallel HDF5",
               cli_args.args_sweep),
-    "plot": (cmd_plot, "figures from a results file", cli_args.args_plot),
-    "info": (cmd_info, "summary of a results or model file", cli_args.args_info),
-    "export": (cmd_export, "one case as CSV (tip histories, window statistics)",
+    "plot": (cli_tools.cmd_plot, "figures from a results file", cli_args.args_plot),
+    "info": (cli_tools.cmd_info, "summary of a results or model file", cli_args.args_info),
+    "export": (cli_tools.cmd_export, "one case as CSV (tip histories, window statistics)",
                cli_args.args_export),
-    "bench": (cmd_bench, "speed of the transient hot path (one core)", cli_args.args_bench),
-    "campbell": (cmd_campbell, "frequencies versus rotor speed (prestressed)",
+    "bench": (cli_tools.cmd_bench, "speed of the transient hot path (one core)",
+              cli_args.args_bench),
+    "campbell": (cli_tools.cmd_campbell, "frequencies versus rotor speed (prestressed)",
                  cli_args.args_campbell),
-    "mesh": (cmd_mesh, "write the segment mesh and node sets", cli_args.args_mesh),
-    "accuracy": (cmd_accuracy, "reduced model vs exact cyclic FE, per family",
+    "mesh": (cli_tools.cmd_mesh, "write the segment mesh and node sets", cli_args.args_mesh),
+    "accuracy": (cli_tools.cmd_accuracy, "reduced model vs exact cyclic FE, per family",
                  cli_args.args_accuracy),
     "stability": (cmd_stability, "linear stability per nodal diameter of every case",
                   cli_args.args_stability),
-    "contact-stiffness": (cmd_contact_stiffness,
+    "contact-stiffness": (cli_tools.cmd_contact_stiffness,
                           "k_c(beta) from the segment FE (static unit loads)",
                           cli_args.json_out),
 }  # fmt: skip

@@ -157,6 +157,19 @@ def args_info(p):
                    "lists the first and last few and the failed ones)")  # fmt: skip
 
 
+def load_config(args: argparse.Namespace):
+    """The validated configuration of a command's CONFIG and ``--set`` arguments."""
+    from wheelrom import config
+
+    return config.load(args.config, args.overrides)
+
+
+def comm_self():
+    from wheelrom._environment import petsc
+
+    return petsc().COMM_SELF
+
+
 def add_config_args(p: argparse.ArgumentParser, required: bool = False) -> None:
     p.add_argument(
         "config",

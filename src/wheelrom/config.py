@@ -9,7 +9,6 @@ the file and the dotted key.
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import math
 import tomllib
 from collections.abc import Mapping, Sequence
@@ -17,12 +16,7 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-from wheelrom._config_values import (
-    check_number,
-    convert_node_sets,
-    convert_stiffness,
-    is_number,
-)
+from wheelrom._config_values import convert_field, is_number, suggest
 from wheelrom._config_values import to_toml as to_toml  # re-exported: config.to_toml
 
 CONTACT_KINDS = ("tieboss", "shroud")
@@ -323,54 +317,6 @@ def _set_nested(data: dict[str, Any], changes: Mapping[str, Any]) -> dict[str, A
     return data
 
 
-def _suggest(name: str, valid: Sequence[str]) -> str:
-    close = difflib.get_close_matches(name, valid, n=1, cutoff=0.6)
-    return f" (did you mean '{close[0]}'?)" if close else f" (valid: {', '.join(valid)})"
-
-
-def _convert_field(where: str, f: dataclasses.Field, value: Any, problems: list[str]) -> Any:
-    meta = f.metadata
-    default = f.default if f.default is not dataclasses.MISSING else f.default_factory()
-    if f.name == "stiffness":
-        return convert_stiffness(where, value, problems)
-    if f.name == "node_sets":
-        return convert_node_sets(where, value, problems)
-    if where.endswith("flutter.mode") and isinstance(value, str):
-        if value != "auto":
-            problems.append(f"{where}: expected an integer (-1: all modes) or 'auto', got "
-                            f"{value!r}")  # fmt: skip
-        return value
-    if isinstance(default, bool):
-        if not isinstance(value, bool):
-            problems.append(f"{where}: expected true or false, got {value!r}")
-        return value
-    if isinstance(default, int):
-        if not isinstance(value, int) or isinstance(value, bool):
-            problems.append(f"{where}: expected an integer, got {value!r}")
-            return value
-        check_number(where, value, meta, problems)
-        return value
-    if isinstance(default, float):
-        if check_number(where, value, meta, problems):
-            return float(value)
-        return value
-    if isinstance(default, str):
-        if not isinstance(value, str):
-            problems.append(f"{where}: expected a string, got {value!r}")
-        elif "choices" in meta and value not in meta["choices"]:
-            problems.append(
-                f"{where}: '{value}' is not one of {', '.join(map(repr, meta['choices']))}"
-            )
-        return value
-    if isinstance(default, tuple):
-        if not isinstance(value, list | tuple) or not (value or meta.get("allow_empty")):
-            problems.append(f"{where}: expected a non-empty list of numbers, got {value!r}")
-            return value
-        ok = all(check_number(f"{where}[{i}]", v, meta, problems) for i, v in enumerate(value))
-        return tuple(float(v) for v in value) if ok else value
-    raise AssertionError(f"no converter for {where}")  # pragma: no cover
-
-
 def _build(cls: type, data: Mapping[str, Any], prefix: str, problems: list[str]) -> Any:
     names = [f.name for f in fields(cls) if not (cls is Config and f.name == "source")]
     kwargs = {}
@@ -378,7 +324,7 @@ def _build(cls: type, data: Mapping[str, Any], prefix: str, problems: list[str])
         where = f"{prefix}{key}"
         if key not in names:
             kind = "section" if isinstance(value, Mapping) else "key"
-            problems.append(f"{where}: unknown {kind}{_suggest(key, names)}")
+            problems.append(f"{where}: unknown {kind}{suggest(key, names)}")
             continue
         f = next(f for f in fields(cls) if f.name == key)
         default = f.default if f.default is not dataclasses.MISSING else f.default_factory()
@@ -389,7 +335,7 @@ def _build(cls: type, data: Mapping[str, Any], prefix: str, problems: list[str])
             # nested sections: start from the field's own default (shroud differs from tieboss)
             kwargs[key] = _build_from(default, value, f"{where}.", problems)
         else:
-            kwargs[key] = _convert_field(where, f, value, problems)
+            kwargs[key] = convert_field(where, f, value, problems)
     return cls(**kwargs)
 
 
