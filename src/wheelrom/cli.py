@@ -12,7 +12,7 @@ import os
 import sys
 from collections.abc import Callable, Sequence
 
-from wheelrom import _kernel_cache, cli_args, cli_tools
+from wheelrom import _kernel_cache, cli_args, cli_motion, cli_tools
 from wheelrom import config as config_mod
 from wheelrom._environment import bootstrap
 from wheelrom.cli_args import comm_self, load_config
@@ -257,6 +257,10 @@ COMMANDS: dict[
     "info": (cli_tools.cmd_info, "summary of a results or model file", cli_args.args_info),
     "export": (cli_tools.cmd_export, "one case as CSV (tip histories, window statistics)",
                cli_args.args_export),
+    "animate": (cli_motion.cmd_animate, "one case's wheel in motion: XDMF, GIF, PNG",
+                cli_motion.args_animate),
+    "contacts": (cli_motion.cmd_contacts, "one case's contact forces and friction hysteresis",
+                 cli_motion.args_contacts),
     "bench": (cli_tools.cmd_bench, "speed of the transient hot path (one core)",
               cli_args.args_bench),
     "campbell": (cli_tools.cmd_campbell, "frequencies versus rotor speed (prestressed)",
@@ -298,7 +302,7 @@ def build_parser() -> argparse.ArgumentParser:
         p = sub.add_parser(name, help=help_text, description=func.__doc__)
         if name == "plot":
             p.add_argument("results", help="HDF5 file from sweep, run or modes --out")
-        elif name not in ("info", "export"):  # these read a file, no configuration
+        elif name not in ("info", "export", "animate", "contacts"):  # these read a file
             cli_args.add_config_args(p)
         extra(p)
         p.set_defaults(func=func)
