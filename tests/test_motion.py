@@ -255,3 +255,13 @@ def test_batched_mpi_sweep_records_the_same_states(tmp_path):
     for key, value in runs["serial"].items():
         assert np.array_equal(value, runs["mpi"][key], equal_nan=True), key
     assert runs["serial"]["states_done"].tolist() == [11, 11, 11]
+
+
+def test_animate_never_overwrites_its_results_file(case_file, capsys):
+    """``--out`` equal to the file's stem would make PREFIX.h5 the results file: refused,
+    even with --force."""
+    before = os.path.getsize(case_file)
+    stem = os.path.splitext(case_file)[0]
+    assert cli.main(["animate", case_file, "--out", stem, "--force"]) == 2
+    assert "would overwrite the results file" in capsys.readouterr().err
+    assert os.path.getsize(case_file) == before

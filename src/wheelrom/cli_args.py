@@ -141,7 +141,7 @@ def args_export(p):
     p.add_argument("file", help="HDF5 file from sweep or run --out")
     p.add_argument("--case", type=int, default=0, help="case index as 'wheelrom info' lists it")
     p.add_argument("--csv", required=True, metavar="PREFIX",
-                   help="writes PREFIX_tips.csv and/or PREFIX_windows.csv")  # fmt: skip
+                   help="writes PREFIX_<table>.csv per table of --what")  # fmt: skip
     p.add_argument("--what", choices=("all", "tips", "windows", "contact_forces"),
                    default="all",
                    help="tips: tip displacement of every blade per sample; windows: per-window "

@@ -51,8 +51,13 @@ def _prefix(args: argparse.Namespace) -> str:
     return args.out or f"{os.path.splitext(args.file)[0]}_case{args.case}"
 
 
-def _check_outputs(paths: list[str], force: bool) -> None:
+def _check_outputs(paths: list[str], force: bool, source: str) -> None:
+    """Every output writable (existing ones need ``force``) and none of them the results
+    file ``source`` itself (not even with ``force``)."""
     for path in paths:
+        if os.path.exists(path) and os.path.samefile(path, source):
+            raise InputError(f"--out: {path} would overwrite the results file {source}; "
+                             "choose another prefix")  # fmt: skip
         check_output(path, force, "--out")
 
 
@@ -72,11 +77,11 @@ def cmd_animate(args: argparse.Namespace) -> int:
         window = window or _last_window(cases, args.case)
         if "state_history" in cases:
             paths = [f"{prefix}.xdmf", f"{prefix}.h5", f"{prefix}.gif", f"{prefix}.png"]
-            _check_outputs(paths, args.force)
+            _check_outputs(paths, args.force, args.file)
             _animate_states(f, args, window, prefix)
         else:
             paths = [f"{prefix}.gif"]
-            _check_outputs(paths, args.force)
+            _check_outputs(paths, args.force, args.file)
             log(f"{args.file} has no state history (output.state_rate_hz = 0): the tip ring "
                 "from the tip history only")  # fmt: skip
             _animate_tips(f, args, window, paths[0])
@@ -97,10 +102,15 @@ def _animate_states(f, args, window, prefix: str) -> None:
     times, states = state_window(f["cases"], args.file, args.case, window)
     rows = _frames(times.size, args.frames)
     times, states = times[rows], states[rows]
+    t0 = time.perf_counter()
     wheel = rebuild(f, args.file, comm_self(), log=log)
     seg, model = wheel.segment.mesh, wheel.model
     surface = wheel_surface(seg, wheel.shapes)
+    t1 = time.perf_counter()
+    log(f"model rebuilt and checked against the file's in {t1 - t0:.1f} s; surface "
+        f"{surface.points.shape[0]} points, {surface.quads.shape[0]} faces")  # fmt: skip
     write_xdmf(prefix, surface, times, states[:, 0])
+    log(f"{prefix}.xdmf: {times.size} time steps in {time.perf_counter() - t1:.1f} s")
     cfg = read_config(f, args.file)
     contacts = contact_histories(model, cfg, angles_of(f["cases/angles_deg"][args.case]),
                                  times, states)  # fmt: skip
@@ -161,7 +171,7 @@ def cmd_contacts(args: argparse.Namespace) -> int:
         raise InputError(f"{args.file}: the case has no contacts")
     paths = [f"{prefix}_normal_force.png"] + [
         f"{prefix}_hysteresis_{kind}_blade{b}.png" for kind in histories for b in args.blade]
-    _check_outputs(paths, args.force)
+    _check_outputs(paths, args.force, args.file)
     with replacing(paths[0]) as partial:
         normal_force_png(partial, histories, args.blade)
     rest = iter(paths[1:])

@@ -42,14 +42,20 @@ def tip_ring_gif(path: str, times: np.ndarray, tips: np.ndarray, tip_point: np.n
     radius = float(np.hypot(*tip_point[:2]))
     moved = rest[None] + scale * np.einsum("sab,ksb->ksa", R, tips)
     size_mm = 1e3 * np.linalg.norm(tips, axis=2)
-    fig, ax = plt.subplots(figsize=(6.4, 6.4))
+    fig, (ax, unrolled) = plt.subplots(1, 2, figsize=(12, 5.6),
+                                       gridspec_kw={"width_ratios": (1, 1.1)})  # fmt: skip
     ax.set_aspect("equal")
+    update_unrolled = _unrolled(unrolled, tips, contacts or {})
     lim = 1.12 * radius
     ax.set(xlim=(-lim, lim), ylim=(-lim, lim), xlabel="x [m]", ylabel="y [m]")
     ax.plot(rest[:, 0], rest[:, 1], color="0.8", lw=0.8, zorder=1)
+    norm = plt.Normalize(0.0, max(float(size_mm.max()), 1e-12))
     dots = ax.scatter(moved[0, :, 0], moved[0, :, 1], c=size_mm[0], cmap="viridis", s=28,
-                      vmin=0.0, vmax=max(float(size_mm.max()), 1e-12), zorder=3)  # fmt: skip
-    fig.colorbar(dots, ax=ax, shrink=0.8, label="tip displacement [mm]")
+                      norm=norm, zorder=3)  # fmt: skip
+    # the colour bar of a fixed mappable: the animated one would redraw it every frame
+    fig.colorbar(plt.cm.ScalarMappable(norm=norm, cmap="viridis"), ax=ax, shrink=0.7,
+                 label="tip displacement |u| [mm]")  # fmt: skip
+    fig.subplots_adjust(left=0.06, right=0.9, wspace=0.35)
     marks = {}
     for i, (kind, (r, _)) in enumerate((contacts or {}).items()):
         angle = 2 * math.pi * (np.arange(N) + 0.5) / N
@@ -60,7 +66,7 @@ def tip_ring_gif(path: str, times: np.ndarray, tips: np.ndarray, tip_point: np.n
         marks[kind] = (xy, closed, opened)
     if marks:
         ax.legend(loc="lower right", fontsize=8)
-    title = ax.set_title("")
+    title = fig.suptitle("")
 
     def frame(k):
         dots.set_offsets(moved[k, :, :2])
@@ -70,11 +76,39 @@ def tip_ring_gif(path: str, times: np.ndarray, tips: np.ndarray, tip_point: np.n
             closed.set_offsets(xy[~is_open] if (~is_open).any() else np.zeros((0, 2)))
             opened.set_offsets(xy[is_open] if is_open.any() else np.zeros((0, 2)))
         title.set_text(f"t = {1e3 * times[k]:.2f} ms, displacements x {scale:.3g}")
+        update_unrolled(k)
         return [dots, title]
 
     anim = FuncAnimation(fig, frame, frames=S, blit=False)
     anim.save(path, writer=PillowWriter(fps=fps))
     plt.close(fig)
+
+
+def _unrolled(ax, tips: np.ndarray, contacts: dict):
+    """The right panel of :func:`tip_ring_gif`: tangential and axial tip displacement [mm]
+    against the blade, open contacts marked below; returns the frame update."""
+    S, N, _ = tips.shape
+    blades = np.arange(N)
+    top = 1e3 * max(float(np.abs(tips[..., 1:]).max()), 1e-15)
+    ax.set(xlim=(-0.5, N - 0.5), ylim=(-1.35 * top, 1.1 * top), xlabel="blade",
+           ylabel="tip displacement [mm]")  # fmt: skip
+    tangential, = ax.plot(blades, 1e3 * tips[0, :, 1], "-o", ms=2.5, lw=1, label="y tangential")
+    axial, = ax.plot(blades, 1e3 * tips[0, :, 2], "-o", ms=2.5, lw=1, label="z axial")
+    rows = {kind: (-1.15 - 0.12 * i) * top for i, kind in enumerate(contacts)}
+    opened = {kind: ax.plot([], [], "x", color="red", ms=5)[0] for kind in contacts}
+    for kind, y in rows.items():
+        ax.text(N - 0.5, y, f" {kind} open", va="center", fontsize=7)
+    ax.axhline(0.0, color="0.7", lw=0.6)
+    ax.legend(loc="upper right", fontsize=8)
+
+    def update(k):
+        tangential.set_ydata(1e3 * tips[k, :, 1])
+        axial.set_ydata(1e3 * tips[k, :, 2])
+        for kind, line in opened.items():
+            where = blades[contacts[kind][1][k]] + 0.5
+            line.set_data(where, np.full(where.size, rows[kind]))
+
+    return update
 
 
 def surface_png(path: str, points: np.ndarray, quads: np.ndarray, u: np.ndarray,
@@ -94,12 +128,12 @@ def surface_png(path: str, points: np.ndarray, quads: np.ndarray, u: np.ndarray,
     polys = Poly3DCollection(faces, facecolors=cmap(size / top), edgecolors="none")
     ax.add_collection3d(polys)
     lim = float(np.abs(xyz[:, :2]).max())
-    ax.set(xlim=(-lim, lim), ylim=(-lim, lim), zlim=(-lim, lim), xlabel="x [m]",
+    ax.set(xlim=(-lim, lim), ylim=(-lim, lim), zlim=(-0.4 * lim, 0.4 * lim), xlabel="x [m]",
            ylabel="y [m]", zlabel="z [m]")  # fmt: skip
-    ax.set_box_aspect((1, 1, 1))
-    ax.view_init(elev=35, azim=-60)
+    ax.set_box_aspect((1, 1, 0.4))
+    ax.view_init(elev=32, azim=-60)
     mappable = plt.cm.ScalarMappable(cmap=cmap, norm=plt.Normalize(0.0, top))
-    fig.colorbar(mappable, ax=ax, shrink=0.6, label="displacement [mm]")
+    fig.colorbar(mappable, ax=ax, shrink=0.6, pad=0.12, label="displacement [mm]")
     ax.set_title(f"wheel surface at t = {1e3 * time:.2f} ms, displacements x {scale:.3g}")
     fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
@@ -129,15 +163,18 @@ def hysteresis_png(path: str, h, blade: int) -> None:
     (xi radial, zeta along the contact surface), plus the normal force over time."""
     plt = _pyplot()
     fig, axes = plt.subplots(1, 3, figsize=(12, 3.6))
+    closed = h.state[:, blade] != 0
     for ax, (c, name) in zip(axes[:2], ((0, "xi"), (1, "zeta")), strict=True):
         rel = 1e6 * h.relative_displacement[:, blade, 2 * c]
-        ax.plot(rel, h.friction_force[:, blade, c], lw=1)
-        ax.plot(rel[:1], h.friction_force[:1, blade, c], "o", ms=4, label="start")
+        ax.plot(rel, np.where(closed, h.friction_force[:, blade, c], np.nan), lw=1,
+                label="closed")  # fmt: skip
+        ax.plot(rel, np.where(closed, np.nan, 0.0), color="0.7", lw=0.8, label="open")
         ax.set(xlabel=f"relative displacement {name} [um]", ylabel=f"friction force {name} [N]")
         ax.legend(fontsize=8)
     axes[2].plot(1e3 * h.time, h.normal_force[:, blade], lw=1)
     axes[2].set(xlabel="t [ms]", ylabel="normal force [N]")
-    fig.suptitle(f"{h.kind} contact between blades {blade} and {blade + 1}")
+    fig.suptitle(f"{h.kind} contact between blades {blade} and {blade + 1} "
+                 f"(open {100 * (1 - closed.mean()):.0f} % of the samples)")  # fmt: skip
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
