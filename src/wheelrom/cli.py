@@ -183,7 +183,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
     steps, step = args.steps, time_step(cfg)  # the TS's step: -wheel_ts_dt overrides
     span = steps * step  # one window over the compared steps, with at least one sample in it
     rate = max(cfg.output.sample_rate_hz, 1.0 / span)
-    cfg = cfg.replace(**{"time.end": span, "time.window": span, "output.sample_rate_hz": rate})
+    cfg = cfg.replace(**{"time.end": span, "time.window": span, "output.sample_rate_hz": rate,
+                         "output.history_rate_hz": rate, "output.state_rate_hz": 0.0})
     model = build_model(cfg, comm_self(), log=quiet if args.json else log)
     res = run_case(model, cfg)
     _, states, ref_wall = reference_solution(model, cfg, steps, step, sample_every=steps)
