@@ -61,6 +61,22 @@ def test_paper_layouts_fit(coarse_model):
     assert state == 19 * 3001 * 2 * 66 * 10 * 8 + 19 * (3001 + 1) * 8
 
 
+def test_a_parallel_file_allocates_what_info_reports(coarse_model, tmp_path):
+    """A parallel (mpio) file is allocated in full at creation: its size is the bytes per
+    case times the cases, within 1 % (chunks split the samples evenly) plus /model."""
+    from mpi4py import MPI
+
+    from wheelrom.histories import case_bytes
+    from wheelrom.results import create_layout
+
+    path = tmp_path / "paper.h5"
+    with h5py.File(path, "w", driver="mpio", comm=MPI.COMM_SELF) as f:
+        create_layout(f, config.load("run/paper.toml"), coarse_model)
+        logical = sum(case_bytes(f["cases"]).values()) * 19
+        assert f["cases/tip_history"].chunks == (1, 601, 66, 3)  # 3001 = 5 x 601 - 4
+    assert logical < os.path.getsize(path) < 1.01 * logical + 1e6
+
+
 def test_state_history_changes_no_result(small_model, small_cfg):
     """Recording the modal state leaves every result bitwise as it was, alone and in a
     batch, and its tip at the shared sample times is the tip history."""

@@ -20,8 +20,10 @@ STATE_COLUMNS = "q [sqrt(kg) m], q' [sqrt(kg) m/s]"
 
 
 def _chunk(S: int, row_bytes: int) -> int:
-    """Samples per chunk: about :data:`CHUNK_BYTES`, at least 1, at most ``S``."""
-    return max(1, min(S, CHUNK_BYTES // max(row_bytes, 1)))
+    """Samples per chunk: about :data:`CHUNK_BYTES`, splitting ``S`` samples into equal
+    chunks (a parallel file allocates whole chunks: the last one is filled too)."""
+    target = max(1, min(S, CHUNK_BYTES // max(row_bytes, 1)))
+    return -(-S // -(-S // target))
 
 
 def create_histories(cases, C: int, grid, N: int, m: int) -> None:
