@@ -17,6 +17,8 @@ STAGES = (
     ("wheelrom.segment", 1), ("wheelrom.rom", 2),
     ("wheelrom.forces", 3), ("wheelrom.transient", 4), ("wheelrom.results", 5),
     ("wheelrom.info", 5), ("wheelrom.csv_export", 5), ("wheelrom.sweep", 6),
+    ("wheelrom.histories", 5), ("wheelrom.reconstruct", 5), ("wheelrom.wheel_motion", 6),
+    ("wheelrom.plots_motion", 7), ("wheelrom.cli_motion", 8),
     ("wheelrom.stability_study", 6),
     ("wheelrom.bench", 7), ("wheelrom.plots", 7), ("wheelrom.plots_stability", 7),
     ("wheelrom.plot_helpers", 7),
