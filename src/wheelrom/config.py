@@ -241,6 +241,26 @@ class SweepConfig:
 
 
 @dataclass(frozen=True)
+class StudyConfig:
+    grid: Mapping[str, Any] = field(
+        default_factory=dict,
+        metadata=_key("-", "keys varied as a grid, every combination: dotted.key = [values] or "
+                      "'start:stop:step' (stop included); {} with no zip/cases = the [sweep] "
+                      "angle grid", study_table=True),  # fmt: skip
+    )
+    zip: Mapping[str, Any] = field(
+        default_factory=dict,
+        metadata=_key("-", "keys varied together (one axis, lists of equal length): "
+                      "dotted.key = [values]", study_table=True),  # fmt: skip
+    )
+    cases: str = field(
+        default="",
+        metadata=_key("-", "CSV file of cases (one axis): a header of dotted keys, one case per "
+                      "row; relative to the TOML file; '' = none"),  # fmt: skip
+    )
+
+
+@dataclass(frozen=True)
 class MistuningConfig:
     pattern: tuple[float, ...] = field(
         default=(),
@@ -272,6 +292,7 @@ class Config:
     output: OutputConfig = field(default_factory=OutputConfig)
     sweep: SweepConfig = field(default_factory=SweepConfig)
     mistuning: MistuningConfig = field(default_factory=MistuningConfig)
+    study: StudyConfig = field(default_factory=StudyConfig)
     source: str = field(default="<built-in default>", compare=False)
 
     def replace(self, **changes: Any) -> Config:
