@@ -336,6 +336,18 @@ def print_stability(cases: list[dict]) -> None:
     print(f"{len(cases)} case(s): {len(cases) - bad} stable, {bad} unstable")
 
 
+def print_study(summary: dict, path: str) -> None:
+    """``wheelrom study`` for people: what the file holds, in three lines."""
+    v, t = summary["verdicts"], summary["transients"]
+    chosen = ", ".join(f"{k} {n}" for k, n in summary["selected_by"].items())
+    print(f"{path}: {summary['cases']} cases of {', '.join(summary['parameters'])} "
+          f"({summary['mode']}, {summary['models']} model(s))")  # fmt: skip
+    print(f"  linear stability: {v['stable']} stable, {v['unstable']} unstable, "
+          f"{v['failed']} failed")  # fmt: skip
+    print(f"  transients:       {t['done']} done, {t['failed']} failed, {t['pending']} "
+          f"pending, {t['skipped']} not run (selected by: {chosen})")  # fmt: skip
+
+
 def _ranges(values: list[int]) -> str:
     """``[3, 4, 5, 9]`` -> ``"3..5, 9"``."""
     out, start = [], None
