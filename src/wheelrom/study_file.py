@@ -59,6 +59,7 @@ def create(f, cfg: Config, study: Study, models: list, model_of: list[int], stab
         results.write_model(f.create_group(f"models/{g}"), model)
     group = f.create_group("stability")
     group.attrs["kinds"] = ", ".join(CONTACT_KINDS)
+    group.create_dataset("angles_deg", data=angles)
     for name, data in stability.items():
         group.create_dataset(name, data=data)
 
