@@ -222,10 +222,19 @@ def test_info_and_figures_of_a_stability_map(tmp_path):
     assert sum(info["verdicts"].values()) == 8
     assert info["cases"][5]["parameters"] == {"contacts.tieboss.angle_deg": "60.0",
                                               "contacts.shroud.angle_deg": "30"}  # fmt: skip
-    res = wheelrom("plot", out, "--outdir", tmp_path / "fig")
-    names = {os.path.basename(p) for p in res.stdout.split()}
     assert {"study_growth_rate.png", "study_min_normal_force_shroud.png",
-            "stability_map_2d.png"} <= names  # fmt: skip
+            "stability_map_2d.png"} <= figures(out, tmp_path / "fig")  # fmt: skip
+    res = wheelrom("export", out, "--csv", tmp_path / "x", check=False)
+    assert res.returncode == 2 and "a --stability-only study: no transient to export" in res.stderr
+
+
+def test_export_reads_study_files(mixed, tmp_path):
+    _, n1, _ = mixed
+    wheelrom("export", n1, "--case", 5, "--csv", tmp_path / "c5", "--what", "windows")
+    rows = np.loadtxt(tmp_path / "c5_windows.csv", delimiter=",", skiprows=1, ndmin=2)
+    with h5py.File(n1, "r") as f:
+        assert np.array_equal(rows[:, 0], f["cases/window_end"][()])
+        assert np.array_equal(rows[:, 1], f["cases/max_tip_amplitude"][5])
 
 
 def test_three_keys_draw_one_map_per_pair(mixed, tmp_path):

@@ -22,6 +22,7 @@ import numpy as np
 from wheelrom.errors import InputError
 from wheelrom.outputs import check_output, replacing
 from wheelrom.results import FORMAT
+from wheelrom.study_file import FORMAT as STUDY_FORMAT
 
 TABLES = ("tips", "windows")
 
@@ -38,15 +39,18 @@ def case_tables(path: str, case: int) -> dict[str, tuple[list[str], np.ndarray]]
     except OSError as exc:
         raise InputError(f"{path}: not an HDF5 file ({exc})") from None
     with f:
-        if f.attrs.get("format") != FORMAT or "cases" not in f:
-            raise InputError(f"{path}: not a wheelrom results file (format {FORMAT!r} expected)")
+        if f.attrs.get("format") not in (FORMAT, STUDY_FORMAT) or "cases" not in f:
+            raise InputError(f"{path}: not a wheelrom results file (format {FORMAT!r} or "
+                             f"{STUDY_FORMAT!r} expected)")  # fmt: skip
         c = f["cases"]
+        if "tip_history" not in c:
+            raise InputError(f"{path}: a --stability-only study: no transient to export")
         total = c["status"].shape[0]
         if not 0 <= case < total:
             raise InputError(f"--case {case}: the file has cases 0..{total - 1}")
         status = c["status"][case].decode()
-        if status == "pending":
-            raise InputError(f"--case {case} is pending: nothing computed yet to export")
+        if status in ("pending", "skipped"):
+            raise InputError(f"--case {case} is {status}: no transient computed to export")
         return {"tips": _tips(c, case), "windows": _windows(c, case)}
 
 
