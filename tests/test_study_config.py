@@ -214,3 +214,31 @@ def test_batches_keep_keys_apart_and_respect_width():
     keys = ["a", "b", "a", "a", "b"]
     assert batches([0, 1, 2, 3, 4], keys, 0) == [[0, 2, 3], [1, 4]]
     assert batches([0, 1, 2, 3, 4], keys, 2) == [[0, 2], [1, 4], [3]]
+
+
+@pytest.mark.parametrize("command", ["sweep", "stability"])
+def test_sweep_and_stability_refuse_a_study(command):
+    from wheelrom.errors import InputError
+    from wheelrom.stability_study import refuse_study
+
+    refuse_study(config.load(), command)  # no [study]: fine
+    cfg = config.load(overrides=['study.grid={"friction.static"=[0.5, 0.7]}'])
+    with pytest.raises(InputError, match=f"has a \\[study\\] section, which '{command}' does "
+                       "not run"):  # fmt: skip
+        refuse_study(cfg, command)
+
+
+def test_stability_arrays_pad_models_and_record_failures(small_cfg, small_model):
+    from wheelrom.study_file import stability_arrays
+    from wheelrom.transient.stability import analyse
+
+    res = analyse(small_model, small_cfg, {"shroud": 50.0})
+    arrays = stability_arrays([res, "RuntimeError: SNES diverged"])
+    E, m = res.eigenvalue.size, small_model.modes
+    assert arrays["verdict"].tolist() == [res.verdict().encode(),
+                                          b"failed: RuntimeError: SNES diverged"]  # fmt: skip
+    assert np.array_equal(np.sort(arrays["growth_rate"][0])[::-1], np.sort(res.growth_rate)[::-1])
+    assert arrays["max_growth_rate"][0] == res.growth_rate.max()
+    assert np.isnan(arrays["growth_rate"][1]).all() and (arrays["nodal_diameter"][1] == -1).all()
+    assert arrays["modal_share"].shape == (2, E, m)
+    assert np.array_equal(arrays["normal_force"][0], res.normal_force)  # both kinds, in order
