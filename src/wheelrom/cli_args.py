@@ -91,8 +91,8 @@ def args_study(p):
     existing.add_argument("--force", action="store_true", help="overwrite an existing file")
     p.add_argument("--batch", type=int, default=0, metavar="B",
                    help="cases integrated together in one TS per rank (0, default: all of a "
-                   "rank's cases that differ only in contact angles; results the same for "
-                   "any B)")  # fmt: skip
+                   "rank's cases that differ only in contact angles, up to 1 GiB of tip "
+                   "histories; results the same for any B)")  # fmt: skip
 
 
 def study_mode(args: argparse.Namespace) -> str:

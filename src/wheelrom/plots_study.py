@@ -79,7 +79,8 @@ def _last(values: np.ndarray) -> float:
 
 
 WHAT = {
-    "growth_rate": ("largest linear growth rate [1/s] (> 0: unstable)", "RdBu_r"),
+    "growth_rate": ("largest linear growth rate [1/s] (> 0: unstable; symmetric log scale)",
+                    "RdBu_r"),
     "final_amplitude": ("final max tip amplitude [m] (transient)", "magma"),
     "min_normal_force": ("smallest normal force [N]", "viridis"),
     "open_fraction": ("fraction of contacts open, last window", "cividis"),
@@ -139,8 +140,9 @@ def _map(d: StudyData, a: int, b: int, name: str, values: np.ndarray, plt):
     finite = grid[np.isfinite(grid)]
     norm = None
     if name == "growth_rate" and finite.size:
+        # symmetric log: slightly damped cases (-0.1 /s next to +20 /s) stay visibly blue
         limit = max(np.abs(finite).max(), 1e-9)
-        norm = colors.TwoSlopeNorm(vcenter=0.0, vmin=-limit, vmax=limit)
+        norm = colors.SymLogNorm(linthresh=1e-3 * limit, vmin=-limit, vmax=limit)
     elif name == "final_amplitude" and (finite > 0).any():
         positive = finite[finite > 0]
         norm = colors.LogNorm(vmin=positive.min(), vmax=max(positive.max(), positive.min() * 10))
@@ -149,8 +151,11 @@ def _map(d: StudyData, a: int, b: int, name: str, values: np.ndarray, plt):
     if name == "growth_rate" and (grid > 0).any() and (grid < 0).any() and min(grid.shape) > 1:
         ax.contour(x, y, grid, levels=[0.0], colors="k", linewidths=1.2)
     yy, xx = np.meshgrid(y, x, indexing="ij")
-    ax.scatter(xx[done > 0], yy[done > 0], s=28, facecolors="none", edgecolors="k",
-               label="transient done")  # fmt: skip
+    # white rings with a black halo: visible on dark and light cells alike
+    ax.scatter(xx[done > 0], yy[done > 0], s=30, facecolors="none", edgecolors="k",
+               linewidths=2.4, label="transient done")  # fmt: skip
+    ax.scatter(xx[done > 0], yy[done > 0], s=30, facecolors="none", edgecolors="w",
+               linewidths=1.0)  # fmt: skip
     if (failed > 0).any():
         ax.scatter(xx[failed > 0], yy[failed > 0], s=28, marker="x", color="k",
                    label="transient failed")  # fmt: skip

@@ -33,7 +33,9 @@ from wheelrom.sweep import _lor, _Progress
 from wheelrom.transient.problem import CaseResult
 from wheelrom.transient.run import run_cases
 from wheelrom.transient.stability import analyse
-from wheelrom.transient.ts import PREFIX, ts_settings
+from wheelrom.transient.ts import PREFIX, time_grid, ts_settings
+
+HISTORY_BYTES = 1 << 30  # tip histories a rank holds in one batch by default (1 GiB)
 
 
 def run_study(cfg: Config, out: str, comm, mode: str = "full", confirm: tuple = (),
@@ -44,8 +46,8 @@ def run_study(cfg: Config, out: str, comm, mode: str = "full", confirm: tuple = 
 
     ``mode``: ``full``, ``screen`` or ``stability`` (module docstring); ``confirm``: case
     indices the screen runs in any case; ``batch``: cases per TS (0: all of a rank's cases
-    that can share one). Raises :class:`Interrupted` after a Ctrl-C / SIGTERM once the
-    finished rounds are in the file.
+    that can share one, up to ``HISTORY_BYTES`` of tip histories). Raises
+    :class:`Interrupted` after a Ctrl-C / SIGTERM once the finished rounds are in the file.
     """
     petsc()  # PetscInitialize is collective: every rank before one builds alone
     slepc()
@@ -78,11 +80,14 @@ def run_study(cfg: Config, out: str, comm, mode: str = "full", confirm: tuple = 
         if mode != "stability" and not all(m.tuned for m in models):
             raise InputError("mistuning: the transient of a mistuned wheel is not implemented "
                              "yet; 'wheelrom study --stability-only' analyses it")  # fmt: skip
+        t1 = time.perf_counter()
         stability = _stability(study, models, model_of, comm, say)
+        took = time.perf_counter() - t1
         chosen = selection(_labels(stability), study.shape, confirm, mode)
-        _create(out, cfg, study, models, model_of, stability, chosen, mode, comm)
-        say(f"stability of {study.size} cases in {time.perf_counter() - t0:.1f} s; "
+        say(f"stability of {study.size} cases in {took:.1f} s ({study.size / took:.3g} cases/s "
+            f"on {comm.size} rank(s); models {t1 - t0:.1f} s); "
             f"{sum(c != 'none' for c in chosen)} case(s) selected for a transient")  # fmt: skip
+        _create(out, cfg, study, models, model_of, stability, chosen, mode, comm)
     if mode != "stability":
         _transients(out, cfg, study, model_of, members, comm, batch, options, say, settings,
                     models if fresh else None)  # fmt: skip
@@ -203,7 +208,7 @@ def _transients(out, cfg, study, model_of, members, comm, batch, options, say, s
     costs = [models[model_of[i]].modes ** 2 * _steps(study.configs[i]) for i in todo]
     mine = [todo[j] for j in balance(costs, comm.size)[comm.rank]]
     keys = [batch_key(c) for c in study.configs]
-    plan = batches(mine, keys, batch)
+    plan = batches(mine, keys, batch or _memory_width(cfg, models))
     rounds = comm.allreduce(len(plan), op=_max())
     say(f"{len(todo)} transient(s) to run on {comm.size} rank(s) in {rounds} round(s)")
     clock = _Progress(say, cfg.time.end, settings["ts_dt"], rounds)
@@ -221,6 +226,14 @@ def _transients(out, cfg, study, model_of, members, comm, batch, options, say, s
             if comm.allreduce(interrupts.requested(), op=_lor()):
                 raise Interrupted(f"interrupted: the finished rounds are saved in {out}; "
                                   "rerun with --resume to complete it")  # fmt: skip
+
+
+def _memory_width(cfg: Config, models: list) -> int:
+    """The default batch width: the cases whose stored tip histories ``(S, N, 3)`` fit in
+    ``HISTORY_BYTES`` per rank (a batch holds them all until it is written)."""
+    blades = max(m.blades for m in models if m is not None)
+    per_case = 8 * 3 * blades * time_grid(cfg).samples_max  # [bytes]
+    return max(1, HISTORY_BYTES // per_case)
 
 
 def _steps(cfg: Config) -> float:
