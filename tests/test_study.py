@@ -87,7 +87,8 @@ def mixed(tmp_path_factory):
 
 def test_two_ranks_bitwise_equal_one_rank_for_mixed_models(mixed, tmp_path):
     cfg, n1, _ = mixed
-    wheelrom("study", cfg, "--out", tmp_path / "n2.h5", ranks=2)
+    log = wheelrom("study", cfg, "--out", tmp_path / "n2.h5", ranks=2).stderr
+    assert "model 2/2 (4 case(s)): 12 blades x 6 modes, built by rank 1" in log
     a, b = physics(n1), physics(tmp_path / "n2.h5")
     assert a.keys() == b.keys()
     assert all(s == b"done" for s in a["cases/status"])
@@ -99,7 +100,8 @@ def test_two_ranks_bitwise_equal_one_rank_for_mixed_models(mixed, tmp_path):
 def test_each_model_is_built_once_and_shared(mixed):
     _, n1, log = mixed
     assert "2 model(s)" in log
-    assert log.count("model 1/2 (4 case(s))") == 1 and log.count("model 2/2 (4 case(s))") == 1
+    assert log.count("model 1/2 (4 case(s)): 12 blades x 4 modes, built by rank 0") == 1
+    assert log.count("model 2/2 (4 case(s)): 12 blades x 6 modes, built by rank 0") == 1
     with h5py.File(n1, "r") as f:
         assert f.attrs["format"] == "wheelrom-sweep-2"
         assert f["cases/model"][()].tolist() == [0, 0, 0, 0, 1, 1, 1, 1]

@@ -123,24 +123,27 @@ def _output_problem(out: str, cfg: Config, mode: str, resume: bool, force: bool,
 
 def _models(study: Study, members: list[list[int]], wanted, comm, say) -> list:
     """The reduced model of every group in ``wanted`` (else None): group ``g`` built by rank
-    ``g mod P`` on ``COMM_SELF`` and broadcast from there."""
-    models = []
-    for g, cases in enumerate(members):
-        if g not in wanted:
-            models.append(None)
-            continue
-        root = g % comm.size
-        cfg = study.configs[cases[0]]
-        model = None
-        if comm.rank == root:
-            t0 = time.perf_counter()
-            model = build_model(cfg, petsc().COMM_SELF)
-            if root == 0:
-                took = time.perf_counter() - t0
-                say(f"model {g + 1}/{len(members)} ({len(cases)} case(s)): {model.blades} "
-                    f"blades x {model.modes} modes in {took:.1f} s")  # fmt: skip
-        models.append(comm.bcast(model, root=root))
+    ``g mod P`` on ``COMM_SELF`` (the ranks build their groups at the same time), then
+    broadcast from there."""
+    built = {g: build_model(study.configs[cases[0]], petsc().COMM_SELF)
+             for g, cases in enumerate(members) if g in wanted and g % comm.size == comm.rank}
+    wait_for_all(comm)
+    models = [comm.bcast(built.get(g), root=g % comm.size) if g in wanted else None
+              for g in range(len(members))]  # fmt: skip
+    for g, model in enumerate(models):
+        if model is not None:
+            say(f"model {g + 1}/{len(members)} ({len(members[g])} case(s)): {model.blades} "
+                f"blades x {model.modes} modes, built by rank {g % comm.size} in "
+                f"{model.info['build_s']:.1f} s")  # fmt: skip
     return models
+
+
+def wait_for_all(comm, poll: float = 0.005) -> None:
+    """A barrier that sleeps while it waits (MPI's blocking collectives spin): a rank done
+    early leaves its core to the ranks still computing (several ranks on shared cores)."""
+    request = comm.Ibarrier()
+    while not request.Test():
+        time.sleep(poll)
 
 
 def _stability(study: Study, models: list, model_of: list[int], comm, say) -> dict:
@@ -158,6 +161,7 @@ def _stability(study: Study, models: list, model_of: list[int], comm, say) -> di
         if time.perf_counter() - last > 2.0 or k == len(mine) - 1:
             last = time.perf_counter()
             say(f"  stability: {k + 1}/{len(mine)} of rank 0's cases")
+    wait_for_all(comm)
     gathered = comm.gather(found, root=0)
     arrays = None
     if comm.rank == 0:
@@ -221,6 +225,7 @@ def _transients(out, cfg, study, model_of, members, comm, batch, options, say, s
             for i, res in zip(chunk, finished, strict=True):
                 attach_linear(models[model_of[i]], study.configs[i], None, res)
                 results.write_case(f, i, res)
+            wait_for_all(comm)
             f.flush()  # collective: every finished round is on disk
             _report(comm, say, study, chunk, finished, len(status))
             if comm.allreduce(interrupts.requested(), op=_lor()):
