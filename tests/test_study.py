@@ -40,6 +40,9 @@ contacts.shroud.angle_deg = "0:90:30"
 """
 # timing and the rank count, not the physics
 NOT_PHYSICS = ("cases/wall_s", "cases/compile_s", "cases/batch", "stability/wall_s")
+# differs in the last bit from run to run even serially (the same for `wheelrom stability`):
+# the gap amplitudes of transient.stability's mode description; every other number is bitwise
+LAST_BIT = ("stability/contact_tangential",)
 
 
 def wheelrom(*args, ranks=1, check=True):
@@ -94,6 +97,9 @@ def test_two_ranks_bitwise_equal_one_rank_for_mixed_models(mixed, tmp_path):
     assert all(s == b"done" for s in a["cases/status"])
     assert np.isfinite(a["cases/max_tip_amplitude"]).all()
     for key in a:
+        if key in LAST_BIT:
+            np.testing.assert_allclose(a[key], b[key], rtol=1e-12, atol=1e-14, err_msg=key)
+            continue
         assert np.array_equal(a[key], b[key], equal_nan=a[key].dtype.kind == "f"), key
 
 
