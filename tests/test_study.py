@@ -277,3 +277,17 @@ def test_format1_sweep_files_still_read(tmp_path):
     assert info["format"] == "wheelrom-sweep-1" and info["counts"]["done"] == 2
     names = figures(out, tmp_path / "f")
     assert "fig10_amplitude.png" in names and not any(n.startswith("study_") for n in names)
+
+
+def test_a_time_step_study_runs_each_step_and_resumes(tmp_path):
+    text = BASE + "[study.grid]\ntime.step = [5e-6, 1e-5]\n"
+    cfg, out = toml(tmp_path, text), tmp_path / "steps.h5"
+    wheelrom("study", cfg, "--out", out)
+    with h5py.File(out, "r+") as f:
+        steps = f["cases/steps"][()].tolist()
+        assert [json.loads(o)["ts_dt"] for o in f["cases/options"][()]] == [5e-6, 1e-5]
+        f["cases/status"][1] = b"pending"
+    assert steps == [400, 200]  # 2 ms at each step
+    wheelrom("study", cfg, "--out", out, "--resume")  # the other step is no mix-up
+    with h5py.File(out, "r") as f:
+        assert f["cases/status"][1] == b"done" and f["cases/steps"][1] == 200

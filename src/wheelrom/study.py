@@ -63,7 +63,8 @@ def run_study(cfg: Config, out: str, comm, mode: str = "full", confirm: tuple = 
     problem = None
     if comm.rank == 0:
         try:
-            problem = _output_problem(out, cfg, mode, resume, force, settings)
+            problem = _output_problem(out, cfg, mode, resume, force,
+                                      None if "time.step" in study.names else settings)
         except Exception as exc:  # rank 0's surprise must not leave the others waiting
             problem = InputError(f"{out}: cannot be checked for --resume ({exc})")
     problem = comm.bcast(problem)
@@ -111,12 +112,14 @@ def _check_arguments(mode: str, resume: bool, force: bool, batch: int) -> None:
 
 
 def _output_problem(out: str, cfg: Config, mode: str, resume: bool, force: bool,
-                    settings: dict) -> InputError | None:  # fmt: skip
+                    settings: dict | None) -> InputError | None:  # fmt: skip
+    """Why ``out`` must not be written (None: go ahead); ``settings``: the TS settings the
+    finished cases must have used (None: not checked, a study of ``time.step``)."""
     problem = output_problem(out, force=resume or force)
     if problem or not (resume and os.path.exists(out)):
         return problem
     why = study_file.resume_problem(out, cfg, mode)
-    if why is None and mode != "stability":
+    if why is None and mode != "stability" and settings is not None:
         why = results.options_problem(out, settings)
     return InputError(why) if why else None
 
