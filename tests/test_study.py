@@ -291,3 +291,15 @@ def test_a_time_step_study_runs_each_step_and_resumes(tmp_path):
     wheelrom("study", cfg, "--out", out, "--resume")  # the other step is no mix-up
     with h5py.File(out, "r") as f:
         assert f["cases/status"][1] == b"done" and f["cases/steps"][1] == 200
+
+
+def test_a_model_that_fails_on_rank_1_stops_every_rank_with_one_line(tmp_path):
+    text = BASE + "[study.grid]\ncontacts.shroud.height = [2.18, 3.5]\n"
+    out = tmp_path / "bad.h5"
+    res = wheelrom("study", toml(tmp_path, text), "--out", out, "--stability-only", ranks=2,
+                   check=False)  # fmt: skip
+    assert res.returncode != 0
+    lines = [line for line in res.stderr.splitlines() if line.startswith("wheelrom:")]
+    assert lines == ["wheelrom: model 2 (case 1: shroud.height=3.5): contacts.shroud.height = "
+                     "3.5 m is outside the built-in blade (1.1..2.2 m)"]  # fmt: skip
+    assert not out.exists()

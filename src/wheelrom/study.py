@@ -92,7 +92,7 @@ def run_study(cfg: Config, out: str, comm, mode: str = "full", confirm: tuple = 
     if mode != "stability":
         _transients(out, cfg, study, model_of, members, comm, batch, options, say, settings,
                     models if fresh else None)  # fmt: skip
-    comm.Barrier()
+    wait_for_all(comm)
     import h5py
 
     with h5py.File(out, "r", locking=False) as f:
@@ -128,9 +128,17 @@ def _models(study: Study, members: list[list[int]], wanted, comm, say) -> list:
     """The reduced model of every group in ``wanted`` (else None): group ``g`` built by rank
     ``g mod P`` on ``COMM_SELF`` (the ranks build their groups at the same time), then
     broadcast from there."""
-    built = {g: build_model(study.configs[cases[0]], petsc().COMM_SELF)
-             for g, cases in enumerate(members) if g in wanted and g % comm.size == comm.rank}
+    built, failure = {}, None
+    for g, cases in enumerate(members):
+        if g in wanted and g % comm.size == comm.rank and failure is None:
+            try:
+                built[g] = build_model(study.configs[cases[0]], petsc().COMM_SELF)
+            except Exception as exc:  # told to every rank: no rank waits for a lost model
+                failure = f"model {g + 1} (case {cases[0]}: {study.label(cases[0])}): {exc}"
     wait_for_all(comm)
+    failures = [f for f in comm.allgather(failure) if f]
+    if failures:
+        raise InputError("; ".join(failures)[:2000])
     models = [comm.bcast(built.get(g), root=g % comm.size) if g in wanted else None
               for g in range(len(members))]  # fmt: skip
     for g, model in enumerate(models):
@@ -183,10 +191,17 @@ def _create(out, cfg, study, models, model_of, stability, chosen, mode, comm) ->
     import h5py
 
     if mode == "stability":
+        failure = None
         if comm.rank == 0:
-            with replacing(out) as partial, h5py.File(partial, "w") as f:
-                study_file.create(f, cfg, study, models, model_of, stability, chosen, mode)
-        comm.Barrier()
+            try:
+                with replacing(out) as partial, h5py.File(partial, "w") as f:
+                    study_file.create(f, cfg, study, models, model_of, stability, chosen, mode)
+            except Exception as exc:  # told to every rank: none waits for a lost file
+                failure = f"{out}: cannot be written ({type(exc).__name__}: {exc})"
+        wait_for_all(comm)
+        failure = comm.bcast(failure)
+        if failure:
+            raise InputError(failure)
         return
     partial = partial_name(out)
     try:
