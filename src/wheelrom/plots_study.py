@@ -79,8 +79,7 @@ def _last(values: np.ndarray) -> float:
 
 
 WHAT = {
-    "growth_rate": ("largest linear growth rate [1/s] (> 0: unstable; symmetric log scale)",
-                    "RdBu_r"),
+    "growth_rate": ("largest linear growth rate [1/s] (> 0: unstable)", "RdBu_r"),
     "final_amplitude": ("final max tip amplitude [m] (transient)", "magma"),
     "min_normal_force": ("smallest normal force [N]", "viridis"),
     "open_fraction": ("fraction of contacts open, last window", "cividis"),
@@ -147,7 +146,8 @@ def _map(d: StudyData, a: int, b: int, name: str, values: np.ndarray, plt):
         positive = finite[finite > 0]
         norm = colors.LogNorm(vmin=positive.min(), vmax=max(positive.max(), positive.min() * 10))
     mesh = ax.pcolormesh(_edges(x), _edges(y), np.ma.masked_invalid(grid), cmap=cmap, norm=norm)
-    fig.colorbar(mesh, ax=ax, label=label)
+    scale = "; symmetric log scale" if name == "growth_rate" else ""
+    fig.colorbar(mesh, ax=ax, label=label.replace(")", f"{scale})") if scale else label)
     if name == "growth_rate" and (grid > 0).any() and (grid < 0).any() and min(grid.shape) > 1:
         ax.contour(x, y, grid, levels=[0.0], colors="k", linewidths=1.2)
     yy, xx = np.meshgrid(y, x, indexing="ij")
