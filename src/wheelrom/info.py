@@ -272,8 +272,13 @@ def _study_info(f, path: str) -> dict:
         out.update(time_end_s=float(window_end[-1]), windows=int(window_end.size),
                    window_s=_configured_time(f).get("window"))  # fmt: skip
     pending = out["counts"]["pending"]
-    source = header["config_source"] or "the same configuration"
+    source = header["config_source"]
     flag = {"screen": " --screen", "full": ""}.get(out["mode"], "")
-    out["hint"] = (f"{pending} transient(s) pending: wheelrom study {source} --out {path}"
-                   f"{flag} --resume") if pending else None  # fmt: skip
+    out["hint"] = None
+    if pending and source and " + --set " not in source and not source.startswith("<"):
+        out["hint"] = (f"{pending} transient(s) pending: wheelrom study {source} --out {path}"
+                       f"{flag} --resume")  # fmt: skip
+    elif pending:
+        out["hint"] = (f"{pending} transient(s) pending: rerun the study with{flag} --resume "
+                       f"and the same configuration ({source or 'the file attribute config'})")
     return out
