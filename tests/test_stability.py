@@ -29,7 +29,7 @@ def _matched(a, b) -> float:
 def vdp_only():
     """The small wheel without contacts: only K_R, beta_D and Van der Pol act."""
     return config.load(SMALL, ["contacts.tieboss.enabled=false", "contacts.shroud.enabled=false",
-                               "flutter.mu=2.0"])  # fmt: skip
+                               "flutter.mu=2.0", "flutter.mode=-1"])  # fmt: skip
 
 
 @pytest.mark.parametrize("model_name", ["absolute", "relative"])
@@ -137,7 +137,7 @@ def test_transient_from_the_equilibrium_grows_at_the_linear_rate(small_model, sm
     from wheelrom.transient.run import run_case
     from wheelrom.transient.stability import blade_blocks, nd_block
 
-    angles = {"shroud": 20.0}
+    angles = {"shroud": 40.0}  # ND 6 at 127 Hz, +12.6 /s; shroud preload 19 N
     res = analyse(small_model, small_cfg, angles, keep_jacobian=True)
     i = res.critical()
     rate, k = res.growth_rate[i], res.nodal_diameter[i]

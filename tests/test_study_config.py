@@ -242,3 +242,11 @@ def test_stability_arrays_pad_models_and_record_failures(small_cfg, small_model)
     assert np.isnan(arrays["growth_rate"][1]).all() and (arrays["nodal_diameter"][1] == -1).all()
     assert arrays["modal_share"].shape == (2, E, m)
     assert np.array_equal(arrays["normal_force"][0], res.normal_force)  # both kinds, in order
+
+
+def test_flutter_mode_varies_over_numbers_and_auto(tmp_path):
+    cfg = study(tmp_path, '[study.grid]\nflutter.mode = [-1, 0, "auto"]\n')
+    assert [c.flutter.mode for c in expand(cfg).configs] == [-1, 0, "auto"]
+    bad = study(tmp_path, '[study.grid]\nflutter.mode = ["x"]\n')
+    with pytest.raises(ConfigError, match=r"study.grid.flutter.mode\[0\]: expected 'auto' or"):
+        expand(bad)

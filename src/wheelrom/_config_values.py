@@ -183,10 +183,14 @@ def convert_field(where: str, f: dataclasses.Field, value: Any, problems: list[s
         return convert_node_sets(where, value, problems)
     if meta.get("study_table"):
         return convert_study_table(where, value, problems)
-    if where.endswith("flutter.mode") and isinstance(value, str):
-        if value != "auto":
-            problems.append(f"{where}: expected an integer (-1: all modes) or 'auto', got "
-                            f"{value!r}")  # fmt: skip
+    if where.split("[")[0].endswith("flutter.mode"):  # "auto" or a mode number (-1: all)
+        if isinstance(value, str) and value == "auto":
+            return value
+        if isinstance(value, int) and not isinstance(value, bool):
+            check_number(where, value, meta, problems)
+            return value
+        problems.append(f"{where}: expected 'auto' or an integer (-1: all modes), got "
+                        f"{value!r}")  # fmt: skip
         return value
     if isinstance(default, bool):
         if not isinstance(value, bool):

@@ -246,7 +246,8 @@ def cmd_stability(args: argparse.Namespace) -> int:
     if args.out:
         check_output(args.out, args.force)
     comm = world_if_parallel()
-    model, cases = run_stability(cfg, comm, log=quiet if args.json else log)
+    model, cases = run_stability(cfg, comm, log=quiet if args.json else log,
+                                 margin=args.margin)  # fmt: skip
     if not cases:  # ranks other than 0
         return 0
     if args.out:

@@ -115,6 +115,9 @@ def parse_confirm(text: str) -> tuple[int, ...]:
 def args_stability(p):
     json_out(p)
     p.add_argument("--out", help="write the stability of every case to this HDF5 file")
+    p.add_argument("--margin", action="store_true",
+                   help="also the flutter margin: the smallest Van der Pol mu at which each "
+                   "case becomes unstable (docs/theory.md)")  # fmt: skip
     force(p)
 
 

@@ -55,10 +55,9 @@ def warn_unused(petsc_args: list[str]) -> None:
 def print_modes(model, table, reference, assembled) -> None:
     print("segment modes [Hz]: " + ", ".join(f"{x:.2f}" for x in model.segment_hz))
     if "prestress_peak_von_mises_pa" in model.info:
-        peak, radius = (model.info["prestress_peak_von_mises_pa"] / 1e6,
-                        model.info["prestress_peak_radius_m"])  # fmt: skip
-        print(f"prestress: peak von Mises stress {peak:.0f} MPa at r = {radius:.2f} m "
-              "(linear elastic, at the Gauss points)")  # fmt: skip
+        from wheelrom.rom.build import stress_line
+
+        print(f"prestress (linear elastic, at the Gauss points): {stress_line(model.info)}")
     for kind_name, rep in model.info.items():
         if isinstance(rep, dict) and "arm_length" in rep:
             print(
@@ -374,6 +373,8 @@ def print_stability(cases: list[dict]) -> None:
         nds = case["unstable_nodal_diameters"]
         unstable = f"; unstable NDs {_ranges(nds)}" if nds else ""
         print(f"    {contacts}{unstable}")
+        if "flutter_margin" in case:
+            print(f"    {_margin_words(case['flutter_margin'])}")
     bad = sum(c["verdict"] == "unstable" for c in cases)
     print(f"{len(cases)} case(s): {len(cases) - bad} stable, {bad} unstable")
 
@@ -388,6 +389,16 @@ def print_study(summary: dict, path: str) -> None:
           f"{v['failed']} failed")  # fmt: skip
     print(f"  transients:       {t['done']} done, {t['failed']} failed, {t['pending']} "
           f"pending, {t['skipped']} not run (selected by: {chosen})")  # fmt: skip
+
+
+def _margin_words(m: dict) -> str:
+    if m["critical_mu"] is None:
+        return "flutter margin: stable for every scanned Van der Pol mu (up to 1024 x)"
+    if m["critical_mu"] == 0:
+        return (f"flutter margin: none, unstable without self-excitation (growth "
+                f"{m['growth_rate_without_self_excitation']:+.3g} /s)")  # fmt: skip
+    return (f"flutter margin: {m['ratio']:.3g} x (unstable above mu = {m['critical_mu']:.4g} "
+            f"N s/m, ND {m['nodal_diameter']} at {m['frequency_hz']:.4g} Hz)")  # fmt: skip
 
 
 def _ranges(values: list[int]) -> str:

@@ -122,11 +122,12 @@ class FlutterConfig:
         default=5e-3, metadata=_key("m", "amplitude where negative damping turns positive", gt=0.0)
     )
     mode: int | str = field(
-        default=-1,
+        default="auto",
         metadata=_key(
             "-",
-            "restrict Van der Pol to this segment mode (0-based); -1: all modes; 'auto': the "
-            "lowest mode with at least half the largest aero participation (the paper's reading)",
+            "segment mode the Van der Pol force acts on: 'auto' (the paper's 'one selected "
+            "mode of each blade': the lowest whose aero y motion is at least half its tip "
+            "motion, the first bending mode), a mode number (0-based) or -1 (every mode)",
             min=-1,
         ),
     )

@@ -1,6 +1,7 @@
 """Stability figures from ``/stability`` (``wheelrom stability --out``): the stability map
 (shroud angle x nodal diameter, colour = growth rate of the ND's fastest mode, zero contour),
-the root locus across angles (frequency vs growth rate) and the verdict per angle.
+the root locus across angles (frequency vs growth rate), the verdict per angle and, from
+``stability --margin``, the flutter margin per angle.
 
 Grids with several tie-boss angles show the first one (the title says which).
 """
@@ -12,6 +13,7 @@ import numpy as np
 from wheelrom.plot_helpers import cell_edges as _cell_edges
 from wheelrom.plot_helpers import need as _need
 from wheelrom.plot_helpers import save as _save
+from wheelrom.results import read_config
 
 
 def stability_figures(f, path: str, outdir: str, pdf: bool, written: list[str], plt) -> None:
@@ -32,8 +34,14 @@ def stability_figures(f, path: str, outdir: str, pdf: bool, written: list[str], 
     }
     order = np.argsort(data["shroud"])
     data = {k: (v[order] if isinstance(v, np.ndarray) else v) for k, v in data.items()}
-    for name, draw in (("stability_map", _map), ("root_locus", _root_locus),
-                       ("stability_verdict", _verdict)):  # fmt: skip
+    figures = [("stability_map", _map), ("root_locus", _root_locus),
+               ("stability_verdict", _verdict)]  # fmt: skip
+    if "stability/margin_ratio" in f:  # stability --margin
+        for name in ("margin_ratio", "margin_nodal_diameter", "margin_frequency_hz"):
+            data[name] = f[f"stability/{name}"][()][rows][order]
+        data["mu"] = read_config(f, path).flutter.mu
+        figures.append(("flutter_margin", _margin))
+    for name, draw in figures:
         fig = draw(data, plt)
         _save(fig, outdir, name, pdf, written)
         plt.close(fig)
@@ -103,6 +111,34 @@ def _verdict(data, plt):
     ax.set_xlabel("shroud angle [deg]")
     ax.set_ylabel("largest growth rate [1/s]")
     ax.set_title(f"Verdict per angle (tie-boss {data['tieboss']:g} deg): fastest mode")
+    ax.legend()
+    return fig
+
+
+def _margin(data, plt):
+    """Critical Van der Pol intensity over the configured one per angle (log scale): above 1
+    the case is stable at the configured mu, and the ratio says how much stronger the
+    self-excitation may get before the contacts stop holding it down."""
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    ratio = np.asarray(data["margin_ratio"], float)
+    top = np.nanmax(ratio[np.isfinite(ratio)], initial=1.0) * 2
+    shown = np.where(np.isfinite(ratio), ratio, top)
+    ax.plot(data["shroud"], shown, "-", color="0.6")
+    stable = shown > 1.0
+    for mask, colour, label in ((stable, "tab:blue", "stable at the configured mu"),
+                                (~stable, "tab:red", "unstable at the configured mu")):
+        ax.scatter(data["shroud"][mask], shown[mask], color=colour, label=label, zorder=3)
+    for x, y, k, hz in zip(data["shroud"], shown, data["margin_nodal_diameter"],
+                           data["margin_frequency_hz"], strict=True):  # fmt: skip
+        if np.isfinite(hz):
+            ax.annotate(f"ND {k}\n{hz:.0f} Hz", (x, y), textcoords="offset points",
+                        xytext=(0, 6), ha="center", fontsize=7)  # fmt: skip
+    ax.axhline(1.0, color="k", lw=0.8)
+    ax.set_yscale("log")
+    ax.set_xlabel("shroud angle [deg]")
+    ax.set_ylabel(f"critical mu / configured mu ({data['mu']:g} N s/m)")
+    ax.set_title(f"Flutter margin per angle (tie-boss {data['tieboss']:g} deg): the mode that "
+                 "crosses first")  # fmt: skip
     ax.legend()
     return fig
 

@@ -233,6 +233,13 @@ def write_stability(f, cfg: Config, model: ReducedModel, cases: list) -> None:
     g["residual"] = np.array([r.residual for r in cases])
     g["cyclic"] = np.array([r.cyclic for r in cases])
     g["wall_s"] = np.array([r.wall_s for r in cases])
+    if all(r.flutter_margin is not None for r in cases):
+        m = [r.flutter_margin for r in cases]
+        g["critical_mu"] = np.array([x.critical_mu for x in m])
+        g["margin_ratio"] = np.array([x.ratio for x in m])
+        g["margin_nodal_diameter"] = np.array([x.nodal_diameter for x in m])
+        g["margin_frequency_hz"] = np.array([x.frequency_hz for x in m])
+        g["growth_rate_without_self_excitation"] = np.array([x.growth_at_zero for x in m])
 
 
 def read_config(f, path: str) -> Config:

@@ -18,12 +18,15 @@ from wheelrom import results
 from wheelrom.config import Config
 from wheelrom.errors import InputError
 from wheelrom.rom.build import build_model
+from wheelrom.transient.margin import case_margin
 from wheelrom.transient.stability import StabilityResult, analyse
 
 
-def run_stability(cfg: Config, comm=None, log=print) -> tuple[object, list[StabilityResult]]:
+def run_stability(cfg: Config, comm=None, log=print,
+                  margin: bool = False) -> tuple[object, list[StabilityResult]]:  # fmt: skip
     """``(model, results)`` of every case of ``cfg``'s grid, in case order, on rank 0 of the
-    mpi4py ``comm`` (``None``: serial); other ranks get ``(model, [])``."""
+    mpi4py ``comm`` (``None``: serial); other ranks get ``(model, [])``. ``margin``: also the
+    flutter margin of every case (:mod:`wheelrom.transient.margin`)."""
     from wheelrom._environment import petsc, slepc
 
     refuse_study(cfg, "stability")
@@ -42,13 +45,13 @@ def run_stability(cfg: Config, comm=None, log=print) -> tuple[object, list[Stabi
     mine = []
     for i in range(rank, angles.shape[0], size):
         try:
-            res = analyse(model, cfg, results.angles_of(angles[i]))
+            res = _analyse(model, cfg, results.angles_of(angles[i]), margin)
         except Exception as exc:  # one case's failure (e.g. its equilibrium) is reported,
             res = f"{type(exc).__name__}: {exc}"  # never a hang of the other ranks
         mine.append((i, res))
         if rank == 0:
             said = res if isinstance(res, str) else (
-                f"{res.verdict()}, {res.describe()} ({res.wall_s:.2f} s)")  # fmt: skip
+                f"{res.verdict()}, {res.describe()}{_margin_text(res)} ({res.wall_s:.2f} s)")
             say(f"[{i + 1}/{angles.shape[0]}] {_case_label(angles[i])}: {said}")
     gathered = comm.gather(mine, root=0) if comm is not None else [mine]
     ordered = []
@@ -69,6 +72,30 @@ def refuse_study(cfg: Config, command: str) -> None:
     if st.grid or st.zip or st.cases:
         raise InputError(f"{cfg.source}: has a [study] section, which '{command}' does not run "
                          "(it runs the [sweep] angles): use 'wheelrom study'")  # fmt: skip
+
+
+def _analyse(model, cfg: Config, angles_deg: dict, margin: bool) -> StabilityResult:
+    """One case's stability, with its flutter margin when asked (wall time included)."""
+    if not margin:
+        return analyse(model, cfg, angles_deg)
+    t0 = time.perf_counter()
+    res = analyse(model, cfg, angles_deg, keep_jacobian=True)
+    res.flutter_margin = case_margin(model, cfg, res)
+    res.jacobian = None
+    res.wall_s = time.perf_counter() - t0
+    return res
+
+
+def _margin_text(res: StabilityResult) -> str:
+    m = res.flutter_margin
+    if m is None:
+        return ""
+    if m.critical_mu == 0:
+        return "; unstable without self-excitation"
+    if not np.isfinite(m.critical_mu):
+        return "; margin: stable for every scanned mu"
+    return (f"; margin: unstable above mu = {m.critical_mu:.4g} N s/m ({m.ratio:.3g} x), "
+            f"ND {m.nodal_diameter} at {m.frequency_hz:.4g} Hz")  # fmt: skip
 
 
 def attach_linear(model, cfg: Config, angles_deg: dict, result) -> None:
@@ -135,4 +162,18 @@ def summary(res: StabilityResult) -> dict:
                                             zip(res.nodal_diameter, res.growth_rate, strict=True)
                                             if g > 1e-6}),  # fmt: skip
         "wall_s": res.wall_s,
-    }
+    } | _margin_summary(res.flutter_margin)
+
+
+def _margin_summary(m) -> dict:
+    if m is None:
+        return {}
+    return {"flutter_margin": {
+        "critical_mu": _finite_or_none(m.critical_mu), "ratio": _finite_or_none(m.ratio),
+        "nodal_diameter": m.nodal_diameter, "frequency_hz": _finite_or_none(m.frequency_hz),
+        "growth_rate_without_self_excitation": m.growth_at_zero}}  # fmt: skip
+
+
+def _finite_or_none(x: float):
+    """JSON has no inf: ``None`` for "no crossing in the scanned range"."""
+    return float(x) if np.isfinite(x) else None

@@ -174,7 +174,7 @@ def _variable(key: str, f: dataclasses.Field, default) -> tuple:
     if key.split(".")[0] in SHARED_SECTIONS or key in SHARED_KEYS:
         return None, ("cannot vary: the cases of one study share the blade count and the time "
                       "grid (wheel.blades, time.end, time.window, output.*); run one study each")
-    numeric = is_number(default) or isinstance(default, bool)
+    numeric = is_number(default) or isinstance(default, bool) or key == "flutter.mode"
     if not (numeric or (isinstance(default, str) and "choices" in f.metadata)):
         return None, ("is not numeric: a study varies numbers, true/false and named choices, "
                       "not lists, tables or free text")  # fmt: skip
@@ -279,7 +279,7 @@ def _csv_axis(cfg: Config, problems: list[str]) -> list[tuple[str, list]]:
             value = _cell(text)
             if f is not None:
                 numeric = is_number(f.default) if f.default is not dataclasses.MISSING else True
-                if numeric and not is_number(value) and not key.endswith("flutter.mode"):
+                if numeric and not is_number(value):
                     problems.append(f"{name} row {line} column {key}: {text.strip()!r} is not "
                                     "a number")  # fmt: skip
                 else:

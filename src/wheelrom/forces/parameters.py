@@ -104,13 +104,19 @@ class ForceParameters:
                 c.arm_length, c.shape_A, c.shape_B, c.point_A, c.point_B)  # fmt: skip
 
 
-def flutter_mode(aero: np.ndarray) -> int:
+def flutter_mode(aero: np.ndarray, tip: np.ndarray) -> int:
     """``flutter.mode = "auto"``: the segment mode the Van der Pol force acts on in the paper's
-    reading ("one selected mode of each blade"): the lowest mode whose aero participation
-    ``|p_j|`` (mean ``y`` motion of the aero nodes) is at least half the largest one, i.e. the
-    first mode that moves the aerofoil tangentially (the first bending mode of a blade)."""
+    reading ("one selected mode of each blade"): the lowest mode that moves the aerofoil
+    mainly tangentially, i.e. whose aero participation ``|p_j|`` (mean ``y`` motion of the
+    aero nodes, ``aero`` ``(m,)``) is at least half its tip displacement ``|tip_j|``
+    (``tip`` ``(3, m)``): the first bending mode of a blade. A property of each mode alone,
+    so the choice does not change as a basis grows (a rule relative to the largest ``|p|``
+    did: high Ritz vectors of an attachment basis move the tip most)."""
     size = np.abs(np.asarray(aero, dtype=float))
-    return int(np.flatnonzero(size >= 0.5 * size.max())[0])
+    tip = np.linalg.norm(np.asarray(tip, dtype=float).reshape(3, -1), axis=0)
+    moving = tip > 1e-6 * tip.max()  # modes of the disc alone leave the tip at rest
+    chosen = np.flatnonzero(moving & (size >= 0.5 * tip))
+    return int(chosen[0]) if chosen.size else int(np.argmax(size))
 
 
 def force_parameters(model: ReducedModel, cfg: Config,
@@ -120,7 +126,7 @@ def force_parameters(model: ReducedModel, cfg: Config,
     N, m = model.blades, model.modes
     w, fl, fr = cfg.wheel, cfg.flutter, cfg.friction
     aero = np.array(model.aero, dtype=float)
-    mode = flutter_mode(aero) if fl.mode == "auto" else fl.mode
+    mode = flutter_mode(aero, model.tip) if fl.mode == "auto" else fl.mode
     if mode >= 0:  # Van der Pol on one segment mode only
         keep = np.zeros_like(aero)
         keep[mode] = aero[mode]

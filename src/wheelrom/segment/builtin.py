@@ -2,7 +2,8 @@
 "builtin"``), meshed with 20-node hexahedra at the density of ``segment.preset``.
 
 Two structured blocks, merged where their vertices coincide: the disc sector (radius, angle,
-axial) and the blade (span, thickness, chord; stagger grows linearly along the span). The
+axial; the hub widens toward the bore) and the blade (span, thickness, chord tapering fastest
+at the root; stagger grows linearly along the span). The
 element rows of the blade pass through the contact heights so that the profile points ``A``,
 ``B`` of every contact kind are mesh vertices on the arm's line (docs/theory.md).
 """
@@ -23,16 +24,25 @@ from wheelrom.segment.mesh import SegmentMesh, arm_report, pair_cut_faces, with_
 class BuiltinGeometry:
     """Parameters of the built-in LP-stage segment [m, deg]."""
 
-    bore_radius: float = 0.40
+    bore_radius: float = 0.50
     rim_radius: float = 1.10
-    disc_width: float = 0.30
+    disc_width: float = 0.36  # axial width at the rim
+    hub_width: float = 1.20  # axial width at the bore (linear in r to the rim's)
     tip_radius: float = 2.20
-    chord_root: float = 0.25
-    chord_tip: float = 0.16
-    thickness_root: float = 0.05
-    thickness_tip: float = 0.03
+    chord_root: float = 0.28
+    chord_tip: float = 0.14
+    thickness_root: float = 0.10
+    thickness_tip: float = 0.022
     stagger_root_deg: float = 0.0
     stagger_tip_deg: float = 60.0
+    taper_exponent: float = 2.0  # chord, thickness: root + (tip - root) (1 - (1 - f)^p)
+
+    def width(self, r):
+        """Axial width of the disc [m] at radius ``r``: ``hub_width`` at the bore, linear to
+        ``disc_width`` at the rim (an LP disc's hub: near the constant-strength profile
+        ``w ~ exp(-rho Omega^2 r^2 / 2 sigma)`` that keeps the disc below 0.8 GPa)."""
+        f = (np.asarray(r) - self.bore_radius) / (self.rim_radius - self.bore_radius)
+        return self.hub_width + f * (self.disc_width - self.hub_width)
 
     def chord(self, r):
         return self._lin(r, self.chord_root, self.chord_tip)
@@ -44,8 +54,11 @@ class BuiltinGeometry:
         return np.radians(self._lin(r, self.stagger_root_deg, self.stagger_tip_deg))
 
     def _lin(self, r, root, tip):
+        """From ``root`` at the rim to ``tip`` with the span fraction ``f``: linear for
+        ``taper_exponent`` 1; larger exponents taper fastest at the root, as LP blades do
+        (the centrifugal stress is then nearly constant along the span)."""
         f = (np.asarray(r) - self.rim_radius) / (self.tip_radius - self.rim_radius)
-        return root + f * (tip - root)
+        return root + (1.0 - (1.0 - f) ** self.taper_exponent) * (tip - root)
 
     def exact_volume(self, sectors: int) -> float:
         """Volume of the exact geometry [m^3]: annular disc sector + blade + root fillet.
@@ -54,13 +67,18 @@ class BuiltinGeometry:
         below the plane ``x = R_rim`` the root section reaches down to the rim cylinder.
         """
         R, Ri, w = self.rim_radius, self.bore_radius, self.disc_width
-        disc = math.pi * (R**2 - Ri**2) * w / sectors
-        c0, c1 = self.chord_root, self.chord_tip
-        t0, t1 = self.thickness_root, self.thickness_tip
-        span = self.tip_radius - R
-        # integral of (c0 + (c1-c0) f)(t0 + (t1-t0) f) over f in [0, 1], times span
-        blade = span * (c0 * t0 + (c0 * (t1 - t0) + t0 * (c1 - c0)) / 2 + (c1 - c0) * (t1 - t0) / 3)
-        h = t0 / 2
+        h = self.hub_width
+        # integral of r * width(r) over the disc, width linear from h (bore) to w (rim)
+        disc = h * (R**2 - Ri**2) / 2 + (w - h) / (R - Ri) * ((R**3 - Ri**3) / 3
+                                                              - Ri * (R**2 - Ri**2) / 2)
+        disc *= 2 * math.pi / sectors
+        t0 = self.thickness_root
+        # integral of chord * thickness over the span: Gauss-Legendre, exact for the
+        # polynomial profiles of integer taper exponents up to 9
+        x, wq = np.polynomial.legendre.leggauss(10)
+        r = R + (x + 1) / 2 * (self.tip_radius - R)
+        blade = float(np.sum(wq * self.chord(r) * self.thickness(r))) * (self.tip_radius - R) / 2
+        h, c0 = t0 / 2, self.chord_root
         fillet = c0 * (2 * h * R - h * math.sqrt(R**2 - h**2) - R**2 * math.asin(h / R))
         return disc + blade + fillet
 
@@ -122,6 +140,7 @@ def build_builtin(cfg: Config, geometry: BuiltinGeometry | None = None) -> Segme
     seg.info.update(arm_report(seg, cfg))
     seg.info["exact_volume"] = g.exact_volume(N)
     seg.info["preset"] = cfg.segment.preset
+    seg.info["rim_radius"] = g.rim_radius
     return seg
 
 
@@ -224,10 +243,15 @@ def _disc_block(g: BuiltinGeometry, preset: dict, phi: float, a_lines, b_lines) 
     th_side = np.linspace(-phi / 2, th_root[0], side + 1)
     th_lines = np.concatenate([th_side[:-1], th_root, -th_side[:-1][::-1]])
     z_root = 0.5 * a_lines[0] * g.chord_root
-    z_side = np.linspace(-g.disc_width / 2, z_root[0], side + 1)
-    z_lines = np.concatenate([z_side[:-1], z_root, -z_side[:-1][::-1]])
     r_lines = np.linspace(g.bore_radius, R, preset["disc_radial"] + 1)
-    Ir, It, Iz = np.meshgrid(r_lines, th_lines, z_lines, indexing="ij")
+    # per radius: side lines from the disc's face (hub: wider) to the root's chord lines
+    z_side = np.linspace(-g.width(r_lines) / 2, np.full(r_lines.size, z_root[0]), side + 1, axis=1)
+    z_lines = np.concatenate([z_side[:, :-1], np.broadcast_to(z_root, (r_lines.size,
+                              z_root.size)), -z_side[:, :-1][:, ::-1]], axis=1)  # fmt: skip
+    Ir, It = np.meshgrid(r_lines, th_lines, indexing="ij")
+    Ir = np.broadcast_to(Ir[..., None], Ir.shape + (z_lines.shape[1],))
+    It = np.broadcast_to(It[..., None], Ir.shape)
+    Iz = np.broadcast_to(z_lines[:, None, :], Ir.shape)
     return np.stack([Ir * np.cos(It), Ir * np.sin(It), Iz], axis=-1)
 
 

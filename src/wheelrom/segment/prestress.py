@@ -89,6 +89,14 @@ class Prestress:
     solve_s: float
     peak_von_mises: float = 0.0  # [Pa] largest over the Gauss points
     peak_radius: float = 0.0  # [m] distance from the axis of the element where it occurs
+    element_von_mises: np.ndarray | None = None  # (n_elements,) [Pa] largest per element
+    element_radius: np.ndarray | None = None  # (n_elements,) [m] element centre's radius
+
+    def peak_where(self, mask: np.ndarray) -> tuple[float, float]:
+        """Largest von Mises stress [Pa] over the elements of ``mask`` and its radius [m]."""
+        vm = np.where(mask, self.element_von_mises, -np.inf)
+        k = int(np.argmax(vm))
+        return float(vm[k]), float(self.element_radius[k])
 
     def stiffness(self, mats: SegmentMatrices) -> sp.csr_matrix:
         """``K + K_sigma - Omega^2 M_s`` on the free DOFs."""
@@ -112,8 +120,10 @@ def prestress(seg: SegmentMesh, mats: SegmentMatrices, young: float, poisson: fl
     u_full = mats.expand(u)
     Ks = geometric_stiffness(seg, young, poisson, u_full, arrays)[mats.free][:, mats.free]
     Ms = spin_softening_mass(seg, density, arrays)[mats.free][:, mats.free]
-    stress = von_mises(gauss_stress(seg, young, poisson, u_full, arrays))  # (nel, nq)
-    element = int(np.argmax(stress.max(axis=1)))
-    centre = seg.nodes[seg.quadratic_cells()[element]].mean(axis=0)
+    stress = von_mises(gauss_stress(seg, young, poisson, u_full, arrays)).max(axis=1)  # (nel,)
+    centres = seg.nodes[seg.quadratic_cells()].mean(axis=1)
+    radius = np.hypot(centres[:, 0], centres[:, 1])
+    element = int(np.argmax(stress))
     return Prestress(omega, u_full, Ks.tocsr(), Ms.tocsr(), residual, time.perf_counter() - t0,
-                     float(stress.max()), float(np.hypot(centre[0], centre[1])))  # fmt: skip
+                     float(stress[element]), float(radius[element]), stress,
+                     radius)  # fmt: skip

@@ -68,6 +68,7 @@ class StabilityResult:
     cyclic: bool
     wall_s: float = 0.0
     jacobian: object = field(default=None, repr=False)
+    flutter_margin: object = None  # a margin.FlutterMargin when asked for
 
     @property
     def growth_rate(self) -> np.ndarray:
@@ -264,6 +265,10 @@ def rightmost_eigenvalues(J, comm, nev: int = 10, prefix: str = PREFIX,
     # rates are small: the rightmost eigenvalues need a wide subspace
     eps.setDimensions(nev=nev, ncv=ncv or min(J.shape[0], max(4 * nev, 200)))
     eps.setTolerances(tol=1e-12, max_it=5000)
+    # rows of q and q' differ in scale by the frequencies (up to kHz), and ND k and N - k give
+    # equal eigenvalue pairs: unbalanced, the Schur reordering of the projected problem can
+    # fail (LAPACK trexc, measured on the 12-blade wheel); two-sided balancing is robust
+    eps.setBalance(SLEPc.EPS.Balance.TWOSIDE)
     eps.setFromOptions()
     eps.solve()
     found = eps.getConverged()
