@@ -24,7 +24,9 @@ def comm():
 def coarse_cfg():
     from wheelrom import config
 
-    return config.load(overrides=['segment.preset="coarse"'])
+    # the paper's basis and step: 10 free-interface modes, 5 us (the tests' reference sizes)
+    return config.load(overrides=['segment.preset="coarse"', 'wheel.basis="free"',
+                                  "time.step=5e-6"])  # fmt: skip
 
 
 @pytest.fixture(scope="session")

@@ -270,7 +270,9 @@ def _scipy_comparison(model: ReducedModel, cfg: Config, problem: WheelProblem,
     step, and ``solve_ivp`` RK23 at the loosest ``rtol`` as accurate: its wall per simulated
     second over ours (``res`` our timed run of ``t_end`` [s])."""
     t_cmp = compare_steps * h
-    cmp_cfg = cfg.replace(**{"time.end": t_cmp, "time.window": t_cmp})
+    # the tip history at every statistics sample, as compared before history_rate_hz
+    cmp_cfg = cfg.replace(**{"time.end": t_cmp, "time.window": t_cmp,
+                             "output.history_rate_hz": cfg.output.sample_rate_hz})  # fmt: skip
     ours = run_case(model, cmp_cfg)
     fine = run_case(model, cmp_cfg, options={"ts_dt": h / 4})
     scale = np.abs(fine.tip_history).max()

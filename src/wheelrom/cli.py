@@ -12,7 +12,7 @@ import os
 import sys
 from collections.abc import Callable, Sequence
 
-from wheelrom import _kernel_cache, cli_args, cli_tools
+from wheelrom import _kernel_cache, cli_args, cli_motion, cli_tools
 from wheelrom import config as config_mod
 from wheelrom._environment import bootstrap
 from wheelrom.cli_args import comm_self, load_config
@@ -184,7 +184,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
     steps, step = args.steps, time_step(cfg)  # the TS's step: -wheel_ts_dt overrides
     span = steps * step  # one window over the compared steps, with at least one sample in it
     rate = max(cfg.output.sample_rate_hz, 1.0 / span)
-    cfg = cfg.replace(**{"time.end": span, "time.window": span, "output.sample_rate_hz": rate})
+    cfg = cfg.replace(**{"time.end": span, "time.window": span, "output.sample_rate_hz": rate,
+                         "output.history_rate_hz": rate, "output.state_rate_hz": 0.0})
     model = build_model(cfg, comm_self(), log=quiet if args.json else log)
     res = run_case(model, cfg)
     _, states, ref_wall = reference_solution(model, cfg, steps, step, sample_every=steps)
@@ -280,6 +281,10 @@ COMMANDS: dict[
     "info": (cli_tools.cmd_info, "summary of a results or model file", cli_args.args_info),
     "export": (cli_tools.cmd_export, "one case as CSV (tip histories, window statistics)",
                cli_args.args_export),
+    "animate": (cli_motion.cmd_animate, "one case's wheel in motion: XDMF, GIF, PNG",
+                cli_motion.args_animate),
+    "contacts": (cli_motion.cmd_contacts, "one case's contact forces and friction hysteresis",
+                 cli_motion.args_contacts),
     "bench": (cli_tools.cmd_bench, "speed of the transient hot path (one core)",
               cli_args.args_bench),
     "campbell": (cli_tools.cmd_campbell, "frequencies versus rotor speed (prestressed)",
@@ -321,7 +326,7 @@ def build_parser() -> argparse.ArgumentParser:
         p = sub.add_parser(name, help=help_text, description=func.__doc__)
         if name == "plot":
             p.add_argument("results", help="HDF5 file from sweep, run or modes --out")
-        elif name not in ("info", "export"):  # these read a file, no configuration
+        elif name not in ("info", "export", "animate", "contacts"):  # these read a file
             cli_args.add_config_args(p)
         extra(p)
         p.set_defaults(func=func)

@@ -183,11 +183,14 @@ def args_export(p):
     p.add_argument("file", help="HDF5 file from sweep or run --out")
     p.add_argument("--case", type=int, default=0, help="case index as 'wheelrom info' lists it")
     p.add_argument("--csv", required=True, metavar="PREFIX",
-                   help="writes PREFIX_tips.csv and/or PREFIX_windows.csv")  # fmt: skip
-    p.add_argument("--what", choices=("all", "tips", "windows"), default="all",
+                   help="writes PREFIX_<table>.csv per table of --what")  # fmt: skip
+    p.add_argument("--what", choices=("all", "tips", "windows", "contact_forces"),
+                   default="all",
                    help="tips: tip displacement of every blade per sample; windows: per-window "
                    "statistics (amplitude, contact forces and opening, energy, works, ND "
-                   "amplitudes); all (default): both")  # fmt: skip
+                   "amplitudes); contact_forces: normal and friction force and relative "
+                   "displacement of every contact per state sample (needs a state history); "
+                   "all (default): tips and windows")  # fmt: skip
     force(p)
 
 

@@ -296,9 +296,23 @@ def print_info(info: dict, show_all: bool = False) -> None:
     c = info["counts"]
     print(f"  cases:         {c['done']} done, {c['failed']} failed, {c['pending']} pending; "
           f"total wall time {human_value(info['total_wall_s'], 's')} (sum over cases)")  # fmt: skip
+    print(f"  storage:       {_storage(info)}")
     _print_cases(info["cases"], info["windows"], show_all)
     if info.get("hint"):
         print(info["hint"])
+
+
+def _megabytes(n: int) -> str:
+    return f"{n / 1e6:.3g} MB"
+
+
+def _storage(info: dict) -> str:
+    """``4.77 MB per case (tip_history 4.75 MB, ...); file 91 MB``: the three largest
+    per-case datasets."""
+    parts = [f"{name} {_megabytes(n)}"
+             for name, n in list(info["bytes_per_case_by_dataset"].items())[:3]]  # fmt: skip
+    return (f"{_megabytes(info['bytes_per_case'])} per case ({', '.join(parts)}); "
+            f"file {_megabytes(info['file_bytes'])}")
 
 
 def _print_cases(rows: list[dict], windows: int, show_all: bool) -> None:

@@ -52,7 +52,7 @@ class WheelConfig:
         default=5e-8, metadata=_key("s", "stiffness-proportional damping beta_D", min=0.0)
     )
     basis: str = field(
-        default="free",
+        default="attachment",
         metadata=_key(
             "-",
             "segment basis: 'free' (paper: m free-interface modes), 'enriched' (plus the "
@@ -193,7 +193,11 @@ class FrictionConfig:
 
 @dataclass(frozen=True)
 class TimeConfig:
-    step: float = field(default=5e-6, metadata=_key("s", "fixed RK step", gt=0.0))
+    step: float = field(
+        default=3e-6,
+        metadata=_key("s", "fixed RK step (3bs is stable up to 2 pi f_max step = 1.73: "
+                      "the default attachment basis reaches 69 kHz)", gt=0.0),
+    )
     end: float = field(default=1.5, metadata=_key("s", "simulated time", gt=0.0))
     window: float = field(default=0.0375, metadata=_key("s", "evaluation window", gt=0.0))
     start: str = field(
@@ -222,8 +226,46 @@ class TimeConfig:
 class OutputConfig:
     sample_rate_hz: float = field(
         default=20000.0,
-        metadata=_key("Hz", "sample rate of the stored tip histories", gt=0.0),
+        metadata=_key("Hz", "sample rate of the window statistics (tip amplitude, contact "
+                      "forces, ND spectrum) and the divergence check", gt=0.0),  # fmt: skip
     )
+    history_rate_hz: float = field(
+        default=2000.0,
+        metadata=_key("Hz", "rate of the stored tip history: every k-th statistics sample, "
+                      "k = sample_rate_hz / history_rate_hz a whole number (at or above the "
+                      "sample rate: every sample); 0: no tip history", min=0.0),  # fmt: skip
+    )
+    state_rate_hz: float = field(
+        default=0.0,
+        metadata=_key("Hz", "rate of the stored modal state history (q, q' of every blade, "
+                      "for 'wheelrom animate' and 'contacts'), same rule; 0: none",
+                      min=0.0),  # fmt: skip
+    )
+
+
+def sample_every(rate: float, sample_rate: float) -> int:
+    """Every how many statistics samples (at ``sample_rate`` [Hz]) a history at ``rate`` [Hz]
+    keeps one: ``round(sample_rate / rate)``, 1 at or above the sample rate, 0 for ``rate``
+    0 (no history)."""
+    if rate <= 0:
+        return 0
+    return max(1, int(round(sample_rate / rate)))
+
+
+def _history_problems(out: OutputConfig, problems: list[str]) -> None:
+    """``history_rate_hz`` / ``state_rate_hz``: 0, at least the sample rate, or the sample
+    rate divided by a whole number (a history keeps every k-th statistics sample)."""
+    rate = out.sample_rate_hz
+    for name in ("history_rate_hz", "state_rate_hz"):
+        value = getattr(out, name)
+        if not (is_number(value) and is_number(rate)) or value <= 0 or value >= rate:
+            continue
+        k = rate / value
+        if abs(k - round(k)) > 1e-6 * k:
+            lo, hi = rate / math.ceil(k), rate / math.floor(k)
+            problems.append(f"output.{name}: {value:g} Hz is not output.sample_rate_hz "
+                            f"({rate:g} Hz) divided by a whole number (the history keeps every "
+                            f"k-th statistics sample); use {lo:g} or {hi:g} Hz")  # fmt: skip
 
 
 def _paper_shroud_angles() -> list[float]:
@@ -395,6 +437,7 @@ def _cross_checks(cfg: Config, problems: list[str]) -> None:
                 f"output.sample_rate_hz: {rate} Hz leaves a window of {shortest:.6g} s without "
                 f"a sample (its statistics would all be NaN); use at least {1 / shortest:.6g} Hz"
             )
+    _history_problems(cfg.output, problems)
     w = cfg.wheel
     pattern = cfg.mistuning.pattern
     if isinstance(pattern, tuple) and pattern and isinstance(w.blades, int):

@@ -8,9 +8,13 @@ Two tables (docs/output.md gives the datasets they come from):
   normal force and the open fraction of every contact kind, the energy, the cumulative works
   and the amplitude of every nodal-diameter component.
 
+- ``contact_forces`` (a file with a modal state history, ``output.state_rate_hz > 0``): one
+  row per state sample: ``time_s``, then per contact kind and blade pair ``(s, s+1)`` the
+  normal force, the friction force (xi, zeta) and the relative displacement (xi, eta, zeta)
+  of the contact, evaluated from the stored state by the solver's reference force model
+  (:mod:`wheelrom.reconstruct`).
+
 Numbers are written with 17 significant digits, so a CSV reads back to the same doubles.
-Contact forces over time are not stored in a results file; only their per-window statistics
-are (in ``windows``).
 """
 
 from __future__ import annotations
@@ -25,10 +29,12 @@ from wheelrom.results import FORMAT
 from wheelrom.study_file import FORMAT as STUDY_FORMAT
 
 TABLES = ("tips", "windows")
+ALL_TABLES = (*TABLES, "contact_forces")
 
 
-def case_tables(path: str, case: int) -> dict[str, tuple[list[str], np.ndarray]]:
-    """``{"tips": (header, rows), "windows": (header, rows)}`` of case ``case`` (0-based, as
+def case_tables(path: str, case: int,
+                what=TABLES) -> dict[str, tuple[list[str], np.ndarray]]:  # fmt: skip
+    """``{table: (header, rows)}`` of the tables ``what`` of case ``case`` (0-based, as
     ``wheelrom info`` lists them) of the results file at ``path``."""
     import h5py
 
@@ -43,7 +49,7 @@ def case_tables(path: str, case: int) -> dict[str, tuple[list[str], np.ndarray]]
             raise InputError(f"{path}: not a wheelrom results file (format {FORMAT!r} or "
                              f"{STUDY_FORMAT!r} expected)")  # fmt: skip
         c = f["cases"]
-        if "tip_history" not in c:
+        if "max_tip_amplitude" not in c:
             raise InputError(f"{path}: a --stability-only study: no transient to export")
         total = c["status"].shape[0]
         if not 0 <= case < total:
@@ -51,10 +57,36 @@ def case_tables(path: str, case: int) -> dict[str, tuple[list[str], np.ndarray]]
         status = c["status"][case].decode()
         if status in ("pending", "skipped"):
             raise InputError(f"--case {case} is {status}: no transient computed to export")
-        return {"tips": _tips(c, case), "windows": _windows(c, case)}
+        tables = {"tips": lambda: _tips(c, case, path), "windows": lambda: _windows(c, case)}
+        out = {name: tables[name]() for name in what if name in tables}
+    if "contact_forces" in what:
+        out["contact_forces"] = _contact_forces(path, case)
+    return out
 
 
-def _tips(c, case: int) -> tuple[list[str], np.ndarray]:
+def _contact_forces(path: str, case: int) -> tuple[list[str], np.ndarray]:
+    from wheelrom.reconstruct import case_contacts
+
+    histories = case_contacts(path, case)
+    header, columns = ["time_s"], []
+    for kind, h in histories.items():
+        if not columns:
+            columns.append(h.time)
+        for s in range(h.normal_force.shape[1]):
+            header += [f"{kind}{s}_normal_N", f"{kind}{s}_friction_xi_N",
+                       f"{kind}{s}_friction_zeta_N", f"{kind}{s}_relative_xi_m",
+                       f"{kind}{s}_relative_eta_m", f"{kind}{s}_relative_zeta_m"]  # fmt: skip
+            columns += [h.normal_force[:, s], *h.friction_force[:, s].T,
+                        *h.relative_displacement[:, s].T]  # fmt: skip
+    if not columns:
+        raise InputError(f"{path}: case {case} has no contacts")
+    return header, np.column_stack(columns)
+
+
+def _tips(c, case: int, path: str) -> tuple[list[str], np.ndarray]:
+    if "tip_history" not in c:
+        raise InputError(f"{path} has no tip history (output.history_rate_hz = 0): export "
+                         "--what windows")  # fmt: skip
     samples = int(c["samples_done"][case])
     tips = c["tip_history"][case, :samples]  # (S, N, 3)
     header = ["time_s"] + [f"blade{s}_{axis}_m" for s in range(tips.shape[1]) for axis in "xyz"]
@@ -98,10 +130,11 @@ def write_tables(tables: dict, prefix: str, what=TABLES) -> list[str]:
 
 def export_case(path: str, case: int, prefix: str, what: str = "all",
                 force: bool = False) -> list[str]:  # fmt: skip
-    """``wheelrom export``: the tables ``what`` (``"all"``, ``"tips"`` or ``"windows"``) of
-    case ``case`` of ``path`` as ``<prefix>_<table>.csv``; the output files are checked
-    (existing ones need ``force``) before anything is read. Returns the paths written."""
+    """``wheelrom export``: the tables ``what`` (``"all"`` = tips and windows, ``"tips"``,
+    ``"windows"`` or ``"contact_forces"``) of case ``case`` of ``path`` as
+    ``<prefix>_<table>.csv``; the output files are checked (existing ones need ``force``)
+    before anything is read. Returns the paths written."""
     tables = TABLES if what == "all" else (what,)
     for target in table_paths(prefix, tables):
         check_output(target, force, "--csv")
-    return write_tables(case_tables(path, case), prefix, tables)
+    return write_tables(case_tables(path, case, tables), prefix, tables)

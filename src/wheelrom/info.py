@@ -15,6 +15,7 @@ import tomllib
 import numpy as np
 
 from wheelrom.errors import InputError
+from wheelrom.histories import case_bytes
 from wheelrom.results import FORMAT, STABILITY_FORMAT, statuses
 from wheelrom.study_file import FORMAT as STUDY_FORMAT
 from wheelrom.study_file import read_parameters, summary
@@ -32,7 +33,9 @@ def file_info(path: str) -> dict:
 
     Returns ``{"file", "kind": "results" | "model", "format", "config_source", "model": {...},
     ...}``; a results file adds its time grid (``time_end_s``, ``window_s``, ``windows``),
-    ``counts`` (done/failed/pending/total), ``total_wall_s``, ``cases`` (one dict per case,
+    ``counts`` (done/failed/pending/total), ``total_wall_s``, ``bytes_per_case`` (what one
+    case preallocates in the file, with ``bytes_per_case_by_dataset``), ``file_bytes``,
+    ``cases`` (one dict per case,
     see :func:`case_rows`) and ``hint`` (what to do about pending cases, or None). Raises
     :class:`InputError` naming the file when it is missing or not a wheelrom file.
     """
@@ -209,8 +212,12 @@ def _results_info(f, path: str) -> dict:
     configured = _configured_time(f)
     walls = [r["wall_s"] for r in rows if r["wall_s"] is not None]
     header = _header(f, path, "results")
+    per_case = case_bytes(cases)
     return {
         **header,
+        "bytes_per_case": sum(per_case.values()),
+        "bytes_per_case_by_dataset": per_case,
+        "file_bytes": os.path.getsize(path),
         "time_end_s": float(window_end[-1]) if window_end.size else configured.get("end"),
         "window_s": configured.get("window"),
         "windows": int(window_end.size),

@@ -15,6 +15,7 @@ import numpy as np
 from wheelrom import config as config_mod
 from wheelrom.config import CONTACT_KINDS, Config
 from wheelrom.errors import InputError
+from wheelrom.histories import create_histories, write_histories
 from wheelrom.rom.model import ReducedModel
 from wheelrom.transient.problem import N_WORK, WORK_NAMES, CaseResult
 from wheelrom.transient.ts import time_grid
@@ -83,7 +84,7 @@ def create_layout(f, cfg: Config, model: ReducedModel, angles: np.ndarray | None
     angles = case_angles(cfg) if angles is None else angles
     C = angles.shape[0]
     grid = time_grid(cfg)
-    W, S, N = grid.windows, grid.samples_max, model.blades
+    W, N = grid.windows, model.blades
     f.attrs["format"] = FORMAT
     f.attrs["config"] = config_mod.to_toml(cfg)
     f.attrs["config_source"] = cfg.source
@@ -104,8 +105,7 @@ def create_layout(f, cfg: Config, model: ReducedModel, angles: np.ndarray | None
     cases.create_dataset("energy0", (C,), **nan)
     cases.create_dataset("work", (C, W, N_WORK), **nan)
     cases["work"].attrs["columns"] = ", ".join(WORK_NAMES)
-    cases.create_dataset("sample_time", (C, S), **nan)
-    cases.create_dataset("tip_history", (C, S, N, 3), chunks=(1, S, N, 3), **nan)
+    create_histories(cases, C, grid, N, model.modes)
     cases.create_dataset("growth_rate", (C,), **nan)
     cases.create_dataset("nd_growth_rate", (C, N // 2 + 1), **nan)
     for name in ("linear_growth_rate", "linear_nodal_diameter", "linear_frequency_hz"):
@@ -142,9 +142,7 @@ def write_case(f, i: int, res: CaseResult) -> None:
         for kind, values in res.min_normal_force.items():
             cases[f"min_normal_force/{kind}"][i, :w] = values
             cases[f"open_fraction/{kind}"][i, :w] = res.open_fraction[kind]
-    if s:
-        cases["sample_time"][i, :s] = res.sample_time
-        cases["tip_history"][i, :s] = res.tip_history
+    write_histories(cases, i, res)
     if w >= 2:
         cases["growth_rate"][i], cases["nd_growth_rate"][i] = res.growth_rates()
     if res.linear:

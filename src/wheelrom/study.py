@@ -252,11 +252,14 @@ def _transients(out, cfg, study, model_of, members, comm, batch, options, say, s
 
 
 def _memory_width(cfg: Config, models: list) -> int:
-    """The default batch width: the cases whose stored tip histories ``(S, N, 3)`` fit in
-    ``HISTORY_BYTES`` per rank (a batch holds them all until it is written)."""
-    blades = max(m.blades for m in models if m is not None)
-    per_case = 8 * 3 * blades * time_grid(cfg).samples_max  # [bytes]
-    return max(1, HISTORY_BYTES // per_case)
+    """The default batch width: the cases whose stored histories (tip ``(S, N, 3)``, state
+    ``(S', 2, N, m)``) fit in ``HISTORY_BYTES`` per rank (a batch holds them all until it is
+    written)."""
+    N = max(m.blades for m in models if m is not None)
+    m = max(m.modes for m in models if m is not None)
+    grid = time_grid(cfg)
+    per_case = 8 * (3 * N * grid.history_max + 2 * N * m * grid.state_max)  # [bytes]
+    return max(1, HISTORY_BYTES // max(per_case, 1))
 
 
 def _steps(cfg: Config) -> float:

@@ -27,6 +27,7 @@ class ReferenceForces:
     - ``normal_force``, ``slip_velocity``, ``normal_gap``: ``(K, N)`` [N, m/s, m] per contact
       kind and blade pair ``(s, s+1)``; ``contact_state``: ``(K, N)`` OPEN/STICK/SLIP;
     - ``relative_displacement``, ``relative_velocity``: ``(K, N, 3)`` local (xi, eta, zeta);
+    - ``friction_force``: ``(K, N, 2)`` friction force (xi, zeta) [N] on ``A_{s+1}``;
     - ``vdp_displacement``: ``(N,)`` Van der Pol reference displacement ``y_s`` [m];
     - ``power``: ``(3,)`` power of nozzle, Van der Pol and friction forces [W].
     """
@@ -41,6 +42,7 @@ class ReferenceForces:
         self.contact_state = np.zeros((K, N), dtype=np.int8)
         self.relative_displacement = np.zeros((K, N, 3))
         self.relative_velocity = np.zeros((K, N, 3))
+        self.friction_force = np.zeros((K, N, 2))
         self.vdp_displacement = np.zeros(N)
         self.power = np.zeros(3)
         self._work = np.zeros((N, 4))
@@ -54,7 +56,8 @@ class ReferenceForces:
                 c.shape_A, c.shape_B, c.point_A, c.point_B, c.arm_length, c.frame, c.stiffness,
                 c.preload, self.normal_force, self.slip_velocity, self.normal_gap,
                 self.contact_state, self.relative_displacement, self.relative_velocity,
-                self.vdp_displacement, self.power, self._work)  # fmt: skip
+                self.friction_force, self.vdp_displacement, self.power,
+                self._work)  # fmt: skip
         return self.force
 
     def contact_energy(self) -> float:
@@ -74,13 +77,13 @@ class ReferenceForces:
 @_kernel_cache.njit(fastmath=False)
 def _kernel(t, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p_aero, friction, R,
             XA, XB, A_pt, B_pt, arm, T, kc, preload, normal, slip, gap, state, rel_u, rel_v,
-            y_vdp, power, work):  # fmt: skip
+            fric, y_vdp, power, work):  # fmt: skip
     """The forces of :class:`ReferenceForces` (argument names as in docs/theory.md: ``XA``,
     ``XB`` contact shapes, ``A_pt``, ``B_pt`` undeformed contact points, ``T`` frames)."""
     p_noz, p_vdp = _nozzle_and_van_der_pol(t, q, v, out, omega, n_s, Fb, p_exc, phase,
                                            vdp_model, mu, r, p_aero, y_vdp, work)  # fmt: skip
     p_fric = _contact_forces(q, v, out, friction, R, XA, XB, A_pt, B_pt, arm, T, kc, preload,
-                             normal, slip, gap, state, rel_u, rel_v)  # fmt: skip
+                             normal, slip, gap, state, rel_u, rel_v, fric)  # fmt: skip
     power[0] = p_noz
     power[1] = p_vdp
     power[2] = p_fric
@@ -135,7 +138,7 @@ def _nozzle_and_van_der_pol(t, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_mode
 
 @_kernel_cache.njit(fastmath=False)
 def _contact_forces(q, v, out, friction, R, XA, XB, A_pt, B_pt, arm, T, kc, preload, normal,
-                    slip, gap, state, rel_u, rel_v):  # fmt: skip
+                    slip, gap, state, rel_u, rel_v, fric):  # fmt: skip
     """Contact forces (eqs. 16-20) added to ``out``, contact states left in the arrays;
     returns the friction power [W]."""
     N, m = q.shape
@@ -203,6 +206,8 @@ def _contact_forces(q, v, out, friction, R, XA, XB, A_pt, B_pt, arm, T, kc, prel
                     Ft2 = -coef * Fn * vl[2] / vt
                 p_fric += Ft0 * vl[0] + Ft2 * vl[2]
             normal[c, s] = Fn
+            fric[c, s, 0] = Ft0
+            fric[c, s, 1] = Ft2
             _apply_contact_force(c, s, sn, T, R, XA, XB, Ft0, Fn, Ft2, e, L / nd, out, F, FN)
     return p_fric
 

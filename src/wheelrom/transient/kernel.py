@@ -35,6 +35,8 @@ from wheelrom.transient.layout import (
     H_R,
     H_SAMPLE_DT,
     H_SKIP_LINEAR,
+    H_STATE_CAP,
+    H_STATE_EVERY,
     H_VDP,
     I_A0D,
     I_A1,
@@ -62,12 +64,16 @@ from wheelrom.transient.layout import (
     I_STIP,
     I_STOP,
     I_STOPT,
+    I_STOTAL,
     I_TIP,
     I_UB,
     I_VT,
     I_WT,
     I_XA,
     I_XB,
+    I_XCOUNT,
+    I_XSTATE,
+    I_XTIME,
     I_Y,
     I_YD,
     STOP_AMPLITUDE,
@@ -295,6 +301,34 @@ def _freeze(ctx, b, reason, t):
         get(ctx, I_STOPT, B)[b] = t
 
 
+@numba.njit(inline="always")
+def _record_state(ctx, u, b, t, N, m, B):
+    """Case ``b``'s modal state ``(z, z')`` (kernel basis) into the state history when this
+    sample is one of every ``H_STATE_EVERY`` since ``t = 0``; counts the case's samples."""
+    total = get(ctx, I_STOTAL, B)
+    every = int(ctx[H_STATE_EVERY])
+    index = int(total[b])
+    total[b] = index + 1
+    if every <= 0 or index % every != 0:
+        return
+    cap = int(ctx[H_STATE_CAP])
+    count = get(ctx, I_XCOUNT, B)
+    k = int(count[b])
+    if k >= cap:
+        ctx[H_OVERFLOW] = 1.0
+        return
+    NB = N * B
+    n = m * NB
+    get(ctx, I_XTIME, B * cap)[b * cap + k] = t
+    state = get(ctx, I_XSTATE, B * cap * 2 * m * N).reshape((B, cap, 2, m, N))
+    for j in range(m):
+        o = j * NB + b
+        for s in range(N):
+            state[b, k, 0, j, s] = u[o + s * B]
+            state[b, k, 1, j, s] = u[n + o + s * B]
+    count[b] = k + 1
+
+
 @_kernel_cache.njit(fastmath={"contract"}, error_model="numpy")
 def sample_core(t, u, ctx):
     """Output samples at ``t`` when due, for every running case: tip displacements, minimum
@@ -349,6 +383,7 @@ def sample_core(t, u, ctx):
                 amp = a2
         count[b] = k + 1
         recorded += 1
+        _record_state(ctx, u, b, t, N, m, B)
         if not finite:
             _freeze(ctx, b, STOP_NONFINITE, t)
         elif math.sqrt(amp) > ctx[H_LIMIT]:

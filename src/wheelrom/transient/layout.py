@@ -30,64 +30,71 @@ H_CAP, H_LIMIT, H_RHS_CALLS, H_SLOT_U, H_SLOT_F, H_OVERFLOW, H_NSTATE = range(19
 H_SKIP_LINEAR = 26  # 1: leave out the K_R product (benchmarks of the force part alone)
 H_B = 27  # cases in the batch
 H_ACTIVE = 28  # cases still running (a diverged case is frozen)
+H_STATE_EVERY = 29  # record the modal state at every k-th sample (0: never)
+H_STATE_CAP = 30  # state samples one window can hold per case
 H_OFFSETS = 32  # offsets of the arrays below start here
 
 # arrays in the context, in order; shapes from (N, m, K, B, capacity)
 _ARRAYS = (
-    ("A0_diag", lambda N, m, K, B, c: (m,)),  # the eigenvalues of A0 [1/s^2]
-    ("A1", lambda N, m, K, B, c: (m, m)),
-    ("A1T", lambda N, m, K, B, c: (m, m)),
-    ("p_exc", lambda N, m, K, B, c: (m,)),
-    ("cos_phase", lambda N, m, K, B, c: (N * B,)),
-    ("sin_phase", lambda N, m, K, B, c: (N * B,)),
-    ("p_aero", lambda N, m, K, B, c: (m,)),
-    ("R", lambda N, m, K, B, c: (3, 3)),
-    ("XA", lambda N, m, K, B, c: (K, 3, m)),
-    ("XB", lambda N, m, K, B, c: (K, 3, m)),
-    ("A_point", lambda N, m, K, B, c: (K, 3)),
-    ("B_point", lambda N, m, K, B, c: (K, 3)),
-    ("arm", lambda N, m, K, B, c: (K,)),
-    ("T", lambda N, m, K, B, c: (K, 9, N * B)),  # local frame rows per column
-    ("k_c", lambda N, m, K, B, c: (K, N * B)),
-    ("preload", lambda N, m, K, B, c: (K,)),
-    ("tip", lambda N, m, K, B, c: (3, m)),
-    ("active", lambda N, m, K, B, c: (B,)),  # 1: running, 0: frozen (diverged)
-    ("stop", lambda N, m, K, B, c: (B,)),  # STOP_* reason per case
-    ("stop_t", lambda N, m, K, B, c: (B,)),
-    ("count", lambda N, m, K, B, c: (B,)),  # samples of the current window per case
+    ("A0_diag", lambda N, m, K, B, c, c2: (m,)),  # the eigenvalues of A0 [1/s^2]
+    ("A1", lambda N, m, K, B, c, c2: (m, m)),
+    ("A1T", lambda N, m, K, B, c, c2: (m, m)),
+    ("p_exc", lambda N, m, K, B, c, c2: (m,)),
+    ("cos_phase", lambda N, m, K, B, c, c2: (N * B,)),
+    ("sin_phase", lambda N, m, K, B, c, c2: (N * B,)),
+    ("p_aero", lambda N, m, K, B, c, c2: (m,)),
+    ("R", lambda N, m, K, B, c, c2: (3, 3)),
+    ("XA", lambda N, m, K, B, c, c2: (K, 3, m)),
+    ("XB", lambda N, m, K, B, c, c2: (K, 3, m)),
+    ("A_point", lambda N, m, K, B, c, c2: (K, 3)),
+    ("B_point", lambda N, m, K, B, c, c2: (K, 3)),
+    ("arm", lambda N, m, K, B, c, c2: (K,)),
+    ("T", lambda N, m, K, B, c, c2: (K, 9, N * B)),  # local frame rows per column
+    ("k_c", lambda N, m, K, B, c, c2: (K, N * B)),
+    ("preload", lambda N, m, K, B, c, c2: (K,)),
+    ("tip", lambda N, m, K, B, c, c2: (3, m)),
+    ("active", lambda N, m, K, B, c, c2: (B,)),  # 1: running, 0: frozen (diverged)
+    ("stop", lambda N, m, K, B, c, c2: (B,)),  # STOP_* reason per case
+    ("stop_t", lambda N, m, K, B, c, c2: (B,)),
+    ("count", lambda N, m, K, B, c, c2: (B,)),  # samples of the current window per case
     # work arrays: columns (s, b); one ghost blade (B columns) on each side where needed
-    ("VT", lambda N, m, K, B, c: (m, (N + 2) * B)),
-    ("WT", lambda N, m, K, B, c: (m, (N + 2) * B)),
-    ("KW", lambda N, m, K, B, c: (N * B,)),  # one row of K_R w
-    ("DV", lambda N, m, K, B, c: (N * B,)),  # one row of 2 A1 v_{s+1}
-    ("nozzle", lambda N, m, K, B, c: (N * B,)),
-    ("y", lambda N, m, K, B, c: ((N + 2) * B,)),
-    ("yd", lambda N, m, K, B, c: ((N + 2) * B,)),
-    ("pair", lambda N, m, K, B, c: ((N + 2) * B,)),
-    ("g", lambda N, m, K, B, c: (N * B,)),
-    ("column", lambda N, m, K, B, c: (N * B,)),  # per-column power before the case sums
-    ("UA", lambda N, m, K, B, c: (3, (N + 1) * B)),
-    ("UB", lambda N, m, K, B, c: (3, N * B)),
-    ("VA", lambda N, m, K, B, c: (3, (N + 1) * B)),
-    ("VB", lambda N, m, K, B, c: (3, N * B)),
-    ("FA", lambda N, m, K, B, c: (K, 3, N * B)),  # contact forces on A (and A from s-1) [N]
-    ("FB", lambda N, m, K, B, c: (K, 3, N * B)),  # and on B, per kind
-    ("FN", lambda N, m, K, B, c: (3, (N + 1) * B)),
-    ("normal_force", lambda N, m, K, B, c: (K, N * B)),
-    ("contact_state", lambda N, m, K, B, c: (K, N * B)),
-    ("power", lambda N, m, K, B, c: (4, B)),
+    ("VT", lambda N, m, K, B, c, c2: (m, (N + 2) * B)),
+    ("WT", lambda N, m, K, B, c, c2: (m, (N + 2) * B)),
+    ("KW", lambda N, m, K, B, c, c2: (N * B,)),  # one row of K_R w
+    ("DV", lambda N, m, K, B, c, c2: (N * B,)),  # one row of 2 A1 v_{s+1}
+    ("nozzle", lambda N, m, K, B, c, c2: (N * B,)),
+    ("y", lambda N, m, K, B, c, c2: ((N + 2) * B,)),
+    ("yd", lambda N, m, K, B, c, c2: ((N + 2) * B,)),
+    ("pair", lambda N, m, K, B, c, c2: ((N + 2) * B,)),
+    ("g", lambda N, m, K, B, c, c2: (N * B,)),
+    ("column", lambda N, m, K, B, c, c2: (N * B,)),  # per-column power before the case sums
+    ("UA", lambda N, m, K, B, c, c2: (3, (N + 1) * B)),
+    ("UB", lambda N, m, K, B, c, c2: (3, N * B)),
+    ("VA", lambda N, m, K, B, c, c2: (3, (N + 1) * B)),
+    ("VB", lambda N, m, K, B, c, c2: (3, N * B)),
+    ("FA", lambda N, m, K, B, c, c2: (K, 3, N * B)),  # contact forces on A (and A from s-1) [N]
+    ("FB", lambda N, m, K, B, c, c2: (K, 3, N * B)),  # and on B, per kind
+    ("FN", lambda N, m, K, B, c, c2: (3, (N + 1) * B)),
+    ("normal_force", lambda N, m, K, B, c, c2: (K, N * B)),
+    ("contact_state", lambda N, m, K, B, c, c2: (K, N * B)),
+    ("power", lambda N, m, K, B, c, c2: (4, B)),
     # samples of the current window
-    ("sample_time", lambda N, m, K, B, c: (B, c)),
-    ("sample_tip", lambda N, m, K, B, c: (B, c, N, 3)),
-    ("sample_min_normal", lambda N, m, K, B, c: (B, c, K)),
-    ("sample_open", lambda N, m, K, B, c: (B, c, K)),
+    ("sample_time", lambda N, m, K, B, c, c2: (B, c)),
+    ("sample_tip", lambda N, m, K, B, c, c2: (B, c, N, 3)),
+    ("sample_min_normal", lambda N, m, K, B, c, c2: (B, c, K)),
+    ("sample_open", lambda N, m, K, B, c, c2: (B, c, K)),
+    # the modal state history (output.state_rate_hz; c2 = 0: none), kernel basis
+    ("sample_total", lambda N, m, K, B, c, c2: (B,)),  # samples since t = 0 per case
+    ("state_count", lambda N, m, K, B, c, c2: (B,)),  # state samples of the current window
+    ("state_time", lambda N, m, K, B, c, c2: (B, c2)),
+    ("state", lambda N, m, K, B, c, c2: (B, c2, 2, m, N)),  # (z, z') per mode and blade
 )
 _INDEX = {name: i for i, (name, _) in enumerate(_ARRAYS)}
 (
     I_A0D, I_A1, I_A1T, I_PEXC, I_COS, I_SIN, I_PAERO, I_R, I_XA, I_XB, I_AP, I_BP, I_ARM, I_T,
     I_KC, I_PRELOAD, I_TIP, I_ACTIVE, I_STOP, I_STOPT, I_COUNT, I_VT, I_WT, I_KW, I_DV, I_NOZ,
     I_Y, I_YD, I_PAIR, I_G, I_COL, I_UA, I_UB, I_VA, I_VB, I_FA, I_FB, I_FN, I_NORMAL, I_STATE,
-    I_POWER, I_STIME, I_STIP, I_SMIN, I_SOPEN,
+    I_POWER, I_STIME, I_STIP, I_SMIN, I_SOPEN, I_STOTAL, I_XCOUNT, I_XTIME, I_XSTATE,
 ) = range(len(_ARRAYS))  # fmt: skip
 
 STOP_NONFINITE, STOP_AMPLITUDE = 1, 2
@@ -112,12 +119,14 @@ class Context:
     """
 
     def __init__(self, cases: list[ForceParameters], model, beta: float, sample_dt: float,
-                 limit: float, capacity: int):  # fmt: skip
+                 limit: float, capacity: int, state_every: int = 0,
+                 state_capacity: int = 0):  # fmt: skip
         first = cases[0]
         N, m, K, B = first.blades, first.modes, len(first.contacts.kinds), len(cases)
         check_batchable(cases)
         self.N, self.m, self.K, self.B, self.capacity = N, m, K, B, capacity
-        self.shapes = [fn(N, m, K, B, capacity) for _, fn in _ARRAYS]
+        state_capacity = state_capacity if state_every > 0 else 0
+        self.shapes = [fn(N, m, K, B, capacity, state_capacity) for _, fn in _ARRAYS]
         offsets, pos = [], H_OFFSETS + len(_ARRAYS)
         for shape in self.shapes:
             pos += -pos % ALIGN  # every array starts on a 64-byte boundary (AVX loads)
@@ -126,6 +135,8 @@ class Context:
         self.array = aligned_zeros(pos)
         self._offsets = offsets
         self._fill_header(first, beta, sample_dt, limit, pos)
+        self.array[H_STATE_EVERY] = state_every if state_capacity else 0
+        self.array[H_STATE_CAP] = state_capacity
         # the kernel's modal basis: the segment modes rotated to diagonalise A0 (see
         # :func:`diagonal_basis`); every modal vector and the state are rotated with it
         self.basis, A0_diag = diagonal_basis(model.A0)
@@ -203,6 +214,12 @@ class Context:
         v = _times(s[:, n : 2 * n].reshape(B, N, m), P).transpose(2, 1, 0)
         w = s[:, 2 * n :].T  # (4, B)
         return np.concatenate([q.ravel(), v.ravel(), w.ravel()])
+
+    def unpack_states(self, z: np.ndarray) -> np.ndarray:
+        """Blade-major modal states ``(S, 2, N, m)`` (``q``, ``q'`` of every blade) from the
+        recorded kernel-basis samples ``z`` ``(S, 2, m, N)`` (the same rotation as
+        :meth:`unpack`, the same bits whatever the batch)."""
+        return _times(np.swapaxes(np.asarray(z), 2, 3), self.basis.T)
 
     def unpack(self, u: np.ndarray) -> np.ndarray:
         """Blade-major case states ``(B, 2 N m + 4)`` from a kernel state (inverse of

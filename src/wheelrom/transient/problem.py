@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from wheelrom._environment import petsc
-from wheelrom.config import Config
+from wheelrom.config import Config, sample_every
 from wheelrom.forces.parameters import ForceParameters
 from wheelrom.forces.reference import ReferenceForces
 from wheelrom.rom.model import ReducedModel
@@ -70,7 +70,12 @@ class CaseResult:
             kind -> ``(W,)``.
         energy: ``(W,)`` kinetic + potential energy at window end [J]; ``energy0`` at t = 0.
         work: ``(W, 4)`` cumulative work of nozzle, Van der Pol, friction, damping [J].
-        sample_time: ``(S,)`` [s]; tip_history: ``(S, N, 3)`` tip displacement [m].
+        sample_time: ``(S,)`` [s]; tip_history: ``(S, N, 3)`` tip displacement [m]: the
+            stored tip history, every k-th statistics sample (``output.history_rate_hz``;
+            none when it is 0).
+        state_time: ``(S2,)`` [s]; state_history: ``(S2, 2, N, m)`` modal displacements
+            ``q`` [sqrt(kg) m] and velocities ``q'`` [sqrt(kg) m/s] of every blade at
+            ``output.state_rate_hz`` (empty when it is 0).
         steps, rhs_evaluations, wall_s, options: TS steps taken, right-hand sides of the
             TS (of the whole batch), wall time [s] of the integration (of a batch: its wall
             time over its number of cases; compiling or loading kernels not included), TS
@@ -97,6 +102,8 @@ class CaseResult:
     work: np.ndarray = field(default_factory=lambda: np.zeros((0, N_WORK)))
     sample_time: np.ndarray = field(default_factory=lambda: np.zeros(0))
     tip_history: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 3)))
+    state_time: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    state_history: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 0, 0)))
     steps: int = 0
     rhs_evaluations: int = 0
     wall_s: float = 0.0
@@ -166,7 +173,7 @@ class WheelProblem:
     """
 
     def __init__(self, model: ReducedModel, cfg: Config, cases: list[ForceParameters], comm,
-                 capacity: int = 4):  # fmt: skip
+                 capacity: int = 4, state_capacity: int = 0):  # fmt: skip
         self.comm = comm
         self.cases = list(cases)
         self.model, self.cfg = model, cfg
@@ -183,6 +190,8 @@ class WheelProblem:
             sample_dt=1.0 / cfg.output.sample_rate_hz,
             limit=cfg.time.divergence_amplitude,
             capacity=capacity,
+            state_every=sample_every(cfg.output.state_rate_hz, cfg.output.sample_rate_hz),
+            state_capacity=state_capacity,
         )
         self.forces = [ReferenceForces(p) for p in self.cases]
         self._petsc: list = []  # BAIJ K_R and work Vecs of the Python path, made on demand

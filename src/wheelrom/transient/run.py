@@ -41,11 +41,33 @@ class Samples:
     compiled monitor records at the first step at or after each sample time.
     """
 
-    def __init__(self, problem: WheelProblem, case: int = 0):
+    def __init__(self, problem: WheelProblem, case: int = 0, history_every: int = 1):
         self.p, self.case = problem, case
         self.kinds = problem.kinds
+        self.history_every = history_every  # keep every k-th sample's tips (0: none)
+        self.total = 0  # samples since t = 0
         self.times: list[np.ndarray] = []
         self.tips: list[np.ndarray] = []
+        self.state_times: list[np.ndarray] = []
+        self.states: list[np.ndarray] = []
+
+    def _keep_history(self, t: np.ndarray, tip: np.ndarray) -> None:
+        """The window's tip history: every ``history_every``-th sample since ``t = 0``."""
+        count = t.size
+        if self.history_every:
+            keep = (self.total + np.arange(count)) % self.history_every == 0
+            self.times.append(t[keep])
+            self.tips.append(tip[keep])
+        self.total += count
+
+    def _take_states(self) -> None:
+        """Move the window's modal state samples out of the context (blade-major)."""
+        ctx, b = self.p.context, self.case
+        count = int(ctx.view("state_count")[b])
+        if count:
+            self.state_times.append(ctx.view("state_time")[b, :count].copy())
+            self.states.append(ctx.unpack_states(ctx.view("state")[b, :count]))
+        ctx.view("state_count")[b] = 0
 
     def take_window(self) -> WindowStats:
         """Move the window's samples out of the context; return its statistics."""
@@ -59,8 +81,8 @@ class Samples:
         low = ctx.view("sample_min_normal")[b, :count]
         opened = ctx.view("sample_open")[b, :count]
         ctx.view("count")[b] = 0
-        self.times.append(t)
-        self.tips.append(tip)
+        self._keep_history(t, tip)
+        self._take_states()
         if count == 0:
             return WindowStats(math.nan, np.full(N // 2 + 1, math.nan),
                                {k: math.nan for k in self.kinds},
@@ -88,9 +110,9 @@ class Samples:
 class _CaseRecord:
     """The rows of one case while its batch runs."""
 
-    def __init__(self, problem: WheelProblem, case: int):
+    def __init__(self, problem: WheelProblem, case: int, history_every: int):
         self.result = CaseResult()
-        self.samples = Samples(problem, case)
+        self.samples = Samples(problem, case, history_every)
         self.running = True
         self.steps = 0
         self.ends: list[float] = []
@@ -149,8 +171,9 @@ def run_cases(model: ReducedModel, cfg: Config, angles: list[dict | None],
     compile_s = load_kernels(params[0], rhs_kind)
     t_wall = time.perf_counter()
     grid = time_grid(cfg)
-    problem = WheelProblem(model, cfg, params, petsc().COMM_SELF, grid.sample_capacity)
-    records = [_CaseRecord(problem, b) for b in range(problem.B)]
+    problem = WheelProblem(model, cfg, params, petsc().COMM_SELF, grid.sample_capacity,
+                           grid.state_capacity)  # fmt: skip
+    records = [_CaseRecord(problem, b, grid.history_every) for b in range(problem.B)]
     states = _initial_states(problem, records, u0)
     ts, fvec, used = make_ts(problem, cfg, prefix, options, rhs_kind)
     compiled = rhs_kind == "compiled"
@@ -276,6 +299,10 @@ def _finish(rec: _CaseRecord, problem, used, final_state, wall, compile_s) -> Ca
     times, tips = rec.samples.times, rec.samples.tips
     res.sample_time = np.concatenate(times) if times else np.zeros(0)
     res.tip_history = (np.concatenate(tips) if tips else np.zeros(0)).reshape(-1, problem.N, 3)
+    states = rec.samples.states
+    res.state_time = np.concatenate(rec.samples.state_times) if states else np.zeros(0)
+    res.state_history = (np.concatenate(states) if states else
+                         np.zeros(0)).reshape(-1, 2, problem.N, problem.m)  # fmt: skip
     res.steps = rec.steps
     res.rhs_evaluations = int(problem.context.header(H_RHS_CALLS))
     res.final_state = final_state.copy()

@@ -43,7 +43,8 @@ def _first_step(path: str) -> dict:
         model, cfg = pickle.load(f)
     h = time_step(cfg)
     # one step, one window, a sample in it (a window without one is refused)
-    cfg = cfg.replace(**{"time.end": h, "time.window": h, "output.sample_rate_hz": 1 / h})
+    cfg = cfg.replace(**{"time.end": h, "time.window": h, "output.sample_rate_hz": 1 / h,
+                         "output.history_rate_hz": 1 / h, "output.state_rate_hz": 0.0})
     compile_s = load_kernels(force_parameters(model, cfg, None))
     looked_up = dict(_kernel_cache.lookups)
     marks = []

@@ -14,7 +14,7 @@ import math
 from dataclasses import dataclass
 
 from wheelrom._environment import petsc
-from wheelrom.config import Config
+from wheelrom.config import Config, sample_every
 from wheelrom.transient import bridge
 from wheelrom.transient.problem import WheelProblem
 
@@ -167,12 +167,20 @@ class TimeGrid:
     ``window_end``: ``(W,)`` end time [s] of every window: multiples of ``time.window``, the
     last window ending at ``time.end`` (it may be up to 1.5 windows long);
     ``sample_capacity``: output samples one window can hold; ``samples_max``: samples of the
-    whole run at most.
+    whole run at most. The stored histories keep every ``history_every``-th (tip) and
+    ``state_every``-th (modal state) sample, counted from the first one at ``t = 0`` (0:
+    none): at most ``history_max`` and ``state_max`` of them; ``state_capacity``: state
+    samples one window can hold.
     """
 
     window_end: tuple[float, ...]
     sample_capacity: int
     samples_max: int
+    history_every: int = 1
+    history_max: int = 0
+    state_every: int = 0
+    state_capacity: int = 0
+    state_max: int = 0
 
     @property
     def windows(self) -> int:
@@ -186,8 +194,17 @@ def time_grid(cfg: Config) -> TimeGrid:
     ends = tuple((w + 1) * t.window for w in range(windows - 1)) + (t.end,)
     longest = max(t.window, t.end - (windows - 1) * t.window)
     rate = cfg.output.sample_rate_hz
+    capacity = int(math.ceil(longest * rate)) + 4
+    samples = int(math.ceil(t.end * rate)) + 2
+    history = sample_every(cfg.output.history_rate_hz, rate)
+    state = sample_every(cfg.output.state_rate_hz, rate)
     return TimeGrid(
         window_end=ends,
-        sample_capacity=int(math.ceil(longest * rate)) + 4,
-        samples_max=int(math.ceil(t.end * rate)) + 2,
+        sample_capacity=capacity,
+        samples_max=samples,
+        history_every=history,
+        history_max=-(-samples // history) if history else 0,
+        state_every=state,
+        state_capacity=capacity // state + 2 if state else 0,
+        state_max=-(-samples // state) if state else 0,
     )

@@ -1,0 +1,125 @@
+"""What a results file's modal state history gives back after the run: the reduced model as
+stored (``/model``, no segment rebuild) and, per sample, the contact forces of every blade
+pair evaluated by the solver's own reference force model
+(:class:`~wheelrom.forces.reference.ReferenceForces`, the model the compiled kernel is held
+equal to): normal force, friction force and the relative displacement of the contact.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+
+import numpy as np
+
+from wheelrom.config import Config
+from wheelrom.errors import InputError
+from wheelrom.forces.parameters import force_parameters
+from wheelrom.forces.reference import ReferenceForces
+from wheelrom.histories import state_window
+from wheelrom.results import FORMAT, angles_of, read_config
+from wheelrom.rom.model import ReducedModel
+from wheelrom.segment.mesh import rotation_z
+
+
+def open_results(path: str):
+    """A results file (sweep or ``run --out``) opened for reading, or one line naming it."""
+    import h5py
+
+    if not os.path.isfile(path):
+        raise InputError(f"{path}: no such file")
+    try:
+        f = h5py.File(path, "r", locking=False)
+    except OSError as exc:
+        raise InputError(f"{path}: not an HDF5 file ({exc})") from None
+    if f.attrs.get("format") != FORMAT or "cases" not in f or "model" not in f:
+        f.close()
+        raise InputError(f"{path}: not a wheelrom results file (format {FORMAT!r} expected)")
+    return f
+
+
+def check_case(f, case: int) -> None:
+    """``--case`` names a case of the file that has run (done, or failed after some time)."""
+    cases = f["cases"]
+    total = cases["status"].shape[0]
+    if not 0 <= case < total:
+        raise InputError(f"--case {case}: the file has {total} case{'s' * (total != 1)} "
+                         f"(0..{total - 1})")  # fmt: skip
+    if cases["status"][case].decode() == "pending":
+        raise InputError(f"--case {case} is pending: nothing computed yet")
+
+
+def read_model(group) -> ReducedModel:
+    """The :class:`ReducedModel` of a ``/model`` group, as the run used it (what the forces
+    need; ``K_seg`` from the segment frequencies, ``R`` from the blade count)."""
+    N, m = int(group.attrs["blades"]), int(group.attrs["modes"])
+    hz = group["segment_hz"][()]
+    model = ReducedModel(
+        blades=N, modes=m, segment_hz=hz, K_seg=np.diag((2 * math.pi * hz) ** 2),
+        A0=group["A0"][()], A1=group["A1"][()], rotation=rotation_z(2.0 * math.pi / N),
+        tip=group["tip"][()], aero=group["aero"][()], excitation=group["excitation"][()],
+    )  # fmt: skip
+    for kind, g in group.get("contacts", {}).items():
+        model.contact_A[kind] = g["A_shape"][()]
+        model.contact_B[kind] = g["B_shape"][()]
+        model.contact_points[kind] = g["points"][()]
+        if "stiffness" in g:
+            model.contact_stiffness[kind] = g["stiffness"][()]
+    if "mistuning" in group:
+        model.mistuning = group["mistuning"][()]
+    return model
+
+
+@dataclass
+class ContactHistory:
+    """One contact kind over the samples of a state history (``S`` samples, ``N`` blade
+    pairs ``(s, s+1)``; local frame xi radial, eta normal, zeta of the contact surface).
+
+    ``time`` ``(S,)`` [s]; ``normal_force`` ``(S, N)`` [N] (0: open); ``friction_force``
+    ``(S, N, 2)`` (xi, zeta) [N] on blade ``s+1``; ``relative_displacement`` ``(S, N, 3)``
+    (xi, eta, zeta) [m] of the contact (change from the undeformed gap); ``slip_velocity``
+    ``(S, N)`` [m/s]; ``state`` ``(S, N)``: 0 open, 1 stick (micro-slip), 2 slip.
+    """
+
+    kind: str
+    time: np.ndarray
+    normal_force: np.ndarray
+    friction_force: np.ndarray
+    relative_displacement: np.ndarray
+    slip_velocity: np.ndarray
+    state: np.ndarray
+
+
+def contact_histories(model: ReducedModel, cfg: Config, angles_deg: dict, times: np.ndarray,
+                      states: np.ndarray) -> dict[str, ContactHistory]:  # fmt: skip
+    """Kind -> :class:`ContactHistory` at the modal states ``states`` ``(S, 2, N, m)``
+    (``q``, ``q'``) at ``times`` ``(S,)`` of the case with contact angles ``angles_deg``."""
+    forces = ReferenceForces(force_parameters(model, cfg, angles_deg))
+    kinds = forces.params.contacts.kinds
+    S, K, N = len(times), len(kinds), model.blades
+    normal, slip = np.zeros((S, K, N)), np.zeros((S, K, N))
+    friction, rel = np.zeros((S, K, N, 2)), np.zeros((S, K, N, 3))
+    state = np.zeros((S, K, N), dtype=np.int8)
+    for i, t in enumerate(times):
+        forces.evaluate(float(t), np.ascontiguousarray(states[i, 0]),
+                        np.ascontiguousarray(states[i, 1]))  # fmt: skip
+        normal[i], slip[i], state[i] = forces.normal_force, forces.slip_velocity, \
+            forces.contact_state  # fmt: skip
+        friction[i], rel[i] = forces.friction_force, forces.relative_displacement
+    return {kind: ContactHistory(kind, np.asarray(times), normal[:, k], friction[:, k],
+                                 rel[:, k], slip[:, k], state[:, k])
+            for k, kind in enumerate(kinds)}  # fmt: skip
+
+
+def case_contacts(path: str, case: int, window: tuple[float, float] | None = None
+                  ) -> dict[str, ContactHistory]:
+    """The contact histories of case ``case`` of the results file ``path`` over ``window``
+    ``(a, b)`` [s] (None: the whole run), from its state history."""
+    with open_results(path) as f:
+        check_case(f, case)
+        cfg = read_config(f, path)
+        times, states = state_window(f["cases"], path, case, window)
+        model = read_model(f["model"])
+        angles = angles_of(f["cases/angles_deg"][case])
+    return contact_histories(model, cfg, angles, times, states)
