@@ -22,12 +22,14 @@ BASE = """[wheel]
 blades = 12
 stator_vanes = 10
 modes_per_segment = 6
+basis = "free"
 [segment]
 preset = "coarse"
 [time]
+step = 5e-6
 end = 0.002
 window = 0.0005
-"""
+"""  # tests/data/small.toml without its [sweep]
 MIXED = BASE + """[study.grid]
 wheel.modes_per_segment = [4, 6]
 contacts.shroud.angle_deg = [20.0, 80.0]

@@ -284,23 +284,13 @@ class SweepConfig:
 
 
 @dataclass(frozen=True)
-class StudyConfig:
-    grid: Mapping[str, Any] = field(
-        default_factory=dict,
-        metadata=_key("-", "keys varied as a grid, every combination: dotted.key = [values] or "
-                      "'start:stop:step' (stop included); {} with no zip/cases = the [sweep] "
-                      "angle grid", study_table=True),  # fmt: skip
-    )
-    zip: Mapping[str, Any] = field(
-        default_factory=dict,
-        metadata=_key("-", "keys varied together (one axis, lists of equal length): "
-                      "dotted.key = [values]", study_table=True),  # fmt: skip
-    )
-    cases: str = field(
-        default="",
-        metadata=_key("-", "CSV file of cases (one axis): a header of dotted keys, one case per "
-                      "row; relative to the TOML file; '' = none"),  # fmt: skip
-    )
+class StudyConfig:  # wheelrom study (docs/usage.md "Design studies"); none: the [sweep] grid
+    grid: Mapping[str, Any] = field(default_factory=dict, metadata=_key(  # every combination
+        "-", "axes: dotted.key = [values] or 'start:stop:step' (stop included)", study_table=True))
+    zip: Mapping[str, Any] = field(default_factory=dict, metadata=_key(  # fmt: skip
+        "-", "one axis: dotted.key = [values], the lists of equal length", study_table=True))
+    cases: str = field(default="", metadata=_key(
+        "-", "CSV file of cases, one axis (header: dotted keys; relative to the TOML); '' = none"))
 
 
 @dataclass(frozen=True)
