@@ -11,9 +11,9 @@
 # built once and broadcast), analyses and integrates its cases on its own core, and all ranks
 # write into one HDF5 file with the mpio driver (put OUT on a parallel file system). Results
 # are bitwise the same for any number of ranks. Resubmitting the same job resumes it.
-# Size: the stability map takes ~30 s on one core; the transients of the screen ~16 s per case
-# and core for 1.5 s simulated (docs/performance.md); 64 tasks finish the 19 x 19 screen in a
-# few minutes, the full map (361 transients) in about 2 rounds of 16 s x batch.
+# Size (docs/performance.md, the 19 x 19 map of run/paper.toml): the stability map is 361 x
+# 0.14 s of work, a 1.5 s transient ~32 s per case and core; 64 tasks: map ~10 s, screen (59
+# boundary cases) ~1 min, full map (361 transients) ~3.5 min.
 #SBATCH --job-name=wheelrom-study
 #SBATCH --ntasks=64
 #SBATCH --cpus-per-task=1
