@@ -84,6 +84,39 @@ def convert_node_sets(where: str, value: Any, problems: list[str]) -> Any:
     return out
 
 
+def convert_study_table(where: str, value: Any, problems: list[str]) -> Any:
+    """``study.grid`` / ``study.zip``: dotted key -> list of values or a ``start:stop:step``
+    text; nested tables (TOML's unquoted dotted keys) are flattened to dotted keys. Only the
+    shape is checked here; the keys and values are checked against the configuration by
+    :mod:`wheelrom.study_config`."""
+    if not isinstance(value, Mapping):
+        problems.append(f"{where}: expected a table dotted.key = [values]")
+        return {}
+    out: dict[str, Any] = {}
+
+    def walk(table: Mapping[str, Any], prefix: str) -> None:
+        for key, item in table.items():
+            if isinstance(item, Mapping):
+                walk(item, f"{prefix}{key}.")
+            elif isinstance(item, list | tuple) and item and all(
+                is_number(v) or isinstance(v, str | bool) for v in item
+            ):
+                out[prefix + key] = tuple(item)
+            elif isinstance(item, str) and where.endswith("grid"):
+                out[prefix + key] = item
+            else:
+                text = "a non-empty list of values" + (
+                    " or 'start:stop:step'" if where.endswith("grid") else "")
+                problems.append(f"{where}.{prefix}{key}: expected {text}, got {item!r}")
+
+    walk(value, "")
+    return out
+
+
+def _toml_key(key: str) -> str:
+    return key if key.replace("_", "").replace("-", "").isalnum() else _toml_value(key)
+
+
 def _toml_value(v: Any) -> str:
     if isinstance(v, bool):
         return "true" if v else "false"
@@ -106,7 +139,7 @@ def to_toml(cfg: Any, comments: bool = True) -> str:
     def section(obj: Any, name: str) -> None:
         plain = [f for f in fields(obj) if not dataclasses.is_dataclass(getattr(obj, f.name))]
         skip = ("node_sets",) if name else ("source", "node_sets")
-        plain = [f for f in plain if f.name not in skip]
+        plain = [f for f in plain if f.name not in skip and not f.metadata.get("study_table")]
         if plain:
             lines.append(f"[{name}]")
             for f in plain:
@@ -122,6 +155,10 @@ def to_toml(cfg: Any, comments: bool = True) -> str:
             lines.append("")
         for f in fields(obj):
             value = getattr(obj, f.name)
+            if f.metadata.get("study_table") and value:
+                lines.append(f"[{name}.{f.name}]")
+                lines.extend(f"{_toml_key(k)} = {_toml_value(v)}" for k, v in value.items())
+                lines.append("")
             if dataclasses.is_dataclass(value):
                 section(value, f"{name}.{f.name}" if name else f.name)
 
@@ -144,7 +181,9 @@ def convert_field(where: str, f: dataclasses.Field, value: Any, problems: list[s
         return convert_stiffness(where, value, problems)
     if f.name == "node_sets":
         return convert_node_sets(where, value, problems)
-    if where.endswith("flutter.mode"):  # 'auto' or a mode number (-1: every mode)
+    if meta.get("study_table"):
+        return convert_study_table(where, value, problems)
+    if where.split("[")[0].endswith("flutter.mode"):  # "auto" or a mode number (-1: all)
         if isinstance(value, str) and value == "auto":
             return value
         if isinstance(value, int) and not isinstance(value, bool):

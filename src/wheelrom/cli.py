@@ -24,6 +24,7 @@ from wheelrom.cli_output import (
     print_modes,
     print_result,
     print_stability,
+    print_study,
     warn_unused,
     world_rank,
 )
@@ -216,6 +217,25 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     return 1 if failed else 0
 
 
+def cmd_study(args: argparse.Namespace) -> int:
+    """Design study under mpirun: the [study] keys of CONFIG varied as a grid, zipped lists or
+    CSV cases; linear stability of every case, then transients of all cases, of the
+    boundary cases (--screen) or of none (--stability-only), into one HDF5 file."""
+    from mpi4py import MPI
+
+    from wheelrom.study import run_study
+
+    cfg = load_config(args)
+    mode = cli_args.study_mode(args)
+    confirm = cli_args.parse_confirm(args.confirm)
+    summary = run_study(cfg, args.out, MPI.COMM_WORLD, mode=mode, confirm=confirm,
+                        resume=args.resume, force=args.force, log=log,
+                        batch=args.batch)  # fmt: skip
+    if world_rank() == 0:
+        print_json(summary) if args.json else print_study(summary, args.out)
+    return 1 if summary["transients"]["failed"] else 0
+
+
 def cmd_stability(args: argparse.Namespace) -> int:
     """Linear stability of every case at its preloaded equilibrium (nozzle off): eigenvalues
     per nodal diameter, the fastest-growing mode and what it does at the contacts. Under
@@ -255,6 +275,8 @@ COMMANDS: dict[
                 cli_args.args_compare),
     "sweep": (cmd_sweep, "contact-angle sweep under mpirun, parallel HDF5",
               cli_args.args_sweep),
+    "study": (cmd_study, "design study (grid, zip or CSV cases) under mpirun: stability map, "
+              "screened transients", cli_args.args_study),
     "plot": (cli_tools.cmd_plot, "figures from a results file", cli_args.args_plot),
     "info": (cli_tools.cmd_info, "summary of a results or model file", cli_args.args_info),
     "export": (cli_tools.cmd_export, "one case as CSV (tip histories, window statistics)",
@@ -329,7 +351,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except config_mod.ConfigError as exc:
         return fail(str(exc))
     except OutputExists as exc:
-        again = "--resume to complete it or --force" if args.command == "sweep" else "--force"
+        again = ("--resume to complete it or --force" if args.command in ("sweep", "study")
+                 else "--force")  # fmt: skip
         return fail(f"{exc.path} exists: pass {again} to overwrite it")
     except InputError as exc:
         return fail(str(exc))

@@ -73,6 +73,45 @@ def args_sweep(p):
     )
 
 
+def args_study(p):
+    json_out(p)
+    p.add_argument("--out", required=True, help="HDF5 results file (format wheelrom-sweep-2)")
+    what = p.add_mutually_exclusive_group()
+    what.add_argument("--stability-only", action="store_true",
+                      help="the linear stability of every case only (seconds)")  # fmt: skip
+    what.add_argument("--screen", action="store_true",
+                      help="stability of every case, then transients of the cases next to a "
+                      "stability boundary and of the --confirm ones")  # fmt: skip
+    p.add_argument("--confirm", default="", metavar="I,J,...",
+                   help="case indices (0-based, as 'wheelrom info' lists them) the screen "
+                   "runs a transient for in any case")  # fmt: skip
+    existing = p.add_mutually_exclusive_group()
+    existing.add_argument("--resume", action="store_true",
+                          help="complete an existing file: run the transients still pending")
+    existing.add_argument("--force", action="store_true", help="overwrite an existing file")
+    p.add_argument("--batch", type=int, default=0, metavar="B",
+                   help="cases integrated together in one TS per rank (0, default: all of a "
+                   "rank's cases that differ only in contact angles, up to 1 GiB of tip "
+                   "histories; results the same for any B)")  # fmt: skip
+
+
+def study_mode(args: argparse.Namespace) -> str:
+    """``stability``, ``screen`` or ``full`` from ``--stability-only`` / ``--screen``."""
+    if args.confirm and not args.screen:
+        raise InputError("--confirm names the cases --screen must run; it needs --screen")
+    return "stability" if args.stability_only else "screen" if args.screen else "full"
+
+
+def parse_confirm(text: str) -> tuple[int, ...]:
+    """``--confirm 3,17,40``: case indices (0-based)."""
+    out = []
+    for part in (p.strip() for p in text.split(",") if p.strip()):
+        if not part.isdigit():
+            raise InputError(f"--confirm: '{part}' is not a case index (0, 1, ...)")
+        out.append(int(part))
+    return tuple(sorted(set(out)))
+
+
 def args_stability(p):
     json_out(p)
     p.add_argument("--out", help="write the stability of every case to this HDF5 file")

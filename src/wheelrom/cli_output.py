@@ -253,6 +253,10 @@ def print_info(info: dict, show_all: bool = False) -> None:
     model = info.get("model") or {}
     if info["kind"] == "model":
         print(f"{info['file']}: reduced model (modes --out)")
+    elif info["kind"] == "study":
+        shape = " x ".join(map(str, info["shape"]))
+        print(f"{info['file']}: {info['format']} study ({info['mode']}), {info['counts']['total']}"
+              f" cases of {', '.join(info['parameters'])} ({shape}), {info['models']} model(s)")
     elif info["kind"] == "stability":
         n = info["counts"]
         print(f"{info['file']}: linear stability, {n['total']} cases: {n['stable']} stable, "
@@ -274,6 +278,9 @@ def print_info(info: dict, show_all: bool = False) -> None:
                   "families (frequencies_by_nd)")  # fmt: skip
         for name, what in model.get("extras", {}).items():
             print(f"  also:          {name}: {what}")
+    if info["kind"] == "study":
+        _print_study_cases(info, show_all)
+        return
     if info["kind"] == "stability":
         print(" case tie-boss  shroud  verdict   growth [1/s]  ND  frequency [Hz]")
         for row in info["cases"]:
@@ -331,6 +338,41 @@ def _print_cases(rows: list[dict], windows: int, show_all: bool) -> None:
               f"{wall:>9s}  {row['scheme']}{reason}")  # fmt: skip
 
 
+def _print_study_cases(info: dict, show_all: bool) -> None:
+    """The counts and case table of a study file (:func:`print_info`)."""
+    from wheelrom.study_config import short_name
+
+    v, c = info["verdicts"], info["counts"]
+    print(f"  stability:     {v['stable']} stable, {v['unstable']} unstable, {v['failed']} failed")
+    print(f"  transients:    {c['done']} done, {c['failed']} failed, {c['pending']} pending, "
+          f"{c['skipped']} not run")  # fmt: skip
+    rows = info["cases"]
+    shown = set(range(len(rows)))
+    if len(rows) > LONG_LISTING and not show_all:
+        shown = {*range(ENDS_SHOWN), *range(len(rows) - ENDS_SHOWN, len(rows)),
+                 *(r["index"] for r in rows if "failed" in (r["status"], r["verdict"]))}
+    print(f"{'case':>5s}  {'verdict':9s} {'growth [1/s]':>12s}  {'selected':13s} {'transient':9s}"
+          f" {'wall [s]':>9s}  parameters")  # fmt: skip
+    hidden = 0
+    for row in rows:
+        if row["index"] not in shown:
+            hidden += 1
+            continue
+        if hidden:
+            print(f"  ... {hidden} case(s) not shown (--all lists every case)")
+            hidden = 0
+        growth = "-" if row["max_growth_rate"] is None else f"{row['max_growth_rate']:+.4g}"
+        wall = "-" if row["wall_s"] is None else f"{row['wall_s']:.4g}"
+        params = ", ".join(f"{short_name(k)}={t}" for k, t in row["parameters"].items())
+        why = "  " + (row["reason"] or row["stability_failure"] or "")
+        print(f"{row['index']:5d}  {row['verdict']:9s} {growth:>12s}  {row['selected_by']:13s} "
+              f"{row['status']:9s} {wall:>9s}  {params}{why.rstrip()}")  # fmt: skip
+    if hidden:
+        print(f"  ... {hidden} case(s) not shown (--all lists every case)")
+    if info.get("hint"):
+        print(info["hint"])
+
+
 def print_stability(cases: list[dict]) -> None:
     """One line per case (verdict, fastest mode), then contact states and the count."""
     for case in cases:
@@ -349,6 +391,18 @@ def print_stability(cases: list[dict]) -> None:
             print(f"    {_margin_words(case['flutter_margin'])}")
     bad = sum(c["verdict"] == "unstable" for c in cases)
     print(f"{len(cases)} case(s): {len(cases) - bad} stable, {bad} unstable")
+
+
+def print_study(summary: dict, path: str) -> None:
+    """``wheelrom study`` for people: what the file holds, in three lines."""
+    v, t = summary["verdicts"], summary["transients"]
+    chosen = ", ".join(f"{k} {n}" for k, n in summary["selected_by"].items())
+    print(f"{path}: {summary['cases']} cases of {', '.join(summary['parameters'])} "
+          f"({summary['mode']}, {summary['models']} model(s))")  # fmt: skip
+    print(f"  linear stability: {v['stable']} stable, {v['unstable']} unstable, "
+          f"{v['failed']} failed")  # fmt: skip
+    print(f"  transients:       {t['done']} done, {t['failed']} failed, {t['pending']} "
+          f"pending, {t['skipped']} not run (selected by: {chosen})")  # fmt: skip
 
 
 def _margin_words(m: dict) -> str:

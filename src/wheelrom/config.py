@@ -284,6 +284,16 @@ class SweepConfig:
 
 
 @dataclass(frozen=True)
+class StudyConfig:  # wheelrom study (docs/usage.md "Design studies"); none: the [sweep] grid
+    grid: Mapping[str, Any] = field(default_factory=dict, metadata=_key(  # every combination
+        "-", "axes: dotted.key = [values] or 'start:stop:step' (stop included)", study_table=True))
+    zip: Mapping[str, Any] = field(default_factory=dict, metadata=_key(  # fmt: skip
+        "-", "one axis: dotted.key = [values], the lists of equal length", study_table=True))
+    cases: str = field(default="", metadata=_key(
+        "-", "CSV file of cases, one axis (header: dotted keys; relative to the TOML); '' = none"))
+
+
+@dataclass(frozen=True)
 class MistuningConfig:
     pattern: tuple[float, ...] = field(
         default=(),
@@ -315,6 +325,7 @@ class Config:
     output: OutputConfig = field(default_factory=OutputConfig)
     sweep: SweepConfig = field(default_factory=SweepConfig)
     mistuning: MistuningConfig = field(default_factory=MistuningConfig)
+    study: StudyConfig = field(default_factory=StudyConfig)
     source: str = field(default="<built-in default>", compare=False)
 
     def replace(self, **changes: Any) -> Config:

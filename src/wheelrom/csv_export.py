@@ -26,6 +26,7 @@ import numpy as np
 from wheelrom.errors import InputError
 from wheelrom.outputs import check_output, replacing
 from wheelrom.results import FORMAT
+from wheelrom.study_file import FORMAT as STUDY_FORMAT
 
 TABLES = ("tips", "windows")
 ALL_TABLES = (*TABLES, "contact_forces")
@@ -44,15 +45,18 @@ def case_tables(path: str, case: int,
     except OSError as exc:
         raise InputError(f"{path}: not an HDF5 file ({exc})") from None
     with f:
-        if f.attrs.get("format") != FORMAT or "cases" not in f:
-            raise InputError(f"{path}: not a wheelrom results file (format {FORMAT!r} expected)")
+        if f.attrs.get("format") not in (FORMAT, STUDY_FORMAT) or "cases" not in f:
+            raise InputError(f"{path}: not a wheelrom results file (format {FORMAT!r} or "
+                             f"{STUDY_FORMAT!r} expected)")  # fmt: skip
         c = f["cases"]
+        if "max_tip_amplitude" not in c:
+            raise InputError(f"{path}: a --stability-only study: no transient to export")
         total = c["status"].shape[0]
         if not 0 <= case < total:
             raise InputError(f"--case {case}: the file has cases 0..{total - 1}")
         status = c["status"][case].decode()
-        if status == "pending":
-            raise InputError(f"--case {case} is pending: nothing computed yet to export")
+        if status in ("pending", "skipped"):
+            raise InputError(f"--case {case} is {status}: no transient computed to export")
         tables = {"tips": lambda: _tips(c, case, path), "windows": lambda: _windows(c, case)}
         out = {name: tables[name]() for name in what if name in tables}
     if "contact_forces" in what:

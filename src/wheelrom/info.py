@@ -17,6 +17,8 @@ import numpy as np
 from wheelrom.errors import InputError
 from wheelrom.histories import case_bytes
 from wheelrom.results import FORMAT, STABILITY_FORMAT, statuses
+from wheelrom.study_file import FORMAT as STUDY_FORMAT
+from wheelrom.study_file import read_parameters, summary
 
 #: model datasets beyond the sweep's, with what they are (``modes --out``)
 MODEL_EXTRAS = {
@@ -53,14 +55,16 @@ def file_info(path: str) -> dict:
         fmt = f.attrs.get("format")
         if fmt == FORMAT and "cases" in f:
             return _results_info(f, path)
+        if fmt == STUDY_FORMAT and "cases" in f:
+            return _study_info(f, path)
         if fmt is None and "model" in f and "config" in f.attrs:
             return _model_file_info(f, path)
         if fmt == STABILITY_FORMAT and "stability" in f:
             return _stability_info(f, path)
         found = f"format {fmt!r}" if fmt is not None else "no 'format' attribute"
         raise InputError(f"{path}: not a wheelrom results or model file ({found}; "
-                         f"expected {FORMAT!r}, {STABILITY_FORMAT!r} or a modes --out "
-                         "model)")  # fmt: skip
+                         f"expected {FORMAT!r}, {STUDY_FORMAT!r}, {STABILITY_FORMAT!r} or a "
+                         "modes --out model)")  # fmt: skip
 
 
 def _text(value) -> str | None:
@@ -242,3 +246,46 @@ def _stability_info(f, path: str) -> dict:
                    "total": len(verdicts)},  # fmt: skip
         "cases": cases,
     }
+
+
+def _study_info(f, path: str) -> dict:
+    """A study file (format 2): the study's parameters and counts, then per case its
+    parameter values, linear verdict and fastest growth rate [1/s], why it got a transient
+    (``selected_by``) and the transient's status, windows and wall time."""
+    params = read_parameters(f)
+    g = f["stability"]
+    verdicts = [v.decode() for v in g["verdict"][()]]
+    growth = g["max_growth_rate"][()]
+    chosen = [s.decode() for s in f["cases/selected_by"][()]]
+    transient = "max_tip_amplitude" in f["cases"]
+    if transient:
+        rows = case_rows(f["cases"])
+    else:
+        rows = [{"index": i, "status": "skipped", "reason": None, "windows_done": 0,
+                 "wall_s": None, "scheme": "-"} for i in range(len(verdicts))]  # fmt: skip
+    for i, row in enumerate(rows):
+        verdict, _, why = verdicts[i].partition(": ")
+        row.update(parameters=dict(zip(params["names"], params["text"][i], strict=True)),
+                   verdict=verdict, stability_failure=why or None,
+                   max_growth_rate=float(growth[i]) if np.isfinite(growth[i]) else None,
+                   selected_by=chosen[i])  # fmt: skip
+    header = _header(f, path, "study")
+    done = summary(f)
+    out = {**header, **{k: done[k] for k in ("mode", "parameters", "models", "verdicts")},
+           "shape": list(params["shape"]), "counts": {**done["transients"], "total": len(rows)},
+           "selected_by": done["selected_by"], "cases": rows}  # fmt: skip
+    if transient:
+        window_end = f["cases/window_end"][()]
+        out.update(time_end_s=float(window_end[-1]), windows=int(window_end.size),
+                   window_s=_configured_time(f).get("window"))  # fmt: skip
+    pending = out["counts"]["pending"]
+    source = header["config_source"]
+    flag = {"screen": " --screen", "full": ""}.get(out["mode"], "")
+    out["hint"] = None
+    if pending and source and " + --set " not in source and not source.startswith("<"):
+        out["hint"] = (f"{pending} transient(s) pending: wheelrom study {source} --out {path}"
+                       f"{flag} --resume")  # fmt: skip
+    elif pending:
+        out["hint"] = (f"{pending} transient(s) pending: rerun the study with{flag} --resume "
+                       f"and the same configuration ({source or 'the file attribute config'})")
+    return out

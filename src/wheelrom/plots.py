@@ -17,7 +17,9 @@ from wheelrom.forces.parameters import stiffness_at
 from wheelrom.plot_helpers import cell_edges as _cell_edges
 from wheelrom.plot_helpers import need as _need
 from wheelrom.plot_helpers import save as _save
-from wheelrom.results import read_config
+from wheelrom.results import read_config, statuses
+from wheelrom.study_file import FORMAT as STUDY_FORMAT
+from wheelrom.study_file import read_parameters
 
 FONT = {"font.size": 11, "axes.titlesize": 12, "axes.labelsize": 11, "figure.dpi": 110}
 
@@ -44,13 +46,27 @@ def plot_file(path: str, outdir: str | None = None, pdf: bool = False,
         cfg = read_config(f, path)
         if "model" in f:
             _modal_figures(f, cfg, path, outdir, pdf, written, plt)
-        if "cases" in f:
+        study = f.attrs.get("format") == STUDY_FORMAT
+        if "cases" in f and (not study or _angle_sweep(f, everything_run=True)):
             _sweep_figures(f, cfg, path, outdir, pdf, written, plt, nd_angles)
-        if "stability" in f:
+        if "stability" in f and (not study or _angle_sweep(f)):
             from wheelrom.plots_stability import stability_figures
 
             stability_figures(f, path, outdir, pdf, written, plt)
+        if study:
+            from wheelrom.plots_study import study_figures
+
+            study_figures(f, path, outdir, pdf, written, plt)
     return written
+
+
+def _angle_sweep(f, everything_run: bool = False) -> bool:
+    """Whether a study file is a contact-angle sweep the format-1 figures draw: it varies only
+    the contact angles (and, ``everything_run``, every case has its transient)."""
+    params = read_parameters(f)
+    if not set(params["names"]) <= {"contacts.tieboss.angle_deg", "contacts.shroud.angle_deg"}:
+        return False
+    return not everything_run or all(s == "done" for s in statuses(f))
 
 
 def _modal_figures(f, cfg, path, outdir, pdf, written, plt) -> None:

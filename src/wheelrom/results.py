@@ -77,17 +77,19 @@ def write_model_file(f, cfg: Config, model: ReducedModel, extra: dict | None = N
         f[f"model/{name}"] = value
 
 
-def create_layout(f, cfg: Config, model: ReducedModel) -> None:
+def create_layout(f, cfg: Config, model: ReducedModel, angles: np.ndarray | None = None) -> None:
     """Create every dataset of a sweep of ``cfg`` (collective: all ranks call this
-    identically); every case ``pending``."""
-    C = case_angles(cfg).shape[0]
+    identically); every case ``pending``. ``angles``: ``(C, 2)`` tie-boss, shroud angle of
+    every case [deg] (default: ``cfg``'s sweep grid; a study passes its cases')."""
+    angles = case_angles(cfg) if angles is None else angles
+    C = angles.shape[0]
     grid = time_grid(cfg)
     W, N = grid.windows, model.blades
     f.attrs["format"] = FORMAT
     f.attrs["config"] = config_mod.to_toml(cfg)
     f.attrs["config_source"] = cfg.source
     cases = f.create_group("cases")
-    cases.create_dataset("angles_deg", data=case_angles(cfg))
+    cases.create_dataset("angles_deg", data=angles)
     cases.attrs["angle_columns"] = "tieboss, shroud"
     st = cases.create_dataset("status", (C,), dtype=f"S{STATUS_LEN}")
     cases.create_dataset("wall_s", (C,), dtype="f8", fillvalue=np.nan)

@@ -29,6 +29,7 @@ def run_stability(cfg: Config, comm=None, log=print,
     flutter margin of every case (:mod:`wheelrom.transient.margin`)."""
     from wheelrom._environment import petsc, slepc
 
+    refuse_study(cfg, "stability")
     # PetscInitialize is collective on COMM_WORLD: every rank, before rank 0 builds alone
     petsc()
     slepc()
@@ -62,6 +63,15 @@ def run_stability(cfg: Config, comm=None, log=print,
         listing = "; ".join(f"case {i} ({_case_label(angles[i])}): {why}" for i, why in failed)
         raise InputError(f"linear stability failed for {len(failed)} case(s): {listing}"[:2000])
     return model, [res for _, res in ordered]
+
+
+def refuse_study(cfg: Config, command: str) -> None:
+    """A configuration with a ``[study]`` (grid, zip or cases) is run by ``wheelrom study``:
+    ``sweep`` and ``stability`` would silently run the ``[sweep]`` angles instead."""
+    st = cfg.study
+    if st.grid or st.zip or st.cases:
+        raise InputError(f"{cfg.source}: has a [study] section, which '{command}' does not run "
+                         "(it runs the [sweep] angles): use 'wheelrom study'")  # fmt: skip
 
 
 def _analyse(model, cfg: Config, angles_deg: dict, margin: bool) -> StabilityResult:

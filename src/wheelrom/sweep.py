@@ -24,7 +24,7 @@ from wheelrom.config import Config
 from wheelrom.errors import InputError, Interrupted
 from wheelrom.outputs import output_problem, partial_name
 from wheelrom.rom.build import build_model
-from wheelrom.stability_study import attach_linear
+from wheelrom.stability_study import attach_linear, refuse_study
 from wheelrom.transient.problem import CaseResult
 from wheelrom.transient.run import run_cases
 from wheelrom.transient.ts import PREFIX, ts_settings
@@ -51,6 +51,7 @@ def run_sweep(cfg: Config, out: str, comm, resume: bool = False, force: bool = F
     petsc()
     slepc()
     say = log if comm.rank == 0 else (lambda *_: None)
+    refuse_study(cfg, "sweep")
     if batch < 0:
         raise InputError(f"sweep batch must be >= 0, not {batch}")
     if model_comm not in ("rank0", "world"):

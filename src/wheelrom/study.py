@@ -1,0 +1,300 @@
+"""Design studies across MPI ranks (``wheelrom study``): the linear stability of every case,
+then transients of all cases (``full``), of the cases that decide the picture (``screen``:
+both sides of every stability boundary, plus the ones the user lists) or of none
+(``stability``), into one file of format ``wheelrom-sweep-2`` (:mod:`wheelrom.study_file`).
+
+Each reduced model is built once, by one rank (group ``g`` by rank ``g mod P``), and
+broadcast; a case's stability and transient are computed by one rank on ``COMM_SELF`` with
+the model of its group, so every number in the file is the same for any rank count. Cases are
+dealt longest first to the least loaded rank (cost ~ the model's size, and the number of TS
+steps for a transient); a rank integrates its cases in TS batches of cases that differ only
+in their contact angles. Transients run in rounds as in ``sweep``: after every round the
+file is flushed collectively, so a killed study keeps its finished rounds and ``--resume``
+runs the cases still pending.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import time
+
+from wheelrom import interrupts, results, study_file
+from wheelrom._environment import petsc, slepc
+from wheelrom.config import Config
+from wheelrom.errors import InputError, Interrupted
+from wheelrom.outputs import output_problem, partial_name, replacing
+from wheelrom.rom.build import build_model
+from wheelrom.stability_study import attach_linear
+from wheelrom.study_config import Study, batch_key, expand, model_key
+from wheelrom.study_plan import balance, batches, group_by, selection
+from wheelrom.sweep import _lor, _Progress
+from wheelrom.transient.problem import CaseResult
+from wheelrom.transient.run import run_cases
+from wheelrom.transient.stability import analyse
+from wheelrom.transient.ts import PREFIX, time_grid, ts_settings
+
+HISTORY_BYTES = 1 << 30  # tip histories a rank holds in one batch by default (1 GiB)
+
+
+def run_study(cfg: Config, out: str, comm, mode: str = "full", confirm: tuple = (),
+              resume: bool = False, force: bool = False, log=print,
+              options: dict | None = None, batch: int = 0) -> dict:  # fmt: skip
+    """Run the study of ``cfg`` into ``out`` (collective over the mpi4py ``comm``); returns
+    :func:`wheelrom.study_file.summary` of the file (on every rank).
+
+    ``mode``: ``full``, ``screen`` or ``stability`` (module docstring); ``confirm``: case
+    indices the screen runs in any case; ``batch``: cases per TS (0: all of a rank's cases
+    that can share one, up to ``HISTORY_BYTES`` of tip histories). Raises
+    :class:`Interrupted` after a Ctrl-C / SIGTERM once the finished rounds are in the file.
+    """
+    petsc()  # PetscInitialize is collective: every rank before one builds alone
+    slepc()
+    say = log if comm.rank == 0 else (lambda *_: None)
+    _check_arguments(mode, resume, force, batch)
+    study = expand(cfg)
+    if any(not 0 <= i < study.size for i in confirm):
+        raise InputError(f"--confirm: case indices are 0..{study.size - 1}, got "
+                         f"{', '.join(map(str, confirm))}")  # fmt: skip
+    settings = ts_settings(cfg, PREFIX, options)
+    if len(json.dumps(settings)) > results.STATUS_LEN:
+        raise InputError("too many TS options to record: pass fewer -wheel_ts_* options")
+    problem = None
+    if comm.rank == 0:
+        try:
+            problem = _output_problem(out, cfg, mode, resume, force,
+                                      None if "time.step" in study.names else settings)
+        except Exception as exc:  # rank 0's surprise must not leave the others waiting
+            problem = InputError(f"{out}: cannot be checked for --resume ({exc})")
+    problem = comm.bcast(problem)
+    if problem:
+        raise problem
+    t0 = time.perf_counter()
+    model_of, members = group_by([model_key(c) for c in study.configs])
+    shape = " x ".join(map(str, study.shape))
+    say(f"study: {study.size} cases of {', '.join(study.names)} ({shape}), {len(members)} "
+        f"model(s), {comm.size} rank(s)")  # fmt: skip
+    fresh = not (resume and os.path.exists(out))
+    if fresh:
+        models = _models(study, members, range(len(members)), comm, say)
+        if mode != "stability" and not all(m.tuned for m in models):
+            raise InputError("mistuning: the transient of a mistuned wheel is not implemented "
+                             "yet; 'wheelrom study --stability-only' analyses it")  # fmt: skip
+        t1 = time.perf_counter()
+        stability = _stability(study, models, model_of, comm, say)
+        took = time.perf_counter() - t1
+        chosen = selection(_labels(stability), study.shape, confirm, mode)
+        say(f"stability of {study.size} cases in {took:.1f} s ({study.size / took:.3g} cases/s "
+            f"on {comm.size} rank(s); models {t1 - t0:.1f} s); "
+            f"{sum(c != 'none' for c in chosen)} case(s) selected for a transient")  # fmt: skip
+        _create(out, cfg, study, models, model_of, stability, chosen, mode, comm)
+    if mode != "stability":
+        _transients(out, cfg, study, model_of, members, comm, batch, options, say, settings,
+                    models if fresh else None)  # fmt: skip
+    wait_for_all(comm)
+    import h5py
+
+    with h5py.File(out, "r", locking=False) as f:
+        done = study_file.summary(f)
+    say(f"study finished in {time.perf_counter() - t0:.1f} s")
+    return done
+
+
+def _check_arguments(mode: str, resume: bool, force: bool, batch: int) -> None:
+    if mode not in study_file.MODES:
+        raise InputError(f"study mode must be one of {', '.join(study_file.MODES)}, not {mode!r}")
+    if resume and force:
+        raise InputError("--resume and --force exclude each other (complete the file, or "
+                         "start it again)")  # fmt: skip
+    if batch < 0:
+        raise InputError(f"study batch must be >= 0, not {batch}")
+
+
+def _output_problem(out: str, cfg: Config, mode: str, resume: bool, force: bool,
+                    settings: dict | None) -> InputError | None:  # fmt: skip
+    """Why ``out`` must not be written (None: go ahead); ``settings``: the TS settings the
+    finished cases must have used (None: not checked, a study of ``time.step``)."""
+    problem = output_problem(out, force=resume or force)
+    if problem or not (resume and os.path.exists(out)):
+        return problem
+    why = study_file.resume_problem(out, cfg, mode)
+    if why is None and mode != "stability" and settings is not None:
+        why = results.options_problem(out, settings)
+    return InputError(why) if why else None
+
+
+def _models(study: Study, members: list[list[int]], wanted, comm, say) -> list:
+    """The reduced model of every group in ``wanted`` (else None): group ``g`` built by rank
+    ``g mod P`` on ``COMM_SELF`` (the ranks build their groups at the same time), then
+    broadcast from there."""
+    built, failure = {}, None
+    for g, cases in enumerate(members):
+        if g in wanted and g % comm.size == comm.rank and failure is None:
+            try:
+                built[g] = build_model(study.configs[cases[0]], petsc().COMM_SELF)
+            except Exception as exc:  # told to every rank: no rank waits for a lost model
+                failure = f"model {g + 1} (case {cases[0]}: {study.label(cases[0])}): {exc}"
+    wait_for_all(comm)
+    failures = [f for f in comm.allgather(failure) if f]
+    if failures:
+        raise InputError("; ".join(failures)[:2000])
+    models = [comm.bcast(built.get(g), root=g % comm.size) if g in wanted else None
+              for g in range(len(members))]  # fmt: skip
+    for g, model in enumerate(models):
+        if model is not None:
+            say(f"model {g + 1}/{len(members)} ({len(members[g])} case(s)): {model.blades} "
+                f"blades x {model.modes} modes, built by rank {g % comm.size} in "
+                f"{model.info['build_s']:.1f} s")  # fmt: skip
+    return models
+
+
+def wait_for_all(comm, poll: float = 0.005) -> None:
+    """A barrier that sleeps while it waits (MPI's blocking collectives spin): a rank done
+    early leaves its core to the ranks still computing (several ranks on shared cores)."""
+    request = comm.Ibarrier()
+    while not request.Test():
+        time.sleep(poll)
+
+
+def _stability(study: Study, models: list, model_of: list[int], comm, say) -> dict:
+    """``/stability`` of every case (:func:`wheelrom.study_file.stability_arrays`) on every
+    rank: each rank analyses its share (balanced by model size), rank 0 assembles."""
+    costs = [models[g].blades * models[g].modes ** 3 for g in model_of]
+    mine = balance(costs, comm.size)[comm.rank]
+    found, last = [], time.perf_counter()
+    for k, i in enumerate(mine):
+        try:
+            res = analyse(models[model_of[i]], study.configs[i])
+        except Exception as exc:  # a failed case is recorded, never a hang of the others
+            res = f"{type(exc).__name__}: {exc}"
+        found.append((i, res))
+        if time.perf_counter() - last > 2.0 or k == len(mine) - 1:
+            last = time.perf_counter()
+            say(f"  stability: {k + 1}/{len(mine)} of rank 0's cases")
+    wait_for_all(comm)
+    gathered = comm.gather(found, root=0)
+    arrays = None
+    if comm.rank == 0:
+        ordered = sorted((item for part in gathered for item in part), key=lambda it: it[0])
+        arrays = study_file.stability_arrays([res for _, res in ordered])
+    return comm.bcast(arrays)
+
+
+def _labels(stability: dict) -> list[str]:
+    return [v.decode().partition(":")[0] for v in stability["verdict"]]
+
+
+def _create(out, cfg, study, models, model_of, stability, chosen, mode, comm) -> None:
+    """The file with its full layout (serially by rank 0 for ``stability``, else
+    collectively), under a temporary name renamed into place when complete."""
+    import h5py
+
+    if mode == "stability":
+        failure = None
+        if comm.rank == 0:
+            try:
+                with replacing(out) as partial, h5py.File(partial, "w") as f:
+                    study_file.create(f, cfg, study, models, model_of, stability, chosen, mode)
+            except Exception as exc:  # told to every rank: none waits for a lost file
+                failure = f"{out}: cannot be written ({type(exc).__name__}: {exc})"
+        wait_for_all(comm)
+        failure = comm.bcast(failure)
+        if failure:
+            raise InputError(failure)
+        return
+    partial = partial_name(out)
+    try:
+        with h5py.File(partial, "w", driver="mpio", comm=comm) as f:
+            study_file.create(f, cfg, study, models, model_of, stability, chosen, mode)
+    except BaseException:
+        if comm.rank == 0 and os.path.exists(partial):
+            os.remove(partial)
+        raise
+    comm.Barrier()
+    if comm.rank == 0:
+        os.replace(partial, out)
+    comm.Barrier()
+
+
+def _transients(out, cfg, study, model_of, members, comm, batch, options, say, settings,
+                models) -> None:  # fmt: skip
+    """Run the pending cases of the file in rounds (module docstring)."""
+    import h5py
+
+    with h5py.File(out, "r", locking=False) as f:  # every rank reads the same statuses
+        status = results.statuses(f)
+    todo = [i for i, s in enumerate(status) if s == "pending"]
+    if models is None:  # resuming: the models of the pending cases only
+        models = _models(study, members, {model_of[i] for i in todo}, comm, say)
+    costs = [models[model_of[i]].modes ** 2 * _steps(study.configs[i]) for i in todo]
+    mine = [todo[j] for j in balance(costs, comm.size)[comm.rank]]
+    keys = [batch_key(c) for c in study.configs]
+    plan = batches(mine, keys, batch or _memory_width(cfg, models))
+    rounds = comm.allreduce(len(plan), op=_max())
+    say(f"{len(todo)} transient(s) to run on {comm.size} rank(s) in {rounds} round(s)")
+    clock = _Progress(say, cfg.time.end, settings["ts_dt"], rounds)
+    with interrupts.deferred(), h5py.File(out, "r+", driver="mpio", comm=comm) as f:
+        for r in range(rounds):
+            chunk = plan[r] if r < len(plan) else []
+            finished = _run_batch(chunk, study, models, model_of, options, settings,
+                                  clock.window(r, len(chunk)))  # fmt: skip
+            chunk = chunk if finished else []
+            for i, res in zip(chunk, finished, strict=True):
+                attach_linear(models[model_of[i]], study.configs[i], None, res)
+                results.write_case(f, i, res)
+            wait_for_all(comm)
+            f.flush()  # collective: every finished round is on disk
+            _report(comm, say, study, chunk, finished, len(status))
+            if comm.allreduce(interrupts.requested(), op=_lor()):
+                raise Interrupted(f"interrupted: the finished rounds are saved in {out}; "
+                                  "rerun with --resume to complete it")  # fmt: skip
+
+
+def _memory_width(cfg: Config, models: list) -> int:
+    """The default batch width: the cases whose stored histories (tip ``(S, N, 3)``, state
+    ``(S', 2, N, m)``) fit in ``HISTORY_BYTES`` per rank (a batch holds them all until it is
+    written)."""
+    N = max(m.blades for m in models if m is not None)
+    m = max(m.modes for m in models if m is not None)
+    grid = time_grid(cfg)
+    per_case = 8 * (3 * N * grid.history_max + 2 * N * m * grid.state_max)  # [bytes]
+    return max(1, HISTORY_BYTES // max(per_case, 1))
+
+
+def _steps(cfg: Config) -> float:
+    return cfg.time.end / cfg.time.step
+
+
+def _run_batch(chunk, study, models, model_of, options, settings, progress) -> list:
+    """The transient results of one batch (cases sharing a model and all but their
+    angles); a solver error fails the batch, a stop request returns nothing."""
+    if not chunk:
+        return []
+    first = study.configs[chunk[0]]
+    angles = [{"tieboss": study.configs[i].contacts.tieboss.angle_deg,
+               "shroud": study.configs[i].contacts.shroud.angle_deg} for i in chunk]  # fmt: skip
+    try:
+        return run_cases(models[model_of[chunk[0]]], first, angles, options=options,
+                         progress=progress)  # fmt: skip
+    except KeyboardInterrupt:  # a stop asked for: this batch stays pending
+        return []
+    except Exception as exc:  # a solver error fails this batch, not the study
+        return [CaseResult(status=f"failed: {type(exc).__name__}: {exc}", options=settings)
+                for _ in chunk]  # fmt: skip
+
+
+def _report(comm, say, study, chunk, finished, total) -> None:
+    report = [(i, res.status, res.wall_s, res.classification)
+              for i, res in zip(chunk, finished, strict=True)]  # fmt: skip
+    gathered = comm.gather(report, root=0)
+    if comm.rank == 0:
+        for i, st, wall, verdict in sorted(item for part in gathered for item in part):
+            wall_text = f"{wall:.3g} s" if math.isfinite(wall) else "-"
+            say(f"[case {i}/{total - 1}] {study.label(i)}: {st} ({wall_text}); {verdict}")
+
+
+def _max():
+    from mpi4py import MPI
+
+    return MPI.MAX
