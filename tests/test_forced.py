@@ -150,3 +150,44 @@ def test_cli_forced_response_refuses_a_bad_range(bad, capsys):
 
     assert cli.main(["forced-response", SMALL, f"--frequencies={bad}"]) == 2
     assert capsys.readouterr().err.startswith(f"wheelrom: --frequencies {bad}")
+
+
+def test_resonance_equals_the_transient_steady_state(small_cfg, comm):
+    """At the ND-2 resonance of the third family (contacts and Van der Pol off, damping raised
+    so that the start transient dies within the run), the transient's tip motion over its last
+    0.1 s, fitted by ``a cos w t + b sin w t + c``, has the forced response's amplitude on every
+    blade (0.5 %)."""
+    from wheelrom.rom.build import build_model, quiet
+    from wheelrom.transient.run import run_case
+
+    linear = {
+        "contacts.tieboss.enabled": False,
+        "contacts.shroud.enabled": False,
+        "flutter.mu": 0.0,
+        "segment.prestress": False,
+        "wheel.damping_beta": 2e-5,
+        "time.end": 0.3,
+        "time.window": 0.015,
+        "output.history_rate_hz": 20000.0,
+    }
+    cfg = small_cfg.replace(**linear)
+    model = build_model(cfg, comm, log=quiet)
+    n_s = cfg.wheel.stator_vanes
+    K, C = forced.operators(model, cfg, contacts=False)
+    F = forced.nozzle_amplitude(model, n_s, cfg.excitation.force)
+    w0 = _nd_frequency(model, int(nodal_diameter(n_s, model.blades)), family=2)
+    found = minimize_scalar(
+        lambda w: -forced.tip_amplitudes(model, forced.direct_solve(K, C, F, w)).max(),
+        bounds=(0.98 * w0, 1.02 * w0), method="bounded", options={"xatol": 1e-8 * w0})  # fmt: skip
+    w = found.x
+    steady = forced.forced_response(model, cfg, [w], contacts=False).blade_amplitude[0]
+    res = run_case(model, cfg.replace(**{"wheel.speed_hz": w / (2 * math.pi * n_s)}))
+    assert res.status == "done"
+    t, tip = res.sample_time, res.tip_history
+    period = 2 * math.pi / w
+    keep = t > t[-1] - math.floor(0.1 / period) * period + 1e-12  # whole periods
+    basis = np.stack([np.cos(w * t[keep]), np.sin(w * t[keep]), np.ones(keep.sum())], axis=1)
+    coef = np.linalg.lstsq(basis, tip[keep].reshape(keep.sum(), -1), rcond=None)[0]
+    fitted = np.sqrt(coef[0] ** 2 + coef[1] ** 2).reshape(-1, 3)  # |a - i b| per component
+    transient = np.sqrt((fitted**2).sum(axis=1))
+    assert np.abs(transient / steady - 1).max() <= 5e-3
