@@ -20,6 +20,7 @@ STAGES = (
     ("wheelrom.info", 5), ("wheelrom.csv_export", 5), ("wheelrom.sweep", 6),
     ("wheelrom.histories", 5), ("wheelrom.reconstruct", 5), ("wheelrom.wheel_motion", 6),
     ("wheelrom.plots_motion", 7), ("wheelrom.cli_motion", 8),
+    ("wheelrom.cli_forced", 8),
     ("wheelrom.stability_study", 6), ("wheelrom.study_plan", 5), ("wheelrom.study_file", 5),
     ("wheelrom.study", 6), ("wheelrom.plots_study", 7),
     ("wheelrom.bench", 7), ("wheelrom.plots", 7), ("wheelrom.plots_stability", 7),

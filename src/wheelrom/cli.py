@@ -12,7 +12,7 @@ import os
 import sys
 from collections.abc import Callable, Sequence
 
-from wheelrom import _kernel_cache, cli_args, cli_motion, cli_tools
+from wheelrom import _kernel_cache, cli_args, cli_forced, cli_motion, cli_tools
 from wheelrom import config as config_mod
 from wheelrom._environment import bootstrap
 from wheelrom.cli_args import comm_self, load_config
@@ -294,6 +294,8 @@ COMMANDS: dict[
                  cli_args.args_accuracy),
     "stability": (cmd_stability, "linear stability per nodal diameter of every case",
                   cli_args.args_stability),
+    "forced-response": (cli_forced.cmd_forced, "linear forced response to the nozzle, "
+                        "tuned and mistuned (amplification factor)", cli_forced.args_forced),
     "contact-stiffness": (cli_tools.cmd_contact_stiffness,
                           "k_c(beta) from the segment FE (static unit loads)",
                           cli_args.json_out),

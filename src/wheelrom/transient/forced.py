@@ -1,0 +1,237 @@
+"""Linear forced response to the nozzle (issue #22): the steady harmonic state of the wheel
+linearised at its preloaded equilibrium, tuned or mistuned.
+
+The nozzle force on blade ``s`` at engine order ``n_s`` (``wheel.stator_vanes``),
+``F_b cos(w t - phi_s)``, ``phi_s = 2 pi (1 - n_s / N) s`` (docs/theory.md, eq. 13), is the
+real part of ``F_s e^{i w t}`` with the complex amplitude ``F_s = excitation F_b e^{-i phi_s}``
+(``(N, m)`` [N/sqrt(kg)]). The steady state ``q = Re(Q e^{i w t})`` ([sqrt(kg) m])
+solves
+
+    (K - w^2 I + i w C) Q = F,    K = K_R - F_q,  C = beta_D K_R - F_v,
+
+with ``F_q``, ``F_v`` the contact (and Van der Pol) force derivatives at the preloaded
+equilibrium (:func:`wheelrom.transient.stability.linearise`: ``K`` and ``C`` are minus the
+lower blocks of its Jacobian), or ``K = K_R``, ``C = beta_D K_R`` without contacts. PETSc
+KSP (options prefix ``forced_``; defaults ``preonly`` + LU, MUMPS when PETSc has it,
+``setFromOptions`` last) solves the real form
+
+    [[K - w^2 I, -w C], [w C, K - w^2 I]] [Re Q; Im Q] = [Re F; Im F].
+
+Per frequency the tip amplitude of blade ``s`` is ``sqrt(sum_k |tip_k . Q_s|^2)`` [m]. The
+amplification factor of a mistuned wheel is the peak over the frequency range of its
+largest blade amplitude over the same peak of the tuned wheel.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from wheelrom._environment import petsc
+from wheelrom.config import Config
+from wheelrom.rom.model import ReducedModel, nodal_diameter
+
+PREFIX = "forced_"
+
+
+@dataclass
+class ForcedResponse:
+    """The steady response over ``F`` excitation frequencies (``N`` blades).
+
+    ``frequency``: ``(F,)`` excitation frequencies ``w`` [rad/s]; ``blade_amplitude``:
+    ``(F, N)`` tip amplitude of every blade [m]; ``stator_vanes``: engine order ``n_s``;
+    ``nodal_diameter``: the ND the nozzle excites; ``contacts``: linearised contacts
+    included; ``wall_s``: total time, ``solve_s``: time in the linear solves [s].
+    """
+
+    frequency: np.ndarray
+    blade_amplitude: np.ndarray
+    stator_vanes: int
+    nodal_diameter: int
+    contacts: bool
+    wall_s: float = 0.0
+    solve_s: float = 0.0
+
+    @property
+    def max_amplitude(self) -> np.ndarray:
+        """``(F,)`` the largest blade tip amplitude per frequency [m]."""
+        return self.blade_amplitude.max(axis=1)
+
+    @property
+    def peak(self) -> float:
+        """The largest blade tip amplitude over the whole range [m]."""
+        return float(self.max_amplitude.max())
+
+
+def amplification_factor(mistuned: ForcedResponse, tuned: ForcedResponse) -> float:
+    """Peak max-blade amplitude of ``mistuned`` over that of ``tuned`` (each over its range)."""
+    return mistuned.peak / tuned.peak
+
+
+def tuned_copy(model: ReducedModel) -> ReducedModel:
+    """``model`` with every blade the same (mistuning removed)."""
+    return dataclasses.replace(model, mistuning=None)
+
+
+def excitation_frequencies(speeds_hz, stator_vanes: int) -> np.ndarray:
+    """``(S,)`` nozzle frequencies ``w = 2 pi n_s f_rev`` [rad/s] of rotor speeds [Hz]."""
+    return 2 * math.pi * stator_vanes * np.asarray(speeds_hz, dtype=float)
+
+
+def nozzle_amplitude(model: ReducedModel, stator_vanes: int, force: float) -> np.ndarray:
+    """``(N, m)`` complex generalised force amplitudes ``F_s = excitation F_b e^{-i phi_s}``,
+    ``phi_s = 2 pi (1 - n_s / N) s``: a travelling wave of index ``n_s mod N``."""
+    N = model.blades
+    phase = 2 * math.pi * (1 - stator_vanes / N) * np.arange(N)
+    return force * np.exp(-1j * phase)[:, None] * model.excitation[None, :]
+
+
+def operators(model: ReducedModel, cfg: Config, contacts: bool = True,
+              angles_deg: dict | None = None, comm=None, prefix: str = PREFIX):  # fmt: skip
+    """``(K, C)`` scipy CSR ``(N m, N m)`` [1/s^2], [1/s]: stiffness and damping of the
+    linearised wheel (contacts at the preloaded equilibrium, SNES prefix
+    ``<prefix>preload_``) or of ``K_R`` alone (``contacts=False``)."""
+    beta = cfg.wheel.damping_beta
+    if not contacts:
+        K = model.sparse_stiffness()
+        return K, (beta * K).tocsr()
+    from wheelrom.transient.stability import linearise
+
+    J = linearise(model, cfg, angles_deg, comm, prefix=prefix)[3]
+    n = model.size
+    J = sp.csr_matrix(J)
+    return (-J[n:, :n]).tocsr(), (-J[n:, n:]).tocsr()
+
+
+def direct_solve(K, C, F: np.ndarray, w: float) -> np.ndarray:
+    """``(N m,)`` complex ``Q`` of ``(K - w^2 I + i w C) Q = F``, scipy sparse direct."""
+    import scipy.sparse.linalg as spla
+
+    A = (K - w**2 * sp.identity(K.shape[0]) + 1j * w * C).tocsc()
+    return spla.spsolve(A, np.asarray(F, dtype=complex).ravel())
+
+
+class HarmonicSolver:
+    """The real ``2 N m`` block system of one wheel on ``comm`` (every rank holds ``K``,
+    ``C``), refactorised per frequency by a KSP with options prefix ``prefix``.
+
+    The matrix keeps one sparsity pattern (``K`` and ``I`` in the diagonal blocks, ``C`` in
+    the off-diagonal ones); per frequency only its values change: ``K - w^2 I + w C``.
+    """
+
+    def __init__(self, K, C, comm=None, prefix: str = PREFIX):
+        from wheelrom.segment.petsc import to_petsc
+
+        PETSc = petsc()
+        self.comm = comm or PETSc.COMM_SELF
+        n = K.shape[0]
+        self.size = n
+        eye = sp.identity(n, format="csr")
+        block_K = sp.block_diag([K, K], format="csr")
+        block_I = sp.block_diag([eye, eye], format="csr")
+        block_C = sp.bmat([[None, -C], [C, None]], format="csr")
+        pattern = (abs(block_K) + abs(block_I) + abs(block_C)).tocsr()
+        pattern.data[:] = 1.0
+        pattern.sort_indices()
+        self.indptr, self.indices = pattern.indptr, pattern.indices
+        self.values = [self._aligned(M, pattern) for M in (block_K, block_I, block_C)]
+        self.A = to_petsc(pattern, self.comm, prefix=prefix)
+        self.rows = self.A.getOwnershipRange()
+        self.ksp = PETSc.KSP().create(comm=self.comm)
+        self.ksp.setOptionsPrefix(prefix)
+        self.ksp.setType(PETSc.KSP.Type.PREONLY)
+        pc = self.ksp.getPC()
+        pc.setType(PETSc.PC.Type.LU)
+        if PETSc.Sys.hasExternalPackage("mumps"):
+            pc.setFactorSolverType("mumps")
+        self.ksp.setOperators(self.A)
+        self.ksp.setFromOptions()
+        self.x, self.b = self.A.createVecs()
+        self.solves = 0
+
+    @staticmethod
+    def _aligned(M, pattern) -> np.ndarray:
+        """``M``'s entries in the order of ``pattern``'s stored entries (zeros elsewhere)."""
+        index = pattern.copy()
+        index.data = np.arange(1, pattern.nnz + 1, dtype=float)
+        M = M.tocoo()
+        keep = M.data != 0  # explicit zeros may be missing from the pattern
+        M = sp.coo_matrix((M.data[keep], (M.row[keep], M.col[keep])), shape=M.shape)
+        where = np.asarray(index[M.row, M.col]).ravel().astype(np.int64) - 1
+        out = np.zeros(pattern.nnz)
+        np.add.at(out, where, M.data)
+        return out
+
+    def solve(self, F: np.ndarray, w: float) -> np.ndarray:
+        """``(N m,)`` complex ``Q`` at excitation frequency ``w`` [rad/s]."""
+        lo, hi = self.rows
+        data = self.values[0] - w**2 * self.values[1] + w * self.values[2]
+        start, stop = self.indptr[lo], self.indptr[hi]
+        self.A.setValuesCSR(self.indptr[lo : hi + 1] - start, self.indices[start:stop],
+                            data[start:stop])  # fmt: skip
+        self.A.assemble()
+        self.ksp.setOperators(self.A)
+        F = np.asarray(F, dtype=complex).ravel()
+        rhs = np.concatenate([F.real, F.imag])
+        self.b.setArray(rhs[lo:hi])
+        self.ksp.solve(self.b, self.x)
+        reason = self.ksp.getConvergedReason()
+        if reason < 0:
+            raise RuntimeError(f"{self.ksp.getOptionsPrefix()}ksp: diverged ({reason}) at "
+                               f"w = {w:.6g} rad/s")  # fmt: skip
+        self.solves += 1
+        full = np.concatenate(self.comm.tompi4py().allgather(self.x.getArray().copy()))
+        return full[: self.size] + 1j * full[self.size :]
+
+    def destroy(self) -> None:
+        """Collective: free the PETSc objects."""
+        for obj in (self.ksp, self.A, self.x, self.b):
+            obj.destroy()
+
+
+def tip_amplitudes(model: ReducedModel, Q: np.ndarray) -> np.ndarray:
+    """``(N,)`` tip amplitude of every blade [m] of complex modal amplitudes ``Q``
+    ``(N m,)``: ``sqrt(sum_k |tip_k . Q_s|^2)`` over the 3 displacement components."""
+    tip = Q.reshape(model.blades, model.modes) @ model.tip.T  # (N, 3) complex
+    return np.sqrt((np.abs(tip) ** 2).sum(axis=1))
+
+
+def forced_response(model: ReducedModel, cfg: Config, frequencies, contacts: bool = True,
+                    angles_deg: dict | None = None, comm=None, prefix: str = PREFIX,
+                    solver: str = "petsc") -> ForcedResponse:  # fmt: skip
+    """The steady response of ``model`` to the nozzle of ``cfg`` (``wheel.stator_vanes``,
+    ``excitation.force``) at every excitation frequency of ``frequencies`` [rad/s];
+    ``angles_deg``: kind -> contact angle [deg] as :func:`stability.linearise`;
+    ``solver``: ``"petsc"`` (KSP, prefix ``prefix``) or ``"scipy"`` (sparse direct)."""
+    if solver not in ("petsc", "scipy"):
+        raise ValueError(f"solver: 'petsc' or 'scipy', not {solver!r}")
+    t0 = time.perf_counter()
+    w_all = np.atleast_1d(np.asarray(frequencies, dtype=float))
+    n_s = cfg.wheel.stator_vanes
+    K, C = operators(model, cfg, contacts, angles_deg, comm, prefix)
+    F = nozzle_amplitude(model, n_s, cfg.excitation.force)
+    amplitude = np.empty((w_all.size, model.blades))
+    t_solve = time.perf_counter()
+    if solver == "petsc":
+        harmonic = HarmonicSolver(K, C, comm, prefix)
+        for i, w in enumerate(w_all):
+            amplitude[i] = tip_amplitudes(model, harmonic.solve(F, w))
+        harmonic.destroy()
+    else:
+        for i, w in enumerate(w_all):
+            amplitude[i] = tip_amplitudes(model, direct_solve(K, C, F, w))
+    t_end = time.perf_counter()
+    return ForcedResponse(
+        frequency=w_all,
+        blade_amplitude=amplitude,
+        stator_vanes=n_s,
+        nodal_diameter=int(nodal_diameter(n_s, model.blades)),
+        contacts=contacts,
+        wall_s=t_end - t0,
+        solve_s=t_end - t_solve,
+    )
