@@ -315,14 +315,8 @@ def _storage(info: dict) -> str:
             f"file {_megabytes(info['file_bytes'])}")
 
 
-def _print_cases(rows: list[dict], windows: int, show_all: bool) -> None:
-    """The case table of :func:`print_info`; gaps in a shortened one say how many are left."""
-    shown = set(range(len(rows)))
-    if len(rows) > LONG_LISTING and not show_all:
-        ends = [*range(ENDS_SHOWN), *range(len(rows) - ENDS_SHOWN, len(rows))]
-        shown = {*ends, *(r["index"] for r in rows if r["status"] == "failed")}
-    print(f"{'case':>5s} {'tie-boss':>8s} {'shroud':>7s}  {'status':8s} {'windows':>7s} "
-          f"{'wall [s]':>9s}  TS")  # fmt: skip
+def _shown(rows: list[dict], shown: set):
+    """The rows whose index is in ``shown``, printing a line for every gap in between."""
     hidden = 0
     for row in rows:
         if row["index"] not in shown:
@@ -331,6 +325,20 @@ def _print_cases(rows: list[dict], windows: int, show_all: bool) -> None:
         if hidden:
             print(f"  ... {hidden} case(s) not shown (--all lists every case)")
             hidden = 0
+        yield row
+    if hidden:
+        print(f"  ... {hidden} case(s) not shown (--all lists every case)")
+
+
+def _print_cases(rows: list[dict], windows: int, show_all: bool) -> None:
+    """The case table of :func:`print_info`; gaps in a shortened one say how many are left."""
+    shown = set(range(len(rows)))
+    if len(rows) > LONG_LISTING and not show_all:
+        ends = [*range(ENDS_SHOWN), *range(len(rows) - ENDS_SHOWN, len(rows))]
+        shown = {*ends, *(r["index"] for r in rows if r["status"] == "failed")}
+    print(f"{'case':>5s} {'tie-boss':>8s} {'shroud':>7s}  {'status':8s} {'windows':>7s} "
+          f"{'wall [s]':>9s}  TS")  # fmt: skip
+    for row in _shown(rows, shown):
         wall = "-" if row["wall_s"] is None else f"{row['wall_s']:.4g}"
         reason = f"  {row['reason']}" if row["reason"] else ""
         print(f"{row['index']:5d} {row['tieboss_deg']:8g} {row['shroud_deg']:7g}  "
@@ -353,22 +361,13 @@ def _print_study_cases(info: dict, show_all: bool) -> None:
                  *(r["index"] for r in rows if "failed" in (r["status"], r["verdict"]))}
     print(f"{'case':>5s}  {'verdict':9s} {'growth [1/s]':>12s}  {'selected':13s} {'transient':9s}"
           f" {'wall [s]':>9s}  parameters")  # fmt: skip
-    hidden = 0
-    for row in rows:
-        if row["index"] not in shown:
-            hidden += 1
-            continue
-        if hidden:
-            print(f"  ... {hidden} case(s) not shown (--all lists every case)")
-            hidden = 0
+    for row in _shown(rows, shown):
         growth = "-" if row["max_growth_rate"] is None else f"{row['max_growth_rate']:+.4g}"
         wall = "-" if row["wall_s"] is None else f"{row['wall_s']:.4g}"
         params = ", ".join(f"{short_name(k)}={t}" for k, t in row["parameters"].items())
         why = "  " + (row["reason"] or row["stability_failure"] or "")
         print(f"{row['index']:5d}  {row['verdict']:9s} {growth:>12s}  {row['selected_by']:13s} "
               f"{row['status']:9s} {wall:>9s}  {params}{why.rstrip()}")  # fmt: skip
-    if hidden:
-        print(f"  ... {hidden} case(s) not shown (--all lists every case)")
     if info.get("hint"):
         print(info["hint"])
 

@@ -90,3 +90,24 @@ def replacing(path: str):
             os.remove(partial)
         raise
     os.replace(partial, path)
+
+
+def create_collectively(out: str, comm, fill) -> None:
+    """Create the parallel HDF5 file ``out`` on the mpi4py ``comm``: ``fill(f)`` writes its
+    layout into a file opened collectively under the temporary name, and rank 0 renames it
+    into place once every rank is done, so ``out`` is readable from the moment it exists (an
+    existing ``out``, ``--force``, is replaced only then); a failure leaves no temporary."""
+    import h5py
+
+    partial = partial_name(out)
+    try:
+        with h5py.File(partial, "w", driver="mpio", comm=comm) as f:
+            fill(f)
+    except BaseException:
+        if comm.rank == 0 and os.path.exists(partial):
+            os.remove(partial)
+        raise
+    comm.Barrier()
+    if comm.rank == 0:
+        os.replace(partial, out)
+    comm.Barrier()

@@ -24,7 +24,7 @@ from wheelrom import interrupts, results, study_file
 from wheelrom._environment import petsc, slepc
 from wheelrom.config import Config
 from wheelrom.errors import InputError, Interrupted
-from wheelrom.outputs import output_problem, partial_name, replacing
+from wheelrom.outputs import create_collectively, output_problem, replacing
 from wheelrom.rom.build import build_model
 from wheelrom.stability_study import attach_linear
 from wheelrom.study_config import Study, batch_key, expand, model_key
@@ -203,18 +203,8 @@ def _create(out, cfg, study, models, model_of, stability, chosen, mode, comm) ->
         if failure:
             raise InputError(failure)
         return
-    partial = partial_name(out)
-    try:
-        with h5py.File(partial, "w", driver="mpio", comm=comm) as f:
-            study_file.create(f, cfg, study, models, model_of, stability, chosen, mode)
-    except BaseException:
-        if comm.rank == 0 and os.path.exists(partial):
-            os.remove(partial)
-        raise
-    comm.Barrier()
-    if comm.rank == 0:
-        os.replace(partial, out)
-    comm.Barrier()
+    create_collectively(out, comm, lambda f: study_file.create(f, cfg, study, models, model_of,
+                                                               stability, chosen, mode))
 
 
 def _transients(out, cfg, study, model_of, members, comm, batch, options, say, settings,

@@ -22,7 +22,7 @@ from wheelrom import interrupts, results
 from wheelrom._environment import petsc, slepc
 from wheelrom.config import Config
 from wheelrom.errors import InputError, Interrupted
-from wheelrom.outputs import output_problem, partial_name
+from wheelrom.outputs import create_collectively, output_problem
 from wheelrom.rom.build import build_model
 from wheelrom.stability_study import attach_linear, refuse_study
 from wheelrom.transient.problem import CaseResult
@@ -100,20 +100,7 @@ def _create(out: str, cfg: Config, model, comm) -> None:
     """The file with its full layout, every case pending: built under a temporary name
     (collectively) and renamed into place by rank 0, so ``out`` is readable from the moment
     it exists; an existing ``out`` (``--force``) is replaced only then."""
-    import h5py
-
-    partial = partial_name(out)
-    try:
-        with h5py.File(partial, "w", driver="mpio", comm=comm) as f:
-            results.create_layout(f, cfg, model)
-    except BaseException:
-        if comm.rank == 0 and os.path.exists(partial):
-            os.remove(partial)
-        raise
-    comm.Barrier()
-    if comm.rank == 0:
-        os.replace(partial, out)
-    comm.Barrier()
+    create_collectively(out, comm, lambda f: results.create_layout(f, cfg, model))
 
 
 def _output_problem(out: str, cfg: Config, resume: bool, force: bool,
