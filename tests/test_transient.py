@@ -375,3 +375,21 @@ def test_kernel_exp_is_within_two_ulp_of_libm():
     clamped = kernel_exp(np.array([-1e4, 1e4]))
     np.testing.assert_array_equal(clamped, kernel_exp(np.array([-708.0, 709.0])))
     assert np.isfinite(clamped).all() and clamped[0] > 0.0
+
+
+def test_a_step_beyond_the_schemes_reach_is_refused(small_model, small_cfg):
+    """A fixed 3bs step with 2 pi f_max dt > sqrt 3 for the stiffest wheel mode of K_R is a
+    named error before any step (it would only diverge); just inside the reach it runs."""
+    import math
+
+    from wheelrom.errors import InputError
+
+    f_max = small_model.frequencies_by_nodal_diameter().max()
+    limit = math.sqrt(3) / (2 * math.pi * f_max)
+    cfg = small_cfg.replace(**{"time.step": 1.05 * limit, "time.end": 40 * limit,
+                               "time.window": 40 * limit, "output.sample_rate_hz": 0.5 / limit,
+                               "output.history_rate_hz": 0.5 / limit})  # fmt: skip
+    with pytest.raises(InputError, match="time.step .* beyond the stability of RK 3bs"):
+        run_case(small_model, cfg)
+    fine = cfg.replace(**{"time.step": 0.95 * limit})
+    assert run_case(small_model, fine).status == "done"

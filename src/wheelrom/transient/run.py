@@ -31,7 +31,14 @@ from wheelrom.transient.problem import (
     WindowStats,
     nd_amplitudes,
 )
-from wheelrom.transient.ts import PREFIX, make_ts, reason_words, scoped_options, time_grid
+from wheelrom.transient.ts import (
+    PREFIX,
+    check_step,
+    make_ts,
+    reason_words,
+    scoped_options,
+    time_grid,
+)
 
 
 class Samples:
@@ -176,6 +183,13 @@ def run_cases(model: ReducedModel, cfg: Config, angles: list[dict | None],
     records = [_CaseRecord(problem, b, grid.history_every) for b in range(problem.B)]
     states = _initial_states(problem, records, u0)
     ts, fvec, used = make_ts(problem, cfg, prefix, options, rhs_kind)
+    try:
+        check_step(model, used)
+    except InputError:
+        for obj in (ts, fvec):
+            obj.destroy()
+        problem.destroy()
+        raise
     compiled = rhs_kind == "compiled"
     u = fvec.duplicate()
     u.setArray(problem.context.pack(states) if compiled else states[0])

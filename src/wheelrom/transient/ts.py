@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 from wheelrom._environment import petsc
 from wheelrom.config import Config, sample_every
+from wheelrom.errors import InputError
 from wheelrom.transient import bridge
 from wheelrom.transient.problem import WheelProblem
 
@@ -208,3 +209,28 @@ def time_grid(cfg: Config) -> TimeGrid:
         state_capacity=capacity // state + 2 if state else 0,
         state_max=-(-samples // state) if state else 0,
     )
+
+
+# reach of fixed-step explicit RK schemes on the imaginary axis: |lambda dt| for an undamped
+# mode (3-stage 3rd order: sqrt 3; classical RK4: 2 sqrt 2); other schemes are not checked
+RK_IMAGINARY_REACH = {"3": 3.0**0.5, "3bs": 3.0**0.5, "4": 8.0**0.5}
+
+
+def check_step(model, used: dict) -> None:
+    """Refuse a fixed RK step the model's stiffest wheel mode makes unstable: ``2 pi f_max
+    dt`` beyond the scheme's reach on the imaginary axis (``used``: :func:`ts_options_used`).
+    ``f_max`` is that of ``K_R`` alone, so passing is necessary, not sufficient (the contact
+    springs stiffen the wheel further)."""
+    reach = RK_IMAGINARY_REACH.get(str(used.get("ts_rk_type")))
+    if used.get("ts_type") != "rk" or used.get("ts_adapt_type") != "none" or reach is None:
+        return
+    dt = float(used["ts_dt"])
+    f_max = float(model.frequencies_by_nodal_diameter().max())
+    if 2 * math.pi * f_max * dt > reach:
+        largest = reach / (2 * math.pi * f_max)
+        raise InputError(
+            f"time.step {dt:g} s is beyond the stability of RK {used['ts_rk_type']} for this "
+            f"model's stiffest wheel mode ({f_max / 1e3:.4g} kHz): use a step of at most "
+            f"{largest:.3g} s (the contact springs may need less), or a basis without its "
+            "highest vectors"
+        )
