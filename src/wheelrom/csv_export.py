@@ -19,13 +19,11 @@ Numbers are written with 17 significant digits, so a CSV reads back to the same 
 
 from __future__ import annotations
 
-import os
-
 import numpy as np
 
 from wheelrom.errors import InputError
 from wheelrom.outputs import check_output, replacing
-from wheelrom.results import FORMAT
+from wheelrom.results import FORMAT, open_file
 from wheelrom.study_file import FORMAT as STUDY_FORMAT
 
 TABLES = ("tips", "windows")
@@ -36,15 +34,7 @@ def case_tables(path: str, case: int,
                 what=TABLES) -> dict[str, tuple[list[str], np.ndarray]]:  # fmt: skip
     """``{table: (header, rows)}`` of the tables ``what`` of case ``case`` (0-based, as
     ``wheelrom info`` lists them) of the results file at ``path``."""
-    import h5py
-
-    if not os.path.isfile(path):
-        raise InputError(f"{path}: no such file")
-    try:
-        f = h5py.File(path, "r", locking=False)
-    except OSError as exc:
-        raise InputError(f"{path}: not an HDF5 file ({exc})") from None
-    with f:
+    with open_file(path) as f:
         if f.attrs.get("format") not in (FORMAT, STUDY_FORMAT) or "cases" not in f:
             raise InputError(f"{path}: not a wheelrom results file (format {FORMAT!r} or "
                              f"{STUDY_FORMAT!r} expected)")  # fmt: skip

@@ -83,10 +83,7 @@ def state_window(cases, path: str, case: int, window: tuple[float, float] | None
     if "state_history" not in cases:
         raise InputError(f"{path} has no state history: rerun with output.state_rate_hz > 0 "
                          "(e.g. --set output.state_rate_hz=2000)")  # fmt: skip
-    done = int(cases["states_done"][case])
-    t = cases["state_time"][case, :done]
-    lo, hi = _window_rows(t, window, path, "state history")
-    return t[lo:hi], cases["state_history"][case, lo:hi]
+    return _history(cases, path, case, window, "state")
 
 
 def tip_window(cases, path: str, case: int, window: tuple[float, float] | None = None):
@@ -94,10 +91,20 @@ def tip_window(cases, path: str, case: int, window: tuple[float, float] | None =
     if "tip_history" not in cases:
         raise InputError(f"{path} has no tip history (output.history_rate_hz = 0) and no "
                          "state history: rerun with output.history_rate_hz > 0")  # fmt: skip
-    done = int(cases["samples_done"][case])
-    t = cases["sample_time"][case, :done]
-    lo, hi = _window_rows(t, window, path, "tip history")
-    return t[lo:hi], cases["tip_history"][case, lo:hi]
+    return _history(cases, path, case, window, "tip")
+
+
+# the datasets of each history: (values, sample times, rows filled per case)
+_HISTORY = {"state": ("state_history", "state_time", "states_done"),
+            "tip": ("tip_history", "sample_time", "samples_done")}
+
+
+def _history(cases, path: str, case: int, window, kind: str):
+    """``(times, values)`` of one case's ``kind`` history (``_HISTORY``) within ``window``."""
+    values, times, done = _HISTORY[kind]
+    t = cases[times][case, : int(cases[done][case])]
+    lo, hi = _window_rows(t, window, path, f"{kind} history")
+    return t[lo:hi], cases[values][case, lo:hi]
 
 
 def _window_rows(t: np.ndarray, window, path: str, what: str) -> tuple[int, int]:

@@ -8,7 +8,6 @@ equal to): normal force, friction force and the relative displacement of the con
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass
 
 import numpy as np
@@ -18,21 +17,14 @@ from wheelrom.errors import InputError
 from wheelrom.forces.parameters import force_parameters
 from wheelrom.forces.reference import ReferenceForces
 from wheelrom.histories import state_window
-from wheelrom.results import FORMAT, angles_of, read_config
+from wheelrom.results import FORMAT, angles_of, open_file, read_config
 from wheelrom.rom.model import ReducedModel
 from wheelrom.segment.mesh import rotation_z
 
 
 def open_results(path: str):
     """A results file (sweep or ``run --out``) opened for reading, or one line naming it."""
-    import h5py
-
-    if not os.path.isfile(path):
-        raise InputError(f"{path}: no such file")
-    try:
-        f = h5py.File(path, "r", locking=False)
-    except OSError as exc:
-        raise InputError(f"{path}: not an HDF5 file ({exc})") from None
+    f = open_file(path)
     if f.attrs.get("format") != FORMAT or "cases" not in f or "model" not in f:
         f.close()
         raise InputError(f"{path}: not a wheelrom results file (format {FORMAT!r} expected)")

@@ -240,6 +240,21 @@ def write_stability(f, cfg: Config, model: ReducedModel, cases: list) -> None:
         g["growth_rate_without_self_excitation"] = np.array([x.growth_at_zero for x in m])
 
 
+def open_file(path: str):
+    """The HDF5 file at ``path`` opened for reading without the file lock (a sweep still
+    writing it holds it open; what it flushed is readable), or one line naming it."""
+    import os
+
+    import h5py
+
+    if not os.path.isfile(path):
+        raise InputError(f"{path}: no such file")
+    try:
+        return h5py.File(path, "r", locking=False)
+    except OSError as exc:
+        raise InputError(f"{path}: not an HDF5 file ({exc})") from None
+
+
 def read_config(f, path: str) -> Config:
     """The configuration a results file was written with."""
     if "config" not in f.attrs:
