@@ -78,9 +78,6 @@ def run_study(cfg: Config, out: str, comm, mode: str = "full", confirm: tuple = 
     fresh = not (resume and os.path.exists(out))
     if fresh:
         models = _models(study, members, range(len(members)), comm, say)
-        if mode != "stability" and not all(m.tuned for m in models):
-            raise InputError("mistuning: the transient of a mistuned wheel is not implemented "
-                             "yet; 'wheelrom study --stability-only' analyses it")  # fmt: skip
         t1 = time.perf_counter()
         stability = _stability(study, models, model_of, comm, say)
         took = time.perf_counter() - t1
