@@ -164,3 +164,25 @@ def test_info_of_a_tuned_forced_file_without_contacts(tmp_path, capsys):
     assert cli.main(["info", str(path)]) == 0
     text = capsys.readouterr().out
     assert "tuned wheel" in text and "contacts:      off\n" in text
+
+
+def test_info_of_a_file_written_before_the_records(forced_file, tmp_path, capsys):
+    """A forced file of the first version (no source, version, size, angles, KSP
+    attributes): the same summary, the modes from the stored configuration, None for what
+    it does not say."""
+    import shutil
+
+    path = tmp_path / "old.h5"
+    shutil.copy(forced_file, path)
+    with h5py.File(path, "a") as f:
+        for name in ("config_source", "wheelrom_version", "mistuned", "solve_s_per_frequency",
+                     "blades", "modes", "contact_angles_deg", "solver"):  # fmt: skip
+            del f.attrs[name]
+    old, new = _info(path), _info(forced_file)
+    for key in ("frequency_hz", "peak", "tuned_peak", "amplification_factor", "mistuning",
+                "modes", "blades", "contacts", "nodal_diameter"):  # fmt: skip
+        assert old[key] == new[key], key
+    assert old["solver"] is None and old["wheelrom_version"] is None
+    assert old["contact_angles_deg"] is None
+    assert cli.main(["info", str(path)]) == 0
+    assert "wheelrom ?" in capsys.readouterr().out

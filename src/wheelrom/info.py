@@ -4,8 +4,8 @@ model size, and per case the contact angles, status, windows done and wall time.
 Works on sweep files and ``run --out`` files (docs/output.md, format ``wheelrom-sweep-1``),
 study files (``wheelrom-sweep-2``), stability files, forced-response files
 (``wheelrom-forced-1``) and ``modes --out`` model files (``/model`` and the configuration
-only). Returns plain
-Python values (no NaN: a value that is not there is ``None``), ready for JSON.
+only). Returns plain Python values (no NaN: a value that is not there is ``None``), ready
+for JSON.
 """
 
 from __future__ import annotations
