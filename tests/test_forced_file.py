@@ -186,3 +186,14 @@ def test_info_of_a_file_written_before_the_records(forced_file, tmp_path, capsys
     assert old["contact_angles_deg"] is None
     assert cli.main(["info", str(path)]) == 0
     assert "wheelrom ?" in capsys.readouterr().out
+
+
+def test_a_bad_forced_solver_option_is_one_named_line(capsys):
+    """``-forced_ksp_type bogus`` is refused up front by the KSP it addresses, in one line."""
+    from wheelrom import cli
+
+    argv = ["forced-response", SMALL, "--frequencies", "100:110:3", "--", "-forced_ksp_type",
+            "bogus"]  # fmt: skip
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert "-forced_ksp_type bogus" in err and "KSP 'forced_'" in err and "Traceback" not in err
