@@ -13,7 +13,8 @@ PACKAGE = os.path.join(SRC, "wheelrom")
 # earlier ones (docs/usage.md, "The code")
 STAGES = (
     ("wheelrom._environment", 0), ("wheelrom.errors", 0), ("wheelrom._config_values", 0),
-    ("wheelrom.config", 0), ("wheelrom.outputs", 0), ("wheelrom.interrupts", 0),
+    ("wheelrom.config", 0), ("wheelrom._config_forced", 0), ("wheelrom.outputs", 0),
+    ("wheelrom.interrupts", 0),
     ("wheelrom.study_config", 0),
     ("wheelrom.segment", 1), ("wheelrom.rom", 2),
     ("wheelrom.forces", 3), ("wheelrom.transient", 4), ("wheelrom.results", 5),

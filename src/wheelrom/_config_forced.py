@@ -70,7 +70,7 @@ class ForcedConfig:
                       "and beta_D K_R alone)"),  # fmt: skip
     )
     points: int = field(
-        default=101,
+        default=41,
         metadata=_key("-", "coarse grid over the band whose local maxima are peak candidates "
                       "besides the eigenfrequencies (0: none)", min=0, max=100_000),  # fmt: skip
     )

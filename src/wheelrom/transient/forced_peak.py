@@ -8,8 +8,12 @@ The default damping gives damping ratios of 2e-5..5e-4: half-power bandwidths of
 1. candidates: the undamped eigenfrequencies ``w_r`` of the linearised ``K`` inside the band
    (dense symmetric ``eigh`` of ``K``; a ``K`` that is not symmetric to 1e-10 goes through the
    general eigenvalues, ``w_r = sqrt(Re lambda_r)``), each with its modal damping ratio
-   ``zeta_r = phi_r^T C phi_r / (2 w_r)``, and the local maxima of a coarse grid of
-   ``forced.points`` frequencies over the band (endpoints included);
+   ``zeta_r = phi_r^T C phi_r / (2 w_r)``, less the modes the nozzle hardly excites (their
+   own resonant amplitude ``max_s |tip . phi_rs| |phi_r^H F| / (2 zeta_r w_r^2)`` below
+   ``PRUNE`` of the largest: a tuned wheel keeps the excited ND's pair), and the local
+   maxima of a coarse grid of ``forced.points`` frequencies over the band (endpoints
+   included: a safety net for peaks away from every eigenfrequency; a grid maximum whose
+   neighbours enclose an eigenfrequency candidate is left to it);
 2. ``a`` at every candidate (one solve each);
 3. the candidates within ``REFINE_RATIO`` of the best are refined by bounded Brent
    maximisation (scipy) on the bracket ``w_r +- KAPPA zeta_r w_r`` (``KAPPA`` half-power
@@ -48,10 +52,14 @@ from wheelrom.transient.forced import (
 
 KAPPA = 4.0  # bracket half-width of an eigenfrequency candidate [half-power half-widths]
 REFINE_RATIO = 0.5  # candidates at least this share of the best amplitude are refined
-X_TOL = 1e-6  # Brent's tolerance as a share of the bracket half-width
+PRUNE = 0.02  # modes whose own resonance is below this share of the largest are no candidates
+X_TOL = 1e-4  # Brent's tolerance as a share of the bracket half-width
 RECENTRE = 4  # searches about an optimum found on its bracket's edge
+ZOOM = 0.02  # a bracket wider than the modal one is searched again this much narrower
+ZOOMS = 4  # at most this many times
 MIN_HALF_BAND = 0.01  # the automatic band's least half-width, share of the resonance
 BAND_PER_DELTA = 2.0  # the automatic band's half-width per max |delta_s|
+ZETA_FLOOR = 1e-9  # least |zeta_r| (Van der Pol's negative damping: still a sharp peak)
 SYMMETRY_TOL = 1e-10  # ||K - K^T|| / ||K|| below which K's symmetric part is K
 
 
@@ -119,9 +127,13 @@ def band_of(cfg: Config, centre: float, deltas) -> tuple[float, float]:
     return centre * (1 - h), centre * (1 + h)
 
 
-def modal_candidates(K, C, band: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+def modal_candidates(K, C, band: tuple[float, float], model: ReducedModel | None = None,
+                     F: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
     """``(w_r, zeta_r)`` of the undamped modes of ``K`` inside ``band`` [rad/s]: frequencies
-    [rad/s] and modal damping ratios ``phi_r^T C phi_r / (2 w_r)`` (unit ``phi_r``)."""
+    [rad/s] and modal damping ratios ``phi_r^T C phi_r / (2 w_r)`` (unit ``phi_r``). With
+    ``model`` and the force ``F``, only the modes whose own resonant tip amplitude
+    ``max_s |tip . phi_rs| |phi_r^H F| / (2 |zeta_r| w_r^2)`` is at least ``PRUNE`` of the
+    largest (the others cannot make the peak: ``F`` hardly excites them)."""
     Kd = K.toarray()
     lo, hi = band
     asymmetry = np.linalg.norm(Kd - Kd.T) / max(np.linalg.norm(Kd), 1e-300)
@@ -132,10 +144,17 @@ def modal_candidates(K, C, band: tuple[float, float]) -> tuple[np.ndarray, np.nd
         keep = (lam.real > lo**2) & (lam.real <= hi**2)
         lam, phi = lam[keep].real, phi[:, keep]
     w = np.sqrt(lam)
-    Cphi = C @ phi
-    modal = np.real(np.einsum("ir,ir->r", phi.conj(), Cphi)) / np.maximum(
-        np.real(np.einsum("ir,ir->r", phi.conj(), phi)), 1e-300)  # fmt: skip
-    return w, modal / (2 * np.maximum(w, 1e-300))
+    phi = phi / np.maximum(np.linalg.norm(phi, axis=0), 1e-300)
+    zeta = np.real(np.einsum("ir,ir->r", phi.conj(), C @ phi)) / (2 * np.maximum(w, 1e-300))
+    if model is None or F is None or w.size == 0:
+        return w, zeta
+    shapes = phi.T.reshape(-1, model.blades, model.modes)  # (R, N, m)
+    tip = np.sqrt((np.abs(shapes @ model.tip.T) ** 2).sum(axis=2)).max(axis=1)  # (R,)
+    force = np.abs(phi.conj().T @ np.asarray(F).ravel())
+    # |zeta| >= 1e-9: Van der Pol's negative damping still gives a finite, sharp peak
+    alone = tip * force / (2 * np.maximum(np.abs(zeta), ZETA_FLOOR) * w**2)
+    keep = alone >= PRUNE * alone.max()
+    return w[keep], zeta[keep]
 
 
 class _Amplitude:
@@ -158,25 +177,35 @@ class _Amplitude:
         return max(self.seen, key=lambda w: self.seen[w].max())
 
 
-def _refine(a: _Amplitude, lo: float, hi: float, band: tuple[float, float]) -> None:
-    """Bounded Brent maximisation of ``a`` on ``[lo, hi]`` in the scaled variable
+def _refine(a: _Amplitude, lo: float, hi: float, band: tuple[float, float],
+            finest: float) -> None:  # fmt: skip
+    """Bounded Brent minimisation of ``1 / a^2`` on ``[lo, hi]`` in the scaled variable
     ``x = (w - centre) / half`` (tolerance ``X_TOL`` of the bracket), searched again about an
-    optimum on the bracket's edge (up to ``RECENTRE`` times, within ``band``)."""
-    for _ in range(RECENTRE + 1):
+    optimum on the bracket's edge (up to ``RECENTRE`` times, within ``band``) and, while the
+    bracket is wider than ``finest`` [rad/s] (a grid maximum's bracket), in a bracket
+    ``ZOOM`` times as wide about the optimum."""
+    for _ in range(RECENTRE + ZOOMS + 1):
         lo, hi = max(lo, band[0]), min(hi, band[1])
         centre, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
         if half <= 0:
             return
-        found = minimize_scalar(lambda x, c=centre, h=half: -a(c + x * h), bounds=(-1.0, 1.0),
-                                method="bounded", options={"xatol": X_TOL})  # fmt: skip
+        # 1 / a^2 is nearly a parabola about a resonance (|k - w^2 + i w c|^2): Brent's
+        # parabolic steps converge in a few solves where -a (a Lorentzian) needs many
+        found = minimize_scalar(lambda x, c=centre, h=half: a(c + x * h) ** -2.0,
+                                bounds=(-1.0, 1.0), method="bounded",
+                                options={"xatol": X_TOL})  # fmt: skip
         x = float(found.x)
-        a(centre + x * half)
-        if abs(x) < 1 - 10 * X_TOL:
+        w = centre + x * half
+        a(w)
+        if abs(x) >= 1 - 10 * X_TOL:  # on the edge: the peak lies beyond it
+            if w <= band[0] * (1 + 1e-12) or w >= band[1] * (1 - 1e-12):
+                return
+            lo, hi = w - half, w + half
+            continue
+        if half <= finest * (1 + 1e-9):
             return
-        edge = centre + x * half
-        if edge <= band[0] * (1 + 1e-12) or edge >= band[1] * (1 - 1e-12):
-            return
-        lo, hi = edge - half, edge + half
+        half = max(finest, ZOOM * half)
+        lo, hi = w - half, w + half
 
 
 def peak_of(model: ReducedModel, F: np.ndarray, K, C, band: tuple[float, float],
@@ -187,14 +216,15 @@ def peak_of(model: ReducedModel, F: np.ndarray, K, C, band: tuple[float, float],
     eigenfrequencies in the band when ``use_modes``."""
     t0 = time.perf_counter()
     lo, hi = band
-    brackets = []  # (lo, hi) about every candidate
+    brackets = []  # (w, lo, hi, narrowest bracket worth a search) of every candidate
     if use_modes:
-        w_r, zeta = modal_candidates(K, C, band)
-        # |zeta|: Van der Pol's negative damping still gives a finite, sharp peak
-        half = KAPPA * np.maximum(np.abs(zeta), 1e-9) * w_r
-        brackets += [(w, w - h, w + h) for w, h in zip(w_r, half, strict=True)]
+        w_r, zeta = modal_candidates(K, C, band, model, F)
+        half = KAPPA * np.maximum(np.abs(zeta), ZETA_FLOOR) * w_r
+        brackets += [(w, w - h, w + h, h) for w, h in zip(w_r, half, strict=True)]
     else:
-        w_r = np.zeros(0)
+        w_r, zeta = np.zeros(0), np.zeros(0)
+    # the narrowest resonance in the band (unknown without modes: 1e-6)
+    finest = KAPPA * max(np.abs(zeta).min(initial=1e-6), ZETA_FLOOR) * lo
     setup = time.perf_counter() - t0
     solver = HarmonicSolver(K, C, comm, prefix)
     a = _Amplitude(model, solver, F)
@@ -204,13 +234,15 @@ def peak_of(model: ReducedModel, F: np.ndarray, K, C, band: tuple[float, float],
             values = np.array([a(w) for w in grid])
             padded = np.concatenate([[-np.inf], values, [-np.inf]])
             for i in np.flatnonzero((values >= padded[:-2]) & (values >= padded[2:])):
-                brackets.append((grid[i], grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]))
-        values = [a(w) for w, _, _ in brackets]
+                g_lo, g_hi = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
+                if not np.any((w_r >= g_lo) & (w_r <= g_hi)):  # else a mode's bracket has it
+                    brackets.append((grid[i], g_lo, g_hi, finest))
+        values = [a(w) for w, _, _, _ in brackets]
         best = max(values, default=0.0)
         refined = 0
-        for (_, b_lo, b_hi), value in zip(brackets, values, strict=True):
+        for (_, b_lo, b_hi, narrowest), value in zip(brackets, values, strict=True):
             if value >= REFINE_RATIO * best:
-                _refine(a, b_lo, b_hi, band)
+                _refine(a, b_lo, b_hi, band, narrowest)
                 refined += 1
         if not a.seen:  # no candidate at all: the band's centre
             a(0.5 * (lo + hi))
