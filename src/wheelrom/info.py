@@ -263,7 +263,11 @@ def _study_info(f, path: str) -> dict:
     else:
         rows = [{"index": i, "status": "skipped", "reason": None, "windows_done": 0,
                  "wall_s": None, "scheme": "-"} for i in range(len(verdicts))]  # fmt: skip
+    amplification = f["forced/amplification"][()] if "forced" in f else None
     for i, row in enumerate(rows):
+        if amplification is not None:
+            row["amplification"] = float(amplification[i]) if np.isfinite(amplification[i]) \
+                else None  # fmt: skip
         verdict, _, why = verdicts[i].partition(": ")
         row.update(parameters=dict(zip(params["names"], params["text"][i], strict=True)),
                    verdict=verdict, stability_failure=why or None,
@@ -273,7 +277,8 @@ def _study_info(f, path: str) -> dict:
     done = summary(f)
     out = {**header, **{k: done[k] for k in ("mode", "parameters", "models", "verdicts")},
            "shape": list(params["shape"]), "counts": {**done["transients"], "total": len(rows)},
-           "selected_by": done["selected_by"], "cases": rows}  # fmt: skip
+           "selected_by": done["selected_by"], "statistics": done["statistics"],
+           "cases": rows}  # fmt: skip
     if transient:
         window_end = f["cases/window_end"][()]
         out.update(time_end_s=float(window_end[-1]), windows=int(window_end.size),

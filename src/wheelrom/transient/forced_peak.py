@@ -70,7 +70,8 @@ class PeakResponse:
     ``amplitude`` [m] at ``frequency`` [rad/s]; ``blade_amplitude`` ``(N,)`` every blade's tip
     amplitude there [m]; ``band`` ``(lo, hi)`` [rad/s]; ``solves``: linear solves (KSP) in
     all; ``candidates``: candidate peaks evaluated (``modes`` of them eigenfrequencies);
-    ``refined``: candidates refined; ``wall_s``, ``setup_s`` (operators and eigenvalues) [s].
+    ``refined``: candidates refined; ``wall_s``, ``setup_s`` (eigenvalues) [s];
+    ``grid`` ``(F,)`` the coarse grid [rad/s] and ``grid_blade_amplitude`` ``(F, N)`` [m].
     """
 
     amplitude: float
@@ -83,10 +84,16 @@ class PeakResponse:
     refined: int
     wall_s: float = 0.0
     setup_s: float = 0.0
+    grid: np.ndarray | None = None
+    grid_blade_amplitude: np.ndarray | None = None
 
     @property
     def frequency_hz(self) -> float:
         return self.frequency / (2 * math.pi)
+
+    @property
+    def band_hz(self) -> tuple[float, float]:
+        return self.band[0] / (2 * math.pi), self.band[1] / (2 * math.pi)
 
 
 def half_band(deltas) -> float:
@@ -134,8 +141,10 @@ def modal_candidates(K, C, band: tuple[float, float], model: ReducedModel | None
     ``model`` and the force ``F``, only the modes whose own resonant tip amplitude
     ``max_s |tip . phi_rs| |phi_r^H F| / (2 |zeta_r| w_r^2)`` is at least ``PRUNE`` of the
     largest (the others cannot make the peak: ``F`` hardly excites them)."""
-    Kd = K.toarray()
     lo, hi = band
+    if not hi > lo:
+        return np.zeros(0), np.zeros(0)
+    Kd = K.toarray()
     asymmetry = np.linalg.norm(Kd - Kd.T) / max(np.linalg.norm(Kd), 1e-300)
     if asymmetry <= SYMMETRY_TOL:
         lam, phi = sl.eigh(0.5 * (Kd + Kd.T), subset_by_value=(lo**2, hi**2))
@@ -228,9 +237,10 @@ def peak_of(model: ReducedModel, F: np.ndarray, K, C, band: tuple[float, float],
     setup = time.perf_counter() - t0
     solver = HarmonicSolver(K, C, comm, prefix)
     a = _Amplitude(model, solver, F)
+    grid = np.zeros(0)
     try:
         if points:
-            grid = np.linspace(lo, hi, max(points, 2))
+            grid = np.linspace(lo, hi, points) if points > 1 else np.array([lo])
             values = np.array([a(w) for w in grid])
             padded = np.concatenate([[-np.inf], values, [-np.inf]])
             for i in np.flatnonzero((values >= padded[:-2]) & (values >= padded[2:])):
@@ -250,8 +260,9 @@ def peak_of(model: ReducedModel, F: np.ndarray, K, C, band: tuple[float, float],
         return PeakResponse(amplitude=a(w_peak), frequency=w_peak,
                             blade_amplitude=a.blades(w_peak).copy(), band=(lo, hi),
                             solves=solver.solves, candidates=len(brackets), modes=w_r.size,
-                            refined=refined, wall_s=time.perf_counter() - t0,
-                            setup_s=setup)  # fmt: skip
+                            refined=refined, wall_s=time.perf_counter() - t0, setup_s=setup,
+                            grid=grid, grid_blade_amplitude=np.array([a.blades(w) for w in grid])
+                            .reshape(grid.size, model.blades))  # fmt: skip
     finally:
         solver.destroy()
 
@@ -275,16 +286,17 @@ def peak_response(model: ReducedModel, cfg: Config, band_hz, contacts: bool = Tr
 
 
 def tuned_reference(model: ReducedModel, cfg: Config, deltas, contacts: bool = True,
-                    angles_deg: dict | None = None, comm=None,
-                    prefix: str = PREFIX) -> PeakResponse:  # fmt: skip
+                    angles_deg: dict | None = None, comm=None, prefix: str = PREFIX,
+                    band_hz=None, points: int | None = None) -> PeakResponse:  # fmt: skip
     """The tuned wheel's peak (``model`` with its mistuning removed) over the band of the
-    realisations ``deltas`` (:func:`band_of`: ``forced.band_hz``, else automatic about the
-    tuned resonance of ``forced.family`` at the excited ND); its ``band`` is the band every
-    one of those realisations is searched over."""
+    realisations ``deltas`` (``band_hz`` [Hz] when given, else :func:`band_of`:
+    ``forced.band_hz``, else automatic about the tuned resonance of ``forced.family`` at the
+    excited ND); its ``band`` is the band every one of those realisations is searched over."""
     tuned = tuned_copy(model)
     K, C = operators(tuned, cfg, contacts, angles_deg, comm, prefix)
-    centre = resonance(K, tuned, cfg.wheel.stator_vanes, cfg.forced.family)
-    band = band_of(cfg, centre, deltas)
-    band_hz = (band[0] / (2 * math.pi), band[1] / (2 * math.pi))
-    return peak_response(tuned, cfg, band_hz, contacts, angles_deg, comm, prefix,
+    if band_hz is None:
+        centre = resonance(K, tuned, cfg.wheel.stator_vanes, cfg.forced.family)
+        band = band_of(cfg, centre, deltas)
+        band_hz = (band[0] / (2 * math.pi), band[1] / (2 * math.pi))
+    return peak_response(tuned, cfg, band_hz, contacts, angles_deg, comm, prefix, points,
                          operators_kc=(K, C))  # fmt: skip
