@@ -73,3 +73,14 @@ def _as_state(block):
     import scipy.sparse as sp
 
     return sp.bmat([[None, sp.csr_matrix(block.shape)], [block, block]], format="csr")
+
+
+def test_margin_of_a_mistuned_wheel_is_a_named_error(capsys):
+    """The margin scans mu over the ND blocks: a mistuned wheel gets a clear refusal that
+    names the option and the way to its growth rates, not a traceback."""
+    from wheelrom import cli
+
+    argv = ["stability", SMALL, "--margin", "--set", "mistuning.alternate=0.01"]
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert "--margin" in err and "tuned wheel" in err and "Traceback" not in err

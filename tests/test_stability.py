@@ -312,17 +312,6 @@ def test_mistuning_enters_the_blade_blocks(small_model, small_cfg):
     assert cfg.replace(**{"mistuning.seed": 1, "mistuning.std": 0.01}).mistuning.std == 0.01
 
 
-def test_transient_of_a_mistuned_wheel_is_refused(small_model, small_cfg):
-    import dataclasses
-
-    from wheelrom.errors import InputError
-    from wheelrom.transient.run import run_case
-
-    mistuned = dataclasses.replace(small_model, mistuning=np.full(small_model.blades, 0.01))
-    with pytest.raises(InputError, match="mistuned wheel is not implemented"):
-        run_case(mistuned, small_cfg)
-
-
 @pytest.mark.parametrize("alternate", [0.0, 0.05])
 def test_contact_gap_descriptor_equals_a_direct_evaluation(small_model, small_cfg, alternate):
     """The normal gap per tip of the fastest mode against the reference force model: move

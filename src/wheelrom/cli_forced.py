@@ -14,8 +14,7 @@ from wheelrom.cli_output import log, print_json
 from wheelrom.config import CONTACT_KINDS
 from wheelrom.errors import InputError
 from wheelrom.outputs import check_output, replacing
-
-FORMAT = "wheelrom-forced-1"
+from wheelrom.results import FORCED_FORMAT as FORMAT
 
 
 def args_forced(p: argparse.ArgumentParser) -> None:
@@ -89,7 +88,7 @@ def cmd_forced(args: argparse.Namespace) -> int:
                                  points=points)  # fmt: skip
     out = summary(response, tuned, cfg, model, contacts)
     if args.out:
-        _write(args.out, cfg, model, response, tuned, out)
+        _write(args.out, cfg, model, response, tuned, out, angles)
     if args.json:
         print_json(out)
     else:
@@ -129,22 +128,34 @@ def summary(response, tuned, cfg, model, contacts: bool) -> dict:
     }
 
 
-def _write(path: str, cfg, model, response, tuned, out: dict) -> None:
-    """The response as HDF5: ``frequency_hz`` ``(F,)`` (the coarse grid), ``blade_amplitude``
-    and ``tuned_blade_amplitude`` ``(F, N)`` [m] on it, ``peak_blade_amplitude`` and
-    ``tuned_peak_blade_amplitude`` ``(N,)`` [m] at the refined peaks, ``mistuning`` ``(N,)``,
-    scalars as attributes."""
+def _write(path: str, cfg, model, response, tuned, out: dict, angles: dict | None) -> None:
+    """The response as HDF5 (docs/output.md, format ``wheelrom-forced-1``): ``frequency_hz``
+    ``(F,)`` (the coarse grid), ``blade_amplitude`` and ``tuned_blade_amplitude`` ``(F, N)``
+    [m] on it, ``peak_blade_amplitude`` and ``tuned_peak_blade_amplitude`` ``(N,)`` [m] at the
+    refined peaks, ``mistuning`` ``(N,)``; attributes: the configuration and its source, the
+    wheelrom version, the scalars of ``out``, the model size, the contact angles (JSON) and
+    the KSP settings (``solver``, JSON: :func:`wheelrom.transient.forced.ksp_settings`)."""
+    import json
+
     import h5py
 
+    from wheelrom import __version__
     from wheelrom import config as config_mod
 
     with replacing(path) as partial, h5py.File(partial, "w") as f:
         f.attrs["format"] = FORMAT
         f.attrs["config"] = config_mod.to_toml(cfg)
-        for key in ("stator_vanes", "nodal_diameter", "contacts", "amplification_factor",
-                    "band_hz", "peak_amplitude_m", "peak_frequency_hz", "tuned_peak_amplitude_m",
+        f.attrs["config_source"] = cfg.source
+        f.attrs["wheelrom_version"] = __version__
+        for key in ("stator_vanes", "nodal_diameter", "contacts", "mistuned",
+                    "amplification_factor", "solve_s_per_frequency", "band_hz",
+                    "peak_amplitude_m", "peak_frequency_hz", "tuned_peak_amplitude_m",
                     "tuned_peak_frequency_hz", "solves"):  # fmt: skip
             f.attrs[key] = out[key]
+        f.attrs["blades"], f.attrs["modes"] = model.blades, model.modes
+        f.attrs["contact_angles_deg"] = json.dumps(_contact_angles(cfg, angles) if out["contacts"]
+                                                   else {})  # fmt: skip
+        f.attrs["solver"] = json.dumps(response.solver)
         f["frequency_hz"] = np.asarray(out["frequency_hz"])
         f["blade_amplitude"] = response.grid_blade_amplitude
         f["tuned_blade_amplitude"] = tuned.grid_blade_amplitude
@@ -152,6 +163,12 @@ def _write(path: str, cfg, model, response, tuned, out: dict) -> None:
         f["tuned_peak_blade_amplitude"] = tuned.blade_amplitude
         mistuning = model.mistuning if model.mistuning is not None else np.zeros(model.blades)
         f["mistuning"] = mistuning
+
+
+def _contact_angles(cfg, angles: dict | None) -> dict:
+    """kind -> contact angle [deg] of every enabled kind: ``--angle`` or the configured one."""
+    return {k: float((angles or {}).get(k, getattr(cfg.contacts, k).angle_deg))
+            for k in cfg.contacts.enabled_kinds()}  # fmt: skip
 
 
 def _print(out: dict) -> None:

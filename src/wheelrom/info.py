@@ -1,9 +1,11 @@
 """What a wheelrom HDF5 file holds (``wheelrom info FILE``): format, configuration source,
 model size, and per case the contact angles, status, windows done and wall time.
 
-Works on sweep files and ``run --out`` files (docs/output.md, format ``wheelrom-sweep-1``)
-and on ``modes --out`` model files (``/model`` and the configuration only). Returns plain
-Python values (no NaN: a value that is not there is ``None``), ready for JSON.
+Works on sweep files and ``run --out`` files (docs/output.md, format ``wheelrom-sweep-1``),
+study files (``wheelrom-sweep-2``), stability files, forced-response files
+(``wheelrom-forced-1``) and ``modes --out`` model files (``/model`` and the configuration
+only). Returns plain Python values (no NaN: a value that is not there is ``None``), ready
+for JSON.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ import numpy as np
 
 from wheelrom.errors import InputError
 from wheelrom.histories import case_bytes
-from wheelrom.results import FORMAT, STABILITY_FORMAT, statuses
+from wheelrom.results import FORCED_FORMAT, FORMAT, STABILITY_FORMAT, statuses
 from wheelrom.study_file import FORMAT as STUDY_FORMAT
 from wheelrom.study_file import read_parameters, summary
 
@@ -61,10 +63,12 @@ def file_info(path: str) -> dict:
             return _model_file_info(f, path)
         if fmt == STABILITY_FORMAT and "stability" in f:
             return _stability_info(f, path)
+        if fmt == FORCED_FORMAT and "blade_amplitude" in f:
+            return _forced_info(f, path)
         found = f"format {fmt!r}" if fmt is not None else "no 'format' attribute"
         raise InputError(f"{path}: not a wheelrom results or model file ({found}; "
-                         f"expected {FORMAT!r}, {STUDY_FORMAT!r}, {STABILITY_FORMAT!r} or a "
-                         "modes --out model)")  # fmt: skip
+                         f"expected {FORMAT!r}, {STUDY_FORMAT!r}, {STABILITY_FORMAT!r}, "
+                         f"{FORCED_FORMAT!r} or a modes --out model)")  # fmt: skip
 
 
 def _text(value) -> str | None:
@@ -294,3 +298,73 @@ def _study_info(f, path: str) -> dict:
         out["hint"] = (f"{pending} transient(s) pending: rerun the study with{flag} --resume "
                        f"and the same configuration ({source or 'the file attribute config'})")
     return out
+
+
+def _peak(hz: np.ndarray, amplitude: np.ndarray) -> dict:
+    """The largest blade tip amplitude of ``amplitude`` ``(F, N)`` [m]: where (frequency
+    [Hz], blade) and how large."""
+    i, blade = np.unravel_index(int(np.argmax(amplitude)), amplitude.shape)
+    return {"amplitude_m": float(amplitude[i, blade]), "frequency_hz": float(hz[i]),
+            "blade": int(blade)}  # fmt: skip
+
+
+def _refined_peak(f, which: str) -> dict | None:
+    """The refined peak of the configured (``which`` ``""``) or tuned (``"tuned_"``) wheel
+    (``peak_amplitude_m``, ``peak_frequency_hz`` and ``peak_blade_amplitude``; None: a file
+    written before the peak refinement)."""
+    key = f"{which}peak_amplitude_m"
+    if key not in f.attrs or f"{which}peak_blade_amplitude" not in f:
+        return None
+    return {"amplitude_m": float(f.attrs[key]),
+            "frequency_hz": float(f.attrs[f"{which}peak_frequency_hz"]),
+            "blade": int(np.argmax(f[f"{which}peak_blade_amplitude"][()]))}  # fmt: skip
+
+
+def _forced_info(f, path: str) -> dict:
+    """A forced-response file (``wheelrom forced-response --out``): the frequency range
+    [Hz], engine order and ND, contacts (and their angles [deg]), the mistuning pattern's
+    range, the peaks of the configured and the tuned wheel, the amplification factor, the
+    size and the KSP settings. Attributes a file of an earlier version lacks are None
+    (``modes``: then from the configuration)."""
+    hz = f["frequency_hz"][()]
+    amplitude, tuned = f["blade_amplitude"][()], f["tuned_blade_amplitude"][()]
+    delta = f["mistuning"][()]
+    attrs = f.attrs
+
+    def number(key, kind=float):
+        return kind(attrs[key]) if key in attrs else None
+
+    wheel = {}
+    try:
+        wheel = tomllib.loads(_text(attrs["config"])).get("wheel", {})
+    except (KeyError, tomllib.TOMLDecodeError):
+        pass
+    solver = json.loads(_text(attrs["solver"])) if "solver" in attrs else None
+    angles = json.loads(_text(attrs["contact_angles_deg"])) if "contact_angles_deg" in attrs \
+        else None  # fmt: skip
+    peak, tuned_peak = _refined_peak(f, ""), _refined_peak(f, "tuned_")
+    if peak is None:  # a file of an earlier version: the grid's largest values
+        peak, tuned_peak = _peak(hz, amplitude), _peak(hz, tuned)
+    band = [float(v) for v in attrs["band_hz"]] if "band_hz" in attrs else [float(hz[0]),
+                                                                            float(hz[-1])]
+    return {
+        **_header(f, path, "forced"),
+        "wheelrom_version": _text(attrs.get("wheelrom_version")),
+        "frequency_hz": {"from": band[0], "to": band[1], "count": int(hz.size)},
+        "stator_vanes": number("stator_vanes", int),
+        "nodal_diameter": number("nodal_diameter", int),
+        "contacts": bool(attrs["contacts"]) if "contacts" in attrs else None,
+        "contact_angles_deg": angles,
+        "mistuned": bool(np.any(delta)),
+        "mistuning": {"min": float(delta.min()), "max": float(delta.max()),
+                      "std": float(delta.std())},  # fmt: skip
+        "peak": peak,
+        "tuned_peak": tuned_peak,
+        "amplification_factor": number("amplification_factor"),
+        "blades": int(amplitude.shape[1]),
+        "modes": number("modes", int) or wheel.get("modes_per_segment"),
+        "frequencies": int(hz.size),
+        "file_bytes": os.path.getsize(path),
+        "solve_s_per_frequency": number("solve_s_per_frequency"),
+        "solver": solver,
+    }

@@ -23,6 +23,7 @@ from wheelrom.transient.ts import time_grid
 STATUS_LEN = 256
 FORMAT = "wheelrom-sweep-1"
 STABILITY_FORMAT = "wheelrom-stability-1"
+FORCED_FORMAT = "wheelrom-forced-1"  # wheelrom forced-response --out (cli_forced)
 
 
 def case_angles(cfg: Config) -> np.ndarray:

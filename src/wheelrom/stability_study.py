@@ -41,6 +41,10 @@ def run_stability(cfg: Config, comm=None, log=print,
         model = comm.bcast(model)
     say(f"model ready in {time.perf_counter() - t0:.1f} s: {model.blades} blades x "
         f"{model.modes} modes")  # fmt: skip
+    if margin and not model.tuned:  # every rank has the model: all refuse together
+        raise InputError("--margin: the flutter margin needs a tuned wheel (it scans mu over "
+                         "the ND blocks); [mistuning] is set, so 'stability' without --margin "
+                         "gives the mistuned growth rates")  # fmt: skip
     angles = results.case_angles(cfg)
     mine = []
     for i in range(rank, angles.shape[0], size):

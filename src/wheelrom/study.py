@@ -34,7 +34,6 @@ from wheelrom.mistuning_study import (
 )
 from wheelrom.outputs import create_collectively, output_problem, replacing
 from wheelrom.rom.build import build_model
-from wheelrom.rom.model import blade_mistuning
 from wheelrom.stability_study import attach_linear
 from wheelrom.study_config import Study, batch_key, expand, model_key
 from wheelrom.study_plan import balance, batches, group_by, selection
@@ -89,9 +88,6 @@ def run_study(cfg: Config, out: str, comm, mode: str = "full", confirm: tuple = 
     fresh = not (resume and os.path.exists(out))
     if fresh:
         models = _models(study, members, range(len(members)), comm, say)
-        if mode != "stability" and not all(blade_mistuning(c) is None for c in study.configs):
-            raise InputError("mistuning: the transient of a mistuned wheel is not implemented "
-                             "yet; 'wheelrom study --stability-only' analyses it")  # fmt: skip
         t1 = time.perf_counter()
         stability, peaks = _stability(study, models, model_of, comm, say, forced)
         took = time.perf_counter() - t1

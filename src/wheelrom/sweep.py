@@ -79,9 +79,6 @@ def run_sweep(cfg: Config, out: str, comm, resume: bool = False, force: bool = F
     model = _shared_model(cfg, comm, model_comm, say)
     say(f"model ready in {time.perf_counter() - t0:.1f} s: {model.blades} blades x "
         f"{model.modes} modes")  # fmt: skip
-    if not model.tuned:  # before the file exists: nothing to clean up
-        raise InputError("mistuning: the transient of a mistuned wheel is not implemented yet; "
-                         "'wheelrom stability' analyses it")  # fmt: skip
     if fresh:
         _create(out, cfg, model, comm)
     with interrupts.deferred(), h5py.File(out, "r+", driver="mpio", comm=comm) as f:

@@ -139,6 +139,21 @@ class ReducedModel:
         return np.sqrt(np.maximum(lam, 0.0)) / (2 * np.pi)
 
 
+    def highest_frequency_hz(self) -> float:
+        """The highest natural frequency of ``K_R`` [Hz]: from the ND blocks when tuned, by a
+        sparse Lanczos (ARPACK) on the assembled ``K_R`` when mistuned."""
+        if self.tuned:
+            return float(self.frequencies_by_nodal_diameter().max())
+        import scipy.sparse.linalg as spla
+
+        K = self.sparse_stiffness()
+        if K.shape[0] <= 400:  # small: dense is faster and ARPACK needs k < n
+            lam = float(np.linalg.eigvalsh(K.toarray())[-1])
+        else:
+            lam = float(spla.eigsh(K, k=1, which="LA", return_eigenvectors=False)[0])
+        return float(np.sqrt(max(lam, 0.0)) / (2 * np.pi))
+
+
 def nodal_diameter(k: int | np.ndarray, blades: int):
     """Nodal diameter of travelling-wave index ``k``: ``min(k, N - k)``."""
     k = np.asarray(k) % blades

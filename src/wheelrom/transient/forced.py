@@ -46,7 +46,8 @@ class ForcedResponse:
     ``frequency``: ``(F,)`` excitation frequencies ``w`` [rad/s]; ``blade_amplitude``:
     ``(F, N)`` tip amplitude of every blade [m]; ``stator_vanes``: engine order ``n_s``;
     ``nodal_diameter``: the ND the nozzle excites; ``contacts``: linearised contacts
-    included; ``wall_s``: total time, ``solve_s``: time in the linear solves [s].
+    included; ``wall_s``: total time, ``solve_s``: time in the linear solves [s];
+    ``solver``: the KSP's settings (:func:`ksp_settings`; empty for the scipy solver).
     """
 
     frequency: np.ndarray
@@ -56,6 +57,7 @@ class ForcedResponse:
     contacts: bool
     wall_s: float = 0.0
     solve_s: float = 0.0
+    solver: dict = dataclasses.field(default_factory=dict)
 
     @property
     def max_amplitude(self) -> np.ndarray:
@@ -154,6 +156,7 @@ class HarmonicSolver:
             pc.setFactorSolverType("mumps")
         self.ksp.setOperators(self.A)
         self.ksp.setFromOptions()
+        self.settings = ksp_settings(self.ksp)
         self.x, self.b = self.A.createVecs()
         self.solves = 0
 
@@ -220,8 +223,10 @@ def forced_response(model: ReducedModel, cfg: Config, frequencies, contacts: boo
     F = nozzle_amplitude(model, n_s, cfg.excitation.force)
     amplitude = np.empty((w_all.size, model.blades))
     t_solve = time.perf_counter()
+    settings = {}
     if solver == "petsc":
         harmonic = HarmonicSolver(K, C, comm, prefix)
+        settings = harmonic.settings
         for i, w in enumerate(w_all):
             amplitude[i] = tip_amplitudes(model, harmonic.solve(F, w))
         harmonic.destroy()
@@ -237,4 +242,27 @@ def forced_response(model: ReducedModel, cfg: Config, frequencies, contacts: boo
         contacts=contacts,
         wall_s=t_end - t0,
         solve_s=t_end - t_solve,
+        solver=settings,
     )
+
+
+FACTOR_PCS = ("lu", "cholesky", "ilu", "icc")
+
+
+def ksp_settings(ksp) -> dict:
+    """What a configured KSP will do: ``prefix``, ``ksp_type``, ``pc_type``, for a
+    factorisation ``pc_factor_mat_solver_type`` (``petsc`` when none was chosen), for an
+    iterative KSP ``rtol``, ``atol``, ``max_it``; and ``options``: the entries of the PETSc
+    options database under the prefix (name without dash -> value as given)."""
+    PETSc = petsc()
+    prefix = ksp.getOptionsPrefix() or ""
+    pc = ksp.getPC()
+    out = {"prefix": prefix, "ksp_type": ksp.getType(), "pc_type": pc.getType()}
+    if out["pc_type"] in FACTOR_PCS:
+        out["pc_factor_mat_solver_type"] = pc.getFactorSolverType() or "petsc"
+    if out["ksp_type"] != "preonly":
+        rtol, atol, _, max_it = ksp.getTolerances()
+        out.update(rtol=rtol, atol=atol, max_it=max_it)
+    database = PETSc.Options().getAll()
+    out["options"] = {k: v for k, v in sorted(database.items()) if prefix and k.startswith(prefix)}
+    return out

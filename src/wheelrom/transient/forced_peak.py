@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg as sl
@@ -71,7 +71,8 @@ class PeakResponse:
     amplitude there [m]; ``band`` ``(lo, hi)`` [rad/s]; ``solves``: linear solves (KSP) in
     all; ``candidates``: candidate peaks evaluated (``modes`` of them eigenfrequencies);
     ``refined``: candidates refined; ``wall_s``, ``setup_s`` (eigenvalues) [s];
-    ``grid`` ``(F,)`` the coarse grid [rad/s] and ``grid_blade_amplitude`` ``(F, N)`` [m].
+    ``grid`` ``(F,)`` the coarse grid [rad/s] and ``grid_blade_amplitude`` ``(F, N)`` [m];
+    ``solver``: the KSP's settings (:func:`wheelrom.transient.forced.ksp_settings`).
     """
 
     amplitude: float
@@ -86,6 +87,7 @@ class PeakResponse:
     setup_s: float = 0.0
     grid: np.ndarray | None = None
     grid_blade_amplitude: np.ndarray | None = None
+    solver: dict = field(default_factory=dict)
 
     @property
     def frequency_hz(self) -> float:
@@ -262,7 +264,7 @@ def peak_of(model: ReducedModel, F: np.ndarray, K, C, band: tuple[float, float],
                             solves=solver.solves, candidates=len(brackets), modes=w_r.size,
                             refined=refined, wall_s=time.perf_counter() - t0, setup_s=setup,
                             grid=grid, grid_blade_amplitude=np.array([a.blades(w) for w in grid])
-                            .reshape(grid.size, model.blades))  # fmt: skip
+                            .reshape(grid.size, model.blades), solver=solver.settings)  # fmt: skip
     finally:
         solver.destroy()
 

@@ -26,6 +26,7 @@ from wheelrom.transient.layout import (
     H_K,
     H_LIMIT,
     H_M,
+    H_MISTUNED,
     H_MU,
     H_N,
     H_NEXT_SAMPLE,
@@ -45,10 +46,12 @@ from wheelrom.transient.layout import (
     I_COL,
     I_COS,
     I_COUNT,
+    I_DELTA,
     I_DV,
     I_FA,
     I_FB,
     I_G,
+    I_KSEG,
     I_KW,
     I_NORMAL,
     I_NOZ,
@@ -214,7 +217,8 @@ def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
     # q'^T K_R q' = sum_s v_s^T (A0 v_s + 2 A1 v_{s+1}) the row of 2 A1 v_{s+1} is dotted with
     # v at once (two row scratches, no m x NB temporaries: the batch's arrays do not fit in
     # L1). Modes j in pairs: one pass over the columns serves two modes (fewer loads and
-    # stores per multiply-add).
+    # stores per multiply-add). A mistuned wheel adds delta_s K_seg w_s to row s (and
+    # delta_s K_seg v_s to the power row): K_seg is dense in the kernel's basis.
     linear = ctx[H_SKIP_LINEAR] == 0.0
     B2 = 2 * B
     kw = get(ctx, I_KW, NB)
@@ -225,6 +229,9 @@ def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
     FB = get(ctx, I_FB, K * 3 * NB).reshape((K, 3, NB))
     for c in range(NB):
         column[c] = 0.0
+    mistuned = linear and ctx[H_MISTUNED] != 0.0
+    K_seg = get(ctx, I_KSEG, m * m).reshape((m, m))
+    delta = get(ctx, I_DELTA, NB)
     pairs = (m // 2) if linear else 0
     single = (m % 2 == 1) and linear
     for i in range(m):
@@ -255,6 +262,15 @@ def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
             for c in range(NB):
                 kw[c] += a1 * w_next[c] + a1t * w_prev[c]
                 dv[c] += a1x2 * v_next[c]
+        if mistuned:  # + delta_s K_seg on the diagonal block: m^2 more per column
+            for j in range(m):
+                ks = K_seg[i, j]
+                wj = WT[j, B:]
+                vj = VT[j, B:]
+                for c in range(NB):
+                    kd = ks * delta[c]
+                    kw[c] += kd * wj[c]
+                    dv[c] += kd * vj[c]
         for kind in range(K):
             xa0, xa1, xa2 = XA[kind, 0, i], XA[kind, 1, i], XA[kind, 2, i]
             xb0, xb1, xb2 = XB[kind, 0, i], XB[kind, 1, i], XB[kind, 2, i]

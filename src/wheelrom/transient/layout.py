@@ -32,6 +32,7 @@ H_B = 27  # cases in the batch
 H_ACTIVE = 28  # cases still running (a diverged case is frozen)
 H_STATE_EVERY = 29  # record the modal state at every k-th sample (0: never)
 H_STATE_CAP = 30  # state samples one window can hold per case
+H_MISTUNED = 31  # 1: blade s's diagonal block is A0 + delta_s K_seg (a mistuned wheel)
 H_OFFSETS = 32  # offsets of the arrays below start here
 
 # arrays in the context, in order; shapes from (N, m, K, B, capacity)
@@ -88,13 +89,17 @@ _ARRAYS = (
     ("state_count", lambda N, m, K, B, c, c2: (B,)),  # state samples of the current window
     ("state_time", lambda N, m, K, B, c, c2: (B, c2)),
     ("state", lambda N, m, K, B, c, c2: (B, c2, 2, m, N)),  # (z, z') per mode and blade
+    # mistuning (H_MISTUNED): P^T K_seg P [1/s^2] and delta_s per column
+    ("K_seg", lambda N, m, K, B, c, c2: (m, m)),
+    ("delta", lambda N, m, K, B, c, c2: (N * B,)),
 )
 _INDEX = {name: i for i, (name, _) in enumerate(_ARRAYS)}
 (
     I_A0D, I_A1, I_A1T, I_PEXC, I_COS, I_SIN, I_PAERO, I_R, I_XA, I_XB, I_AP, I_BP, I_ARM, I_T,
     I_KC, I_PRELOAD, I_TIP, I_ACTIVE, I_STOP, I_STOPT, I_COUNT, I_VT, I_WT, I_KW, I_DV, I_NOZ,
     I_Y, I_YD, I_PAIR, I_G, I_COL, I_UA, I_UB, I_VA, I_VB, I_FA, I_FB, I_FN, I_NORMAL, I_STATE,
-    I_POWER, I_STIME, I_STIP, I_SMIN, I_SOPEN, I_STOTAL, I_XCOUNT, I_XTIME, I_XSTATE,
+    I_POWER, I_STIME, I_STIP, I_SMIN, I_SOPEN, I_STOTAL, I_XCOUNT, I_XTIME, I_XSTATE, I_KSEG,
+    I_DELTA,
 ) = range(len(_ARRAYS))  # fmt: skip
 
 STOP_NONFINITE, STOP_AMPLITUDE = 1, 2
@@ -134,7 +139,7 @@ class Context:
             pos += int(np.prod(shape))
         self.array = aligned_zeros(pos)
         self._offsets = offsets
-        self._fill_header(first, beta, sample_dt, limit, pos)
+        self._fill_header(first, model, beta, sample_dt, limit, pos)
         self.array[H_STATE_EVERY] = state_every if state_capacity else 0
         self.array[H_STATE_CAP] = state_capacity
         # the kernel's modal basis: the segment modes rotated to diagonalise A0 (see
@@ -143,7 +148,8 @@ class Context:
         for name, value in self._values(cases, model, A0_diag).items():
             self.view(name)[...] = value
 
-    def _fill_header(self, first: ForceParameters, beta, sample_dt, limit, length) -> None:
+    def _fill_header(self, first: ForceParameters, model, beta, sample_dt, limit,
+                     length) -> None:  # fmt: skip
         h = self.array
         N, m, K, B = self.N, self.m, self.K, self.B
         h[H_LEN], h[H_N], h[H_M], h[H_K], h[H_B], h[H_ACTIVE] = length, N, m, K, B, B
@@ -153,6 +159,7 @@ class Context:
         h[H_USER_REASON] = int(petsc().TS.ConvergedReason.CONVERGED_USER)
         h[H_SAMPLE_DT], h[H_CAP], h[H_LIMIT] = sample_dt, self.capacity, limit
         h[H_NSTATE] = B * (2 * N * m + 4)
+        h[H_MISTUNED] = 0.0 if model.tuned else 1.0
         h[H_OFFSETS : H_OFFSETS + len(_ARRAYS)] = self._offsets
 
     def _values(self, cases: list[ForceParameters], model, A0_diag) -> dict:
@@ -186,6 +193,8 @@ class Context:
             "preload": c.preload,
             "tip": model.tip @ P,
             "active": np.ones(B),
+            "K_seg": P.T @ model.K_seg @ P,
+            "delta": np.repeat(model.mistuning if not model.tuned else np.zeros(N), B),
         }
 
     @property

@@ -73,6 +73,8 @@ SOLVERS = {
     "wheel_": ("TS", _ts),
     "stability_preload_": ("SNES", _snes),
     "preload_": ("SNES", _snes),
+    "forced_preload_": ("SNES", _snes),
+    "forced_": ("KSP", _ksp),
     "stability_": ("EPS", _eps),
     "segment_": ("EPS", _eps),
     "cyclic_": ("EPS", _eps),

@@ -166,10 +166,6 @@ def run_cases(model: ReducedModel, cfg: Config, angles: list[dict | None],
     ``u0``: optional initial modal states ``(q, q')``, one per case. ``progress(window,
     windows, t, amplitude)`` after every window (largest amplitude over running cases).
     """
-    if not model.tuned:
-        raise InputError("mistuning: the transient of a mistuned wheel is not implemented yet "
-                         "(the compiled kernel assumes identical blades); 'wheelrom stability' "
-                         "analyses it")  # fmt: skip
     if len(angles) > 1 and adaptive(options, prefix):
         return [run_cases(model, cfg, [a], options, progress, prefix,
                           None if u0 is None else [u0[i]], rhs_kind)[0]

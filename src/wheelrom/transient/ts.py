@@ -225,7 +225,7 @@ def check_step(model, used: dict) -> None:
     if used.get("ts_type") != "rk" or used.get("ts_adapt_type") != "none" or reach is None:
         return
     dt = float(used["ts_dt"])
-    f_max = float(model.frequencies_by_nodal_diameter().max())
+    f_max = model.highest_frequency_hz()
     if 2 * math.pi * f_max * dt > reach:
         largest = reach / (2 * math.pi * f_max)
         raise InputError(
