@@ -13,7 +13,8 @@ PACKAGE = os.path.join(SRC, "wheelrom")
 # earlier ones (docs/usage.md, "The code")
 STAGES = (
     ("wheelrom._environment", 0), ("wheelrom.errors", 0), ("wheelrom._config_values", 0),
-    ("wheelrom.config", 0), ("wheelrom.outputs", 0), ("wheelrom.interrupts", 0),
+    ("wheelrom.config", 0), ("wheelrom._config_forced", 0), ("wheelrom.outputs", 0),
+    ("wheelrom.interrupts", 0),
     ("wheelrom.study_config", 0),
     ("wheelrom.segment", 1), ("wheelrom.rom", 2),
     ("wheelrom.forces", 3), ("wheelrom.transient", 4), ("wheelrom.results", 5),
@@ -22,7 +23,8 @@ STAGES = (
     ("wheelrom.plots_motion", 7), ("wheelrom.cli_motion", 8),
     ("wheelrom.cli_forced", 8),
     ("wheelrom.stability_study", 6), ("wheelrom.study_plan", 5), ("wheelrom.study_file", 5),
-    ("wheelrom.study", 6), ("wheelrom.plots_study", 7),
+    ("wheelrom.study", 6), ("wheelrom.plots_study", 7), ("wheelrom.mistuning_study", 6),
+    ("wheelrom.plots_montecarlo", 7),
     ("wheelrom.bench", 7), ("wheelrom.plots", 7), ("wheelrom.plots_stability", 7),
     ("wheelrom.plot_helpers", 7),
     ("wheelrom.cli_args", 8), ("wheelrom.cli_output", 8), ("wheelrom.cli_tools", 8),

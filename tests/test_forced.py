@@ -134,8 +134,14 @@ def test_cli_forced_response(tmp_path, capsys):
     assert cli.main(args) == 0
     data = json.loads(capsys.readouterr().out)
     assert data["mistuned"] and data["nodal_diameter"] == 2 and len(data["max_amplitude_m"]) == 4
-    assert data["amplification_factor"] == pytest.approx(
+    assert data["grid_amplification_factor"] == pytest.approx(
         max(data["max_amplitude_m"]) / max(data["tuned_max_amplitude_m"]), rel=1e-12)  # fmt: skip
+    # the refined peaks: at least every grid value, their ratio the amplification factor
+    assert data["peak_amplitude_m"] >= max(data["max_amplitude_m"])
+    assert data["tuned_peak_amplitude_m"] >= max(data["tuned_max_amplitude_m"])
+    assert data["amplification_factor"] == pytest.approx(
+        data["peak_amplitude_m"] / data["tuned_peak_amplitude_m"], rel=1e-12)  # fmt: skip
+    assert 380 <= data["peak_frequency_hz"] <= 395 and data["band_hz"] == [380.0, 395.0]
     with h5py.File(out) as f:
         assert f.attrs["format"] == "wheelrom-forced-1"
         assert f["blade_amplitude"].shape == (4, 12)

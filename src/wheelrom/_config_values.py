@@ -12,6 +12,11 @@ from dataclasses import fields
 from typing import Any
 
 
+def field_key(unit: str, help: str, **check: Any) -> dict[str, Any]:
+    """Field metadata: unit, one-line help and validation bounds (min, max, gt, choices)."""
+    return {"unit": unit, "help": help, **check}
+
+
 def is_number(v: Any) -> bool:
     return isinstance(v, int | float) and not isinstance(v, bool)
 

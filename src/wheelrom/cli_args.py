@@ -85,6 +85,10 @@ def args_study(p):
     p.add_argument("--confirm", default="", metavar="I,J,...",
                    help="case indices (0-based, as 'wheelrom info' lists them) the screen "
                    "runs a transient for in any case")  # fmt: skip
+    p.add_argument("--forced", action="store_true",
+                   help="also the peak linear forced response of every case ([forced]) "
+                   "and its amplification factor over the tuned wheel (Monte Carlo "
+                   "mistuning)")  # fmt: skip
     existing = p.add_mutually_exclusive_group()
     existing.add_argument("--resume", action="store_true",
                           help="complete an existing file: run the transients still pending")

@@ -18,11 +18,12 @@ from wheelrom.results import FORCED_FORMAT as FORMAT
 
 
 def args_forced(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--frequencies", required=True, metavar="A:B:N",
-                   help="excitation frequencies [Hz]: N values from A to B inclusive")  # fmt: skip
-    p.add_argument("--contacts", action=argparse.BooleanOptionalAction, default=True,
-                   help="linearise the contacts at the preloaded equilibrium (default) or "
-                   "leave them out (K_R and beta_D K_R only)")  # fmt: skip
+    p.add_argument("--frequencies", metavar="A:B:N",
+                   help="excitation frequencies [Hz]: the band from A to B and a coarse grid "
+                   "of N values in it, instead of forced.band_hz and forced.points")  # fmt: skip
+    p.add_argument("--contacts", action=argparse.BooleanOptionalAction, default=None,
+                   help="linearise the contacts at the preloaded equilibrium or leave them out "
+                   "(K_R and beta_D K_R only); default forced.contacts")  # fmt: skip
     p.add_argument("--angle", nargs=2, action="append", default=[], metavar=("KIND", "DEG"),
                    help="contact angle [deg] of a kind (tieboss, shroud) instead of "
                    "contacts.<kind>.angle_deg (repeatable)")  # fmt: skip
@@ -60,39 +61,32 @@ def parse_angles(pairs: list[list[str]]) -> dict:
 
 
 def cmd_forced(args: argparse.Namespace) -> int:
-    """Linear forced response to the nozzle at engine order wheel.stator_vanes: per
-    frequency the largest blade tip amplitude of the configured wheel and of the tuned wheel,
-    and the amplification factor (peak over peak). PETSc prefixes forced_ (KSP) and
-    forced_preload_ (SNES)."""
+    """Linear forced response to the nozzle at engine order wheel.stator_vanes: the peak of
+    the largest blade tip amplitude over the band of [forced] (or --frequencies), refined
+    independently of any grid, of the configured wheel and of the tuned wheel, and the
+    amplification factor (peak over peak); the coarse grid's values as a table. PETSc
+    prefixes forced_ (KSP) and forced_preload_ (SNES)."""
     from wheelrom.rom.build import build_model, quiet
-    from wheelrom.transient.forced import amplification_factor, forced_response, tuned_copy
+    from wheelrom.transient.forced_peak import peak_response, tuned_reference
 
     cfg = load_config(args)
-    hz = parse_frequencies(args.frequencies)
+    hz = parse_frequencies(args.frequencies) if args.frequencies else None
+    band, points = ((hz[0], hz[-1]), hz.size) if hz is not None else (None, None)
+    contacts = cfg.forced.contacts if args.contacts is None else args.contacts
     angles = parse_angles(args.angle) or None
     if args.out:
         check_output(args.out, args.force)
     say = quiet if args.json else log
     model = build_model(cfg, comm_self(), log=say)
-    w = 2 * math.pi * hz
-    response = forced_response(model, cfg, w, args.contacts, angles, comm_self())
-    tuned = response
+    say("the tuned reference (mistuning removed)" if not model.tuned else "the tuned wheel")
+    tuned = tuned_reference(model, cfg, [model.mistuning], contacts, angles, comm_self(),
+                            band_hz=band, points=points)  # fmt: skip
+    response = tuned
     if not model.tuned:
-        say("the tuned reference (mistuning removed)")
-        tuned = forced_response(tuned_copy(model), cfg, w, args.contacts, angles, comm_self())
-    out = {
-        "stator_vanes": response.stator_vanes,
-        "nodal_diameter": response.nodal_diameter,
-        "contacts": args.contacts,
-        "mistuned": not model.tuned,
-        "frequency_hz": hz.tolist(),
-        "max_amplitude_m": response.max_amplitude.tolist(),
-        "tuned_max_amplitude_m": tuned.max_amplitude.tolist(),
-        "peak_amplitude_m": response.peak,
-        "tuned_peak_amplitude_m": tuned.peak,
-        "amplification_factor": amplification_factor(response, tuned),
-        "solve_s_per_frequency": response.solve_s / hz.size,
-    }
+        say("the mistuned wheel")
+        response = peak_response(model, cfg, tuned.band_hz, contacts, angles, comm_self(),
+                                 points=points)  # fmt: skip
+    out = summary(response, tuned, cfg, model, contacts)
     if args.out:
         _write(args.out, cfg, model, response, tuned, out, angles)
     if args.json:
@@ -102,12 +96,45 @@ def cmd_forced(args: argparse.Namespace) -> int:
     return 0
 
 
+def summary(response, tuned, cfg, model, contacts: bool) -> dict:
+    """What ``forced-response`` reports (plain data; ``--json``): the band, the coarse grid
+    and its max-blade amplitudes, both refined peaks and the amplification factor."""
+    from wheelrom.rom.model import nodal_diameter
+
+    grid = response.grid_blade_amplitude.max(axis=1)
+    tuned_grid = tuned.grid_blade_amplitude.max(axis=1)
+    return {
+        "stator_vanes": cfg.wheel.stator_vanes,
+        "nodal_diameter": int(nodal_diameter(cfg.wheel.stator_vanes, model.blades)),
+        "contacts": contacts,
+        "mistuned": not model.tuned,
+        "band_hz": list(response.band_hz),
+        "frequency_hz": (response.grid / (2 * math.pi)).tolist(),
+        "max_amplitude_m": grid.tolist(),
+        "tuned_max_amplitude_m": tuned_grid.tolist(),
+        "peak_amplitude_m": response.amplitude,
+        "peak_frequency_hz": response.frequency_hz,
+        "peak_blade_amplitude_m": response.blade_amplitude.tolist(),
+        "tuned_peak_amplitude_m": tuned.amplitude,
+        "tuned_peak_frequency_hz": tuned.frequency_hz,
+        "amplification_factor": response.amplitude / tuned.amplitude,
+        "grid_amplification_factor": float(grid.max() / tuned_grid.max()) if grid.size else None,
+        "solves": response.solves,
+        "tuned_solves": tuned.solves,
+        "candidates": response.candidates,
+        "refined": response.refined,
+        "wall_s": response.wall_s,
+        "solve_s_per_frequency": response.wall_s / max(response.solves, 1),
+    }
+
+
 def _write(path: str, cfg, model, response, tuned, out: dict, angles: dict | None) -> None:
     """The response as HDF5 (docs/output.md, format ``wheelrom-forced-1``): ``frequency_hz``
-    ``(F,)``, ``blade_amplitude`` and ``tuned_blade_amplitude`` ``(F, N)`` [m],
-    ``mistuning`` ``(N,)``; attributes: the configuration and its source, the wheelrom
-    version, the scalars of ``out``, the model size, the contact angles (JSON) and the KSP
-    settings (``solver``, JSON: :func:`wheelrom.transient.forced.ksp_settings`)."""
+    ``(F,)`` (the coarse grid), ``blade_amplitude`` and ``tuned_blade_amplitude`` ``(F, N)``
+    [m] on it, ``peak_blade_amplitude`` and ``tuned_peak_blade_amplitude`` ``(N,)`` [m] at the
+    refined peaks, ``mistuning`` ``(N,)``; attributes: the configuration and its source, the
+    wheelrom version, the scalars of ``out``, the model size, the contact angles (JSON) and
+    the KSP settings (``solver``, JSON: :func:`wheelrom.transient.forced.ksp_settings`)."""
     import json
 
     import h5py
@@ -121,15 +148,19 @@ def _write(path: str, cfg, model, response, tuned, out: dict, angles: dict | Non
         f.attrs["config_source"] = cfg.source
         f.attrs["wheelrom_version"] = __version__
         for key in ("stator_vanes", "nodal_diameter", "contacts", "mistuned",
-                    "amplification_factor", "solve_s_per_frequency"):  # fmt: skip
+                    "amplification_factor", "solve_s_per_frequency", "band_hz",
+                    "peak_amplitude_m", "peak_frequency_hz", "tuned_peak_amplitude_m",
+                    "tuned_peak_frequency_hz", "solves"):  # fmt: skip
             f.attrs[key] = out[key]
         f.attrs["blades"], f.attrs["modes"] = model.blades, model.modes
         f.attrs["contact_angles_deg"] = json.dumps(_contact_angles(cfg, angles) if out["contacts"]
                                                    else {})  # fmt: skip
         f.attrs["solver"] = json.dumps(response.solver)
         f["frequency_hz"] = np.asarray(out["frequency_hz"])
-        f["blade_amplitude"] = response.blade_amplitude
-        f["tuned_blade_amplitude"] = tuned.blade_amplitude
+        f["blade_amplitude"] = response.grid_blade_amplitude
+        f["tuned_blade_amplitude"] = tuned.grid_blade_amplitude
+        f["peak_blade_amplitude"] = response.blade_amplitude
+        f["tuned_peak_blade_amplitude"] = tuned.blade_amplitude
         mistuning = model.mistuning if model.mistuning is not None else np.zeros(model.blades)
         f["mistuning"] = mistuning
 
@@ -141,7 +172,8 @@ def _contact_angles(cfg, angles: dict | None) -> dict:
 
 
 def _print(out: dict) -> None:
-    """A table per frequency, then the peaks and the amplification factor."""
+    """A table per frequency of the coarse grid, then the refined peaks and the
+    amplification factor."""
     print(f"engine order {out['stator_vanes']} (ND {out['nodal_diameter']}), contacts "
           f"{'linearised' if out['contacts'] else 'off'}, "
           f"{'mistuned' if out['mistuned'] else 'tuned'} wheel")  # fmt: skip
@@ -150,7 +182,10 @@ def _print(out: dict) -> None:
                strict=True)  # fmt: skip
     for f, a, t in rows:
         print(f"{f:12.4f} {a:12.4e} {t:12.4e} {a / max(t, 1e-300):8.4f}")
-    print(f"peak max-blade amplitude {out['peak_amplitude_m']:.4e} m, tuned "
-          f"{out['tuned_peak_amplitude_m']:.4e} m: amplification factor "
-          f"{out['amplification_factor']:.4f}")  # fmt: skip
-    print(f"solve time {1e3 * out['solve_s_per_frequency']:.3g} ms per frequency")
+    lo, hi = out["band_hz"]
+    print(f"refined peak over {lo:.6g}..{hi:.6g} Hz: max-blade amplitude "
+          f"{out['peak_amplitude_m']:.6e} m at {out['peak_frequency_hz']:.6f} Hz, tuned "
+          f"{out['tuned_peak_amplitude_m']:.6e} m at {out['tuned_peak_frequency_hz']:.6f} Hz: "
+          f"amplification factor {out['amplification_factor']:.5f}")  # fmt: skip
+    print(f"{out['solves']} solves ({out['candidates']} candidates, {out['refined']} refined), "
+          f"{1e3 * out['solve_s_per_frequency']:.3g} ms per solve")  # fmt: skip

@@ -387,6 +387,7 @@ def _print_study_cases(info: dict, show_all: bool) -> None:
     print(f"  stability:     {v['stable']} stable, {v['unstable']} unstable, {v['failed']} failed")
     print(f"  transients:    {c['done']} done, {c['failed']} failed, {c['pending']} pending, "
           f"{c['skipped']} not run")  # fmt: skip
+    print_statistics(info.get("statistics") or {}, "  ")
     rows = info["cases"]
     shown = set(range(len(rows)))
     if len(rows) > LONG_LISTING and not show_all:
@@ -435,6 +436,21 @@ def print_study(summary: dict, path: str) -> None:
           f"{v['failed']} failed")  # fmt: skip
     print(f"  transients:       {t['done']} done, {t['failed']} failed, {t['pending']} "
           f"pending, {t['skipped']} not run (selected by: {chosen})")  # fmt: skip
+    print_statistics(summary.get("statistics") or {}, "  ")
+
+
+def print_statistics(stats: dict, indent: str) -> None:
+    """The distributions of the amplification factor and the largest growth rate over the
+    cases (Monte Carlo mistuning), when the file has the forced response."""
+    if "amplification" not in stats:
+        return
+    for name, label, unit in (("amplification", "amplification:   ", ""),
+                              ("max_growth_rate", "max growth rate: ", " /s")):  # fmt: skip
+        d = stats[name]
+        print(f"{indent}{label}" + (f"mean {d['mean']:.4g}{unit}, std {d['std']:.3g}, 95 % "
+              f"{d['p95']:.4g}, max {d['max']:.4g} (case {d['argmax']}) over {d['count']} "
+              "case(s)" if d["count"] else "no case"))  # fmt: skip
+    print(f"{indent}Whitehead's bound (1 + sqrt(N)) / 2 = {stats['whitehead_bound']:.4g}")
 
 
 def _margin_words(m: dict) -> str:

@@ -16,7 +16,14 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
+from wheelrom._config_forced import (
+    ForcedConfig,
+    MistuningConfig,
+    forced_problems,
+    mistuning_problems,
+)
 from wheelrom._config_values import convert_field, is_number, suggest
+from wheelrom._config_values import field_key as _key
 from wheelrom._config_values import to_toml as to_toml  # re-exported: config.to_toml
 
 CONTACT_KINDS = ("tieboss", "shroud")
@@ -28,11 +35,6 @@ class ConfigError(ValueError):
     def __init__(self, problems: Sequence[str]):
         self.problems = list(problems)
         super().__init__("invalid configuration:\n  " + "\n  ".join(self.problems))
-
-
-def _key(unit: str, help: str, **check: Any) -> dict[str, Any]:
-    """Field metadata: unit, one-line help and validation bounds (min, max, gt, choices)."""
-    return {"unit": unit, "help": help, **check}
 
 
 @dataclass(frozen=True)
@@ -294,26 +296,6 @@ class StudyConfig:  # wheelrom study (docs/usage.md "Design studies"); none: the
 
 
 @dataclass(frozen=True)
-class MistuningConfig:
-    pattern: tuple[float, ...] = field(
-        default=(),
-        metadata=_key("-", "per-blade modal stiffness deviation delta_s (Lambda_s = (1 + "
-                      "delta_s) Lambda), one per blade; [] = none", min=-0.5, max=0.5,
-                      allow_empty=True),  # fmt: skip
-    )
-    alternate: float = field(
-        default=0.0,
-        metadata=_key("-", "alternate mistuning: +a on even blades, -a on odd ones",
-                      min=-0.5, max=0.5),  # fmt: skip
-    )
-    std: float = field(
-        default=0.0,
-        metadata=_key("-", "standard deviation of random normal mistuning", min=0.0, max=0.2),
-    )
-    seed: int = field(default=0, metadata=_key("-", "seed of the random mistuning", min=0))
-
-
-@dataclass(frozen=True)
 class Config:
     wheel: WheelConfig = field(default_factory=WheelConfig)
     segment: SegmentConfig = field(default_factory=SegmentConfig)
@@ -325,6 +307,7 @@ class Config:
     output: OutputConfig = field(default_factory=OutputConfig)
     sweep: SweepConfig = field(default_factory=SweepConfig)
     mistuning: MistuningConfig = field(default_factory=MistuningConfig)
+    forced: ForcedConfig = field(default_factory=ForcedConfig)
     study: StudyConfig = field(default_factory=StudyConfig)
     source: str = field(default="<built-in default>", compare=False)
 
@@ -429,11 +412,6 @@ def _cross_checks(cfg: Config, problems: list[str]) -> None:
             )
     _history_problems(cfg.output, problems)
     w = cfg.wheel
-    pattern = cfg.mistuning.pattern
-    if isinstance(pattern, tuple) and pattern and isinstance(w.blades, int):
-        if len(pattern) != w.blades:
-            problems.append(f"mistuning.pattern: {len(pattern)} values for {w.blades} blades "
-                            "(one per blade)")  # fmt: skip
     if isinstance(cfg.flutter.mode, int) and isinstance(w.modes_per_segment, int):
         if cfg.flutter.mode >= w.modes_per_segment:
             problems.append(
@@ -454,6 +432,8 @@ def from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Config:
     problems: list[str] = []
     cfg = _build_from(Config(), data, "", problems)
     _cross_checks(cfg, problems)
+    mistuning_problems(cfg, source, problems)
+    forced_problems(cfg, problems)
     if problems:
         raise ConfigError([f"{source}: {p}" for p in problems])
     return dataclasses.replace(cfg, source=source)

@@ -267,7 +267,11 @@ def _study_info(f, path: str) -> dict:
     else:
         rows = [{"index": i, "status": "skipped", "reason": None, "windows_done": 0,
                  "wall_s": None, "scheme": "-"} for i in range(len(verdicts))]  # fmt: skip
+    amplification = f["forced/amplification"][()] if "forced" in f else None
     for i, row in enumerate(rows):
+        if amplification is not None:
+            row["amplification"] = float(amplification[i]) if np.isfinite(amplification[i]) \
+                else None  # fmt: skip
         verdict, _, why = verdicts[i].partition(": ")
         row.update(parameters=dict(zip(params["names"], params["text"][i], strict=True)),
                    verdict=verdict, stability_failure=why or None,
@@ -277,7 +281,8 @@ def _study_info(f, path: str) -> dict:
     done = summary(f)
     out = {**header, **{k: done[k] for k in ("mode", "parameters", "models", "verdicts")},
            "shape": list(params["shape"]), "counts": {**done["transients"], "total": len(rows)},
-           "selected_by": done["selected_by"], "cases": rows}  # fmt: skip
+           "selected_by": done["selected_by"], "statistics": done["statistics"],
+           "cases": rows}  # fmt: skip
     if transient:
         window_end = f["cases/window_end"][()]
         out.update(time_end_s=float(window_end[-1]), windows=int(window_end.size),
@@ -303,6 +308,18 @@ def _peak(hz: np.ndarray, amplitude: np.ndarray) -> dict:
             "blade": int(blade)}  # fmt: skip
 
 
+def _refined_peak(f, which: str) -> dict | None:
+    """The refined peak of the configured (``which`` ``""``) or tuned (``"tuned_"``) wheel
+    (``peak_amplitude_m``, ``peak_frequency_hz`` and ``peak_blade_amplitude``; None: a file
+    written before the peak refinement)."""
+    key = f"{which}peak_amplitude_m"
+    if key not in f.attrs or f"{which}peak_blade_amplitude" not in f:
+        return None
+    return {"amplitude_m": float(f.attrs[key]),
+            "frequency_hz": float(f.attrs[f"{which}peak_frequency_hz"]),
+            "blade": int(np.argmax(f[f"{which}peak_blade_amplitude"][()]))}  # fmt: skip
+
+
 def _forced_info(f, path: str) -> dict:
     """A forced-response file (``wheelrom forced-response --out``): the frequency range
     [Hz], engine order and ND, contacts (and their angles [deg]), the mistuning pattern's
@@ -325,11 +342,15 @@ def _forced_info(f, path: str) -> dict:
     solver = json.loads(_text(attrs["solver"])) if "solver" in attrs else None
     angles = json.loads(_text(attrs["contact_angles_deg"])) if "contact_angles_deg" in attrs \
         else None  # fmt: skip
-    peak, tuned_peak = _peak(hz, amplitude), _peak(hz, tuned)
+    peak, tuned_peak = _refined_peak(f, ""), _refined_peak(f, "tuned_")
+    if peak is None:  # a file of an earlier version: the grid's largest values
+        peak, tuned_peak = _peak(hz, amplitude), _peak(hz, tuned)
+    band = [float(v) for v in attrs["band_hz"]] if "band_hz" in attrs else [float(hz[0]),
+                                                                            float(hz[-1])]
     return {
         **_header(f, path, "forced"),
         "wheelrom_version": _text(attrs.get("wheelrom_version")),
-        "frequency_hz": {"from": float(hz[0]), "to": float(hz[-1]), "count": int(hz.size)},
+        "frequency_hz": {"from": band[0], "to": band[1], "count": int(hz.size)},
         "stator_vanes": number("stator_vanes", int),
         "nodal_diameter": number("nodal_diameter", int),
         "contacts": bool(attrs["contacts"]) if "contacts" in attrs else None,

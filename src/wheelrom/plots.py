@@ -57,6 +57,9 @@ def plot_file(path: str, outdir: str | None = None, pdf: bool = False,
             from wheelrom.plots_study import study_figures
 
             study_figures(f, path, outdir, pdf, written, plt)
+            from wheelrom.plots_montecarlo import montecarlo_figures
+
+            montecarlo_figures(f, path, outdir, pdf, written, plt)
     return written
 
 

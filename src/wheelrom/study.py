@@ -15,6 +15,7 @@ runs the cases still pending.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
@@ -24,6 +25,13 @@ from wheelrom import interrupts, results, study_file
 from wheelrom._environment import petsc, slepc
 from wheelrom.config import Config
 from wheelrom.errors import InputError, Interrupted
+from wheelrom.mistuning_study import (
+    ForcedCases,
+    analyse_case,
+    case_mistuning,
+    case_model,
+    forced_arrays,
+)
 from wheelrom.outputs import create_collectively, output_problem, replacing
 from wheelrom.rom.build import build_model
 from wheelrom.stability_study import attach_linear
@@ -32,7 +40,6 @@ from wheelrom.study_plan import balance, batches, group_by, selection
 from wheelrom.sweep import _lor, _Progress
 from wheelrom.transient.problem import CaseResult
 from wheelrom.transient.run import run_cases
-from wheelrom.transient.stability import analyse
 from wheelrom.transient.ts import PREFIX, time_grid, ts_settings
 
 HISTORY_BYTES = 1 << 30  # tip histories a rank holds in one batch by default (1 GiB)
@@ -40,14 +47,17 @@ HISTORY_BYTES = 1 << 30  # tip histories a rank holds in one batch by default (1
 
 def run_study(cfg: Config, out: str, comm, mode: str = "full", confirm: tuple = (),
               resume: bool = False, force: bool = False, log=print,
-              options: dict | None = None, batch: int = 0) -> dict:  # fmt: skip
+              options: dict | None = None, batch: int = 0,
+              forced: bool = False) -> dict:  # fmt: skip
     """Run the study of ``cfg`` into ``out`` (collective over the mpi4py ``comm``); returns
     :func:`wheelrom.study_file.summary` of the file (on every rank).
 
     ``mode``: ``full``, ``screen`` or ``stability`` (module docstring); ``confirm``: case
     indices the screen runs in any case; ``batch``: cases per TS (0: all of a rank's cases
-    that can share one, up to ``HISTORY_BYTES`` of tip histories). Raises
-    :class:`Interrupted` after a Ctrl-C / SIGTERM once the finished rounds are in the file.
+    that can share one, up to ``HISTORY_BYTES`` of tip histories); ``forced``: also the
+    peak forced response of every case and its amplification factor
+    (:mod:`wheelrom.mistuning_study`). Raises :class:`Interrupted` after a Ctrl-C / SIGTERM
+    once the finished rounds are in the file.
     """
     petsc()  # PetscInitialize is collective: every rank before one builds alone
     slepc()
@@ -64,7 +74,7 @@ def run_study(cfg: Config, out: str, comm, mode: str = "full", confirm: tuple = 
     if comm.rank == 0:
         try:
             problem = _output_problem(out, cfg, mode, resume, force,
-                                      None if "time.step" in study.names else settings)
+                                      None if "time.step" in study.names else settings, forced)
         except Exception as exc:  # rank 0's surprise must not leave the others waiting
             problem = InputError(f"{out}: cannot be checked for --resume ({exc})")
     problem = comm.bcast(problem)
@@ -79,13 +89,15 @@ def run_study(cfg: Config, out: str, comm, mode: str = "full", confirm: tuple = 
     if fresh:
         models = _models(study, members, range(len(members)), comm, say)
         t1 = time.perf_counter()
-        stability = _stability(study, models, model_of, comm, say)
+        stability, peaks = _stability(study, models, model_of, comm, say, forced)
         took = time.perf_counter() - t1
         chosen = selection(_labels(stability), study.shape, confirm, mode)
-        say(f"stability of {study.size} cases in {took:.1f} s ({study.size / took:.3g} cases/s "
-            f"on {comm.size} rank(s); models {t1 - t0:.1f} s); "
-            f"{sum(c != 'none' for c in chosen)} case(s) selected for a transient")  # fmt: skip
-        _create(out, cfg, study, models, model_of, stability, chosen, mode, comm)
+        say(f"stability{' and forced response' * forced} of {study.size} cases in {took:.1f} s "
+            f"({study.size / took:.3g} cases/s on {comm.size} rank(s); models "
+            f"{t1 - t0:.1f} s); {sum(c != 'none' for c in chosen)} case(s) selected for a "
+            "transient")  # fmt: skip
+        extra = {"mistuning": case_mistuning(study, models[0].blades), "forced": peaks}
+        _create(out, cfg, study, models, model_of, stability, chosen, mode, comm, extra)
     if mode != "stability":
         _transients(out, cfg, study, model_of, members, comm, batch, options, say, settings,
                     models if fresh else None)  # fmt: skip
@@ -109,13 +121,13 @@ def _check_arguments(mode: str, resume: bool, force: bool, batch: int) -> None:
 
 
 def _output_problem(out: str, cfg: Config, mode: str, resume: bool, force: bool,
-                    settings: dict | None) -> InputError | None:  # fmt: skip
+                    settings: dict | None, forced: bool) -> InputError | None:  # fmt: skip
     """Why ``out`` must not be written (None: go ahead); ``settings``: the TS settings the
     finished cases must have used (None: not checked, a study of ``time.step``)."""
     problem = output_problem(out, force=resume or force)
     if problem or not (resume and os.path.exists(out)):
         return problem
-    why = study_file.resume_problem(out, cfg, mode)
+    why = study_file.resume_problem(out, cfg, mode, forced)
     if why is None and mode != "stability" and settings is not None:
         why = results.options_problem(out, settings)
     return InputError(why) if why else None
@@ -128,8 +140,9 @@ def _models(study: Study, members: list[list[int]], wanted, comm, say) -> list:
     built, failure = {}, None
     for g, cases in enumerate(members):
         if g in wanted and g % comm.size == comm.rank and failure is None:
-            try:
-                built[g] = build_model(study.configs[cases[0]], petsc().COMM_SELF)
+            try:  # tuned: every case puts its own mistuning on it (case_model)
+                built[g] = dataclasses.replace(build_model(study.configs[cases[0]],
+                                                           petsc().COMM_SELF), mistuning=None)
             except Exception as exc:  # told to every rank: no rank waits for a lost model
                 failure = f"model {g + 1} (case {cases[0]}: {study.label(cases[0])}): {exc}"
     wait_for_all(comm)
@@ -154,27 +167,29 @@ def wait_for_all(comm, poll: float = 0.005) -> None:
         time.sleep(poll)
 
 
-def _stability(study: Study, models: list, model_of: list[int], comm, say) -> dict:
-    """``/stability`` of every case (:func:`wheelrom.study_file.stability_arrays`) on every
-    rank: each rank analyses its share (balanced by model size), rank 0 assembles."""
+def _stability(study: Study, models: list, model_of: list[int], comm, say,
+               forced: bool = False) -> tuple[dict, dict | None]:  # fmt: skip
+    """``/stability`` of every case (:func:`wheelrom.study_file.stability_arrays`) and, when
+    ``forced``, ``/forced`` (:func:`wheelrom.mistuning_study.forced_arrays`; else None) on
+    every rank: each rank analyses its share (balanced by model size), rank 0 assembles."""
     costs = [models[g].blades * models[g].modes ** 3 for g in model_of]
     mine = balance(costs, comm.size)[comm.rank]
+    peaks = ForcedCases(study, models, model_of) if forced else None
     found, last = [], time.perf_counter()
     for k, i in enumerate(mine):
-        try:
-            res = analyse(models[model_of[i]], study.configs[i])
-        except Exception as exc:  # a failed case is recorded, never a hang of the others
-            res = f"{type(exc).__name__}: {exc}"
-        found.append((i, res))
+        found.append((i, *analyse_case(study, models, model_of, i, peaks)))
         if time.perf_counter() - last > 2.0 or k == len(mine) - 1:
             last = time.perf_counter()
-            say(f"  stability: {k + 1}/{len(mine)} of rank 0's cases")
+            say(f"  stability{' and forced response' * forced}: {k + 1}/{len(mine)} of rank "
+                "0's cases")  # fmt: skip
     wait_for_all(comm)
     gathered = comm.gather(found, root=0)
     arrays = None
     if comm.rank == 0:
         ordered = sorted((item for part in gathered for item in part), key=lambda it: it[0])
-        arrays = study_file.stability_arrays([res for _, res in ordered])
+        arrays = (study_file.stability_arrays([res for _, res, _ in ordered]),
+                  forced_arrays([p for _, _, p in ordered], study, models[0].blades)
+                  if forced else None)  # fmt: skip
     return comm.bcast(arrays)
 
 
@@ -182,9 +197,11 @@ def _labels(stability: dict) -> list[str]:
     return [v.decode().partition(":")[0] for v in stability["verdict"]]
 
 
-def _create(out, cfg, study, models, model_of, stability, chosen, mode, comm) -> None:
+def _create(out, cfg, study, models, model_of, stability, chosen, mode, comm,
+            extra: dict) -> None:  # fmt: skip
     """The file with its full layout (serially by rank 0 for ``stability``, else
-    collectively), under a temporary name renamed into place when complete."""
+    collectively), under a temporary name renamed into place when complete; ``extra``:
+    :func:`wheelrom.study_file.create`'s ``mistuning`` and ``forced``."""
     import h5py
 
     if mode == "stability":
@@ -192,7 +209,8 @@ def _create(out, cfg, study, models, model_of, stability, chosen, mode, comm) ->
         if comm.rank == 0:
             try:
                 with replacing(out) as partial, h5py.File(partial, "w") as f:
-                    study_file.create(f, cfg, study, models, model_of, stability, chosen, mode)
+                    study_file.create(f, cfg, study, models, model_of, stability, chosen, mode,
+                                      **extra)  # fmt: skip
             except Exception as exc:  # told to every rank: none waits for a lost file
                 failure = f"{out}: cannot be written ({type(exc).__name__}: {exc})"
         wait_for_all(comm)
@@ -201,7 +219,7 @@ def _create(out, cfg, study, models, model_of, stability, chosen, mode, comm) ->
             raise InputError(failure)
         return
     create_collectively(out, comm, lambda f: study_file.create(f, cfg, study, models, model_of,
-                                                               stability, chosen, mode))
+                                                               stability, chosen, mode, **extra))
 
 
 def _transients(out, cfg, study, model_of, members, comm, batch, options, say, settings,
@@ -228,7 +246,8 @@ def _transients(out, cfg, study, model_of, members, comm, batch, options, say, s
                                   clock.window(r, len(chunk)))  # fmt: skip
             chunk = chunk if finished else []
             for i, res in zip(chunk, finished, strict=True):
-                attach_linear(models[model_of[i]], study.configs[i], None, res)
+                attach_linear(case_model(models, model_of, study, i), study.configs[i], None,
+                              res)  # fmt: skip
                 results.write_case(f, i, res)
             wait_for_all(comm)
             f.flush()  # collective: every finished round is on disk
@@ -262,8 +281,9 @@ def _run_batch(chunk, study, models, model_of, options, settings, progress) -> l
     angles = [{"tieboss": study.configs[i].contacts.tieboss.angle_deg,
                "shroud": study.configs[i].contacts.shroud.angle_deg} for i in chunk]  # fmt: skip
     try:
-        return run_cases(models[model_of[chunk[0]]], first, angles, options=options,
-                         progress=progress)  # fmt: skip
+        # a batch shares its mistuning (batch_key): the first case's model is every case's
+        return run_cases(case_model(models, model_of, study, chunk[0]), first, angles,
+                         options=options, progress=progress)  # fmt: skip
     except KeyboardInterrupt:  # a stop asked for: this batch stays pending
         return []
     except Exception as exc:  # a solver error fails this batch, not the study

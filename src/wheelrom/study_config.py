@@ -11,8 +11,8 @@ lists, tables, free text and the keys every case of one file must share (``wheel
 is checked like the key itself, then every case as a whole configuration; all problems are
 listed at once, each naming the key (and the CSV row) it comes from.
 
-:func:`model_key` and :func:`batch_key` say which cases share a reduced model and which may
-share one TS.
+:func:`model_key`, :func:`batch_key` and :func:`tuned_key` say which cases share a reduced
+model, which may share one TS and which one tuned forced-response reference.
 """
 
 from __future__ import annotations
@@ -35,8 +35,10 @@ ANGLE_KEYS = ("contacts.tieboss.angle_deg", "contacts.shroud.angle_deg")
 SHARED_KEYS = ("wheel.blades", "time.end", "time.window")
 SHARED_SECTIONS = ("output", "sweep", "study")
 MAX_CASES = 100_000
-#: keys that do not change the reduced model (forces and time only)
-FORCE_SECTIONS = ("excitation", "flutter", "friction", "time", "output", "sweep", "study")
+#: keys that do not change the reduced model (forces and time only; the mistuning is put on
+#: the group's tuned model per case: Monte Carlo realisations share one model)
+FORCE_SECTIONS = ("excitation", "flutter", "friction", "time", "output", "sweep", "study",
+                  "mistuning", "forced")  # fmt: skip
 FORCE_WHEEL_KEYS = ("stator_vanes", "damping_beta")
 
 
@@ -297,8 +299,9 @@ def _drop(data: dict, dotted: str) -> None:
 
 def model_key(cfg: Config) -> str:
     """What the reduced model of ``cfg`` depends on, as text: cases with the same key share
-    one model (everything but the force and time keys; a contact's stiffness, arm length and
-    arm axial stiffness only through ``stiffness = "fe"``)."""
+    one model (everything but the force and time keys and ``[mistuning]``, which each case
+    puts on the shared tuned model; a contact's stiffness, arm length and arm axial
+    stiffness only through ``stiffness = "fe"``)."""
     data = to_dict(cfg)
     for section in FORCE_SECTIONS:
         data.pop(section, None)
@@ -319,4 +322,12 @@ def batch_key(cfg: Config) -> str:
     data = to_dict(cfg)
     for kind in CONTACT_KINDS:
         _drop(data, f"contacts.{kind}.angle_deg")
+    return json.dumps(data, sort_keys=True, default=str)
+
+
+def tuned_key(cfg: Config) -> str:
+    """Cases with the same key differ only in their mistuning: they share one tuned forced
+    response reference (:mod:`wheelrom.mistuning_study`)."""
+    data = to_dict(cfg)
+    data.pop("mistuning", None)
     return json.dumps(data, sort_keys=True, default=str)

@@ -30,10 +30,13 @@ def case_angles(study: Study) -> np.ndarray:
 
 
 def create(f, cfg: Config, study: Study, models: list, model_of: list[int], stability: dict,
-           selected_by: list[str], mode: str) -> None:  # fmt: skip
+           selected_by: list[str], mode: str, mistuning: np.ndarray | None = None,
+           forced: dict | None = None) -> None:  # fmt: skip
     """The whole file but the transient results: every selected case ``pending``, the
     others ``skipped``. ``stability``: :func:`stability_arrays`; ``models``: one reduced
-    model per group, ``model_of`` ``(C,)`` the group of every case."""
+    model per group (tuned), ``model_of`` ``(C,)`` the group of every case; ``mistuning``
+    ``(C, N)`` every case's ``delta_s``; ``forced``: the ``/forced`` datasets
+    (:func:`wheelrom.mistuning_study.forced_arrays`) or None."""
     angles = case_angles(study)
     C = angles.shape[0]
     if mode == "stability":  # no transient datasets at all
@@ -62,6 +65,14 @@ def create(f, cfg: Config, study: Study, models: list, model_of: list[int], stab
     group.create_dataset("angles_deg", data=angles)
     for name, data in stability.items():
         group.create_dataset(name, data=data)
+    if mistuning is not None:
+        cases.create_dataset("mistuning", data=mistuning)
+    f.attrs["forced"] = forced is not None
+    if forced is not None:
+        group = f.create_group("forced")
+        group.attrs["whitehead_bound"] = whitehead_bound(models[0].blades)
+        for name, data in forced.items():
+            group.create_dataset(name, data=data)
 
 
 def write_parameters(g, study: Study) -> None:
@@ -145,8 +156,9 @@ def _fill_case(out: dict, c: int, r) -> None:
     out["cyclic"][c] = r.cyclic
 
 
-def resume_problem(path: str, cfg: Config, mode: str) -> str | None:
-    """Why the study file at ``path`` cannot be completed for ``cfg`` and ``mode``."""
+def resume_problem(path: str, cfg: Config, mode: str, forced: bool = False) -> str | None:
+    """Why the study file at ``path`` cannot be completed for ``cfg``, ``mode`` and
+    ``forced`` (``--forced``)."""
     import h5py
 
     try:
@@ -159,6 +171,10 @@ def resume_problem(path: str, cfg: Config, mode: str) -> str | None:
             if f.attrs.get("study_mode") != mode:
                 return (f"{path} was written by a {f.attrs.get('study_mode')!r} study, this is "
                         f"{mode!r}; use --force to start again")  # fmt: skip
+            if bool(f.attrs.get("forced", False)) != forced:
+                was = "with" if f.attrs.get("forced", False) else "without"
+                return (f"{path} was written {was} --forced; use --force to start again, or "
+                        f"resume {was} it")  # fmt: skip
     except OSError as exc:
         return f"{path} cannot be opened for --resume ({exc}); use --force to start again"
     return None
@@ -179,4 +195,34 @@ def summary(f) -> dict:
         "verdicts": {k: verdicts.count(k) for k in ("stable", "unstable", "failed")},
         "transients": {k: status.count(k) for k in ("done", "failed", "pending", "skipped")},
         "selected_by": {k: chosen.count(k) for k in sorted(set(chosen))},
+        "statistics": statistics(f),
     }
+
+
+def whitehead_bound(blades: int) -> float:
+    """Whitehead's bound ``(1 + sqrt(N)) / 2`` on the forced-response amplification of a
+    mistuned wheel (one mode per blade, light damping)."""
+    return (1 + math.sqrt(blades)) / 2
+
+
+def distribution(values) -> dict:
+    """``count``, ``mean``, ``std`` (population), ``p95`` (numpy's linear percentile),
+    ``max`` and ``argmax`` (the case) of the finite values (None when there are none)."""
+    values = np.asarray(values, dtype=float)
+    finite = np.flatnonzero(np.isfinite(values))
+    if not finite.size:
+        return {"count": 0, "mean": None, "std": None, "p95": None, "max": None, "argmax": None}
+    x = values[finite]
+    return {"count": int(x.size), "mean": float(x.mean()), "std": float(x.std()),
+            "p95": float(np.percentile(x, 95)), "max": float(x.max()),
+            "argmax": int(finite[np.argmax(x)])}  # fmt: skip
+
+
+def statistics(f) -> dict:
+    """The distribution (:func:`distribution`) over the cases of the largest linear growth
+    rate [1/s] and, with ``/forced``, of the amplification factor, with Whitehead's bound."""
+    out = {"max_growth_rate": distribution(f["stability/max_growth_rate"][()])}
+    if "forced" in f:
+        out["amplification"] = distribution(f["forced/amplification"][()])
+        out["whitehead_bound"] = float(f["forced"].attrs["whitehead_bound"])
+    return out

@@ -15,12 +15,15 @@ few kilobytes that rank 0 can build and broadcast.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from wheelrom._config_forced import read_mistuning_file
 from wheelrom._environment import petsc
 from wheelrom.config import CONTACT_KINDS, Config
+from wheelrom.errors import InputError
 from wheelrom.segment.mesh import SegmentMesh
 
 
@@ -243,11 +246,22 @@ def reduce(
 
 def blade_mistuning(cfg: Config) -> np.ndarray | None:
     """``(N,)`` per-blade modal stiffness deviations ``delta_s`` of ``[mistuning]``: the
-    pattern, plus ``+-alternate`` on even / odd blades, plus normal random values of
-    ``std`` (numpy ``default_rng(seed)``: the same on every rank); None when all are zero."""
+    pattern, plus the pattern file, plus ``+-alternate`` on even / odd blades, plus random
+    values of standard deviation ``std`` (numpy ``default_rng(seed)``, drawn for this
+    configuration alone: the same on every rank and for any rank count): ``normal``, or
+    ``uniform`` on ``+-sqrt(3) std``; None when all are zero."""
     mt, N = cfg.mistuning, cfg.wheel.blades
     delta = np.zeros(N) if not mt.pattern else np.array(mt.pattern, dtype=float)
+    if mt.file:
+        try:
+            delta += read_mistuning_file(mt.file, cfg.source, N)
+        except ValueError as exc:
+            raise InputError(f"mistuning.file: {exc}") from None
     delta += mt.alternate * np.where(np.arange(N) % 2 == 0, 1.0, -1.0)
     if mt.std > 0:
-        delta += mt.std * np.random.default_rng(mt.seed).standard_normal(N)
+        rng = np.random.default_rng(mt.seed)
+        if mt.distribution == "uniform":
+            delta += mt.std * math.sqrt(3.0) * rng.uniform(-1.0, 1.0, N)
+        else:
+            delta += mt.std * rng.standard_normal(N)
     return delta if np.any(delta) else None

@@ -94,17 +94,20 @@ def nozzle_amplitude(model: ReducedModel, stator_vanes: int, force: float) -> np
 
 
 def operators(model: ReducedModel, cfg: Config, contacts: bool = True,
-              angles_deg: dict | None = None, comm=None, prefix: str = PREFIX):  # fmt: skip
+              angles_deg: dict | None = None, comm=None, prefix: str = PREFIX,
+              jacobian=None):  # fmt: skip
     """``(K, C)`` scipy CSR ``(N m, N m)`` [1/s^2], [1/s]: stiffness and damping of the
     linearised wheel (contacts at the preloaded equilibrium, SNES prefix
-    ``<prefix>preload_``) or of ``K_R`` alone (``contacts=False``)."""
+    ``<prefix>preload_``; ``jacobian``: the Jacobian there when already computed, as
+    :func:`stability.linearise` returns it) or of ``K_R`` alone (``contacts=False``)."""
     beta = cfg.wheel.damping_beta
     if not contacts:
         K = model.sparse_stiffness()
         return K, (beta * K).tocsr()
     from wheelrom.transient.stability import linearise
 
-    J = linearise(model, cfg, angles_deg, comm, prefix=prefix)[3]
+    J = jacobian if jacobian is not None else linearise(model, cfg, angles_deg, comm,
+                                                        prefix=prefix)[3]  # fmt: skip
     n = model.size
     J = sp.csr_matrix(J)
     return (-J[n:, :n]).tocsr(), (-J[n:, n:]).tocsr()

@@ -124,10 +124,12 @@ def linearise(model: ReducedModel, cfg: Config, angles_deg: dict | None = None, 
 
 
 def analyse(model: ReducedModel, cfg: Config, angles_deg: dict | None = None, comm=None,
-            keep_jacobian: bool = False) -> StabilityResult:  # fmt: skip
-    """The linear stability of one case (contact angles ``angles_deg``, kind -> [deg])."""
+            keep_jacobian: bool = False,
+            linearised: tuple | None = None) -> StabilityResult:  # fmt: skip
+    """The linear stability of one case (contact angles ``angles_deg``, kind -> [deg]);
+    ``linearised``: what :func:`linearise` returned for it, when already computed."""
     t0 = time.perf_counter()
-    params, q, residual, J, contacts = linearise(model, cfg, angles_deg, comm)
+    params, q, residual, J, contacts = linearised or linearise(model, cfg, angles_deg, comm)
     N, m = q.shape
     cyclic = is_circulant(J, N, m)
     if cyclic:

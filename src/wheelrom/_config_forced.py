@@ -1,0 +1,149 @@
+"""The configuration of mistuning and of the forced response (``[mistuning]``, ``[forced]``):
+their keys and the checks that need more than one key or a file (the pattern's length, the
+pattern file, the band). Part of :mod:`wheelrom.config`, which re-exports the classes."""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from wheelrom._config_values import field_key as _key
+from wheelrom._config_values import is_number
+
+#: largest |delta_s| a pattern or a pattern file may hold (as ``mistuning.pattern``)
+MISTUNING_LIMIT = 0.5
+
+
+@dataclass(frozen=True)
+class MistuningConfig:
+    pattern: tuple[float, ...] = field(
+        default=(),
+        metadata=_key("-", "per-blade modal stiffness deviation delta_s (Lambda_s = (1 + "
+                      "delta_s) Lambda), one per blade; [] = none", min=-0.5, max=0.5,
+                      allow_empty=True),  # fmt: skip
+    )
+    file: str = field(
+        default="",
+        metadata=_key("-", "file of delta_s, one per blade, added to the pattern: CSV/text "
+                      "(numbers separated by commas, spaces or lines; # comments) or .npy; "
+                      "relative to the TOML; '' = none"),  # fmt: skip
+    )
+    alternate: float = field(
+        default=0.0,
+        metadata=_key("-", "alternate mistuning: +a on even blades, -a on odd ones",
+                      min=-0.5, max=0.5),  # fmt: skip
+    )
+    std: float = field(
+        default=0.0,
+        metadata=_key("-", "standard deviation of random mistuning", min=0.0, max=0.2),
+    )
+    distribution: str = field(
+        default="normal",
+        metadata=_key("-", "distribution of the random mistuning: 'normal' or 'uniform' "
+                      "(on +-sqrt(3) std: the same standard deviation)",
+                      choices=("normal", "uniform")),  # fmt: skip
+    )
+    seed: int = field(default=0, metadata=_key("-", "seed of the random mistuning", min=0))
+
+
+@dataclass(frozen=True)
+class ForcedConfig:
+    band_hz: tuple[float, ...] = field(
+        default=(),
+        metadata=_key("Hz", "[lo, hi] excitation frequency band of the peak search; [] = "
+                      "automatic: the tuned resonance of the excited ND's mode 'family' "
+                      "+-max(1 %, 2 max|delta_s|)", min=0.0, allow_empty=True),  # fmt: skip
+    )
+    family: int = field(
+        default=0,
+        metadata=_key("-", "mode family (0: lowest) of the excited ND the automatic band is "
+                      "centred on", min=0),  # fmt: skip
+    )
+    contacts: bool = field(
+        default=True,
+        metadata=_key("-", "contacts linearised at the preloaded equilibrium (false: K_R "
+                      "and beta_D K_R alone)"),  # fmt: skip
+    )
+    points: int = field(
+        default=41,
+        metadata=_key("-", "coarse grid over the band whose local maxima are peak candidates "
+                      "besides the eigenfrequencies (0: none)", min=0, max=100_000),  # fmt: skip
+    )
+
+
+def mistuning_path(name: str, source: str) -> str:
+    """``mistuning.file`` as a path: relative to the TOML file ``source`` when it is one."""
+    path = os.path.expanduser(name)
+    toml = source.split(" + --set ")[0]
+    if not os.path.isabs(path) and os.path.isfile(toml):
+        path = os.path.join(os.path.dirname(os.path.abspath(toml)), path)
+    return path
+
+
+def read_mistuning_file(name: str, source: str, blades: int) -> np.ndarray:
+    """``(blades,)`` delta_s of the file ``name`` (``mistuning.file``, relative to the TOML
+    ``source``); raises ``ValueError`` with a message naming the file."""
+    path = mistuning_path(name, source)
+    if name.lower().endswith(".npy"):
+        try:
+            values = np.load(path, allow_pickle=False)
+        except (OSError, ValueError) as exc:
+            raise ValueError(f"{name}: cannot be read as .npy ({exc})") from None
+        if values.dtype.kind not in "iuf":
+            raise ValueError(f"{name}: holds {values.dtype}, not numbers")
+        values = np.asarray(values, dtype=float).reshape(-1)
+    else:
+        try:
+            with open(path, encoding="utf-8") as fh:
+                text = fh.read()
+        except (OSError, UnicodeDecodeError) as exc:
+            raise ValueError(f"{name}: cannot be read ({exc})") from None
+        words = [w for line in text.splitlines() for w in
+                 re.split(r"[,;\s]+", line.split("#")[0]) if w]  # fmt: skip
+        values = np.empty(len(words))
+        for i, word in enumerate(words):
+            try:
+                values[i] = float(word)
+            except ValueError:
+                raise ValueError(f"{name}: value {i + 1} ({word!r}) is not a number") from None
+    if values.size != blades:
+        raise ValueError(f"{name}: {values.size} values for {blades} blades (one per blade)")
+    bad = np.flatnonzero(~np.isfinite(values) | (np.abs(values) > MISTUNING_LIMIT))
+    if bad.size:
+        raise ValueError(f"{name}: blade {bad[0]}'s value {values[bad[0]]!r} is not a finite "
+                         f"number within +-{MISTUNING_LIMIT}")  # fmt: skip
+    return values
+
+
+def mistuning_problems(cfg: Any, source: str, problems: list[str]) -> None:
+    """The pattern's length and the pattern file (read here, so that a missing or short file
+    is reported with every other problem of the configuration)."""
+    mt, blades = cfg.mistuning, cfg.wheel.blades
+    if not isinstance(blades, int):
+        return
+    pattern = mt.pattern
+    if isinstance(pattern, tuple) and pattern and len(pattern) != blades:
+        problems.append(f"mistuning.pattern: {len(pattern)} values for {blades} blades "
+                        "(one per blade)")  # fmt: skip
+    if isinstance(mt.file, str) and mt.file:
+        try:
+            read_mistuning_file(mt.file, source, blades)
+        except ValueError as exc:
+            problems.append(f"mistuning.file: {exc}")
+
+
+def forced_problems(cfg: Any, problems: list[str]) -> None:
+    """``forced.band_hz``: empty or ``[lo, hi]`` with ``lo < hi``; ``forced.family`` below
+    the segment modes."""
+    band, fam, m = cfg.forced.band_hz, cfg.forced.family, cfg.wheel.modes_per_segment
+    if isinstance(band, tuple) and band and all(is_number(v) for v in band):
+        if len(band) != 2 or not band[0] < band[1] or not all(math.isfinite(v) for v in band):
+            problems.append(f"forced.band_hz: expected [] (automatic) or [lo, hi] with "
+                            f"lo < hi [Hz], got {list(band)}")  # fmt: skip
+    if isinstance(fam, int) and isinstance(m, int) and fam >= m:
+        problems.append(f"forced.family: {fam} is not below wheel.modes_per_segment ({m})")
