@@ -187,7 +187,7 @@ def test_statistics_are_numpys(monte_carlo):
     assert stats["whitehead_bound"] == pytest.approx((1 + math.sqrt(12)) / 2)
 
 
-def test_info_and_figures_of_a_monte_carlo_study(monte_carlo, tmp_path):
+def test_info_and_figures_of_a_monte_carlo_study(monte_carlo, tmp_path, capsys):
     from wheelrom.info import file_info
     from wheelrom.plots import plot_file
 
@@ -195,6 +195,11 @@ def test_info_and_figures_of_a_monte_carlo_study(monte_carlo, tmp_path):
     info = json.loads(json.dumps(file_info(str(path))))
     assert info["statistics"] == json.loads(json.dumps(summary["statistics"]))
     assert info["cases"][3]["amplification"] > 0
+    from wheelrom.cli import main
+
+    assert main(["info", str(path)]) == 0  # the text table names every case's factor
+    text = capsys.readouterr().out
+    assert f"amplification {info['cases'][3]['amplification']:.4f}" in text
     names = {p.rsplit("/", 1)[-1] for p in plot_file(str(path), str(tmp_path))}
     assert {"mc_amplification.png", "mc_growth_rate.png", "mc_localisation.png"} <= names
 

@@ -399,6 +399,7 @@ def _print_study_cases(info: dict, show_all: bool) -> None:
         growth = "-" if row["max_growth_rate"] is None else f"{row['max_growth_rate']:+.4g}"
         wall = "-" if row["wall_s"] is None else f"{row['wall_s']:.4g}"
         params = ", ".join(f"{short_name(k)}={t}" for k, t in row["parameters"].items())
+        params += f"  amplification {row['amplification']:.4f}" if row.get("amplification") else ""
         why = "  " + (row["reason"] or row["stability_failure"] or "")
         print(f"{row['index']:5d}  {row['verdict']:9s} {growth:>12s}  {row['selected_by']:13s} "
               f"{row['status']:9s} {wall:>9s}  {params}{why.rstrip()}")  # fmt: skip
