@@ -156,3 +156,25 @@ def test_cli_forced_response_refuses_a_bad_range(bad, capsys):
 
     assert cli.main(["forced-response", SMALL, f"--frequencies={bad}"]) == 2
     assert capsys.readouterr().err.startswith(f"wheelrom: --frequencies {bad}")
+
+
+def test_cli_forced_response_over_rotor_speeds(capsys):
+    """``--speeds A:B:N`` is the nozzle band ``n_s A .. n_s B``: the same peaks as the
+    equivalent ``--frequencies``, reported also as the rotor speed that meets them."""
+    from wheelrom import cli
+
+    common = ["forced-response", SMALL, "--set", "mistuning.std=0.02", "--no-contacts", "--json"]
+    assert cli.main([*common, "--frequencies", "380:395:4"]) == 0
+    by_frequency = json.loads(capsys.readouterr().out)
+    n_s = by_frequency["stator_vanes"]
+    assert cli.main([*common, "--speeds", f"{380 / n_s!r}:{395 / n_s!r}:4"]) == 0
+    by_speed = json.loads(capsys.readouterr().out)
+    np.testing.assert_allclose(by_speed["band_hz"], [380.0, 395.0], rtol=1e-14)
+    for key in ("peak_amplitude_m", "peak_frequency_hz", "amplification_factor"):
+        assert by_speed[key] == pytest.approx(by_frequency[key], rel=1e-9)
+    assert by_speed["peak_speed_hz"] == pytest.approx(by_speed["peak_frequency_hz"] / n_s,
+                                                      rel=1e-14)  # fmt: skip
+    assert cli.main([*common, "--speeds", "1:2:3", "--frequencies", "1:2:3"]) == 2
+    assert "exclude each other" in capsys.readouterr().err
+    assert cli.main([*common, "--speeds", "2:1:3"]) == 2
+    assert capsys.readouterr().err.startswith("wheelrom: --speeds 2:1:3")

@@ -21,6 +21,9 @@ def args_forced(p: argparse.ArgumentParser) -> None:
     p.add_argument("--frequencies", metavar="A:B:N",
                    help="excitation frequencies [Hz]: the band from A to B and a coarse grid "
                    "of N values in it, instead of forced.band_hz and forced.points")  # fmt: skip
+    p.add_argument("--speeds", metavar="A:B:N",
+                   help="rotor speeds [Hz] instead: the nozzle frequencies n_s A .. n_s B and a "
+                   "grid of N speeds (prestress stays at wheel.speed_hz)")  # fmt: skip
     p.add_argument("--contacts", action=argparse.BooleanOptionalAction, default=None,
                    help="linearise the contacts at the preloaded equilibrium or leave them out "
                    "(K_R and beta_D K_R only); default forced.contacts")  # fmt: skip
@@ -32,19 +35,30 @@ def args_forced(p: argparse.ArgumentParser) -> None:
     force(p)
 
 
-def parse_frequencies(text: str) -> np.ndarray:
-    """``--frequencies A:B:N`` [Hz] -> ``(N,)`` values from A to B inclusive."""
+def parse_frequencies(text: str, option: str = "--frequencies") -> np.ndarray:
+    """``--frequencies A:B:N`` (or ``--speeds``) [Hz] -> ``(N,)`` values from A to B
+    inclusive."""
     try:
         start, stop, count = text.split(":")
         a, b, n = float(start), float(stop), int(count)
     except ValueError:
-        raise InputError(f"--frequencies {text}: expected A:B:N (Hz, N an integer), "
+        raise InputError(f"{option} {text}: expected A:B:N (Hz, N an integer), "
                          "e.g. 300:400:201") from None  # fmt: skip
     if not (math.isfinite(a) and math.isfinite(b) and 0 <= a <= b):
-        raise InputError(f"--frequencies {text}: expected 0 <= A <= B (Hz)")
+        raise InputError(f"{option} {text}: expected 0 <= A <= B (Hz)")
     if n < 1 or (n > 1 and a == b):
-        raise InputError(f"--frequencies {text}: N must be >= 1 (and 1 when A = B)")
+        raise InputError(f"{option} {text}: N must be >= 1 (and 1 when A = B)")
     return np.linspace(a, b, n)
+
+
+def excitation_grid(args: argparse.Namespace, stator_vanes: int) -> np.ndarray | None:
+    """The nozzle frequencies [Hz] of ``--frequencies`` or of ``--speeds`` (``n_s f_rev``);
+    None: the band of ``[forced]``."""
+    if args.frequencies and args.speeds:
+        raise InputError("--frequencies and --speeds exclude each other (one range)")
+    if args.speeds:
+        return stator_vanes * parse_frequencies(args.speeds, "--speeds")
+    return parse_frequencies(args.frequencies) if args.frequencies else None
 
 
 def parse_angles(pairs: list[list[str]]) -> dict:
@@ -70,7 +84,7 @@ def cmd_forced(args: argparse.Namespace) -> int:
     from wheelrom.transient.forced_peak import peak_response, tuned_reference
 
     cfg = load_config(args)
-    hz = parse_frequencies(args.frequencies) if args.frequencies else None
+    hz = excitation_grid(args, cfg.wheel.stator_vanes)
     band, points = ((hz[0], hz[-1]), hz.size) if hz is not None else (None, None)
     contacts = cfg.forced.contacts if args.contacts is None else args.contacts
     angles = parse_angles(args.angle) or None
@@ -117,6 +131,9 @@ def summary(response, tuned, cfg, model, contacts: bool) -> dict:
         "peak_blade_amplitude_m": response.blade_amplitude.tolist(),
         "tuned_peak_amplitude_m": tuned.amplitude,
         "tuned_peak_frequency_hz": tuned.frequency_hz,
+        # the rotor speed at which the nozzle (engine order n_s) meets each peak [Hz]
+        "peak_speed_hz": response.frequency_hz / cfg.wheel.stator_vanes,
+        "tuned_peak_speed_hz": tuned.frequency_hz / cfg.wheel.stator_vanes,
         "amplification_factor": response.amplitude / tuned.amplitude,
         "grid_amplification_factor": float(grid.max() / tuned_grid.max()) if grid.size else None,
         "solves": response.solves,
@@ -150,7 +167,8 @@ def _write(path: str, cfg, model, response, tuned, out: dict, angles: dict | Non
         for key in ("stator_vanes", "nodal_diameter", "contacts", "mistuned",
                     "amplification_factor", "solve_s_per_frequency", "band_hz",
                     "peak_amplitude_m", "peak_frequency_hz", "tuned_peak_amplitude_m",
-                    "tuned_peak_frequency_hz", "solves"):  # fmt: skip
+                    "tuned_peak_frequency_hz", "peak_speed_hz", "tuned_peak_speed_hz",
+                    "solves"):  # fmt: skip
             f.attrs[key] = out[key]
         f.attrs["blades"], f.attrs["modes"] = model.blades, model.modes
         f.attrs["contact_angles_deg"] = json.dumps(_contact_angles(cfg, angles) if out["contacts"]
@@ -187,5 +205,8 @@ def _print(out: dict) -> None:
           f"{out['peak_amplitude_m']:.6e} m at {out['peak_frequency_hz']:.6f} Hz, tuned "
           f"{out['tuned_peak_amplitude_m']:.6e} m at {out['tuned_peak_frequency_hz']:.6f} Hz: "
           f"amplification factor {out['amplification_factor']:.5f}")  # fmt: skip
+    print(f"rotor speeds of the peaks (engine order {out['stator_vanes']}): "
+          f"{out['peak_speed_hz']:.6f} Hz ({60 * out['peak_speed_hz']:.2f} rpm), tuned "
+          f"{out['tuned_peak_speed_hz']:.6f} Hz ({60 * out['tuned_peak_speed_hz']:.2f} rpm)")
     print(f"{out['solves']} solves ({out['candidates']} candidates, {out['refined']} refined), "
           f"{1e3 * out['solve_s_per_frequency']:.3g} ms per solve")  # fmt: skip
