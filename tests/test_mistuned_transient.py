@@ -158,3 +158,24 @@ def test_sweep_of_a_mistuned_wheel_runs_and_records_the_pattern(tmp_path):
                 delta = f["/model/mistuning"][()]
                 np.testing.assert_array_equal(delta, 0.02 * (-1.0) ** np.arange(delta.size))
     assert np.abs(tips[0] - tips[1]).max() > 1e-3 * np.abs(tips[0]).max()
+
+
+def test_preload_start_of_a_mistuned_wheel_is_its_static_equilibrium(small_model, small_cfg):
+    """time.start = "preload" on a mistuned wheel: the start has zero accelerations under the
+    mistuned ``K_R`` (not the tuned one), and the compiled kernel agrees at that state."""
+    from wheelrom.transient.preload import initial_state
+
+    cfg = small_cfg.replace(**{"time.start": "preload", "time.end": 5e-4, "time.window": 5e-4})
+    model = _mistuned(small_model, std=0.05)
+    problem = WheelProblem(model, cfg, [force_parameters(model, cfg, {"shroud": 50.0})], SELF)
+    u0, residual = initial_state(problem)
+    n = problem.n
+    scale = np.abs(problem.Kd @ u0[:n]).max()
+    acc = problem.rhs_numpy(0.0, u0)[n : 2 * n]
+    assert scale > 0 and np.abs(acc).max() < 1e-9 * scale and residual < 1e-9 * scale
+    compiled = bridge.evaluate(problem.context, 0.0, u0)
+    tuned_acc = -(small_model.dense_stiffness() - problem.Kd) @ u0[:n]  # what tuned K_R adds
+    assert np.abs(tuned_acc).max() > 1e-3 * scale  # the mistuning matters at this state
+    assert np.abs(compiled[n : 2 * n] - acc).max() < 1e-9 * scale
+    res = run_case(model, cfg, {"shroud": 50.0})
+    assert res.status == "done" and res.preload_residual == residual
