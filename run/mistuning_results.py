@@ -81,7 +81,7 @@ def amplification(path: str, plt, outdir: str) -> None:
         p = _parameters(f)
         factor = f["/forced/amplification"][()]
         growth = f["/stability/max_growth_rate"][()]
-        bound = float(f["/forced/status"].attrs["whitehead_bound"])
+        bound = float(f["/forced"].attrs["whitehead_bound"])
         frequency = f["/forced/peak_frequency_hz"][()]
     std, contacts = p["mistuning.std"], p["forced.contacts"]
     print()
