@@ -263,14 +263,20 @@ def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
                 kw[c] += a1 * w_next[c] + a1t * w_prev[c]
                 dv[c] += a1x2 * v_next[c]
         if mistuned:  # + delta_s K_seg on the diagonal block: m^2 more per column
-            for j in range(m):
-                ks = K_seg[i, j]
-                wj = WT[j, B:]
-                vj = VT[j, B:]
+            for jp in range(m // 2):  # modes in pairs, as the A1 product: one delta per pair
+                j = 2 * jp
+                ks0, ks1 = K_seg[i, j], K_seg[i, j + 1]
+                w0, w1 = WT[j, B:], WT[j + 1, B:]
+                v0, v1 = VT[j, B:], VT[j + 1, B:]
                 for c in range(NB):
-                    kd = ks * delta[c]
-                    kw[c] += kd * wj[c]
-                    dv[c] += kd * vj[c]
+                    kw[c] += delta[c] * (ks0 * w0[c] + ks1 * w1[c])
+                    dv[c] += delta[c] * (ks0 * v0[c] + ks1 * v1[c])
+            if m % 2 == 1:
+                ks0 = K_seg[i, m - 1]
+                w0, v0 = WT[m - 1, B:], VT[m - 1, B:]
+                for c in range(NB):
+                    kw[c] += delta[c] * ks0 * w0[c]
+                    dv[c] += delta[c] * ks0 * v0[c]
         for kind in range(K):
             xa0, xa1, xa2 = XA[kind, 0, i], XA[kind, 1, i], XA[kind, 2, i]
             xb0, xb1, xb2 = XB[kind, 0, i], XB[kind, 1, i], XB[kind, 2, i]
