@@ -200,6 +200,13 @@ def test_info_and_figures_of_a_monte_carlo_study(monte_carlo, tmp_path, capsys):
     assert main(["info", str(path)]) == 0  # the text table names every case's factor
     text = capsys.readouterr().out
     assert f"amplification {info['cases'][3]['amplification']:.4f}" in text
+    import h5py
+
+    from wheelrom.plots_study import StudyData
+
+    with h5py.File(path, "r") as f:  # the study figures draw the factor over the varied keys
+        np.testing.assert_array_equal(StudyData(f, str(path)).quantities["amplification"],
+                                      f["forced/amplification"][()])  # fmt: skip
     names = {p.rsplit("/", 1)[-1] for p in plot_file(str(path), str(tmp_path))}
     assert {"mc_amplification.png", "mc_growth_rate.png", "mc_localisation.png"} <= names
 

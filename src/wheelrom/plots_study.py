@@ -44,6 +44,8 @@ class StudyData:
         self.growth = need(f, "stability/max_growth_rate", path)
         self.status = [s.decode().partition(":")[0] for s in need(f, "cases/status", path)]
         self.quantities = {"growth_rate": self.growth}
+        if "forced/amplification" in f:  # study --forced: the factor over the varied keys
+            self.quantities["amplification"] = f["forced/amplification"][()]
         self.transient = "cases/max_tip_amplitude" in f and "done" in self.status
         if self.transient:
             self._transient_quantities(f, path)
@@ -83,6 +85,7 @@ WHAT = {
     "final_amplitude": ("final max tip amplitude [m] (transient)", "magma"),
     "min_normal_force": ("smallest normal force [N]", "viridis"),
     "open_fraction": ("fraction of contacts open, last window", "cividis"),
+    "amplification": ("forced-response amplification factor (peak / tuned peak)", "plasma"),
 }
 
 
