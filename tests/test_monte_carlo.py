@@ -313,3 +313,50 @@ def test_cli_forced_response_uses_the_forced_section(capsys, one_mode):
     assert data["amplification_factor"] == pytest.approx(peak.amplitude / tuned.amplitude,
                                                          rel=1e-12)  # fmt: skip
 
+
+
+def test_case_stability_is_that_of_the_case_mistuned_model(monte_carlo, small_model):
+    """``/stability`` of a realisation is the analysis of its own mistuned model (not the
+    group's tuned one): the same growth rates as a direct ``analyse``, unlike the tuned
+    wheel's."""
+    from wheelrom.transient.stability import analyse
+
+    cfg, path, _, _ = monte_carlo
+    with h5py.File(path, "r") as f:
+        delta, stored = f["cases/mistuning"][7], f["stability/max_growth_rate"][7]
+    case = cfg.replace(**{"mistuning.seed": 7})
+    mistuned = analyse(dataclasses.replace(small_model, mistuning=delta), case)
+    tuned = analyse(forced.tuned_copy(small_model), case)
+    assert stored == pytest.approx(mistuned.growth_rate.max(), rel=1e-9, abs=1e-12)
+    assert abs(tuned.growth_rate.max() - stored) > 1e-6 * abs(stored)
+
+
+def test_resume_hint_of_a_forced_study_names_forced(tmp_path):
+    """A ``--forced`` study with pending transients: ``info``'s resume command carries
+    ``--forced`` (a resume without it is refused)."""
+    from mpi4py import MPI
+
+    from wheelrom.info import file_info
+    from wheelrom.study import run_study
+    from wheelrom.study_file import resume_problem
+
+    cfg = _study_cfg(tmp_path, ["time.end=0.0005", "time.window=0.0005"], seeds=2)
+    out = str(tmp_path / "f.h5")
+    run_study(cfg, out, MPI.COMM_SELF, mode="full", log=lambda *_: None, forced=True)
+    with h5py.File(out, "r+") as f:
+        status = f["cases/status"][()]
+        status[1] = b"pending"
+        f["cases/status"][...] = status
+    hint = file_info(out)["hint"]
+    assert "--forced" in hint and "--resume" in hint
+    assert resume_problem(out, cfg, "full", forced=False) is not None
+    assert resume_problem(out, cfg, "full", forced=True) is None
+
+
+def test_an_npz_archive_is_a_named_pattern_file_error(tmp_path):
+    np.savez(tmp_path / "blades.npy", delta=np.zeros(12))  # numpy appends .npz
+    (tmp_path / "blades.npy.npz").rename(tmp_path / "blades.npy")
+    toml = tmp_path / "w.toml"
+    toml.write_text(open(SMALL).read() + '\n[mistuning]\nfile = "blades.npy"\n')
+    with pytest.raises(ConfigError, match="blades.npy: is an .npz archive"):
+        config.load(toml)

@@ -94,6 +94,9 @@ def read_mistuning_file(name: str, source: str, blades: int) -> np.ndarray:
             values = np.load(path, allow_pickle=False)
         except (OSError, ValueError) as exc:
             raise ValueError(f"{name}: cannot be read as .npy ({exc})") from None
+        if not isinstance(values, np.ndarray):  # an .npz archive: np.load gives an NpzFile
+            values.close()
+            raise ValueError(f"{name}: is an .npz archive, not a single .npy array")
         if values.dtype.kind not in "iuf":
             raise ValueError(f"{name}: holds {values.dtype}, not numbers")
         values = np.asarray(values, dtype=float).reshape(-1)

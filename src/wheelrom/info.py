@@ -290,6 +290,8 @@ def _study_info(f, path: str) -> dict:
     pending = out["counts"]["pending"]
     source = header["config_source"]
     flag = {"screen": " --screen", "full": ""}.get(out["mode"], "")
+    if bool(f.attrs.get("forced", False)):  # resume_problem refuses a resume without it
+        flag += " --forced"
     out["hint"] = None
     if pending and source and " + --set " not in source and not source.startswith("<"):
         out["hint"] = (f"{pending} transient(s) pending: wheelrom study {source} --out {path}"
