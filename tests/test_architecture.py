@@ -28,6 +28,7 @@ STAGES = (
     ("wheelrom.bench", 7), ("wheelrom.plots", 7), ("wheelrom.plots_stability", 7),
     ("wheelrom.plot_helpers", 7),
     ("wheelrom.cli_args", 8), ("wheelrom.cli_output", 8), ("wheelrom.cli_tools", 8),
+    ("wheelrom.cli_output_mistuning", 8),
     ("wheelrom.cli", 8), ("wheelrom", 0),
 )  # fmt: skip
 

@@ -124,7 +124,7 @@ def monte_carlo(tmp_path_factory, monkeypatch_module):
         return build.build_model(cfg, comm, log)
 
     monkeypatch_module.setattr(study, "build_model", counted)
-    cfg = _study_cfg(tmp)
+    cfg = _study_cfg(tmp, ["flutter.mu=0.0"])  # linearly stable: every factor counts
     summary = study.run_study(cfg, str(tmp / "mc.h5"), MPI.COMM_SELF, mode="stability",
                               log=lambda *_: None, forced=True)  # fmt: skip
     return cfg, tmp / "mc.h5", summary, builds
@@ -185,6 +185,28 @@ def test_statistics_are_numpys(monte_carlo):
             assert d["p95"] == pytest.approx(np.percentile(data, 95), rel=1e-14)
             assert d["max"] == np.max(data) and d["argmax"] == int(np.argmax(data))
     assert stats["whitehead_bound"] == pytest.approx((1 + math.sqrt(12)) / 2)
+
+
+def test_unstable_realisations_are_left_out_of_the_amplification(tmp_path, capsys):
+    """With the Van der Pol force on, the small wheel flutters in every realisation: their
+    factors are stored, but the statistics (and `info`) leave them out and say so, since an
+    unstable linearisation's peak is set by the band searched."""
+    from mpi4py import MPI
+
+    from wheelrom.cli import main
+    from wheelrom.study import run_study
+
+    out = tmp_path / "u.h5"
+    summary = run_study(_study_cfg(tmp_path, seeds=3), str(out), MPI.COMM_SELF,
+                        mode="stability", log=lambda *_: None, forced=True)  # fmt: skip
+    stats = summary["statistics"]
+    with h5py.File(out, "r") as f:
+        assert all(v == b"unstable" for v in f["stability/verdict"][()])
+        assert np.isfinite(f["forced/amplification"][()]).all()
+    assert stats["amplification"]["count"] == 0 and stats["amplification_unstable_cases"] == 3
+    assert stats["max_growth_rate"]["count"] == 3
+    assert main(["info", str(out)]) == 0
+    assert "3 linearly unstable case(s) left out of the amplification" in capsys.readouterr().out
 
 
 def test_info_and_figures_of_a_monte_carlo_study(monte_carlo, tmp_path, capsys):

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from wheelrom.plot_helpers import need, save
-from wheelrom.study_file import distribution
+from wheelrom.study_file import distribution, stable_amplification
 
 
 def montecarlo_figures(f, path: str, outdir: str, pdf: bool, written: list[str], plt) -> None:
@@ -17,7 +17,8 @@ def montecarlo_figures(f, path: str, outdir: str, pdf: bool, written: list[str],
     ``outdir`` (nothing for a study without ``/forced``)."""
     if "forced" not in f:
         return
-    amplification = need(f, "forced/amplification", path)
+    need(f, "forced/amplification", path)
+    amplification = stable_amplification(f)[0]  # an unstable case's factor means nothing
     bound = float(f["forced"].attrs["whitehead_bound"])
     for name, fig in (("mc_amplification", _amplification(amplification, bound, plt)),
                       ("mc_growth_rate", _growth(need(f, "stability/max_growth_rate", path),

@@ -218,11 +218,27 @@ def distribution(values) -> dict:
             "argmax": int(finite[np.argmax(x)])}  # fmt: skip
 
 
+def stable_amplification(f) -> tuple[np.ndarray, int]:
+    """``(C,)`` the amplification factors of the linearly stable cases (NaN elsewhere) and
+    how many unstable cases had a factor. Why: an unstable case's linearisation has a
+    negatively damped mode, whose "peak" is set by the band searched, not by the wheel
+    (docs/theory.md "Peak refinement")."""
+    factor = np.array(f["forced/amplification"][()], dtype=float)
+    unstable = np.array([v != b"stable" for v in f["stability/verdict"][()]])
+    excluded = int(np.sum(unstable & np.isfinite(factor)))
+    factor[unstable] = np.nan
+    return factor, excluded
+
+
 def statistics(f) -> dict:
     """The distribution (:func:`distribution`) over the cases of the largest linear growth
-    rate [1/s] and, with ``/forced``, of the amplification factor, with Whitehead's bound."""
+    rate [1/s] and, with ``/forced``, of the amplification factor of the linearly stable
+    cases (``amplification_unstable_cases``: the unstable ones left out), with Whitehead's
+    bound."""
     out = {"max_growth_rate": distribution(f["stability/max_growth_rate"][()])}
     if "forced" in f:
-        out["amplification"] = distribution(f["forced/amplification"][()])
+        factor, excluded = stable_amplification(f)
+        out["amplification"] = distribution(factor)
+        out["amplification_unstable_cases"] = excluded
         out["whitehead_bound"] = float(f["forced"].attrs["whitehead_bound"])
     return out
