@@ -382,3 +382,17 @@ def test_an_npz_archive_is_a_named_pattern_file_error(tmp_path):
     toml.write_text(open(SMALL).read() + '\n[mistuning]\nfile = "blades.npy"\n')
     with pytest.raises(ConfigError, match="blades.npy: is an .npz archive"):
         config.load(toml)
+
+
+def test_a_blade_that_would_lose_its_stiffness_is_a_named_error():
+    """pattern, file, alternate and random are each bounded, their sum is not: a blade with
+    ``1 + delta_s <= 0.1`` is refused, naming the blade and the sources."""
+    from wheelrom.errors import InputError
+    from wheelrom.rom.model import blade_mistuning
+
+    cfg = config.load(SMALL, ["mistuning.pattern=[-0.5, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0]",
+                              "mistuning.alternate=-0.45"])  # fmt: skip
+    with pytest.raises(InputError, match=r"blade\(s\) 0 get delta_s = -0.95"):
+        blade_mistuning(cfg)
+    ok = blade_mistuning(cfg.replace(**{"mistuning.alternate": -0.3}))
+    assert ok[0] == pytest.approx(-0.8)

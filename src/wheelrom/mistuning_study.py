@@ -27,7 +27,7 @@ from wheelrom import results
 from wheelrom.rom.model import ReducedModel, blade_mistuning
 from wheelrom.study_config import Study, tuned_key
 from wheelrom.study_plan import group_by
-from wheelrom.transient.forced import operators
+from wheelrom.transient.forced import operators, tuned_copy
 from wheelrom.transient.forced_peak import PeakResponse, peak_response, tuned_reference
 from wheelrom.transient.stability import analyse, linearise
 
@@ -62,8 +62,13 @@ class ForcedCases:
         if g not in self.references:
             cfg = self.study.configs[i]
             deltas = [blade_mistuning(self.study.configs[j]) for j in self.members[g]]
-            self.references[g] = tuned_reference(self.models[self.model_of[i]], cfg, deltas,
-                                                 contacts=cfg.forced.contacts)  # fmt: skip
+            tuned = tuned_copy(self.models[self.model_of[i]])
+            # the equilibrium as the cases' (SNES prefix stability_preload_): options given
+            # for it act on both sides of the factor
+            jacobian = linearise(tuned, cfg)[3] if cfg.forced.contacts else None
+            self.references[g] = tuned_reference(
+                tuned, cfg, deltas, contacts=cfg.forced.contacts,
+                operators_kc=operators(tuned, cfg, cfg.forced.contacts, jacobian=jacobian))
         return self.references[g]
 
     def peak(self, i: int, model: ReducedModel, jacobian=None) -> tuple:

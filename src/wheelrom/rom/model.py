@@ -264,4 +264,10 @@ def blade_mistuning(cfg: Config) -> np.ndarray | None:
             delta += mt.std * math.sqrt(3.0) * rng.uniform(-1.0, 1.0, N)
         else:
             delta += mt.std * rng.standard_normal(N)
+    soft = np.flatnonzero(delta <= -0.9)  # a blade keeps at least a tenth of its stiffness
+    if soft.size:
+        raise InputError(
+            f"mistuning: blade(s) {', '.join(map(str, soft[:5]))} get delta_s = "
+            f"{delta[soft[0]]:.3g} (pattern + file + alternate + random, seed {mt.seed}): "
+            "a blade's modal stiffness (1 + delta_s) Lambda must stay above 0.1 Lambda")
     return delta if np.any(delta) else None

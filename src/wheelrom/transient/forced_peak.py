@@ -289,13 +289,15 @@ def peak_response(model: ReducedModel, cfg: Config, band_hz, contacts: bool = Tr
 
 def tuned_reference(model: ReducedModel, cfg: Config, deltas, contacts: bool = True,
                     angles_deg: dict | None = None, comm=None, prefix: str = PREFIX,
-                    band_hz=None, points: int | None = None) -> PeakResponse:  # fmt: skip
+                    band_hz=None, points: int | None = None,
+                    operators_kc=None) -> PeakResponse:  # fmt: skip
     """The tuned wheel's peak (``model`` with its mistuning removed) over the band of the
     realisations ``deltas`` (``band_hz`` [Hz] when given, else :func:`band_of`:
     ``forced.band_hz``, else automatic about the tuned resonance of ``forced.family`` at the
-    excited ND); its ``band`` is the band every one of those realisations is searched over."""
+    excited ND); its ``band`` is the band every one of those realisations is searched over.
+    ``operators_kc``: the tuned wheel's ``(K, C)`` when already linearised."""
     tuned = tuned_copy(model)
-    K, C = operators(tuned, cfg, contacts, angles_deg, comm, prefix)
+    K, C = operators_kc or operators(tuned, cfg, contacts, angles_deg, comm, prefix)
     if band_hz is None:
         centre = resonance(K, tuned, cfg.wheel.stator_vanes, cfg.forced.family)
         band = band_of(cfg, centre, deltas)
