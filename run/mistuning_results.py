@@ -66,12 +66,20 @@ def flutter(alternate: str, random: str, plt, outdir: str) -> None:
             ax.axhline(tuned[0], color=colours[i], lw=0.5)
     ax.axhline(0.0, color="k", lw=1)
     ax.set_xticks([0, 0.5, 1, 2, 5])
-    ax.set_xlabel("mistuning strength: alternate amplitude a / random std [%]")
-    ax.set_ylabel("largest growth rate [1/s]")
-    ax.set_title("Flutter of the mistuned wheel (tie-boss 45 deg, mu = 100 N s/m)")
+    _finish(fig, ax, plt, "mistuning strength: alternate amplitude a / random std [%]",
+            "largest growth rate [1/s]",
+            "Flutter of the mistuned wheel (tie-boss 45 deg, mu = 100 N s/m)",
+            os.path.join(outdir, "mistuning_flutter.png"))  # fmt: skip
+
+
+def _finish(fig, ax, plt, xlabel: str, ylabel: str, title: str, path: str) -> None:
+    """Labels, legend, and the figure written to ``path``."""
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(os.path.join(outdir, "mistuning_flutter.png"), dpi=110)
+    fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
@@ -110,13 +118,9 @@ def amplification(path: str, plt, outdir: str) -> None:
     ax.axhline(bound, color="k", ls="--", lw=1, label=f"Whitehead's bound {bound:.2f}")
     ax.axhline(1.0, color="k", lw=0.5)
     ax.set_xscale("log")
-    ax.set_xlabel("random mistuning std [%]")
-    ax.set_ylabel("amplification factor (peak / tuned peak)")
-    ax.set_title("Forced response to the nozzle (ND 2), 66 blades x 22 vectors")
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(os.path.join(outdir, "mistuning_amplification.png"), dpi=110)
-    plt.close(fig)
+    _finish(fig, ax, plt, "random mistuning std [%]", "amplification factor (peak / tuned peak)",
+            "Forced response to the nozzle (ND 2), 66 blades x 22 vectors",
+            os.path.join(outdir, "mistuning_amplification.png"))  # fmt: skip
 
 
 def main() -> None:

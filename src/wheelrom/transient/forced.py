@@ -80,11 +80,6 @@ def tuned_copy(model: ReducedModel) -> ReducedModel:
     return dataclasses.replace(model, mistuning=None)
 
 
-def excitation_frequencies(speeds_hz, stator_vanes: int) -> np.ndarray:
-    """``(S,)`` nozzle frequencies ``w = 2 pi n_s f_rev`` [rad/s] of rotor speeds [Hz]."""
-    return 2 * math.pi * stator_vanes * np.asarray(speeds_hz, dtype=float)
-
-
 def nozzle_amplitude(model: ReducedModel, stator_vanes: int, force: float) -> np.ndarray:
     """``(N, m)`` complex generalised force amplitudes ``F_s = excitation F_b e^{-i phi_s}``,
     ``phi_s = 2 pi (1 - n_s / N) s``: a travelling wave of index ``n_s mod N``."""
@@ -208,14 +203,12 @@ def tip_amplitudes(model: ReducedModel, Q: np.ndarray) -> np.ndarray:
 
 
 def forced_response(model: ReducedModel, cfg: Config, frequencies, contacts: bool = True,
-                    angles_deg: dict | None = None, comm=None, prefix: str = PREFIX,
-                    solver: str = "petsc") -> ForcedResponse:  # fmt: skip
+                    angles_deg: dict | None = None, comm=None,
+                    prefix: str = PREFIX) -> ForcedResponse:  # fmt: skip
     """The steady response of ``model`` to the nozzle of ``cfg`` (``wheel.stator_vanes``,
-    ``excitation.force``) at every excitation frequency of ``frequencies`` [rad/s];
-    ``angles_deg``: kind -> contact angle [deg] as :func:`stability.linearise`;
-    ``solver``: ``"petsc"`` (KSP, prefix ``prefix``) or ``"scipy"`` (sparse direct)."""
-    if solver not in ("petsc", "scipy"):
-        raise ValueError(f"solver: 'petsc' or 'scipy', not {solver!r}")
+    ``excitation.force``) at every excitation frequency of ``frequencies`` [rad/s] (KSP,
+    prefix ``prefix``); ``angles_deg``: kind -> contact angle [deg] as
+    :func:`stability.linearise`."""
     t0 = time.perf_counter()
     w_all = np.atleast_1d(np.asarray(frequencies, dtype=float))
     n_s = cfg.wheel.stator_vanes
@@ -223,16 +216,10 @@ def forced_response(model: ReducedModel, cfg: Config, frequencies, contacts: boo
     F = nozzle_amplitude(model, n_s, cfg.excitation.force)
     amplitude = np.empty((w_all.size, model.blades))
     t_solve = time.perf_counter()
-    settings = {}
-    if solver == "petsc":
-        harmonic = HarmonicSolver(K, C, comm, prefix)
-        settings = harmonic.settings
-        for i, w in enumerate(w_all):
-            amplitude[i] = tip_amplitudes(model, harmonic.solve(F, w))
-        harmonic.destroy()
-    else:
-        for i, w in enumerate(w_all):
-            amplitude[i] = tip_amplitudes(model, direct_solve(K, C, F, w))
+    harmonic = HarmonicSolver(K, C, comm, prefix)
+    for i, w in enumerate(w_all):
+        amplitude[i] = tip_amplitudes(model, harmonic.solve(F, w))
+    harmonic.destroy()
     t_end = time.perf_counter()
     return ForcedResponse(
         frequency=w_all,
@@ -242,7 +229,7 @@ def forced_response(model: ReducedModel, cfg: Config, frequencies, contacts: boo
         contacts=contacts,
         wall_s=t_end - t0,
         solve_s=t_end - t_solve,
-        solver=settings,
+        solver=harmonic.settings,
     )
 
 

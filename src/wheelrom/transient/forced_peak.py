@@ -49,6 +49,7 @@ from wheelrom.transient.forced import (
     tip_amplitudes,
     tuned_copy,
 )
+from wheelrom.transient.stability import nd_block
 
 KAPPA = 4.0  # bracket half-width of an eigenfrequency candidate [half-power half-widths]
 REFINE_RATIO = 0.5  # candidates at least this share of the best amplitude are refined
@@ -115,8 +116,7 @@ def resonance(K, model: ReducedModel, stator_vanes: int, family: int = 0) -> flo
     K = sp.csr_matrix(K)
     shift = np.roll(np.arange(N * m), m)
     if abs(K - K[shift][:, shift]).max() <= 1e-10 * abs(K).max():
-        row = K[:m].toarray().reshape(m, N, m).transpose(1, 0, 2)  # (N, m, m) K_{0,d}
-        block = np.einsum("d,dij->ij", np.exp(2j * math.pi * k * np.arange(N) / N), row)
+        block = nd_block(K[:m].toarray().reshape(m, N, m).transpose(1, 0, 2), k)  # K_{0,d}
         lam = np.linalg.eigvalsh(0.5 * (block + block.conj().T))
         return math.sqrt(max(lam[family], 0.0))
     lam, vec = np.linalg.eigh(0.5 * (K + K.T).toarray())
