@@ -137,6 +137,10 @@ def test_stability_of_a_case_equals_the_stability_command(mixed, tmp_path):
         assert study["stability/verdict"][5] == direct["stability/verdict"][0]
         # and the transient's linear columns agree with the stability group
         assert study["cases/linear_growth_rate"][5] == study["stability/max_growth_rate"][5]
+        # every case: the transient's classification uses its fastest stored mode
+        for name in ("growth_rate", "nodal_diameter", "frequency_hz"):
+            np.testing.assert_array_equal(study[f"cases/linear_{name}"][()],
+                                          study[f"stability/{name}"][:, 0], err_msg=name)
 
 
 def _brute_boundary(verdicts, shape):

@@ -106,29 +106,37 @@ def attach_linear(model, cfg: Config, angles_deg: dict, result) -> None:
     """Add the case's linear stability and the classification from both analyses to a
     transient :class:`~wheelrom.transient.problem.CaseResult` (a failed analysis leaves
     ``linear`` None and says so; it never fails the case)."""
-    from wheelrom.transient.stability import classify
-
     try:
         res = analyse(model, cfg, angles_deg)
     except Exception as exc:  # e.g. an equilibrium SNES that does not converge
         result.classification = f"unknown (linear analysis failed: {exc})"[:200]
         return
     i = res.critical()
-    result.linear = {"growth_rate": float(res.growth_rate[i]),
-                     "nodal_diameter": int(res.nodal_diameter[i]),
-                     "frequency_hz": float(res.frequency_hz[i])}  # fmt: skip
+    attach_classification(result, float(res.growth_rate[i]), int(res.nodal_diameter[i]),
+                          float(res.frequency_hz[i]))  # fmt: skip
+
+
+def attach_classification(result, growth_rate: float, nodal_diameter: int,
+                          frequency_hz: float) -> None:  # fmt: skip
+    """Add the case's fastest linear mode (growth rate [1/s], ND, frequency [Hz]: already
+    analysed, e.g. a study's ``/stability``) and the classification from both analyses to a
+    transient :class:`~wheelrom.transient.problem.CaseResult`."""
+    from wheelrom.transient.stability import classify
+
+    result.linear = {"growth_rate": growth_rate, "nodal_diameter": nodal_diameter,
+                     "frequency_hz": frequency_hz}  # fmt: skip
     if not result.status.startswith("done") or result.window_end.size == 0:
-        result.classification = f"linear growth {res.growth_rate[i]:+.3g} /s; transient failed"
+        result.classification = f"linear growth {growth_rate:+.3g} /s; transient failed"
         return
     # compare like with like: the travelling-wave components, not ND 0 where the static
     # preload deflection sits (unless the linear analysis says ND 0 is the one that grows)
     _, per_nd = result.growth_rates()
-    first = 0 if res.nodal_diameter[i] == 0 else 1
+    first = 0 if nodal_diameter == 0 else 1
     transient_rate = float(np.nanmax(per_nd[first:])) if np.isfinite(per_nd[first:]).any() else (
         float("nan"))  # fmt: skip
     vibration = float(np.nanmax(result.nd_spectrum[-1][first:]))  # [m], last window
     last_open = {k: float(v[-1]) for k, v in result.open_fraction.items() if v.size}
-    result.classification = classify(float(res.growth_rate[i]), transient_rate, vibration,
+    result.classification = classify(growth_rate, transient_rate, vibration,
                                      last_open)  # fmt: skip
 
 

@@ -34,7 +34,7 @@ from wheelrom.mistuning_study import (
 )
 from wheelrom.outputs import create_collectively, output_problem, replacing
 from wheelrom.rom.build import build_model
-from wheelrom.stability_study import attach_linear
+from wheelrom.stability_study import attach_classification
 from wheelrom.study_config import Study, batch_key, expand, model_key
 from wheelrom.study_plan import balance, batches, group_by, selection
 from wheelrom.sweep import _lor, _Progress
@@ -240,14 +240,17 @@ def _transients(out, cfg, study, model_of, members, comm, batch, options, say, s
     say(f"{len(todo)} transient(s) to run on {comm.size} rank(s) in {rounds} round(s)")
     clock = _Progress(say, cfg.time.end, settings["ts_dt"], rounds)
     with interrupts.deferred(), h5py.File(out, "r+", driver="mpio", comm=comm) as f:
+        fastest = _fastest_modes(f)  # each case's linear verdict, already in the file
         for r in range(rounds):
             chunk = plan[r] if r < len(plan) else []
             finished = _run_batch(chunk, study, models, model_of, options, settings,
                                   clock.window(r, len(chunk)))  # fmt: skip
             chunk = chunk if finished else []
             for i, res in zip(chunk, finished, strict=True):
-                attach_linear(case_model(models, model_of, study, i), study.configs[i], None,
-                              res)  # fmt: skip
+                if fastest[i] is None:  # the case's stability analysis failed
+                    res.classification = "unknown (linear analysis failed: see /stability)"
+                else:
+                    attach_classification(res, *fastest[i])
                 results.write_case(f, i, res)
             wait_for_all(comm)
             f.flush()  # collective: every finished round is on disk
@@ -255,6 +258,17 @@ def _transients(out, cfg, study, model_of, members, comm, batch, options, say, s
             if comm.allreduce(interrupts.requested(), op=_lor()):
                 raise Interrupted(f"interrupted: the finished rounds are saved in {out}; "
                                   "rerun with --resume to complete it")  # fmt: skip
+
+
+def _fastest_modes(f) -> list:
+    """Per case ``(growth rate [1/s], ND, frequency [Hz])`` of its fastest linear mode from
+    ``/stability`` (stored fastest first), None where the analysis failed."""
+    verdict = f["stability/verdict"][()]
+    growth = f["stability/growth_rate"][:, 0]
+    nd = f["stability/nodal_diameter"][:, 0]
+    hz = f["stability/frequency_hz"][:, 0]
+    return [None if v.startswith(b"failed") else (float(g), int(k), float(h))
+            for v, g, k, h in zip(verdict, growth, nd, hz, strict=True)]  # fmt: skip
 
 
 def _memory_width(cfg: Config, models: list) -> int:
