@@ -27,7 +27,6 @@ from wheelrom.results import FORMAT, open_file
 from wheelrom.study_file import FORMAT as STUDY_FORMAT
 
 TABLES = ("tips", "windows")
-ALL_TABLES = (*TABLES, "contact_forces")
 
 
 def case_tables(path: str, case: int,

@@ -10,8 +10,6 @@ import numpy as np
 
 from wheelrom.segment.mesh import rotation_z
 
-KIND_RADIUS_LABEL = {"tieboss": "tie-boss", "shroud": "shroud"}
-
 
 def _pyplot():
     import matplotlib
