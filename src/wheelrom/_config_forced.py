@@ -5,15 +5,14 @@ pattern file, the band). Part of :mod:`wheelrom.config`, which re-exports the cl
 from __future__ import annotations
 
 import math
-import os
 import re
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
+from wheelrom._config_values import beside_toml, is_number
 from wheelrom._config_values import field_key as _key
-from wheelrom._config_values import is_number
 
 #: largest |delta_s| a pattern or a pattern file may hold (as ``mistuning.pattern``)
 MISTUNING_LIMIT = 0.5
@@ -76,19 +75,10 @@ class ForcedConfig:
     )
 
 
-def mistuning_path(name: str, source: str) -> str:
-    """``mistuning.file`` as a path: relative to the TOML file ``source`` when it is one."""
-    path = os.path.expanduser(name)
-    toml = source.split(" + --set ")[0]
-    if not os.path.isabs(path) and os.path.isfile(toml):
-        path = os.path.join(os.path.dirname(os.path.abspath(toml)), path)
-    return path
-
-
 def read_mistuning_file(name: str, source: str, blades: int) -> np.ndarray:
     """``(blades,)`` delta_s of the file ``name`` (``mistuning.file``, relative to the TOML
     ``source``); raises ``ValueError`` with a message naming the file."""
-    path = mistuning_path(name, source)
+    path = beside_toml(name, source)
     if name.lower().endswith(".npy"):
         try:
             values = np.load(path, allow_pickle=False)

@@ -7,6 +7,7 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import math
+import os
 from collections.abc import Mapping, Sequence
 from dataclasses import fields
 from typing import Any
@@ -226,3 +227,13 @@ def convert_field(where: str, f: dataclasses.Field, value: Any, problems: list[s
         ok = all(check_number(f"{where}[{i}]", v, meta, problems) for i, v in enumerate(value))
         return tuple(float(v) for v in value) if ok else value
     raise AssertionError(f"no converter for {where}")  # pragma: no cover
+
+
+def beside_toml(name: str, source: str) -> str:
+    """A file key's value (``mistuning.file``, ``study.cases``) as a path: relative to the
+    TOML file of the configuration's ``source`` when it is one."""
+    path = os.path.expanduser(name)
+    toml = source.split(" + --set ")[0]
+    if not os.path.isabs(path) and os.path.isfile(toml):
+        path = os.path.join(os.path.dirname(os.path.abspath(toml)), path)
+    return path

@@ -23,10 +23,9 @@ import dataclasses
 import itertools
 import json
 import math
-import os
 from dataclasses import dataclass
 
-from wheelrom._config_values import convert_field, is_number
+from wheelrom._config_values import beside_toml, convert_field, is_number
 from wheelrom.config import CONTACT_KINDS, Config, ConfigError, from_dict, to_dict
 
 #: the two keys of a study made from ``[sweep]``
@@ -242,18 +241,9 @@ def _cell(text: str):
     return t
 
 
-def csv_path(cfg: Config) -> str:
-    """``study.cases`` as a path: relative to the TOML file when it is one."""
-    path = os.path.expanduser(cfg.study.cases)
-    toml = cfg.source.split(" + --set ")[0]
-    if not os.path.isabs(path) and os.path.isfile(toml):
-        path = os.path.join(os.path.dirname(os.path.abspath(toml)), path)
-    return path
-
-
 def _csv_axis(cfg: Config, problems: list[str]) -> list[tuple[str, list]]:
     """The ``study.cases`` file: one axis, a column per key, a case per non-empty row."""
-    path = csv_path(cfg)
+    path = beside_toml(cfg.study.cases, cfg.source)
     name = cfg.study.cases
     try:
         with open(path, newline="", encoding="utf-8") as fh:
