@@ -17,15 +17,15 @@ import json
 import sys
 import time
 
-from wheelrom._environment import bootstrap
+from wheelrom.runtime.environment import bootstrap
 
 bootstrap()  # before numpy's BLAS loads: one thread per process
 
 import numpy as np  # noqa: E402
 
 from wheelrom import config  # noqa: E402
-from wheelrom._environment import petsc  # noqa: E402
 from wheelrom.rom.build import build_model, quiet  # noqa: E402
+from wheelrom.runtime.environment import petsc  # noqa: E402
 from wheelrom.transient.run import run_case  # noqa: E402
 from wheelrom.transient.ts import time_step  # noqa: E402
 

@@ -24,16 +24,16 @@ import shutil
 import subprocess
 import sys
 
-from wheelrom._environment import bootstrap
+from wheelrom.runtime.environment import bootstrap
 
 bootstrap()
 
 import numpy as np  # noqa: E402
 
 from wheelrom import config  # noqa: E402
-from wheelrom._environment import petsc  # noqa: E402
 from wheelrom.rom.build import build_segment  # noqa: E402
 from wheelrom.rom.references import cyclic_table  # noqa: E402
+from wheelrom.runtime.environment import petsc  # noqa: E402
 from wheelrom.segment.assembly import assemble  # noqa: E402
 from wheelrom.segment.export import _real, calculix_deck, mesh_text  # noqa: E402
 from wheelrom.segment.prestress import prestress  # noqa: E402

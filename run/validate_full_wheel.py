@@ -16,16 +16,16 @@ import json
 import sys
 import time
 
-from wheelrom._environment import bootstrap
+from wheelrom.runtime.environment import bootstrap
 
 bootstrap()  # before numpy's BLAS loads: one thread per rank
 
 import numpy as np  # noqa: E402
 
 from wheelrom import config  # noqa: E402
-from wheelrom._environment import petsc  # noqa: E402
 from wheelrom.rom import references  # noqa: E402
 from wheelrom.rom.build import build_segment  # noqa: E402
+from wheelrom.runtime.environment import petsc  # noqa: E402
 
 
 def main(argv=None) -> int:

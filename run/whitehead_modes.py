@@ -17,9 +17,9 @@ import time
 import numpy as np
 
 from wheelrom import config
-from wheelrom._environment import petsc
+from wheelrom.analysis.forced_peak import peak_response, tuned_reference
 from wheelrom.rom.build import build_model, quiet
-from wheelrom.transient.forced_peak import peak_response, tuned_reference
+from wheelrom.runtime.environment import petsc
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 

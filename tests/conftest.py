@@ -4,7 +4,7 @@ import os
 
 import pytest
 
-from wheelrom._environment import bootstrap
+from wheelrom.runtime.environment import bootstrap
 
 bootstrap()  # PETSc location and one BLAS thread per process, before numpy loads
 os.environ.setdefault("MPLBACKEND", "Agg")
@@ -15,7 +15,7 @@ SMALL = os.path.join(HERE, "data", "small.toml")
 @pytest.fixture(scope="session")
 def comm():
     """``PETSc.COMM_SELF``: the communicator of serial builds."""
-    from wheelrom._environment import petsc
+    from wheelrom.runtime.environment import petsc
 
     return petsc().COMM_SELF
 

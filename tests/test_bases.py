@@ -127,6 +127,6 @@ def test_auto_flutter_mode_acts_on_that_mode_only(small_model, small_cfg):
 
 
 def _comm():
-    from wheelrom._environment import petsc
+    from wheelrom.runtime.environment import petsc
 
     return petsc().COMM_SELF

@@ -8,7 +8,7 @@ from conftest import SMALL
 
 
 def test_campbell_json_and_figure(tmp_path, capsys):
-    from wheelrom import cli
+    from wheelrom.cli import main as cli
 
     argv = ["campbell", SMALL, "--set", "wheel.modes_per_segment=3", "--speeds", "0,30,60",
             "--outdir", str(tmp_path), "--json"]  # fmt: skip
@@ -23,7 +23,7 @@ def test_campbell_json_and_figure(tmp_path, capsys):
 
 
 def test_campbell_rejects_bad_speeds(capsys):
-    from wheelrom import cli
+    from wheelrom.cli import main as cli
 
     assert cli.main(["campbell", SMALL, "--speeds", "0:x:3"]) == 2
     assert "--speeds" in capsys.readouterr().err

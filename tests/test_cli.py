@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from conftest import SMALL
-from wheelrom import cli
+from wheelrom.cli import main as cli
 
 
 def test_compare_command_agrees_with_the_reference(capsys):
@@ -23,7 +23,7 @@ def test_compare_takes_the_step_from_the_ts():
     import subprocess
     import sys
 
-    res = subprocess.run([sys.executable, "-m", "wheelrom.cli", "compare", SMALL, "--steps",
+    res = subprocess.run([sys.executable, "-m", "wheelrom.cli.main", "compare", SMALL, "--steps",
                           "100", "--json", "--", "-wheel_ts_dt", "2.5e-6"],
                          capture_output=True, text=True, check=True, timeout=300)  # fmt: skip
     out = json.loads(res.stdout)
@@ -72,7 +72,7 @@ def no_constants(name):
 def test_print_json_is_strict_with_null_fields(capsys):
     """NaN/inf (also in numpy arrays, numpy scalars, nested dicts) print as null, and
     null_fields says which keys and why."""
-    from wheelrom.cli_output import print_json
+    from wheelrom.cli.output import print_json
 
     print_json({"energy_balance_error": float("nan"), "ok": np.float64(1.5),
                 "table": np.array([[1.0, np.nan], [np.inf, 2.0]]), "peak": np.float32(-np.inf),
@@ -149,7 +149,7 @@ def test_compare_plain_output(capsys):
 
 
 def test_human_values():
-    from wheelrom.cli_output import human_value, unit_of
+    from wheelrom.cli.output import human_value, unit_of
 
     assert human_value(0.020000000000000788, "s") == "0.02 s"
     assert human_value(None) == "n/a" and human_value(float("nan"), "m") == "NaN"

@@ -6,7 +6,7 @@ import sys
 import pytest
 
 from wheelrom import config
-from wheelrom.cli import main
+from wheelrom.cli.main import main
 
 
 def write(tmp_path, text, name="case.toml"):
@@ -123,7 +123,7 @@ def test_check_names_all_three_problems_and_exits_2(tmp_path, capsys):
 
 def test_cli_show_and_help():
     out = subprocess.run(
-        [sys.executable, "-m", "wheelrom.cli", "config", "show", "--set", "time.end=0.25"],
+        [sys.executable, "-m", "wheelrom.cli.main", "config", "show", "--set", "time.end=0.25"],
         capture_output=True,
         text=True,
         check=True,
@@ -131,6 +131,6 @@ def test_cli_show_and_help():
     assert "end = 0.25" in out.stdout
     for args in (["--help"], ["config", "check", "--help"]):
         res = subprocess.run(
-            [sys.executable, "-m", "wheelrom.cli", *args], capture_output=True, text=True
+            [sys.executable, "-m", "wheelrom.cli.main", *args], capture_output=True, text=True
         )
         assert res.returncode == 0 and "usage" in res.stdout

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from conftest import SMALL
-from wheelrom import cli
+from wheelrom.cli import main as cli
 
 
 @pytest.fixture(scope="module")

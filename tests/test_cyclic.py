@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from wheelrom._environment import petsc
 from wheelrom.rom import model as rom
+from wheelrom.runtime.environment import petsc
 
 SELF = petsc().COMM_SELF  # serial builds
 

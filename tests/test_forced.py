@@ -1,4 +1,4 @@
-"""Linear forced response to the nozzle (wheelrom.transient.forced) against independent
+"""Linear forced response to the nozzle (wheelrom.analysis.forced) against independent
 truth: the single-ND solution of the tuned wheel, scipy's sparse direct solve, Whitehead's
 bound on the mistuned amplification."""
 
@@ -126,7 +126,7 @@ def test_whitehead_bound(one_mode, capsys):
 
 
 def test_cli_forced_response(tmp_path, capsys):
-    from wheelrom import cli
+    from wheelrom.cli import main as cli
 
     out = tmp_path / "forced.h5"
     args = ["forced-response", SMALL, "--frequencies", "380:395:4", "--angle", "shroud", "50",
@@ -152,7 +152,7 @@ def test_cli_forced_response(tmp_path, capsys):
 
 @pytest.mark.parametrize("bad", ["1:2", "a:b:3", "5:1:3", "1:2:0", "-1:2:3", "3:3:4"])
 def test_cli_forced_response_refuses_a_bad_range(bad, capsys):
-    from wheelrom import cli
+    from wheelrom.cli import main as cli
 
     assert cli.main(["forced-response", SMALL, f"--frequencies={bad}"]) == 2
     assert capsys.readouterr().err.startswith(f"wheelrom: --frequencies {bad}")
@@ -161,7 +161,7 @@ def test_cli_forced_response_refuses_a_bad_range(bad, capsys):
 def test_cli_forced_response_over_rotor_speeds(capsys):
     """``--speeds A:B:N`` is the nozzle band ``n_s A .. n_s B``: the same peaks as the
     equivalent ``--frequencies``, reported also as the rotor speed that meets them."""
-    from wheelrom import cli
+    from wheelrom.cli import main as cli
 
     common = ["forced-response", SMALL, "--set", "mistuning.std=0.02", "--no-contacts", "--json"]
     assert cli.main([*common, "--frequencies", "380:395:4"]) == 0

@@ -10,9 +10,10 @@ import numpy as np
 import pytest
 
 from conftest import SMALL
-from wheelrom import __version__, cli, config
-from wheelrom._environment import petsc
+from wheelrom import __version__, config
+from wheelrom.cli import main as cli
 from wheelrom.rom.model import blade_mistuning
+from wheelrom.runtime.environment import petsc
 from wheelrom.transient import forced
 
 MISTUNED = ["--set", "mistuning.std=0.02", "--set", "mistuning.seed=7"]
@@ -48,7 +49,7 @@ def forced_file(tmp_path_factory):
 
 
 def _info(path) -> dict:
-    from wheelrom.info import file_info
+    from wheelrom.results.info import file_info
 
     return file_info(str(path))
 
@@ -197,7 +198,7 @@ def test_info_of_a_file_written_before_the_records(forced_file, tmp_path, capsys
 def test_a_bad_forced_solver_option_is_one_named_line(capsys, petsc_options):
     """``-forced_ksp_type bogus`` is refused up front by the KSP it addresses, in one line
     (and taken out of the options database again: later tests of this process solve)."""
-    from wheelrom import cli
+    from wheelrom.cli import main as cli
 
     petsc_options.append("forced_ksp_type")
     argv = ["forced-response", SMALL, "--frequencies", "100:110:3", "--", "-forced_ksp_type",

@@ -212,7 +212,7 @@ def _slip_power(implementation, model, cfg, speed):
     blade 1 slides at ``speed`` [m/s] along the tangent xi of contact 0 (it slips against
     arm 0's end and, carrying its own arm 1 along, against blade 2), from the reference
     force model or the compiled kernel."""
-    from wheelrom._environment import petsc
+    from wheelrom.runtime.environment import petsc
     from wheelrom.transient import bridge
     from wheelrom.transient.problem import WheelProblem
 

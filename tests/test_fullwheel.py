@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from wheelrom._environment import petsc
 from wheelrom.rom import references
 from wheelrom.rom.build import build, build_model, build_segment
+from wheelrom.runtime.environment import petsc
 from wheelrom.segment import mesh
 
 SELF = petsc().COMM_SELF  # serial builds
@@ -118,7 +118,7 @@ def test_accuracy_command_is_monotone_in_the_basis(capsys):
     import json
 
     from conftest import SMALL
-    from wheelrom import cli
+    from wheelrom.cli import main as cli
 
     argv = ["accuracy", SMALL, "--modes", "3", "6", "--enriched-modes", "3", "--families", "2"]
     assert cli.main([*argv, "--json"]) == 0

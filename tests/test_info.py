@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 from conftest import SMALL
-from wheelrom import cli
-from wheelrom.cli_output import LONG_LISTING, print_info
-from wheelrom.info import file_info, resume_hint, ts_scheme
+from wheelrom.cli import main as cli
+from wheelrom.cli.output import LONG_LISTING, print_info
+from wheelrom.results.info import file_info, resume_hint, ts_scheme
 
 END = ["--set", "time.end=0.001"]  # two windows of 0.5 ms: a short sweep
 ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
@@ -34,7 +34,7 @@ def info_json(capsys, path) -> dict:
 def sweep_file(tmp_path_factory):
     """The 3-case small sweep (45 deg tie-boss; shroud 20, 50, 80 deg), 2 windows."""
     path = tmp_path_factory.mktemp("info") / "sweep.h5"
-    subprocess.run([sys.executable, "-m", "wheelrom.cli", "sweep", SMALL, *END, "--out",
+    subprocess.run([sys.executable, "-m", "wheelrom.cli.main", "sweep", SMALL, *END, "--out",
                     str(path)], env=ENV, check=True, capture_output=True, timeout=600)  # fmt: skip
     return path
 

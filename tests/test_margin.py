@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from conftest import SMALL
-from wheelrom.transient.margin import case_margin, flutter_margin
-from wheelrom.transient.stability import analyse, blade_blocks, linearise, nd_block
+from wheelrom.analysis.margin import case_margin, flutter_margin
+from wheelrom.analysis.stability import analyse, blade_blocks, linearise, nd_block
 
 
 @pytest.mark.parametrize("shroud", [20.0, 80.0])
@@ -41,8 +41,8 @@ def test_margin_without_contacts_is_first_order_perturbation(small_model, small_
     ``mu = beta omega^2 / phi^H V(k) phi``: the smallest over all modes is the margin
     (measured difference 7.5e-5: the second-order coupling of close modes through the
     damping matrices; a wrong factor or sign would be off by 100 %)."""
+    from wheelrom.analysis.jacobian import van_der_pol_damping
     from wheelrom.config import load
-    from wheelrom.transient.jacobian import van_der_pol_damping
 
     cfg = load(SMALL, ["contacts.tieboss.enabled=false",
                                   "contacts.shroud.enabled=false"])  # fmt: skip
@@ -78,7 +78,7 @@ def _as_state(block):
 def test_margin_of_a_mistuned_wheel_is_a_named_error(capsys):
     """The margin scans mu over the ND blocks: a mistuned wheel gets a clear refusal that
     names the option and the way to its growth rates, not a traceback."""
-    from wheelrom import cli
+    from wheelrom.cli import main as cli
 
     argv = ["stability", SMALL, "--margin", "--set", "mistuning.alternate=0.01"]
     assert cli.main(argv) == 2

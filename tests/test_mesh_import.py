@@ -5,8 +5,8 @@ import re
 import numpy as np
 import pytest
 
-from wheelrom._environment import petsc
-from wheelrom.errors import InputError
+from wheelrom.runtime.environment import petsc
+from wheelrom.runtime.errors import InputError
 from wheelrom.segment import assembly, builtin, modes
 from wheelrom.segment.export import write_segment
 from wheelrom.segment.load import load_segment

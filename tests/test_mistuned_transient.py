@@ -9,9 +9,9 @@ import math
 import numpy as np
 import pytest
 
-from wheelrom._environment import petsc
 from wheelrom.forces.parameters import force_parameters
 from wheelrom.rom.model import nodal_diameter
+from wheelrom.runtime.environment import petsc
 from wheelrom.transient import bridge, forced
 from wheelrom.transient.problem import WheelProblem
 from wheelrom.transient.reference import reference_solution
@@ -143,7 +143,7 @@ def test_sweep_of_a_mistuned_wheel_runs_and_records_the_pattern(tmp_path):
     import h5py
 
     from conftest import SMALL
-    from wheelrom import cli
+    from wheelrom.cli import main as cli
 
     quick = ["--set", "time.end=0.002", "--set", "time.window=0.001",
              "--set", "sweep.shroud_angles_deg=[30.0]"]  # fmt: skip

@@ -12,9 +12,9 @@ import scipy.linalg
 
 from conftest import SMALL
 from wheelrom import config
+from wheelrom.analysis.stability import analyse, rightmost_eigenvalues
 from wheelrom.rom.model import blade_mistuning
 from wheelrom.transient import forced, stability
-from wheelrom.transient.stability import analyse, rightmost_eigenvalues
 
 SEED = 22
 # the lowest family (blade mode 1, 116.35..116.53 Hz over ND 0..6: spread 0.3 % in lambda)
@@ -250,7 +250,7 @@ def test_a_zero_pattern_is_the_tuned_wheel(small_model, small_cfg):
     reference = np.concatenate([tuned.eigenvalue, tuned.eigenvalue.conj()])
     _, assembled, *_ = stability._assembled_spectrum(ours.jacobian, N, small_model.modes)
     assert max(_nearest(assembled, reference), _nearest(reference, assembled)) < 1e-10
-    from wheelrom._environment import petsc
+    from wheelrom.runtime.environment import petsc
 
     rightmost = rightmost_eigenvalues(ours.jacobian, petsc().COMM_SELF, nev=8)
     assert _nearest(rightmost, reference) < 1e-10

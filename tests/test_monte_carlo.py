@@ -16,10 +16,10 @@ from scipy.optimize import minimize_scalar
 
 from conftest import SMALL
 from wheelrom import config
+from wheelrom.analysis.forced_peak import peak_response, tuned_reference
 from wheelrom.config import ConfigError
 from wheelrom.rom.model import blade_mistuning
 from wheelrom.transient import forced
-from wheelrom.transient.forced_peak import peak_response, tuned_reference
 
 SEEDS = 20
 
@@ -113,8 +113,8 @@ def monte_carlo(tmp_path_factory, monkeypatch_module):
     ``builds``: the reduced models it built."""
     from mpi4py import MPI
 
-    from wheelrom import study
     from wheelrom.rom import build
+    from wheelrom.studies import study
 
     tmp = tmp_path_factory.mktemp("mc")
     builds = []
@@ -193,8 +193,8 @@ def test_unstable_realisations_are_left_out_of_the_amplification(tmp_path, capsy
     unstable linearisation's peak is set by the band searched."""
     from mpi4py import MPI
 
-    from wheelrom.cli import main
-    from wheelrom.study import run_study
+    from wheelrom.cli.main import main
+    from wheelrom.studies.study import run_study
 
     out = tmp_path / "u.h5"
     summary = run_study(_study_cfg(tmp_path, seeds=3), str(out), MPI.COMM_SELF,
@@ -210,21 +210,21 @@ def test_unstable_realisations_are_left_out_of_the_amplification(tmp_path, capsy
 
 
 def test_info_and_figures_of_a_monte_carlo_study(monte_carlo, tmp_path, capsys):
-    from wheelrom.info import file_info
-    from wheelrom.plots import plot_file
+    from wheelrom.plots.figures import plot_file
+    from wheelrom.results.info import file_info
 
     _, path, summary, _ = monte_carlo
     info = json.loads(json.dumps(file_info(str(path))))
     assert info["statistics"] == json.loads(json.dumps(summary["statistics"]))
     assert info["cases"][3]["amplification"] > 0
-    from wheelrom.cli import main
+    from wheelrom.cli.main import main
 
     assert main(["info", str(path)]) == 0  # the text table names every case's factor
     text = capsys.readouterr().out
     assert f"amplification {info['cases'][3]['amplification']:.4f}" in text
     import h5py
 
-    from wheelrom.plots_study import StudyData
+    from wheelrom.plots.study import StudyData
 
     with h5py.File(path, "r") as f:  # the study figures draw the factor over the varied keys
         np.testing.assert_array_equal(StudyData(f, str(path)).quantities["amplification"],
@@ -238,7 +238,7 @@ def test_whitehead_bound_holds_for_one_mode_without_contacts(tmp_path):
     uniform 3 % study exceeds (1 + sqrt(N)) / 2."""
     from mpi4py import MPI
 
-    from wheelrom.study import run_study
+    from wheelrom.studies.study import run_study
 
     cfg = _study_cfg(tmp_path, ['mistuning.distribution="uniform"', "mistuning.std=0.03",
                                 "forced.contacts=false", "wheel.modes_per_segment=1"],
@@ -251,7 +251,7 @@ def test_whitehead_bound_holds_for_one_mode_without_contacts(tmp_path):
 
 
 def test_model_key_leaves_the_mistuning_to_the_cases(small_cfg):
-    from wheelrom.study_config import model_key, tuned_key
+    from wheelrom.config.study import model_key, tuned_key
 
     a = small_cfg.replace(**{"mistuning.std": 0.02, "mistuning.seed": 1})
     b = small_cfg.replace(**{"mistuning.alternate": 0.01, "forced.points": 5})
@@ -316,7 +316,7 @@ def test_forced_band_errors(value, message):
 def test_cli_forced_response_uses_the_forced_section(capsys, one_mode):
     """No --frequencies: the band and grid of [forced]; the refined peak and factor equal
     a direct call."""
-    from wheelrom import cli
+    from wheelrom.cli import main as cli
 
     args = ["forced-response", SMALL, "--set", "wheel.modes_per_segment=1", "--set",
             "mistuning.alternate=0.01", "--set", "forced.contacts=false", "--set",
@@ -341,7 +341,7 @@ def test_case_stability_is_that_of_the_case_mistuned_model(monte_carlo, small_mo
     """``/stability`` of a realisation is the analysis of its own mistuned model (not the
     group's tuned one): the same growth rates as a direct ``analyse``, unlike the tuned
     wheel's."""
-    from wheelrom.transient.stability import analyse
+    from wheelrom.analysis.stability import analyse
 
     cfg, path, _, _ = monte_carlo
     with h5py.File(path, "r") as f:
@@ -358,9 +358,9 @@ def test_resume_hint_of_a_forced_study_names_forced(tmp_path):
     ``--forced`` (a resume without it is refused)."""
     from mpi4py import MPI
 
-    from wheelrom.info import file_info
-    from wheelrom.study import run_study
-    from wheelrom.study_file import resume_problem
+    from wheelrom.results.info import file_info
+    from wheelrom.results.study_layout import resume_problem
+    from wheelrom.studies.study import run_study
 
     cfg = _study_cfg(tmp_path, ["time.end=0.0005", "time.window=0.0005"], seeds=2)
     out = str(tmp_path / "f.h5")
@@ -387,8 +387,8 @@ def test_an_npz_archive_is_a_named_pattern_file_error(tmp_path):
 def test_a_blade_that_would_lose_its_stiffness_is_a_named_error():
     """pattern, file, alternate and random are each bounded, their sum is not: a blade with
     ``1 + delta_s <= 0.1`` is refused, naming the blade and the sources."""
-    from wheelrom.errors import InputError
     from wheelrom.rom.model import blade_mistuning
+    from wheelrom.runtime.errors import InputError
 
     cfg = config.load(SMALL, ["mistuning.pattern=[-0.5, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0]",
                               "mistuning.alternate=-0.45"])  # fmt: skip

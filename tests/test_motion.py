@@ -13,12 +13,13 @@ import numpy as np
 import pytest
 
 from conftest import SMALL
-from wheelrom import cli, config
+from wheelrom import config
+from wheelrom.cli import main as cli
 from wheelrom.config import ConfigError
 
 ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
            OMPI_MCA_rmaps_base_oversubscribe="1")  # fmt: skip
-WHEELROM = [sys.executable, "-m", "wheelrom.cli"]
+WHEELROM = [sys.executable, "-m", "wheelrom.cli.main"]
 STATE = ["--set", "output.state_rate_hz=20000"]  # every statistics sample
 
 
@@ -43,8 +44,8 @@ def test_time_grid_counts_history_samples():
 def test_paper_layouts_fit(coarse_model):
     """The paper sweep's preallocated size before (tip history at 20 kHz) and after (2 kHz);
     a 19 x 19 angle map of 1.5 s stays under 2 GB at the default history rate."""
-    from wheelrom.histories import case_bytes
-    from wheelrom.results import create_layout
+    from wheelrom.results.histories import case_bytes
+    from wheelrom.results.layout import create_layout
 
     def size(*overrides):
         cfg = config.load("run/paper.toml", list(overrides))
@@ -66,8 +67,8 @@ def test_a_parallel_file_allocates_what_info_reports(coarse_model, tmp_path):
     case times the cases, within 1 % (chunks split the samples evenly) plus /model."""
     from mpi4py import MPI
 
-    from wheelrom.histories import case_bytes
-    from wheelrom.results import create_layout
+    from wheelrom.results.histories import case_bytes
+    from wheelrom.results.layout import create_layout
 
     path = tmp_path / "paper.h5"
     with h5py.File(path, "w", driver="mpio", comm=MPI.COMM_SELF) as f:
@@ -115,7 +116,7 @@ def case_file(tmp_path_factory):
 def test_contact_forces_from_the_state_history_are_the_monitors(case_file):
     """Per window, the smallest normal force and the open fraction of the reconstructed
     contacts are what the compiled monitor recorded at the same samples."""
-    from wheelrom.reconstruct import case_contacts
+    from wheelrom.results.reconstruct import case_contacts
 
     histories = case_contacts(case_file, 0)
     with h5py.File(case_file, "r") as f:
@@ -135,9 +136,9 @@ def test_contact_forces_from_the_state_history_are_the_monitors(case_file):
 def test_xdmf_holds_the_models_tip_motion(case_file, tmp_path, capsys):
     import meshio
 
-    from wheelrom._environment import petsc
-    from wheelrom.histories import state_window
-    from wheelrom.wheel_motion import rebuild
+    from wheelrom.results.histories import state_window
+    from wheelrom.results.wheel_motion import rebuild
+    from wheelrom.runtime.environment import petsc
 
     prefix = str(tmp_path / "wheel")
     assert cli.main(["animate", case_file, "--out", prefix, "--frames", "5"]) == 0
@@ -179,7 +180,7 @@ def test_animate_refuses_a_model_that_does_not_rebuild(case_file, tmp_path, caps
 
 
 def test_contacts_figures_and_csv(case_file, tmp_path, capsys):
-    from wheelrom.reconstruct import case_contacts
+    from wheelrom.results.reconstruct import case_contacts
 
     prefix = str(tmp_path / "c")
     assert cli.main(["contacts", case_file, "--blade", "0", "5", "--kind", "shroud",
@@ -242,7 +243,7 @@ def test_without_a_state_history(tips_only, tmp_path, capsys):
 
 
 def test_info_reports_bytes_per_case(case_file, capsys):
-    from wheelrom.info import file_info
+    from wheelrom.results.info import file_info
 
     info = file_info(case_file)
     by = info["bytes_per_case_by_dataset"]

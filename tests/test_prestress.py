@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from skfem import MeshHex
 
-from wheelrom._environment import petsc
+from wheelrom.runtime.environment import petsc
 from wheelrom.segment import assembly, mesh, modes, prestress
 
 SELF = petsc().COMM_SELF  # serial builds

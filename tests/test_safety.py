@@ -15,7 +15,7 @@ import h5py
 import pytest
 
 from conftest import SMALL
-from wheelrom import cli
+from wheelrom.cli import main as cli
 
 QUICK = ["--set", "time.end=0.001", "--set", "time.window=0.0005"]
 ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
@@ -24,7 +24,7 @@ ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIR
 
 def wheelrom(*args, timeout=300, ranks=None, **kw):
     """The CLI in a subprocess (its own PETSc database), optionally under mpirun."""
-    cmd = [sys.executable, "-m", "wheelrom.cli", *args]
+    cmd = [sys.executable, "-m", "wheelrom.cli.main", *args]
     if ranks:
         cmd = ["mpirun", "-n", str(ranks), *cmd]
     return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=ENV, **kw)
@@ -117,7 +117,8 @@ def test_outdir_that_is_a_file_fails_at_once(tmp_path, capsys):
 
 KILL_DURING_CREATION = """
 import os, signal, sys
-from wheelrom import cli, results
+from wheelrom.cli import main as cli
+from wheelrom.results import layout as results
 real = results.create_layout
 def dying(f, cfg, model):
     real(f, cfg, model)
@@ -187,7 +188,7 @@ LONG = ["--set", "time.end=0.5", "--set", "time.window=0.01", "--batch", "1"]
 
 def test_ctrl_c_saves_finished_cases_and_says_how_to_resume(tmp_path):
     out = tmp_path / "s.h5"
-    cmd = [sys.executable, "-m", "wheelrom.cli", "sweep", SMALL, "--out", str(out), *LONG]
+    cmd = [sys.executable, "-m", "wheelrom.cli.main", "sweep", SMALL, "--out", str(out), *LONG]
     status, err = _interrupt_after_progress(cmd)
     assert status == 130, err
     lines = [ln for ln in err.splitlines() if ln.startswith("wheelrom:")]
@@ -203,11 +204,11 @@ def test_ctrl_c_saves_finished_cases_and_says_how_to_resume(tmp_path):
 def test_sigterm_under_mpirun_stops_every_rank_with_one_line(tmp_path):
     """mpirun forwards Ctrl-C to the ranks as SIGTERM: here sent to the ranks directly."""
     out = tmp_path / "s.h5"
-    cmd = ["mpirun", "-n", "2", sys.executable, "-m", "wheelrom.cli", "sweep", SMALL,
+    cmd = ["mpirun", "-n", "2", sys.executable, "-m", "wheelrom.cli.main", "sweep", SMALL,
            "--out", str(out), *LONG]  # fmt: skip
 
     def ranks():
-        found = subprocess.run(["pgrep", "-f", f"wheelrom.cli sweep {SMALL} --out {out}"],
+        found = subprocess.run(["pgrep", "-f", f"wheelrom.cli.main sweep {SMALL} --out {out}"],
                                capture_output=True, text=True).stdout.split()  # fmt: skip
         return [int(p) for p in found if int(p) != os.getpid()]
 
@@ -345,7 +346,7 @@ def test_too_many_ts_options_to_record_are_refused_up_front(tmp_path):
 def test_a_failed_batch_does_not_block_resume(small_sweep):
     """A batch that failed before its TS existed records the run's settings (older files
     hold {}): resuming with the same options is allowed."""
-    from wheelrom.results import options_problem
+    from wheelrom.results.layout import options_problem
     from wheelrom.transient.ts import ts_settings
 
     with h5py.File(small_sweep, "r+") as f:

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from wheelrom._environment import petsc
+from wheelrom.runtime.environment import petsc
 from wheelrom.segment import assembly, mesh, modes
 
 SELF = petsc().COMM_SELF  # serial builds

@@ -9,10 +9,10 @@ import pytest
 
 from conftest import SMALL
 from wheelrom import config
+from wheelrom.analysis.stability import analyse, linearise, rightmost_eigenvalues
 from wheelrom.forces.parameters import force_parameters
 from wheelrom.transient import bridge
 from wheelrom.transient.problem import WheelProblem
-from wheelrom.transient.stability import analyse, linearise, rightmost_eigenvalues
 
 
 def _matched(a, b) -> float:
@@ -90,7 +90,7 @@ def test_analytic_jacobian_equals_finite_differences_of_the_compiled_rhs(small_m
 
 
 def small_model_comm():
-    from wheelrom._environment import petsc
+    from wheelrom.runtime.environment import petsc
 
     return petsc().COMM_SELF
 
@@ -134,8 +134,8 @@ def test_contact_states_at_the_equilibrium(small_model, small_cfg):
 def test_transient_from_the_equilibrium_grows_at_the_linear_rate(small_model, small_cfg):
     """Start at the equilibrium plus a tiny multiple of the critical mode (contacts stay
     closed): the tip amplitude of the transient grows at the linear rate within 1 %."""
+    from wheelrom.analysis.stability import blade_blocks, nd_block
     from wheelrom.transient.run import run_case
-    from wheelrom.transient.stability import blade_blocks, nd_block
 
     angles = {"shroud": 40.0}  # ND 6 at 127 Hz, +12.6 /s; shroud preload 19 N
     res = analyse(small_model, small_cfg, angles, keep_jacobian=True)
@@ -195,7 +195,7 @@ def test_window_growth_rates_are_the_exponential_slopes():
 
 
 def test_classification_from_both_analyses():
-    from wheelrom.transient.stability import classify
+    from wheelrom.analysis.stability import classify
 
     assert classify(-0.1, 5.0, 1e-6, {"shroud": 0.0}) == "stable"
     assert "too short to judge" in classify(10.0, float("nan"), 1e-6, {"shroud": 0.0})
@@ -207,7 +207,7 @@ def test_classification_from_both_analyses():
 def test_sweep_file_holds_both_analyses(small_model, small_cfg, tmp_path, capsys):
     import h5py
 
-    from wheelrom import cli
+    from wheelrom.cli import main as cli
 
     out = tmp_path / "s.h5"
     assert cli.main(["sweep", SMALL, "--out", str(out), "--set", "time.end=0.003"]) == 0
@@ -242,7 +242,7 @@ def test_a_wheel_that_is_not_cyclic_takes_the_assembled_path(small_model, small_
 def test_info_summarises_a_stability_file(small_model, small_cfg, tmp_path, capsys):
     import json
 
-    from wheelrom import cli
+    from wheelrom.cli import main as cli
 
     out = tmp_path / "stab.h5"
     assert cli.main(["stability", SMALL, "--out", str(out)]) == 0
@@ -265,9 +265,9 @@ def test_two_angle_grid_draws_the_2d_map(tmp_path, capsys):
     import matplotlib.pyplot as plt
     from matplotlib.collections import QuadMesh
 
-    from wheelrom import cli
-    from wheelrom.plots import plot_file
-    from wheelrom.plots_stability import _map_2d
+    from wheelrom.cli import main as cli
+    from wheelrom.plots.figures import plot_file
+    from wheelrom.plots.stability import _map_2d
 
     out = tmp_path / "grid.h5"
     argv = ["stability", SMALL, "--out", str(out), "--set", "sweep.tieboss_angles_deg=[30.0, 60.0]",

@@ -7,7 +7,7 @@ import pytest
 from skfem import MeshHex
 
 from wheelrom import config
-from wheelrom._environment import petsc
+from wheelrom.runtime.environment import petsc
 from wheelrom.segment import assembly, mesh
 from wheelrom.segment import contact_stiffness as stiffness
 
@@ -93,7 +93,7 @@ def test_contact_stiffness_command_prints_the_table_the_model_uses(capsys):
     import json
 
     from conftest import SMALL
-    from wheelrom import cli
+    from wheelrom.cli import main as cli
     from wheelrom.rom.build import build_model
 
     sets = ["--set", 'contacts.shroud.stiffness="fe"', "--set", 'contacts.tieboss.stiffness="fe"']

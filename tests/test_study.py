@@ -15,7 +15,7 @@ import pytest
 
 from conftest import SMALL
 
-WHEELROM = [sys.executable, "-m", "wheelrom.cli"]
+WHEELROM = [sys.executable, "-m", "wheelrom.cli.main"]
 ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
            OMPI_MCA_rmaps_base_oversubscribe="1", MPLBACKEND="Agg")  # fmt: skip
 BASE = """[wheel]
@@ -259,7 +259,7 @@ def test_three_keys_draw_one_map_per_pair(mixed, tmp_path):
         assert {f"study_growth_rate_{pair}.png", f"study_final_amplitude_{pair}.png",
                 f"study_open_fraction_shroud_{pair}.png"} <= names  # fmt: skip
     assert "fig10_amplitude.png" not in names  # not an angle sweep
-    from wheelrom.plots_study import StudyData, _slice
+    from wheelrom.plots.study import StudyData, _slice
 
     with h5py.File(n1, "r") as f:
         d = StudyData(f, str(n1))

@@ -6,8 +6,8 @@ import pytest
 
 from wheelrom import config
 from wheelrom.config import ConfigError
-from wheelrom.study_config import batch_key, expand, model_key
-from wheelrom.study_plan import balance, batches, boundary, group_by, selection
+from wheelrom.config.study import batch_key, expand, model_key
+from wheelrom.studies.plan import balance, batches, boundary, group_by, selection
 
 
 def study(tmp_path, text: str, csv: str | None = None):
@@ -64,7 +64,7 @@ def test_sweep_only_config_is_the_angle_grid():
                                  "sweep.shroud_angles_deg=[0.0, 50.0, 90.0]"])
     s = expand(cfg)
     assert s.legacy and s.shape == (2, 3)
-    from wheelrom.results import case_angles
+    from wheelrom.results.layout import case_angles
 
     assert np.array_equal(np.array(s.values), case_angles(cfg))
 
@@ -226,8 +226,8 @@ def test_batches_keep_keys_apart_and_respect_width():
 
 @pytest.mark.parametrize("command", ["sweep", "stability"])
 def test_sweep_and_stability_refuse_a_study(command):
-    from wheelrom.errors import InputError
-    from wheelrom.stability_study import refuse_study
+    from wheelrom.runtime.errors import InputError
+    from wheelrom.studies.stability import refuse_study
 
     refuse_study(config.load(), command)  # no [study]: fine
     cfg = config.load(overrides=['study.grid={"friction.static"=[0.5, 0.7]}'])
@@ -237,8 +237,8 @@ def test_sweep_and_stability_refuse_a_study(command):
 
 
 def test_stability_arrays_pad_models_and_record_failures(small_cfg, small_model):
-    from wheelrom.study_file import stability_arrays
-    from wheelrom.transient.stability import analyse
+    from wheelrom.analysis.stability import analyse
+    from wheelrom.results.study_layout import stability_arrays
 
     res = analyse(small_model, small_cfg, {"shroud": 50.0})
     arrays = stability_arrays([res, "RuntimeError: SNES diverged"])

@@ -11,7 +11,7 @@ import pytest
 
 from conftest import SMALL
 
-WHEELROM = [sys.executable, "-m", "wheelrom.cli"]
+WHEELROM = [sys.executable, "-m", "wheelrom.cli.main"]
 ENV = dict(
     os.environ,
     OMPI_ALLOW_RUN_AS_ROOT="1",
@@ -199,8 +199,8 @@ def test_model_on_comm_world_gives_the_same_physics(serial_run, tmp_path):
 
 
 def test_nd_spectrum_for_chosen_angles(serial_run, tmp_path):
-    from wheelrom.errors import InputError
-    from wheelrom.plots import plot_file
+    from wheelrom.plots.figures import plot_file
+    from wheelrom.runtime.errors import InputError
 
     written = plot_file(str(serial_run), str(tmp_path), nd_angles=(20.0, 80.0))
     assert str(tmp_path / "fig12_nd_spectrum.png") in written
@@ -217,7 +217,7 @@ def test_single_run_file_draws_amplitude_panels(tmp_path):
     import matplotlib.pyplot as plt
     from matplotlib.collections import QuadMesh
 
-    from wheelrom.plots import _fig10_amplitude, _Sweep, plot_file
+    from wheelrom.plots.figures import _fig10_amplitude, _Sweep, plot_file
 
     out = tmp_path / "one.h5"
     subprocess.run(

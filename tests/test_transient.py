@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from wheelrom._environment import petsc
 from wheelrom.forces.parameters import OPEN, SLIP, STICK, force_parameters
+from wheelrom.runtime.environment import petsc
 from wheelrom.transient import bridge, layout
 from wheelrom.transient.problem import WheelProblem, nd_amplitudes
 from wheelrom.transient.reference import BOGACKI_SHAMPINE, reference_solution, rk_step
@@ -384,7 +384,7 @@ def test_a_step_beyond_the_schemes_reach_is_refused(small_model, small_cfg):
     named error before any step (it would only diverge); just inside the reach it runs."""
     import math
 
-    from wheelrom.errors import InputError
+    from wheelrom.runtime.errors import InputError
 
     f_max = small_model.frequencies_by_nodal_diameter().max()
     limit = math.sqrt(3) / (2 * math.pi * f_max)

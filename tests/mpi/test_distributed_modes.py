@@ -1,6 +1,6 @@
 """Segment eigen-solve distributed over COMM_WORLD equals the serial (COMM_SELF) solve."""
 
-from wheelrom._environment import bootstrap, petsc
+from wheelrom.runtime.environment import bootstrap, petsc
 
 bootstrap()  # one BLAS thread per rank, before numpy loads
 

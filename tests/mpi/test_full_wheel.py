@@ -3,7 +3,7 @@ distributed over COMM_WORLD, equals (b) exact cyclic symmetry on one sector."""
 
 import os
 
-from wheelrom._environment import bootstrap, petsc
+from wheelrom.runtime.environment import bootstrap, petsc
 
 bootstrap()  # one BLAS thread per rank, before numpy loads
 

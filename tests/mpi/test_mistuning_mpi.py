@@ -2,7 +2,7 @@
 draws) gives the same /forced and /stability numbers on 2 ranks as on 1 (1e-12): every case
 is computed on COMM_SELF by the rank that owns it, its pattern drawn from its own seed."""
 
-from wheelrom._environment import bootstrap
+from wheelrom.runtime.environment import bootstrap
 
 bootstrap()  # one BLAS thread per rank, parallel HDF5, before numpy and h5py load
 
@@ -29,7 +29,7 @@ def _numbers(path: str) -> dict:
 def test_two_ranks_equal_one_rank(tmp_path_factory):
     from mpi4py import MPI
 
-    from wheelrom.study import run_study
+    from wheelrom.studies.study import run_study
 
     comm = MPI.COMM_WORLD
     assert comm.size == 2, "tests/mpi must run under mpirun -n 2"

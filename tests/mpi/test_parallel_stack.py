@@ -1,6 +1,6 @@
 """The MPI stack under mpirun -n 2: PETSc sees both ranks, parallel HDF5 (mpio) works."""
 
-from wheelrom._environment import bootstrap, petsc
+from wheelrom.runtime.environment import bootstrap, petsc
 
 bootstrap()  # one BLAS thread per rank, parallel HDF5, before numpy and h5py load
 

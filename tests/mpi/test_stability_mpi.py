@@ -1,7 +1,7 @@
 """The assembled stability Jacobian solved by SLEPc distributed over COMM_WORLD has the
 eigenvalues of the per-ND blocks (every rank builds the small model and the Jacobian)."""
 
-from wheelrom._environment import bootstrap, petsc
+from wheelrom.runtime.environment import bootstrap, petsc
 
 bootstrap()  # one BLAS thread per rank, before numpy loads
 
@@ -10,8 +10,8 @@ import os  # noqa: E402
 import numpy as np  # noqa: E402
 
 from wheelrom import config  # noqa: E402
+from wheelrom.analysis.stability import analyse, rightmost_eigenvalues  # noqa: E402
 from wheelrom.rom.build import build_model  # noqa: E402
-from wheelrom.transient.stability import analyse, rightmost_eigenvalues  # noqa: E402
 
 SMALL = os.path.join(os.path.dirname(os.path.dirname(__file__)), "data", "small.toml")
 

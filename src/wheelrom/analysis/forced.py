@@ -10,7 +10,7 @@ solves
     (K - w^2 I + i w C) Q = F,    K = K_R - F_q,  C = beta_D K_R - F_v,
 
 with ``F_q``, ``F_v`` the contact (and Van der Pol) force derivatives at the preloaded
-equilibrium (:func:`wheelrom.transient.stability.linearise`: ``K`` and ``C`` are minus the
+equilibrium (:func:`wheelrom.analysis.stability.linearise`: ``K`` and ``C`` are minus the
 lower blocks of its Jacobian), or ``K = K_R``, ``C = beta_D K_R`` without contacts. PETSc
 KSP (options prefix ``forced_``; defaults ``preonly`` + LU, MUMPS when PETSc has it,
 ``setFromOptions`` last) solves the real form
@@ -32,9 +32,9 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from wheelrom._environment import petsc
 from wheelrom.config import Config
 from wheelrom.rom.model import ReducedModel, nodal_diameter
+from wheelrom.runtime.environment import petsc
 
 PREFIX = "forced_"
 
@@ -99,7 +99,7 @@ def operators(model: ReducedModel, cfg: Config, contacts: bool = True,
     if not contacts:
         K = model.sparse_stiffness()
         return K, (beta * K).tocsr()
-    from wheelrom.transient.stability import linearise
+    from wheelrom.analysis.stability import linearise
 
     J = jacobian if jacobian is not None else linearise(model, cfg, angles_deg, comm,
                                                         prefix=prefix)[3]  # fmt: skip

@@ -39,9 +39,7 @@ import scipy.linalg as sl
 import scipy.sparse as sp
 from scipy.optimize import minimize_scalar
 
-from wheelrom.config import Config
-from wheelrom.rom.model import ReducedModel, nodal_diameter, nodal_diameters_of
-from wheelrom.transient.forced import (
+from wheelrom.analysis.forced import (
     PREFIX,
     HarmonicSolver,
     nozzle_amplitude,
@@ -49,7 +47,9 @@ from wheelrom.transient.forced import (
     tip_amplitudes,
     tuned_copy,
 )
-from wheelrom.transient.stability import nd_block
+from wheelrom.analysis.stability import nd_block
+from wheelrom.config import Config
+from wheelrom.rom.model import ReducedModel, nodal_diameter, nodal_diameters_of
 
 KAPPA = 4.0  # bracket half-width of an eigenfrequency candidate [half-power half-widths]
 REFINE_RATIO = 0.5  # candidates at least this share of the best amplitude are refined
@@ -73,7 +73,7 @@ class PeakResponse:
     all; ``candidates``: candidate peaks evaluated (``modes`` of them eigenfrequencies);
     ``refined``: candidates refined; ``wall_s``, ``setup_s`` (eigenvalues) [s];
     ``grid`` ``(F,)`` the coarse grid [rad/s] and ``grid_blade_amplitude`` ``(F, N)`` [m];
-    ``solver``: the KSP's settings (:func:`wheelrom.transient.forced.ksp_settings`).
+    ``solver``: the KSP's settings (:func:`wheelrom.analysis.forced.ksp_settings`).
     """
 
     amplitude: float

@@ -3,7 +3,7 @@
 The preloaded equilibrium does not depend on ``mu`` (the Van der Pol force vanishes at rest),
 so the Jacobian there is affine in it: ``J(mu) = J_0 + mu J_1`` with
 ``J_1 = [[0, 0], [0, V]]`` and ``V`` the Van der Pol damping matrix at ``mu`` = 1 N s/m
-(:func:`wheelrom.transient.jacobian.van_der_pol_damping`, linear in ``mu``). For a tuned wheel
+(:func:`wheelrom.analysis.jacobian.van_der_pol_damping`, linear in ``mu``). For a tuned wheel
 both are block-circulant, so per nodal diameter ``k`` the ``2m x 2m`` blocks
 ``J_0(k) + mu J_1(k)`` give the spectrum at any ``mu`` for the price of one small eigenvalue
 problem. The critical intensity ``mu_c`` is found by a scan over ``mu`` in powers of two
@@ -25,9 +25,9 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from wheelrom.analysis.jacobian import van_der_pol_damping
+from wheelrom.analysis.stability import blade_blocks, is_circulant, nd_block
 from wheelrom.forces.parameters import force_parameters
-from wheelrom.transient.jacobian import van_der_pol_damping
-from wheelrom.transient.stability import blade_blocks, is_circulant, nd_block
 
 SCAN = 2.0 ** np.arange(-10, 11)  # the scanned intensities, relative to the configured mu
 TOLERANCE = 1e-6  # [1/s] growth rate above which a mode counts as growing (as the verdict)
@@ -62,13 +62,13 @@ def _fastest(blocks0: np.ndarray, blocks1: np.ndarray, mu: float):
 
 def case_margin(model, cfg, result) -> FlutterMargin:
     """The flutter margin of a case analysed with ``keep_jacobian``
-    (:func:`wheelrom.transient.stability.analyse`): its Jacobian and equilibrium reused."""
+    (:func:`wheelrom.analysis.stability.analyse`): its Jacobian and equilibrium reused."""
     params = force_parameters(model, cfg, result.angles_deg)
     return flutter_margin(params, result.equilibrium, result.jacobian)
 
 
 def flutter_margin(params, q: np.ndarray, J: sp.spmatrix, rtol: float = 1e-4) -> FlutterMargin:
-    """The flutter margin of a linearised case (:func:`wheelrom.transient.stability.linearise`:
+    """The flutter margin of a linearised case (:func:`wheelrom.analysis.stability.linearise`:
     its force parameters, equilibrium ``q`` ``(N, m)`` and Jacobian ``J``)."""
     N, m = q.shape
     mu = params.vdp_mu

@@ -1,5 +1,5 @@
 """Linear stability of a case: the static equilibrium under the contact preloads (nozzle
-excluded), the analytic Jacobian there (:mod:`wheelrom.transient.jacobian`) and its
+excluded), the analytic Jacobian there (:mod:`wheelrom.analysis.jacobian`) and its
 eigenvalues per nodal diameter.
 
 A tuned wheel with the same contact angles on every blade has a cyclic equilibrium, and its
@@ -27,12 +27,12 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from wheelrom._environment import petsc, slepc
+from wheelrom.analysis.jacobian import force_derivatives, jacobian
 from wheelrom.config import Config
 from wheelrom.forces.parameters import force_parameters
 from wheelrom.forces.reference import ReferenceForces
 from wheelrom.rom.model import ReducedModel
-from wheelrom.transient.jacobian import force_derivatives, jacobian
+from wheelrom.runtime.environment import petsc, slepc
 from wheelrom.transient.preload import static_equilibrium
 
 PREFIX = "stability_"

@@ -6,7 +6,7 @@ Figures (all on the configuration's reduced model, single core):
   TS step on the configuration's model (given: ``model_build_s`` is what building it took),
   with an empty kernel cache (it compiles the kernels) and then with that cache (it loads
   them); ``startup_compile_s`` the part of each spent compiling or loading the kernels
-  (:mod:`wheelrom.transient.startup`, :mod:`wheelrom._kernel_cache`);
+  (:mod:`wheelrom.transient.startup`, :mod:`wheelrom.runtime.kernel_cache`);
 
 - ``us_per_rhs``: one compiled right-hand side evaluation (``K_R`` product + all forces),
   timed in a compiled loop (no call overhead) at the state the timed run reached;
@@ -46,11 +46,11 @@ import time
 
 import numpy as np
 
-from wheelrom import _kernel_cache
-from wheelrom._environment import petsc
 from wheelrom.config import Config
 from wheelrom.forces.parameters import force_parameters
 from wheelrom.rom.model import ReducedModel
+from wheelrom.runtime import kernel_cache as _kernel_cache
+from wheelrom.runtime.environment import petsc
 from wheelrom.transient import bridge, layout, startup
 from wheelrom.transient.kernel import multiply_adds, rhs_core
 from wheelrom.transient.problem import WheelProblem
@@ -404,7 +404,7 @@ def run(model: ReducedModel, cfg: Config, steps: int = 20000, compare_steps: int
 def _stability_figures(model: ReducedModel, cfg: Config) -> dict:
     """``stability_s_per_case``: equilibrium, analytic Jacobian and per-ND eigenvalues of one
     case, over the configured shroud angles (after one untimed case)."""
-    from wheelrom.transient.stability import analyse
+    from wheelrom.analysis.stability import analyse
 
     angles = list(cfg.sweep.shroud_angles_deg)
     analyse(model, cfg, {"shroud": angles[0]})

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import argparse
 
-from wheelrom.cli_output import LONG_LISTING
-from wheelrom.errors import InputError
-from wheelrom.outputs import check_output
+from wheelrom.cli.output import LONG_LISTING
+from wheelrom.runtime.errors import InputError
+from wheelrom.runtime.outputs import check_output
 
 
 def json_out(p: argparse.ArgumentParser) -> None:
@@ -214,7 +214,7 @@ def load_config(args: argparse.Namespace):
 
 
 def comm_self():
-    from wheelrom._environment import petsc
+    from wheelrom.runtime.environment import petsc
 
     return petsc().COMM_SELF
 

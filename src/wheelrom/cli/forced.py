@@ -1,5 +1,5 @@
 """``wheelrom forced-response``: the linear steady response to the nozzle over a frequency
-range (:mod:`wheelrom.transient.forced`), of the configured wheel (mistuned when
+range (:mod:`wheelrom.analysis.forced`), of the configured wheel (mistuned when
 ``[mistuning]`` says so) and of the tuned wheel, with the amplification factor."""
 
 from __future__ import annotations
@@ -9,12 +9,12 @@ import math
 
 import numpy as np
 
-from wheelrom.cli_args import comm_self, force, json_out, load_config
-from wheelrom.cli_output import log, print_json
+from wheelrom.cli.args import comm_self, force, json_out, load_config
+from wheelrom.cli.output import log, print_json
 from wheelrom.config import CONTACT_KINDS
-from wheelrom.errors import InputError
-from wheelrom.outputs import check_output, replacing
-from wheelrom.results import FORCED_FORMAT as FORMAT
+from wheelrom.results.layout import FORCED_FORMAT as FORMAT
+from wheelrom.runtime.errors import InputError
+from wheelrom.runtime.outputs import check_output, replacing
 
 
 def args_forced(p: argparse.ArgumentParser) -> None:
@@ -80,8 +80,8 @@ def cmd_forced(args: argparse.Namespace) -> int:
     independently of any grid, of the configured wheel and of the tuned wheel, and the
     amplification factor (peak over peak); the coarse grid's values as a table. PETSc
     prefixes forced_ (KSP) and forced_preload_ (SNES)."""
+    from wheelrom.analysis.forced_peak import peak_response, tuned_reference
     from wheelrom.rom.build import build_model, quiet
-    from wheelrom.transient.forced_peak import peak_response, tuned_reference
 
     cfg = load_config(args)
     hz = excitation_grid(args, cfg.wheel.stator_vanes)
@@ -151,7 +151,7 @@ def _write(path: str, cfg, model, response, tuned, out: dict, angles: dict | Non
     [m] on it, ``peak_blade_amplitude`` and ``tuned_peak_blade_amplitude`` ``(N,)`` [m] at the
     refined peaks, ``mistuning`` ``(N,)``; attributes: the configuration and its source, the
     wheelrom version, the scalars of ``out``, the model size, the contact angles (JSON) and
-    the KSP settings (``solver``, JSON: :func:`wheelrom.transient.forced.ksp_settings`)."""
+    the KSP settings (``solver``, JSON: :func:`wheelrom.analysis.forced.ksp_settings`)."""
     import json
 
     import h5py

@@ -12,11 +12,13 @@ import os
 import sys
 from collections.abc import Callable, Sequence
 
-from wheelrom import _kernel_cache, cli_args, cli_forced, cli_motion, cli_tools
 from wheelrom import config as config_mod
-from wheelrom._environment import bootstrap
-from wheelrom.cli_args import comm_self, load_config
-from wheelrom.cli_output import (
+from wheelrom.cli import args as cli_args
+from wheelrom.cli import forced as cli_forced
+from wheelrom.cli import motion as cli_motion
+from wheelrom.cli import tools as cli_tools
+from wheelrom.cli.args import comm_self, load_config
+from wheelrom.cli.output import (
     EXIT_INTERRUPTED,
     fail,
     log,
@@ -28,15 +30,17 @@ from wheelrom.cli_output import (
     warn_unused,
     world_rank,
 )
-from wheelrom.errors import InputError, Interrupted, OutputExists
-from wheelrom.outputs import check_output, replacing
+from wheelrom.runtime import kernel_cache as _kernel_cache
+from wheelrom.runtime.environment import bootstrap
+from wheelrom.runtime.errors import InputError, Interrupted, OutputExists
+from wheelrom.runtime.outputs import check_output, replacing
 
 
 def _petsc_options(args: argparse.Namespace) -> None:
     """Hand the arguments after ``--`` to PetscInitialize (or, when PETSc is already up,
     insert them into the options database)."""
     if getattr(args, "petsc_args", None):
-        from wheelrom._environment import petsc, set_init_args
+        from wheelrom.runtime.environment import petsc, set_init_args
 
         if "petsc4py.PETSc" not in sys.modules:
             set_init_args(args.petsc_args)
@@ -103,7 +107,7 @@ def cmd_modes(args: argparse.Namespace) -> int:
     if args.out:
         import h5py
 
-        from wheelrom.results import write_model_file
+        from wheelrom.results.layout import write_model_file
 
         with replacing(args.out) as partial, h5py.File(partial, "w") as f:
             write_model_file(f, cfg, model, extra)
@@ -133,7 +137,7 @@ def _full_wheel(args: argparse.Namespace, cfg, wheel, say) -> dict:
     if args.full_wheel in ("cyclic", "both"):
         out["full_wheel_hz"] = references.cyclic_table(seg, mats, c1, m, comm_self(), log=say)
     if args.full_wheel in ("assembled", "both"):
-        from wheelrom._environment import petsc
+        from wheelrom.runtime.environment import petsc
 
         out["assembled_wheel_hz"] = references.assembled_wheel_modes(
             seg, mats, c1, args.full_wheel_modes, petsc().COMM_WORLD)
@@ -143,7 +147,7 @@ def _full_wheel(args: argparse.Namespace, cfg, wheel, say) -> dict:
 def cmd_run(args: argparse.Namespace) -> int:
     """One transient case on PETSc TS (options after -- go to the TS, prefix wheel_)."""
     from wheelrom.rom.build import build_model, quiet
-    from wheelrom.stability_study import attach_linear
+    from wheelrom.studies.stability import attach_linear
     from wheelrom.transient.run import run_case
 
     cfg = load_config(args)
@@ -160,7 +164,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.out:
         import h5py
 
-        from wheelrom import results
+        from wheelrom.results import layout as results
 
         with replacing(args.out) as partial, h5py.File(partial, "w") as f:
             results.create_layout(f, results.single_case(cfg), model)
@@ -208,7 +212,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     """Angle sweep across MPI ranks into one parallel HDF5 file (mpirun -n P wheelrom sweep)."""
     from mpi4py import MPI
 
-    from wheelrom.sweep import run_sweep
+    from wheelrom.studies.sweep import run_sweep
 
     cfg = load_config(args)
     failed = run_sweep(cfg, args.out, MPI.COMM_WORLD, resume=args.resume, force=args.force,
@@ -224,7 +228,7 @@ def cmd_study(args: argparse.Namespace) -> int:
     (--stability-only), into one HDF5 file."""
     from mpi4py import MPI
 
-    from wheelrom.study import run_study
+    from wheelrom.studies.study import run_study
 
     cfg = load_config(args)
     mode = cli_args.study_mode(args)
@@ -242,7 +246,7 @@ def cmd_stability(args: argparse.Namespace) -> int:
     per nodal diameter, the fastest-growing mode and what it does at the contacts. Under
     mpirun the cases are spread over the ranks."""
     from wheelrom.rom.build import quiet
-    from wheelrom.stability_study import run_stability, summary, world_if_parallel
+    from wheelrom.studies.stability import run_stability, summary, world_if_parallel
 
     cfg = load_config(args)
     if args.out:
@@ -255,7 +259,7 @@ def cmd_stability(args: argparse.Namespace) -> int:
     if args.out:
         import h5py
 
-        from wheelrom.results import write_stability
+        from wheelrom.results.layout import write_stability
 
         with replacing(args.out) as partial, h5py.File(partial, "w") as f:
             write_stability(f, cfg, model, cases)

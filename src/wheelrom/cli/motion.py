@@ -12,10 +12,10 @@ import time
 
 import numpy as np
 
-from wheelrom.cli_args import comm_self
-from wheelrom.cli_output import log
-from wheelrom.errors import InputError
-from wheelrom.outputs import check_output, replacing
+from wheelrom.cli.args import comm_self
+from wheelrom.cli.output import log
+from wheelrom.runtime.errors import InputError
+from wheelrom.runtime.outputs import check_output, replacing
 
 
 def parse_window(text: str | None) -> tuple[float, float] | None:
@@ -66,7 +66,7 @@ def cmd_animate(args: argparse.Namespace) -> int:
     displacement per time step, ParaView), PREFIX.gif (tip ring along the axis, open
     contacts marked) and PREFIX.png (the surface at the largest deformation); without a modal
     state history the GIF alone, from the tip history."""
-    from wheelrom.reconstruct import check_case, open_results
+    from wheelrom.results.reconstruct import check_case, open_results
 
     t0 = time.perf_counter()
     window = parse_window(args.window)
@@ -93,11 +93,11 @@ def cmd_animate(args: argparse.Namespace) -> int:
 
 def _animate_states(f, args, window, prefix: str) -> None:
     """XDMF, GIF and PNG of a window of the case's modal state history."""
-    from wheelrom.histories import state_window
-    from wheelrom.plots_motion import auto_scale, surface_png, tip_ring_gif
-    from wheelrom.reconstruct import contact_histories
-    from wheelrom.results import angles_of, read_config
-    from wheelrom.wheel_motion import rebuild, wheel_surface, write_xdmf
+    from wheelrom.plots.motion import auto_scale, surface_png, tip_ring_gif
+    from wheelrom.results.histories import state_window
+    from wheelrom.results.layout import angles_of, read_config
+    from wheelrom.results.reconstruct import contact_histories
+    from wheelrom.results.wheel_motion import rebuild, wheel_surface, write_xdmf
 
     times, states = state_window(f["cases"], args.file, args.case, window)
     rows = _frames(times.size, args.frames)
@@ -130,8 +130,8 @@ def _animate_states(f, args, window, prefix: str) -> None:
 
 def _animate_tips(f, args, window, gif: str) -> None:
     """The tip-ring GIF from the tip history (ring radius: the outermost contact point)."""
-    from wheelrom.histories import tip_window
-    from wheelrom.plots_motion import auto_scale, tip_ring_gif
+    from wheelrom.plots.motion import auto_scale, tip_ring_gif
+    from wheelrom.results.histories import tip_window
 
     times, tips = tip_window(f["cases"], args.file, args.case, window)
     rows = _frames(times.size, args.frames)
@@ -149,8 +149,8 @@ def cmd_contacts(args: argparse.Namespace) -> int:
     """Contact forces of one case from its modal state history: normal force over time of
     the contacts after the chosen blades (PREFIX_normal_force.png) and the friction
     hysteresis loop of each (PREFIX_hysteresis_<kind>_blade<B>.png)."""
-    from wheelrom.plots_motion import hysteresis_png, normal_force_png
-    from wheelrom.reconstruct import case_contacts, check_case, open_results
+    from wheelrom.plots.motion import hysteresis_png, normal_force_png
+    from wheelrom.results.reconstruct import case_contacts, check_case, open_results
 
     window = parse_window(args.window)
     prefix = _prefix(args)

@@ -8,7 +8,7 @@ import math
 import os
 import sys
 
-from wheelrom.cli_output_mistuning import print_forced, print_statistics
+from wheelrom.cli.output_mistuning import print_forced, print_statistics
 
 EXIT_CONFIG = 2
 EXIT_INTERRUPTED = 130  # 128 + SIGINT, as a shell reports Ctrl-C
@@ -353,7 +353,7 @@ def _print_cases(rows: list[dict], windows: int, show_all: bool) -> None:
 
 def _print_study_cases(info: dict, show_all: bool) -> None:
     """The counts and case table of a study file (:func:`print_info`)."""
-    from wheelrom.study_config import short_name
+    from wheelrom.config.study import short_name
 
     v, c = info["verdicts"], info["counts"]
     print(f"  stability:     {v['stable']} stable, {v['unstable']} unstable, {v['failed']} failed")

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 
 def print_forced(info: dict) -> None:
-    """``wheelrom info`` of a forced-response file (:func:`wheelrom.info._forced_info`)."""
+    """``wheelrom info`` of a forced-response file (:func:`wheelrom.results.info._forced_info`)."""
     band, delta = info["frequency_hz"], info["mistuning"]
     print(f"{info['file']}: {info['format']} forced response, engine order "
           f"{info['stator_vanes']} (ND {info['nodal_diameter']}), "

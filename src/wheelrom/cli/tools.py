@@ -1,15 +1,15 @@
 """The commands that read files or answer one question about the model (``plot``, ``info``,
 ``export``, ``bench``, ``campbell``, ``mesh``, ``accuracy``, ``contact-stiffness``): each
-parses nothing itself, calls the library and formats through :mod:`wheelrom.cli_output`."""
+parses nothing itself, calls the library and formats through :mod:`wheelrom.cli.output`."""
 
 from __future__ import annotations
 
 import argparse
 import os
 
-from wheelrom import cli_args
-from wheelrom.cli_args import comm_self, load_config
-from wheelrom.cli_output import (
+from wheelrom.cli import args as cli_args
+from wheelrom.cli.args import comm_self, load_config
+from wheelrom.cli.output import (
     log,
     print_accuracy,
     print_contact_stiffness,
@@ -17,8 +17,8 @@ from wheelrom.cli_output import (
     print_json,
     print_result,
 )
-from wheelrom.errors import InputError
-from wheelrom.outputs import check_outdir, check_output
+from wheelrom.runtime.errors import InputError
+from wheelrom.runtime.outputs import check_outdir, check_output
 
 
 def cmd_contact_stiffness(args: argparse.Namespace) -> int:
@@ -95,7 +95,7 @@ def cmd_mesh(args: argparse.Namespace) -> int:
 
 def cmd_campbell(args: argparse.Namespace) -> int:
     """Segment and wheel frequencies versus speed (prestressed), with engine orders."""
-    from wheelrom.plots import plot_campbell
+    from wheelrom.plots.figures import plot_campbell
     from wheelrom.rom.build import quiet
     from wheelrom.rom.campbell import campbell
 
@@ -114,7 +114,7 @@ def cmd_campbell(args: argparse.Namespace) -> int:
 
 def cmd_bench(args: argparse.Namespace) -> int:
     """Speed of the transient hot path on this machine (one core): RHS, TS steps, ratios."""
-    from wheelrom.bench import run
+    from wheelrom.bench.transient import run
     from wheelrom.rom.build import build_model, quiet
 
     cfg = load_config(args)
@@ -133,7 +133,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
 def cmd_plot(args: argparse.Namespace) -> int:
     """Figures (PNG, PDF with --pdf) from a sweep/run/modes HDF5 file."""
-    from wheelrom.plots import plot_file
+    from wheelrom.plots.figures import plot_file
 
     if args.outdir:
         check_outdir(args.outdir)
@@ -146,7 +146,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
 def cmd_info(args: argparse.Namespace) -> int:
     """What a results or model file holds: format, configuration source, model size, and
     per case the contact angles, status (failure reasons), windows done and wall time."""
-    from wheelrom.info import file_info
+    from wheelrom.results.info import file_info
 
     info = file_info(args.file)
     if args.json:
@@ -158,7 +158,7 @@ def cmd_info(args: argparse.Namespace) -> int:
 
 def cmd_export(args: argparse.Namespace) -> int:
     """One case of a results file as CSV: tip histories and per-window statistics."""
-    from wheelrom.csv_export import export_case
+    from wheelrom.results.export import export_case
 
     print("\n".join(export_case(args.file, args.case, args.csv, args.what, args.force)))
     return 0

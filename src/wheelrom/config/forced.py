@@ -11,8 +11,8 @@ from typing import Any
 
 import numpy as np
 
-from wheelrom._config_values import beside_toml, is_number
-from wheelrom._config_values import field_key as _key
+from wheelrom.config.values import beside_toml, is_number
+from wheelrom.config.values import field_key as _key
 
 #: largest |delta_s| a pattern or a pattern file may hold (as ``mistuning.pattern``)
 MISTUNING_LIMIT = 0.5

@@ -16,15 +16,15 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-from wheelrom._config_forced import (
+from wheelrom.config.forced import (
     ForcedConfig,
     MistuningConfig,
     forced_problems,
     mistuning_problems,
 )
-from wheelrom._config_values import convert_field, is_number, suggest
-from wheelrom._config_values import field_key as _key
-from wheelrom._config_values import to_toml as to_toml  # re-exported: config.to_toml
+from wheelrom.config.values import convert_field, is_number, suggest
+from wheelrom.config.values import field_key as _key
+from wheelrom.config.values import to_toml as to_toml  # re-exported: config.to_toml
 
 CONTACT_KINDS = ("tieboss", "shroud")
 

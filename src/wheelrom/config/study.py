@@ -25,8 +25,8 @@ import json
 import math
 from dataclasses import dataclass
 
-from wheelrom._config_values import beside_toml, convert_field, is_number
 from wheelrom.config import CONTACT_KINDS, Config, ConfigError, from_dict, to_dict
+from wheelrom.config.values import beside_toml, convert_field, is_number
 
 #: the two keys of a study made from ``[sweep]``
 ANGLE_KEYS = ("contacts.tieboss.angle_deg", "contacts.shroud.angle_deg")
@@ -317,7 +317,7 @@ def batch_key(cfg: Config) -> str:
 
 def tuned_key(cfg: Config) -> str:
     """Cases with the same key differ only in their mistuning: they share one tuned forced
-    response reference (:mod:`wheelrom.mistuning_study`)."""
+    response reference (:mod:`wheelrom.studies.mistuning`)."""
     data = to_dict(cfg)
     data.pop("mistuning", None)
     return json.dumps(data, sort_keys=True, default=str)

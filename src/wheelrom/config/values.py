@@ -94,7 +94,7 @@ def convert_study_table(where: str, value: Any, problems: list[str]) -> Any:
     """``study.grid`` / ``study.zip``: dotted key -> list of values or a ``start:stop:step``
     text; nested tables (TOML's unquoted dotted keys) are flattened to dotted keys. Only the
     shape is checked here; the keys and values are checked against the configuration by
-    :mod:`wheelrom.study_config`."""
+    :mod:`wheelrom.config.study`."""
     if not isinstance(value, Mapping):
         problems.append(f"{where}: expected a table dotted.key = [values]")
         return {}

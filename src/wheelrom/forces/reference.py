@@ -13,8 +13,8 @@ import math
 
 import numpy as np
 
-from wheelrom import _kernel_cache
 from wheelrom.forces.parameters import ForceParameters
+from wheelrom.runtime import kernel_cache as _kernel_cache
 
 
 class ReferenceForces:

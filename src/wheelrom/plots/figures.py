@@ -12,14 +12,14 @@ import os
 import numpy as np
 
 from wheelrom.config import CONTACT_KINDS
-from wheelrom.errors import InputError
 from wheelrom.forces.parameters import stiffness_at
-from wheelrom.plot_helpers import cell_edges as _cell_edges
-from wheelrom.plot_helpers import need as _need
-from wheelrom.plot_helpers import save as _save
-from wheelrom.results import read_config, statuses
-from wheelrom.study_file import FORMAT as STUDY_FORMAT
-from wheelrom.study_file import read_parameters
+from wheelrom.plots.helpers import cell_edges as _cell_edges
+from wheelrom.plots.helpers import need as _need
+from wheelrom.plots.helpers import save as _save
+from wheelrom.results.layout import read_config, statuses
+from wheelrom.results.study_layout import FORMAT as STUDY_FORMAT
+from wheelrom.results.study_layout import read_parameters
+from wheelrom.runtime.errors import InputError
 
 FONT = {"font.size": 11, "axes.titlesize": 12, "axes.labelsize": 11, "figure.dpi": 110}
 
@@ -50,14 +50,14 @@ def plot_file(path: str, outdir: str | None = None, pdf: bool = False,
         if "cases" in f and (not study or _angle_sweep(f, everything_run=True)):
             _sweep_figures(f, cfg, path, outdir, pdf, written, plt, nd_angles)
         if "stability" in f and (not study or _angle_sweep(f)):
-            from wheelrom.plots_stability import stability_figures
+            from wheelrom.plots.stability import stability_figures
 
             stability_figures(f, path, outdir, pdf, written, plt)
         if study:
-            from wheelrom.plots_study import study_figures
+            from wheelrom.plots.study import study_figures
 
             study_figures(f, path, outdir, pdf, written, plt)
-            from wheelrom.plots_montecarlo import montecarlo_figures
+            from wheelrom.plots.montecarlo import montecarlo_figures
 
             montecarlo_figures(f, path, outdir, pdf, written, plt)
     return written

@@ -7,7 +7,7 @@ import os
 
 import numpy as np
 
-from wheelrom.errors import InputError
+from wheelrom.runtime.errors import InputError
 
 
 def need(f, name: str, path: str):

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from wheelrom.plot_helpers import need, save
-from wheelrom.study_file import distribution, stable_amplification
+from wheelrom.plots.helpers import need, save
+from wheelrom.results.study_layout import distribution, stable_amplification
 
 
 def montecarlo_figures(f, path: str, outdir: str, pdf: bool, written: list[str], plt) -> None:

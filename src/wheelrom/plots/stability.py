@@ -10,10 +10,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from wheelrom.plot_helpers import cell_edges as _cell_edges
-from wheelrom.plot_helpers import need as _need
-from wheelrom.plot_helpers import save as _save
-from wheelrom.results import read_config
+from wheelrom.plots.helpers import cell_edges as _cell_edges
+from wheelrom.plots.helpers import need as _need
+from wheelrom.plots.helpers import save as _save
+from wheelrom.results.layout import read_config
 
 
 def stability_figures(f, path: str, outdir: str, pdf: bool, written: list[str], plt) -> None:

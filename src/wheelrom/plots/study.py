@@ -15,9 +15,9 @@ import itertools
 import numpy as np
 
 from wheelrom.config import CONTACT_KINDS
-from wheelrom.plot_helpers import cell_edges, need, save
-from wheelrom.study_config import short_name
-from wheelrom.study_file import read_parameters
+from wheelrom.config.study import short_name
+from wheelrom.plots.helpers import cell_edges, need, save
+from wheelrom.results.study_layout import read_parameters
 
 
 class StudyData:

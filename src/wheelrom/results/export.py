@@ -12,7 +12,7 @@ Two tables (docs/output.md gives the datasets they come from):
   row per state sample: ``time_s``, then per contact kind and blade pair ``(s, s+1)`` the
   normal force, the friction force (xi, zeta) and the relative displacement (xi, eta, zeta)
   of the contact, evaluated from the stored state by the solver's reference force model
-  (:mod:`wheelrom.reconstruct`).
+  (:mod:`wheelrom.results.reconstruct`).
 
 Numbers are written with 17 significant digits, so a CSV reads back to the same doubles.
 """
@@ -21,10 +21,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from wheelrom.errors import InputError
-from wheelrom.outputs import check_output, replacing
-from wheelrom.results import FORMAT, open_file
-from wheelrom.study_file import FORMAT as STUDY_FORMAT
+from wheelrom.results.layout import FORMAT, open_file
+from wheelrom.results.study_layout import FORMAT as STUDY_FORMAT
+from wheelrom.runtime.errors import InputError
+from wheelrom.runtime.outputs import check_output, replacing
 
 TABLES = ("tips", "windows")
 
@@ -54,7 +54,7 @@ def case_tables(path: str, case: int,
 
 
 def _contact_forces(path: str, case: int) -> tuple[list[str], np.ndarray]:
-    from wheelrom.reconstruct import case_contacts
+    from wheelrom.results.reconstruct import case_contacts
 
     histories = case_contacts(path, case)
     header, columns = ["time_s"], []

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from wheelrom.errors import InputError
+from wheelrom.runtime.errors import InputError
 
 CHUNK_BYTES = 1 << 20  # about this many bytes of samples per chunk
 STATE_COLUMNS = "q [sqrt(kg) m], q' [sqrt(kg) m/s]"

@@ -16,11 +16,11 @@ import tomllib
 
 import numpy as np
 
-from wheelrom.errors import InputError
-from wheelrom.histories import case_bytes
-from wheelrom.results import FORCED_FORMAT, FORMAT, STABILITY_FORMAT, statuses
-from wheelrom.study_file import FORMAT as STUDY_FORMAT
-from wheelrom.study_file import read_parameters, summary
+from wheelrom.results.histories import case_bytes
+from wheelrom.results.layout import FORCED_FORMAT, FORMAT, STABILITY_FORMAT, statuses
+from wheelrom.results.study_layout import FORMAT as STUDY_FORMAT
+from wheelrom.results.study_layout import read_parameters, summary
+from wheelrom.runtime.errors import InputError
 
 #: model datasets beyond the sweep's, with what they are (``modes --out``)
 MODEL_EXTRAS = {

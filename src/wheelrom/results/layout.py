@@ -14,9 +14,9 @@ import numpy as np
 
 from wheelrom import config as config_mod
 from wheelrom.config import CONTACT_KINDS, Config
-from wheelrom.errors import InputError
-from wheelrom.histories import create_histories, write_histories
+from wheelrom.results.histories import create_histories, write_histories
 from wheelrom.rom.model import ReducedModel
+from wheelrom.runtime.errors import InputError
 from wheelrom.transient.problem import N_WORK, WORK_NAMES, CaseResult
 from wheelrom.transient.ts import time_grid
 
@@ -208,7 +208,7 @@ def options_problem(path: str, settings: dict) -> str | None:
 
 def write_stability(f, cfg: Config, model: ReducedModel, cases: list) -> None:
     """``/stability`` of a stability file (``wheelrom stability --out``; docs/output.md) from
-    :class:`~wheelrom.transient.stability.StabilityResult` per case of ``cfg``'s grid, with
+    :class:`~wheelrom.analysis.stability.StabilityResult` per case of ``cfg``'s grid, with
     the configuration and ``/model``."""
     f.attrs["format"] = STABILITY_FORMAT
     f.attrs["config"] = config_mod.to_toml(cfg)

@@ -13,12 +13,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from wheelrom.config import Config
-from wheelrom.errors import InputError
 from wheelrom.forces.parameters import force_parameters
 from wheelrom.forces.reference import ReferenceForces
-from wheelrom.histories import state_window
-from wheelrom.results import FORMAT, angles_of, open_file, read_config
+from wheelrom.results.histories import state_window
+from wheelrom.results.layout import FORMAT, angles_of, open_file, read_config
 from wheelrom.rom.model import ReducedModel
+from wheelrom.runtime.errors import InputError
 from wheelrom.segment.mesh import rotation_z
 
 

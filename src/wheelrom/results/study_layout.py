@@ -14,9 +14,9 @@ import math
 import numpy as np
 
 from wheelrom import config as config_mod
-from wheelrom import results
 from wheelrom.config import CONTACT_KINDS, Config
-from wheelrom.study_config import Study
+from wheelrom.config.study import Study
+from wheelrom.results import layout as results
 
 FORMAT = "wheelrom-sweep-2"
 MODES = ("full", "screen", "stability")
@@ -36,7 +36,7 @@ def create(f, cfg: Config, study: Study, models: list, model_of: list[int], stab
     others ``skipped``. ``stability``: :func:`stability_arrays`; ``models``: one reduced
     model per group (tuned), ``model_of`` ``(C,)`` the group of every case; ``mistuning``
     ``(C, N)`` every case's ``delta_s``; ``forced``: the ``/forced`` datasets
-    (:func:`wheelrom.mistuning_study.forced_arrays`) or None."""
+    (:func:`wheelrom.studies.mistuning.forced_arrays`) or None."""
     angles = case_angles(study)
     C = angles.shape[0]
     if mode == "stability":  # no transient datasets at all
@@ -108,7 +108,7 @@ def read_parameters(f) -> dict | None:
 
 
 def stability_arrays(cases: list) -> dict[str, np.ndarray]:
-    """``/stability`` datasets from one :class:`~wheelrom.transient.stability.StabilityResult`
+    """``/stability`` datasets from one :class:`~wheelrom.analysis.stability.StabilityResult`
     per case, or a ``str`` (why its analysis failed). Modes fastest first; arrays padded to
     the largest model (NaN, ND -1) and to both contact kinds (NaN for a kind not present)."""
     ok = [r for r in cases if not isinstance(r, str)]

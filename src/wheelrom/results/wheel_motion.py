@@ -17,10 +17,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wheelrom.errors import InputError
-from wheelrom.results import read_config
+from wheelrom.results.layout import read_config
 from wheelrom.rom.build import WheelBuild, build, quiet
 from wheelrom.rom.model import rows_at
+from wheelrom.runtime.errors import InputError
 from wheelrom.segment.mesh import SegmentMesh, corner_cells, rotation_z
 
 #: largest relative difference of the rebuilt reduced model from the stored one

@@ -20,10 +20,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from wheelrom._config_forced import read_mistuning_file
-from wheelrom._environment import petsc
 from wheelrom.config import CONTACT_KINDS, Config
-from wheelrom.errors import InputError
+from wheelrom.config.forced import read_mistuning_file
+from wheelrom.runtime.environment import petsc
+from wheelrom.runtime.errors import InputError
 from wheelrom.segment.mesh import SegmentMesh
 
 

@@ -35,7 +35,8 @@ KERNEL_SOURCES = (
 
 COMPILING_MESSAGE = "compiling kernels (first run only)"
 
-_PACKAGE = os.path.dirname(os.path.abspath(__file__))
+# the wheelrom package (this module sits in its runtime/ stage)
+_PACKAGE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 _log: list[Callable[[str], None] | None] = [None]
 # cache look-ups of this process: "hits" (loaded), "misses" (compiled, then saved)
 lookups = {"hits": 0, "misses": 0}

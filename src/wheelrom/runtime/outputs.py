@@ -13,7 +13,7 @@ from __future__ import annotations
 import contextlib
 import os
 
-from wheelrom.errors import InputError, OutputExists
+from wheelrom.runtime.errors import InputError, OutputExists
 
 
 def _directory_problem(directory: str, flag: str, path: str) -> str | None:

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from wheelrom.config import CONTACT_KINDS, Config
-from wheelrom.errors import InputError
+from wheelrom.runtime.errors import InputError
 from wheelrom.segment.mesh import SegmentMesh, arm_report, pair_cut_faces, with_edges
 
 

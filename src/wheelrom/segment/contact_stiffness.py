@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wheelrom.errors import InputError
+from wheelrom.runtime.errors import InputError
 from wheelrom.segment.assembly import SegmentMatrices
 from wheelrom.segment.mesh import SegmentMesh
 from wheelrom.segment.petsc import direct_solve

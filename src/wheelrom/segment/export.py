@@ -19,8 +19,8 @@ import os
 
 import numpy as np
 
-from wheelrom.errors import InputError
-from wheelrom.outputs import replacing
+from wheelrom.runtime.errors import InputError
+from wheelrom.runtime.outputs import replacing
 from wheelrom.segment.mesh import SegmentMesh
 
 

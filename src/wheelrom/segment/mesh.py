@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from wheelrom.config import CONTACT_KINDS, Config
-from wheelrom.errors import InputError
+from wheelrom.runtime.errors import InputError
 
 REQUIRED_SETS = ("clamped", "left", "right", "excitation", "aero", "tip")
 

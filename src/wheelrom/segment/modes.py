@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from wheelrom._environment import petsc, slepc
+from wheelrom.runtime.environment import petsc, slepc
 from wheelrom.segment.assembly import SegmentMatrices
 from wheelrom.segment.petsc import to_petsc
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from wheelrom._environment import petsc
+from wheelrom.runtime.environment import petsc
 
 
 def to_petsc(A: sp.csr_matrix, comm, prefix: str | None = None):

@@ -24,7 +24,7 @@ import os
 import numpy as np
 
 from wheelrom.config import Config
-from wheelrom.errors import InputError
+from wheelrom.runtime.errors import InputError
 from wheelrom.segment.mesh import (
     HEX20_EDGES,
     REQUIRED_SETS,

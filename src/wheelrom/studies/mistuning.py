@@ -1,15 +1,15 @@
 """Mistuning in a design study (issue #22): Monte Carlo realisations are cases.
 
 The cases of a model group differ at most in forces, time and ``[mistuning]``
-(:func:`wheelrom.study_config.model_key` leaves ``[mistuning]`` out): the group's reduced
+(:func:`wheelrom.config.study.model_key` leaves ``[mistuning]`` out): the group's reduced
 model is built once, tuned, and each case's pattern ``delta_s`` (:func:`blade_mistuning` of
 the case's own configuration: a seeded draw, the same on any rank) is put on it where the case
 is computed (:func:`case_model`).
 
 ``wheelrom study --forced`` adds per case the grid-independent peak of the linear forced
-response (:mod:`wheelrom.transient.forced_peak`) and its amplification factor over the tuned
+response (:mod:`wheelrom.analysis.forced_peak`) and its amplification factor over the tuned
 reference. Cases whose configurations differ only in ``[mistuning]`` share that reference
-(the *tuned group*, :func:`wheelrom.study_config.tuned_key`) and its band (automatic: about
+(the *tuned group*, :func:`wheelrom.config.study.tuned_key`) and its band (automatic: about
 the tuned resonance, wide enough for every realisation of the group). Each rank computes the
 reference of a tuned group it has cases of itself (on ``COMM_SELF``, so every rank finds the
 same numbers), and with contacts the case's equilibrium and Jacobian are shared with its
@@ -23,13 +23,13 @@ import time
 
 import numpy as np
 
-from wheelrom import results
+from wheelrom.analysis.forced import operators, tuned_copy
+from wheelrom.analysis.forced_peak import PeakResponse, peak_response, tuned_reference
+from wheelrom.analysis.stability import analyse, linearise
+from wheelrom.config.study import Study, tuned_key
+from wheelrom.results import layout as results
 from wheelrom.rom.model import ReducedModel, blade_mistuning
-from wheelrom.study_config import Study, tuned_key
-from wheelrom.study_plan import group_by
-from wheelrom.transient.forced import operators, tuned_copy
-from wheelrom.transient.forced_peak import PeakResponse, peak_response, tuned_reference
-from wheelrom.transient.stability import analyse, linearise
+from wheelrom.studies.plan import group_by
 
 
 def case_model(models: list, model_of: list[int], study: Study, i: int) -> ReducedModel:

@@ -1,5 +1,5 @@
 """Linear stability over the case grid (``wheelrom stability``): every case of the sweep's
-contact angles analysed at its preloaded equilibrium (:mod:`wheelrom.transient.stability`),
+contact angles analysed at its preloaded equilibrium (:mod:`wheelrom.analysis.stability`),
 cases dealt round-robin to the MPI ranks and gathered on rank 0, written by rank 0 (a
 stability file is small: no parallel HDF5 needed).
 
@@ -14,20 +14,20 @@ import time
 
 import numpy as np
 
-from wheelrom import results
+from wheelrom.analysis.margin import case_margin
+from wheelrom.analysis.stability import StabilityResult, analyse
 from wheelrom.config import Config
-from wheelrom.errors import InputError
+from wheelrom.results import layout as results
 from wheelrom.rom.build import build_model
-from wheelrom.transient.margin import case_margin
-from wheelrom.transient.stability import StabilityResult, analyse
+from wheelrom.runtime.errors import InputError
 
 
 def run_stability(cfg: Config, comm=None, log=print,
                   margin: bool = False) -> tuple[object, list[StabilityResult]]:  # fmt: skip
     """``(model, results)`` of every case of ``cfg``'s grid, in case order, on rank 0 of the
     mpi4py ``comm`` (``None``: serial); other ranks get ``(model, [])``. ``margin``: also the
-    flutter margin of every case (:mod:`wheelrom.transient.margin`)."""
-    from wheelrom._environment import petsc, slepc
+    flutter margin of every case (:mod:`wheelrom.analysis.margin`)."""
+    from wheelrom.runtime.environment import petsc, slepc
 
     refuse_study(cfg, "stability")
     # PetscInitialize is collective on COMM_WORLD: every rank, before rank 0 builds alone
@@ -121,7 +121,7 @@ def attach_classification(result, growth_rate: float, nodal_diameter: int,
     """Add the case's fastest linear mode (growth rate [1/s], ND, frequency [Hz]: already
     analysed, e.g. a study's ``/stability``) and the classification from both analyses to a
     transient :class:`~wheelrom.transient.problem.CaseResult`."""
-    from wheelrom.transient.stability import classify
+    from wheelrom.analysis.stability import classify
 
     result.linear = {"growth_rate": growth_rate, "nodal_diameter": nodal_diameter,
                      "frequency_hz": frequency_hz}  # fmt: skip

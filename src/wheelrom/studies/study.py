@@ -1,7 +1,8 @@
 """Design studies across MPI ranks (``wheelrom study``): the linear stability of every case,
 then transients of all cases (``full``), of the cases that decide the picture (``screen``:
 both sides of every stability boundary, plus the ones the user lists) or of none
-(``stability``), into one file of format ``wheelrom-sweep-2`` (:mod:`wheelrom.study_file`).
+(``stability``), into one file of format ``wheelrom-sweep-2``
+(:mod:`wheelrom.results.study_layout`).
 
 Each reduced model is built once, by one rank (group ``g`` by rank ``g mod P``), and
 broadcast; a case's stability and transient are computed by one rank on ``COMM_SELF`` with
@@ -21,23 +22,25 @@ import math
 import os
 import time
 
-from wheelrom import interrupts, results, study_file
-from wheelrom._environment import petsc, slepc
 from wheelrom.config import Config
-from wheelrom.errors import InputError, Interrupted
-from wheelrom.mistuning_study import (
+from wheelrom.config.study import Study, batch_key, expand, model_key
+from wheelrom.results import layout as results
+from wheelrom.results import study_layout as study_file
+from wheelrom.rom.build import build_model
+from wheelrom.runtime import interrupts
+from wheelrom.runtime.environment import petsc, slepc
+from wheelrom.runtime.errors import InputError, Interrupted
+from wheelrom.runtime.outputs import create_collectively, output_problem, replacing
+from wheelrom.studies.mistuning import (
     ForcedCases,
     analyse_case,
     case_mistuning,
     case_model,
     forced_arrays,
 )
-from wheelrom.outputs import create_collectively, output_problem, replacing
-from wheelrom.rom.build import build_model
-from wheelrom.stability_study import attach_classification
-from wheelrom.study_config import Study, batch_key, expand, model_key
-from wheelrom.study_plan import balance, batches, group_by, selection
-from wheelrom.sweep import _lor, _Progress
+from wheelrom.studies.plan import balance, batches, group_by, selection
+from wheelrom.studies.stability import attach_classification
+from wheelrom.studies.sweep import _lor, _Progress
 from wheelrom.transient.problem import CaseResult
 from wheelrom.transient.run import run_cases
 from wheelrom.transient.ts import PREFIX, time_grid, ts_settings
@@ -50,13 +53,13 @@ def run_study(cfg: Config, out: str, comm, mode: str = "full", confirm: tuple = 
               options: dict | None = None, batch: int = 0,
               forced: bool = False) -> dict:  # fmt: skip
     """Run the study of ``cfg`` into ``out`` (collective over the mpi4py ``comm``); returns
-    :func:`wheelrom.study_file.summary` of the file (on every rank).
+    :func:`wheelrom.results.study_layout.summary` of the file (on every rank).
 
     ``mode``: ``full``, ``screen`` or ``stability`` (module docstring); ``confirm``: case
     indices the screen runs in any case; ``batch``: cases per TS (0: all of a rank's cases
     that can share one, up to ``HISTORY_BYTES`` of tip histories); ``forced``: also the
     peak forced response of every case and its amplification factor
-    (:mod:`wheelrom.mistuning_study`). Raises :class:`Interrupted` after a Ctrl-C / SIGTERM
+    (:mod:`wheelrom.studies.mistuning`). Raises :class:`Interrupted` after a Ctrl-C / SIGTERM
     once the finished rounds are in the file.
     """
     petsc()  # PetscInitialize is collective: every rank before one builds alone
@@ -169,8 +172,9 @@ def wait_for_all(comm, poll: float = 0.005) -> None:
 
 def _stability(study: Study, models: list, model_of: list[int], comm, say,
                forced: bool = False) -> tuple[dict, dict | None]:  # fmt: skip
-    """``/stability`` of every case (:func:`wheelrom.study_file.stability_arrays`) and, when
-    ``forced``, ``/forced`` (:func:`wheelrom.mistuning_study.forced_arrays`; else None) on
+    """``/stability`` of every case
+    (:func:`wheelrom.results.study_layout.stability_arrays`) and, when
+    ``forced``, ``/forced`` (:func:`wheelrom.studies.mistuning.forced_arrays`; else None) on
     every rank: each rank analyses its share (balanced by model size), rank 0 assembles."""
     costs = [models[g].blades * models[g].modes ** 3 for g in model_of]
     mine = balance(costs, comm.size)[comm.rank]
@@ -201,7 +205,7 @@ def _create(out, cfg, study, models, model_of, stability, chosen, mode, comm,
             extra: dict) -> None:  # fmt: skip
     """The file with its full layout (serially by rank 0 for ``stability``, else
     collectively), under a temporary name renamed into place when complete; ``extra``:
-    :func:`wheelrom.study_file.create`'s ``mistuning`` and ``forced``."""
+    :func:`wheelrom.results.study_layout.create`'s ``mistuning`` and ``forced``."""
     import h5py
 
     if mode == "stability":

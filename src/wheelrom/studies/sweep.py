@@ -18,13 +18,14 @@ import math
 import os
 import time
 
-from wheelrom import interrupts, results
-from wheelrom._environment import petsc, slepc
 from wheelrom.config import Config
-from wheelrom.errors import InputError, Interrupted
-from wheelrom.outputs import create_collectively, output_problem
+from wheelrom.results import layout as results
 from wheelrom.rom.build import build_model
-from wheelrom.stability_study import attach_linear, refuse_study
+from wheelrom.runtime import interrupts
+from wheelrom.runtime.environment import petsc, slepc
+from wheelrom.runtime.errors import InputError, Interrupted
+from wheelrom.runtime.outputs import create_collectively, output_problem
+from wheelrom.studies.stability import attach_linear, refuse_study
 from wheelrom.transient.problem import CaseResult
 from wheelrom.transient.run import run_cases
 from wheelrom.transient.ts import PREFIX, ts_settings

@@ -2,7 +2,7 @@
 as C functions (numba ``cfunc``) that get and restore the Vec arrays through PETSc's C API
 (external symbols resolved to libpetsc's), registered with ``TSSetRHSFunction`` /
 ``TSMonitorSet`` (ctypes). The callbacks are cached on disk like the kernel
-(:mod:`wheelrom._kernel_cache`): a process loads them instead of compiling them.
+(:mod:`wheelrom.runtime.kernel_cache`): a process loads them instead of compiling them.
 
 Why: a petsc4py Python callback costs several microseconds per call (wrapping the Vecs, numpy
 views, the numba dispatch of ~30 arguments); the paper case needs ~900,000 evaluations.
@@ -18,8 +18,8 @@ import numpy as np
 from llvmlite import binding as llvm
 from numba import types
 
-from wheelrom import _kernel_cache
-from wheelrom._environment import petsc
+from wheelrom.runtime import kernel_cache as _kernel_cache
+from wheelrom.runtime.environment import petsc
 from wheelrom.transient.fastmath import double_ptr, long_ptr
 from wheelrom.transient.kernel import rhs_core, sample_core
 from wheelrom.transient.layout import (
@@ -159,7 +159,8 @@ def _register_petsc_symbols() -> None:
 @functools.cache
 def callbacks():
     """``(rhs, monitor, TSSetRHSFunction, TSMonitorSet)``: the C callbacks, loaded from the
-    kernel cache (:mod:`wheelrom._kernel_cache`, ~0.05 s) or compiled once per machine (~10 s),
+    kernel cache (:mod:`wheelrom.runtime.kernel_cache`, ~0.05 s) or compiled once per machine
+    (~10 s),
     and the PETSc setters. Pointers travel as int64 (same ABI on x86-64)."""
     _register_petsc_symbols()
     rhs = _kernel_cache.cfunc(_RHS_SIGNATURE, _rhs_callback)

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 
-from wheelrom import _kernel_cache
+from wheelrom.runtime import kernel_cache as _kernel_cache
 from wheelrom.transient.fastmath import NOALIAS, fexp
 from wheelrom.transient.layout import (
     H_DECAY,

@@ -15,7 +15,7 @@ import math
 
 import numba
 
-from wheelrom import _kernel_cache
+from wheelrom.runtime import kernel_cache as _kernel_cache
 from wheelrom.transient.contact_kernel import contacts
 from wheelrom.transient.layout import (
     H_ACTIVE,

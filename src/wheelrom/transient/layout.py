@@ -21,8 +21,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from wheelrom._environment import petsc
 from wheelrom.forces.parameters import ForceParameters
+from wheelrom.runtime.environment import petsc
 
 H_LEN, H_N, H_M, H_K, H_VDP, H_NS, H_OMEGA, H_FB, H_MU, H_R, H_BETA = range(11)
 H_FS, H_FD, H_DECAY, H_VK, H_USER_REASON, H_SAMPLE_DT, H_NEXT_SAMPLE = range(11, 18)

@@ -7,7 +7,7 @@ Each solver of wheelrom reads its own prefix (docs/usage.md): ``wheel_`` (the ca
 throw-away object of each prefix the user's options name and lets it read them
 (``setFromOptions``, PETSc's own error printing switched off): a value PETSc refuses
 (``-wheel_ts_type nosuch``, ``-wheel_ts_dt abc``, ``-segment_eps_type nosuch``) becomes one
-:class:`~wheelrom.errors.InputError` naming that option, found by trying the options of the
+:class:`~wheelrom.runtime.errors.InputError` naming that option, found by trying the options of the
 failing prefix one at a time. :func:`unused` lists, at the end of a command, the options no
 solver read (PETSc's ``-options_left``): typically a misspelt name.
 """
@@ -18,8 +18,8 @@ import contextlib
 import ctypes
 import functools
 
-from wheelrom._environment import petsc, slepc
-from wheelrom.errors import InputError
+from wheelrom.runtime.environment import petsc, slepc
+from wheelrom.runtime.errors import InputError
 
 # PETSc error codes a bad option value raises (petsc/include/petscerror.h)
 _PETSC_ERRORS = {

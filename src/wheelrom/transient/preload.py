@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from wheelrom._environment import petsc
+from wheelrom.runtime.environment import petsc
 from wheelrom.transient.problem import WheelProblem
 
 

@@ -14,11 +14,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from wheelrom._environment import petsc
 from wheelrom.config import Config, sample_every
 from wheelrom.forces.parameters import ForceParameters
 from wheelrom.forces.reference import ReferenceForces
 from wheelrom.rom.model import ReducedModel
+from wheelrom.runtime.environment import petsc
 from wheelrom.transient.layout import H_RHS_CALLS, Context
 
 N_WORK = 4
@@ -88,7 +88,7 @@ class CaseResult:
         batch: number of cases integrated together in the TS of this case.
         linear: the case's linear stability (``growth_rate`` [1/s], ``nodal_diameter``,
             ``frequency_hz`` of the fastest mode) when computed (sweeps do).
-        classification: both analyses in words (``wheelrom.transient.stability.classify``).
+        classification: both analyses in words (``wheelrom.analysis.stability.classify``).
     """
 
     status: str = "done"

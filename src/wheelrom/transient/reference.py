@@ -9,10 +9,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wheelrom._environment import petsc
 from wheelrom.config import Config
 from wheelrom.forces.parameters import force_parameters
 from wheelrom.rom.model import ReducedModel
+from wheelrom.runtime.environment import petsc
 from wheelrom.transient.preload import initial_state
 from wheelrom.transient.problem import WheelProblem
 

@@ -14,12 +14,12 @@ import time
 import numba
 import numpy as np
 
-from wheelrom._environment import petsc
 from wheelrom.config import Config
-from wheelrom.errors import InputError
 from wheelrom.forces.parameters import ForceParameters, force_parameters
 from wheelrom.forces.reference import ReferenceForces
 from wheelrom.rom.model import ReducedModel
+from wheelrom.runtime.environment import petsc
+from wheelrom.runtime.errors import InputError
 from wheelrom.transient import bridge
 from wheelrom.transient.kernel import sample_core
 from wheelrom.transient.layout import H_OVERFLOW, H_RHS_CALLS, STOP_AMPLITUDE, STOP_NONFINITE
@@ -212,7 +212,7 @@ _LOADED: set[str] = set()  # right-hand side kinds whose kernels this process ha
 
 def load_kernels(case: ForceParameters, rhs_kind: str = "compiled") -> float:
     """Make the compiled code a run of ``rhs_kind`` needs ready in this process (loaded from
-    the kernel cache, else compiled: :mod:`wheelrom._kernel_cache`); returns the seconds it
+    the kernel cache, else compiled: :mod:`wheelrom.runtime.kernel_cache`); returns the seconds it
     took, 0 when this process had it already. ``case``: any case (the reference force model,
     used for the preload and the energies, is compiled for its argument types).
 

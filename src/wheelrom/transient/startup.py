@@ -32,8 +32,8 @@ def _first_step(path: str) -> dict:
     """Load the case at ``path``, run its first step; the figures of the module docstring."""
     from numba.core import event
 
-    from wheelrom import _kernel_cache
     from wheelrom.forces.parameters import force_parameters
+    from wheelrom.runtime import kernel_cache as _kernel_cache
     from wheelrom.transient.run import load_kernels, run_case
     from wheelrom.transient.ts import time_step
 
@@ -94,7 +94,7 @@ def measure(model, cfg) -> dict:
 
 
 def main(argv: list[str]) -> int:
-    from wheelrom._environment import bootstrap
+    from wheelrom.runtime.environment import bootstrap
 
     bootstrap()  # as the command line: before numpy loads
     print(json.dumps(_first_step(argv[0])))

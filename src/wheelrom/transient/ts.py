@@ -13,9 +13,9 @@ import contextlib
 import math
 from dataclasses import dataclass
 
-from wheelrom._environment import petsc
 from wheelrom.config import Config, sample_every
-from wheelrom.errors import InputError
+from wheelrom.runtime.environment import petsc
+from wheelrom.runtime.errors import InputError
 from wheelrom.transient import bridge
 from wheelrom.transient.problem import WheelProblem
 

@@ -1,0 +1,6 @@
+"""Stage 6, analyses of the wheel around its preloaded equilibrium, beside the transient: the
+equilibrium Jacobian and the force derivatives (:mod:`.jacobian`), linear stability per nodal
+diameter (:mod:`.stability`), the flutter margin (:mod:`.margin`), the linear forced response
+(:mod:`.forced`) and its grid-independent peak (:mod:`.forced_peak`).
+
+May import: runtime, config, segment, rom, forces, transient (the preload and the problem)."""

@@ -1,0 +1,41 @@
+"""Stage 1, configuration: one TOML file mapped onto frozen dataclasses, defaults = the paper's
+Table 1 (:mod:`.model`: the schema, ``load``, the cross-checks), the field converter and file
+resolver (:mod:`.values`), the ``[forced]`` and ``[mistuning]`` sections (:mod:`.forced`), and
+the cases of a ``[study]`` (:mod:`.study`).
+
+May import: :mod:`wheelrom.runtime`. This face re-exports the schema, so
+``from wheelrom import config; config.load(...)`` and ``from wheelrom.config import Config``
+keep working.
+"""
+
+from wheelrom.config.model import (
+    CONTACT_KINDS,
+    Config,
+    ConfigError,
+    ContactConfig,
+    ContactsConfig,
+    ExcitationConfig,
+    FlutterConfig,
+    ForcedConfig,
+    FrictionConfig,
+    MistuningConfig,
+    OutputConfig,
+    SegmentConfig,
+    StudyConfig,
+    SweepConfig,
+    TimeConfig,
+    WheelConfig,
+    from_dict,
+    load,
+    parse_override,
+    sample_every,
+    to_dict,
+    to_toml,
+)
+
+__all__ = [
+    "CONTACT_KINDS", "Config", "ConfigError", "ContactConfig", "ContactsConfig",
+    "ExcitationConfig", "FlutterConfig", "ForcedConfig", "FrictionConfig", "MistuningConfig",
+    "OutputConfig", "SegmentConfig", "StudyConfig", "SweepConfig", "TimeConfig", "WheelConfig",
+    "from_dict", "load", "parse_override", "sample_every", "to_dict", "to_toml",
+]  # fmt: skip

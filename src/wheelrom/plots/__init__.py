@@ -1,0 +1,6 @@
+"""Stage 10, figures (matplotlib, headless): of a sweep, model, stability or study file
+(:mod:`.figures` dispatches), the stability and margin figures (:mod:`.stability`), design maps
+(:mod:`.study`), Monte Carlo statistics (:mod:`.montecarlo`), the wheel in motion
+(:mod:`.motion`), shared helpers (:mod:`.helpers`).
+
+May import: every stage below; never cli."""
