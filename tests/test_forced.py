@@ -11,8 +11,8 @@ import pytest
 from scipy.optimize import minimize_scalar
 
 from conftest import SMALL
+from wheelrom.analysis import forced
 from wheelrom.rom.model import nodal_diameter
-from wheelrom.transient import forced
 
 WHITEHEAD_SAMPLES = 200
 

@@ -11,10 +11,10 @@ import pytest
 
 from conftest import SMALL
 from wheelrom import __version__, config
+from wheelrom.analysis import forced
 from wheelrom.cli import main as cli
 from wheelrom.rom.model import blade_mistuning
 from wheelrom.runtime.environment import petsc
-from wheelrom.transient import forced
 
 MISTUNED = ["--set", "mistuning.std=0.02", "--set", "mistuning.seed=7"]
 

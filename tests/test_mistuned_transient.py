@@ -9,10 +9,11 @@ import math
 import numpy as np
 import pytest
 
+from wheelrom.analysis import forced
 from wheelrom.forces.parameters import force_parameters
 from wheelrom.rom.model import nodal_diameter
 from wheelrom.runtime.environment import petsc
-from wheelrom.transient import bridge, forced
+from wheelrom.transient import bridge
 from wheelrom.transient.problem import WheelProblem
 from wheelrom.transient.reference import reference_solution
 from wheelrom.transient.run import run_case, run_cases

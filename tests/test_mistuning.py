@@ -12,9 +12,9 @@ import scipy.linalg
 
 from conftest import SMALL
 from wheelrom import config
+from wheelrom.analysis import forced, stability
 from wheelrom.analysis.stability import analyse, rightmost_eigenvalues
 from wheelrom.rom.model import blade_mistuning
-from wheelrom.transient import forced, stability
 
 SEED = 22
 # the lowest family (blade mode 1, 116.35..116.53 Hz over ND 0..6: spread 0.3 % in lambda)

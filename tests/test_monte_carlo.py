@@ -16,10 +16,10 @@ from scipy.optimize import minimize_scalar
 
 from conftest import SMALL
 from wheelrom import config
+from wheelrom.analysis import forced
 from wheelrom.analysis.forced_peak import peak_response, tuned_reference
 from wheelrom.config import ConfigError
 from wheelrom.rom.model import blade_mistuning
-from wheelrom.transient import forced
 
 SEEDS = 20
 

@@ -110,7 +110,7 @@ def test_per_nd_spectrum_is_the_assembled_spectrum(small_model, small_cfg, comm)
 def test_non_cyclic_path_agrees(small_model, small_cfg):
     """The assembled dense path (for wheels that are not cyclic) gives the same growth rates
     and NDs as the per-ND blocks on a tuned wheel."""
-    from wheelrom.transient import stability
+    from wheelrom.analysis import stability
 
     res = analyse(small_model, small_cfg, {"shroud": 20.0}, keep_jacobian=True)
     N, m = small_model.blades, small_model.modes
