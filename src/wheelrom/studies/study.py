@@ -39,9 +39,8 @@ from wheelrom.studies.mistuning import (
     forced_arrays,
 )
 from wheelrom.studies.plan import balance, batches, group_by, selection
+from wheelrom.studies.rounds import _mpi_op, run_rounds, wait_for_all
 from wheelrom.studies.stability import attach_classification
-from wheelrom.studies.sweep import _lor, _Progress
-from wheelrom.transient.problem import CaseResult
 from wheelrom.transient.run import run_cases
 from wheelrom.transient.ts import PREFIX, time_grid, ts_settings
 
@@ -162,14 +161,6 @@ def _models(study: Study, members: list[list[int]], wanted, comm, say) -> list:
     return models
 
 
-def wait_for_all(comm, poll: float = 0.005) -> None:
-    """A barrier that sleeps while it waits (MPI's blocking collectives spin): a rank done
-    early leaves its core to the ranks still computing (several ranks on shared cores)."""
-    request = comm.Ibarrier()
-    while not request.Test():
-        time.sleep(poll)
-
-
 def _stability(study: Study, models: list, model_of: list[int], comm, say,
                forced: bool = False) -> tuple[dict, dict | None]:  # fmt: skip
     """``/stability`` of every case
@@ -240,28 +231,33 @@ def _transients(out, cfg, study, model_of, members, comm, batch, options, say, s
     mine = [todo[j] for j in balance(costs, comm.size)[comm.rank]]
     keys = [batch_key(c) for c in study.configs]
     plan = batches(mine, keys, batch or _memory_width(cfg, models))
-    rounds = comm.allreduce(len(plan), op=_max())
+    rounds = comm.allreduce(len(plan), op=_mpi_op("MAX"))
     say(f"{len(todo)} transient(s) to run on {comm.size} rank(s) in {rounds} round(s)")
-    clock = _Progress(say, cfg.time.end, settings["ts_dt"], rounds)
+
+    def run_batch(chunk, progress):
+        # a batch shares its mistuning (batch_key): the first case's model is every case's
+        contacts = [study.configs[i].contacts for i in chunk]
+        angles = [{"tieboss": c.tieboss.angle_deg, "shroud": c.shroud.angle_deg}
+                  for c in contacts]  # fmt: skip
+        return run_cases(case_model(models, model_of, study, chunk[0]), study.configs[chunk[0]],
+                         angles, options=options, progress=progress)  # fmt: skip
+
+    def line(i, st, wall, _width, _compiled, verdict):
+        wall_text = f"{wall:.3g} s" if math.isfinite(wall) else "-"
+        return f"[case {i}/{len(status) - 1}] {study.label(i)}: {st} ({wall_text}); {verdict}"
+
     with interrupts.deferred(), h5py.File(out, "r+", driver="mpio", comm=comm) as f:
         fastest = _fastest_modes(f)  # each case's linear verdict, already in the file
-        for r in range(rounds):
-            chunk = plan[r] if r < len(plan) else []
-            finished = _run_batch(chunk, study, models, model_of, options, settings,
-                                  clock.window(r, len(chunk)))  # fmt: skip
-            chunk = chunk if finished else []
-            for i, res in zip(chunk, finished, strict=True):
-                if fastest[i] is None:  # the case's stability analysis failed
-                    res.classification = "unknown (linear analysis failed: see /stability)"
-                else:
-                    attach_classification(res, *fastest[i])
-                results.write_case(f, i, res)
-            wait_for_all(comm)
-            f.flush()  # collective: every finished round is on disk
-            _report(comm, say, study, chunk, finished, len(status))
-            if comm.allreduce(interrupts.requested(), op=_lor()):
-                raise Interrupted(f"interrupted: the finished rounds are saved in {out}; "
-                                  "rerun with --resume to complete it")  # fmt: skip
+
+        def attach(i, res):
+            if fastest[i] is None:  # the case's stability analysis failed
+                res.classification = "unknown (linear analysis failed: see /stability)"
+            else:
+                attach_classification(res, *fastest[i])
+
+        if run_rounds(f, plan, comm, run_batch, settings, attach, line, say, cfg.time.end):
+            raise Interrupted(f"interrupted: the finished rounds are saved in {out}; "
+                              "rerun with --resume to complete it")  # fmt: skip
 
 
 def _fastest_modes(f) -> list:
@@ -288,38 +284,3 @@ def _memory_width(cfg: Config, models: list) -> int:
 
 def _steps(cfg: Config) -> float:
     return cfg.time.end / cfg.time.step
-
-
-def _run_batch(chunk, study, models, model_of, options, settings, progress) -> list:
-    """The transient results of one batch (cases sharing a model and all but their
-    angles); a solver error fails the batch, a stop request returns nothing."""
-    if not chunk:
-        return []
-    first = study.configs[chunk[0]]
-    angles = [{"tieboss": study.configs[i].contacts.tieboss.angle_deg,
-               "shroud": study.configs[i].contacts.shroud.angle_deg} for i in chunk]  # fmt: skip
-    try:
-        # a batch shares its mistuning (batch_key): the first case's model is every case's
-        return run_cases(case_model(models, model_of, study, chunk[0]), first, angles,
-                         options=options, progress=progress)  # fmt: skip
-    except KeyboardInterrupt:  # a stop asked for: this batch stays pending
-        return []
-    except Exception as exc:  # a solver error fails this batch, not the study
-        return [CaseResult(status=f"failed: {type(exc).__name__}: {exc}", options=settings)
-                for _ in chunk]  # fmt: skip
-
-
-def _report(comm, say, study, chunk, finished, total) -> None:
-    report = [(i, res.status, res.wall_s, res.classification)
-              for i, res in zip(chunk, finished, strict=True)]  # fmt: skip
-    gathered = comm.gather(report, root=0)
-    if comm.rank == 0:
-        for i, st, wall, verdict in sorted(item for part in gathered for item in part):
-            wall_text = f"{wall:.3g} s" if math.isfinite(wall) else "-"
-            say(f"[case {i}/{total - 1}] {study.label(i)}: {st} ({wall_text}); {verdict}")
-
-
-def _max():
-    from mpi4py import MPI
-
-    return MPI.MAX

@@ -25,8 +25,8 @@ from wheelrom.runtime import interrupts
 from wheelrom.runtime.environment import petsc, slepc
 from wheelrom.runtime.errors import InputError, Interrupted
 from wheelrom.runtime.outputs import create_collectively, output_problem
+from wheelrom.studies.rounds import run_rounds
 from wheelrom.studies.stability import attach_linear, refuse_study
-from wheelrom.transient.problem import CaseResult
 from wheelrom.transient.run import run_cases
 from wheelrom.transient.ts import PREFIX, ts_settings
 
@@ -121,107 +121,32 @@ def _shared_model(cfg: Config, comm, model_comm: str, say):
 
 def _run_rounds(f, cfg: Config, model, comm, batch: int, options, say,
                 settings: dict) -> bool:  # fmt: skip
-    """Deal the pending cases to the ranks and run them in rounds of one batch per rank;
-    after every round all ranks flush the file (collective) and rank 0 reports. Returns
-    whether a stop was requested (then the unfinished batch stays pending)."""
+    """Deal the pending cases to the ranks and run them in rounds of one batch per rank
+    (:func:`wheelrom.studies.rounds.run_rounds`). Returns whether a stop was requested (then
+    the unfinished batch stays pending)."""
     angles = results.case_angles(cfg)
     C = angles.shape[0]
     status = results.statuses(f)
     todo = [i for i in range(C) if status[i] == "pending"]
     say(f"{C} cases, {len(todo)} to run on {comm.size} rank(s)")
-    done = C - len(todo)
+    done = [C - len(todo)]
     mine = todo[comm.rank :: comm.size]
-    per_rank = math.ceil(len(todo) / comm.size)
-    width = batch or max(per_rank, 1)
-    rounds = math.ceil(per_rank / width)
-    clock = _Progress(say, cfg.time.end, settings["ts_dt"], rounds)
-    for r in range(rounds):
-        chunk = mine[r * width : (r + 1) * width]
-        finished: list[CaseResult] = []
-        if chunk:
-            try:
-                cases = [results.angles_of(angles[i]) for i in chunk]
-                finished = run_cases(model, cfg, cases, options=options,
-                                     progress=clock.window(r, len(chunk)))  # fmt: skip
-            except KeyboardInterrupt:  # a stop asked for: this batch stays pending
-                finished, chunk = [], []
-            except Exception as exc:  # a solver error fails this batch, not the sweep
-                finished = [CaseResult(status=f"failed: {type(exc).__name__}: {exc}",
-                                       options=settings) for _ in chunk]  # fmt: skip
-            for i, res in zip(chunk, finished, strict=True):
-                attach_linear(model, cfg, results.angles_of(angles[i]), res)
-                results.write_case(f, i, res)
-        f.flush()  # collective: every finished round is on disk
-        report = [(i, res.status, res.wall_s, res.batch, res.compile_s, res.classification)
-                  for i, res in zip(chunk, finished, strict=True)]  # fmt: skip
-        gathered = comm.gather(report, root=0)
-        if comm.rank == 0:
-            for i, st, wall, width_used, compiled, verdict in sorted(
-                item for part in gathered for item in part
-            ):
-                done += 1
-                tb, sh = angles[i]
-                share = f"{wall:.3g} s" + ("" if width_used == 1 else f", batch of {width_used}")
-                share += f" + {compiled:.2g} s kernels" if compiled > 0.05 else ""
-                say(f"[{done}/{C}] tie-boss {tb:g} deg, shroud {sh:g} deg: {st} ({share}); "
-                    f"{verdict}")  # fmt: skip
-        if comm.allreduce(interrupts.requested(), op=_lor()):
-            return True
-    return False
+    width = batch or max(math.ceil(len(todo) / comm.size), 1)
+    plan = [mine[start : start + width] for start in range(0, len(mine), width)]
 
+    def run_batch(chunk, progress):
+        cases = [results.angles_of(angles[i]) for i in chunk]
+        return run_cases(model, cfg, cases, options=options, progress=progress)
 
-def _lor():
-    from mpi4py import MPI
+    def attach(i, res):
+        attach_linear(model, cfg, results.angles_of(angles[i]), res)
 
-    return MPI.LOR
+    def line(i, status, wall, width_used, compiled, verdict):
+        done[0] += 1
+        tb, sh = angles[i]
+        share = f"{wall:.3g} s" + ("" if width_used == 1 else f", batch of {width_used}")
+        share += f" + {compiled:.2g} s kernels" if compiled > 0.05 else ""
+        return (f"[{done[0]}/{C}] tie-boss {tb:g} deg, shroud {sh:g} deg: {status} ({share}); "
+                f"{verdict}")  # fmt: skip
 
-
-class _Progress:
-    """Rank 0's progress lines while its batch integrates: simulated time reached, steps per
-    second and an ETA from the integration rate alone (measured from the end of the first
-    window, so kernel compilation and the static preload do not count), at most one line a
-    second. Its window callback also stops the batch when a stop was requested."""
-
-    def __init__(self, say, t_end: float, step: float, rounds: int):
-        self.say, self.rounds = say, rounds
-        self.t_end, self.step = t_end, step  # [s]: simulated end, the TS step
-
-    def window(self, round_index: int, cases: int):
-        first: list[tuple[float, float]] = []  # (simulated, wall) at the end of window 1
-        last_line = [-math.inf]
-
-        def progress(window, windows, t, amplitude):
-            if interrupts.requested():
-                raise KeyboardInterrupt  # caught by the round: the batch stays pending
-            now = time.perf_counter()
-            if not first:
-                first.append((t, now))
-            if now - last_line[0] < 1.0 and window < windows:
-                return
-            last_line[0] = now
-            t1, wall1 = first[0]
-            rate = (t - t1) / (now - wall1) if now > wall1 and t > t1 else 0.0  # [s / s]
-            left = (self.t_end - t) + (self.rounds - round_index - 1) * self.t_end  # [s]
-            if rate > 0:
-                eta = f", {_duration(left / rate)} left" if left > 0.5 * self.step else ""
-                pace = f"{rate / self.step:,.0f} steps/s{eta}"
-            else:
-                pace = "measuring the rate"
-            self.say(
-                f"  round {round_index + 1}/{self.rounds} ({cases} case(s)): window "
-                f"{window}/{windows}, t = {t:.4g} of {self.t_end:g} s, largest tip amplitude "
-                f"{amplitude:.3g} m; {pace}"
-            )
-
-        return progress
-
-
-def _duration(seconds: float) -> str:
-    """``75.2`` -> ``"about 1 min 15 s"``; under a second: ``"under a second"``."""
-    if seconds < 1:
-        return "under a second"
-    minutes, secs = divmod(round(seconds), 60)
-    hours, minutes = divmod(minutes, 60)
-    if hours:
-        return f"about {hours} h {minutes} min"
-    return f"about {minutes} min {secs} s" if minutes else f"about {secs} s"
+    return run_rounds(f, plan, comm, run_batch, settings, attach, line, say, cfg.time.end)

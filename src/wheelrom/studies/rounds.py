@@ -1,0 +1,131 @@
+"""The round runner of ``sweep`` and ``study``: every rank integrates one batch of its cases,
+then all ranks write their cases into the preallocated datasets and flush collectively, and
+rank 0 reports them. A batch that fails (a solver error) is recorded as failed cases with the
+reason; a stop request (Ctrl-C / SIGTERM) leaves the unfinished batch pending and ends the
+rounds after the flush, so the file always holds every case of every finished round.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+
+from wheelrom.results import layout as results
+from wheelrom.runtime import interrupts
+from wheelrom.transient.problem import CaseResult
+
+
+def run_rounds(f, plan: list[list[int]], comm, run_batch: Callable, settings: dict,
+               attach: Callable, line: Callable, say, t_end: float) -> bool:  # fmt: skip
+    """Run this rank's ``plan`` (a list of batches of case indices) in rounds; returns
+    whether a stop was requested.
+
+    Collective over ``comm``: the number of rounds is the longest plan of any rank.
+    ``run_batch(chunk, progress) -> list[CaseResult]`` integrates one batch;
+    ``attach(i, result)`` adds what the file records beside the transient (the linear
+    verdict); ``line(i, status, wall_s, batch, compile_s, classification)`` is rank 0's
+    report of case ``i`` (None: nothing). ``settings``: the TS settings, recorded with a failed
+    case; its ``ts_dt`` [s] and ``t_end`` [s] pace the progress lines.
+    """
+    rounds = comm.allreduce(len(plan), op=_mpi_op("MAX"))
+    clock = Progress(say, t_end, settings["ts_dt"], rounds)
+    for r in range(rounds):
+        chunk = plan[r] if r < len(plan) else []
+        finished = _batch(chunk, run_batch, settings, clock.window(r, len(chunk)))
+        chunk = chunk if finished else []
+        for i, res in zip(chunk, finished, strict=True):
+            attach(i, res)
+            results.write_case(f, i, res)
+        wait_for_all(comm)
+        f.flush()  # collective: every finished round is on disk
+        report = [(i, res.status, res.wall_s, res.batch, res.compile_s, res.classification)
+                  for i, res in zip(chunk, finished, strict=True)]  # fmt: skip
+        gathered = comm.gather(report, root=0)
+        if comm.rank == 0:
+            for item in sorted(item for part in gathered for item in part):
+                text = line(*item)
+                if text:
+                    say(text)
+        if comm.allreduce(interrupts.requested(), op=_mpi_op("LOR")):
+            return True
+    return False
+
+
+def _batch(chunk: list[int], run_batch: Callable, settings: dict, progress) -> list:
+    """The results of one batch: a solver error fails the batch (not the run), a stop
+    request returns nothing (the batch stays pending)."""
+    if not chunk:
+        return []
+    try:
+        return run_batch(chunk, progress)
+    except KeyboardInterrupt:
+        return []
+    except Exception as exc:
+        return [CaseResult(status=f"failed: {type(exc).__name__}: {exc}", options=settings)
+                for _ in chunk]  # fmt: skip
+
+
+def wait_for_all(comm, poll: float = 0.005) -> None:
+    """A barrier that sleeps while it waits (MPI's blocking collectives spin): a rank done
+    early leaves its core to the ranks still computing (several ranks on shared cores)."""
+    request = comm.Ibarrier()
+    while not request.Test():
+        time.sleep(poll)
+
+
+def _mpi_op(name: str):
+    from mpi4py import MPI
+
+    return getattr(MPI, name)
+
+
+class Progress:
+    """Rank 0's progress lines while its batch integrates: simulated time reached, steps per
+    second and an ETA from the integration rate alone (measured from the end of the first
+    window, so kernel compilation and the static preload do not count), at most one line a
+    second. Its window callback also stops the batch when a stop was requested."""
+
+    def __init__(self, say, t_end: float, step: float, rounds: int):
+        self.say, self.rounds = say, rounds
+        self.t_end, self.step = t_end, step  # [s]: simulated end, the TS step
+
+    def window(self, round_index: int, cases: int):
+        first: list[tuple[float, float]] = []  # (simulated, wall) at the end of window 1
+        last_line = [-math.inf]
+
+        def progress(window, windows, t, amplitude):
+            if interrupts.requested():
+                raise KeyboardInterrupt  # caught by the round: the batch stays pending
+            now = time.perf_counter()
+            if not first:
+                first.append((t, now))
+            if now - last_line[0] < 1.0 and window < windows:
+                return
+            last_line[0] = now
+            t1, wall1 = first[0]
+            rate = (t - t1) / (now - wall1) if now > wall1 and t > t1 else 0.0  # [s / s]
+            left = (self.t_end - t) + (self.rounds - round_index - 1) * self.t_end  # [s]
+            if rate > 0:
+                eta = f", {_duration(left / rate)} left" if left > 0.5 * self.step else ""
+                pace = f"{rate / self.step:,.0f} steps/s{eta}"
+            else:
+                pace = "measuring the rate"
+            self.say(
+                f"  round {round_index + 1}/{self.rounds} ({cases} case(s)): window "
+                f"{window}/{windows}, t = {t:.4g} of {self.t_end:g} s, largest tip amplitude "
+                f"{amplitude:.3g} m; {pace}"
+            )
+
+        return progress
+
+
+def _duration(seconds: float) -> str:
+    """``75.2`` -> ``"about 1 min 15 s"``; under a second: ``"under a second"``."""
+    if seconds < 1:
+        return "under a second"
+    minutes, secs = divmod(round(seconds), 60)
+    hours, minutes = divmod(minutes, 60)
+    if hours:
+        return f"about {hours} h {minutes} min"
+    return f"about {minutes} min {secs} s" if minutes else f"about {secs} s"
