@@ -14,7 +14,7 @@ import pytest
 from conftest import SMALL
 from wheelrom.cli import main as cli
 from wheelrom.cli.output import LONG_LISTING, print_info
-from wheelrom.results.info import file_info, resume_hint, ts_scheme
+from wheelrom.results.info import file_info, resume_hint, study_flags, ts_scheme
 
 END = ["--set", "time.end=0.001"]  # two windows of 0.5 ms: a short sweep
 ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
@@ -178,3 +178,12 @@ def test_resume_hint_gives_the_command_for_a_plain_configuration():
     assert resume_hint("s.h5", "<built-in default>", counts).endswith(
         "wheelrom sweep --out s.h5 --resume")
     assert resume_hint("s.h5", "a.toml", dict(counts, pending=0)) is None
+
+
+def test_resume_hint_of_a_study_repeats_its_mode_and_forced():
+    counts = {"pending": 3, "failed": 0}
+    flags = study_flags("screen", True)
+    assert resume_hint("m.h5", "map.toml", counts, "study", flags) == (
+        "3 case(s) pending: rerun the study with --screen --forced --resume: "
+        "wheelrom study map.toml --out m.h5 --screen --forced --resume")
+    assert study_flags("full", False) == ""

@@ -16,6 +16,7 @@ import pytest
 
 from conftest import SMALL
 from wheelrom.cli import main as cli
+from wheelrom.results.info import file_info
 
 QUICK = ["--set", "time.end=0.001", "--set", "time.window=0.0005"]
 ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
@@ -193,12 +194,14 @@ def test_ctrl_c_saves_finished_cases_and_says_how_to_resume(tmp_path):
     assert status == 130, err
     lines = [ln for ln in err.splitlines() if ln.startswith("wheelrom:")]
     assert len(lines) == 1 and "Traceback" not in err
-    assert lines[0].startswith("wheelrom: interrupted: ") and "rerun with --resume" in lines[0]
+    assert lines[0].startswith("wheelrom: interrupted: ")
+    assert "rerun the sweep with --resume" in lines[0]
     done = int(lines[0].split("interrupted: ")[1].split(" of ")[0])
     with h5py.File(out, "r") as f:  # readable, and it says what the message said
         status_of = [s.decode() for s in f["cases/status"][:]]
     assert status_of.count("done") == done < 3
     assert status_of.count("pending") == 3 - done
+    assert lines[0].endswith(file_info(str(out))["hint"])  # one hint: the command's and info's
 
 
 def test_sigterm_under_mpirun_stops_every_rank_with_one_line(tmp_path):

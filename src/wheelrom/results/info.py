@@ -190,20 +190,31 @@ def case_rows(cases) -> list[dict]:
     return rows
 
 
-def resume_hint(path: str, source: str | None, counts: dict) -> str | None:
-    """What to do about the pending and failed cases of a file (None: all done)."""
+def resume_hint(path: str, source: str | None, counts: dict, command: str = "sweep",
+                flags: str = "") -> str | None:  # fmt: skip
+    """What to do about the pending and failed cases of a sweep or study file (None: all
+    done): the command that completes it, when the configuration is a plain file (or the
+    built-in default). ``counts``: ``pending`` and ``failed`` cases; ``flags``: the options the
+    resume must repeat (a study's `` --screen``, `` --forced``). Used by ``info`` and by
+    ``sweep``/``study`` when they are interrupted."""
     failed = (f"{counts['failed']} case(s) failed (see their reasons); --resume does not rerun "
-              "them") if counts["failed"] else None  # fmt: skip
+              "them") if counts.get("failed") else None  # fmt: skip
     if not counts["pending"]:
         return failed
-    what = f"{counts['pending']} case(s) pending: rerun the sweep with --resume"
+    what = f"{counts['pending']} case(s) pending: rerun the {command} with{flags} --resume"
     if source == "<built-in default>":
-        what += f": wheelrom sweep --out {path} --resume"
+        what += f": wheelrom {command} --out {path}{flags} --resume"
     elif source and " + --set " not in source and not source.startswith("<"):
-        what += f": wheelrom sweep {source} --out {path} --resume"
+        what += f": wheelrom {command} {source} --out {path}{flags} --resume"
     else:
         what += f" and the same configuration ({source or 'the file attribute config'})"
     return what + (f"; {failed}" if failed else "")
+
+
+def study_flags(mode: str, forced: bool) -> str:
+    """The options a study's resume must repeat: its mode and ``--forced``."""
+    return {"screen": " --screen", "stability": " --stability-only"}.get(mode, "") + (
+        " --forced" if forced else "")
 
 
 def _results_info(f, path: str) -> dict:
@@ -287,18 +298,8 @@ def _study_info(f, path: str) -> dict:
         window_end = f["cases/window_end"][()]
         out.update(time_end_s=float(window_end[-1]), windows=int(window_end.size),
                    window_s=_configured_time(f).get("window"))  # fmt: skip
-    pending = out["counts"]["pending"]
-    source = header["config_source"]
-    flag = {"screen": " --screen", "full": ""}.get(out["mode"], "")
-    if bool(f.attrs.get("forced", False)):  # resume_problem refuses a resume without it
-        flag += " --forced"
-    out["hint"] = None
-    if pending and source and " + --set " not in source and not source.startswith("<"):
-        out["hint"] = (f"{pending} transient(s) pending: wheelrom study {source} --out {path}"
-                       f"{flag} --resume")  # fmt: skip
-    elif pending:
-        out["hint"] = (f"{pending} transient(s) pending: rerun the study with{flag} --resume "
-                       f"and the same configuration ({source or 'the file attribute config'})")
+    flags = study_flags(out["mode"], bool(f.attrs.get("forced", False)))
+    out["hint"] = resume_hint(path, header["config_source"], out["counts"], "study", flags)
     return out
 
 

@@ -26,6 +26,7 @@ from wheelrom.config import Config
 from wheelrom.config.study import Study, batch_key, expand, model_key
 from wheelrom.results import layout as results
 from wheelrom.results import study_layout as study_file
+from wheelrom.results.info import resume_hint, study_flags
 from wheelrom.rom.build import build_model
 from wheelrom.runtime import interrupts
 from wheelrom.runtime.environment import petsc, slepc
@@ -100,14 +101,18 @@ def run_study(cfg: Config, out: str, comm, mode: str = "full", confirm: tuple = 
             "transient")  # fmt: skip
         extra = {"mistuning": case_mistuning(study, models[0].blades), "forced": peaks}
         _create(out, cfg, study, models, model_of, stability, chosen, mode, comm, extra)
-    if mode != "stability":
-        _transients(out, cfg, study, model_of, members, comm, batch, options, say, settings,
-                    models if fresh else None)  # fmt: skip
+    stopped = mode != "stability" and _transients(out, cfg, study, model_of, members, comm,
+                                                  batch, options, say, settings,
+                                                  models if fresh else None)  # fmt: skip
     wait_for_all(comm)
     import h5py
 
     with h5py.File(out, "r", locking=False) as f:
         done = study_file.summary(f)
+    if stopped:
+        hint = resume_hint(out, cfg.source, done["transients"], "study",
+                           study_flags(mode, forced))  # fmt: skip
+        raise Interrupted(f"interrupted: the finished rounds are saved in {out}; {hint}")
     say(f"study finished in {time.perf_counter() - t0:.1f} s")
     return done
 
@@ -218,8 +223,9 @@ def _create(out, cfg, study, models, model_of, stability, chosen, mode, comm,
 
 
 def _transients(out, cfg, study, model_of, members, comm, batch, options, say, settings,
-                models) -> None:  # fmt: skip
-    """Run the pending cases of the file in rounds (module docstring)."""
+                models) -> bool:  # fmt: skip
+    """Run the pending cases of the file in rounds (module docstring); returns whether a stop
+    was requested."""
     import h5py
 
     with h5py.File(out, "r", locking=False) as f:  # every rank reads the same statuses
@@ -255,9 +261,7 @@ def _transients(out, cfg, study, model_of, members, comm, batch, options, say, s
             else:
                 attach_classification(res, *fastest[i])
 
-        if run_rounds(f, plan, comm, run_batch, settings, attach, line, say, cfg.time.end):
-            raise Interrupted(f"interrupted: the finished rounds are saved in {out}; "
-                              "rerun with --resume to complete it")  # fmt: skip
+        return run_rounds(f, plan, comm, run_batch, settings, attach, line, say, cfg.time.end)
 
 
 def _fastest_modes(f) -> list:

@@ -20,6 +20,7 @@ import time
 
 from wheelrom.config import Config
 from wheelrom.results import layout as results
+from wheelrom.results.info import resume_hint
 from wheelrom.rom.build import build_model
 from wheelrom.runtime import interrupts
 from wheelrom.runtime.environment import petsc, slepc
@@ -88,8 +89,9 @@ def run_sweep(cfg: Config, out: str, comm, resume: bool = False, force: bool = F
     failed = sum(1 for s in status if s.startswith("failed"))
     done = sum(1 for s in status if s != "pending")
     if stopped:
+        counts = {"pending": len(status) - done, "failed": failed}
         raise Interrupted(f"interrupted: {done} of {len(status)} cases done and saved in {out}; "
-                          "rerun with --resume to complete it")  # fmt: skip
+                          + resume_hint(out, cfg.source, counts))  # fmt: skip
     say(f"sweep finished in {time.perf_counter() - t0:.1f} s; {failed} case(s) failed")
     return failed
 
