@@ -283,6 +283,26 @@ def test_pattern_file_relative_to_the_toml(tmp_path, suffix):
     assert np.array_equal(blade_mistuning(cfg), expected)
 
 
+def test_a_study_reads_its_pattern_file_once_and_an_edited_file_again(tmp_path):
+    from wheelrom.config import forced
+    from wheelrom.config.study import expand
+    from wheelrom.studies.mistuning import case_mistuning
+
+    values = np.linspace(-0.03, 0.03, 12)
+    (tmp_path / "blades.csv").write_text("\n".join(map(repr, values)))
+    toml = tmp_path / "w.toml"
+    toml.write_text(open(SMALL).read().split("[sweep]")[0] + '[mistuning]\nfile = "blades.csv"\n'
+                    "[study.grid]\nmistuning.alternate = [0.0, 0.01, 0.02]\n"
+                    "contacts.shroud.angle_deg = [20.0, 50.0]\n")  # fmt: skip
+    forced._read_values.cache_clear()
+    study = expand(config.load(toml))
+    delta = case_mistuning(study, 12)
+    assert forced._read_values.cache_info().misses == 1  # 6 cases validated and used
+    assert np.array_equal(delta[5], values - 0.02 * (-1.0) ** np.arange(12) * -1)
+    (tmp_path / "blades.csv").write_text("\n".join(map(repr, 2 * values)) + "\n")
+    assert np.array_equal(blade_mistuning(config.load(toml)), 2 * values)  # edited: read again
+
+
 @pytest.mark.parametrize("setting, message", [
     ('file = "missing.csv"', "mistuning.file: missing.csv: cannot be read"),
     ('file = "short.csv"', "mistuning.file: short.csv: 11 values for 12 blades (one per blade)"),

@@ -133,6 +133,56 @@ def test_contact_forces_from_the_state_history_are_the_monitors(case_file):
         assert np.all(h.friction_force[h.state == 0] == 0.0)
 
 
+STUDY = """[wheel]
+blades = 12
+stator_vanes = 10
+basis = "free"
+[segment]
+preset = "coarse"
+[time]
+step = 5e-6
+end = 0.002
+window = 0.0005
+[output]
+sample_rate_hz = 20000.0
+state_rate_hz = 20000.0
+[study.grid]
+wheel.modes_per_segment = [4, 6]
+friction.static = [0.6, 0.9]
+"""
+
+
+def test_contacts_of_a_study_case_use_its_own_model_and_parameters(tmp_path, capsys):
+    """In a study file every case may have its own model (``/models/<g>``) and parameters:
+    the contact forces rebuilt from case 3's state history (6 modes, static friction 0.9)
+    are what its compiled monitors recorded, and ``contacts`` and ``export`` read them."""
+    from wheelrom.results.reconstruct import case_contacts
+
+    study, out = tmp_path / "study.toml", tmp_path / "study.h5"
+    study.write_text(STUDY)
+    subprocess.run(WHEELROM + ["study", str(study), "--out", str(out)], env=ENV, check=True,
+                   capture_output=True, timeout=600)  # fmt: skip
+    histories = case_contacts(str(out), 3)
+    with h5py.File(out, "r") as f:
+        assert f["cases/model"][3] == 1 and f["models/1"].attrs["modes"] == 6
+        ends = f["cases/window_end"][()]
+        recorded = {k: f[f"cases/min_normal_force/{k}"][3] for k in histories}
+        other = f["cases/min_normal_force/shroud"][1]  # 4 modes, same friction
+    for kind, h in histories.items():
+        window = np.searchsorted(ends + 2.5e-6, h.time)
+        low = [h.normal_force[window == w].min() for w in range(ends.size)]
+        np.testing.assert_allclose(low, recorded[kind], rtol=0, atol=1e-9 * 400.0)
+    assert np.abs(other - recorded["shroud"]).max() > 1e-6  # the groups differ: a real check
+    assert cli.main(["contacts", str(out), "--case", "3", "--blade", "0",
+                     "--out", str(tmp_path / "c")]) == 0  # fmt: skip
+    assert cli.main(["export", str(out), "--case", "3", "--what", "contact_forces",
+                     "--csv", str(tmp_path / "x")]) == 0  # fmt: skip
+    rows = np.loadtxt(tmp_path / "x_contact_forces.csv", delimiter=",", skiprows=1, ndmin=2)
+    np.testing.assert_array_equal(rows[:, 1], histories["tieboss"].normal_force[:, 0])
+    assert cli.main(["animate", str(out), "--case", "3", "--out", str(tmp_path / "a")]) == 2
+    assert "not a wheelrom results file" in capsys.readouterr().err
+
+
 def test_xdmf_holds_the_models_tip_motion(case_file, tmp_path, capsys):
     import meshio
 

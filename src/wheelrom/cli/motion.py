@@ -71,7 +71,8 @@ def cmd_animate(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     window = parse_window(args.window)
     prefix = _prefix(args)
-    with open_results(args.file) as f:
+    # a study's case may have a model of its own: the rebuild checks against /model only
+    with open_results(args.file, studies=False) as f:
         check_case(f, args.case)
         cases = f["cases"]
         window = window or _last_window(cases, args.case)

@@ -4,7 +4,9 @@ pattern file, the band). Part of :mod:`wheelrom.config`, which re-exports the cl
 
 from __future__ import annotations
 
+import functools
 import math
+import os
 import re
 from dataclasses import dataclass, field
 from typing import Any
@@ -77,8 +79,31 @@ class ForcedConfig:
 
 def read_mistuning_file(name: str, source: str, blades: int) -> np.ndarray:
     """``(blades,)`` delta_s of the file ``name`` (``mistuning.file``, relative to the TOML
-    ``source``); raises ``ValueError`` with a message naming the file."""
+    ``source``); raises ``ValueError`` with a message naming the file.
+
+    The file is read once per process while it is unchanged (same path, size and
+    modification time): a study validates and uses every case's configuration, which would
+    otherwise read it twice per case."""
     path = beside_toml(name, source)
+    try:
+        stat = os.stat(path)
+        stamp = (stat.st_size, stat.st_mtime_ns)
+    except OSError:
+        stamp = None  # not there: _read_values names the problem
+    values = _read_values(name, os.path.abspath(path), stamp)
+    if values.size != blades:
+        raise ValueError(f"{name}: {values.size} values for {blades} blades (one per blade)")
+    bad = np.flatnonzero(~np.isfinite(values) | (np.abs(values) > MISTUNING_LIMIT))
+    if bad.size:
+        raise ValueError(f"{name}: blade {bad[0]}'s value {values[bad[0]]!r} is not a finite "
+                         f"number within +-{MISTUNING_LIMIT}")  # fmt: skip
+    return values.copy()
+
+
+@functools.lru_cache(maxsize=16)
+def _read_values(name: str, path: str, stamp) -> np.ndarray:
+    """The numbers of a ``.npy`` or text file (``stamp``: its size and modification time, the
+    cache key that makes an edited file read again); ``ValueError`` naming ``name``."""
     if name.lower().endswith(".npy"):
         try:
             values = np.load(path, allow_pickle=False)
@@ -89,27 +114,20 @@ def read_mistuning_file(name: str, source: str, blades: int) -> np.ndarray:
             raise ValueError(f"{name}: is an .npz archive, not a single .npy array")
         if values.dtype.kind not in "iuf":
             raise ValueError(f"{name}: holds {values.dtype}, not numbers")
-        values = np.asarray(values, dtype=float).reshape(-1)
-    else:
+        return np.asarray(values, dtype=float).reshape(-1)
+    try:
+        with open(path, encoding="utf-8") as fh:
+            text = fh.read()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ValueError(f"{name}: cannot be read ({exc})") from None
+    words = [w for line in text.splitlines() for w in
+             re.split(r"[,;\s]+", line.split("#")[0]) if w]  # fmt: skip
+    values = np.empty(len(words))
+    for i, word in enumerate(words):
         try:
-            with open(path, encoding="utf-8") as fh:
-                text = fh.read()
-        except (OSError, UnicodeDecodeError) as exc:
-            raise ValueError(f"{name}: cannot be read ({exc})") from None
-        words = [w for line in text.splitlines() for w in
-                 re.split(r"[,;\s]+", line.split("#")[0]) if w]  # fmt: skip
-        values = np.empty(len(words))
-        for i, word in enumerate(words):
-            try:
-                values[i] = float(word)
-            except ValueError:
-                raise ValueError(f"{name}: value {i + 1} ({word!r}) is not a number") from None
-    if values.size != blades:
-        raise ValueError(f"{name}: {values.size} values for {blades} blades (one per blade)")
-    bad = np.flatnonzero(~np.isfinite(values) | (np.abs(values) > MISTUNING_LIMIT))
-    if bad.size:
-        raise ValueError(f"{name}: blade {bad[0]}'s value {values[bad[0]]!r} is not a finite "
-                         f"number within +-{MISTUNING_LIMIT}")  # fmt: skip
+            values[i] = float(word)
+        except ValueError:
+            raise ValueError(f"{name}: value {i + 1} ({word!r}) is not a number") from None
     return values
 
 

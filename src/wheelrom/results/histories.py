@@ -59,7 +59,8 @@ def write_histories(cases, i: int, res) -> None:
         cases["states_done"][i] = s2
         if s2:
             cases["state_time"][i, :s2] = res.state_time
-            cases["state_history"][i, :s2] = res.state_history
+            m = res.state_history.shape[-1]  # a study's case may have fewer modes than the widest
+            cases["state_history"][i, :s2, ..., :m] = res.state_history
 
 
 def case_bytes(cases) -> dict[str, int]:
@@ -77,13 +78,17 @@ def case_bytes(cases) -> dict[str, int]:
     return dict(sorted(out.items(), key=lambda kv: -kv[1]))
 
 
-def state_window(cases, path: str, case: int, window: tuple[float, float] | None = None):
+def state_window(cases, path: str, case: int, window: tuple[float, float] | None = None,
+                 modes: int | None = None):  # fmt: skip
     """``(times (S,), states (S, 2, N, m))`` of case ``case``'s modal state history within
-    ``window`` ``(a, b)`` [s] (None: all of it). One line naming the file when it has none."""
+    ``window`` ``(a, b)`` [s] (None: all of it); ``modes``: the case's mode count ``m`` when
+    the file is wider (a study of ``wheel.modes_per_segment``). One line naming the file when
+    it has none."""
     if "state_history" not in cases:
         raise InputError(f"{path} has no state history: rerun with output.state_rate_hz > 0 "
                          "(e.g. --set output.state_rate_hz=2000)")  # fmt: skip
-    return _history(cases, path, case, window, "state")
+    times, states = _history(cases, path, case, window, "state")
+    return times, states[..., :modes]
 
 
 def tip_window(cases, path: str, case: int, window: tuple[float, float] | None = None):

@@ -78,10 +78,13 @@ def write_model_file(f, cfg: Config, model: ReducedModel, extra: dict | None = N
         f[f"model/{name}"] = value
 
 
-def create_layout(f, cfg: Config, model: ReducedModel, angles: np.ndarray | None = None) -> None:
+def create_layout(f, cfg: Config, model: ReducedModel, angles: np.ndarray | None = None,
+                  modes: int | None = None) -> None:  # fmt: skip
     """Create every dataset of a sweep of ``cfg`` (collective: all ranks call this
     identically); every case ``pending``. ``angles``: ``(C, 2)`` tie-boss, shroud angle of
-    every case [deg] (default: ``cfg``'s sweep grid; a study passes its cases')."""
+    every case [deg] (default: ``cfg``'s sweep grid; a study passes its cases'); ``modes``:
+    the modal state history's width (default ``model.modes``; a study whose groups differ in
+    their mode count passes the largest, and a case fills its own first columns)."""
     angles = case_angles(cfg) if angles is None else angles
     C = angles.shape[0]
     grid = time_grid(cfg)
@@ -106,7 +109,7 @@ def create_layout(f, cfg: Config, model: ReducedModel, angles: np.ndarray | None
     cases.create_dataset("energy0", (C,), **nan)
     cases.create_dataset("work", (C, W, N_WORK), **nan)
     cases["work"].attrs["columns"] = ", ".join(WORK_NAMES)
-    create_histories(cases, C, grid, N, model.modes)
+    create_histories(cases, C, grid, N, modes or model.modes)
     cases.create_dataset("growth_rate", (C,), **nan)
     cases.create_dataset("nd_growth_rate", (C, N // 2 + 1), **nan)
     for name in ("linear_growth_rate", "linear_nodal_diameter", "linear_frequency_hz"):

@@ -12,22 +12,27 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wheelrom.config import Config
+from wheelrom.config import Config, parse_override
 from wheelrom.forces.parameters import force_parameters
 from wheelrom.forces.reference import ReferenceForces
 from wheelrom.results.histories import state_window
 from wheelrom.results.layout import FORMAT, angles_of, open_file, read_config
+from wheelrom.results.study_layout import FORMAT as STUDY_FORMAT
+from wheelrom.results.study_layout import read_parameters
 from wheelrom.rom.model import ReducedModel
 from wheelrom.runtime.errors import InputError
 from wheelrom.segment.mesh import rotation_z
 
 
-def open_results(path: str):
-    """A results file (sweep or ``run --out``) opened for reading, or one line naming it."""
+def open_results(path: str, studies: bool = True):
+    """A results file (sweep, ``run --out`` or, with ``studies``, a study with transients)
+    opened for reading, or one line naming it."""
     f = open_file(path)
-    if f.attrs.get("format") != FORMAT or "cases" not in f or "model" not in f:
+    formats = (FORMAT, STUDY_FORMAT) if studies else (FORMAT,)
+    if f.attrs.get("format") not in formats or "cases" not in f or "model" not in f:
         f.close()
-        raise InputError(f"{path}: not a wheelrom results file (format {FORMAT!r} expected)")
+        raise InputError(f"{path}: not a wheelrom results file (format "
+                         f"{' or '.join(map(repr, formats))} expected)")  # fmt: skip
     return f
 
 
@@ -38,8 +43,31 @@ def check_case(f, case: int) -> None:
     if not 0 <= case < total:
         raise InputError(f"--case {case}: the file has {total} case{'s' * (total != 1)} "
                          f"(0..{total - 1})")  # fmt: skip
-    if cases["status"][case].decode() == "pending":
+    status = cases["status"][case].decode()
+    if status == "pending":
         raise InputError(f"--case {case} is pending: nothing computed yet")
+    if status == "skipped" or "max_tip_amplitude" not in cases:
+        raise InputError(f"--case {case} has no transient (the study ran none for it)")
+
+
+def case_setup(f, path: str, case: int) -> tuple[ReducedModel, Config, dict]:
+    """The reduced model, configuration and contact angles [deg] case ``case`` ran with.
+
+    A sweep file has one model and one configuration; a study file (format 2) holds the
+    model of every case's group (``/models/<g>``, ``/cases/model``), the case's mistuning
+    (``/cases/mistuning``) and its parameters as written (``/cases/parameters/text``), which
+    are put back on the stored configuration as ``--set`` would."""
+    cfg = read_config(f, path)
+    angles = angles_of(f["cases/angles_deg"][case])
+    if f.attrs.get("format") != STUDY_FORMAT:
+        return read_model(f["model"]), cfg, angles
+    params = read_parameters(f)
+    cfg = cfg.replace(**dict(parse_override(f"{name}={text}") for name, text
+                             in zip(params["names"], params["text"][case], strict=True)))
+    model = read_model(f[f"models/{int(f['cases/model'][case])}"])
+    if "mistuning" in f["cases"] and np.any(f["cases/mistuning"][case]):
+        model.mistuning = f["cases/mistuning"][case]
+    return model, cfg, angles
 
 
 def read_model(group) -> ReducedModel:
@@ -110,8 +138,6 @@ def case_contacts(path: str, case: int, window: tuple[float, float] | None = Non
     ``(a, b)`` [s] (None: the whole run), from its state history."""
     with open_results(path) as f:
         check_case(f, case)
-        cfg = read_config(f, path)
-        times, states = state_window(f["cases"], path, case, window)
-        model = read_model(f["model"])
-        angles = angles_of(f["cases/angles_deg"][case])
+        model, cfg, angles = case_setup(f, path, case)
+        times, states = state_window(f["cases"], path, case, window, model.modes)
     return contact_histories(model, cfg, angles, times, states)

@@ -47,7 +47,8 @@ def create(f, cfg: Config, study: Study, models: list, model_of: list[int], stab
         cases.create_dataset("status", (C,), dtype=f"S{results.STATUS_LEN}")
         results.write_model(f.create_group("model"), models[0])
     else:
-        results.create_layout(f, cfg, models[0], angles)
+        results.create_layout(f, cfg, models[0], angles,
+                              modes=max(m.modes for m in models))  # fmt: skip
         cases = f["cases"]
     f.attrs["format"] = FORMAT
     f.attrs["study_mode"] = mode
