@@ -133,19 +133,8 @@ def test_contact_forces_from_the_state_history_are_the_monitors(case_file):
         assert np.all(h.friction_force[h.state == 0] == 0.0)
 
 
-STUDY = """[wheel]
-blades = 12
-stator_vanes = 10
-basis = "free"
-[segment]
-preset = "coarse"
-[time]
-step = 5e-6
-end = 0.002
-window = 0.0005
-[output]
-sample_rate_hz = 20000.0
-state_rate_hz = 20000.0
+# the small wheel (state history at every sample) as a study of two models x two frictions
+STUDY = open(SMALL).read().split("[sweep]")[0] + """state_rate_hz = 20000.0
 [study.grid]
 wheel.modes_per_segment = [4, 6]
 friction.static = [0.6, 0.9]
