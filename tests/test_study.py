@@ -182,7 +182,8 @@ def test_resume_runs_the_pending_cases_to_the_same_numbers(mixed, tmp_path):
     with h5py.File(copy, "r+") as f:
         f["cases/status"][3] = b"pending"
         f["cases/max_tip_amplitude"][3] = np.nan
-    assert "1 transient(s) pending" in wheelrom("info", copy).stdout
+    assert f"1 case(s) pending: rerun the study with --resume: wheelrom study {cfg} --out {copy}" \
+        " --resume" in wheelrom("info", copy).stdout
     res = wheelrom("study", cfg, "--out", copy, "--resume")
     assert "1 transient(s) to run" in res.stderr
     a, b = physics(n1), physics(copy)
