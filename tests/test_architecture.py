@@ -5,6 +5,7 @@ import ast
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 SRC = os.path.join(os.path.dirname(os.path.dirname(__file__)), "src")
 PACKAGE = os.path.join(SRC, "wheelrom")
@@ -45,7 +46,7 @@ def _stage(module):
 def _imports(path, module, known):
     """Every wheelrom module ``module`` imports, at module level or inside functions."""
     found = set()
-    for node in ast.walk(ast.parse(open(path).read())):
+    for node in ast.walk(ast.parse(Path(path).read_text())):
         if isinstance(node, ast.Import):
             names = [a.name for a in node.names]
         elif isinstance(node, ast.ImportFrom):
@@ -105,7 +106,7 @@ def test_modules_and_functions_stay_small():
     """Modules under 500 lines, functions under 80 (the fused compiled kernels excepted)."""
     limit, too_long = 500, []
     for module, path in _modules().items():
-        text = open(path).read()
+        text = Path(path).read_text()
         if text.count("\n") >= limit:
             too_long.append((module, text.count("\n")))
         for node in ast.walk(ast.parse(text)):
@@ -127,5 +128,5 @@ def test_a_folder_is_a_stage():
         path = modules.get(prefix)
         if prefix in TOP_LEVEL or path is None:
             continue
-        doc = ast.get_docstring(ast.parse(open(path).read())) or ""
+        doc = ast.get_docstring(ast.parse(Path(path).read_text())) or ""
         assert "May import" in doc, f"{prefix}: its face does not say what it may import"

@@ -8,6 +8,7 @@ import dataclasses
 import json
 import math
 import re
+from pathlib import Path
 
 import h5py
 import numpy as np
@@ -96,7 +97,7 @@ def test_pruned_candidates_find_the_brute_force_peak(small_model, small_cfg):
 
 
 def _study_cfg(tmp_path, overrides=(), seeds: int = SEEDS):
-    text = open(SMALL).read().split("[sweep]")[0] + f"""
+    text = Path(SMALL).read_text().split("[sweep]")[0] + f"""
 [mistuning]
 std = 0.02
 [study.grid]
@@ -276,7 +277,7 @@ def test_pattern_file_relative_to_the_toml(tmp_path, suffix):
     else:
         (tmp_path / "blades.csv").write_text("# delta_s\n" + "\n".join(map(repr, values)))
     toml = tmp_path / "w.toml"
-    toml.write_text(open(SMALL).read() + f'\n[mistuning]\nfile = "blades{suffix}"\n'
+    toml.write_text(Path(SMALL).read_text() + f'\n[mistuning]\nfile = "blades{suffix}"\n'
                     "alternate = 0.01\n")  # fmt: skip
     cfg = config.load(toml)
     expected = values + 0.01 * np.where(np.arange(12) % 2 == 0, 1, -1)
@@ -291,7 +292,8 @@ def test_a_study_reads_its_pattern_file_once_and_an_edited_file_again(tmp_path):
     values = np.linspace(-0.03, 0.03, 12)
     (tmp_path / "blades.csv").write_text("\n".join(map(repr, values)))
     toml = tmp_path / "w.toml"
-    toml.write_text(open(SMALL).read().split("[sweep]")[0] + '[mistuning]\nfile = "blades.csv"\n'
+    toml.write_text(Path(SMALL).read_text().split("[sweep]")[0]
+                    + '[mistuning]\nfile = "blades.csv"\n'
                     "[study.grid]\nmistuning.alternate = [0.0, 0.01, 0.02]\n"
                     "contacts.shroud.angle_deg = [20.0, 50.0]\n")  # fmt: skip
     forced._read_values.cache_clear()
@@ -317,7 +319,7 @@ def test_mistuning_errors_name_the_key_and_the_file(tmp_path, setting, message):
     (tmp_path / "bad.csv").write_text("0.01, 0.02, x")
     (tmp_path / "big.csv").write_text("\n".join(["0.7"] * 12))
     toml = tmp_path / "w.toml"
-    toml.write_text(open(SMALL).read() + f"\n[mistuning]\n{setting}\n")
+    toml.write_text(Path(SMALL).read_text() + f"\n[mistuning]\n{setting}\n")
     with pytest.raises(ConfigError) as err:
         config.load(toml)
     assert message in str(err.value) and str(toml) in str(err.value)
@@ -399,7 +401,7 @@ def test_an_npz_archive_is_a_named_pattern_file_error(tmp_path):
     np.savez(tmp_path / "blades.npy", delta=np.zeros(12))  # numpy appends .npz
     (tmp_path / "blades.npy.npz").rename(tmp_path / "blades.npy")
     toml = tmp_path / "w.toml"
-    toml.write_text(open(SMALL).read() + '\n[mistuning]\nfile = "blades.npy"\n')
+    toml.write_text(Path(SMALL).read_text() + '\n[mistuning]\nfile = "blades.npy"\n')
     with pytest.raises(ConfigError, match="blades.npy: is an .npz archive"):
         config.load(toml)
 

@@ -7,6 +7,7 @@ import os
 import shutil
 import subprocess
 import sys
+from pathlib import Path
 
 import h5py
 import numpy as np
@@ -134,7 +135,7 @@ def test_contact_forces_from_the_state_history_are_the_monitors(case_file):
 
 
 # the small wheel (state history at every sample) as a study of two models x two frictions
-STUDY = open(SMALL).read().split("[sweep]")[0] + """state_rate_hz = 20000.0
+STUDY = Path(SMALL).read_text().split("[sweep]")[0] + """state_rate_hz = 20000.0
 [study.grid]
 wheel.modes_per_segment = [4, 6]
 friction.static = [0.6, 0.9]

@@ -4,6 +4,7 @@ integration (``compile_s`` beside ``wall_s``). Mechanisms only: nothing here is 
 
 import ast
 import os
+from pathlib import Path
 
 from wheelrom.runtime import kernel_cache as _kernel_cache
 from wheelrom.transient import startup
@@ -39,7 +40,7 @@ def test_compile_time_is_reported_apart_from_wall_time(small_model, small_cfg):
 
 def _wheelrom_imports(path):
     found = set()
-    for node in ast.walk(ast.parse(open(path).read())):
+    for node in ast.walk(ast.parse(Path(path).read_text())):
         if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("wheelrom"):
             names = {f"{node.module}.{a.name}" for a in node.names}
             found |= ({node.module} - {"wheelrom"}) | names
@@ -58,5 +59,5 @@ def test_the_cache_key_covers_every_module_a_kernel_contains():
         for file in files:
             path = os.path.join(root, file)
             rel = os.path.relpath(path, PACKAGE).replace(os.sep, "/")
-            if file.endswith(".py") and "_kernel_cache.njit(" in open(path).read():
+            if file.endswith(".py") and "_kernel_cache.njit(" in Path(path).read_text():
                 assert rel in _kernel_cache.KERNEL_SOURCES + ("bench/transient.py",), rel
