@@ -20,11 +20,11 @@ ENV = dict(
 )
 
 
-def sweep(out, *extra, ranks=1, check=True):
+def sweep(out, *extra, ranks=1, check=True, env=ENV):
     cmd = WHEELROM + ["sweep", SMALL, "--out", str(out), *extra]
     if ranks > 1:
         cmd = ["mpirun", "-n", str(ranks), *cmd]
-    return subprocess.run(cmd, env=ENV, capture_output=True, text=True, check=check, timeout=600)
+    return subprocess.run(cmd, env=env, capture_output=True, text=True, check=check, timeout=600)
 
 
 # timing and the rank count, not the physics
@@ -256,3 +256,45 @@ def test_existing_file_is_refused_once_under_mpirun(serial_run):
     lines = [ln for ln in res.stderr.splitlines() if "exists: pass --resume" in ln]
     assert lines == [f"wheelrom: {serial_run} exists: pass --resume to complete it or --force "
                      "to overwrite it"], res.stderr  # fmt: skip
+
+
+TIMINGS = ("assembly_s", "eigen_solve_s", "build_s", "prestress_s", "solve_s")
+
+
+def every_number(path):
+    """Every dataset and attribute of a file, timings (and the TS batch width, which records
+    how the cases were dealt to the ranks) aside; the model's build ``info`` without its
+    timings."""
+    import json
+
+    out = {}
+    with h5py.File(path, "r") as f:
+
+        def visit(name, obj):
+            for key, value in obj.attrs.items():
+                if key == "info":
+                    value = {k: v for k, v in json.loads(value).items()
+                             if not k.endswith("_s")}  # fmt: skip
+                out[f"{name}@{key}"] = value
+            if isinstance(obj, h5py.Dataset) and name not in NOT_PHYSICS:
+                out[name] = obj[()]
+
+        f.visititems(visit)
+    return out
+
+
+def test_any_rank_count_writes_the_same_file_on_the_attachment_basis(tmp_path):
+    """A plain run (every core visible) and `mpirun -n 2` (one core each) write the same
+    numbers, model included: the basis depends on neither the BLAS thread count nor the
+    eigensolver's signs (docs/theory.md, "Reproducibility")."""
+    extra = ["--set", 'wheel.basis="attachment"', "--set", "time.step=2e-6",
+             "--set", "time.end=5e-4"]  # fmt: skip
+    # a user's shell: no thread counts set (this test process has them from bootstrap())
+    shell = {k: v for k, v in ENV.items() if not k.endswith("_NUM_THREADS")}
+    sweep(tmp_path / "n1.h5", *extra, env=shell)
+    sweep(tmp_path / "n2.h5", *extra, ranks=2, env=shell)
+    a, b = every_number(tmp_path / "n1.h5"), every_number(tmp_path / "n2.h5")
+    assert a.keys() == b.keys() and "model/A1" in a and "model@info" in a
+    different = [k for k in a if not np.array_equal(np.asarray(a[k]), np.asarray(b[k]),
+                 equal_nan=np.asarray(a[k]).dtype.kind == "f")]  # fmt: skip
+    assert not different, different

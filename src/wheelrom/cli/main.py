@@ -12,13 +12,21 @@ import os
 import sys
 from collections.abc import Callable, Sequence
 
-from wheelrom import config as config_mod
-from wheelrom.cli import args as cli_args
-from wheelrom.cli import forced as cli_forced
-from wheelrom.cli import motion as cli_motion
-from wheelrom.cli import tools as cli_tools
-from wheelrom.cli.args import comm_self, load_config
-from wheelrom.cli.output import (
+from wheelrom.runtime.environment import bootstrap
+
+# one BLAS/OpenMP thread per process, set before anything below loads numpy: OpenBLAS reads
+# the thread count once, and with one thread per visible core its sums round differently,
+# so a plain `wheelrom` (every core visible) and `mpirun -n 2 wheelrom` (bound to one core)
+# built different segment bases (docs/theory.md, "Reproducibility")
+bootstrap()
+
+from wheelrom import config as config_mod  # noqa: E402
+from wheelrom.cli import args as cli_args  # noqa: E402
+from wheelrom.cli import forced as cli_forced  # noqa: E402
+from wheelrom.cli import motion as cli_motion  # noqa: E402
+from wheelrom.cli import tools as cli_tools  # noqa: E402
+from wheelrom.cli.args import comm_self, load_config  # noqa: E402
+from wheelrom.cli.output import (  # noqa: E402
     EXIT_INTERRUPTED,
     fail,
     log,
@@ -30,10 +38,9 @@ from wheelrom.cli.output import (
     warn_unused,
     world_rank,
 )
-from wheelrom.runtime import kernel_cache as _kernel_cache
-from wheelrom.runtime.environment import bootstrap
-from wheelrom.runtime.errors import InputError, Interrupted, OutputExists
-from wheelrom.runtime.outputs import check_output, replacing
+from wheelrom.runtime import kernel_cache as _kernel_cache  # noqa: E402
+from wheelrom.runtime.errors import InputError, Interrupted, OutputExists  # noqa: E402
+from wheelrom.runtime.outputs import check_output, replacing  # noqa: E402
 
 
 def _petsc_options(args: argparse.Namespace) -> None:
