@@ -11,9 +11,11 @@ import subprocess
 import sys
 
 import h5py
+import numpy as np
 import pytest
 
 from conftest import SMALL
+from wheelrom import config
 from wheelrom.cli import main as cli
 from wheelrom.results.info import file_info
 
@@ -377,3 +379,91 @@ def test_a_failing_stability_case_under_mpirun_stops_every_rank(tmp_path):
     assert res.returncode != 0
     lines = [ln for ln in res.stderr.splitlines() if ln.startswith("wheelrom:")]
     assert len(lines) == 1 and "linear stability failed for 1 case(s)" in lines[0], res.stderr
+
+
+# --- a full disk ----------------------------------------------------------------------
+
+
+def _free(monkeypatch, free_bytes):
+    """The disk holding every output reports ``free_bytes`` free."""
+    import collections
+
+    usage = collections.namedtuple("usage", "total used free")
+    monkeypatch.setattr("wheelrom.runtime.outputs.shutil.disk_usage",
+                        lambda _: usage(10**12, 10**12 - free_bytes, free_bytes))  # fmt: skip
+
+
+def test_an_output_that_cannot_fit_is_refused_in_one_line(tmp_path, capsys, monkeypatch):
+    from wheelrom.results import layout as results
+    from wheelrom.results.histories import case_bytes
+    from wheelrom.rom.build import build_model
+    from wheelrom.runtime.environment import petsc
+
+    out = tmp_path / "s.h5"
+    cfg = config.load(SMALL, ["time.end=5.0"])  # 5 s of tip histories: ~13 MB
+    needed = results.layout_bytes(
+        lambda f: results.create_layout(f, cfg, build_model(cfg, petsc().COMM_SELF)))
+    with h5py.File(tmp_path / "layout.h5", "w") as f:  # the estimate is the layout's size
+        results.create_layout(f, cfg, build_model(cfg, petsc().COMM_SELF))
+    assert case_bytes(h5py.File(tmp_path / "layout.h5")["cases"])["tip_history"] * 3 < needed
+    os.remove(tmp_path / "layout.h5")
+    _free(monkeypatch, 8_000_000)
+    assert cli.main(["sweep", SMALL, "--set", "time.end=5.0", "--out", str(out)]) == 2
+    err = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("wheelrom:")]
+    assert len(err) == 1 and not os.listdir(tmp_path), err  # before any case: no file
+    assert err[0] == (f"wheelrom: --out {out}: needs about {(needed * 1.01 + 2**20) / 1e6:.1f} MB, "
+                      f"the disk holding '{tmp_path}' has 8.0 MB free")  # fmt: skip
+    _free(monkeypatch, 500_000)  # below what any output needs: refused before the model
+    assert cli.main(["run", SMALL, *QUICK, "--out", str(out)]) == 2
+    assert "has 500.0 kB free" in capsys.readouterr().err
+
+
+def test_a_disk_that_fills_keeps_the_finished_rounds_and_resumes(tmp_path, capsys, monkeypatch):
+    import errno
+
+    from wheelrom.results import layout as results
+
+    out, reference = tmp_path / "s.h5", tmp_path / "ref.h5"
+    assert cli.main(["sweep", SMALL, "--out", str(reference)]) == 0
+    real_write, calls = results.write_case, []
+
+    def write_until_full(f, i, res):
+        calls.append(i)
+        if len(calls) == 2:  # the second case's histories do not fit any more
+            f["cases/energy0"][i] = res.energy0
+            raise OSError(errno.ENOSPC, "Can't write data (No space left on device)")
+        real_write(f, i, res)
+
+    monkeypatch.setattr(results, "write_case", write_until_full)
+    assert cli.main(["sweep", SMALL, "--out", str(out), "--batch", "1"]) == 1
+    err = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("wheelrom:")]
+    assert err == [f"wheelrom: {out}: the disk is full (errno 28, ENOSPC: No space left on "
+                   "device); the cases of every finished round are in the file: free space "
+                   "and rerun with --resume"]  # fmt: skip
+    with h5py.File(out, "r") as f:
+        assert [s.decode() for s in f["cases/status"][:]] == ["done", "pending", "pending"]
+    monkeypatch.setattr(results, "write_case", real_write)  # space freed
+    assert cli.main(["sweep", SMALL, "--out", str(out), "--resume"]) == 0
+    with h5py.File(out, "r") as a, h5py.File(reference, "r") as b:
+        for name in ("max_tip_amplitude", "tip_history", "energy", "status"):
+            assert np.array_equal(a[f"cases/{name}"][()], b[f"cases/{name}"][()]), name
+
+
+def test_run_out_on_a_full_disk_prints_its_numbers_and_writes_nothing(tmp_path, capsys,
+                                                                     monkeypatch):  # fmt: skip
+    import errno
+
+    from wheelrom.results import layout as results
+
+    def full(*_):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(results, "write_case", full)
+    out = tmp_path / "r.h5"
+    assert cli.main(["run", SMALL, *QUICK, "--out", str(out), "--json"]) == 1
+    captured = capsys.readouterr()
+    assert json.loads(captured.out)["status"] == "done"
+    assert [ln for ln in captured.err.splitlines() if ln.startswith("wheelrom:")] == [
+        f"wheelrom: {out}: the disk is full (errno 28, ENOSPC: No space left on device); its "
+        "summary is printed above; nothing was written"]
+    assert not os.listdir(tmp_path)  # no file, no temporary

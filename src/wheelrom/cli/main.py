@@ -39,8 +39,19 @@ from wheelrom.cli.output import (  # noqa: E402
     world_rank,
 )
 from wheelrom.runtime import kernel_cache as _kernel_cache  # noqa: E402
-from wheelrom.runtime.errors import InputError, Interrupted, OutputExists  # noqa: E402
-from wheelrom.runtime.outputs import check_output, replacing  # noqa: E402
+from wheelrom.runtime.errors import (  # noqa: E402
+    DiskFull,
+    InputError,
+    Interrupted,
+    OutputExists,
+)
+from wheelrom.runtime.outputs import (  # noqa: E402
+    check_output,
+    check_space,
+    disk_full,
+    is_disk_full,
+    replacing,
+)
 
 
 def _petsc_options(args: argparse.Namespace) -> None:
@@ -166,17 +177,28 @@ def cmd_run(args: argparse.Namespace) -> int:
         if not args.json:
             log(f"window {w}/{total}: t = {t:.4f} s, max tip amplitude {amp:.3e} m")
 
+    if args.out:
+        from wheelrom.results import layout as results
+
+        def create(f):
+            results.create_layout(f, results.single_case(cfg), model)
+
+        check_space(args.out, results.layout_bytes(create))
     res = run_case(model, cfg, progress=progress)
     attach_linear(model, cfg, None, res)
+    print_result(res.summary(), args.json)  # first: a full disk still leaves the numbers
     if args.out:
         import h5py
 
-        from wheelrom.results import layout as results
-
-        with replacing(args.out) as partial, h5py.File(partial, "w") as f:
-            results.create_layout(f, results.single_case(cfg), model)
-            results.write_case(f, 0, res)
-    print_result(res.summary(), args.json)
+        try:
+            with replacing(args.out) as partial, h5py.File(partial, "w") as f:
+                create(f)
+                results.write_case(f, 0, res)
+        except OSError as exc:
+            if not is_disk_full(exc):
+                raise
+            raise disk_full(args.out, exc, "its summary is printed above; nothing was "
+                            "written") from None  # fmt: skip
     return 0 if res.status == "done" else 1
 
 
@@ -372,11 +394,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         return fail(str(exc))
     except Interrupted as exc:  # what was finished is saved; the message says where
         return fail(str(exc), EXIT_INTERRUPTED)
+    except DiskFull as exc:  # what was flushed is kept; the message says what
+        return fail(str(exc), 1)
     except KeyboardInterrupt:
         return fail("interrupted (nothing was being saved)", EXIT_INTERRUPTED)
     except BrokenPipeError:  # the output was piped into head & co., which stopped reading
         sys.stdout = open(os.devnull, "w")  # noqa: SIM115 -- the interpreter flushes it at exit
         return 0
+    except OSError as exc:
+        if not is_disk_full(exc):
+            raise
+        return fail(str(disk_full(getattr(exc, "filename", None) or "output", exc,
+                                  "what was written before is kept")), 1)  # fmt: skip
     warn_unused(args.petsc_args)
     return status
 

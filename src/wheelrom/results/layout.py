@@ -124,12 +124,34 @@ def create_layout(f, cfg: Config, model: ReducedModel, angles: np.ndarray | None
     st[...] = np.array([b"pending"] * C, dtype=f"S{STATUS_LEN}")
 
 
+def layout_bytes(create) -> int:
+    """The bytes of the file ``create(f)`` lays out, once every dataset is written: the layout
+    built in memory (HDF5 core driver, nothing on disk; chunked datasets take no memory until
+    written), every dataset's size summed. What a command checks against the free disk space
+    before it computes (:func:`wheelrom.runtime.outputs.check_space`)."""
+    import uuid
+
+    import h5py
+
+    total = [0]
+
+    def count(_, obj):
+        if isinstance(obj, h5py.Dataset):
+            total[0] += int(obj.size) * obj.dtype.itemsize
+
+    with h5py.File(f"layout-{uuid.uuid4().hex}.h5", "w", driver="core",
+                   backing_store=False) as f:  # fmt: skip
+        create(f)
+        f.visititems(count)
+    return total[0]
+
+
 def write_case(f, i: int, res: CaseResult) -> None:
-    """Case ``i``'s result into a file made by :func:`create_layout`."""
+    """Case ``i``'s result into a file made by :func:`create_layout`; its status last, so a
+    write that fails half-way (a full disk) leaves the case ``pending``."""
     cases = f["cases"]
     w = res.window_end.size
     s = res.sample_time.size
-    cases["status"][i] = res.status.encode()[:STATUS_LEN]
     cases["wall_s"][i] = res.wall_s
     cases["compile_s"][i] = res.compile_s
     cases["steps"][i] = res.steps
@@ -153,6 +175,7 @@ def write_case(f, i: int, res: CaseResult) -> None:
         for key, value in res.linear.items():
             cases[f"linear_{key}"][i] = value
     cases["classification"][i] = res.classification.encode()[:STATUS_LEN]
+    cases["status"][i] = res.status.encode()[:STATUS_LEN]
 
 
 def statuses(f) -> list[str]:

@@ -20,3 +20,9 @@ class OutputExists(InputError):
 class Interrupted(Exception):
     """A computation stopped on Ctrl-C / SIGTERM after saving what was finished; the message
     says what is kept and how to go on. The CLI exits with status 130."""
+
+
+class DiskFull(Exception):
+    """The disk filled while a file was written: the message names the file and the errno,
+    and what was already flushed is kept (a sweep or study resumes with ``--resume``). The
+    CLI exits with status 1, one line, no traceback."""

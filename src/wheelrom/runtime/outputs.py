@@ -11,9 +11,15 @@ under the name the user asked for, nor destroys the file that was there before.
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
+import shutil
 
-from wheelrom.runtime.errors import InputError, OutputExists
+from wheelrom.runtime.errors import DiskFull, InputError, OutputExists
+
+# what any output needs at least (a model or stability file is tens of kB to a few MB; an
+# HDF5 file that cannot write its metadata is lost)
+MIN_FREE_BYTES = 1 << 20
 
 
 def _directory_problem(directory: str, flag: str, path: str) -> str | None:
@@ -41,7 +47,7 @@ def output_problem(path: str, force: bool = False, flag: str = "--out") -> Input
             return OutputExists(path)
         if not os.access(path, os.W_OK):
             return InputError(f"{flag} {path}: the existing file is not writable")
-    return None
+    return space_problem(path, 0, flag)  # the least any output needs; sizes: check_space
 
 
 def check_output(path: str, force: bool = False, flag: str = "--out") -> None:
@@ -111,3 +117,47 @@ def create_collectively(out: str, comm, fill) -> None:
     if comm.rank == 0:
         os.replace(partial, out)
     comm.Barrier()
+
+
+def size_text(n: float) -> str:
+    """``1536`` -> ``"1.5 kB"``: decimal units, as ``df -H`` prints them."""
+    for unit in ("B", "kB", "MB", "GB", "TB"):
+        if abs(n) < 1000 or unit == "TB":
+            return f"{n:.0f} {unit}" if unit == "B" else f"{n:.1f} {unit}"
+        n /= 1000.0
+    return f"{n:.1f} TB"  # pragma: no cover
+
+
+def space_problem(path: str, needed: int, flag: str = "--out") -> InputError | None:
+    """Why ``needed`` bytes cannot be written at ``path`` (None: they fit, with 1 % and
+    :data:`MIN_FREE_BYTES` to spare): one line with the path, the bytes needed and free."""
+    directory = os.path.dirname(os.path.abspath(path))
+    free = shutil.disk_usage(directory).free
+    want = int(needed * 1.01) + MIN_FREE_BYTES
+    if free >= want:
+        return None
+    return InputError(f"{flag} {path}: needs about {size_text(want)}, the disk holding "
+                      f"'{directory}' has {size_text(free)} free")  # fmt: skip
+
+
+def check_space(path: str, needed: int, flag: str = "--out") -> None:
+    """Raise :func:`space_problem`'s error, if any."""
+    problem = space_problem(path, needed, flag)
+    if problem:
+        raise problem
+
+
+def is_disk_full(exc: BaseException) -> bool:
+    """Whether ``exc`` is the operating system's "no space left" (or quota) error, also as
+    HDF5 reports it through h5py."""
+    if isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT):
+        return True
+    return isinstance(exc, OSError) and "No space left on device" in str(exc)
+
+
+def disk_full(path: str, exc: BaseException, kept: str) -> DiskFull:
+    """The one-line error of a write that filled the disk: the file, the errno, what is
+    kept (``kept``)."""
+    code = exc.errno if isinstance(exc, OSError) and exc.errno else errno.ENOSPC
+    return DiskFull(f"{path}: the disk is full (errno {code}, {errno.errorcode.get(code, '?')}"
+                    f": {os.strerror(code)}); {kept}")

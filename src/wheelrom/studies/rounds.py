@@ -13,7 +13,10 @@ from collections.abc import Callable
 
 from wheelrom.results import layout as results
 from wheelrom.runtime import interrupts
+from wheelrom.runtime.outputs import disk_full, is_disk_full, space_problem
 from wheelrom.transient.problem import CaseResult
+
+KEPT = "the cases of every finished round are in the file: free space and rerun with --resume"
 
 
 def run_rounds(f, plan: list[list[int]], comm, run_batch: Callable, settings: dict,
@@ -34,11 +37,7 @@ def run_rounds(f, plan: list[list[int]], comm, run_batch: Callable, settings: di
         chunk = plan[r] if r < len(plan) else []
         finished = _batch(chunk, run_batch, settings, clock.window(r, len(chunk)))
         chunk = chunk if finished else []
-        for i, res in zip(chunk, finished, strict=True):
-            attach(i, res)
-            results.write_case(f, i, res)
-        wait_for_all(comm)
-        f.flush()  # collective: every finished round is on disk
+        _write(f, comm, [(i, res) for i, res in zip(chunk, finished, strict=True)], attach)
         report = [(i, res.status, res.wall_s, res.batch, res.compile_s, res.classification)
                   for i, res in zip(chunk, finished, strict=True)]  # fmt: skip
         gathered = comm.gather(report, root=0)
@@ -50,6 +49,41 @@ def run_rounds(f, plan: list[list[int]], comm, run_batch: Callable, settings: di
         if comm.allreduce(interrupts.requested(), op=_mpi_op("LOR")):
             return True
     return False
+
+
+def _write(f, comm, done: list, attach: Callable) -> None:
+    """This rank's finished cases into the file, then the collective flush. A full disk on
+    any rank is told to every rank (none is left waiting in a collective call) and raised as
+    one :class:`~wheelrom.runtime.errors.DiskFull`; a case whose write failed stays
+    ``pending`` (its status is written last)."""
+    failure = None
+    try:
+        for i, res in done:
+            attach(i, res)
+            results.write_case(f, i, res)
+    except OSError as exc:
+        if not is_disk_full(exc):
+            raise
+        failure = exc
+    failures = [e for e in comm.allgather(failure) if e is not None]
+    if failures:
+        raise disk_full(f.filename, failures[0], KEPT)
+    wait_for_all(comm)
+    try:
+        f.flush()  # collective: every finished round is on disk
+    except OSError as exc:
+        if not is_disk_full(exc):
+            raise
+        raise disk_full(f.filename, exc, KEPT) from None
+
+
+def check_space_collectively(out: str, needed: int, comm) -> None:
+    """Rank 0 checks that ``needed`` more bytes fit at ``out`` and every rank raises its
+    one-line refusal (:func:`wheelrom.runtime.outputs.space_problem`) or none."""
+    problem = space_problem(out, needed) if comm.rank == 0 else None
+    problem = comm.bcast(problem)
+    if problem:
+        raise problem
 
 
 def _batch(chunk: list[int], run_batch: Callable, settings: dict, progress) -> list:

@@ -40,7 +40,7 @@ from wheelrom.studies.mistuning import (
     forced_arrays,
 )
 from wheelrom.studies.plan import balance, batches, group_by, selection
-from wheelrom.studies.rounds import _mpi_op, run_rounds, wait_for_all
+from wheelrom.studies.rounds import _mpi_op, check_space_collectively, run_rounds, wait_for_all
 from wheelrom.studies.stability import attach_classification
 from wheelrom.transient.run import run_cases
 from wheelrom.transient.ts import PREFIX, time_grid, ts_settings
@@ -91,6 +91,7 @@ def run_study(cfg: Config, out: str, comm, mode: str = "full", confirm: tuple = 
     fresh = not (resume and os.path.exists(out))
     if fresh:
         models = _models(study, members, range(len(members)), comm, say)
+        check_space_collectively(out, _transient_bytes(cfg, study, models, mode), comm)
         t1 = time.perf_counter()
         stability, peaks = _stability(study, models, model_of, comm, say, forced)
         took = time.perf_counter() - t1
@@ -262,6 +263,18 @@ def _transients(out, cfg, study, model_of, members, comm, batch, options, say, s
                 attach_classification(res, *fastest[i])
 
         return run_rounds(f, plan, comm, run_batch, settings, attach, line, say, cfg.time.end)
+
+
+def _transient_bytes(cfg, study, models, mode: str) -> int:
+    """The bytes of the study file's transient datasets and models (what dominates it; the
+    stability part is a few arrays per case), estimated before anything is computed."""
+    if mode == "stability":
+        return 0
+    angles = study_file.case_angles(study)
+    modes = max(m.modes for m in models)
+    return results.layout_bytes(lambda f: [
+        results.create_layout(f, cfg, models[0], angles, modes=modes),
+        *(results.write_model(f.create_group(f"models/{g}"), m) for g, m in enumerate(models))])
 
 
 def _fastest_modes(f) -> list:

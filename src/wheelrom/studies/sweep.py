@@ -26,7 +26,7 @@ from wheelrom.runtime import interrupts
 from wheelrom.runtime.environment import petsc, slepc
 from wheelrom.runtime.errors import InputError, Interrupted
 from wheelrom.runtime.outputs import create_collectively, output_problem
-from wheelrom.studies.rounds import run_rounds
+from wheelrom.studies.rounds import check_space_collectively, run_rounds
 from wheelrom.studies.stability import attach_linear, refuse_study
 from wheelrom.transient.run import run_cases
 from wheelrom.transient.ts import PREFIX, ts_settings
@@ -81,6 +81,10 @@ def run_sweep(cfg: Config, out: str, comm, resume: bool = False, force: bool = F
     model = _shared_model(cfg, comm, model_comm, say)
     say(f"model ready in {time.perf_counter() - t0:.1f} s: {model.blades} blades x "
         f"{model.modes} modes")  # fmt: skip
+    # the whole file, or what a resumed one still lacks, checked against the free disk space
+    # before any case is integrated
+    needed = results.layout_bytes(lambda f: results.create_layout(f, cfg, model))
+    check_space_collectively(out, needed - (0 if fresh else os.path.getsize(out)), comm)
     if fresh:
         _create(out, cfg, model, comm)
     with interrupts.deferred(), h5py.File(out, "r+", driver="mpio", comm=comm) as f:
