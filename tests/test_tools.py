@@ -21,8 +21,9 @@ def test_tune_ts_script_orders_and_options(capsys, tmp_path):
     tune = _load_script("tune_ts")
     fig = tmp_path / "wp.png"
     small = os.path.join(HERE, "data", "small.toml")
-    # contacts off: the friction law's kinks (v = 0, v = v_k) and contact loss reduce the
-    # observed order of any RK method; the smooth rest must show the design order
+    # contacts off: the smooth linear wheel must show the design order (with the contacts on,
+    # this 12-blade free-basis wheel gives 4-7x per halving over 2 ms; the default wheel's
+    # clean third order from the preloaded equilibrium is in docs/performance.md)
     smooth = ["--set", "contacts.shroud.enabled=false", "--set", "contacts.tieboss.enabled=false"]
     argv = [small, *smooth, "--end", "0.002", "--json", "--plot", str(fig)]
     assert tune.main(argv) == 0
@@ -34,7 +35,7 @@ def test_tune_ts_script_orders_and_options(capsys, tmp_path):
     assert runs["5dp adaptive rtol=1e-06"]["options"]["ts_adapt_type"] == "basic"
     fixed = [r for label, r in runs.items() if label.startswith("3bs dt=")]
     steps = [r["steps"] for r in fixed]
-    assert steps == [100, 200, 400, 800]
+    assert steps == [100, 200, 400, 800, 1600]
     errors = [r["tip_error"] for r in fixed]
     # Bogacki-Shampine is third order: halving the step cuts the error by about 8
     for coarse, fine in zip(errors[:-1], errors[1:], strict=True):
