@@ -60,23 +60,4 @@ def ritz_basis(mats, parts: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
         V = V @ (U[:, keep] / np.sqrt(w[keep]))
     Kr = V.T @ (mats.K @ V)
     lam, Y = np.linalg.eigh(0.5 * (Kr + Kr.T))
-    return sign_convention(V @ Y), lam
-
-
-def sign_convention(X: np.ndarray) -> np.ndarray:
-    """``X`` with each column's sign fixed: its largest-magnitude component positive (the
-    first of equal ones), as the segment modes are (:func:`wheelrom.segment.modes.lowest_modes`),
-    so that a vector's sign depends on neither the eigensolver nor its start vector."""
-    big = np.argmax(np.abs(X), axis=0)
-    return X * np.where(X[big, np.arange(X.shape[1])] < 0.0, -1.0, 1.0)
-
-
-def enriched_basis(seg, mats, c1: float, free_modes: np.ndarray, per_phase: int, comm,
-                   phases=None):  # fmt: skip
-    """Free-interface modes plus the lowest ``per_phase`` exact sector modes at ``phases``
-    (:func:`enrichment_vectors`), as segment Ritz vectors (:func:`ritz_basis`).
-
-    ``free_modes``: ``(n_free, m)``. Returns ``(vectors (n_free, r), ritz_values (r,))``.
-    """
-    return ritz_basis(mats, [free_modes, enrichment_vectors(seg, mats, c1, per_phase, comm,
-                                                            phases)])  # fmt: skip
+    return V @ Y, lam
