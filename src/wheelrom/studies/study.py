@@ -31,7 +31,13 @@ from wheelrom.rom.build import build_model
 from wheelrom.runtime import interrupts
 from wheelrom.runtime.environment import petsc, slepc
 from wheelrom.runtime.errors import InputError, Interrupted
-from wheelrom.runtime.outputs import create_collectively, output_problem, replacing
+from wheelrom.runtime.outputs import (
+    create_collectively,
+    disk_full,
+    is_disk_full,
+    output_problem,
+    replacing,
+)
 from wheelrom.studies.mistuning import (
     ForcedCases,
     analyse_case,
@@ -213,11 +219,13 @@ def _create(out, cfg, study, models, model_of, stability, chosen, mode, comm,
                     study_file.create(f, cfg, study, models, model_of, stability, chosen, mode,
                                       **extra)  # fmt: skip
             except Exception as exc:  # told to every rank: none waits for a lost file
-                failure = f"{out}: cannot be written ({type(exc).__name__}: {exc})"
+                failure = disk_full(out, exc, "nothing was saved: free space and run it "
+                                    "again") if is_disk_full(exc) else InputError(
+                    f"{out}: cannot be written ({type(exc).__name__}: {exc})")  # fmt: skip
         wait_for_all(comm)
         failure = comm.bcast(failure)
         if failure:
-            raise InputError(failure)
+            raise failure
         return
     create_collectively(out, comm, lambda f: study_file.create(f, cfg, study, models, model_of,
                                                                stability, chosen, mode, **extra))
