@@ -8,11 +8,13 @@ without the work integrals. At a static state (``q' = 0``, nozzle excluded)::
 
 - ``F_q``: the normal contact springs through the rigid-arm kinematics, with the geometric
   terms of the preload (the arm direction ``e`` and the force transfer ``L/|d|`` move with
-  ``q``); friction and Van der Pol forces are proportional to ``q'`` and add nothing here;
+  ``q``), and the aerodynamic table's stiffness part (``-mu a_j p p^T``); friction and Van der
+  Pol forces are proportional to ``q'`` and add nothing here;
 - ``F_v``: micro-slip friction, the linear damper ``-(f_s F_n / v_k) (I - n n^T) v_c`` it is
   below ``v_k``, and the Van der Pol damping ``mu (1 - (y/r)^2)`` (absolute) or its relative
   form (neighbours coupled), on the aero direction ``p`` (one mode when ``flutter.mode`` is
-  set: the force parameters carry that choice).
+  set: the force parameters carry that choice), or the aerodynamic table's damping part
+  (``-mu b_j p p^T`` at block ``(s, s + j)``).
 
 Contacts open at the equilibrium (``F_n <= 0``) contribute nothing. :class:`ContactLinearisation`
 keeps, per contact kind and blade pair, the map from the two blades' modal coordinates to the
@@ -26,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from wheelrom.forces.parameters import VDP_ABSOLUTE, VDP_RELATIVE, ForceParameters
+from wheelrom.forces.parameters import AERO_TABLE, VDP_ABSOLUTE, VDP_RELATIVE, ForceParameters
 
 
 @dataclass
@@ -120,6 +122,23 @@ def van_der_pol_damping(params: ForceParameters, q: np.ndarray) -> sp.csr_matrix
         blocks.add(blades, blades, (c + c_next)[:, None, None] * ppT)
         blocks.add(blades, (blades - 1) % N, -c[:, None, None] * ppT)
         blocks.add(blades, (blades + 1) % N, -c_next[:, None, None] * ppT)
+    elif params.vdp_model == AERO_TABLE:
+        for j in range(N):
+            block = -params.vdp_mu * params.aero_velocity[j] * ppT
+            blocks.add(blades, (blades + j) % N, np.broadcast_to(block, (N, m, m)))
+    return blocks.matrix()
+
+
+def aero_stiffness(params: ForceParameters, N: int, m: int) -> sp.csr_matrix:
+    """``(N m, N m)`` d(aerodynamic-table force)/dq: ``-mu a_j p p^T`` at block ``(s, s+j)``
+    (zero for the Van der Pol models, whose force vanishes at rest)."""
+    blocks = _BlockSum(N, m)
+    if params.vdp_model == AERO_TABLE:
+        ppT = np.outer(params.aero, params.aero)
+        blades = np.arange(N)
+        for j in range(N):
+            block = -params.vdp_mu * params.aero_displacement[j] * ppT
+            blocks.add(blades, (blades + j) % N, np.broadcast_to(block, (N, m, m)))
     return blocks.matrix()
 
 
@@ -167,9 +186,10 @@ def force_derivatives(params: ForceParameters, q: np.ndarray, stiffness_only: bo
                 Fq.add(blade, other, lin.stiffness[:, rows, cols])
                 if not stiffness_only:
                     Fv.add(blade, other, lin.damping[:, rows, cols])
+    Fq = Fq.matrix() + aero_stiffness(params, N, m)
     if stiffness_only:
-        return Fq.matrix(), None, contacts
-    return Fq.matrix(), Fv.matrix() + van_der_pol_damping(params, q), contacts
+        return Fq, None, contacts
+    return Fq, Fv.matrix() + van_der_pol_damping(params, q), contacts
 
 
 def jacobian(K: np.ndarray | sp.spmatrix, beta: float, Fq, Fv) -> sp.csr_matrix:

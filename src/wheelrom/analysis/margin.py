@@ -14,6 +14,13 @@ relative ``1e-4``.
 ``mu_c / mu`` is the case's flutter margin: how many times stronger the self-excitation may be
 before the friction contacts stop holding it down. 0 means unstable without any
 self-excitation; ``inf`` that no intensity in the scanned range destabilises the case.
+
+With the aerodynamic table (``flutter.model = "table"``) ``mu`` is the table's factor
+``flutter.table_scale`` and ``J_1`` holds the table's whole operator (its stiffness part in
+the ``q`` columns too): the margin is the factor on the aerodynamic forces (on the negative
+aerodynamic damping of the unstable waves) before the wheel flutters. The equilibrium is
+held at the configured factor; only a table with an ND-0 aerodynamic stiffness moves it
+(``k_a(0)`` on the uniform static deflection), which the margin then neglects.
 """
 
 from __future__ import annotations
@@ -25,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from wheelrom.analysis.jacobian import van_der_pol_damping
+from wheelrom.analysis.jacobian import aero_stiffness, van_der_pol_damping
 from wheelrom.analysis.stability import blade_blocks, is_circulant, nd_block
 from wheelrom.forces.parameters import force_parameters
 
@@ -72,8 +79,10 @@ def flutter_margin(params, q: np.ndarray, J: sp.spmatrix, rtol: float = 1e-4) ->
     its force parameters, equilibrium ``q`` ``(N, m)`` and Jacobian ``J``)."""
     N, m = q.shape
     mu = params.vdp_mu
-    unit = van_der_pol_damping(dataclasses.replace(params, vdp_mu=1.0), q)
-    J1 = sp.block_diag([sp.csr_matrix((N * m, N * m)), unit], format="csr")
+    unit = dataclasses.replace(params, vdp_mu=1.0)
+    zero = sp.csr_matrix((N * m, N * m))
+    J1 = sp.bmat([[zero, zero], [aero_stiffness(unit, N, m), van_der_pol_damping(unit, q)]],
+                 format="csr")  # fmt: skip
     J0 = (sp.csr_matrix(J) - mu * J1).tocsr()
     if not (is_circulant(J0, N, m) and is_circulant(J1, N, m)):
         raise ValueError("the flutter margin needs a cyclic (tuned) wheel")

@@ -15,10 +15,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from wheelrom.config import Config
+from wheelrom.config.aero import read_aero_table
+from wheelrom.forces.aero import family_frequencies, influence_coefficients, nd_coefficients
 from wheelrom.rom.model import ReducedModel
 
-VDP_OFF, VDP_ABSOLUTE, VDP_RELATIVE = 0, 1, 2
-VDP_MODELS = {"off": VDP_OFF, "absolute": VDP_ABSOLUTE, "relative": VDP_RELATIVE}
+VDP_OFF, VDP_ABSOLUTE, VDP_RELATIVE, AERO_TABLE = 0, 1, 2, 3
+VDP_MODELS = {"off": VDP_OFF, "absolute": VDP_ABSOLUTE, "relative": VDP_RELATIVE,
+              "table": AERO_TABLE}  # fmt: skip
 OPEN, STICK, SLIP = 0, 1, 2  # contact states (STICK: micro-slip branch |v| <= v_k)
 
 
@@ -73,9 +76,12 @@ class ForceParameters:
 
     ``omega`` [rad/s] rotor speed; ``stator_vanes`` n_s; ``nozzle_force`` F_b [N];
     ``excitation``: ``(m,)`` generalised force of a unit ``y`` force on the excitation nodes;
-    ``nozzle_phase``: ``(N,)`` phi_s [rad]; ``vdp_model``: VDP_OFF/ABSOLUTE/RELATIVE;
-    ``vdp_mu`` [N s/m], ``vdp_r`` [m]; ``aero``: ``(m,)`` Van der Pol direction (mean aero
-    ``y`` per modal coordinate, restricted to ``flutter.mode`` when set); ``friction``:
+    ``nozzle_phase``: ``(N,)`` phi_s [rad]; ``vdp_model``: VDP_OFF/ABSOLUTE/RELATIVE or
+    AERO_TABLE; ``vdp_mu`` [N s/m] (the table's factor ``flutter.table_scale`` [-] for
+    AERO_TABLE), ``vdp_r`` [m]; ``aero``: ``(m,)`` Van der Pol direction (mean aero ``y`` per
+    modal coordinate, restricted to ``flutter.mode`` when set); ``aero_displacement``,
+    ``aero_velocity``: ``(N,)`` the table's influence coefficients ``a_j`` [N/m], ``b_j``
+    [N s/m] (:mod:`wheelrom.forces.aero`; zeros for the other models); ``friction``:
     ``(4,)`` (f_s, f_d, decay [s/m], v_k [m/s]); ``rotation``: ``(3, 3)`` R.
     """
 
@@ -90,6 +96,8 @@ class ForceParameters:
     vdp_mu: float
     vdp_r: float
     aero: np.ndarray
+    aero_displacement: np.ndarray
+    aero_velocity: np.ndarray
     friction: np.ndarray
     rotation: np.ndarray
     contacts: ContactParameters
@@ -100,7 +108,8 @@ class ForceParameters:
         c = self.contacts
         return (self.blades, self.modes, c.kinds, self.vdp_model, self.stator_vanes,
                 self.omega, self.nozzle_force, self.vdp_mu, self.vdp_r, self.friction,
-                self.excitation, self.aero, self.nozzle_phase, self.rotation, c.preload,
+                self.excitation, self.aero, self.aero_displacement, self.aero_velocity,
+                self.nozzle_phase, self.rotation, c.preload,
                 c.arm_length, c.shape_A, c.shape_B, c.point_A, c.point_B)  # fmt: skip
 
 
@@ -131,6 +140,9 @@ def force_parameters(model: ReducedModel, cfg: Config,
         keep = np.zeros_like(aero)
         keep[mode] = aero[mode]
         aero = keep
+    a, b = np.zeros(N), np.zeros(N)
+    if fl.model == "table":
+        a, b = table_coefficients(model, cfg, mode, aero)
     return ForceParameters(
         blades=N,
         modes=m,
@@ -140,13 +152,31 @@ def force_parameters(model: ReducedModel, cfg: Config,
         excitation=np.ascontiguousarray(model.excitation, dtype=float),
         nozzle_phase=2 * math.pi * (1 - w.stator_vanes / N) * np.arange(N),
         vdp_model=VDP_MODELS[fl.model],
-        vdp_mu=fl.mu,
+        vdp_mu=fl.table_scale if fl.model == "table" else fl.mu,
         vdp_r=fl.r,
         aero=aero,
+        aero_displacement=a,
+        aero_velocity=b,
         friction=np.array([fr.static, fr.dynamic, fr.decay, fr.microslip_velocity]),
         rotation=np.ascontiguousarray(model.rotation),
         contacts=_contact_parameters(model, cfg, angles_deg or {}),
     )
+
+
+def table_coefficients(model: ReducedModel, cfg: Config, mode: int,
+                       aero: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """``(a, b)`` ``(N,)`` influence coefficients [N/m], [N s/m] of ``flutter.table``
+    (:mod:`wheelrom.forces.aero`) for segment mode ``mode``'s family (-1: every mode, then
+    the lowest-frequency family with aero motion sets the reference frequencies)."""
+    fl = cfg.flutter
+    table = read_aero_table(fl.table, cfg.source, model.blades, fl.table_phase,
+                            fl.table_directions, fl.table_sign)  # fmt: skip
+    family = mode if mode >= 0 else int(np.flatnonzero(aero)[0])
+    omega = family_frequencies(model.A0, model.A1, model.blades, family)
+    kappa = nd_coefficients(table, omega, float(aero[family]))
+    if table.frequency_hz is not None:
+        omega = 2 * math.pi * table.frequency_hz
+    return influence_coefficients(kappa, omega)
 
 
 def _contact_parameters(model: ReducedModel, cfg: Config, angles_deg: dict) -> ContactParameters:

@@ -52,7 +52,8 @@ class ReferenceForces:
         time ``t`` [s]."""
         p, c = self.params, self.params.contacts
         _kernel(t, q, v, self.force, p.omega, p.stator_vanes, p.nozzle_force, p.excitation,
-                p.nozzle_phase, p.vdp_model, p.vdp_mu, p.vdp_r, p.aero, p.friction, p.rotation,
+                p.nozzle_phase, p.vdp_model, p.vdp_mu, p.vdp_r, p.aero, p.aero_displacement,
+                p.aero_velocity, p.friction, p.rotation,
                 c.shape_A, c.shape_B, c.point_A, c.point_B, c.arm_length, c.frame, c.stiffness,
                 c.preload, self.normal_force, self.slip_velocity, self.normal_gap,
                 self.contact_state, self.relative_displacement, self.relative_velocity,
@@ -75,13 +76,14 @@ class ReferenceForces:
 
 
 @_kernel_cache.njit(fastmath=False)
-def _kernel(t, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p_aero, friction, R,
-            XA, XB, A_pt, B_pt, arm, T, kc, preload, normal, slip, gap, state, rel_u, rel_v,
-            fric, y_vdp, power, work):  # fmt: skip
+def _kernel(t, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p_aero, aero_a,
+            aero_b, friction, R, XA, XB, A_pt, B_pt, arm, T, kc, preload, normal, slip, gap,
+            state, rel_u, rel_v, fric, y_vdp, power, work):  # fmt: skip
     """The forces of :class:`ReferenceForces` (argument names as in docs/theory.md: ``XA``,
     ``XB`` contact shapes, ``A_pt``, ``B_pt`` undeformed contact points, ``T`` frames)."""
     p_noz, p_vdp = _nozzle_and_van_der_pol(t, q, v, out, omega, n_s, Fb, p_exc, phase,
-                                           vdp_model, mu, r, p_aero, y_vdp, work)  # fmt: skip
+                                           vdp_model, mu, r, p_aero, aero_a, aero_b, y_vdp,
+                                           work)  # fmt: skip
     p_fric = _contact_forces(q, v, out, friction, R, XA, XB, A_pt, B_pt, arm, T, kc, preload,
                              normal, slip, gap, state, rel_u, rel_v, fric)  # fmt: skip
     power[0] = p_noz
@@ -91,9 +93,9 @@ def _kernel(t, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p_aero
 
 @_kernel_cache.njit(fastmath=False)
 def _nozzle_and_van_der_pol(t, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r,
-                            p_aero, y_vdp, work):  # fmt: skip
-    """Nozzle (eq. 13) and Van der Pol (eqs. 1, 2/14) generalised forces written into ``out``;
-    returns their powers [W]."""
+                            p_aero, aero_a, aero_b, y_vdp, work):  # fmt: skip
+    """Nozzle (eq. 13) and Van der Pol (eqs. 1, 2/14) or aerodynamic-table generalised forces
+    written into ``out``; returns their powers [W]."""
     N, m = q.shape
     p_noz = 0.0
     p_vdp = 0.0
@@ -130,6 +132,16 @@ def _nozzle_and_van_der_pol(t, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_mode
         for s in range(N):
             sn = (s + 1) % N
             g = work[s, 2] - work[sn, 2]  # = -F_s of eq. 2
+            p_vdp += g * work[s, 1]
+            for j in range(m):
+                out[s, j] += p_aero[j] * g
+    elif vdp_model == 3:  # table: F_s = -mu sum_j (a_j y_{s+j} + b_j y'_{s+j})
+        for s in range(N):
+            F = 0.0
+            for j in range(N):
+                t_ = (s + j) % N
+                F -= aero_a[j] * work[t_, 0] + aero_b[j] * work[t_, 1]
+            g = mu * F
             p_vdp += g * work[s, 1]
             for j in range(m):
                 out[s, j] += p_aero[j] * g

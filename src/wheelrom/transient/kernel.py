@@ -43,6 +43,8 @@ from wheelrom.transient.layout import (
     I_A1,
     I_A1T,
     I_ACTIVE,
+    I_AEROA,
+    I_AEROB,
     I_COL,
     I_COS,
     I_COUNT,
@@ -198,6 +200,25 @@ def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
         pair_next = pair[B:]
         for c in range(NB):
             g[c] = pair[c] - pair_next[c]
+            column[c] = g[c] * yd_this[c]
+    elif vdp == 3:  # table: g_s = -mu sum_j (a_j y_{s+j} + b_j y'_{s+j}), one shift j at a
+        # time in two contiguous runs (s + j < N and s + j >= N): no modulo in the inner loop
+        aero_a = get(ctx, I_AEROA, N)
+        aero_b = get(ctx, I_AEROB, N)
+        for c in range(NB):
+            g[c] = 0.0
+        for j in range(N):
+            aj = -mu * aero_a[j]
+            bj = -mu * aero_b[j]
+            split = (N - j) * B
+            y_ahead = y_this[j * B :]
+            yd_ahead = yd_this[j * B :]
+            for c in range(split):
+                g[c] += aj * y_ahead[c] + bj * yd_ahead[c]
+            g_wrap = g[split:]
+            for c in range(j * B):
+                g_wrap[c] += aj * y_this[c] + bj * yd_this[c]
+        for c in range(NB):
             column[c] = g[c] * yd_this[c]
     else:
         for c in range(NB):

@@ -92,6 +92,9 @@ _ARRAYS = (
     # mistuning (H_MISTUNED): P^T K_seg P [1/s^2] and delta_s per column
     ("K_seg", lambda N, m, K, B, c, c2: (m, m)),
     ("delta", lambda N, m, K, B, c, c2: (N * B,)),
+    # the aerodynamic table's influence coefficients a_j [N/m], b_j [N s/m] (H_VDP = 3)
+    ("aero_a", lambda N, m, K, B, c, c2: (N,)),
+    ("aero_b", lambda N, m, K, B, c, c2: (N,)),
 )
 _INDEX = {name: i for i, (name, _) in enumerate(_ARRAYS)}
 (
@@ -99,7 +102,7 @@ _INDEX = {name: i for i, (name, _) in enumerate(_ARRAYS)}
     I_KC, I_PRELOAD, I_TIP, I_ACTIVE, I_STOP, I_STOPT, I_COUNT, I_VT, I_WT, I_KW, I_DV, I_NOZ,
     I_Y, I_YD, I_PAIR, I_G, I_COL, I_UA, I_UB, I_VA, I_VB, I_FA, I_FB, I_FN, I_NORMAL, I_STATE,
     I_POWER, I_STIME, I_STIP, I_SMIN, I_SOPEN, I_STOTAL, I_XCOUNT, I_XTIME, I_XSTATE, I_KSEG,
-    I_DELTA,
+    I_DELTA, I_AEROA, I_AEROB,
 ) = range(len(_ARRAYS))  # fmt: skip
 
 STOP_NONFINITE, STOP_AMPLITUDE = 1, 2
@@ -195,6 +198,8 @@ class Context:
             "active": np.ones(B),
             "K_seg": P.T @ model.K_seg @ P,
             "delta": np.repeat(model.mistuning if not model.tuned else np.zeros(N), B),
+            "aero_a": first.aero_displacement,
+            "aero_b": first.aero_velocity,
         }
 
     @property

@@ -43,6 +43,12 @@ def static_equilibrium(forces, K: np.ndarray, comm, force_scale: float, prefix: 
 
     if tangent is not None:  # the AIJ structure, and K once as CSR
         structure, K_sparse = _blade_pattern(N, m), sp.csr_matrix(K)
+        # forces that couple more than neighbours (the aerodynamic table's influence
+        # coefficients) widen it: the tangent's stored entries at rest
+        coupling = sp.csr_matrix(tangent(np.zeros((N, m))), copy=True)
+        coupling.data[:] = 1.0
+        structure = (structure + coupling).tocsr()
+        structure.data[:] = 1.0
 
     def jacobian(snes, x, J, P):
         q = x.getArray(readonly=True).copy()
