@@ -34,7 +34,7 @@ import scipy.sparse as sp
 
 from wheelrom.analysis.jacobian import aero_stiffness, van_der_pol_damping
 from wheelrom.analysis.stability import blade_blocks, is_circulant, nd_block
-from wheelrom.forces.parameters import force_parameters
+from wheelrom.forces.parameters import AERO_TABLE, force_parameters
 
 SCAN = 2.0 ** np.arange(-10, 11)  # the scanned intensities, relative to the configured mu
 TOLERANCE = 1e-6  # [1/s] growth rate above which a mode counts as growing (as the verdict)
@@ -43,7 +43,8 @@ TOLERANCE = 1e-6  # [1/s] growth rate above which a mode counts as growing (as t
 @dataclass(frozen=True)
 class FlutterMargin:
     """``critical_mu`` [N s/m]: the smallest unstable intensity (0: unstable at ``mu = 0``;
-    inf: stable over the scan); ``ratio``: ``critical_mu`` over the configured ``mu``;
+    inf: stable over the scan; with ``table`` the smallest unstable factor on the aerodynamic
+    table [-]); ``ratio``: ``critical_mu`` over the configured ``mu`` (or table factor);
     ``nodal_diameter``, ``frequency_hz``: the mode that crosses; ``growth_at_zero``
     [1/s]: the largest growth rate without self-excitation (friction and damping only)."""
 
@@ -52,6 +53,7 @@ class FlutterMargin:
     nodal_diameter: int
     frequency_hz: float
     growth_at_zero: float
+    table: bool = False  # the aerodynamic table: critical_mu is a factor on it [-]
 
 
 def _nd_blocks(J: sp.spmatrix, N: int, m: int) -> np.ndarray:
@@ -79,6 +81,7 @@ def flutter_margin(params, q: np.ndarray, J: sp.spmatrix, rtol: float = 1e-4) ->
     its force parameters, equilibrium ``q`` ``(N, m)`` and Jacobian ``J``)."""
     N, m = q.shape
     mu = params.vdp_mu
+    table = params.vdp_model == AERO_TABLE
     unit = dataclasses.replace(params, vdp_mu=1.0)
     zero = sp.csr_matrix((N * m, N * m))
     J1 = sp.bmat([[zero, zero], [aero_stiffness(unit, N, m), van_der_pol_damping(unit, q)]],
@@ -89,7 +92,7 @@ def flutter_margin(params, q: np.ndarray, J: sp.spmatrix, rtol: float = 1e-4) ->
     blocks0, blocks1 = _nd_blocks(J0, N, m), _nd_blocks(J1, N, m)
     at_zero = _fastest(blocks0, blocks1, 0.0)
     if at_zero[0] > TOLERANCE:
-        return FlutterMargin(0.0, 0.0, at_zero[1], at_zero[2], at_zero[0])
+        return FlutterMargin(0.0, 0.0, at_zero[1], at_zero[2], at_zero[0], table)
     reference = mu if mu > 0 else 1.0
     low = 0.0
     for factor in SCAN:
@@ -98,7 +101,7 @@ def flutter_margin(params, q: np.ndarray, J: sp.spmatrix, rtol: float = 1e-4) ->
             break
         low = high
     else:
-        return FlutterMargin(math.inf, math.inf, -1, math.nan, at_zero[0])
+        return FlutterMargin(math.inf, math.inf, -1, math.nan, at_zero[0], table)
     while low == 0.0:  # unstable at the scan's first point: halve until stable
         if _fastest(blocks0, blocks1, high / 2)[0] <= TOLERANCE or high < 1e-9 * reference:
             low = high / 2
@@ -111,4 +114,4 @@ def flutter_margin(params, q: np.ndarray, J: sp.spmatrix, rtol: float = 1e-4) ->
         else:
             low = middle
     _, nd, hz = _fastest(blocks0, blocks1, high)  # the mode that has just crossed
-    return FlutterMargin(high, high / reference, nd, hz, at_zero[0])
+    return FlutterMargin(high, high / reference, nd, hz, at_zero[0], table)

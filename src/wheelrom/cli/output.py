@@ -413,11 +413,17 @@ def print_study(summary: dict, path: str) -> None:
 
 
 def _margin_words(m: dict) -> str:
+    table = m.get("scaled") == "aerodynamic table"
     if m["critical_mu"] is None:
-        return "flutter margin: stable for every scanned Van der Pol mu (up to 1024 x)"
+        scanned = "factor on the aerodynamic table" if table else "Van der Pol mu"
+        return f"flutter margin: stable for every scanned {scanned} (up to 1024 x)"
     if m["critical_mu"] == 0:
         return (f"flutter margin: none, unstable without self-excitation (growth "
                 f"{m['growth_rate_without_self_excitation']:+.3g} /s)")  # fmt: skip
+    if table:
+        return (f"flutter margin: {m['ratio']:.3g} x (the wheel flutters once the aerodynamic "
+                f"table is {m['critical_mu']:.4g} x as strong: ND {m['nodal_diameter']} at "
+                f"{m['frequency_hz']:.4g} Hz)")  # fmt: skip
     return (f"flutter margin: {m['ratio']:.3g} x (unstable above mu = {m['critical_mu']:.4g} "
             f"N s/m, ND {m['nodal_diameter']} at {m['frequency_hz']:.4g} Hz)")  # fmt: skip
 

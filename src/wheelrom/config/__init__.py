@@ -1,7 +1,8 @@
 """Stage 1, configuration: one TOML file mapped onto frozen dataclasses, defaults = the paper's
 Table 1 (:mod:`.model`: the schema, ``load``, the cross-checks), the field converter and file
-resolver (:mod:`.values`), the ``[forced]`` and ``[mistuning]`` sections (:mod:`.forced`), and
-the cases of a ``[study]`` (:mod:`.study`).
+resolver (:mod:`.values`), the ``[forced]`` and ``[mistuning]`` sections (:mod:`.forced`), the
+``[flutter]`` section and its aerodynamic damping table (:mod:`.aero`), and the cases of a
+``[study]`` (:mod:`.study`).
 
 May import: :mod:`wheelrom.runtime`. This face re-exports the schema, so
 ``from wheelrom import config; config.load(...)`` and ``from wheelrom.config import Config``

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-from wheelrom.config.aero import aero_table_problems
+from wheelrom.config.aero import FlutterConfig, aero_table_problems
 from wheelrom.config.forced import (
     ForcedConfig,
     MistuningConfig,
@@ -107,66 +107,6 @@ class ExcitationConfig:
     force: float = field(
         default=100.0,
         metadata=_key("N", "nozzle force amplitude F_b per excitation node (0: off)", min=0.0),
-    )
-
-
-@dataclass(frozen=True)
-class FlutterConfig:
-    model: str = field(
-        default="relative",
-        metadata=_key(
-            "-",
-            "self-excitation: Van der Pol 'relative' (eq. 2), 'absolute' (eq. 1), 'off', or "
-            "'table' (aerodynamic damping per nodal diameter from flutter.table)",
-            choices=("relative", "absolute", "off", "table"),
-        ),
-    )
-    mu: float = field(default=100.0, metadata=_key("N s/m", "Van der Pol intensity mu", min=0.0))
-    r: float = field(
-        default=5e-3, metadata=_key("m", "amplitude where negative damping turns positive", gt=0.0)
-    )
-    mode: int | str = field(
-        default="auto",
-        metadata=_key(
-            "-",
-            "segment mode the Van der Pol force acts on: 'auto' (the paper's 'one selected "
-            "mode of each blade': the lowest whose aero y motion is at least half its tip "
-            "motion, the first bending mode), a mode number (0-based) or -1 (every mode)",
-            min=-1,
-        ),
-    )
-    table: str = field(
-        default="",
-        metadata=_key("-", "CSV of the aerodynamic damping per nodal diameter (flutter.model = "
-                      "'table'; docs/theory.md 'Aerodynamic damping table'): a column 'nd' or "
-                      "'ibpa_deg', and 'damping_ratio' or 'aero_damping' [N s/m] (with "
-                      "optional 'aero_stiffness' [N/m]), optional 'frequency_hz'; relative "
-                      "to the TOML"),  # fmt: skip
-    )
-    table_phase: str = field(
-        default="lead",
-        metadata=_key("-", "what the table's ND k / phase angle sigma means: 'lead' (blade "
-                      "s+1 leads blade s by sigma = 2 pi k / N, wheelrom's convention) or "
-                      "'lag' (blade s+1 lags by sigma)", choices=("lead", "lag")),  # fmt: skip
-    )
-    table_directions: str = field(
-        default="both",
-        metadata=_key("-", "'both': the table covers both travelling directions (ND 0..N-1, "
-                      "or -N/2..N/2, or phase angles around the circle); 'symmetric': ND "
-                      "0..N/2 (0..180 deg), the same value for both directions",
-                      choices=("both", "symmetric")),  # fmt: skip
-    )
-    table_sign: int = field(
-        default=0,
-        metadata=_key("-", "sign of the table's damping: 1 positive = stabilising (the flow "
-                      "takes energy out), -1 positive = destabilising (aerodynamic work on "
-                      "the blade), 0 = 1 after a check that the damping is not negative at "
-                      "most phase angles (the usual sign mistake)", min=-1, max=1),  # fmt: skip
-    )
-    table_scale: float = field(
-        default=1.0,
-        metadata=_key("-", "factor on the table's aerodynamic coefficients (the flutter "
-                      "margin is the factor at which the wheel flutters)", min=0.0),  # fmt: skip
     )
 
 

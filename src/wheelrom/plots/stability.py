@@ -39,7 +39,9 @@ def stability_figures(f, path: str, outdir: str, pdf: bool, written: list[str], 
     if "stability/margin_ratio" in f:  # stability --margin
         for name in ("margin_ratio", "margin_nodal_diameter", "margin_frequency_hz"):
             data[name] = f[f"stability/{name}"][()][rows][order]
-        data["mu"] = read_config(f, path).flutter.mu
+        flutter = read_config(f, path).flutter
+        data["mu"] = flutter.table_scale if flutter.model == "table" else flutter.mu
+        data["table"] = flutter.model == "table"
         figures.append(("flutter_margin", _margin))
     for name, draw in figures:
         fig = draw(data, plt)
@@ -136,7 +138,10 @@ def _margin(data, plt):
     ax.axhline(1.0, color="k", lw=0.8)
     ax.set_yscale("log")
     ax.set_xlabel("shroud angle [deg]")
-    ax.set_ylabel(f"critical mu / configured mu ({data['mu']:g} N s/m)")
+    if data.get("table"):
+        ax.set_ylabel(f"critical / configured factor on the aerodynamic table ({data['mu']:g})")
+    else:
+        ax.set_ylabel(f"critical mu / configured mu ({data['mu']:g} N s/m)")
     ax.set_title(f"Flutter margin per angle (tie-boss {data['tieboss']:g} deg): the mode that "
                  "crosses first")  # fmt: skip
     ax.legend()

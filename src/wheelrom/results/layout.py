@@ -68,6 +68,38 @@ def write_model(group, model: ReducedModel) -> None:
     group.attrs["info"] = json.dumps(model.info, default=float)
 
 
+def write_aero_table(f, cfg: Config, model: ReducedModel) -> None:
+    """``/aero`` (``flutter.model = "table"`` only; docs/output.md): the table as used, per
+    ND ``k = 0..N-1`` in the lead convention -- the complex coefficient ``kappa_k``, the
+    reference frequency and the influence coefficients -- so the file says what the flow
+    did even where the CSV is gone."""
+    if cfg.flutter.model != "table":
+        return
+    from wheelrom.config.aero import read_aero_table
+    from wheelrom.forces.aero import family_frequencies, nd_coefficients
+    from wheelrom.forces.parameters import flutter_mode, force_parameters
+
+    fl = cfg.flutter
+    params = force_parameters(model, cfg)
+    mode = flutter_mode(model.aero, model.tip) if fl.mode == "auto" else fl.mode
+    family = mode if mode >= 0 else int(np.flatnonzero(params.aero)[0])
+    table = read_aero_table(fl.table, cfg.source, model.blades, fl.table_phase,
+                            fl.table_directions, fl.table_sign)  # fmt: skip
+    omega = family_frequencies(model.A0, model.A1, model.blades, family)
+    if table.frequency_hz is not None:
+        omega = 2 * np.pi * table.frequency_hz
+    kappa = nd_coefficients(table, omega, float(params.aero[family]))
+    g = f.create_group("aero")
+    g.attrs["table"] = fl.table
+    g.attrs["family_mode"] = family
+    g.attrs["scale"] = fl.table_scale
+    g["nodal_diameter"] = np.arange(model.blades)
+    g["coefficient"] = np.column_stack([kappa.real, kappa.imag])
+    g["frequency_hz"] = omega / (2 * np.pi)
+    g["influence_displacement"] = params.aero_displacement
+    g["influence_velocity"] = params.aero_velocity
+
+
 def write_model_file(f, cfg: Config, model: ReducedModel, extra: dict | None = None) -> None:
     """A model file (``modes --out``): the configuration, ``/model`` and ``extra`` datasets
     (path under ``/model`` -> array)."""
@@ -92,6 +124,7 @@ def create_layout(f, cfg: Config, model: ReducedModel, angles: np.ndarray | None
     f.attrs["format"] = FORMAT
     f.attrs["config"] = config_mod.to_toml(cfg)
     f.attrs["config_source"] = cfg.source
+    write_aero_table(f, cfg, model)
     cases = f.create_group("cases")
     cases.create_dataset("angles_deg", data=angles)
     cases.attrs["angle_columns"] = "tieboss, shroud"
@@ -240,6 +273,7 @@ def write_stability(f, cfg: Config, model: ReducedModel, cases: list) -> None:
     f.attrs["config"] = config_mod.to_toml(cfg)
     f.attrs["config_source"] = cfg.source
     write_model(f.create_group("model"), model)
+    write_aero_table(f, cfg, model)
     g = f.create_group("stability")
     g.attrs["kinds"] = ", ".join(cases[0].kinds)
     g["angles_deg"] = case_angles(cfg)
@@ -283,7 +317,13 @@ def open_file(path: str):
 
 
 def read_config(f, path: str) -> Config:
-    """The configuration a results file was written with."""
+    """The configuration a results file was written with (file keys such as
+    ``flutter.table`` resolved beside the TOML it came from while that is there, else beside
+    the results file)."""
+    import os
+
     if "config" not in f.attrs:
         raise InputError(f"{path}: attribute 'config' is missing (not a wheelrom file)")
-    return config_mod.from_dict(tomllib.loads(f.attrs["config"]), source=path)
+    toml = str(f.attrs.get("config_source", "")).split(" + --set ")[0]
+    source = toml if os.path.isfile(toml) else path
+    return config_mod.from_dict(tomllib.loads(f.attrs["config"]), source=source)

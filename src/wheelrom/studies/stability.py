@@ -97,8 +97,10 @@ def _margin_text(res: StabilityResult) -> str:
     if m.critical_mu == 0:
         return "; unstable without self-excitation"
     if not np.isfinite(m.critical_mu):
-        return "; margin: stable for every scanned mu"
-    return (f"; margin: unstable above mu = {m.critical_mu:.4g} N s/m ({m.ratio:.3g} x), "
+        return "; margin: stable for every scanned " + ("factor" if m.table else "mu")
+    above = (f"{m.critical_mu:.4g} x the aerodynamic table" if m.table else
+             f"mu = {m.critical_mu:.4g} N s/m")  # fmt: skip
+    return (f"; margin: unstable above {above} ({m.ratio:.3g} x), "
             f"ND {m.nodal_diameter} at {m.frequency_hz:.4g} Hz")  # fmt: skip
 
 
@@ -183,7 +185,8 @@ def _margin_summary(m) -> dict:
     return {"flutter_margin": {
         "critical_mu": _finite_or_none(m.critical_mu), "ratio": _finite_or_none(m.ratio),
         "nodal_diameter": m.nodal_diameter, "frequency_hz": _finite_or_none(m.frequency_hz),
-        "growth_rate_without_self_excitation": m.growth_at_zero}}  # fmt: skip
+        "growth_rate_without_self_excitation": m.growth_at_zero,
+        "scaled": "aerodynamic table" if m.table else "van der pol mu"}}  # fmt: skip
 
 
 def _finite_or_none(x: float):
