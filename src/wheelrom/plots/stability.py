@@ -127,8 +127,9 @@ def _margin(data, plt):
     shown = np.where(np.isfinite(ratio), ratio, top)
     ax.plot(data["shroud"], shown, "-", color="0.6")
     stable = shown > 1.0
-    for mask, colour, label in ((stable, "tab:blue", "stable at the configured mu"),
-                                (~stable, "tab:red", "unstable at the configured mu")):
+    at = "the configured factor" if data.get("table") else "the configured mu"
+    for mask, colour, label in ((stable, "tab:blue", f"stable at {at}"),
+                                (~stable, "tab:red", f"unstable at {at}")):
         ax.scatter(data["shroud"][mask], shown[mask], color=colour, label=label, zorder=3)
     for x, y, k, hz in zip(data["shroud"], shown, data["margin_nodal_diameter"],
                            data["margin_frequency_hz"], strict=True):  # fmt: skip
