@@ -190,7 +190,8 @@ class TimeConfig:
     perturbation: float = field(
         default=0.0,
         metadata=_key(
-            "m", "largest tip displacement of a random start perturbation over all NDs", min=0.0
+            "m", "largest tip displacement of the start perturbation: the lowest mode of every ND "
+            "(contacts open) with random phases", min=0.0
         ),
     )
     seed: int = field(
