@@ -16,16 +16,19 @@ from wheelrom import config
 from wheelrom.analysis.margin import case_margin
 from wheelrom.analysis.stability import analyse
 from wheelrom.config.aero import read_aero_table
-from wheelrom.forces.aero import (
-    influence_coefficients,
-    nd_coefficients,
-    wave_operator,
-)
+from wheelrom.forces.aero import influence_coefficients, nd_coefficients
 from wheelrom.forces.parameters import force_parameters
 from wheelrom.runtime.environment import petsc
 
 SELF = petsc().COMM_SELF
 OFF = ["contacts.tieboss.enabled=false", "contacts.shroud.enabled=false"]
+
+
+def wave_operator(a, b):
+    """``(A, B)``: ``A_k = sum_j a_j e^{i j sigma_k}`` computed as written (no FFT)."""
+    N = a.size
+    phase = np.exp(2j * np.pi * np.outer(np.arange(N), np.arange(N)) / N)  # [k, j]
+    return phase @ a, phase @ b
 
 
 def _write(path, header, rows):

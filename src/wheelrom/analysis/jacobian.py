@@ -123,23 +123,27 @@ def van_der_pol_damping(params: ForceParameters, q: np.ndarray) -> sp.csr_matrix
         blocks.add(blades, (blades - 1) % N, -c[:, None, None] * ppT)
         blocks.add(blades, (blades + 1) % N, -c_next[:, None, None] * ppT)
     elif params.vdp_model == AERO_TABLE:
-        for j in range(N):
-            block = -params.vdp_mu * params.aero_velocity[j] * ppT
-            blocks.add(blades, (blades + j) % N, np.broadcast_to(block, (N, m, m)))
+        return _influence(params, params.aero_velocity)
     return blocks.matrix()
 
 
 def aero_stiffness(params: ForceParameters, N: int, m: int) -> sp.csr_matrix:
     """``(N m, N m)`` d(aerodynamic-table force)/dq: ``-mu a_j p p^T`` at block ``(s, s+j)``
     (zero for the Van der Pol models, whose force vanishes at rest)."""
-    blocks = _BlockSum(N, m)
     if params.vdp_model == AERO_TABLE:
-        ppT = np.outer(params.aero, params.aero)
-        blades = np.arange(N)
-        for j in range(N):
-            block = -params.vdp_mu * params.aero_displacement[j] * ppT
-            blocks.add(blades, (blades + j) % N, np.broadcast_to(block, (N, m, m)))
-    return blocks.matrix()
+        return _influence(params, params.aero_displacement)
+    return sp.csr_matrix((N * m, N * m))
+
+
+def _influence(params: ForceParameters, coefficients: np.ndarray) -> sp.csr_matrix:
+    """``-mu c_j p p^T`` at every block ``(s, s + j)`` (the table's coefficients ``c``): the
+    circulant of ``c`` times ``p p^T``, which has one entry when one mode carries the force
+    (a Kronecker product keeps it so: ``N^2`` entries, not ``N^2 m^2``)."""
+    N = params.blades
+    blades = np.arange(N)
+    circulant = -params.vdp_mu * coefficients[(blades[None, :] - blades[:, None]) % N]
+    pp = sp.csr_matrix(np.outer(params.aero, params.aero))
+    return sp.kron(sp.csr_matrix(circulant), pp, format="csr")
 
 
 class _BlockSum:

@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from wheelrom.config.values import beside_toml
+from wheelrom.config.values import beside_toml, file_stamp
 from wheelrom.config.values import field_key as _key
 
 
@@ -101,18 +101,12 @@ SIGN_SUSPECT = 0.5
 class AeroTable:
     """A checked table per ND ``k = 0..N-1`` (lead convention, stabilising positive, the
     sign and ``directions`` applied): ``damping_ratio`` ``(N,)`` or None; ``aero_damping``
-    [N s/m] and ``aero_stiffness`` [N/m] ``(N,)`` or None; ``frequency_hz`` ``(N,)`` or None;
-    ``name``: the file as given."""
+    [N s/m] and ``aero_stiffness`` [N/m] ``(N,)`` or None; ``frequency_hz`` ``(N,)`` or None."""
 
-    name: str
     damping_ratio: np.ndarray | None
     aero_damping: np.ndarray | None
     aero_stiffness: np.ndarray | None
     frequency_hz: np.ndarray | None
-
-    def damping(self) -> np.ndarray:
-        """The damping column in use (ratio or N s/m)."""
-        return self.damping_ratio if self.damping_ratio is not None else self.aero_damping
 
 
 def read_aero_table(name: str, source: str, blades: int, phase: str = "lead",
@@ -121,12 +115,7 @@ def read_aero_table(name: str, source: str, blades: int, phase: str = "lead",
     ``blades``; ``phase``, ``directions``, ``sign``: ``flutter.table_phase``,
     ``table_directions``, ``table_sign``. ``ValueError`` naming the file and the line."""
     path = beside_toml(name, source)
-    try:
-        stat = os.stat(path)
-        stamp = (stat.st_size, stat.st_mtime_ns)
-    except OSError:
-        stamp = None
-    header, rows = _read_rows(name, os.path.abspath(path), stamp)
+    header, rows = _read_rows(name, os.path.abspath(path), file_stamp(path))
     return _per_nd(name, header, rows, blades, phase, directions, sign)
 
 
@@ -222,7 +211,6 @@ def _per_nd(name, header, rows, N, phase, directions, sign) -> AeroTable:
     if "aero_damping" in per_nd and stiffness is None:
         stiffness = np.zeros(N)
     return AeroTable(
-        name=name,
         damping_ratio=factor * per_nd["damping_ratio"] if "damping_ratio" in per_nd else None,
         aero_damping=factor * per_nd["aero_damping"] if "aero_damping" in per_nd else None,
         aero_stiffness=factor * stiffness if stiffness is not None else None,

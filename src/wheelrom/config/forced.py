@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from wheelrom.config.values import beside_toml, is_number
+from wheelrom.config.values import beside_toml, file_stamp, is_number
 from wheelrom.config.values import field_key as _key
 
 #: largest |delta_s| a pattern or a pattern file may hold (as ``mistuning.pattern``)
@@ -85,12 +85,7 @@ def read_mistuning_file(name: str, source: str, blades: int) -> np.ndarray:
     modification time): a study validates and uses every case's configuration, which would
     otherwise read it twice per case."""
     path = beside_toml(name, source)
-    try:
-        stat = os.stat(path)
-        stamp = (stat.st_size, stat.st_mtime_ns)
-    except OSError:
-        stamp = None  # not there: _read_values names the problem
-    values = _read_values(name, os.path.abspath(path), stamp)
+    values = _read_values(name, os.path.abspath(path), file_stamp(path))
     if values.size != blades:
         raise ValueError(f"{name}: {values.size} values for {blades} blades (one per blade)")
     bad = np.flatnonzero(~np.isfinite(values) | (np.abs(values) > MISTUNING_LIMIT))

@@ -229,6 +229,16 @@ def convert_field(where: str, f: dataclasses.Field, value: Any, problems: list[s
     raise AssertionError(f"no converter for {where}")  # pragma: no cover
 
 
+def file_stamp(path: str):
+    """``(size, mtime_ns)`` of ``path``, or None when it cannot be read: the cache key under
+    which a file key's contents are read once per process while the file is unchanged."""
+    try:
+        stat = os.stat(path)
+    except OSError:
+        return None  # not there: the reader names the problem
+    return stat.st_size, stat.st_mtime_ns
+
+
 def beside_toml(name: str, source: str) -> str:
     """A file key's value (``mistuning.file``, ``study.cases``) as a path: relative to the
     TOML file of the configuration's ``source`` when it is one."""

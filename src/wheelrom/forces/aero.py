@@ -27,31 +27,54 @@ first-order accurate in the growth rate off it; a table symmetric in the two dir
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from wheelrom.config.aero import AeroTable
 
 
-def family_frequencies(A0: np.ndarray, A1: np.ndarray, blades: int, mode: int) -> np.ndarray:
+@dataclass(frozen=True)
+class AeroOperator:
+    """The table as the wheel feels it, per ND ``k = 0..N-1``: ``kappa`` ``(N,)`` complex
+    [N/m], ``omega`` ``(N,)`` reference frequencies [rad/s], and the influence coefficients
+    ``a`` [N/m], ``b`` [N s/m] ``(N,)``; ``family``: the segment mode whose family it is."""
+
+    family: int
+    kappa: np.ndarray
+    omega: np.ndarray
+    a: np.ndarray
+    b: np.ndarray
+
+
+def aero_operator(table: AeroTable, model, family: int, p_family: float) -> AeroOperator:
+    """The :class:`AeroOperator` of ``table`` on ``model`` (a ``ReducedModel``) for segment
+    mode ``family``'s family, whose aero participation is ``p_family`` [1/sqrt(kg)]; the
+    reference frequencies are the table's ``frequency_hz`` or the family's, contacts open."""
+    if table.frequency_hz is not None:
+        omega = 2 * np.pi * table.frequency_hz
+    else:
+        omega = family_frequencies(model, family)
+    kappa = nd_coefficients(table, omega, p_family)
+    a, b = influence_coefficients(kappa, omega)
+    return AeroOperator(family, kappa, omega, a, b)
+
+
+def family_frequencies(model, mode: int) -> np.ndarray:
     """``(N,)`` circular frequency [rad/s] of segment mode ``mode``'s family in every ND
     ``k = 0..N-1`` of the reduced wheel (contacts open): the eigenvalue of
-    ``A0 + A1 e^{i sigma_k} + A1^T e^{-i sigma_k}`` whose eigenvector has the largest share
-    on ``mode``."""
-    omega = np.empty(blades)
-    for k in range(blades):
-        phase = np.exp(2j * np.pi * k / blades)
-        Kk = A0 + A1 * phase + A1.T * np.conj(phase)
-        w2, vectors = np.linalg.eigh(0.5 * (Kk + Kk.conj().T))
+    ``model.nd_stiffness(k)`` whose eigenvector has the largest share on ``mode``."""
+    omega = np.empty(model.blades)
+    for k in range(model.blades):
+        w2, vectors = np.linalg.eigh(model.nd_stiffness(k))
         omega[k] = np.sqrt(max(w2[np.argmax(np.abs(vectors[mode]))], 0.0))
     return omega
 
 
 def nd_coefficients(table: AeroTable, omega: np.ndarray, p_mode: float) -> np.ndarray:
-    """``(N,)`` complex ``kappa_k = k_a + i omega_k c_a`` [N/m] of the table per ND;
-    ``omega`` ``(N,)`` [rad/s] where the table has no frequencies; ``p_mode`` [1/sqrt(kg)]:
-    the selected mode's aero participation (damping ratios only)."""
-    if table.frequency_hz is not None:
-        omega = 2 * np.pi * table.frequency_hz
+    """``(N,)`` complex ``kappa_k = k_a + i omega_k c_a`` [N/m] of the table per ND at the
+    reference frequencies ``omega`` ``(N,)`` [rad/s]; ``p_mode`` [1/sqrt(kg)]: the selected
+    mode's aero participation (damping ratios only)."""
     if table.damping_ratio is not None:
         return 1j * omega * (2.0 * table.damping_ratio * omega / p_mode**2)
     return table.aero_stiffness + 1j * omega * table.aero_damping
@@ -67,10 +90,3 @@ def influence_coefficients(kappa: np.ndarray, omega: np.ndarray) -> tuple[np.nda
     # a_j = (1/N) sum_k A_k e^{-i j sigma_k}
     a, b = np.fft.fft(A) / N, np.fft.fft(B) / N
     return np.ascontiguousarray(a.real), np.ascontiguousarray(b.real)
-
-
-def wave_operator(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(A, B)`` ``(N,)`` complex: ``A_k = sum_j a_j e^{i j sigma_k}`` (the inverse of
-    :func:`influence_coefficients`' transform)."""
-    N = a.size
-    return np.fft.ifft(a) * N, np.fft.ifft(b) * N

@@ -16,7 +16,7 @@ import numpy as np
 
 from wheelrom.config import Config
 from wheelrom.config.aero import read_aero_table
-from wheelrom.forces.aero import family_frequencies, influence_coefficients, nd_coefficients
+from wheelrom.forces.aero import AeroOperator, aero_operator
 from wheelrom.rom.model import ReducedModel
 
 VDP_OFF, VDP_ABSOLUTE, VDP_RELATIVE, AERO_TABLE = 0, 1, 2, 3
@@ -134,15 +134,11 @@ def force_parameters(model: ReducedModel, cfg: Config,
     [deg] (a number or one per blade) instead of ``contacts.<kind>.angle_deg``."""
     N, m = model.blades, model.modes
     w, fl, fr = cfg.wheel, cfg.flutter, cfg.friction
-    aero = np.array(model.aero, dtype=float)
-    mode = flutter_mode(aero, model.tip) if fl.mode == "auto" else fl.mode
-    if mode >= 0:  # Van der Pol on one segment mode only
-        keep = np.zeros_like(aero)
-        keep[mode] = aero[mode]
-        aero = keep
+    aero = selected_aero(model, cfg)
     a, b = np.zeros(N), np.zeros(N)
     if fl.model == "table":
-        a, b = table_coefficients(model, cfg, mode, aero)
+        operator = table_operator(model, cfg, aero)
+        a, b = operator.a, operator.b
     return ForceParameters(
         blades=N,
         modes=m,
@@ -163,20 +159,27 @@ def force_parameters(model: ReducedModel, cfg: Config,
     )
 
 
-def table_coefficients(model: ReducedModel, cfg: Config, mode: int,
-                       aero: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
-    """``(a, b)`` ``(N,)`` influence coefficients [N/m], [N s/m] of ``flutter.table``
-    (:mod:`wheelrom.forces.aero`) for segment mode ``mode``'s family (-1: every mode, then
-    the lowest-frequency family with aero motion sets the reference frequencies)."""
+def selected_aero(model: ReducedModel, cfg: Config) -> np.ndarray:
+    """``(m,)`` the Van der Pol / aerodynamic direction ``p``: the model's aero participation,
+    restricted to ``flutter.mode`` when one mode is selected."""
+    aero = np.array(model.aero, dtype=float)
+    mode = flutter_mode(aero, model.tip) if cfg.flutter.mode == "auto" else cfg.flutter.mode
+    if mode >= 0:  # one segment mode only
+        keep = np.zeros_like(aero)
+        keep[mode] = aero[mode]
+        aero = keep
+    return aero
+
+
+def table_operator(model: ReducedModel, cfg: Config, aero: np.ndarray) -> AeroOperator:
+    """``flutter.table`` on ``model`` (:mod:`wheelrom.forces.aero`) along the direction
+    ``aero`` (:func:`selected_aero`): the family is its first moving mode (the selected one;
+    with every mode, the lowest with aero motion sets the reference frequencies)."""
     fl = cfg.flutter
     table = read_aero_table(fl.table, cfg.source, model.blades, fl.table_phase,
                             fl.table_directions, fl.table_sign)  # fmt: skip
-    family = mode if mode >= 0 else int(np.flatnonzero(aero)[0])
-    omega = family_frequencies(model.A0, model.A1, model.blades, family)
-    kappa = nd_coefficients(table, omega, float(aero[family]))
-    if table.frequency_hz is not None:
-        omega = 2 * math.pi * table.frequency_hz
-    return influence_coefficients(kappa, omega)
+    family = int(np.flatnonzero(aero)[0])
+    return aero_operator(table, model, family, float(aero[family]))
 
 
 def _contact_parameters(model: ReducedModel, cfg: Config, angles_deg: dict) -> ContactParameters:

@@ -75,29 +75,18 @@ def write_aero_table(f, cfg: Config, model: ReducedModel) -> None:
     did even where the CSV is gone."""
     if cfg.flutter.model != "table":
         return
-    from wheelrom.config.aero import read_aero_table
-    from wheelrom.forces.aero import family_frequencies, nd_coefficients
-    from wheelrom.forces.parameters import flutter_mode, force_parameters
+    from wheelrom.forces.parameters import selected_aero, table_operator
 
-    fl = cfg.flutter
-    params = force_parameters(model, cfg)
-    mode = flutter_mode(model.aero, model.tip) if fl.mode == "auto" else fl.mode
-    family = mode if mode >= 0 else int(np.flatnonzero(params.aero)[0])
-    table = read_aero_table(fl.table, cfg.source, model.blades, fl.table_phase,
-                            fl.table_directions, fl.table_sign)  # fmt: skip
-    omega = family_frequencies(model.A0, model.A1, model.blades, family)
-    if table.frequency_hz is not None:
-        omega = 2 * np.pi * table.frequency_hz
-    kappa = nd_coefficients(table, omega, float(params.aero[family]))
+    op = table_operator(model, cfg, selected_aero(model, cfg))
     g = f.create_group("aero")
-    g.attrs["table"] = fl.table
-    g.attrs["family_mode"] = family
-    g.attrs["scale"] = fl.table_scale
+    g.attrs["table"] = cfg.flutter.table
+    g.attrs["family_mode"] = op.family
+    g.attrs["scale"] = cfg.flutter.table_scale
     g["nodal_diameter"] = np.arange(model.blades)
-    g["coefficient"] = np.column_stack([kappa.real, kappa.imag])
-    g["frequency_hz"] = omega / (2 * np.pi)
-    g["influence_displacement"] = params.aero_displacement
-    g["influence_velocity"] = params.aero_velocity
+    g["coefficient"] = np.column_stack([op.kappa.real, op.kappa.imag])
+    g["frequency_hz"] = op.omega / (2 * np.pi)
+    g["influence_displacement"] = op.a
+    g["influence_velocity"] = op.b
 
 
 def write_model_file(f, cfg: Config, model: ReducedModel, extra: dict | None = None) -> None:

@@ -120,6 +120,13 @@ class ReducedModel:
         A.assemble()
         return A
 
+    def nd_stiffness(self, k: int) -> np.ndarray:
+        """``(m, m)`` Hermitian ``A0 + A1 e^{i phi_k} + A1^T e^{-i phi_k}``, ``phi_k = 2 pi k /
+        N``: the tuned ``K_R`` on the travelling wave ``q_s = q_0 e^{i s phi_k}`` [1/s^2]."""
+        ph = np.exp(2j * np.pi * k / self.blades)
+        H = self.A0 + self.A1 * ph + self.A1.T * np.conj(ph)
+        return 0.5 * (H + H.conj().T)
+
     def block_circulant_eigenvalues(self) -> np.ndarray:
         """``(N, m)`` eigenvalues per nodal-diameter phase ``k`` (travelling-wave index).
 
@@ -128,9 +135,7 @@ class ReducedModel:
         """
         out = np.empty((self.blades, self.modes))
         for k in range(self.blades):
-            ph = np.exp(2j * np.pi * k / self.blades)
-            H = self.A0 + self.A1 * ph + self.A1.T * np.conj(ph)
-            out[k] = np.linalg.eigvalsh(0.5 * (H + H.conj().T))
+            out[k] = np.linalg.eigvalsh(self.nd_stiffness(k))
         return out
 
     def frequencies_by_nodal_diameter(self) -> np.ndarray:

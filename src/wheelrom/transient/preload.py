@@ -44,16 +44,19 @@ def static_equilibrium(forces, K: np.ndarray, comm, force_scale: float, prefix: 
     if tangent is not None:  # the AIJ structure, and K once as CSR
         structure, K_sparse = _blade_pattern(N, m), sp.csr_matrix(K)
         # forces that couple more than neighbours (the aerodynamic table's influence
-        # coefficients) widen it: the tangent's stored entries at rest
-        coupling = sp.csr_matrix(tangent(np.zeros((N, m))), copy=True)
-        coupling.data[:] = 1.0
-        structure = (structure + coupling).tocsr()
+        # coefficients) widen it: the tangent's stored entries at rest, which is also where
+        # Newton starts (x = 0), so the first Jacobian reuses it
+        at_rest = [sp.csr_matrix(tangent(np.zeros((N, m))))]
+        pattern = at_rest[0].copy()
+        pattern.data[:] = 1.0
+        structure = (structure + pattern).tocsr()
         structure.data[:] = 1.0
 
     def jacobian(snes, x, J, P):
         q = x.getArray(readonly=True).copy()
         if tangent is not None:  # sparse: K_R and the contacts couple neighbours only
-            A = (K_sparse - tangent(q.reshape(N, m))).tocsr()  # within the structure
+            T = at_rest.pop() if at_rest and not q.any() else tangent(q.reshape(N, m))
+            A = (K_sparse - T).tocsr()  # within the structure
             A.sort_indices()
             P.zeroEntries()  # entries A leaves out (an exact zero) must not keep old values
             P.setValuesCSR(A.indptr, A.indices, A.data)
@@ -146,10 +149,7 @@ def start_perturbation(model, cfg) -> np.ndarray:
     blades = np.arange(N)
     q = np.zeros((N, m))
     for k in range(N):
-        phase = np.exp(2j * np.pi * k / N)
-        Kk = model.A0 + model.A1 * phase + model.A1.T * np.conj(phase)
-        _, vectors = np.linalg.eigh(0.5 * (Kk + Kk.conj().T))
-        phi = vectors[:, 0]
+        phi = np.linalg.eigh(model.nd_stiffness(k))[1][:, 0]
         tip = model.tip @ phi  # (3,) complex tip displacement of blade 0
         size = np.linalg.norm(tip)
         ref = tip[1] if abs(tip[1]) > 1e-3 * size else tip[np.argmax(np.abs(tip))]
