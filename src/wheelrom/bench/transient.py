@@ -37,6 +37,11 @@ Figures (all on the configuration's reduced model, single core):
   loosest of 1e-2..1e-9 (steps of 1, 3 per decade: a decade grid made the ratio jump by 3x
   with round-off-level changes of the state's coordinates) whose tip-history error against
   a fine-step reference is not larger than our fixed-step error.
+- ``rk_*`` and ``exponential_*`` (issue #31): the configured RK step and the exponential
+  scheme at ``EXPONENTIAL_STEP``, both from the preloaded equilibrium with a 1 nm seed:
+  ``*_tip_error`` after 20.16 ms against RK 5dp at 0.75 us (relative to the largest tip
+  displacement), ``*_s_per_simulated_s``, ``*_energy_balance``; ``exponential_speedup`` (RK's
+  seconds per simulated second over the exponential scheme's), ``exponential_paper_case_s``.
 """
 
 from __future__ import annotations
@@ -53,6 +58,7 @@ from wheelrom.runtime import kernel_cache as _kernel_cache
 from wheelrom.runtime.environment import petsc
 from wheelrom.transient import bridge, layout, startup
 from wheelrom.transient.kernel import multiply_adds, rhs_core
+from wheelrom.transient.preload import initial_state
 from wheelrom.transient.problem import WheelProblem
 from wheelrom.transient.reference import reference_solution
 from wheelrom.transient.run import run_case, run_cases
@@ -358,6 +364,7 @@ def _work(steps: int, compare_steps: int, batch: int) -> dict:
         "numpy reference": 10 * compare_steps,
         "scipy solve_ivp": 20 * compare_steps,
         "linear stability of the configured angles": 30000,
+        "RK and the exponential scheme from the preloaded equilibrium": 40000,
     }
 
 
@@ -387,6 +394,7 @@ def run(model: ReducedModel, cfg: Config, steps: int = 20000, compare_steps: int
     scipy_cmp = group(next(groups), _scipy_comparison, model, cfg, problem, compare_steps, h,
                       res, steps * h, say)  # fmt: skip
     stability = group(next(groups), _stability_figures, model, cfg)
+    schemes = group(next(groups), _scheme_figures, model, cfg, h, say)
     return {
         "blades": model.blades,
         "modes": model.modes,
@@ -398,7 +406,43 @@ def run(model: ReducedModel, cfg: Config, steps: int = 20000, compare_steps: int
         **numpy_cmp,
         **scipy_cmp,
         **stability,
+        **schemes,
     }
+
+
+EXPONENTIAL_STEP = 2e-5  # [s] the exponential scheme's step measured by ``bench``
+
+
+def _scheme_figures(model: ReducedModel, cfg: Config, h: float, say) -> dict:
+    """RK at the configured step against the exponential scheme at ``EXPONENTIAL_STEP``, both
+    from the preloaded equilibrium with a 1 nm physical seed (the start of ./run/paper's
+    transients, where the solution is a smooth function of the step): the tip error of every
+    blade after 20.16 ms (a multiple of both steps) against RK 5dp at 0.75 us, relative to the
+    largest tip displacement, and the seconds of integration per simulated second (the
+    preload solved once, outside the timed runs)."""
+    end = 0.02016
+    start = cfg.replace(**{"time.start": "preload", "time.perturbation": 1e-9,
+                           "time.end": end, "time.window": end})  # fmt: skip
+    u0 = initial_state(_problem(model, start, [None]))[0][: 2 * model.size]
+    reference = run_case(model, start, u0=u0, options={"ts_rk_type": "5dp", "ts_dt": 7.5e-7})
+    tip_ref = _tip(model, reference.final_state[None, :])
+    scale = float(np.abs(tip_ref).max())
+    figures = {}
+    for name, run_cfg in (("rk", start),
+                          ("exponential", start.replace(**{"time.scheme": "exponential",
+                                                           "time.step": EXPONENTIAL_STEP}))):
+        res = run_case(model, run_cfg, u0=u0)
+        error = float(np.abs(_tip(model, res.final_state[None, :]) - tip_ref).max() / scale)
+        figures[f"{name}_step_s"] = float(res.options["ts_dt"])
+        figures[f"{name}_tip_error"] = error
+        figures[f"{name}_s_per_simulated_s"] = res.wall_s / end
+        figures[f"{name}_energy_balance"] = res.energy_balance_error()
+        say(f"{name}: step {res.options['ts_dt']:.3g} s, tip error {error:.2e}, "
+            f"{res.wall_s / end:.2f} s per simulated s")  # fmt: skip
+    figures["exponential_speedup"] = (figures["rk_s_per_simulated_s"]
+                                      / figures["exponential_s_per_simulated_s"])  # fmt: skip
+    figures["exponential_paper_case_s"] = figures["exponential_s_per_simulated_s"] * cfg.time.end
+    return figures
 
 
 def _stability_figures(model: ReducedModel, cfg: Config) -> dict:

@@ -172,8 +172,15 @@ class FrictionConfig:
 class TimeConfig:
     step: float = field(
         default=3e-6,
-        metadata=_key("s", "fixed RK step (3bs is stable up to 2 pi f_max step = 1.73: "
-                      "the default attachment basis reaches 69 kHz)", gt=0.0),
+        metadata=_key("s", "fixed step (RK 3bs is stable up to 2 pi f_max step = 1.73: "
+                      "the default attachment basis reaches 69 kHz; the exponential scheme "
+                      "is not bounded by it)", gt=0.0),
+    )
+    scheme: str = field(
+        default="rk",
+        metadata=_key("-", "'rk' (PETSc TS RK, 3bs: the paper's ode3) or 'exponential' "
+                      "(ETDRK4 with the segment block A0 exact: docs/theory.md)",
+                      choices=("rk", "exponential")),
     )
     end: float = field(default=1.5, metadata=_key("s", "simulated time", gt=0.0))
     window: float = field(default=0.0375, metadata=_key("s", "evaluation window", gt=0.0))

@@ -22,6 +22,7 @@ from wheelrom.transient.layout import (
     H_B,
     H_BETA,
     H_CAP,
+    H_EXPONENTIAL,
     H_FB,
     H_K,
     H_LIMIT,
@@ -241,6 +242,7 @@ def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
     # stores per multiply-add). A mistuned wheel adds delta_s K_seg w_s to row s (and
     # delta_s K_seg v_s to the power row): K_seg is dense in the kernel's basis.
     linear = ctx[H_SKIP_LINEAR] == 0.0
+    exponential = ctx[H_EXPONENTIAL] != 0.0
     B2 = 2 * B
     kw = get(ctx, I_KW, NB)
     dv = get(ctx, I_DV, NB)
@@ -307,6 +309,7 @@ def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
                 kw[c] -= (xa0 * fa0[c] + xa1 * fa1[c] + xa2 * fa2[c]
                           + xb0 * fb0[c] + xb1 * fb1[c] + xb2 * fb2[c])  # fmt: skip
         a0 = A0_diag[i] if linear else 0.0
+        a0_force = 0.0 if exponential else a0  # the power keeps a0: it is the whole q'^T K q'
         pe = p_exc[i]
         pa = p_aero[i]
         wi = WT[i, B:]
@@ -315,7 +318,7 @@ def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
         fv = f[n + i * NB : n + (i + 1) * NB]
         for c in range(NB):
             fq[c] = vi[c]
-            fv[c] = pe * nozzle[c] + pa * g[c] - (a0 * wi[c] + kw[c])
+            fv[c] = pe * nozzle[c] + pa * g[c] - (a0_force * wi[c] + kw[c])
             column[c] += vi[c] * (a0 * vi[c] + dv[c])
     _case_sums(column, power[3], N, B)
     for b in range(B):

@@ -26,6 +26,7 @@ from wheelrom.runtime.environment import petsc
 
 H_LEN, H_N, H_M, H_K, H_VDP, H_NS, H_OMEGA, H_FB, H_MU, H_R, H_BETA = range(11)
 H_FS, H_FD, H_DECAY, H_VK, H_USER_REASON, H_SAMPLE_DT, H_NEXT_SAMPLE = range(11, 18)
+H_EXPONENTIAL = 18  # 1: leave A0 out of the force (the exponential scheme propagates it)
 H_CAP, H_LIMIT, H_RHS_CALLS, H_SLOT_U, H_SLOT_F, H_OVERFLOW, H_NSTATE = range(19, 26)
 H_SKIP_LINEAR = 26  # 1: leave out the K_R product (benchmarks of the force part alone)
 H_B = 27  # cases in the batch

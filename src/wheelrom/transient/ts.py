@@ -16,7 +16,8 @@ from dataclasses import dataclass
 from wheelrom.config import Config, sample_every
 from wheelrom.runtime.environment import petsc
 from wheelrom.runtime.errors import InputError
-from wheelrom.transient import bridge
+from wheelrom.transient import bridge, exponential
+from wheelrom.transient.layout import H_EXPONENTIAL
 from wheelrom.transient.problem import WheelProblem
 
 PREFIX = "wheel_"
@@ -67,6 +68,7 @@ def ts_options_used(ts, prefix: str) -> dict:
     used = {
         "ts_type": ts.getType(),
         "ts_rk_type": ts.getRKType() if ts.getType() == "rk" else None,
+        "ts_scheme": exponential.SCHEME if _exponential(ts) else None,
         "ts_dt": ts.getTimeStep(),
     }
     ours = prefix + "ts_"
@@ -75,12 +77,22 @@ def ts_options_used(ts, prefix: str) -> dict:
     return {k: v for k, v in used.items() if v is not None}
 
 
-def _defaults(ts, cfg: Config) -> None:
-    """The TS settings in code, before ``setFromOptions``: RK 3bs, fixed step ``time.step``."""
+def _exponential(ts) -> bool:
+    """Whether ``ts`` integrates with wheelrom's exponential scheme."""
+    return ts.getType() == "python" and isinstance(ts.getPythonContext(),
+                                                   exponential.ExponentialStepper)
+
+
+def _defaults(ts, cfg: Config, context=None) -> None:
+    """The TS settings in code, before ``setFromOptions``: RK 3bs, or the exponential scheme
+    (``time.scheme``; ``context``: the batch's kernel context), fixed step ``time.step``."""
     PETSc = petsc()
     ts.setProblemType(PETSc.TS.ProblemType.NONLINEAR)
     ts.setType(PETSc.TS.Type.RK)
     ts.setRKType("3bs")
+    if cfg.time.scheme == "exponential":
+        ts.setType(PETSc.TS.Type.PYTHON)
+        ts.setPythonContext(exponential.ExponentialStepper(context))
     bridge.set_adapt_type(ts, "none")  # fixed steps unless -<prefix>ts_adapt_type says else
     ts.setTimeStep(cfg.time.step)
     ts.setMaxTime(cfg.time.end)
@@ -117,7 +129,7 @@ def make_ts(problem: WheelProblem, cfg: Config, prefix: str = PREFIX,
     PETSc = petsc()
     ts = PETSc.TS().create(comm=problem.comm)
     ts.setOptionsPrefix(prefix)
-    _defaults(ts, cfg)
+    _defaults(ts, cfg, problem.context)
     if rhs_kind == "compiled":
         f = PETSc.Vec().createSeq(problem.B * problem.size(), comm=problem.comm)
         bridge.attach(ts, f, problem.context)
@@ -131,6 +143,16 @@ def make_ts(problem: WheelProblem, cfg: Config, prefix: str = PREFIX,
     with scoped_options(prefix, options):
         ts.setFromOptions()
         used = ts_options_used(ts, prefix)
+    if ts.getType() == "python" and not _exponential(ts):
+        raise InputError("-wheel_ts_type python: wheelrom's python TS is the exponential "
+                         "scheme, chosen by time.scheme = 'exponential'")
+    if _exponential(ts):
+        if rhs_kind != "compiled":
+            raise InputError("time.scheme = 'exponential' integrates the compiled right-hand "
+                             "side only")
+        ts.getPythonContext().attach(True)
+    else:
+        problem.context.array[H_EXPONENTIAL] = 0.0
     used.setdefault("ts_adapt_type", bridge.adapt_type(ts))
     return ts, f, used
 
@@ -221,6 +243,9 @@ def check_step(model, used: dict) -> None:
     dt`` beyond the scheme's reach on the imaginary axis (``used``: :func:`ts_options_used`).
     ``f_max`` is that of ``K_R`` alone, so passing is necessary, not sufficient (the contact
     springs stiffen the wheel further)."""
+    if used.get("ts_scheme") == exponential.SCHEME:
+        exponential.check_step(model, float(used["ts_dt"]))
+        return
     reach = RK_IMAGINARY_REACH.get(str(used.get("ts_rk_type")))
     if used.get("ts_type") != "rk" or used.get("ts_adapt_type") != "none" or reach is None:
         return
