@@ -30,6 +30,7 @@ KERNEL_SOURCES = (
     "transient/fastmath.py",
     "transient/layout.py",
     "transient/bridge.py",
+    "transient/exponential_kernel.py",
     "forces/reference.py",
 )
 
