@@ -24,9 +24,10 @@ def comm():
 def coarse_cfg():
     from wheelrom import config
 
-    # the paper's basis and step: 10 free-interface modes, 5 us (the tests' reference sizes)
+    # the paper's basis, scheme and step: 10 free-interface modes, RK 3bs at 5 us (the tests'
+    # reference sizes)
     return config.load(overrides=['segment.preset="coarse"', 'wheel.basis="free"',
-                                  "time.step=5e-6"])  # fmt: skip
+                                  'time.scheme="rk"', "time.step=5e-6"])  # fmt: skip
 
 
 @pytest.fixture(scope="session")

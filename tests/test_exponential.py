@@ -9,7 +9,6 @@ import dataclasses
 import numpy as np
 import pytest
 
-from wheelrom.runtime.errors import InputError
 from wheelrom.transient.run import run_case, run_cases
 
 
@@ -104,11 +103,20 @@ def test_batch_results_are_those_of_single_runs(small_model, small_cfg):
         assert np.array_equal(res.max_tip_amplitude, alone.max_tip_amplitude)
 
 
-def test_a_resonant_step_is_refused_with_safe_steps(attachment):
+def test_a_resonant_step_is_moved_below_the_resonance_and_recorded(attachment):
+    """A step at one period of the stiffest segment mode is lowered out of the 7 % band
+    (and the reason is in the result's options); a safe step is kept."""
+    from wheelrom.transient.exponential import RESONANCE_BAND, safe_step
+
     model, cfg = attachment
     f = np.sqrt(np.linalg.eigvalsh(model.A0).max()) / (2 * np.pi)
-    with pytest.raises(InputError, match="resonance of the exponential scheme"):
-        run_case(model, _exponential(cfg, **{"time.step": 1.0 / f}))
+    step, why = safe_step(model, 1.0 / f)
+    assert step <= (1 - RESONANCE_BAND) / f and step > 0.9 * (1 - RESONANCE_BAND) / f
+    assert "resonance of the exponential scheme" in why
+    assert safe_step(model, 0.5 / f) == (0.5 / f, None)
+    cfg = _exponential(cfg, **{"time.step": 1.0 / f, "time.end": 2e-4, "time.window": 2e-4})
+    res = run_case(model, cfg)
+    assert res.options["ts_dt"] == step and "lowered" in res.options["ts_dt_lowered"]
 
 
 def test_the_paper_rk3_stays_available_by_option(small_model, small_cfg):

@@ -21,6 +21,7 @@ from wheelrom.rom.model import ReducedModel
 from wheelrom.runtime.environment import petsc
 from wheelrom.runtime.errors import InputError
 from wheelrom.transient import bridge
+from wheelrom.transient.exponential_kernel import etd4_step
 from wheelrom.transient.kernel import sample_core
 from wheelrom.transient.layout import H_OVERFLOW, H_RHS_CALLS, STOP_AMPLITUDE, STOP_NONFINITE
 from wheelrom.transient.preload import initial_state
@@ -223,6 +224,9 @@ def load_kernels(case: ForceParameters, rhs_kind: str = "compiled") -> float:
     t0 = time.perf_counter()
     if rhs_kind == "compiled":
         bridge.callbacks()
+        vector = numba.float64[::1]
+        etd4_step.compile((numba.float64, numba.float64, vector, vector,
+                           numba.float64[:, ::1], numba.float64[:, ::1]))  # fmt: skip
     elif rhs_kind == "python":
         vector = numba.float64[::1]
         sample_core.compile((numba.float64, vector, vector))
