@@ -36,11 +36,16 @@ _PETSC_ERRORS = {
 
 def _ts(comm):
     from wheelrom.transient import bridge
+    from wheelrom.transient.exponential import ExponentialStepper
 
     PETSc = petsc()
     ts = PETSc.TS().create(comm=comm)
     ts.setType(PETSc.TS.Type.RK)
     ts.setRKType("3bs")
+    # a python TS must have its context (PETSc crashes destroying one without): the default's
+    if petsc().Options().getString("wheel_ts_type", "") == "python":
+        ts.setType(PETSc.TS.Type.PYTHON)
+        ts.setPythonContext(ExponentialStepper())
     bridge.set_adapt_type(ts, "none")
     ts.setTimeStep(1e-6)
     return ts
