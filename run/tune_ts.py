@@ -39,16 +39,26 @@ from wheelrom.runtime.errors import InputError  # noqa: E402
 from wheelrom.transient.run import run_case  # noqa: E402
 from wheelrom.transient.ts import time_step  # noqa: E402
 
+RK_STEP = 3e-6  # [s] the paper's RK 3bs step on the default wheel (its limit: 4.2 us)
+GRID = 120e-6  # [s] every compared step divides it: the runs end at the same instant
+REFERENCE_STEP = 7.5e-7  # [s] RK 5dp: the fine reference
+
 
 def settings(step: float) -> list[tuple[str, dict]]:
-    """The TS settings compared: fixed-step 3bs at several steps, adaptive RK types."""
-    out = [(f"3bs dt={dt:.3g}", {"ts_rk_type": "3bs", "ts_dt": dt}) for dt in
-           (4 * step, 2 * step, step, step / 2, step / 4)]  # fmt: skip
-    for rk in ("3bs", "5dp"):
+    """The TS settings compared: the exponential scheme (the default) at 2x..1/4x of its step,
+    fixed-step RK 3bs at 4x..1/4x of ``RK_STEP`` (the larger ones are refused: beyond RK's
+    stability), RK4 at 6 us, adaptive RK types."""
+    out = [(f"exponential dt={dt:.3g}", {"ts_dt": dt}) for dt in
+           (2 * step, step, step / 2, step / 4)]  # fmt: skip
+    rk = {"ts_type": "rk"}
+    out += [(f"3bs dt={dt:.3g}", {**rk, "ts_rk_type": "3bs", "ts_dt": dt}) for dt in
+            (4 * RK_STEP, 2 * RK_STEP, RK_STEP, RK_STEP / 2, RK_STEP / 4)]  # fmt: skip
+    out.append(("4 dt=6e-06", {**rk, "ts_rk_type": "4", "ts_dt": 6e-6}))
+    for kind in ("3bs", "5dp"):
         for rtol in (1e-4, 1e-6, 1e-8):
-            opts = {"ts_rk_type": rk, "ts_adapt_type": "basic", "ts_rtol": rtol,
-                    "ts_atol": rtol * 1e-3, "ts_dt": step}  # fmt: skip
-            out.append((f"{rk} adaptive rtol={rtol:.0e}", opts))
+            opts = {**rk, "ts_rk_type": kind, "ts_adapt_type": "basic", "ts_rtol": rtol,
+                    "ts_atol": rtol * 1e-3, "ts_dt": RK_STEP}  # fmt: skip
+            out.append((f"{kind} adaptive rtol={rtol:.0e}", opts))
     return out
 
 
@@ -77,12 +87,13 @@ def main(argv: list[str] | None = None) -> int:
         return lyapunov(model, cfg, args.json)
     cfg = cfg.replace(**{"time.start": "preload", "time.perturbation": args.perturbation})
     step = time_step(cfg)  # the TS's step: -wheel_ts_dt overrides time.step
-    # an end every fixed step reaches exactly (4 step .. step / 8): the runs are compared at
-    # the same instant (a 0.1 us offset alone gives ~1e-3 of tip error on the default wheel)
-    end = max(1, round(args.end / (4 * step))) * 4 * step
+    # an end every fixed step reaches exactly: the runs are compared at the same instant (a
+    # 0.1 us offset alone gives ~1e-3 of tip error on the default wheel)
+    end = max(1, round(args.end / GRID)) * GRID
     cfg = cfg.replace(**{"time.end": end, "time.window": end})
     run_case(model, cfg.replace(**{"time.end": 20 * step, "time.window": 20 * step}))
-    reference = run_case(model, cfg, options={"ts_rk_type": "5dp", "ts_dt": step / 8})
+    reference = run_case(model, cfg, options={"ts_type": "rk", "ts_rk_type": "5dp",
+                                              "ts_dt": REFERENCE_STEP})  # fmt: skip
     if reference.status != "done":
         print(f"reference run failed: {reference.status}", file=sys.stderr)
         return 1
@@ -91,8 +102,9 @@ def main(argv: list[str] | None = None) -> int:
     rows = []
     for label, opts in settings(step):
         t0 = time.perf_counter()
+        scheme = "exponential" if label.startswith("exponential") else "rk"
         try:
-            res = run_case(model, cfg, options=opts)
+            res = run_case(model, cfg.replace(**{"time.scheme": scheme}), options=opts)
         except InputError as exc:  # a fixed step beyond the explicit scheme's stability
             print(f"{label:28s} refused: {exc}", file=sys.stderr)
             continue
@@ -111,8 +123,8 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{label:28s} {res.status:6s} steps {res.steps:7d}  wall {wall:7.3f} s  "
                   f"tip error {error:9.2e}")  # fmt: skip
     if args.json:
-        json.dump({"end_s": cfg.time.end, "reference": "5dp dt/8", "runs": rows}, sys.stdout,
-                  indent=1, default=str)  # fmt: skip
+        table = {"end_s": cfg.time.end, "reference": f"5dp dt={REFERENCE_STEP}", "runs": rows}
+        json.dump(table, sys.stdout, indent=1, default=str)
         sys.stdout.write("\n")
     if args.plot:
         import matplotlib
@@ -121,7 +133,8 @@ def main(argv: list[str] | None = None) -> int:
         import matplotlib.pyplot as plt
 
         fig, ax = plt.subplots(figsize=(6.5, 4.5))
-        for family, marker in (("3bs dt", "o"), ("3bs adaptive", "s"), ("5dp adaptive", "^")):
+        for family, marker in (("exponential dt", "D"), ("3bs dt", "o"), ("3bs adaptive", "s"),
+                               ("5dp adaptive", "^")):  # fmt: skip
             pts = [(r["wall_s"], r["tip_error"]) for r in rows if r["setting"].startswith(family)]
             if pts:
                 x, y = zip(*pts, strict=True)

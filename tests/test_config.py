@@ -32,7 +32,7 @@ def test_defaults_are_table_1():
         3.46e-2,
     )
     assert c.wheel.coupling_stiffness == 2e8 and c.wheel.modes_per_segment == 10
-    assert (c.time.step, c.time.window, c.time.end) == (2e-5, 0.0375, 1.5)
+    assert (c.time.step, c.time.window, c.time.end) == (1e-5, 0.0375, 1.5)
     assert c.time.scheme == "exponential"  # issue #31: the paper's RK3 is time.scheme = 'rk'
     assert c.sweep.tieboss_angles_deg == (45.0,)
     assert c.sweep.shroud_angles_deg == tuple(float(a) for a in range(0, 91, 5))

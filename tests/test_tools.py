@@ -35,11 +35,17 @@ def test_tune_ts_script_orders_and_options(capsys, tmp_path):
     assert runs["5dp adaptive rtol=1e-06"]["options"]["ts_adapt_type"] == "basic"
     fixed = [r for label, r in runs.items() if label.startswith("3bs dt=")]
     steps = [r["steps"] for r in fixed]
-    assert steps == [100, 200, 400, 800, 1600]
+    assert steps == [170, 340, 680, 1360, 2720]  # 2.04 ms (a multiple of every step)
     errors = [r["tip_error"] for r in fixed]
     # Bogacki-Shampine is third order: halving the step cuts the error by about 8
     for coarse, fine in zip(errors[:-1], errors[1:], strict=True):
         assert 6.0 < coarse / fine < 10.0
+    # the exponential scheme (10..1.25 us) is fourth order: about 16 per halving
+    exp = [r for label, r in runs.items() if label.startswith("exponential dt=")]
+    assert [r["options"]["ts_scheme"] for r in exp] == ["etdrk4"] * 4
+    errors = [r["tip_error"] for r in exp]
+    for coarse, fine in zip(errors[:-1], errors[1:], strict=True):
+        assert 11.0 < coarse / fine < 22.0, errors
     # tighter adaptive tolerances are more accurate
     tight, loose = runs["5dp adaptive rtol=1e-08"], runs["5dp adaptive rtol=1e-04"]
     assert tight["tip_error"] < loose["tip_error"]
