@@ -23,6 +23,7 @@ bootstrap()
 from wheelrom import config as config_mod  # noqa: E402
 from wheelrom.cli import args as cli_args  # noqa: E402
 from wheelrom.cli import forced as cli_forced  # noqa: E402
+from wheelrom.cli import limit_cycle as cli_limit_cycle  # noqa: E402
 from wheelrom.cli import motion as cli_motion  # noqa: E402
 from wheelrom.cli import tools as cli_tools  # noqa: E402
 from wheelrom.cli.args import comm_self, load_config  # noqa: E402
@@ -328,6 +329,9 @@ COMMANDS: dict[
                  cli_args.args_accuracy),
     "stability": (cmd_stability, "linear stability per nodal diameter of every case",
                   cli_args.args_stability),
+    "limit-cycle": (cli_limit_cycle.cmd_limit_cycle, "limit cycles per travelling wave by "
+                    "harmonic balance: how far the flutter grows",
+                    cli_limit_cycle.args_limit_cycle),
     "forced-response": (cli_forced.cmd_forced, "linear forced response to the nozzle, "
                         "tuned and mistuned (amplification factor)", cli_forced.args_forced),
     "contact-stiffness": (cli_tools.cmd_contact_stiffness,

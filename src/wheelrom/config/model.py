@@ -23,6 +23,7 @@ from wheelrom.config.forced import (
     forced_problems,
     mistuning_problems,
 )
+from wheelrom.config.limit_cycle import LimitCycleConfig, limit_cycle_problems
 from wheelrom.config.values import convert_field, is_number, suggest
 from wheelrom.config.values import field_key as _key
 from wheelrom.config.values import to_toml as to_toml  # re-exported: config.to_toml
@@ -207,6 +208,12 @@ class TimeConfig:
         default=0,
         metadata=_key("-", "seed of the start perturbation (same for every case and rank)", min=0),
     )
+    perturbation_waves: tuple[int, ...] = field(
+        default=(),
+        metadata=_key("-", "travelling waves k (blade s+1 leads by 2 pi k / N; 0..N-1) the start "
+                      "perturbation seeds; [] = every one", min=0, integers=True,
+                      allow_empty=True),  # fmt: skip
+    )
 
 
 @dataclass(frozen=True)
@@ -294,6 +301,7 @@ class Config:
     mistuning: MistuningConfig = field(default_factory=MistuningConfig)
     forced: ForcedConfig = field(default_factory=ForcedConfig)
     study: StudyConfig = field(default_factory=StudyConfig)
+    limit_cycle: LimitCycleConfig = field(default_factory=LimitCycleConfig)
     source: str = field(default="<built-in default>", compare=False)
 
     def replace(self, **changes: Any) -> Config:
@@ -420,6 +428,7 @@ def from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Config:
     mistuning_problems(cfg, source, problems)
     forced_problems(cfg, problems)
     aero_table_problems(cfg, source, problems)
+    limit_cycle_problems(cfg, problems)
     if problems:
         raise ConfigError([f"{source}: {p}" for p in problems])
     return dataclasses.replace(cfg, source=source)

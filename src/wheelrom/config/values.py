@@ -224,8 +224,15 @@ def convert_field(where: str, f: dataclasses.Field, value: Any, problems: list[s
         if not isinstance(value, list | tuple) or not (value or meta.get("allow_empty")):
             problems.append(f"{where}: expected a non-empty list of numbers, got {value!r}")
             return value
+        if meta.get("integers"):
+            bad = [v for v in value if not isinstance(v, int) or isinstance(v, bool)]
+            if bad:
+                problems.append(f"{where}: expected a list of integers, got {value!r}")
+                return value
         ok = all(check_number(f"{where}[{i}]", v, meta, problems) for i, v in enumerate(value))
-        return tuple(float(v) for v in value) if ok else value
+        if not ok:
+            return value
+        return tuple(int(v) for v in value) if meta.get("integers") else tuple(map(float, value))
     raise AssertionError(f"no converter for {where}")  # pragma: no cover
 
 

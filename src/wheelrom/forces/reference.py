@@ -61,6 +61,26 @@ class ReferenceForces:
                 self._work)  # fmt: skip
         return self.force
 
+    def evaluate_samples(self, q: np.ndarray, v: np.ndarray, force: np.ndarray,
+                         normal_force: np.ndarray, friction_power: np.ndarray,
+                         contact_state: np.ndarray) -> None:
+        """The forces of ``S`` independent states at once (nozzle at ``t = 0``): ``q``, ``v``
+        ``(S, N, m)``; writes ``force`` ``(S, N, m)`` and, of blade pair ``(0, 1)`` of every
+        contact kind, ``normal_force`` ``(S, K)`` [N], ``friction_power`` ``(S, K)`` [W] (the
+        friction force's power on the pair's relative slip, <= 0) and ``contact_state``
+        ``(S, K)`` (OPEN/STICK/SLIP). One compiled call: the harmonic balance's time samples
+        and their finite-difference perturbations (:mod:`wheelrom.analysis.harmonic_balance`)."""
+        p, c = self.params, self.params.contacts
+        _kernel_samples(q, v, force, p.omega, p.stator_vanes, p.nozzle_force, p.excitation,
+                        p.nozzle_phase, p.vdp_model, p.vdp_mu, p.vdp_r, p.aero,
+                        p.aero_displacement, p.aero_velocity, p.friction, p.rotation,
+                        c.shape_A, c.shape_B, c.point_A, c.point_B, c.arm_length, c.frame,
+                        c.stiffness, c.preload, self.normal_force, self.slip_velocity,
+                        self.normal_gap, self.contact_state, self.relative_displacement,
+                        self.relative_velocity, self.friction_force, self.vdp_displacement,
+                        self.power, self._work, normal_force, friction_power,
+                        contact_state)  # fmt: skip
+
     def contact_energy(self) -> float:
         """Potential energy of the normal contact springs at the last evaluation [J].
 
@@ -89,6 +109,23 @@ def _kernel(t, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p_aero
     power[0] = p_noz
     power[1] = p_vdp
     power[2] = p_fric
+
+
+@_kernel_cache.njit(fastmath=False)
+def _kernel_samples(q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p_aero, aero_a,
+                    aero_b, friction, R, XA, XB, A_pt, B_pt, arm, T, kc, preload, normal, slip,
+                    gap, state, rel_u, rel_v, fric, y_vdp, power, work, normal_out,
+                    power_out, state_out):  # fmt: skip
+    """:func:`_kernel` at ``t = 0`` for every state ``q[i], v[i]`` (``(S, N, m)``), keeping
+    blade pair 0's normal force, friction power and state per contact kind."""
+    for i in range(q.shape[0]):
+        _kernel(0.0, q[i], v[i], out[i], omega, n_s, Fb, p_exc, phase, vdp_model, mu, r,
+                p_aero, aero_a, aero_b, friction, R, XA, XB, A_pt, B_pt, arm, T, kc, preload,
+                normal, slip, gap, state, rel_u, rel_v, fric, y_vdp, power, work)
+        for c in range(normal.shape[0]):
+            normal_out[i, c] = normal[c, 0]
+            power_out[i, c] = fric[c, 0, 0] * rel_v[c, 0, 0] + fric[c, 0, 1] * rel_v[c, 0, 2]
+            state_out[i, c] = state[c, 0]
 
 
 @_kernel_cache.njit(fastmath=False)

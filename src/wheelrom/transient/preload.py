@@ -135,6 +135,8 @@ def start_perturbation(model, cfg) -> np.ndarray:
         q_s = Re sum_k phi_k e^{i (theta_k + s sigma_k)},
 
     then scaled so that the largest tip displacement is ``time.perturbation`` [m]; zeros when 0.
+    ``time.perturbation_waves`` restricts the sum to the listed ``k`` (a seed of one travelling
+    wave, e.g. to follow it to its limit cycle).
 
     Why not random modal coordinates (the rule before issue #31): a standard normal on every
     Ritz vector puts most of the seed into the stiff attachment vectors of a converged basis,
@@ -148,7 +150,8 @@ def start_perturbation(model, cfg) -> np.ndarray:
     theta = np.random.default_rng(cfg.time.seed).uniform(0.0, 2 * np.pi, N)
     blades = np.arange(N)
     q = np.zeros((N, m))
-    for k in range(N):
+    waves = [k % N for k in cfg.time.perturbation_waves] or range(N)
+    for k in waves:
         phi = np.linalg.eigh(model.nd_stiffness(k))[1][:, 0]
         tip = model.tip @ phi  # (3,) complex tip displacement of blade 0
         size = np.linalg.norm(tip)

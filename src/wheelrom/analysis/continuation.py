@@ -1,0 +1,210 @@
+"""Newton (PETSc SNES) and pseudo-arclength continuation of a travelling wave's harmonic
+balance (:class:`wheelrom.analysis.harmonic_balance.WaveBalance`).
+
+The extended unknown ``z = (y, Omega, lam)``: the harmonics in units of ``x_scale`` (one per
+packed row: the mean ``c_0``, which carries the preload's static deflection, in its own units,
+the vibration harmonics in units of ``x_ref``; ``X = x_scale y``), the frequency in units of
+``omega_ref`` and the factor on the self-excitation. The equations: the balance of each
+harmonic in units of ``omega_ref^2 x_scale`` (each harmonic relative to its own size), the phase
+condition ``Im c_1[j*] = 0`` and one constraint ``a . z = b`` that picks the point: the
+pseudo-arclength condition ``t . (z - z_pred) = 0`` on a branch, ``lam = 1`` for the limit
+cycle of the configured intensity, or a fixed amplitude for the first point. One SNES (options
+prefix ``limitcycle_``, LU on a dense Jacobian, ``setFromOptions`` last) solves them all.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from wheelrom.analysis.harmonic_balance import Linearisation, WaveBalance
+from wheelrom.runtime.environment import petsc
+
+PREFIX = "limitcycle_"
+MAX_ITERATIONS = 30  # Newton iterations of one corrector solve
+ROUNDOFF = 1e-10  # reachable residual relative to the balanced terms
+
+
+@dataclass
+class Point:
+    """One solved point: ``z`` ``(n + 2,)`` scaled unknowns, ``X`` ``(2H + 1, m)`` packed
+    harmonics [sqrt(kg) m], ``omega`` [rad/s], ``lam`` [-], ``iterations`` (Newton) and the
+    force linearisation at the solution (reused by Floquet and the next tangent)."""
+
+    z: np.ndarray
+    X: np.ndarray
+    omega: float
+    lam: float
+    iterations: int
+    linearisation: Linearisation
+
+
+class Corrector:
+    """The scaled extended system of one wave and its SNES."""
+
+    def __init__(self, balance: WaveBalance, x_scale: np.ndarray, omega_ref: float,
+                 phase_index: int, comm=None, prefix: str = PREFIX):  # fmt: skip
+        PETSc = petsc()
+        self.balance, self.omega_ref = balance, omega_ref
+        self.x_scale = np.asarray(x_scale, dtype=float)[:, None]  # (2H + 1, 1)
+        self.phase_index = phase_index  # flat index of Im c_1[j*] in X
+        n = balance.size + 2
+        self.n = n
+        self.constraint = (np.zeros(n), 0.0)
+        self._cache: tuple | None = None
+        self.term_size = 0.0
+        comm = comm or PETSc.COMM_SELF
+        self.snes = PETSc.SNES().create(comm=comm)
+        self.snes.setOptionsPrefix(prefix)
+        self.J = PETSc.Mat().createDense((n, n), comm=comm)
+        self.J.setUp()
+        self.r = PETSc.Vec().createSeq(n, comm=comm)
+        self.x = PETSc.Vec().createSeq(n, comm=comm)
+        self.snes.setFunction(self._residual, self.r)
+        self.snes.setJacobian(self._jacobian, self.J, self.J)
+        self.snes.setTolerances(rtol=1e-30, atol=1e-9, stol=1e-12, max_it=MAX_ITERATIONS)
+        # plain Newton steps: the AFT residual has kinks where a time sample's contact opens
+        # or closes, across which a backtracking line search stalls; a failed solve is
+        # retried from a shorter predictor instead
+        options = PETSc.Options(prefix)
+        if not options.hasName("snes_linesearch_type"):
+            options.setValue("snes_linesearch_type", "basic")
+        self.snes.setConvergenceTest(self._converged)
+        self.snes.getKSP().setType("preonly")
+        self.snes.getKSP().getPC().setType("lu")
+        self.snes.setFromOptions()
+
+    # -------------------------------------------------------------- scaled <-> physical
+    def unpack(self, z: np.ndarray) -> tuple[np.ndarray, float, float]:
+        b = self.balance
+        X = self.x_scale * z[: b.size].reshape(2 * b.H + 1, b.modes)
+        return X, self.omega_ref * z[-2], z[-1]
+
+    def pack(self, X: np.ndarray, omega: float, lam: float) -> np.ndarray:
+        return np.concatenate([(X / self.x_scale).ravel(), [omega / self.omega_ref, lam]])
+
+    # -------------------------------------------------------------- system
+    def system(self, z: np.ndarray):
+        """``(F, J, lin)``: the scaled equations without the constraint ``(n - 1,)``, their
+        Jacobian ``(n - 1, n)`` and the force linearisation at ``z``."""
+        X, omega, lam = self.unpack(z)
+        b = self.balance
+        lin = b.linearise(X, omega, lam)
+        R, dRdX, dRdw, dRdlam = b.jacobian(X, omega, lam, lin)
+        scale = 1.0 / (self.omega_ref**2 * self.x_scale)  # (2H + 1, 1) per equation row
+        F = np.concatenate([(R * scale).ravel(), [z[self.phase_index]]])
+        # the size of the balanced terms: round-off in them (the preload's static forces,
+        # the stiff contact springs) sets the residual a Newton iteration can reach
+        self.term_size = float(np.abs(b.linear_term(X, omega, lam) * scale).max())
+        J = np.zeros((self.n - 1, self.n))
+        dRdX = dRdX * scale[:, :, None, None] * self.x_scale[None, None, :, :]
+        J[: b.size, : b.size] = dRdX.reshape(b.size, b.size)
+        J[: b.size, -2] = (dRdw * scale).ravel() * self.omega_ref
+        J[: b.size, -1] = (dRdlam * scale).ravel()
+        J[-1, self.phase_index] = 1.0
+        return F, J, lin
+
+    def _evaluate(self, z: np.ndarray):
+        if self._cache is None or not np.array_equal(self._cache[0], z):
+            self._cache = (z.copy(), *self.system(z))
+        return self._cache[1:]
+
+    def _converged(self, snes, iteration, norms):
+        """Converged when ``|F| <= atol`` or ``<= ROUNDOFF x`` the balanced terms' size;
+        diverged after ``max_it`` iterations (SNES's tolerances, settable by options)."""
+        _, fnorm = norms[1], norms[2]
+        atol, max_it = snes.getTolerances()[1], snes.getTolerances()[3]
+        if fnorm <= max(atol, ROUNDOFF * self.term_size):
+            return 3  # SNES_CONVERGED_FNORM_ABS
+        if iteration >= max_it:
+            return -5  # SNES_DIVERGED_MAX_IT
+        return 0
+
+    def _residual(self, snes, x, r) -> None:
+        z = x.getArray(readonly=True).copy()
+        F, _, _ = self._evaluate(z)
+        a, b = self.constraint
+        r.setArray(np.concatenate([F, [a @ z - b]]))
+
+    def _jacobian(self, snes, x, J, P) -> None:
+        z = x.getArray(readonly=True).copy()
+        _, Jz, _ = self._evaluate(z)
+        P.setValues(range(self.n), range(self.n), np.vstack([Jz, self.constraint[0]]))
+        P.assemble()
+
+    def solve(self, z0: np.ndarray, a: np.ndarray, b: float) -> Point | None:
+        """Newton from ``z0`` on the balance, the phase condition and ``a . z = b``; ``None``
+        when SNES does not converge (the caller shortens its step)."""
+        self.constraint = (a, b)
+        self.x.setArray(z0)
+        self.snes.solve(None, self.x)
+        if self.snes.getConvergedReason() <= 0:
+            return None
+        z = self.x.getArray().copy()
+        _, _, lin = self._evaluate(z)
+        X, omega, lam = self.unpack(z)
+        return Point(z, X, omega, lam, self.snes.getIterationNumber(), lin)
+
+    def tangent(self, z: np.ndarray, previous: np.ndarray) -> np.ndarray:
+        """Unit tangent of the branch at ``z``, oriented along ``previous``."""
+        _, Jz, _ = self._evaluate(z)
+        t = np.linalg.solve(np.vstack([Jz, previous]), np.r_[np.zeros(self.n - 1), 1.0])
+        t /= np.linalg.norm(t)
+        return t if t @ previous >= 0 else -t
+
+    def destroy(self) -> None:
+        for obj in (self.snes, self.J, self.r, self.x):
+            obj.destroy()
+
+
+@dataclass(frozen=True)
+class BranchSettings:
+    """``lam_max``: stop when the factor on the self-excitation exceeds it; ``amplitude_max``
+    [m]: stop when the tip amplitude does; ``steps``: most points; ``step``, ``step_min``,
+    ``step_max``: arclength (scaled units)."""
+
+    lam_max: float = 4.0
+    amplitude_max: float = 1e-3
+    steps: int = 120
+    step: float = 0.05
+    step_min: float = 1e-6
+    step_max: float = 20.0
+
+
+def trace(corrector: Corrector, first: Point, direction: np.ndarray, settings: BranchSettings,
+          amplitude, progress=None) -> tuple[list[Point], str]:  # fmt: skip
+    """Pseudo-arclength continuation from ``first`` along ``direction`` (scaled); returns the
+    points and why the branch ends (in words). ``amplitude(point)`` [m] (tip, 0-peak)."""
+    points = [first]
+    t = corrector.tangent(first.z, direction)
+    ds = settings.step
+    while True:
+        z = points[-1].z
+        if len(points) >= settings.steps:
+            return points, f"stopped after {settings.steps} points (limit_cycle.steps)"
+        predictor = z + ds * t
+        point = corrector.solve(predictor, t, float(t @ predictor))
+        if point is not None and np.linalg.norm(point.z - predictor) > ds:
+            point = None  # the corrector jumped (to another branch, or the trivial one)
+        if point is None:
+            ds /= 2
+            if ds < settings.step_min:
+                return points, "continuation stalled (Newton fails at the smallest step)"
+            continue
+        t = corrector.tangent(point.z, t)
+        points.append(point)
+        if progress is not None:
+            progress(point)
+        if point.iterations <= 4:
+            ds = min(settings.step_max, 1.5 * ds)
+        elif point.iterations > MAX_ITERATIONS // 3:
+            ds /= 2
+        a = amplitude(point)
+        if point.lam > settings.lam_max:
+            return points, f"intensity factor above {settings.lam_max:g} (limit_cycle.mu_max)"
+        if point.lam < 0:
+            return points, "the branch turns back below zero self-excitation"
+        if a > settings.amplitude_max:
+            return points, (f"tip amplitude above {settings.amplitude_max:.3g} m "
+                            "(limit_cycle.amplitude_max)")  # fmt: skip

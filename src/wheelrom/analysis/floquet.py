@@ -1,0 +1,125 @@
+"""Stability of a travelling-wave limit cycle: Floquet exponents by Hill's method on the
+harmonic-balance linearisation (docs/theory.md, "Limit cycles").
+
+A perturbation of the whole wheel about the wave splits, by cyclic symmetry, into Bloch
+families ``p = 0..N-1`` (blade-to-blade phase ``theta = 2 pi p / N`` on top of the wave's)::
+
+    dq_s(t) = e^{sigma t} e^{i theta s} sum_{h=-H..H} d_h e^{i h (omega t + s phi)}
+
+and for each family the Floquet exponents ``sigma`` are the eigenvalues of the Hill matrix
+(first-order form, ``w_h = (sigma + i h omega) d_h``)::
+
+    sigma [d; w] = [[-i Omega, I], [-K + J_q, -i Omega - beta_D K + J_v]] [d; w]
+
+``K = diag_h K(theta + h phi)``, ``Omega = diag_h(h omega)``, ``J_q``, ``J_v`` the Toeplitz
+blocks of the force derivatives' Fourier coefficients, each window blade ``b`` weighted by
+``e^{i b (theta + h' phi)}``. Of the ``2 m (2H + 1)`` eigenvalues, copies shifted by
+``i omega`` describe the same exponent; the ``2 m`` whose eigenvectors are centred on
+harmonic 0 are kept (the standard choice: a stiff Ritz vector far above ``H omega`` is still
+represented by its centred copy). Family ``p = 0`` (the wave's own symmetry) has the trivial
+exponent 0 of the phase shift; a cycle is stable when every other exponent has a negative
+real part. Multipliers are ``exp(sigma T)``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from wheelrom.analysis.harmonic_balance import WINDOW, Linearisation, WaveBalance
+
+#: growth rate [1/s] up to which an exponent counts as neutral (as the linear verdict)
+TOLERANCE = 1e-6
+
+
+@dataclass(frozen=True)
+class FloquetResult:
+    """``families``: the Bloch families checked (``p``); ``growth`` ``(len(families),)`` the
+    largest non-trivial Floquet exponent's real part [1/s] of each; ``multiplier``: the
+    largest non-trivial ``|exp(sigma T)|``; ``trivial``: ``|exp(sigma_0 T) - 1|`` of the
+    phase-shift exponent of family 0 (it should be ~0); ``stable``: every non-trivial growth
+    <= :data:`TOLERANCE`."""
+
+    families: np.ndarray
+    growth: np.ndarray
+    multiplier: float
+    trivial: float
+    stable: bool
+
+    @property
+    def worst_family(self) -> int:
+        return int(self.families[int(np.argmax(self.growth))])
+
+
+def hill_matrix(balance: WaveBalance, lin: Linearisation, omega: float, lam: float,
+                theta: float) -> np.ndarray:  # fmt: skip
+    """``(2 m (2H + 1), 2 m (2H + 1))`` complex Hill matrix of Bloch phase ``theta`` [rad]."""
+    b, m, H = balance, balance.modes, balance.H
+    harmonics = np.arange(-H, H + 1)
+    n = harmonics.size
+    orders = np.arange(-2 * H, 2 * H + 1)
+    basis = np.exp(-1j * np.outer(orders, b.tau)) / b.nt  # (4H + 1, n_t)
+    Jq = np.einsum("nj,wjil->wnil", basis, lin.dq)  # (3, 4H + 1, m, m)
+    Jv = np.einsum("nj,wjil->wnil", basis, lin.dv)
+    Aq = np.zeros((n, m, n, m), dtype=complex)
+    Av = np.zeros((n, m, n, m), dtype=complex)
+    for w, blade in enumerate(WINDOW):
+        weight = np.exp(1j * blade * (theta + harmonics * b.phi))  # (n,) over h'
+        difference = harmonics[:, None] - harmonics[None, :] + 2 * H  # index of h - h'
+        Aq += (Jq[w][difference] * weight[None, :, None, None]).transpose(0, 2, 1, 3)
+        Av += (Jv[w][difference] * weight[None, :, None, None]).transpose(0, 2, 1, 3)
+    K = np.zeros((n, m, n, m), dtype=complex)
+    for i, h in enumerate(harmonics):
+        phase = theta + h * b.phi
+        K[i, :, i, :] = b._wave_stiffness(phase)
+        if b.table:  # the table's displacement and velocity parts
+            p = b.params.aero
+            z = np.exp(1j * np.arange(b.blades) * phase)
+            mu = lam * b.params.vdp_mu
+            Aq[i, :, i, :] -= mu * np.sum(b.params.aero_displacement * z) * np.outer(p, p)
+            Av[i, :, i, :] -= mu * np.sum(b.params.aero_velocity * z) * np.outer(p, p)
+    size = n * m
+    K, Aq, Av = K.reshape(size, size), Aq.reshape(size, size), Av.reshape(size, size)
+    Omega = np.diag(np.repeat(harmonics * omega, m)).astype(complex)
+    return np.block([[-1j * Omega, np.eye(size)],
+                     [-K + Aq, -1j * Omega - b.beta * K + Av]])  # fmt: skip
+
+
+def exponents(balance: WaveBalance, lin: Linearisation, omega: float, lam: float,
+              theta: float) -> np.ndarray:  # fmt: skip
+    """``(2 m,)`` the Floquet exponents [1/s] of Bloch phase ``theta``: the eigenvalues of
+    the Hill matrix whose eigenvectors are centred on harmonic 0."""
+    m, H = balance.modes, balance.H
+    values, vectors = np.linalg.eig(hill_matrix(balance, lin, omega, lam, theta))
+    n = 2 * H + 1
+    d = np.abs(vectors[: n * m].reshape(n, m, -1)) ** 2
+    energy = d.sum(axis=1)  # (n, eigenvalues)
+    centroid = (np.arange(-H, H + 1)[:, None] * energy).sum(axis=0) / energy.sum(axis=0)
+    keep = np.argsort(np.abs(centroid), kind="stable")[: 2 * m]
+    return values[keep]
+
+
+def floquet(balance: WaveBalance, lin: Linearisation, omega: float, lam: float,
+            families=None) -> FloquetResult:  # fmt: skip
+    """Floquet analysis of a solved cycle; ``families``: the Bloch families ``p`` to check
+    (default: ``[0]``, the perturbations of the wave's own symmetry). Family ``N - p`` is the
+    complex conjugate of family ``p`` (a real system: the same exponents, conjugated), so each
+    pair is computed once."""
+    N = balance.blades
+    families = np.array([0] if families is None else list(families), dtype=int)
+    period = 2 * math.pi / omega
+    growth_of, trivial = {}, math.nan
+    for p in sorted({int(min(p % N, (N - p) % N)) for p in families}):
+        sigma = exponents(balance, lin, omega, lam, 2 * math.pi * p / N)
+        if p == 0:
+            # the phase shift: multiplier 1 (its exponent may be any copy, 0 or +-i omega)
+            i = int(np.argmin(np.abs(np.exp(sigma * period) - 1.0)))
+            trivial = float(abs(np.exp(sigma[i] * period) - 1.0))
+            sigma = np.delete(sigma, i)
+        growth_of[p] = float(sigma.real.max())
+    growth = np.array([growth_of[int(min(p % N, (N - p) % N))] for p in families])
+    worst = float(growth.max())
+    return FloquetResult(families, growth, math.exp(worst * period), trivial,
+                         bool(worst <= TOLERANCE))  # fmt: skip

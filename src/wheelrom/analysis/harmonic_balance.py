@@ -1,0 +1,293 @@
+"""Harmonic balance of one travelling wave of a tuned wheel, forces by alternating
+frequency-time (AFT) evaluation (docs/theory.md, "Limit cycles").
+
+Cyclic symmetry reduces the wheel to one blade: in a travelling wave of index ``k`` blade
+``s + 1`` leads blade ``s`` by ``phi = 2 pi k / N`` of a period, so with ``tau = omega t``::
+
+    q_s(tau) = c_0 + Re sum_{h=1..H} c_h exp(i h (tau + s phi))
+
+and harmonic ``h`` lives on the wave ``h k`` (mod ``N``), whose stiffness is the ND block
+``K_h = A0 + A1 e^{i h phi} + A1^T e^{-i h phi}``. The unknowns are blade 0's harmonics
+``c_0`` (real) and ``c_1..c_H`` (complex) of its ``m`` modal coordinates, the frequency
+``omega`` and the continuation parameter ``lam`` (the factor on the Van der Pol intensity
+``mu``, or on the aerodynamic table). The equations, per harmonic::
+
+    (K_h (1 + i h omega beta_D) - (h omega)^2) c_h - f_h(c, omega, lam) = 0
+
+with ``f_h`` the harmonics of the nonlinear forces on blade 0 (contacts, Van der Pol), found by
+synthesising ``n_t`` time samples of blades ``-1, 0, +1`` (blade ``b`` is blade 0 shifted by
+``b phi``), evaluating the same force law as the transient at each sample
+(:meth:`wheelrom.forces.reference.ReferenceForces.evaluate_samples` on a three-blade window) and
+transforming back; plus a phase condition ``Im c_1[j*] = 0``.
+
+The real packing of ``X`` ``(2H + 1, m)``: row 0 ``c_0``, rows ``2h - 1``, ``2h`` the real and
+imaginary parts of ``c_h``. Units: ``c`` [sqrt(kg) m], ``omega`` [rad/s], ``lam`` [-].
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from wheelrom.forces.parameters import AERO_TABLE, VDP_OFF, ForceParameters
+from wheelrom.forces.reference import ReferenceForces
+from wheelrom.rom.model import ReducedModel
+
+WINDOW = (0, 1, -1)  # the window's blades: blade 0, the next, the previous
+#: finite-difference step of the force Jacobian: this physical displacement [m] at the point of
+#: a modal coordinate that moves most (contacts or tip)
+FD_DISPLACEMENT = 1e-10
+
+
+def window_parameters(params: ForceParameters) -> ForceParameters:
+    """``params`` on a three-blade window (blade 0, +1, -1 as blades 0, 1, 2): the cyclic
+    kernel then gives blade 0 exactly the forces it has in the whole wheel (its contacts with
+    both neighbours, the relative Van der Pol force of both differences). The pair (1, 2) of
+    the window is spurious and acts on the neighbours only. The nozzle is off (the autonomous
+    problem) and an aerodynamic table is applied per harmonic instead (it couples every blade)."""
+    N = params.blades
+    pick = np.array([0, 1, N - 1])
+    c = params.contacts
+    contacts = dataclasses.replace(
+        c, frame=np.ascontiguousarray(c.frame[:, pick]),
+        stiffness=np.ascontiguousarray(c.stiffness[:, pick]),
+        angles_deg={k: np.asarray(v)[pick] for k, v in c.angles_deg.items()})  # fmt: skip
+    return dataclasses.replace(
+        params, blades=3, nozzle_force=0.0, nozzle_phase=np.zeros(3),
+        vdp_model=VDP_OFF if params.vdp_model == AERO_TABLE else params.vdp_model,
+        aero_displacement=np.zeros(3), aero_velocity=np.zeros(3), contacts=contacts)  # fmt: skip
+
+
+@dataclasses.dataclass
+class Linearisation:
+    """Force derivatives of blade 0 at the time samples: ``dq``, ``dv`` ``(3, n_t, m, m)``
+    d(force on blade 0)/d(q or q' of window blade w); ``force`` ``(n_t, m)``."""
+
+    force: np.ndarray
+    dq: np.ndarray
+    dv: np.ndarray
+
+
+class WaveBalance:
+    """The harmonic-balance residual and Jacobian of travelling wave ``wave`` (index ``k``,
+    ``0 <= k < N``) of a tuned wheel about its configuration ``params`` (force parameters with
+    the Van der Pol intensity at ``lam = 1``), ``harmonics`` ``H``, ``samples`` ``n_t`` per
+    period (at least ``2 H + 1``; ``4 H + 4`` resolves the Jacobian's harmonics for Floquet)."""
+
+    def __init__(self, model: ReducedModel, params: ForceParameters, beta: float, wave: int,
+                 harmonics: int, samples: int):  # fmt: skip
+        if not model.tuned:
+            raise ValueError("limit cycles need a tuned wheel (mistuning.* is set)")
+        if samples < 2 * harmonics + 1:
+            raise ValueError(f"limit_cycle.samples = {samples} < 2 H + 1 = {2 * harmonics + 1}")
+        self.model, self.params, self.beta = model, params, beta
+        self.blades, self.modes = model.blades, model.modes
+        self.wave, self.H, self.nt = wave % model.blades, harmonics, samples
+        self.phi = 2 * math.pi * self.wave / self.blades
+        self.window = window_parameters(params)
+        self.forces = ReferenceForces(self.window)
+        self.kinds = params.contacts.kinds
+        H, nt = harmonics, samples
+        self.tau = 2 * math.pi * np.arange(nt) / nt
+        self.h = np.arange(H + 1)
+        self.stiffness = np.stack([self._wave_stiffness(h * self.phi) for h in range(H + 1)])
+        self.E = np.stack([self._synthesis(b, False) for b in WINDOW])  # (3, nt, 2H+1)
+        self.D = np.stack([self._synthesis(b, True) for b in WINDOW])
+        P = np.zeros((2 * H + 1, nt))
+        P[0] = 1.0 / nt
+        for h in range(1, H + 1):
+            P[2 * h - 1] = 2.0 / nt * np.cos(h * self.tau)
+            P[2 * h] = -2.0 / nt * np.sin(h * self.tau)
+        self.P = P
+        moving = np.vstack([model.tip] + [np.asarray(a) for a in model.contact_A.values()]
+                           + [np.asarray(b) for b in model.contact_B.values()])  # fmt: skip
+        reach = np.abs(moving).max(axis=0)  # (m,) largest displacement per modal coordinate
+        self.fd_step = FD_DISPLACEMENT / np.maximum(reach, 1e-30)
+        self.table = params.vdp_model == AERO_TABLE
+
+    @property
+    def size(self) -> int:
+        """Real unknowns of the harmonics, ``(2 H + 1) m``."""
+        return (2 * self.H + 1) * self.modes
+
+    # ------------------------------------------------------------------ linear parts
+    def _wave_stiffness(self, phase: float) -> np.ndarray:
+        """``(m, m)`` Hermitian ``A0 + A1 e^{i phase} + A1^T e^{-i phase}`` (any real phase:
+        Floquet perturbations use ``theta + h phi``) [1/s^2]."""
+        z = np.exp(1j * phase)
+        A0, A1 = self.model.A0, self.model.A1
+        K = A0 + A1 * z + A1.T * np.conj(z)
+        return 0.5 * (K + K.conj().T)
+
+    def _synthesis(self, blade: int, derivative: bool) -> np.ndarray:
+        """``(n_t, 2H + 1)``: samples (or their d/dtau) of blade ``blade`` from packed ``X``."""
+        H = self.H
+        E = np.zeros((self.nt, 2 * H + 1))
+        if not derivative:
+            E[:, 0] = 1.0
+        for h in range(1, H + 1):
+            arg = h * (self.tau + blade * self.phi)
+            if derivative:
+                E[:, 2 * h - 1], E[:, 2 * h] = -h * np.sin(arg), -h * np.cos(arg)
+            else:
+                E[:, 2 * h - 1], E[:, 2 * h] = np.cos(arg), -np.sin(arg)
+        return E
+
+    def complex_harmonics(self, X: np.ndarray) -> np.ndarray:
+        """``(H + 1, m)`` complex ``c_h`` of packed ``X`` ``(2H + 1, m)``."""
+        c = np.zeros((self.H + 1, self.modes), dtype=complex)
+        c[0] = X[0]
+        c[1:] = X[1::2] + 1j * X[2::2]
+        return c
+
+    def packed(self, c: np.ndarray) -> np.ndarray:
+        """Packed ``X`` ``(2H + 1, m)`` of complex harmonics ``c`` ``(H + 1, m)``."""
+        X = np.zeros((2 * self.H + 1, self.modes))
+        X[0] = c[0].real
+        X[1::2], X[2::2] = c[1:].real, c[1:].imag
+        return X
+
+    def _dynamic_stiffness(self, omega: float, lam: float) -> list[np.ndarray]:
+        """``Z_h`` ``(m, m)`` complex per harmonic: stiffness, damping, inertia and the
+        aerodynamic table's per-harmonic operator (``lam`` times the table)."""
+        Z = []
+        for h in range(self.H + 1):
+            Kh = self.stiffness[h]
+            Zh = Kh * (1.0 + 1j * h * omega * self.beta) - (h * omega) ** 2 * np.eye(self.modes)
+            if self.table:
+                Zh = Zh + lam * self._table_operator(h * self.phi, h * omega)
+            Z.append(Zh)
+        return Z
+
+    def _table_operator(self, phase: float, frequency: float) -> np.ndarray:
+        """``(m, m)`` minus the aerodynamic table's generalised force per unit ``c`` on a wave
+        of blade-to-blade ``phase`` at ``frequency`` [rad/s] (``mu`` = the table factor)."""
+        p = self.params.aero
+        j = np.arange(self.blades)
+        a, b = self.params.aero_displacement, self.params.aero_velocity
+        g = np.sum((a + 1j * frequency * b) * np.exp(1j * j * phase))
+        return self.params.vdp_mu * g * np.outer(p, p)
+
+    @staticmethod
+    def _real_block(Z: np.ndarray) -> np.ndarray:
+        """The real ``(2m, 2m)`` form of complex ``Z`` acting on ``(Re c, Im c)``."""
+        return np.block([[Z.real, -Z.imag], [Z.imag, Z.real]])
+
+    def linear_term(self, X: np.ndarray, omega: float, lam: float) -> np.ndarray:
+        """``(2H + 1, m)`` packed ``Z_h c_h``."""
+        c = self.complex_harmonics(X)
+        Z = self._dynamic_stiffness(omega, lam)
+        return self.packed(np.stack([Z[h] @ c[h] for h in range(self.H + 1)]))
+
+    def wheel_state(self, X: np.ndarray, omega: float, tau: float = 0.0):
+        """``(q, v)`` ``(N, m)`` of every blade at phase ``tau`` [rad] of the cycle ``X``,
+        ``omega``: blade ``s`` is blade 0 at ``tau + s phi`` (the whole wheel's motion, to
+        start a transient on the cycle or to check it with another code)."""
+        c = self.complex_harmonics(X)
+        s = np.arange(self.blades)
+        h = np.arange(self.H + 1)
+        rotor = np.exp(1j * np.outer(tau + s * self.phi, h))  # (N, H + 1)
+        rotor[:, 0] = 1.0
+        q = (rotor @ c).real
+        v = omega * ((rotor * (1j * h)) @ c).real
+        return q, v
+
+    # ------------------------------------------------------------------ AFT
+    def samples(self, X: np.ndarray, omega: float) -> tuple[np.ndarray, np.ndarray]:
+        """``q``, ``v`` ``(n_t, 3, m)``: the window's modal displacements and velocities."""
+        q = np.einsum("wjh,hm->jwm", self.E, X)
+        v = omega * np.einsum("wjh,hm->jwm", self.D, X)
+        return np.ascontiguousarray(q), np.ascontiguousarray(v)
+
+    def _evaluate(self, q: np.ndarray, v: np.ndarray, lam: float):
+        """Forces on blade 0 ``(S, m)`` and pair-0 contact records of ``S`` window states."""
+        S, K = q.shape[0], len(self.kinds)
+        self.forces.params = self._at(lam)
+        force = np.empty((S, 3, self.modes))
+        normal, power = np.empty((S, K)), np.empty((S, K))
+        state = np.empty((S, K), dtype=np.int8)
+        self.forces.evaluate_samples(q, v, force, normal, power, state)
+        return force[:, 0], normal, power, state
+
+    def _at(self, lam: float) -> ForceParameters:
+        if getattr(self, "_lam", None) != lam:
+            self._lam = lam
+            self._window_at = dataclasses.replace(self.window, vdp_mu=lam * self.window.vdp_mu)
+        return self._window_at
+
+    def nonlinear_force(self, X: np.ndarray, omega: float, lam: float) -> np.ndarray:
+        """``(n_t, m)`` the forces on blade 0 at the samples."""
+        q, v = self.samples(X, omega)
+        return self._evaluate(q, v, lam)[0]
+
+    def residual(self, X: np.ndarray, omega: float, lam: float) -> np.ndarray:
+        """``(2H + 1, m)`` packed ``Z_h c_h - f_h``."""
+        return self.linear_term(X, omega, lam) - self.P @ self.nonlinear_force(X, omega, lam)
+
+    def linearise(self, X: np.ndarray, omega: float, lam: float) -> Linearisation:
+        """The forces at the samples and their derivatives by central differences over the
+        window's ``6 m`` inputs, all samples and perturbations in one compiled call."""
+        q, v = self.samples(X, omega)
+        m, nt = self.modes, self.nt
+        n_in = 6 * m  # (q, v) x 3 blades x m
+        steps = np.concatenate([self.fd_step, self.fd_step * max(omega, 1.0)])
+        Q = np.broadcast_to(q, (2 * n_in + 1, nt, 3, m)).copy()
+        V = np.broadcast_to(v, (2 * n_in + 1, nt, 3, m)).copy()
+        for i in range(n_in):
+            kind, rest = divmod(i, 3 * m)
+            w, j = divmod(rest, m)
+            target = Q if kind == 0 else V
+            step = steps[kind * m + j]
+            target[1 + 2 * i, :, w, j] += step
+            target[2 + 2 * i, :, w, j] -= step
+        f = self._evaluate(Q.reshape(-1, 3, m), V.reshape(-1, 3, m), lam)[0]
+        f = f.reshape(2 * n_in + 1, nt, m)
+        d = (f[1::2] - f[2::2]) / (2 * np.repeat(steps.reshape(2, 1, m), 3, axis=1)
+                                   .reshape(n_in)[:, None, None])  # fmt: skip
+        d = d.reshape(2, 3, m, nt, m).transpose(0, 1, 3, 4, 2)  # (kind, w, j, out, in)
+        return Linearisation(f[0], d[0], d[1])
+
+    def jacobian(self, X: np.ndarray, omega: float, lam: float, lin: Linearisation | None = None):
+        """``(R, dR/dX, dR/domega, dR/dlam)``: packed residual ``(2H+1, m)``, its derivative
+        ``(2H+1, m, 2H+1, m)`` and the two parameter columns ``(2H+1, m)``."""
+        lin = lin or self.linearise(X, omega, lam)
+        R = self.linear_term(X, omega, lam) - self.P @ lin.force
+        Z = self._dynamic_stiffness(omega, lam)
+        n = 2 * self.H + 1
+        dRdX = np.zeros((n, self.modes, n, self.modes))
+        dRdX[0, :, 0, :] = Z[0].real
+        for h in range(1, self.H + 1):
+            B = self._real_block(Z[h]).reshape(2, self.modes, 2, self.modes)
+            rows = slice(2 * h - 1, 2 * h + 1)
+            dRdX[rows, :, rows, :] = B.transpose(0, 1, 2, 3)
+        dRdX -= np.einsum("pj,wjil,wjh->pihl", self.P, lin.dq, self.E, optimize=True)
+        dRdX -= omega * np.einsum("pj,wjil,wjh->pihl", self.P, lin.dv, self.D, optimize=True)
+        # d/domega: the linear part analytically, the forces through the velocities
+        c = self.complex_harmonics(X)
+        dZ = [self.stiffness[h] * (1j * h * self.beta) - 2 * h * h * omega * np.eye(self.modes)
+              + (lam * self._table_derivative(h) if self.table else 0) for h in range(self.H + 1)]
+        dRdw = self.packed(np.stack([dZ[h] @ c[h] for h in range(self.H + 1)]))
+        DX = np.einsum("wjh,hm->wjm", self.D, X)
+        dRdw -= self.P @ np.einsum("wjil,wjl->ji", lin.dv, DX)
+        dRdlam = self._lambda_column(X, omega, lam)
+        return R, dRdX, dRdw, dRdlam
+
+    def _table_derivative(self, h: int) -> np.ndarray:
+        """d(table operator of harmonic ``h``)/d omega."""
+        p = self.params.aero
+        j = np.arange(self.blades)
+        g = np.sum(1j * h * self.params.aero_velocity * np.exp(1j * j * h * self.phi))
+        return self.params.vdp_mu * g * np.outer(p, p)
+
+    def _lambda_column(self, X: np.ndarray, omega: float, lam: float) -> np.ndarray:
+        """dR/dlam: the self-excitation is linear in ``lam`` (Van der Pol force and table)."""
+        if self.table:
+            c = self.complex_harmonics(X)
+            ops = [self._table_operator(h * self.phi, h * omega) for h in range(self.H + 1)]
+            return self.packed(np.stack([ops[h] @ c[h] for h in range(self.H + 1)]))
+        q, v = self.samples(X, omega)
+        f1 = self._evaluate(q, v, 1.0)[0]
+        f0 = self._evaluate(q, v, 0.0)[0]
+        return -(self.P @ (f1 - f0))

@@ -1,0 +1,418 @@
+"""Friction-held limit cycles of one case, per travelling wave: where each wave's Hopf point
+is (the factor ``lam_c`` on the self-excitation at which it crosses), the branch of periodic
+solutions from there by pseudo-arclength continuation in ``lam`` (the amplitude-dependent
+frequency and damping of the wave's nonlinear mode), the cycles at the configured intensity
+(``lam = 1``) and their Floquet stability (docs/theory.md, "Limit cycles").
+
+The autonomous problem: nozzle off, tuned wheel, around the case's preloaded equilibrium
+(:func:`wheelrom.analysis.stability.linearise`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from wheelrom.analysis.continuation import BranchSettings, Corrector, Point, trace
+from wheelrom.analysis.floquet import FloquetResult, floquet
+from wheelrom.analysis.harmonic_balance import WaveBalance
+from wheelrom.analysis.jacobian import aero_stiffness, van_der_pol_damping
+from wheelrom.analysis.stability import blade_blocks, is_circulant, linearise, nd_block
+from wheelrom.config import Config
+from wheelrom.forces.parameters import VDP_OFF, ForceParameters
+from wheelrom.rom.model import ReducedModel, nodal_diameter
+
+GROWTH_TOLERANCE = 1e-6  # [1/s] as the linear verdict
+START_AMPLITUDE = 1e-9  # [m] tip amplitude of the first cycle next to the Hopf point
+FINE_SAMPLES = 256  # time samples per period of the reported quantities
+
+
+@dataclass(frozen=True)
+class Settings:
+    """The ``[limit_cycle]`` keys (docs/usage.md)."""
+
+    harmonics: int = 7
+    samples: int = 0  # 0: 4 (H + 1)
+    waves: tuple = ()  # travelling-wave indices k (0..N-1); (): every unstable one
+    floquet: str = "cycles"  # 'cycles': every family at the cycles; 'all': also the wave's
+    # own family along the branches; 'off'
+    seeds: tuple = (1e-6, 1e-5, 1e-4, 1e-3)  # [m] tip amplitudes of the Newton starts at lam = 1
+    branch: BranchSettings = field(default_factory=BranchSettings)
+
+    @property
+    def time_samples(self) -> int:
+        return self.samples or 4 * (self.harmonics + 1)
+
+
+def settings_of(cfg: Config, waves=None) -> Settings:
+    """The :class:`Settings` of ``cfg.limit_cycle``; ``waves`` (e.g. ``--nd``) overrides
+    ``limit_cycle.waves``."""
+    lc = cfg.limit_cycle
+    branch = BranchSettings(lam_max=lc.mu_max, amplitude_max=lc.amplitude_max, steps=lc.steps)
+    return Settings(harmonics=lc.harmonics, samples=lc.samples,
+                    waves=tuple(lc.waves if waves is None else waves), floquet=lc.floquet,
+                    seeds=tuple(lc.seeds), branch=branch)  # fmt: skip
+
+
+@dataclass
+class Cycle:
+    """One periodic solution. ``lam`` [-] factor on the configured intensity; ``frequency_hz``;
+    ``harmonics`` ``(H + 1, m)`` complex ``c_h`` of blade 0 [sqrt(kg) m] (``c_0`` the mean);
+    ``tip_amplitude`` [m] 0-peak of blade 0's tip vibration; ``tip_harmonics`` ``(H,)`` [m];
+    per contact kind ``normal_force_range`` ``(K, 2)`` [N], ``fractions`` ``(K, 3)`` of the
+    period open / sticking (micro-slip) / slipping; energy per cycle and blade [J]:
+    ``energy_in`` (self-excitation), ``energy_friction`` ``(K,)`` and ``energy_damping``
+    (``beta_D``) taken out, ``energy_residual`` ``|in - out| / in``; ``damping_ratio``
+    the mechanical damping of the nonlinear mode at this amplitude; ``residual``: the
+    harmonic balance's relative residual; ``stability``: Floquet (None: not computed)."""
+
+    lam: float
+    frequency_hz: float
+    harmonics: np.ndarray
+    tip_amplitude: float
+    tip_harmonics: np.ndarray
+    normal_force_range: np.ndarray
+    fractions: np.ndarray
+    energy_in: float
+    energy_friction: np.ndarray
+    energy_damping: float
+    energy_residual: float
+    damping_ratio: float
+    residual: float
+    stability: FloquetResult | None = None
+
+    @property
+    def stable(self) -> bool | None:
+        return None if self.stability is None else self.stability.stable
+
+
+@dataclass
+class WaveBranch:
+    """The limit cycles of wave ``wave`` (blade ``s + 1`` leads by ``2 pi wave / N``):
+    ``nodal_diameter``, ``direction`` (+1 forward: the wave index is the ND, -1 backward);
+    ``critical_lam``: its Hopf point (``nan``: none up to ``mu_max``), ``hopf_hz``;
+    ``points``: the branches, ``segments`` the branch of each point (0: from the Hopf point,
+    then two per cycle found from a seed, one each way in ``lam``); ``folds``: indices of
+    turning points; ``end``: why the branch
+    ends, in words; ``cycles``: the solutions at ``lam = 1``; ``note``: why there is no branch."""
+
+    wave: int
+    nodal_diameter: int
+    direction: int
+    critical_lam: float
+    hopf_hz: float
+    points: list[Cycle] = field(default_factory=list)
+    segments: list[int] = field(default_factory=list)
+    folds: list[int] = field(default_factory=list)
+    end: str = ""
+    cycles: list[Cycle] = field(default_factory=list)
+    note: str = ""
+    wall_s: float = 0.0
+
+    def verdict(self) -> str:
+        """What the wave does at the configured intensity, in words."""
+        if self.note:
+            return self.note
+        stable = [c for c in self.cycles if c.stable is not False]
+        if not self.cycles:
+            top = max((p.tip_amplitude for p in self.points), default=0.0)
+            return f"no bounded cycle below {top * 1e6:.3g} um tip ({self.end})"
+        c = min(stable or self.cycles, key=lambda c: c.tip_amplitude)
+        words = [f"settles at {c.tip_amplitude * 1e6:.3g} um tip, {c.frequency_hz:.4g} Hz"]
+        for k, kind in enumerate(self._kinds):
+            open_, stick, slip = c.fractions[k]
+            words.append(f"{kind} open {100 * open_:.0f} %, slipping {100 * slip:.0f} %")
+        if c.stable is False:
+            words.append("unstable cycle")
+        return ", ".join(words)
+
+    _kinds: tuple = ()
+
+
+@dataclass
+class CaseLimitCycles:
+    """The limit cycles of one case: ``angles_deg``, ``equilibrium`` ``(N, m)``, ``branches``
+    (one per wave analysed), ``wall_s``."""
+
+    angles_deg: dict
+    kinds: tuple
+    equilibrium: np.ndarray
+    branches: list[WaveBranch]
+    wall_s: float
+    failure: str = ""  # why the case has no result (its equilibrium failed, ...)
+
+    def verdict(self) -> str:
+        if self.failure:
+            return f"failed: {self.failure}"
+        flutter = [b for b in self.branches if not b.note or b.cycles]
+        if not flutter:
+            return "stable"
+        worst = max(flutter, key=lambda b: max((c.tip_amplitude for c in b.cycles),
+                                               default=math.inf))  # fmt: skip
+        return f"flutters (ND {worst.nodal_diameter}): {worst.verdict()}"
+
+
+def wave_blocks(model: ReducedModel, params: ForceParameters, q: np.ndarray, J):
+    """``(B0, B1)`` ``(N, 2m, 2m)`` complex: the ND blocks of every wave ``k = 0..N-1`` of the
+    Jacobian without and per unit factor of the self-excitation."""
+    N, m = q.shape
+    zero = sp.csr_matrix((N * m, N * m))
+    J1 = sp.bmat([[zero, zero], [aero_stiffness(params, N, m), van_der_pol_damping(params, q)]],
+                 format="csr")  # fmt: skip
+    J0 = (sp.csr_matrix(J) - J1).tocsr()
+    if not (is_circulant(J0, N, m) and is_circulant(J1, N, m)):
+        raise ValueError("limit cycles need a cyclic (tuned) wheel")
+    r0, r1 = blade_blocks(J0, N, m), blade_blocks(J1, N, m)
+    return (np.stack([nd_block(r0, k) for k in range(N)]),
+            np.stack([nd_block(r1, k) for k in range(N)]))  # fmt: skip
+
+
+def _wave_mode(B0, B1, lam):
+    """``(growth, eigenvalue, vector)`` of the fastest forward mode (``Im > 0``) of one
+    wave's block at factor ``lam``."""
+    values, vectors = np.linalg.eig(B0 + lam * B1)
+    forward = np.flatnonzero(values.imag > 0)
+    i = forward[int(np.argmax(values.real[forward]))]
+    return float(values.real[i]), values[i], vectors[:, i]
+
+
+def hopf_point(B0, B1, lam_max: float, rtol: float = 1e-10) -> float:
+    """The smallest factor ``lam`` in ``[0, lam_max]`` at which the wave's fastest forward mode
+    crosses (bisection after a doubling scan); ``nan`` when it stays stable; 0 when it is
+    unstable without self-excitation."""
+    if _wave_mode(B0, B1, 0.0)[0] > GROWTH_TOLERANCE:
+        return 0.0
+    grid = np.concatenate([[0.0], lam_max * 2.0 ** np.arange(-20, 1)])
+    unstable = [_wave_mode(B0, B1, lam)[0] > 0 for lam in grid[1:]]
+    if not any(unstable):
+        return math.nan
+    first = unstable.index(True)
+    low, high = grid[first], grid[first + 1]
+    while high - low > rtol * high:
+        middle = 0.5 * (low + high)
+        low, high = (low, middle) if _wave_mode(B0, B1, middle)[0] > 0 else (middle, high)
+    return 0.5 * (low + high)
+
+
+def describe(fine: WaveBalance, X: np.ndarray, omega: float, lam: float,
+             residual: float) -> Cycle:  # fmt: skip
+    """The reported quantities of a solved cycle, on ``fine``'s time grid."""
+    q, v = fine.samples(X, omega)
+    force, normal, power, state = fine._evaluate(q, v, lam)
+    force0 = fine._evaluate(q, v, 0.0)[0]
+    period = 2 * math.pi / omega
+    c = fine.complex_harmonics(X)
+    h = np.arange(fine.H + 1)
+    if fine.table:  # linear in the harmonics: its work per cycle from them
+        ops = [fine._table_operator(k * fine.phi, k * omega) for k in h]
+        work_in = sum(0.5 * period * float(np.real(np.conj(1j * k * omega * c[k])
+                                                   @ (-lam * ops[k] @ c[k]))) for k in h[1:])
+    else:
+        work_in = float(np.mean(np.sum((force - force0) * v[:, 0], axis=1))) * period
+    friction = -power.mean(axis=0) * period  # (K,) taken out per cycle and blade
+    damping = 0.5 * period * fine.beta * sum(
+        (k * omega) ** 2 * float(np.real(np.conj(c[k]) @ fine.stiffness[k] @ c[k])) for k in h)
+    out = float(friction.sum() + damping)
+    tip = np.einsum("im,jm->ji", fine.model.tip, q[:, 0] - X[0])  # (n_t, 3)
+    tip_h = np.linalg.norm(np.abs(c[1:] @ fine.model.tip.T), axis=1)
+    kinetic = float(np.sum((h * omega) ** 2 * np.sum(np.abs(c) ** 2, axis=1)))
+    K = normal.shape[1]
+    fractions = np.array([[np.mean(state[:, k] == s) for s in range(3)] for k in range(K)])
+    return Cycle(
+        lam=float(lam), frequency_hz=omega / (2 * math.pi), harmonics=c,
+        tip_amplitude=float(np.linalg.norm(tip, axis=1).max()), tip_harmonics=tip_h,
+        normal_force_range=np.stack([normal.min(axis=0), normal.max(axis=0)], axis=1),
+        fractions=fractions, energy_in=work_in, energy_friction=friction,
+        energy_damping=float(damping),
+        energy_residual=abs(work_in - out) / max(abs(work_in), 1e-300),
+        damping_ratio=out / (2 * math.pi * kinetic) if kinetic > 0 else math.nan,
+        residual=residual)  # fmt: skip
+
+
+class WaveAnalysis:
+    """The branches of one wave: from its Hopf point, and from cycles found at ``lam = 1``
+    by Newton from a ladder of amplitudes (a branch from the Hopf point may end where a
+    contact starts to touch or lift off within the cycle, a grazing point; the large cycles
+    beyond are reached from above); the cycles at ``lam = 1`` and their Floquet stability."""
+
+    def __init__(self, model, params, beta, q_eq, blocks, settings: Settings, comm=None,
+                 progress=None):  # fmt: skip
+        self.model, self.params, self.beta, self.q_eq = model, params, beta, q_eq
+        self.B0, self.B1 = blocks
+        self.settings, self.comm, self.progress = settings, comm, progress
+
+    def run(self, wave: int) -> WaveBranch:
+        t0 = time.perf_counter()
+        N, st = self.model.blades, self.settings
+        nd = int(nodal_diameter(wave, N))
+        branch = WaveBranch(wave, nd, 1 if wave <= N // 2 else -1, math.nan, math.nan)
+        branch._kinds = self.params.contacts.kinds
+        lam_c = hopf_point(self.B0[wave], self.B1[wave], st.branch.lam_max)
+        branch.critical_lam = lam_c
+        if math.isnan(lam_c):
+            branch.note = f"stable up to {st.branch.lam_max:g} x mu (no Hopf point)"
+        elif lam_c == 0.0:
+            branch.note = "unstable without self-excitation (no Hopf point at mu >= 0)"
+        else:
+            self._branches(branch, wave, lam_c)
+        branch.wall_s = time.perf_counter() - t0
+        return branch
+
+    def _branches(self, branch: WaveBranch, wave: int, lam_c: float) -> None:
+        st, m = self.settings, self.model.modes
+        _, value, vector = _wave_mode(self.B0[wave], self.B1[wave], lam_c)
+        omega_c = float(value.imag)
+        branch.hopf_hz = omega_c / (2 * math.pi)
+        v = vector[:m]
+        v = v / np.linalg.norm(v @ self.model.tip.T)  # 1 m of tip amplitude
+        j = int(np.argmax(np.abs(v)))
+        v = v * np.exp(-1j * np.angle(v[j]))
+        balance = WaveBalance(self.model, self.params, self.beta, wave, st.harmonics,
+                              st.time_samples)  # fmt: skip
+        fine = WaveBalance(self.model, self.params, self.beta, wave, st.harmonics,
+                           max(FINE_SAMPLES, st.time_samples))  # fmt: skip
+        x_scale = np.full(2 * st.harmonics + 1, 1e-6 * float(np.abs(v).max()))  # 1 ~ 1 um
+        x_scale[0] = max(float(np.abs(self.q_eq[0]).max()), x_scale[1])  # static deflection
+        corrector = Corrector(balance, x_scale, omega_c, 2 * m + j, self.comm)
+        say = self._say(wave)
+        try:
+            amplitude_axis = np.zeros(balance.size + 2)
+            amplitude_axis[m + j] = 1.0
+            segments = []
+            first = corrector.solve(self._guess(corrector, v, START_AMPLITUDE, omega_c, lam_c),
+                                    amplitude_axis, START_AMPLITUDE / x_scale[1] * v[j].real)
+            if first is None:
+                branch.end = "Newton failed next to the Hopf point"
+            else:
+                points, branch.end = trace(corrector, first, amplitude_axis, st.branch,
+                                           self._amplitude, say)  # fmt: skip
+                segments.append(points)
+            lam_axis = np.zeros(balance.size + 2)
+            lam_axis[-1] = 1.0
+            for amplitude in st.seeds:
+                known = [self._amplitude(p) for points in segments for p in points]
+                seed = corrector.solve(self._guess(corrector, v, amplitude, omega_c, 1.0),
+                                       lam_axis, 1.0)  # fmt: skip
+                if seed is None or self._amplitude(seed) < 10 * START_AMPLITUDE or any(
+                        abs(self._amplitude(seed) - a) <= 1e-3 * a for a in known):
+                    continue
+                half = dataclasses.replace(st.branch, steps=max(2, st.branch.steps // 4))
+                for direction in (lam_axis, -lam_axis):
+                    points, _ = trace(corrector, seed, direction, half, self._amplitude, say)
+                    segments.append(points)
+            self._report(branch, corrector, balance, fine, segments)
+        finally:
+            corrector.destroy()
+
+    def _guess(self, corrector, v, amplitude, omega, lam) -> np.ndarray:
+        """The equilibrium plus the linear mode ``v`` (unit tip amplitude) at ``amplitude``
+        [m] as harmonic 1."""
+        b = corrector.balance
+        X = np.zeros((2 * b.H + 1, b.modes))
+        X[0] = self.q_eq[0]
+        X[1], X[2] = amplitude * v.real, amplitude * v.imag
+        return corrector.pack(X, omega, lam)
+
+    def _say(self, wave):
+        if self.progress is None:
+            return None
+        return lambda p: self.progress(wave, p.lam, self._amplitude(p))
+
+    def _amplitude(self, point: Point) -> float:
+        """Tip amplitude of harmonic 1 [m] (the branch's measure; the reported 0-peak comes
+        from the whole motion)."""
+        c1 = point.X[1] + 1j * point.X[2]
+        return float(np.linalg.norm(np.abs(self.model.tip @ c1)))
+
+    def _report(self, branch, corrector, balance, fine, segments: list[list[Point]]) -> None:
+        st = self.settings
+        e = np.zeros(corrector.n)
+        e[-1] = 1.0
+        found: list[Point] = []
+        for number, points in enumerate(segments):
+            lam = np.array([p.lam for p in points])
+            dlam = np.diff(lam)
+            offset = len(branch.points)
+            branch.folds += [offset + i for i in range(1, len(points) - 1)
+                             if dlam[i - 1] * dlam[i] < 0]  # fmt: skip
+            for p in points:
+                cycle = describe(fine, p.X, p.omega, p.lam, self._residual(balance, p))
+                if st.floquet == "all":
+                    cycle.stability = floquet(balance, p.linearisation, p.omega, p.lam)
+                branch.points.append(cycle)
+                branch.segments.append(number)
+            for i in np.flatnonzero((lam[:-1] - 1.0) * (lam[1:] - 1.0) <= 0):
+                if points[i].lam == 1.0 or points[i + 1].lam == 1.0:
+                    p = points[i] if points[i].lam == 1.0 else points[i + 1]
+                else:
+                    w = (1.0 - lam[i]) / (lam[i + 1] - lam[i])
+                    p = corrector.solve((1 - w) * points[i].z + w * points[i + 1].z, e, 1.0)
+                if p is not None and not any(
+                        abs(self._amplitude(p) - self._amplitude(f)) <= 1e-6 * self._amplitude(f)
+                        for f in found):  # fmt: skip
+                    found.append(p)
+        for p in sorted(found, key=self._amplitude):
+            cycle = describe(fine, p.X, p.omega, p.lam, self._residual(balance, p))
+            if st.floquet != "off":
+                cycle.stability = floquet(balance, p.linearisation, p.omega, p.lam,
+                                          range(self.model.blades))  # fmt: skip
+            branch.cycles.append(cycle)
+
+    @staticmethod
+    def _residual(balance: WaveBalance, p: Point) -> float:
+        R = balance.linear_term(p.X, p.omega, p.lam) - balance.P @ p.linearisation.force
+        scale = np.abs(balance.linear_term(p.X, p.omega, p.lam)).max()
+        return float(np.abs(R).max() / max(scale, 1e-300))
+
+
+def periodic_solution(balance: WaveBalance, X: np.ndarray, omega: float, lam: float = 1.0,
+                      comm=None) -> Point | None:  # fmt: skip
+    """Newton (SNES, prefix ``limitcycle_``) at the fixed factor ``lam`` from the guess
+    ``X`` ``(2H + 1, m)``, ``omega`` [rad/s]: the cycle, or ``None`` when Newton fails. The
+    phase is fixed on the largest component of ``c_1`` of the guess."""
+    m = balance.modes
+    c1 = X[1] + 1j * X[2]
+    j = int(np.argmax(np.abs(c1)))
+    X = balance.packed(balance.complex_harmonics(X) * np.exp(-1j * np.angle(c1[j]) *
+                                                             np.arange(balance.H + 1))[:, None])
+    x_scale = np.full(2 * balance.H + 1, float(np.abs(c1).max()))
+    x_scale[0] = max(float(np.abs(X[0]).max()), x_scale[1])
+    corrector = Corrector(balance, x_scale, omega, 2 * m + j, comm)
+    try:
+        lam_axis = np.zeros(corrector.n)
+        lam_axis[-1] = 1.0
+        return corrector.solve(corrector.pack(X, omega, lam), lam_axis, lam)
+    finally:
+        corrector.destroy()
+
+
+def case_limit_cycles(model: ReducedModel, cfg: Config, settings: Settings,
+                      angles_deg: dict | None = None, comm=None,
+                      progress=None) -> CaseLimitCycles:  # fmt: skip
+    """The limit cycles of one case (contact angles ``angles_deg``) at every wave of
+    ``settings.waves`` or, by default, every wave whose linearisation grows at ``lam = 1``.
+    ``progress(wave, lam, tip_amplitude)`` is called at every branch point."""
+    t0 = time.perf_counter()
+    if cfg.flutter.model == "off" or (cfg.flutter.model != "table" and cfg.flutter.mu <= 0):
+        raise ValueError("limit cycles need self-excitation: flutter.model = 'off' or "
+                         "flutter.mu = 0 leaves the equilibrium the only periodic state")
+    params, q, _, J, _ = linearise(model, cfg, angles_deg, comm)
+    if params.vdp_model == VDP_OFF:
+        raise ValueError("limit cycles need self-excitation (flutter.model)")
+    blocks = wave_blocks(model, params, q, J)
+    waves = list(settings.waves)
+    if not waves:
+        waves = [k for k in range(model.blades)
+                 if _wave_mode(blocks[0][k], blocks[1][k], 1.0)[0] > GROWTH_TOLERANCE]
+    analysis = WaveAnalysis(model, params, cfg.wheel.damping_beta, q, blocks, settings, comm,
+                            progress)  # fmt: skip
+    branches = [analysis.run(k) for k in waves]
+    return CaseLimitCycles(
+        angles_deg={k: float(np.atleast_1d(v)[0]) for k, v in params.contacts.angles_deg.items()},
+        kinds=params.contacts.kinds, equilibrium=q, branches=branches,
+        wall_s=time.perf_counter() - t0)  # fmt: skip

@@ -1,0 +1,94 @@
+"""``wheelrom limit-cycle``: parse, call :func:`wheelrom.studies.limit_cycles.run_limit_cycles`,
+write and format."""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+from wheelrom.cli.args import json_out, load_config
+from wheelrom.cli.output import log, print_json
+from wheelrom.runtime.errors import InputError
+from wheelrom.runtime.outputs import check_output, replacing
+
+PROGRESS_EVERY_S = 5.0  # a progress line at most this often
+
+
+def args_limit_cycle(p: argparse.ArgumentParser) -> None:
+    json_out(p)
+    p.add_argument("--out", help="write the branches and cycles to this HDF5 file")
+    p.add_argument("--nd", help="travelling waves to analyse, e.g. '33' or '5,33,61' (blade s+1 "
+                   "leads by 2 pi k / N; ND k and N-k are the two directions); default "
+                   "limit_cycle.waves, else every unstable one")  # fmt: skip
+    p.add_argument("--force", action="store_true", help="overwrite existing output files")
+
+
+def _waves(text: str | None):
+    if text is None:
+        return None
+    parts = [t.strip() for t in text.split(",") if t.strip()]
+    if not parts or not all(t.isdigit() for t in parts):
+        raise InputError(f"--nd: '{text}' is not a list of wave indices (0, 1, ...)")
+    return tuple(int(t) for t in parts)
+
+
+def cmd_limit_cycle(args: argparse.Namespace) -> int:
+    """Friction-held limit cycles per travelling wave by harmonic balance (nozzle off, tuned
+    wheel): the Hopf point of every unstable wave, the branch of periodic solutions from
+    there in the self-excitation's intensity, the cycles at the configured intensity (tip
+    amplitude, frequency, contact states, energy per cycle) and their Floquet stability.
+    Under mpirun the cases are spread over the ranks."""
+    from wheelrom.rom.build import quiet
+    from wheelrom.studies.limit_cycles import run_limit_cycles, summary
+    from wheelrom.studies.stability import world_if_parallel
+
+    cfg = load_config(args)
+    waves = _waves(args.nd)
+    if waves and any(k >= cfg.wheel.blades for k in waves):
+        raise InputError(f"--nd: waves {list(waves)} must be below wheel.blades = "
+                         f"{cfg.wheel.blades}")  # fmt: skip
+    if args.out:
+        check_output(args.out, args.force)
+    comm = world_if_parallel()
+    last = [time.monotonic()]
+
+    def progress(text: str) -> None:
+        if time.monotonic() - last[0] >= PROGRESS_EVERY_S:
+            last[0] = time.monotonic()
+            log(text)
+
+    model, cases = run_limit_cycles(cfg, comm, log=quiet if args.json else log, waves=waves,
+                                    progress=None if args.json else progress)  # fmt: skip
+    if not cases:  # ranks other than 0
+        return 0
+    if args.out:
+        import h5py
+
+        from wheelrom.results.limit_cycles import write_limit_cycles
+
+        with replacing(args.out) as partial, h5py.File(partial, "w") as f:
+            write_limit_cycles(f, cfg, model, cases)
+    rows = [summary(c) for c in cases]
+    if args.json:
+        print_json({"cases": rows})
+    else:
+        print_limit_cycles(rows)
+    return 1 if any(c.failure for c in cases) else 0
+
+
+def print_limit_cycles(rows: list[dict]) -> None:
+    """One line per case (its verdict), then one per wave analysed."""
+    for case in rows:
+        angles = ", ".join(f"{k} {v:g} deg" for k, v in case["angles_deg"].items())
+        print(f"{angles}: {case['verdict']}")
+        for w in case["waves"]:
+            direction = "forward" if w["direction"] > 0 else "backward"
+            hopf = ("" if w["critical_mu_factor"] is None else
+                    f", Hopf at {w['critical_mu_factor']:.4g} x mu, {w['hopf_hz']:.4g} Hz")
+            print(f"    wave {w['wave']} (ND {w['nodal_diameter']} {direction}{hopf}): "
+                  f"{w['verdict']}")
+            for c in w["cycles"]:
+                stable = {True: "stable", False: "unstable", None: "stability not computed"}
+                print(f"        cycle {c['tip_amplitude_m'] * 1e6:.4g} um tip, "
+                      f"{c['frequency_hz']:.5g} Hz, {stable[c['stable']]}, energy balance "
+                      f"{c['energy_residual']:.1e}")  # fmt: skip

@@ -1,0 +1,58 @@
+"""The ``[limit_cycle]`` section: harmonic balance of the travelling waves' limit cycles
+(``wheelrom limit-cycle``; docs/theory.md "Limit cycles", docs/usage.md)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from wheelrom.config.values import field_key as _key
+
+
+@dataclass(frozen=True)
+class LimitCycleConfig:
+    harmonics: int = field(
+        default=7, metadata=_key("-", "harmonics H of the harmonic balance", min=1, max=64))
+    samples: int = field(
+        default=0,
+        metadata=_key("-", "time samples per period of the AFT force evaluation; 0 = 4 (H + 1)"
+                      " (at least 2 H + 1; 4 H + 1 resolves the Floquet analysis)", min=0))
+    waves: tuple[int, ...] = field(
+        default=(),
+        metadata=_key("-", "travelling waves k (blade s+1 leads by 2 pi k / N; 0..N-1) whose "
+                      "limit cycles are computed; [] = every wave unstable at the configured "
+                      "intensity", min=0, integers=True, allow_empty=True))
+    mu_max: float = field(
+        default=4.0,
+        metadata=_key("-", "continuation stops where the factor on the self-excitation "
+                      "(flutter.mu or flutter.table_scale) exceeds this", gt=0.0))
+    amplitude_max: float = field(
+        default=1e-3,
+        metadata=_key("m", "continuation stops above this tip amplitude; 'no bounded cycle "
+                      "below' it is reported when none is found", gt=0.0))
+    steps: int = field(
+        default=120, metadata=_key("-", "most points of the branch from the Hopf point", min=2))
+    seeds: tuple[float, ...] = field(
+        default=(1e-6, 1e-5, 1e-4, 1e-3),
+        metadata=_key("m", "tip amplitudes of the Newton starts at the configured intensity "
+                      "(each cycle found is continued both ways); [] = the Hopf branch only",
+                      gt=0.0, allow_empty=True))
+    floquet: str = field(
+        default="cycles",
+        metadata=_key("-", "Floquet stability: 'cycles' (every Bloch family at the cycles of "
+                      "the configured intensity), 'all' (also the wave's own family at every "
+                      "branch point: the branch drawn stable/unstable), 'off'",
+                      choices=("all", "cycles", "off")))
+
+
+def limit_cycle_problems(cfg: Any, problems: list[str]) -> None:
+    """Cross-checks of ``[limit_cycle]`` against the wheel."""
+    lc = cfg.limit_cycle
+    if not all(isinstance(v, int) for v in (lc.samples, lc.harmonics, cfg.wheel.blades)):
+        return  # a type problem, already named
+    if lc.samples and lc.samples < 2 * lc.harmonics + 1:
+        problems.append(f"limit_cycle.samples = {lc.samples}: at least 2 H + 1 = "
+                        f"{2 * lc.harmonics + 1} samples per period are needed (0 = 4 (H + 1))")
+    bad = [k for k in lc.waves if isinstance(k, int) and k >= cfg.wheel.blades]
+    if bad:
+        problems.append(f"limit_cycle.waves: {bad} not below wheel.blades = {cfg.wheel.blades}")

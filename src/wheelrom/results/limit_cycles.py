@@ -1,0 +1,73 @@
+"""``/limit_cycle`` of a limit-cycle file (``wheelrom limit-cycle --out``; docs/output.md):
+per case and travelling wave the branch of periodic solutions and the cycles at the
+configured intensity, with blade 0's harmonics so that the motion can be rebuilt."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from wheelrom import config as config_mod
+from wheelrom.config import Config
+from wheelrom.results.layout import case_angles, write_aero_table, write_model
+from wheelrom.rom.model import ReducedModel
+
+FORMAT = "wheelrom-limit-cycle-1"
+CYCLE_FIELDS = ("lam", "frequency_hz", "tip_amplitude", "tip_harmonics", "normal_force_range",
+                "fractions", "energy_in", "energy_friction", "energy_damping",
+                "energy_residual", "damping_ratio", "residual", "harmonics")  # fmt: skip
+
+
+def write_limit_cycles(f, cfg: Config, model: ReducedModel, cases: list) -> None:
+    """The whole file from :class:`~wheelrom.analysis.limit_cycle.CaseLimitCycles` per case of
+    ``cfg``'s grid, with the configuration and ``/model``."""
+    f.attrs["format"] = FORMAT
+    f.attrs["config"] = config_mod.to_toml(cfg)
+    f.attrs["config_source"] = cfg.source
+    write_model(f.create_group("model"), model)
+    write_aero_table(f, cfg, model)
+    lc = cfg.limit_cycle
+    g = f.create_group("limit_cycle")
+    g.attrs["harmonics"] = lc.harmonics
+    g.attrs["samples"] = lc.samples or 4 * (lc.harmonics + 1)
+    g.attrs["floquet"] = lc.floquet
+    g.attrs["kinds"] = ", ".join(next((c.kinds for c in cases if c.kinds), ()))
+    g["angles_deg"] = case_angles(cfg)
+    g["angles_deg"].attrs["columns"] = "tieboss, shroud"
+    g["verdict"] = np.array([c.verdict().encode() for c in cases])
+    g["wall_s"] = np.array([c.wall_s for c in cases])
+    for i, case in enumerate(cases):
+        cg = g.create_group(f"case_{i}")
+        cg.attrs["verdict"] = case.verdict()
+        if case.equilibrium is not None:
+            cg["equilibrium"] = case.equilibrium
+        for branch in case.branches:
+            _write_branch(cg.create_group(f"wave_{branch.wave}"), branch)
+
+
+def _write_branch(g, branch) -> None:
+    for name in ("wave", "nodal_diameter", "direction", "critical_lam", "hopf_hz", "end",
+                 "note", "wall_s"):  # fmt: skip
+        g.attrs[name] = getattr(branch, name)
+    g.attrs["verdict"] = branch.verdict()
+    g["folds"] = np.array(branch.folds, dtype=np.int64)
+    if branch.points:
+        b = g.create_group("branch")
+        _write_cycles(b, branch.points)
+        b["segment"] = np.array(branch.segments, dtype=np.int64)
+    if branch.cycles:
+        c = g.create_group("cycles")
+        _write_cycles(c, branch.cycles)
+        if all(x.stability is not None for x in branch.cycles):
+            st = [x.stability for x in branch.cycles]
+            c["floquet_families"] = st[0].families
+            c["floquet_growth"] = np.array([x.growth for x in st])
+            c["floquet_multiplier"] = np.array([x.multiplier for x in st])
+            c["floquet_trivial"] = np.array([x.trivial for x in st])
+
+
+def _write_cycles(g, cycles) -> None:
+    for name in CYCLE_FIELDS:
+        g[name] = np.array([getattr(c, name) for c in cycles])
+    # 1 stable, 0 unstable, -1 not computed
+    g["stable"] = np.array([-1 if c.stable is None else int(c.stable) for c in cycles],
+                           dtype=np.int8)  # fmt: skip

@@ -1,0 +1,119 @@
+"""Limit cycles over the case grid (``wheelrom limit-cycle``): every case of the sweep's
+contact angles, every travelling wave unstable at its preloaded equilibrium (or the waves
+asked for), by harmonic balance and continuation (:mod:`wheelrom.analysis.limit_cycle`);
+cases dealt round-robin to the MPI ranks and gathered on rank 0, which writes the file.
+
+The model is built once on rank 0 and broadcast, so the results do not depend on the number
+of ranks (test: ``mpirun -n 2`` against one process).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from wheelrom.analysis.limit_cycle import CaseLimitCycles, case_limit_cycles, settings_of
+from wheelrom.config import Config
+from wheelrom.results import layout as results
+from wheelrom.rom.build import build_model
+from wheelrom.runtime.errors import InputError
+from wheelrom.studies.stability import refuse_study
+
+
+def run_limit_cycles(cfg: Config, comm=None, log=print, waves=None,
+                     progress=None) -> tuple[object, list[CaseLimitCycles]]:  # fmt: skip
+    """``(model, results)`` of every case of ``cfg``'s grid in case order on rank 0 of the
+    mpi4py ``comm`` (``None``: serial); other ranks get ``(model, [])``. ``waves``: the
+    travelling waves to analyse instead of ``limit_cycle.waves``; ``progress(text)`` (rank 0)
+    at every branch point."""
+    from wheelrom.runtime.environment import petsc, slepc
+
+    refuse_study(cfg, "limit-cycle")
+    petsc()  # PetscInitialize is collective: every rank, before rank 0 builds alone
+    slepc()
+    rank, size = (comm.rank, comm.size) if comm is not None else (0, 1)
+    say = log if rank == 0 else (lambda *_: None)
+    t0 = time.perf_counter()
+    model = build_model(cfg, petsc().COMM_SELF, log=say) if rank == 0 else None
+    if comm is not None:
+        model = comm.bcast(model)
+    if not model.tuned:
+        raise InputError("limit-cycle: the travelling-wave harmonic balance needs a tuned "
+                         "wheel; [mistuning] is set")  # fmt: skip
+    say(f"model ready in {time.perf_counter() - t0:.1f} s: {model.blades} blades x "
+        f"{model.modes} modes")  # fmt: skip
+    settings = settings_of(cfg, waves)
+    angles = results.case_angles(cfg)
+    mine = []
+    for i in range(rank, angles.shape[0], size):
+        label = (f"[{i + 1}/{angles.shape[0]}] tie-boss {angles[i][0]:g}, shroud "
+                 f"{angles[i][1]:g} deg")
+
+        def point(wave, lam, amplitude, label=label):
+            progress(f"{label}: wave {wave}, mu x {lam:.4g}, tip {amplitude * 1e6:.4g} um")
+
+        try:
+            res = case_limit_cycles(model, cfg, settings, results.angles_of(angles[i]),
+                                    progress=point if progress and rank == 0 else None)
+        except ValueError as exc:  # the configuration cannot have limit cycles: every case
+            res = str(exc)  # says so, and the command stops with that
+        except (RuntimeError, ArithmeticError, np.linalg.LinAlgError) as exc:
+            res = CaseLimitCycles(results.angles_of(angles[i]), (), None, [], 0.0,
+                                  failure=f"{type(exc).__name__}: {exc}")  # kept, named
+        mine.append((i, res))
+        if rank == 0:
+            said = res if isinstance(res, str) else f"{res.verdict()} ({res.wall_s:.1f} s)"
+            say(f"{label}: {said}")
+    gathered = comm.gather(mine, root=0) if comm is not None else [mine]
+    ordered = []
+    if rank == 0:
+        ordered = sorted((item for part in gathered for item in part), key=lambda it: it[0])
+    failed = [(i, why) for i, why in ordered if isinstance(why, str)]
+    failed = comm.bcast(failed) if comm is not None else failed
+    if failed:
+        listing = "; ".join(f"case {i}: {why}" for i, why in failed)
+        raise InputError(f"limit cycles failed for {len(failed)} case(s): {listing}"[:2000])
+    return model, [res for _, res in ordered]
+
+
+
+def summary(case: CaseLimitCycles) -> dict:
+    """One case's limit cycles as plain data (``limit-cycle --json``)."""
+    waves = []
+    for b in case.branches:
+        waves.append({
+            "wave": b.wave, "nodal_diameter": b.nodal_diameter, "direction": b.direction,
+            "critical_mu_factor": _finite_or_none(b.critical_lam),
+            "hopf_hz": _finite_or_none(b.hopf_hz), "verdict": b.verdict(),
+            "branch_points": len(b.points), "branch_end": b.end, "folds": len(b.folds),
+            "cycles": [_cycle(c, case.kinds) for c in b.cycles], "wall_s": b.wall_s,
+        })  # fmt: skip
+    return {"angles_deg": case.angles_deg, "verdict": case.verdict(), "waves": waves,
+            "wall_s": case.wall_s}  # fmt: skip
+
+
+def _cycle(c, kinds) -> dict:
+    out = {
+        "mu_factor": c.lam, "frequency_hz": c.frequency_hz, "tip_amplitude_m": c.tip_amplitude,
+        "tip_harmonics_m": [float(a) for a in c.tip_harmonics],
+        "energy_per_cycle_j": {"self_excitation": c.energy_in,
+                               "damping": c.energy_damping,
+                               **{f"friction_{k}": float(e)
+                                  for k, e in zip(kinds, c.energy_friction, strict=True)}},
+        "energy_residual": c.energy_residual, "damping_ratio": c.damping_ratio,
+        "contacts": {k: {"normal_force_min_n": float(c.normal_force_range[i, 0]),
+                         "normal_force_max_n": float(c.normal_force_range[i, 1]),
+                         "open": float(c.fractions[i, 0]), "micro_slip": float(c.fractions[i, 1]),
+                         "slip": float(c.fractions[i, 2])} for i, k in enumerate(kinds)},
+        "stable": c.stable,
+    }  # fmt: skip
+    if c.stability is not None:
+        out["floquet"] = {"largest_multiplier": c.stability.multiplier,
+                          "trivial_multiplier_error": c.stability.trivial,
+                          "worst_family": c.stability.worst_family}  # fmt: skip
+    return out
+
+
+def _finite_or_none(x: float):
+    return float(x) if np.isfinite(x) else None
