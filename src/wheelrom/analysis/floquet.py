@@ -13,11 +13,14 @@ and for each family the Floquet exponents ``sigma`` are the eigenvalues of the H
 
 ``K = diag_h K(theta + h phi)``, ``Omega = diag_h(h omega)``, ``J_q``, ``J_v`` the Toeplitz
 blocks of the force derivatives' Fourier coefficients, each window blade ``b`` weighted by
-``e^{i b (theta + h' phi)}``. Of the ``2 m (2H + 1)`` eigenvalues, copies shifted by
-``i omega`` describe the same exponent; the ``2 m`` whose eigenvectors are centred on
-harmonic 0 are kept (the standard choice: a stiff Ritz vector far above ``H omega`` is still
-represented by its centred copy). Family ``p = 0`` (the wave's own symmetry) has the trivial
-exponent 0 of the phase shift; a cycle is stable when every other exponent has a negative
+``e^{i b (theta + h' phi)}``. Harmonic ``h`` of family ``p`` lives on the wave ``p + h k``:
+the slot ``h`` of family ``p`` describes the same perturbation as slot 0 of family
+``p + h k`` (its exponent shifted by ``i h omega``). So each family keeps the ``2 m``
+eigenvalues whose eigenvectors are centred on harmonic 0, and the union over the families
+``p = 0..N-1`` is the wheel's ``2 N m`` exponents (the slots near ``+-H``, which truncation
+corrupts, are never the ones kept; a stiff Ritz vector far above ``H omega`` is represented
+too). The wave's own family ``p = k`` holds the trivial exponent of the phase shift
+(``+- i omega``: multiplier 1); a cycle is stable when every other exponent has a negative
 real part. Multipliers are ``exp(sigma T)``.
 """
 
@@ -104,22 +107,33 @@ def exponents(balance: WaveBalance, lin: Linearisation, omega: float, lam: float
 def floquet(balance: WaveBalance, lin: Linearisation, omega: float, lam: float,
             families=None) -> FloquetResult:  # fmt: skip
     """Floquet analysis of a solved cycle; ``families``: the Bloch families ``p`` to check
-    (default: ``[0]``, the perturbations of the wave's own symmetry). Family ``N - p`` is the
-    complex conjugate of family ``p`` (a real system: the same exponents, conjugated), so each
-    pair is computed once."""
-    N = balance.blades
-    families = np.array([0] if families is None else list(families), dtype=int)
+    (default: the wave's own, ``p = k``, where its amplitude and phase perturbations live).
+    Family ``N - p`` is the complex conjugate of family ``p`` (a real system: the same
+    exponents, conjugated), so each pair is computed once.
+
+    The phase shift's exponent appears in family 0 (slots ``+-1``: the real perturbation
+    ``dq/dt``) and in family ``k`` (slot 0, ``+i omega``); which of them the centring keeps
+    depends on how close the amplitude exponent is. Both families are therefore always
+    analysed, the trivial multiplier is the one closest to 1 there, and it is removed (once
+    per family) before the growth rates are taken."""
+    N, k = balance.blades, balance.wave
+    families = np.array([k] if families is None else list(families), dtype=int)
+
+    def mirror(p: int) -> int:
+        return int(min(p % N, (N - p) % N))
+
     period = 2 * math.pi / omega
-    growth_of, trivial = {}, math.nan
-    for p in sorted({int(min(p % N, (N - p) % N)) for p in families}):
-        sigma = exponents(balance, lin, omega, lam, 2 * math.pi * p / N)
-        if p == 0:
-            # the phase shift: multiplier 1 (its exponent may be any copy, 0 or +-i omega)
-            i = int(np.argmin(np.abs(np.exp(sigma * period) - 1.0)))
-            trivial = float(abs(np.exp(sigma[i] * period) - 1.0))
-            sigma = np.delete(sigma, i)
+    computed = {p: exponents(balance, lin, omega, lam, 2 * math.pi * p / N)
+                for p in sorted({mirror(p) for p in families} | {0, mirror(k)})}
+    holders = [computed[0], computed[mirror(k)]]
+    trivial = float(min(np.abs(np.exp(s * period) - 1.0).min() for s in holders))
+    growth_of = {}
+    for p, sigma in computed.items():
+        distance = np.abs(np.exp(sigma * period) - 1.0)
+        if p in (0, mirror(k)) and distance.min() <= 10 * trivial + 1e-12:
+            sigma = np.delete(sigma, int(np.argmin(distance)))
         growth_of[p] = float(sigma.real.max())
-    growth = np.array([growth_of[int(min(p % N, (N - p) % N))] for p in families])
+    growth = np.array([growth_of[mirror(p)] for p in families])
     worst = float(growth.max())
     return FloquetResult(families, growth, math.exp(worst * period), trivial,
                          bool(worst <= TOLERANCE))  # fmt: skip

@@ -37,7 +37,7 @@ class Settings:
     """The ``[limit_cycle]`` keys (docs/usage.md)."""
 
     harmonics: int = 7
-    samples: int = 0  # 0: 4 (H + 1)
+    samples: int = 0  # 0: 8 (H + 1)
     waves: tuple = ()  # travelling-wave indices k (0..N-1); (): every unstable one
     floquet: str = "cycles"  # 'cycles': every family at the cycles; 'all': also the wave's
     # own family along the branches; 'off'
@@ -46,7 +46,7 @@ class Settings:
 
     @property
     def time_samples(self) -> int:
-        return self.samples or 4 * (self.harmonics + 1)
+        return self.samples or 8 * (self.harmonics + 1)
 
 
 def settings_of(cfg: Config, waves=None) -> Settings:
@@ -67,7 +67,10 @@ class Cycle:
     per contact kind ``normal_force_range`` ``(K, 2)`` [N], ``fractions`` ``(K, 3)`` of the
     period open / sticking (micro-slip) / slipping; energy per cycle and blade [J]:
     ``energy_in`` (self-excitation), ``energy_friction`` ``(K,)`` and ``energy_damping``
-    (``beta_D``) taken out, ``energy_residual`` ``|in - out| / in``; ``damping_ratio``
+    (``beta_D``) taken out, ``energy_residual`` ``|in - out| / in`` on the harmonic
+    balance's samples (the friction dissipation against the work of the contact forces: the
+    normal forces do no work over a cycle) and ``energy_residual_fine`` on 256 samples (the
+    truncation of the harmonics shows there); ``damping_ratio``
     the mechanical damping of the nonlinear mode at this amplitude; ``residual``: the
     harmonic balance's relative residual; ``stability``: Floquet (None: not computed)."""
 
@@ -82,6 +85,7 @@ class Cycle:
     energy_friction: np.ndarray
     energy_damping: float
     energy_residual: float
+    energy_residual_fine: float
     damping_ratio: float
     residual: float
     stability: FloquetResult | None = None
@@ -199,37 +203,53 @@ def hopf_point(B0, B1, lam_max: float, rtol: float = 1e-10) -> float:
     return 0.5 * (low + high)
 
 
-def describe(fine: WaveBalance, X: np.ndarray, omega: float, lam: float,
-             residual: float) -> Cycle:  # fmt: skip
-    """The reported quantities of a solved cycle, on ``fine``'s time grid."""
-    q, v = fine.samples(X, omega)
-    force, normal, power, state = fine._evaluate(q, v, lam)
-    force0 = fine._evaluate(q, v, 0.0)[0]
+def _energies(b: WaveBalance, X: np.ndarray, omega: float, lam: float):
+    """``(work_in, friction (K,), damping, samples)`` per cycle and blade [J] on ``b``'s time
+    grid: the self-excitation's work on blade 0, the friction dissipation of one blade pair
+    per contact kind, the ``beta_D`` dissipation; ``samples``: ``(q, v, normal, state)``."""
+    q, v = b.samples(X, omega)
+    force, normal, power, state = b._evaluate(q, v, lam)
     period = 2 * math.pi / omega
-    c = fine.complex_harmonics(X)
-    h = np.arange(fine.H + 1)
-    if fine.table:  # linear in the harmonics: its work per cycle from them
-        ops = [fine._table_operator(k * fine.phi, k * omega) for k in h]
+    c = b.complex_harmonics(X)
+    h = np.arange(b.H + 1)
+    if b.table:  # linear in the harmonics: its work per cycle from them
+        ops = [b._table_operator(k * b.phi, k * omega) for k in h]
         work_in = sum(0.5 * period * float(np.real(np.conj(1j * k * omega * c[k])
                                                    @ (-lam * ops[k] @ c[k]))) for k in h[1:])
     else:
+        force0 = b._evaluate(q, v, 0.0)[0]
         work_in = float(np.mean(np.sum((force - force0) * v[:, 0], axis=1))) * period
     friction = -power.mean(axis=0) * period  # (K,) taken out per cycle and blade
-    damping = 0.5 * period * fine.beta * sum(
-        (k * omega) ** 2 * float(np.real(np.conj(c[k]) @ fine.stiffness[k] @ c[k])) for k in h)
-    out = float(friction.sum() + damping)
+    damping = 0.5 * period * b.beta * sum(
+        (k * omega) ** 2 * float(np.real(np.conj(c[k]) @ b.stiffness[k] @ c[k])) for k in h)
+    return work_in, friction, float(damping), (q, v, normal, state)
+
+
+def _balance_error(work_in: float, friction: np.ndarray, damping: float) -> float:
+    return abs(work_in - friction.sum() - damping) / max(abs(work_in), 1e-300)
+
+
+def describe(balance: WaveBalance, fine: WaveBalance, X: np.ndarray, omega: float,
+             lam: float, residual: float) -> Cycle:  # fmt: skip
+    """The reported quantities of a solved cycle, on ``fine``'s time grid; the energy balance
+    also on ``balance``'s (the harmonic balance's own samples)."""
+    work_in, friction, damping, (q, _, normal, state) = _energies(fine, X, omega, lam)
+    own = _balance_error(*_energies(balance, X, omega, lam)[:3])
+    c = fine.complex_harmonics(X)
+    h = np.arange(fine.H + 1)
     tip = np.einsum("im,jm->ji", fine.model.tip, q[:, 0] - X[0])  # (n_t, 3)
     tip_h = np.linalg.norm(np.abs(c[1:] @ fine.model.tip.T), axis=1)
     kinetic = float(np.sum((h * omega) ** 2 * np.sum(np.abs(c) ** 2, axis=1)))
     K = normal.shape[1]
     fractions = np.array([[np.mean(state[:, k] == s) for s in range(3)] for k in range(K)])
+    out = float(friction.sum() + damping)
     return Cycle(
         lam=float(lam), frequency_hz=omega / (2 * math.pi), harmonics=c,
         tip_amplitude=float(np.linalg.norm(tip, axis=1).max()), tip_harmonics=tip_h,
         normal_force_range=np.stack([normal.min(axis=0), normal.max(axis=0)], axis=1),
         fractions=fractions, energy_in=work_in, energy_friction=friction,
-        energy_damping=float(damping),
-        energy_residual=abs(work_in - out) / max(abs(work_in), 1e-300),
+        energy_damping=damping, energy_residual=own,
+        energy_residual_fine=_balance_error(work_in, friction, damping),
         damping_ratio=out / (2 * math.pi * kinetic) if kinetic > 0 else math.nan,
         residual=residual)  # fmt: skip
 
@@ -341,7 +361,7 @@ class WaveAnalysis:
             branch.folds += [offset + i for i in range(1, len(points) - 1)
                              if dlam[i - 1] * dlam[i] < 0]  # fmt: skip
             for p in points:
-                cycle = describe(fine, p.X, p.omega, p.lam, self._residual(balance, p))
+                cycle = describe(balance, fine, p.X, p.omega, p.lam, self._residual(balance, p))
                 if st.floquet == "all":
                     cycle.stability = floquet(balance, p.linearisation, p.omega, p.lam)
                 branch.points.append(cycle)
@@ -357,7 +377,7 @@ class WaveAnalysis:
                         for f in found):  # fmt: skip
                     found.append(p)
         for p in sorted(found, key=self._amplitude):
-            cycle = describe(fine, p.X, p.omega, p.lam, self._residual(balance, p))
+            cycle = describe(balance, fine, p.X, p.omega, p.lam, self._residual(balance, p))
             if st.floquet != "off":
                 cycle.stability = floquet(balance, p.linearisation, p.omega, p.lam,
                                           range(self.model.blades))  # fmt: skip

@@ -15,8 +15,9 @@ class LimitCycleConfig:
         default=7, metadata=_key("-", "harmonics H of the harmonic balance", min=1, max=64))
     samples: int = field(
         default=0,
-        metadata=_key("-", "time samples per period of the AFT force evaluation; 0 = 4 (H + 1)"
-                      " (at least 2 H + 1; 4 H + 1 resolves the Floquet analysis)", min=0))
+        metadata=_key("-", "time samples per period of the AFT force evaluation; 0 = 8 (H + 1) "
+                      "(at least 2 H + 1; 4 H + 1 resolves the Floquet analysis; a contact "
+                      "that opens within the cycle wants more)", min=0))
     waves: tuple[int, ...] = field(
         default=(),
         metadata=_key("-", "travelling waves k (blade s+1 leads by 2 pi k / N; 0..N-1) whose "
@@ -52,7 +53,7 @@ def limit_cycle_problems(cfg: Any, problems: list[str]) -> None:
         return  # a type problem, already named
     if lc.samples and lc.samples < 2 * lc.harmonics + 1:
         problems.append(f"limit_cycle.samples = {lc.samples}: at least 2 H + 1 = "
-                        f"{2 * lc.harmonics + 1} samples per period are needed (0 = 4 (H + 1))")
+                        f"{2 * lc.harmonics + 1} samples per period are needed (0 = 8 (H + 1))")
     bad = [k for k in lc.waves if isinstance(k, int) and k >= cfg.wheel.blades]
     if bad:
         problems.append(f"limit_cycle.waves: {bad} not below wheel.blades = {cfg.wheel.blades}")

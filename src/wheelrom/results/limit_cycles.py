@@ -14,7 +14,8 @@ from wheelrom.rom.model import ReducedModel
 FORMAT = "wheelrom-limit-cycle-1"
 CYCLE_FIELDS = ("lam", "frequency_hz", "tip_amplitude", "tip_harmonics", "normal_force_range",
                 "fractions", "energy_in", "energy_friction", "energy_damping",
-                "energy_residual", "damping_ratio", "residual", "harmonics")  # fmt: skip
+                "energy_residual", "energy_residual_fine", "damping_ratio", "residual",
+                "harmonics")  # fmt: skip
 
 
 def write_limit_cycles(f, cfg: Config, model: ReducedModel, cases: list) -> None:
@@ -28,7 +29,7 @@ def write_limit_cycles(f, cfg: Config, model: ReducedModel, cases: list) -> None
     lc = cfg.limit_cycle
     g = f.create_group("limit_cycle")
     g.attrs["harmonics"] = lc.harmonics
-    g.attrs["samples"] = lc.samples or 4 * (lc.harmonics + 1)
+    g.attrs["samples"] = lc.samples or 8 * (lc.harmonics + 1)
     g.attrs["floquet"] = lc.floquet
     g.attrs["kinds"] = ", ".join(next((c.kinds for c in cases if c.kinds), ()))
     g["angles_deg"] = case_angles(cfg)

@@ -101,7 +101,8 @@ def _cycle(c, kinds) -> dict:
                                "damping": c.energy_damping,
                                **{f"friction_{k}": float(e)
                                   for k, e in zip(kinds, c.energy_friction, strict=True)}},
-        "energy_residual": c.energy_residual, "damping_ratio": c.damping_ratio,
+        "energy_residual": c.energy_residual, "energy_residual_fine": c.energy_residual_fine,
+        "damping_ratio": c.damping_ratio,
         "contacts": {k: {"normal_force_min_n": float(c.normal_force_range[i, 0]),
                          "normal_force_max_n": float(c.normal_force_range[i, 1]),
                          "open": float(c.fractions[i, 0]), "micro_slip": float(c.fractions[i, 1]),

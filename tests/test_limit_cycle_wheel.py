@@ -1,0 +1,72 @@
+"""Limit cycles of the wheel (contacts on) against the transient: a second implementation (the
+compiled right-hand side in PETSc TS) started on the harmonic-balance cycle must stay on it."""
+
+import math
+
+import numpy as np
+import pytest
+
+from wheelrom.analysis.continuation import BranchSettings
+from wheelrom.analysis.harmonic_balance import WaveBalance
+from wheelrom.analysis.limit_cycle import Settings, case_limit_cycles
+from wheelrom.forces.parameters import force_parameters
+from wheelrom.transient.run import run_case
+
+ANGLES = {"tieboss": 45.0, "shroud": 80.0}
+WAVE = 7  # ND 5, backward: unstable at 80 deg on the small wheel
+
+
+@pytest.fixture(scope="module")
+def autonomous(small_cfg):
+    return small_cfg.replace(**{"excitation.force": 0.0, "time.scheme": "exponential"})
+
+
+@pytest.fixture(scope="module")
+def branch(small_model, autonomous):
+    """The first points of wave 7's branch from its Hopf point: the tie-boss closed, the shroud
+    open all the cycle (a smooth cycle: arm kinematics, micro-slip friction, Van der Pol)."""
+    settings = Settings(harmonics=5, waves=(WAVE,), seeds=(), floquet="all",
+                        branch=BranchSettings(steps=3))  # fmt: skip
+    return case_limit_cycles(small_model, autonomous, settings, ANGLES).branches[0]
+
+
+def test_the_branch_starts_at_the_linear_hopf_point(branch, small_model, autonomous):
+    """The first cycle (1 nm) sits at the wave's linear crossing: frequency of the linear mode
+    at ``lam_c`` (the eigenvalue problem, not the harmonic balance) to 1e-6."""
+    first = branch.points[0]
+    assert first.tip_amplitude == pytest.approx(1e-9, rel=1e-3)
+    assert first.lam == pytest.approx(branch.critical_lam, rel=1e-6)
+    assert first.frequency_hz == pytest.approx(branch.hopf_hz, rel=1e-6)
+    # at 1 nm the trivial multiplier is exact and the Hopf cycle is neutral
+    assert first.stability.trivial < 1e-6
+
+
+def test_a_transient_started_on_a_cycle_returns_to_it(branch, small_model, autonomous):
+    """Two periods of the transient (exponential scheme, 2000 steps per period) from the
+    cycle's state of every blade return to that state: the harmonic balance is a periodic
+    solution of the transient's equations, to 1e-6 of the vibration."""
+    cycle = branch.points[-1]
+    assert cycle.tip_amplitude > 5e-8 and np.all(cycle.fractions[:, 2] == 0)
+    cfg = autonomous.replace(**{"flutter.mu": autonomous.flutter.mu * cycle.lam})
+    params = force_parameters(small_model, cfg, ANGLES)
+    balance = WaveBalance(small_model, params, cfg.wheel.damping_beta, WAVE, 5, 48)
+    X = balance.packed(cycle.harmonics)
+    omega = 2 * math.pi * cycle.frequency_hz
+    q, v = balance.wheel_state(X, omega)
+    period, steps = 2 * math.pi / omega, 2000
+    run_cfg = cfg.replace(**{"time.step": period / steps, "time.end": 2 * period,
+                             "time.window": 2 * period, "output.history_rate_hz": 0.0,
+                             "output.sample_rate_hz": steps / period})  # fmt: skip
+    res = run_case(small_model, run_cfg, ANGLES, u0=np.concatenate([q.ravel(), v.ravel()]))
+    n = q.size
+    vibration = np.abs(q - X[0]).max()
+    assert np.abs(res.final_state[:n] - q.ravel()).max() < 1e-6 * vibration
+    assert np.abs(res.final_state[n : 2 * n] - v.ravel()).max() < 1e-6 * np.abs(v).max()
+
+
+def test_the_energy_per_cycle_balances(branch):
+    """Work of the Van der Pol force = friction + beta_D dissipation per cycle, 1e-6 of it."""
+    for cycle in branch.points[1:]:
+        assert cycle.energy_in > 0
+        assert cycle.energy_residual < 1e-6
+        assert cycle.energy_residual_fine < 1e-6
