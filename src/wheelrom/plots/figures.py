@@ -53,6 +53,10 @@ def plot_file(path: str, outdir: str | None = None, pdf: bool = False,
             from wheelrom.plots.stability import stability_figures
 
             stability_figures(f, path, outdir, pdf, written, plt)
+        if "limit_cycle" in f:
+            from wheelrom.plots.limit_cycle import limit_cycle_figures
+
+            limit_cycle_figures(f, path, outdir, pdf, written, plt)
         if study:
             from wheelrom.plots.study import study_figures
 

@@ -33,7 +33,7 @@ def run_limit_cycles(cfg: Config, comm=None, log=print, waves=None,
     petsc()  # PetscInitialize is collective: every rank, before rank 0 builds alone
     slepc()
     rank, size = (comm.rank, comm.size) if comm is not None else (0, 1)
-    say = log if rank == 0 else (lambda *_: None)
+    say = log if rank == 0 and log is not None else (lambda *_: None)
     t0 = time.perf_counter()
     model = build_model(cfg, petsc().COMM_SELF, log=say) if rank == 0 else None
     if comm is not None:

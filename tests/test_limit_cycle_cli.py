@@ -1,0 +1,81 @@
+"""``wheelrom limit-cycle``: the file holds what rebuilds the motion (a second evaluation of the
+harmonic-balance residual from the stored harmonics), the JSON and the figures; bad input
+is named before anything is computed."""
+
+import json
+import math
+
+import h5py
+import numpy as np
+import pytest
+
+from conftest import SMALL
+from wheelrom import config
+from wheelrom.analysis.harmonic_balance import WaveBalance
+from wheelrom.cli import main as cli
+from wheelrom.forces.parameters import force_parameters
+
+KEYS = ["--set", "sweep.shroud_angles_deg=[80.0]", "--set", "limit_cycle.steps=4", "--set",
+        "limit_cycle.seeds=[1e-4]", "--set", "limit_cycle.harmonics=5"]  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def limit_cycle_file(tmp_path_factory):
+    out = tmp_path_factory.mktemp("lc") / "lc.h5"
+    assert cli.main(["limit-cycle", SMALL, *KEYS, "--nd", "6", "--out", str(out)]) == 0
+    return out
+
+
+def test_the_stored_harmonics_solve_the_balance(limit_cycle_file, small_model):
+    """Every stored point, re-evaluated from its harmonics, frequency and factor with a
+    fresh harmonic balance on more samples: its residual is the truncation's, small."""
+    cfg = config.load(SMALL, overrides=["sweep.shroud_angles_deg=[80.0]"])
+    params = force_parameters(small_model, cfg, {"tieboss": 45.0, "shroud": 80.0})
+    params = params.__class__(**{**params.__dict__, "nozzle_force": 0.0})
+    with h5py.File(limit_cycle_file) as f:
+        assert f.attrs["format"] == "wheelrom-limit-cycle-1"
+        g = f["limit_cycle/case_0/wave_6"]
+        assert g.attrs["nodal_diameter"] == 6
+        cycles = g["cycles"]
+        c, lam = cycles["harmonics"][0], cycles["lam"][0]
+        assert lam == pytest.approx(1.0, abs=1e-12)
+        omega = 2 * math.pi * cycles["frequency_hz"][0]
+        tip = cycles["tip_amplitude"][0]
+    balance = WaveBalance(small_model, params, cfg.wheel.damping_beta, 6, 5, 48)
+    X = balance.packed(c)
+    R = balance.residual(X, omega, lam)
+    terms = np.abs(balance.linear_term(X, omega, lam)).max()
+    assert np.abs(R).max() < 1e-8 * terms
+    assert 5e-5 < tip < 5e-4  # the vibro-impact cycle of ND 6 (~130 um)
+
+
+def test_json_reports_the_cycle(capsys):
+    assert cli.main(["limit-cycle", SMALL, *KEYS, "--set", 'limit_cycle.floquet="off"',
+                     "--nd", "6", "--json"]) == 0  # fmt: skip
+    out = json.loads(capsys.readouterr().out)
+    wave = out["cases"][0]["waves"][0]
+    assert wave["wave"] == 6 and wave["nodal_diameter"] == 6
+    assert 0 < wave["critical_mu_factor"] < 1
+    cycle = wave["cycles"][0]
+    assert cycle["stable"] is None and cycle["mu_factor"] == pytest.approx(1.0)
+    assert set(cycle["contacts"]) == {"tieboss", "shroud"}
+    assert out["cases"][0]["verdict"].startswith("flutters (ND 6): settles at")
+
+
+def test_figures_of_a_limit_cycle_file(limit_cycle_file, tmp_path, capsys):
+    assert cli.main(["plot", str(limit_cycle_file), "--outdir", str(tmp_path)]) == 0
+    names = capsys.readouterr().out
+    assert "limit_cycle_branches_case0.png" in names and "limit_cycle_damping_case0.png" in names
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--nd", "12"], "--nd: waves [12] must be below wheel.blades = 12"),
+    (["--nd", "a,3"], "--nd: 'a,3' is not a list"),
+    (["--set", 'flutter.model="off"'], "limit cycles need self-excitation"),
+    (["--set", "limit_cycle.samples=5"], "limit_cycle.samples = 5: at least 2 H + 1"),
+])  # fmt: skip
+def test_bad_input_is_named(args, words, capsys, tmp_path):
+    out = tmp_path / "never.h5"
+    assert cli.main(["limit-cycle", SMALL, *KEYS, *args, "--out", str(out)]) == 2
+    assert words in capsys.readouterr().err
+    assert not out.exists()
