@@ -15,13 +15,15 @@ and for each family the Floquet exponents ``sigma`` are the eigenvalues of the H
 blocks of the force derivatives' Fourier coefficients, each window blade ``b`` weighted by
 ``e^{i b (theta + h' phi)}``. Harmonic ``h`` of family ``p`` lives on the wave ``p + h k``:
 the slot ``h`` of family ``p`` describes the same perturbation as slot 0 of family
-``p + h k`` (its exponent shifted by ``i h omega``). So each family keeps the ``2 m``
-eigenvalues whose eigenvectors are centred on harmonic 0, and the union over the families
-``p = 0..N-1`` is the wheel's ``2 N m`` exponents (the slots near ``+-H``, which truncation
-corrupts, are never the ones kept; a stiff Ritz vector far above ``H omega`` is represented
-too). The wave's own family ``p = k`` holds the trivial exponent of the phase shift
-(``+- i omega``: multiplier 1); a cycle is stable when every other exponent has a negative
-real part. Multipliers are ``exp(sigma T)``.
+``p + h k`` (its exponent shifted by ``i h omega``, the same real part). An eigenvector
+spread over two slots (a real perturbation of a travelling wave: slots ``h`` and ``-h``) sits
+between them, so "the ``2 m`` most centred per family" misses exponents for ``k != 0``;
+instead every eigenvalue centred within ``max(1, H / 3)`` slots of harmonic 0 is kept (copies
+included: they repeat a real part, which is all stability needs; the slots near ``+-H``,
+which truncation corrupts, are left out; a stiff Ritz vector far above ``H omega`` is
+represented by its slot-0 copy). The trivial exponent of the phase shift (multiplier 1)
+lives in family 0 and family ``k``; a cycle is stable when every other exponent has a
+negative real part. Multipliers are ``exp(sigma T)``.
 """
 
 from __future__ import annotations
@@ -92,16 +94,17 @@ def hill_matrix(balance: WaveBalance, lin: Linearisation, omega: float, lam: flo
 
 def exponents(balance: WaveBalance, lin: Linearisation, omega: float, lam: float,
               theta: float) -> np.ndarray:  # fmt: skip
-    """``(2 m,)`` the Floquet exponents [1/s] of Bloch phase ``theta``: the eigenvalues of
-    the Hill matrix whose eigenvectors are centred on harmonic 0."""
+    """The Floquet exponents [1/s] of Bloch phase ``theta``: the eigenvalues of the Hill
+    matrix whose eigenvectors are centred within ``max(1, H / 3)`` slots of harmonic 0 (copies
+    of one exponent in neighbouring slots included: they have its real part; the slots near
+    ``+-H``, which truncation corrupts, left out)."""
     m, H = balance.modes, balance.H
     values, vectors = np.linalg.eig(hill_matrix(balance, lin, omega, lam, theta))
     n = 2 * H + 1
     d = np.abs(vectors[: n * m].reshape(n, m, -1)) ** 2
     energy = d.sum(axis=1)  # (n, eigenvalues)
     centroid = (np.arange(-H, H + 1)[:, None] * energy).sum(axis=0) / energy.sum(axis=0)
-    keep = np.argsort(np.abs(centroid), kind="stable")[: 2 * m]
-    return values[keep]
+    return values[np.abs(centroid) <= max(1.0, H / 3)]
 
 
 def floquet(balance: WaveBalance, lin: Linearisation, omega: float, lam: float,
@@ -111,11 +114,11 @@ def floquet(balance: WaveBalance, lin: Linearisation, omega: float, lam: float,
     Family ``N - p`` is the complex conjugate of family ``p`` (a real system: the same
     exponents, conjugated), so each pair is computed once.
 
-    The phase shift's exponent appears in family 0 (slots ``+-1``: the real perturbation
-    ``dq/dt``) and in family ``k`` (slot 0, ``+i omega``); which of them the centring keeps
-    depends on how close the amplitude exponent is. Both families are therefore always
-    analysed, the trivial multiplier is the one closest to 1 there, and it is removed (once
-    per family) before the growth rates are taken."""
+    The phase shift's exponent (multiplier 1) appears in family 0 (slots ``+-1``: the real
+    perturbation ``dq/dt``) and in family ``k`` (slot 0, ``+i omega``) and their copies; both
+    families are always analysed, ``trivial`` is the distance to 1 of the multiplier closest
+    to it there, and every copy within ten times that distance is removed before the growth
+    rates are taken."""
     N, k = balance.blades, balance.wave
     families = np.array([k] if families is None else list(families), dtype=int)
 
@@ -125,14 +128,12 @@ def floquet(balance: WaveBalance, lin: Linearisation, omega: float, lam: float,
     period = 2 * math.pi / omega
     computed = {p: exponents(balance, lin, omega, lam, 2 * math.pi * p / N)
                 for p in sorted({mirror(p) for p in families} | {0, mirror(k)})}
-    holders = [computed[0], computed[mirror(k)]]
-    trivial = float(min(np.abs(np.exp(s * period) - 1.0).min() for s in holders))
+    distance = {p: np.abs(np.exp(sigma * period) - 1.0) for p, sigma in computed.items()}
+    trivial = float(min(distance[p].min(initial=math.inf) for p in (0, mirror(k))))
     growth_of = {}
     for p, sigma in computed.items():
-        distance = np.abs(np.exp(sigma * period) - 1.0)
-        if p in (0, mirror(k)) and distance.min() <= 10 * trivial + 1e-12:
-            sigma = np.delete(sigma, int(np.argmin(distance)))
-        growth_of[p] = float(sigma.real.max())
+        rest = sigma[distance[p] > 10 * trivial + 1e-12]
+        growth_of[p] = float(rest.real.max()) if rest.size else -math.inf
     growth = np.array([growth_of[mirror(p)] for p in families])
     worst = float(growth.max())
     return FloquetResult(families, growth, math.exp(worst * period), trivial,

@@ -28,6 +28,7 @@ from wheelrom.forces.parameters import VDP_OFF, ForceParameters
 from wheelrom.rom.model import ReducedModel, nodal_diameter
 
 GROWTH_TOLERANCE = 1e-6  # [1/s] as the linear verdict
+FASTEST = -1  # in Settings.waves: the wave growing fastest at the configured intensity
 START_AMPLITUDE = 1e-9  # [m] tip amplitude of the first cycle next to the Hopf point
 FINE_SAMPLES = 256  # time samples per period of the reported quantities
 
@@ -425,10 +426,14 @@ def case_limit_cycles(model: ReducedModel, cfg: Config, settings: Settings,
     if params.vdp_model == VDP_OFF:
         raise ValueError("limit cycles need self-excitation (flutter.model)")
     blocks = wave_blocks(model, params, q, J)
-    waves = list(settings.waves)
-    if not waves:
-        waves = [k for k in range(model.blades)
-                 if _wave_mode(blocks[0][k], blocks[1][k], 1.0)[0] > GROWTH_TOLERANCE]
+    growth = np.array([_wave_mode(blocks[0][k], blocks[1][k], 1.0)[0]
+                       for k in range(model.blades)])  # fmt: skip
+    waves = [k for k in settings.waves if k != FASTEST]
+    if FASTEST in settings.waves and growth.max() > GROWTH_TOLERANCE:
+        waves.append(int(np.argmax(growth)))
+    if not settings.waves:
+        waves = [int(k) for k in np.flatnonzero(growth > GROWTH_TOLERANCE)]
+    waves = sorted(set(waves))
     analysis = WaveAnalysis(model, params, cfg.wheel.damping_beta, q, blocks, settings, comm,
                             progress)  # fmt: skip
     branches = [analysis.run(k) for k in waves]

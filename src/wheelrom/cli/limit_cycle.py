@@ -18,14 +18,19 @@ def args_limit_cycle(p: argparse.ArgumentParser) -> None:
     json_out(p)
     p.add_argument("--out", help="write the branches and cycles to this HDF5 file")
     p.add_argument("--nd", help="travelling waves to analyse, e.g. '33' or '5,33,61' (blade s+1 "
-                   "leads by 2 pi k / N; ND k and N-k are the two directions); default "
-                   "limit_cycle.waves, else every unstable one")  # fmt: skip
+                   "leads by 2 pi k / N; ND k and N-k are the two directions), or 'fastest' "
+                   "(the fastest-growing wave of each case); default limit_cycle.waves, else "
+                   "every unstable one")  # fmt: skip
     p.add_argument("--force", action="store_true", help="overwrite existing output files")
 
 
 def _waves(text: str | None):
     if text is None:
         return None
+    if text.strip() == "fastest":
+        from wheelrom.analysis.limit_cycle import FASTEST
+
+        return (FASTEST,)
     parts = [t.strip() for t in text.split(",") if t.strip()]
     if not parts or not all(t.isdigit() for t in parts):
         raise InputError(f"--nd: '{text}' is not a list of wave indices (0, 1, ...)")
@@ -44,7 +49,7 @@ def cmd_limit_cycle(args: argparse.Namespace) -> int:
 
     cfg = load_config(args)
     waves = _waves(args.nd)
-    if waves and any(k >= cfg.wheel.blades for k in waves):
+    if waves and any(k >= cfg.wheel.blades for k in waves):  # fmt: skip
         raise InputError(f"--nd: waves {list(waves)} must be below wheel.blades = "
                          f"{cfg.wheel.blades}")  # fmt: skip
     if args.out:

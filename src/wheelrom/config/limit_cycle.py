@@ -21,8 +21,9 @@ class LimitCycleConfig:
     waves: tuple[int, ...] = field(
         default=(),
         metadata=_key("-", "travelling waves k (blade s+1 leads by 2 pi k / N; 0..N-1) whose "
-                      "limit cycles are computed; [] = every wave unstable at the configured "
-                      "intensity", min=0, integers=True, allow_empty=True))
+                      "limit cycles are computed, -1 = the fastest-growing one; [] = every wave "
+                      "unstable at the configured intensity", min=-1, integers=True,
+                      allow_empty=True))
     mu_max: float = field(
         default=4.0,
         metadata=_key("-", "continuation stops where the factor on the self-excitation "
