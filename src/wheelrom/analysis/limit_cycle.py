@@ -177,9 +177,9 @@ def wave_blocks(model: ReducedModel, params: ForceParameters, q: np.ndarray, J):
             np.stack([nd_block(r1, k) for k in range(N)]))  # fmt: skip
 
 
-def _wave_mode(B0, B1, lam):
-    """``(growth, eigenvalue, vector)`` of the fastest forward mode (``Im > 0``) of one
-    wave's block at factor ``lam``."""
+def wave_mode(B0, B1, lam):
+    """``(growth [1/s], eigenvalue, vector)`` of the fastest forward mode (``Im > 0``) of one
+    wave's block ``B0 + lam B1`` (:func:`wave_blocks`) at factor ``lam``."""
     values, vectors = np.linalg.eig(B0 + lam * B1)
     forward = np.flatnonzero(values.imag > 0)
     i = forward[int(np.argmax(values.real[forward]))]
@@ -190,17 +190,17 @@ def hopf_point(B0, B1, lam_max: float, rtol: float = 1e-10) -> float:
     """The smallest factor ``lam`` in ``[0, lam_max]`` at which the wave's fastest forward mode
     crosses (bisection after a doubling scan); ``nan`` when it stays stable; 0 when it is
     unstable without self-excitation."""
-    if _wave_mode(B0, B1, 0.0)[0] > GROWTH_TOLERANCE:
+    if wave_mode(B0, B1, 0.0)[0] > GROWTH_TOLERANCE:
         return 0.0
     grid = np.concatenate([[0.0], lam_max * 2.0 ** np.arange(-20, 1)])
-    unstable = [_wave_mode(B0, B1, lam)[0] > 0 for lam in grid[1:]]
+    unstable = [wave_mode(B0, B1, lam)[0] > 0 for lam in grid[1:]]
     if not any(unstable):
         return math.nan
     first = unstable.index(True)
     low, high = grid[first], grid[first + 1]
     while high - low > rtol * high:
         middle = 0.5 * (low + high)
-        low, high = (low, middle) if _wave_mode(B0, B1, middle)[0] > 0 else (middle, high)
+        low, high = (low, middle) if wave_mode(B0, B1, middle)[0] > 0 else (middle, high)
     return 0.5 * (low + high)
 
 
@@ -286,7 +286,7 @@ class WaveAnalysis:
 
     def _branches(self, branch: WaveBranch, wave: int, lam_c: float) -> None:
         st, m = self.settings, self.model.modes
-        _, value, vector = _wave_mode(self.B0[wave], self.B1[wave], lam_c)
+        _, value, vector = wave_mode(self.B0[wave], self.B1[wave], lam_c)
         omega_c = float(value.imag)
         branch.hopf_hz = omega_c / (2 * math.pi)
         v = vector[:m]
@@ -426,7 +426,7 @@ def case_limit_cycles(model: ReducedModel, cfg: Config, settings: Settings,
     if params.vdp_model == VDP_OFF:
         raise ValueError("limit cycles need self-excitation (flutter.model)")
     blocks = wave_blocks(model, params, q, J)
-    growth = np.array([_wave_mode(blocks[0][k], blocks[1][k], 1.0)[0]
+    growth = np.array([wave_mode(blocks[0][k], blocks[1][k], 1.0)[0]
                        for k in range(model.blades)])  # fmt: skip
     waves = [k for k in settings.waves if k != FASTEST]
     if FASTEST in settings.waves and growth.max() > GROWTH_TOLERANCE:

@@ -40,6 +40,7 @@ Figures (all on the configuration's reduced model, single core):
   run takes more than ``SCIPY_BUDGET`` times ours (``ratio_vs_scipy_is_lower_bound``: on the
   attachment basis RK23's step is bounded by the 69 kHz vector and the exponential scheme's
   accuracy needs an rtol that runs for many minutes).
+- ``limit_cycle_*`` (issue #30): :mod:`wheelrom.bench.limit_cycle`.
 - ``rk_*`` and ``configured_*`` (issue #31): RK 3bs at ``RK_STEP`` (the paper's scheme) and
   the configured scheme and step (default: the exponential scheme), both from the preloaded
   equilibrium with a 1 nm seed: ``*_tip_error`` after 20.16 ms against RK 5dp at 0.75 us
@@ -395,6 +396,7 @@ def _work(steps: int, compare_steps: int, batch: int) -> dict:
         "scipy solve_ivp": 20 * compare_steps,
         "linear stability of the configured angles": 30000,
         "RK and the exponential scheme from the preloaded equilibrium": 40000,
+        "limit cycles (harmonic balance)": 30000,
     }
 
 
@@ -425,6 +427,9 @@ def run(model: ReducedModel, cfg: Config, steps: int = 20000, compare_steps: int
                       res, steps * h, say)  # fmt: skip
     stability = group(next(groups), _stability_figures, model, cfg)
     schemes = group(next(groups), _scheme_figures, model, cfg, h, say)
+    from wheelrom.bench.limit_cycle import limit_cycle_figures
+
+    cycles = group(next(groups), limit_cycle_figures, model, cfg, say)
     return {
         "blades": model.blades,
         "modes": model.modes,
@@ -437,6 +442,7 @@ def run(model: ReducedModel, cfg: Config, steps: int = 20000, compare_steps: int
         **scipy_cmp,
         **stability,
         **schemes,
+        **cycles,
     }
 
 
@@ -472,7 +478,7 @@ def _scheme_figures(model: ReducedModel, cfg: Config, h: float, say) -> dict:
         figures[f"{name}_tip_error"] = error
         figures[f"{name}_s_per_simulated_s"] = res.wall_s / end
         figures[f"{name}_energy_balance"] = res.energy_balance_error()
-        say(f"{name} ({figures[f'{name}_scheme']}): step {res.options['ts_dt']:.3g} s, tip "
+        say(f"{name} ({figures[f'{name}_scheme']}): step {figures[f'{name}_step_s']:.3g} s, tip "
             f"error {error:.2e}, {res.wall_s / end:.2f} s per simulated s")  # fmt: skip
     figures["speedup_vs_rk"] = (figures["rk_s_per_simulated_s"]
                                 / figures["configured_s_per_simulated_s"])  # fmt: skip

@@ -1,0 +1,102 @@
+"""``bench``'s limit-cycle figures (issue #30): at the configured sweep's fastest-growing case,
+one limit cycle of its fastest wave (equilibrium, Hopf point and Newton at the configured
+intensity from the linear mode), the whole default branch analysis of that wave, and the
+Floquet analysis of every Bloch family at the cycle.
+
+- ``limit_cycle_s_per_case``: one cycle, including the preloaded equilibrium [s];
+- ``limit_cycle_branch_s``: ``wheelrom limit-cycle --nd fastest`` of that case without
+  Floquet (the branch from the Hopf point and from the seeds) [s];
+- ``limit_cycle_floquet_s``: every Bloch family at the cycle [s];
+- ``limit_cycle_case``: the shroud angle, wave, harmonics, samples, tip amplitude and
+  Newton iterations of that cycle.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+
+import numpy as np
+
+from wheelrom.analysis.floquet import floquet
+from wheelrom.analysis.harmonic_balance import WaveBalance
+from wheelrom.analysis.limit_cycle import (
+    FASTEST,
+    case_limit_cycles,
+    hopf_point,
+    periodic_solution,
+    settings_of,
+    wave_blocks,
+    wave_mode,
+)
+from wheelrom.analysis.stability import linearise
+from wheelrom.config import Config
+from wheelrom.results.layout import angles_of, case_angles
+from wheelrom.rom.model import ReducedModel
+
+SEED = 1e-5  # [m] tip amplitude of the first Newton start (then limit_cycle.seeds outwards)
+
+
+def limit_cycle_figures(model: ReducedModel, cfg: Config, say) -> dict:
+    if not model.tuned or cfg.flutter.model == "off":
+        return {"limit_cycle_s_per_case": None}
+    angles = case_angles(cfg)
+    growth = []
+    for row in angles:
+        params, q, _, J, _ = linearise(model, cfg, angles_of(row))
+        B0, B1 = wave_blocks(model, params, q, J)
+        growth.append(max(wave_mode(B0[k], B1[k], 1.0)[0] for k in range(model.blades)))
+    if max(growth) <= 0:
+        return {"limit_cycle_s_per_case": None}
+    case = angles_of(angles[int(np.argmax(growth))])
+    settings = settings_of(cfg)
+    t0 = time.perf_counter()
+    point, balance, wave = _one_cycle(model, cfg, case, settings)
+    one = time.perf_counter() - t0
+    if point is None:
+        return {"limit_cycle_s_per_case": None}
+    t0 = time.perf_counter()
+    floquet(balance, point.linearisation, point.omega, 1.0, range(model.blades))
+    floquet_s = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    quiet = dataclasses.replace(settings, waves=(FASTEST,), floquet="off")
+    case_limit_cycles(model, cfg, quiet, case)
+    branch_s = time.perf_counter() - t0
+    c1 = point.X[1] + 1j * point.X[2]
+    tip = float(np.linalg.norm(np.abs(model.tip @ c1)))
+    say(f"limit cycle: shroud {case.get('shroud', math.nan):g} deg, wave {wave}: one cycle "
+        f"{one:.2f} s ({point.iterations} Newton iterations, {tip * 1e6:.3g} um), branch "
+        f"{branch_s:.1f} s, Floquet {floquet_s:.1f} s")  # fmt: skip
+    return {
+        "limit_cycle_s_per_case": one,
+        "limit_cycle_branch_s": branch_s,
+        "limit_cycle_floquet_s": floquet_s,
+        "limit_cycle_case": {"angles_deg": case, "wave": wave, "harmonics": settings.harmonics,
+                             "samples": settings.time_samples, "tip_amplitude_m": tip,
+                             "newton_iterations": point.iterations},
+    }  # fmt: skip
+
+
+def _one_cycle(model, cfg, case, settings):
+    """The equilibrium, the fastest wave's Hopf point and its cycle at the configured intensity
+    by Newton from the linear mode at the seeds nearest :data:`SEED` first (what one limit
+    cycle costs, failed starts included)."""
+    params, q, _, J, _ = linearise(model, cfg, case)
+    params = dataclasses.replace(params, nozzle_force=0.0)
+    B0, B1 = wave_blocks(model, params, q, J)
+    wave = int(np.argmax([wave_mode(B0[k], B1[k], 1.0)[0] for k in range(model.blades)]))
+    lam_c = hopf_point(B0[wave], B1[wave], settings.branch.lam_max)
+    _, value, vector = wave_mode(B0[wave], B1[wave], lam_c if lam_c > 0 else 1.0)
+    v = vector[: model.modes]
+    v = v / np.linalg.norm(v @ model.tip.T)
+    balance = WaveBalance(model, params, cfg.wheel.damping_beta, wave, settings.harmonics,
+                          settings.time_samples)  # fmt: skip
+    X = np.zeros((2 * settings.harmonics + 1, model.modes))
+    X[0] = q[0]
+    for seed in sorted(settings.seeds, key=lambda a: abs(math.log(a / SEED))):
+        X[1], X[2] = seed * v.real, seed * v.imag
+        point = periodic_solution(balance, X, float(value.imag), 1.0)
+        if point is not None and np.abs(point.X[1:3]).max() > 1e-3 * np.abs(X[1:3]).max():
+            return point, balance, wave  # converged, and not onto the trivial solution
+    return None, balance, wave
