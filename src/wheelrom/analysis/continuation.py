@@ -24,6 +24,7 @@ from wheelrom.runtime.environment import petsc
 PREFIX = "limitcycle_"
 MAX_ITERATIONS = 30  # Newton iterations of one corrector solve
 ROUNDOFF = 1e-10  # reachable residual relative to the balanced terms
+FREQUENCY_RANGE = 2.0  # solutions beyond this factor off the Hopf frequency are rejected
 
 
 @dataclass
@@ -146,6 +147,13 @@ class Corrector:
         X, omega, lam = self.unpack(z)
         return Point(z, X, omega, lam, self.snes.getIterationNumber(), lin)
 
+    def plausible(self, point: Point) -> bool:
+        """Whether a solution's frequency is within a factor :data:`FREQUENCY_RANGE` of the
+        reference: far below it, the same motion is written as a high harmonic of a slow
+        fundamental (a spurious solution of the truncated balance)."""
+        ratio = point.omega / self.omega_ref
+        return 1 / FREQUENCY_RANGE <= ratio <= FREQUENCY_RANGE
+
     def tangent(self, z: np.ndarray, previous: np.ndarray) -> np.ndarray:
         """Unit tangent of the branch at ``z``, oriented along ``previous``."""
         _, Jz, _ = self._evaluate(z)
@@ -185,7 +193,8 @@ def trace(corrector: Corrector, first: Point, direction: np.ndarray, settings: B
             return points, f"stopped after {settings.steps} points (limit_cycle.steps)"
         predictor = z + ds * t
         point = corrector.solve(predictor, t, float(t @ predictor))
-        if point is not None and np.linalg.norm(point.z - predictor) > ds:
+        if point is not None and (np.linalg.norm(point.z - predictor) > ds
+                                  or not corrector.plausible(point)):  # fmt: skip
             point = None  # the corrector jumped (to another branch, or the trivial one)
         if point is None:
             ds /= 2

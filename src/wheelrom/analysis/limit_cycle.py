@@ -123,17 +123,24 @@ class WaveBranch:
         """What the wave does at the configured intensity, in words."""
         if self.note:
             return self.note
-        stable = [c for c in self.cycles if c.stable is not False]
         if not self.cycles:
             top = max((p.tip_amplitude for p in self.points), default=0.0)
             return f"no bounded cycle below {top * 1e6:.3g} um tip ({self.end})"
+        stable = [c for c in self.cycles if c.stable]
         c = min(stable or self.cycles, key=lambda c: c.tip_amplitude)
-        words = [f"settles at {c.tip_amplitude * 1e6:.3g} um tip, {c.frequency_hz:.4g} Hz"]
+        lead = "settles at" if c.stable else "limit cycle at"
+        words = [f"{lead} {c.tip_amplitude * 1e6:.3g} um tip, {c.frequency_hz:.4g} Hz"]
         for k, kind in enumerate(self._kinds):
-            open_, stick, slip = c.fractions[k]
-            words.append(f"{kind} open {100 * open_:.0f} %, slipping {100 * slip:.0f} %")
-        if c.stable is False:
-            words.append("unstable cycle")
+            open_, _, slip = c.fractions[k]
+            words.append(f"{kind} open {100 * open_:.0f} %"
+                         + (f", slipping {100 * slip:.0f} %" if slip > 0 else ""))  # fmt: skip
+        if c.stable is None:
+            words.append("stability not computed")
+        elif not c.stable:
+            st = c.stability
+            words.append(f"unstable (Floquet: family {st.worst_family} grows at "
+                         f"{st.growth.max():.3g} /s; the flutter does not settle on this wave "
+                         "alone)")  # fmt: skip
         return ", ".join(words)
 
     _kinds: tuple = ()
@@ -319,7 +326,8 @@ class WaveAnalysis:
                 known = [self._amplitude(p) for points in segments for p in points]
                 seed = corrector.solve(self._guess(corrector, v, amplitude, omega_c, 1.0),
                                        lam_axis, 1.0)  # fmt: skip
-                if seed is None or self._amplitude(seed) < 10 * START_AMPLITUDE or any(
+                if seed is None or not corrector.plausible(seed) or \
+                        self._amplitude(seed) < 10 * START_AMPLITUDE or any(
                         abs(self._amplitude(seed) - a) <= 1e-3 * a for a in known):
                     continue
                 half = dataclasses.replace(st.branch, steps=max(2, st.branch.steps // 4))
@@ -373,7 +381,7 @@ class WaveAnalysis:
                 else:
                     w = (1.0 - lam[i]) / (lam[i + 1] - lam[i])
                     p = corrector.solve((1 - w) * points[i].z + w * points[i + 1].z, e, 1.0)
-                if p is not None and not any(
+                if p is not None and corrector.plausible(p) and not any(
                         abs(self._amplitude(p) - self._amplitude(f)) <= 1e-6 * self._amplitude(f)
                         for f in found):  # fmt: skip
                     found.append(p)
