@@ -93,7 +93,10 @@ class Cycle:
 
     @property
     def stable(self) -> bool | None:
-        return None if self.stability is None else self.stability.stable
+        """Floquet's verdict; None when not computed or not trusted (:attr:`FloquetResult.
+        trusted`: the phase-shift multiplier is not 1 to 1e-3)."""
+        st = self.stability
+        return None if st is None or not st.trusted else st.stable
 
 
 @dataclass
@@ -134,8 +137,11 @@ class WaveBranch:
             open_, _, slip = c.fractions[k]
             words.append(f"{kind} open {100 * open_:.0f} %"
                          + (f", slipping {100 * slip:.0f} %" if slip > 0 else ""))  # fmt: skip
-        if c.stable is None:
+        if c.stability is None:
             words.append("stability not computed")
+        elif c.stable is None:
+            words.append(f"stability uncertain (Hill's method on a cycle with contacts opening: "
+                         f"the phase-shift multiplier is off 1 by {c.stability.trivial:.1e})")
         elif not c.stable:
             st = c.stability
             words.append(f"unstable (Floquet: family {st.worst_family} grows at "

@@ -93,7 +93,9 @@ def print_limit_cycles(rows: list[dict]) -> None:
             print(f"    wave {w['wave']} (ND {w['nodal_diameter']} {direction}{hopf}): "
                   f"{w['verdict']}")
             for c in w["cycles"]:
-                stable = {True: "stable", False: "unstable", None: "stability not computed"}
+                stable = {True: "stable", False: "unstable",
+                          None: "stability uncertain" if "floquet" in c else
+                          "stability not computed"}[c["stable"]]  # fmt: skip
                 print(f"        cycle {c['tip_amplitude_m'] * 1e6:.4g} um tip, "
-                      f"{c['frequency_hz']:.5g} Hz, {stable[c['stable']]}, energy balance "
+                      f"{c['frequency_hz']:.5g} Hz, {stable}, energy balance "
                       f"{c['energy_residual']:.1e}")  # fmt: skip

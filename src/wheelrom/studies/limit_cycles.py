@@ -112,6 +112,7 @@ def _cycle(c, kinds) -> dict:
     if c.stability is not None:
         out["floquet"] = {"largest_multiplier": c.stability.multiplier,
                           "trivial_multiplier_error": c.stability.trivial,
+                          "trusted": c.stability.trusted,
                           "worst_family": c.stability.worst_family}  # fmt: skip
     return out
 
