@@ -31,6 +31,7 @@ GROWTH_TOLERANCE = 1e-6  # [1/s] as the linear verdict
 FASTEST = -1  # in Settings.waves: the wave growing fastest at the configured intensity
 START_AMPLITUDE = 1e-9  # [m] tip amplitude of the first cycle next to the Hopf point
 FINE_SAMPLES = 256  # time samples per period of the reported quantities
+SEED_HARMONICS = 3  # harmonics of the first Newton solve of a seed that fails with H
 
 
 @dataclass(frozen=True)
@@ -330,19 +331,41 @@ class WaveAnalysis:
             lam_axis[-1] = 1.0
             for amplitude in st.seeds:
                 known = [self._amplitude(p) for points in segments for p in points]
-                seed = corrector.solve(self._guess(corrector, v, amplitude, omega_c, 1.0),
-                                       lam_axis, 1.0)  # fmt: skip
+                seed = self._seed(corrector, v, amplitude, omega_c, j)
                 if seed is None or not corrector.plausible(seed) or \
                         self._amplitude(seed) < 10 * START_AMPLITUDE or any(
                         abs(self._amplitude(seed) - a) <= 1e-3 * a for a in known):
                     continue
-                half = dataclasses.replace(st.branch, steps=max(2, st.branch.steps // 4))
+                half = dataclasses.replace(st.branch, steps=max(2, st.branch.steps // 10))
                 for direction in (lam_axis, -lam_axis):
                     points, _ = trace(corrector, seed, direction, half, self._amplitude, say)
                     segments.append(points)
             self._report(branch, corrector, balance, fine, segments)
         finally:
             corrector.destroy()
+
+    def _seed(self, corrector: Corrector, v, amplitude: float, omega: float,
+              j: int) -> Point | None:  # fmt: skip
+        """The cycle at ``lam = 1`` by Newton from the linear mode at ``amplitude`` [m]; when
+        that fails with many harmonics, first with :data:`SEED_HARMONICS` and then from that
+        solution (a single-harmonic guess is far from a cycle whose contacts open)."""
+        b = corrector.balance
+        lam_axis = np.zeros(corrector.n)
+        lam_axis[-1] = 1.0
+        seed = corrector.solve(self._guess(corrector, v, amplitude, omega, 1.0), lam_axis, 1.0)
+        if seed is not None or b.H <= SEED_HARMONICS:
+            return seed
+        low = WaveBalance(self.model, self.params, self.beta, b.wave, SEED_HARMONICS,
+                          8 * (SEED_HARMONICS + 1))  # fmt: skip
+        X = np.zeros((2 * SEED_HARMONICS + 1, b.modes))
+        X[0], X[1], X[2] = self.q_eq[0], amplitude * v.real, amplitude * v.imag
+        first = periodic_solution(low, X, omega, 1.0, self.comm)
+        if first is None:
+            return None
+        c = np.zeros((b.H + 1, b.modes), dtype=complex)
+        c[: SEED_HARMONICS + 1] = low.complex_harmonics(first.X)
+        c *= np.exp(-1j * np.angle(c[1, j]) * np.arange(b.H + 1))[:, None]  # Im c_1[j] = 0
+        return corrector.solve(corrector.pack(b.packed(c), first.omega, 1.0), lam_axis, 1.0)
 
     def _guess(self, corrector, v, amplitude, omega, lam) -> np.ndarray:
         """The equilibrium plus the linear mode ``v`` (unit tip amplitude) at ``amplitude``
