@@ -48,17 +48,19 @@ def _branches(waves, label, plt, outdir, name, pdf, written) -> None:
         ax.plot(lam[stable == 1], amp[stable == 1], "o", color=color, ms=3)
         if "cycles" in w:
             c = w["cycles"]
-            filled = c["stable"][()] == 1
-            ax.plot(c["lam"][()][filled], c["tip_amplitude"][()][filled] * 1e6, "o",
-                    color=color, ms=8)  # fmt: skip
-            ax.plot(c["lam"][()][~filled], c["tip_amplitude"][()][~filled] * 1e6, "o",
-                    mfc="none", color=color, ms=8)  # fmt: skip
+            verdict = c["stable"][()]
+            for value, style in ((1, {"marker": "o"}), (0, {"marker": "o", "mfc": "none"}),
+                                 (-1, {"marker": "s", "mfc": "none"})):  # fmt: skip
+                pick = verdict == value
+                ax.plot(c["lam"][()][pick], c["tip_amplitude"][()][pick] * 1e6, ls="none",
+                        color=color, ms=8, **style)  # fmt: skip
     ax.axvline(1.0, color="0.5", lw=0.8, ls="--")
     ax.set_yscale("log")
     ax.set_xlabel("factor on the self-excitation (1 = configured mu)")
     ax.set_ylabel("tip amplitude, 0-peak [um]")
     ax.set_title(f"Limit-cycle branches, {label}\n(big markers: cycles at the configured mu; "
-                 "filled stable, open unstable; small: o stable, x unstable)", fontsize=10)
+                 "o filled stable, o open unstable, square: not computed or uncertain;\n"
+                 "small: o stable, x unstable)", fontsize=10)
     ax.legend(fontsize=8, ncol=2)
     save(fig, outdir, name, pdf, written)
     plt.close(fig)
