@@ -80,3 +80,27 @@ def test_bad_input_is_named(args, words, capsys, tmp_path):
     assert cli.main(["limit-cycle", SMALL, *KEYS, *args, "--out", str(out)]) == 2
     assert words in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_a_study_of_any_key_is_its_cases_run_alone(tmp_path, capsys):
+    """A [study] grid over the shroud preload: each case's cycle is the one a plain run with
+    that preload gives (bitwise), and the file says which key varied."""
+    keys = ["--set", "contacts.shroud.angle_deg=80.0", "--set", "limit_cycle.steps=4",
+            "--set", "limit_cycle.seeds=[1e-4]", "--set", "limit_cycle.harmonics=3",
+            "--set", 'limit_cycle.floquet="off"', "--nd", "6"]  # fmt: skip
+    grid = 'study.grid={"contacts.shroud.normal_preload" = [200.0, 400.0]}'
+    out = tmp_path / "study.h5"
+    assert cli.main(["limit-cycle", SMALL, *keys, "--set", grid, "--out", str(out)]) == 0
+    alone = tmp_path / "alone.h5"
+    assert cli.main(["limit-cycle", SMALL, *keys, "--set", "contacts.shroud.normal_preload=200.0",
+                     "--set", "sweep.shroud_angles_deg=[80.0]", "--out", str(alone)]) == 0
+    capsys.readouterr()
+    with h5py.File(out) as f, h5py.File(alone) as g:
+        p = f["limit_cycle/parameters"]
+        assert p.attrs["names"] == "contacts.shroud.normal_preload"
+        np.testing.assert_array_equal(p[:, 0], [200.0, 400.0])
+        a = f["limit_cycle/case_0/wave_6/cycles/harmonics"][()]
+        b = g["limit_cycle/case_0/wave_6/cycles/harmonics"][()]
+        np.testing.assert_array_equal(a, b)
+        different = f["limit_cycle/case_1/wave_6/cycles/tip_amplitude"][()]
+        assert not np.isin(different, g["limit_cycle/case_0/wave_6/cycles/tip_amplitude"][()]).any()

@@ -31,6 +31,7 @@ GROWTH_TOLERANCE = 1e-6  # [1/s] as the linear verdict
 FASTEST = -1  # in Settings.waves: the wave growing fastest at the configured intensity
 START_AMPLITUDE = 1e-9  # [m] tip amplitude of the first cycle next to the Hopf point
 FINE_SAMPLES = 256  # time samples per period of the reported quantities
+UNRESOLVED = 0.05  # energy balance residual above which a cycle is called poorly resolved
 SEED_HARMONICS = 3  # harmonics of the first Newton solve of a seed that fails with H
 
 
@@ -138,6 +139,9 @@ class WaveBranch:
             open_, _, slip = c.fractions[k]
             words.append(f"{kind} open {100 * open_:.0f} %"
                          + (f", slipping {100 * slip:.0f} %" if slip > 0 else ""))  # fmt: skip
+        if c.energy_residual > UNRESOLVED:
+            words.append(f"poorly resolved (energy balance off by {c.energy_residual:.2g}: "
+                         "more limit_cycle.harmonics and samples)")
         if c.stability is None:
             words.append("stability not computed")
         elif c.stable is None:
@@ -164,6 +168,7 @@ class CaseLimitCycles:
     branches: list[WaveBranch]
     wall_s: float
     failure: str = ""  # why the case has no result (its equilibrium failed, ...)
+    parameters: dict = field(default_factory=dict)  # the study's varied keys -> values
 
     def verdict(self) -> str:
         if self.failure:

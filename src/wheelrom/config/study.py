@@ -37,7 +37,7 @@ MAX_CASES = 100_000
 #: keys that do not change the reduced model (forces and time only; the mistuning is put on
 #: the group's tuned model per case: Monte Carlo realisations share one model)
 FORCE_SECTIONS = ("excitation", "flutter", "friction", "time", "output", "sweep", "study",
-                  "mistuning", "forced")  # fmt: skip
+                  "mistuning", "forced", "limit_cycle")  # fmt: skip
 FORCE_WHEEL_KEYS = ("stator_vanes", "damping_beta")
 
 

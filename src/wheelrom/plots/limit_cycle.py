@@ -101,10 +101,12 @@ def _amplitude_over_cases(g, angles, plt, outdir, pdf, written) -> None:
                 else:
                     settle[i] = np.nanmin([settle[i], best])
     fig, ax = plt.subplots(figsize=(7, 4))
-    x = angles[:, 1]
+    x, label = angles[:, 1], "shroud angle [deg]"
+    if "parameters" in g:  # a study: its first varied key
+        x, label = g["parameters"][:, 0], g["parameters"].attrs["names"].split(", ")[0]
     ax.semilogy(x, settle * 1e6, "o-", color="C3")
     ax.plot(x[stable_found], settle[stable_found] * 1e6, "o", color="C3", ms=8)
-    ax.set_xlabel("shroud angle [deg]")
+    ax.set_xlabel(label)
     ax.set_ylabel("limit-cycle tip amplitude [um]")
     ax.set_title("Where the flutter settles (filled: a stable cycle)", fontsize=10)
     save(fig, outdir, "limit_cycle_amplitude", pdf, written)

@@ -8,7 +8,7 @@ import numpy as np
 
 from wheelrom import config as config_mod
 from wheelrom.config import Config
-from wheelrom.results.layout import case_angles, write_aero_table, write_model
+from wheelrom.results.layout import write_aero_table, write_model
 from wheelrom.rom.model import ReducedModel
 
 FORMAT = "wheelrom-limit-cycle-1"
@@ -32,8 +32,13 @@ def write_limit_cycles(f, cfg: Config, model: ReducedModel, cases: list) -> None
     g.attrs["samples"] = lc.samples or 8 * (lc.harmonics + 1)
     g.attrs["floquet"] = lc.floquet
     g.attrs["kinds"] = ", ".join(next((c.kinds for c in cases if c.kinds), ()))
-    g["angles_deg"] = case_angles(cfg)
+    g["angles_deg"] = np.array([[c.angles_deg.get(k, np.nan) for k in ("tieboss", "shroud")]
+                                for c in cases])  # fmt: skip
     g["angles_deg"].attrs["columns"] = "tieboss, shroud"
+    names = list(cases[0].parameters) if cases else []
+    if names:
+        g["parameters"] = np.array([[_number(c.parameters[n]) for n in names] for c in cases])
+        g["parameters"].attrs["names"] = ", ".join(names)
     g["verdict"] = np.array([c.verdict().encode() for c in cases])
     g["wall_s"] = np.array([c.wall_s for c in cases])
     for i, case in enumerate(cases):
@@ -43,6 +48,13 @@ def write_limit_cycles(f, cfg: Config, model: ReducedModel, cases: list) -> None
             cg["equilibrium"] = case.equilibrium
         for branch in case.branches:
             _write_branch(cg.create_group(f"wave_{branch.wave}"), branch)
+
+
+def _number(value) -> float:
+    """A study value as a number (``true``/``false`` as 1/0; a named choice as NaN)."""
+    if isinstance(value, bool | int | float):
+        return float(value)
+    return float("nan")
 
 
 def _write_branch(g, branch) -> None:

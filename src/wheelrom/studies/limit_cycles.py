@@ -1,10 +1,12 @@
-"""Limit cycles over the case grid (``wheelrom limit-cycle``): every case of the sweep's
-contact angles, every travelling wave unstable at its preloaded equilibrium (or the waves
-asked for), by harmonic balance and continuation (:mod:`wheelrom.analysis.limit_cycle`);
-cases dealt round-robin to the MPI ranks and gathered on rank 0, which writes the file.
+"""Limit cycles over the cases (``wheelrom limit-cycle``): every case of the ``[study]``
+(any keys: a grid, zipped lists or CSV cases, so a sweep of a preload, a friction coefficient
+or an angle gives the limit-cycle amplitude against it) or of the sweep's contact angles,
+every travelling wave unstable at its preloaded equilibrium (or the waves asked for), by
+harmonic balance and continuation (:mod:`wheelrom.analysis.limit_cycle`); cases dealt
+round-robin to the MPI ranks and gathered on rank 0, which writes the file.
 
-The model is built once on rank 0 and broadcast, so the results do not depend on the number
-of ranks (test: ``mpirun -n 2`` against one process).
+The models (one per group of cases that share one) are built on rank 0 and broadcast, so the
+results do not depend on the number of ranks (test: ``mpirun -n 2`` against one process).
 """
 
 from __future__ import annotations
@@ -15,52 +17,58 @@ import numpy as np
 
 from wheelrom.analysis.limit_cycle import CaseLimitCycles, case_limit_cycles, settings_of
 from wheelrom.config import Config
-from wheelrom.results import layout as results
+from wheelrom.config.study import expand, model_key, short_name
 from wheelrom.rom.build import build_model
 from wheelrom.runtime.errors import InputError
-from wheelrom.studies.stability import refuse_study
+from wheelrom.studies.plan import group_by
 
 
 def run_limit_cycles(cfg: Config, comm=None, log=print, waves=None,
                      progress=None) -> tuple[object, list[CaseLimitCycles]]:  # fmt: skip
-    """``(model, results)`` of every case of ``cfg``'s grid in case order on rank 0 of the
-    mpi4py ``comm`` (``None``: serial); other ranks get ``(model, [])``. ``waves``: the
-    travelling waves to analyse instead of ``limit_cycle.waves``; ``progress(text)`` (rank 0)
-    at every branch point."""
+    """``(model, results)`` of every case of ``cfg``'s study (``[study]`` grid, zip or CSV
+    cases of any keys, else the ``[sweep]`` angles) in case order on rank 0 of the mpi4py
+    ``comm`` (``None``: serial); other ranks get ``(model, [])`` (``model``: the first
+    case's). ``waves``: the travelling waves to analyse instead of ``limit_cycle.waves``;
+    ``progress(text)`` (rank 0) at every branch point."""
     from wheelrom.runtime.environment import petsc, slepc
 
-    refuse_study(cfg, "limit-cycle")
+    study = expand(cfg)
     petsc()  # PetscInitialize is collective: every rank, before rank 0 builds alone
     slepc()
     rank, size = (comm.rank, comm.size) if comm is not None else (0, 1)
     say = log if rank == 0 and log is not None else (lambda *_: None)
     t0 = time.perf_counter()
-    model = build_model(cfg, petsc().COMM_SELF, log=say) if rank == 0 else None
+    model_of, members = group_by([model_key(c) for c in study.configs])
+    models = ([build_model(study.configs[m[0]], petsc().COMM_SELF, log=say) for m in members]
+              if rank == 0 else None)  # fmt: skip
     if comm is not None:
-        model = comm.bcast(model)
-    if not model.tuned:
+        models = comm.bcast(models)
+    if not all(m.tuned for m in models):
         raise InputError("limit-cycle: the travelling-wave harmonic balance needs a tuned "
                          "wheel; [mistuning] is set")  # fmt: skip
-    say(f"model ready in {time.perf_counter() - t0:.1f} s: {model.blades} blades x "
-        f"{model.modes} modes")  # fmt: skip
-    settings = settings_of(cfg, waves)
-    angles = results.case_angles(cfg)
+    say(f"{len(models)} model(s) ready in {time.perf_counter() - t0:.1f} s: "
+        f"{models[0].blades} blades x {models[0].modes} modes")  # fmt: skip
     mine = []
-    for i in range(rank, angles.shape[0], size):
-        label = (f"[{i + 1}/{angles.shape[0]}] tie-boss {angles[i][0]:g}, shroud "
-                 f"{angles[i][1]:g} deg")
+    for i in range(rank, study.size, size):
+        case_cfg = study.configs[i]
+        label = f"[{i + 1}/{study.size}] " + ", ".join(
+            f"{short_name(k)} {v:g}" if isinstance(v, float) else f"{short_name(k)} {v}"
+            for k, v in zip(study.names, study.values[i], strict=True))
 
         def point(wave, lam, amplitude, label=label):
             progress(f"{label}: wave {wave}, mu x {lam:.4g}, tip {amplitude * 1e6:.4g} um")
 
         try:
-            res = case_limit_cycles(model, cfg, settings, results.angles_of(angles[i]),
+            res = case_limit_cycles(models[model_of[i]], case_cfg, settings_of(case_cfg, waves),
                                     progress=point if progress and rank == 0 else None)
         except ValueError as exc:  # the configuration cannot have limit cycles: every case
             res = str(exc)  # says so, and the command stops with that
         except (RuntimeError, ArithmeticError, np.linalg.LinAlgError) as exc:
-            res = CaseLimitCycles(results.angles_of(angles[i]), (), None, [], 0.0,
+            angles = {k: case_cfg.contact(k).angle_deg for k in case_cfg.contacts.enabled_kinds()}
+            res = CaseLimitCycles(angles, (), None, [], 0.0,
                                   failure=f"{type(exc).__name__}: {exc}")  # kept, named
+        if not isinstance(res, str):
+            res.parameters = dict(zip(study.names, study.values[i], strict=True))
         mine.append((i, res))
         if rank == 0:
             said = res if isinstance(res, str) else f"{res.verdict()} ({res.wall_s:.1f} s)"
@@ -74,7 +82,7 @@ def run_limit_cycles(cfg: Config, comm=None, log=print, waves=None,
     if failed:
         listing = "; ".join(f"case {i}: {why}" for i, why in failed)
         raise InputError(f"limit cycles failed for {len(failed)} case(s): {listing}"[:2000])
-    return model, [res for _, res in ordered]
+    return models[0], [res for _, res in ordered]
 
 
 
