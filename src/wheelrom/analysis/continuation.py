@@ -24,6 +24,7 @@ from wheelrom.runtime.environment import petsc
 PREFIX = "limitcycle_"
 MAX_ITERATIONS = 30  # Newton iterations of one corrector solve
 ROUNDOFF = 1e-10  # reachable residual relative to the balanced terms
+CONTRACTION = 0.25  # a chord step that reduces the residual less asks for a fresh Jacobian
 FREQUENCY_RANGE = 2.0  # solutions beyond this factor off the Hopf frequency are rejected
 
 
@@ -31,14 +32,15 @@ FREQUENCY_RANGE = 2.0  # solutions beyond this factor off the Hopf frequency are
 class Point:
     """One solved point: ``z`` ``(n + 2,)`` scaled unknowns, ``X`` ``(2H + 1, m)`` packed
     harmonics [sqrt(kg) m], ``omega`` [rad/s], ``lam`` [-], ``iterations`` (Newton) and the
-    force linearisation at the solution (reused by Floquet and the next tangent)."""
+    force linearisation at the solution (Floquet's input: :meth:`Corrector.linearisation`
+    fills it when asked)."""
 
     z: np.ndarray
     X: np.ndarray
     omega: float
     lam: float
     iterations: int
-    linearisation: Linearisation
+    linearisation: Linearisation | None = None
 
 
 class Corrector:
@@ -53,7 +55,11 @@ class Corrector:
         n = balance.size + 2
         self.n = n
         self.constraint = (np.zeros(n), 0.0)
-        self._cache: tuple | None = None
+        self._J: np.ndarray | None = None  # the last Jacobian built (n - 1, n)
+        self._lin: tuple | None = None  # (z, its force linearisation)
+        self.exact = self.refresh = False
+        self._last_norm = np.inf
+        self.jacobians = 0  # force Jacobians built (the cost)
         self.term_size = 0.0
         comm = comm or PETSc.COMM_SELF
         self.snes = PETSc.SNES().create(comm=comm)
@@ -86,17 +92,29 @@ class Corrector:
         return np.concatenate([(X / self.x_scale).ravel(), [omega / self.omega_ref, lam]])
 
     # -------------------------------------------------------------- system
+    def _scale(self) -> np.ndarray:
+        return 1.0 / (self.omega_ref**2 * self.x_scale)  # (2H + 1, 1) per equation row
+
+    def function(self, z: np.ndarray) -> np.ndarray:
+        """The scaled equations without the constraint ``(n - 1,)`` (no Jacobian: the forces at
+        the time samples only)."""
+        X, omega, lam = self.unpack(z)
+        b, scale = self.balance, self._scale()
+        linear = b.linear_term(X, omega, lam)
+        R = linear - b.P @ b.nonlinear_force(X, omega, lam)
+        # the size of the balanced terms: round-off in them (the preload's static forces,
+        # the stiff contact springs) sets the residual a Newton iteration can reach
+        self.term_size = float(np.abs(linear * scale).max())
+        return np.concatenate([(R * scale).ravel(), [z[self.phase_index]]])
+
     def system(self, z: np.ndarray):
         """``(F, J, lin)``: the scaled equations without the constraint ``(n - 1,)``, their
         Jacobian ``(n - 1, n)`` and the force linearisation at ``z``."""
         X, omega, lam = self.unpack(z)
-        b = self.balance
+        b, scale = self.balance, self._scale()
         lin = b.linearise(X, omega, lam)
         R, dRdX, dRdw, dRdlam = b.jacobian(X, omega, lam, lin)
-        scale = 1.0 / (self.omega_ref**2 * self.x_scale)  # (2H + 1, 1) per equation row
         F = np.concatenate([(R * scale).ravel(), [z[self.phase_index]]])
-        # the size of the balanced terms: round-off in them (the preload's static forces,
-        # the stiff contact springs) sets the residual a Newton iteration can reach
         self.term_size = float(np.abs(b.linear_term(X, omega, lam) * scale).max())
         J = np.zeros((self.n - 1, self.n))
         dRdX = dRdX * scale[:, :, None, None] * self.x_scale[None, None, :, :]
@@ -106,46 +124,66 @@ class Corrector:
         J[-1, self.phase_index] = 1.0
         return F, J, lin
 
-    def _evaluate(self, z: np.ndarray):
-        if self._cache is None or not np.array_equal(self._cache[0], z):
-            self._cache = (z.copy(), *self.system(z))
-        return self._cache[1:]
-
     def _converged(self, snes, iteration, norms):
         """Converged when ``|F| <= atol`` or ``<= ROUNDOFF x`` the balanced terms' size;
-        diverged after ``max_it`` iterations (SNES's tolerances, settable by options)."""
-        _, fnorm = norms[1], norms[2]
+        diverged after ``max_it`` iterations (SNES's tolerances, settable by options). A
+        residual that fell less than :data:`CONTRACTION` in the last iteration asks for a
+        fresh Jacobian at the next one."""
+        fnorm = norms[2]
         atol, max_it = snes.getTolerances()[1], snes.getTolerances()[3]
+        if iteration > 0 and fnorm > CONTRACTION * self._last_norm:
+            self.refresh = True
+        self._last_norm = fnorm
         if fnorm <= max(atol, ROUNDOFF * self.term_size):
-            return 3  # SNES_CONVERGED_FNORM_ABS
+            return 2  # SNES_CONVERGED_FNORM_ABS
         if iteration >= max_it:
             return -5  # SNES_DIVERGED_MAX_IT
         return 0
 
     def _residual(self, snes, x, r) -> None:
         z = x.getArray(readonly=True).copy()
-        F, _, _ = self._evaluate(z)
         a, b = self.constraint
-        r.setArray(np.concatenate([F, [a @ z - b]]))
+        r.setArray(np.concatenate([self.function(z), [a @ z - b]]))
 
     def _jacobian(self, snes, x, J, P) -> None:
-        z = x.getArray(readonly=True).copy()
-        _, Jz, _ = self._evaluate(z)
-        P.setValues(range(self.n), range(self.n), np.vstack([Jz, self.constraint[0]]))
+        """The force Jacobian (finite differences over the window at every sample: the
+        expensive part) is rebuilt only when asked (:attr:`refresh`, or every iteration in
+        :attr:`exact` mode); otherwise the last one serves (a chord step), with the current
+        constraint row."""
+        if self.exact or self.refresh or self._J is None:
+            z = x.getArray(readonly=True).copy()
+            _, self._J, lin = self.system(z)
+            self._lin = (z, lin)
+            self.refresh = False
+            self.jacobians += 1
+        P.setValues(range(self.n), range(self.n), np.vstack([self._J, self.constraint[0]]))
         P.assemble()
 
-    def solve(self, z0: np.ndarray, a: np.ndarray, b: float) -> Point | None:
-        """Newton from ``z0`` on the balance, the phase condition and ``a . z = b``; ``None``
-        when SNES does not converge (the caller shortens its step)."""
+    def solve(self, z0: np.ndarray, a: np.ndarray, b: float,
+              chord: bool = False) -> Point | None:  # fmt: skip
+        """Newton from ``z0`` on the balance, the phase condition and ``a . z = b`` with a
+        fresh Jacobian every iteration; ``chord``: first with the last Jacobian kept while
+        the residual falls fast (chord steps: a continuation's small steps), then, if that
+        fails, exactly. ``None`` when Newton fails (the caller shortens its step)."""
         self.constraint = (a, b)
-        self.x.setArray(z0)
-        self.snes.solve(None, self.x)
-        if self.snes.getConvergedReason() <= 0:
-            return None
-        z = self.x.getArray().copy()
-        _, _, lin = self._evaluate(z)
-        X, omega, lam = self.unpack(z)
-        return Point(z, X, omega, lam, self.snes.getIterationNumber(), lin)
+        for exact in (False, True) if chord else (True,):
+            self.exact, self.refresh, self._last_norm = exact, exact, np.inf
+            self.x.setArray(z0)
+            self.snes.solve(None, self.x)
+            if self.snes.getConvergedReason() > 0:
+                z = self.x.getArray().copy()
+                X, omega, lam = self.unpack(z)
+                return Point(z, X, omega, lam, self.snes.getIterationNumber(), None)
+        return None
+
+    def linearisation(self, point: Point) -> Linearisation:
+        """The force linearisation at a solved point (computed once, kept on it)."""
+        if point.linearisation is None:
+            if self._lin is not None and np.array_equal(self._lin[0], point.z):
+                point.linearisation = self._lin[1]
+            else:
+                point.linearisation = self.balance.linearise(point.X, point.omega, point.lam)
+        return point.linearisation
 
     def plausible(self, point: Point) -> bool:
         """Whether a solution's frequency is within a factor :data:`FREQUENCY_RANGE` of the
@@ -155,9 +193,12 @@ class Corrector:
         return 1 / FREQUENCY_RANGE <= ratio <= FREQUENCY_RANGE
 
     def tangent(self, z: np.ndarray, previous: np.ndarray) -> np.ndarray:
-        """Unit tangent of the branch at ``z``, oriented along ``previous``."""
-        _, Jz, _ = self._evaluate(z)
-        t = np.linalg.solve(np.vstack([Jz, previous]), np.r_[np.zeros(self.n - 1), 1.0])
+        """Unit tangent of the branch at ``z``, oriented along ``previous`` (from the last
+        Jacobian built: at ``z`` or a nearby iterate, enough for a predictor)."""
+        if self._J is None:
+            _, self._J, lin = self.system(z)
+            self._lin = (z.copy(), lin)
+        t = np.linalg.solve(np.vstack([self._J, previous]), np.r_[np.zeros(self.n - 1), 1.0])
         t /= np.linalg.norm(t)
         return t if t @ previous >= 0 else -t
 
@@ -192,7 +233,7 @@ def trace(corrector: Corrector, first: Point, direction: np.ndarray, settings: B
         if len(points) >= settings.steps:
             return points, f"stopped after {settings.steps} points (limit_cycle.steps)"
         predictor = z + ds * t
-        point = corrector.solve(predictor, t, float(t @ predictor))
+        point = corrector.solve(predictor, t, float(t @ predictor), chord=True)
         if point is not None and (np.linalg.norm(point.z - predictor) > ds
                                   or not corrector.plausible(point)):  # fmt: skip
             point = None  # the corrector jumped (to another branch, or the trivial one)

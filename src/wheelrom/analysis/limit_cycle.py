@@ -406,7 +406,8 @@ class WaveAnalysis:
             for p in points:
                 cycle = describe(balance, fine, p.X, p.omega, p.lam, self._residual(balance, p))
                 if st.floquet == "all":
-                    cycle.stability = floquet(balance, p.linearisation, p.omega, p.lam)
+                    cycle.stability = floquet(balance, corrector.linearisation(p), p.omega,
+                                              p.lam)  # fmt: skip
                 branch.points.append(cycle)
                 branch.segments.append(number)
             for i in np.flatnonzero((lam[:-1] - 1.0) * (lam[1:] - 1.0) <= 0):
@@ -422,13 +423,13 @@ class WaveAnalysis:
         for p in sorted(found, key=self._amplitude):
             cycle = describe(balance, fine, p.X, p.omega, p.lam, self._residual(balance, p))
             if st.floquet != "off":
-                cycle.stability = floquet(balance, p.linearisation, p.omega, p.lam,
+                cycle.stability = floquet(balance, corrector.linearisation(p), p.omega, p.lam,
                                           range(self.model.blades))  # fmt: skip
             branch.cycles.append(cycle)
 
     @staticmethod
     def _residual(balance: WaveBalance, p: Point) -> float:
-        R = balance.linear_term(p.X, p.omega, p.lam) - balance.P @ p.linearisation.force
+        R = balance.residual(p.X, p.omega, p.lam)
         scale = np.abs(balance.linear_term(p.X, p.omega, p.lam)).max()
         return float(np.abs(R).max() / max(scale, 1e-300))
 
@@ -449,7 +450,10 @@ def periodic_solution(balance: WaveBalance, X: np.ndarray, omega: float, lam: fl
     try:
         lam_axis = np.zeros(corrector.n)
         lam_axis[-1] = 1.0
-        return corrector.solve(corrector.pack(X, omega, lam), lam_axis, lam)
+        point = corrector.solve(corrector.pack(X, omega, lam), lam_axis, lam)
+        if point is not None:
+            corrector.linearisation(point)
+        return point
     finally:
         corrector.destroy()
 
