@@ -217,7 +217,7 @@ class BranchSettings:
     amplitude_max: float = 1e-3
     steps: int = 120
     step: float = 0.05
-    step_min: float = 1e-6
+    step_min: float = 1e-4
     step_max: float = 20.0
 
 
