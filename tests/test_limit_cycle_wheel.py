@@ -70,3 +70,51 @@ def test_the_energy_per_cycle_balances(branch):
         assert cycle.energy_in > 0
         assert cycle.energy_residual < 1e-6
         assert cycle.energy_residual_fine < 1e-6
+
+
+def test_the_transient_check_agrees_with_hill_on_a_smooth_cycle(small_model, small_cfg):
+    """Van der Pol alone (contacts off), relative form, ND N/2: Hill's method (converged for
+    a smooth cycle: trivial multiplier 1 to 1e-6) and the transient check (the wheel
+    integrated 60 periods from the cycle, every other ND perturbed) both call it stable; on
+    the vibro-impact ND 6 cycle at 80 deg the transient check finds other NDs growing."""
+    from wheelrom.analysis.cycle_transient import transient_stability
+    from wheelrom.analysis.floquet import floquet
+    from wheelrom.analysis.limit_cycle import periodic_solution
+    from wheelrom.analysis.stability import linearise
+
+    cfg = small_cfg.replace(**{"contacts.tieboss.enabled": False, "contacts.shroud.enabled": False,
+                               "wheel.damping_beta": 1e-9, "flutter.mu": 10.0,
+                               "excitation.force": 0.0, "time.scheme": "exponential"})  # fmt: skip
+    params = force_parameters(small_model, cfg)
+    balance = WaveBalance(small_model, params, cfg.wheel.damping_beta, 6, 3, 32)
+    w2, V = np.linalg.eigh(small_model.nd_stiffness(6))
+    i = int(np.argmax(np.abs(V.T @ params.aero)[:4]))
+    X = np.zeros((7, small_model.modes))
+    X[1] = V[:, i].real * cfg.flutter.r / abs(params.aero @ V[:, i])  # y amplitude r
+    point = periodic_solution(balance, X, math.sqrt(w2[i]), 1.0)
+    hill = floquet(balance, point.linearisation, point.omega, 1.0, range(small_model.blades))
+    assert hill.trusted and hill.stable
+    tip = float(np.linalg.norm(np.abs(small_model.tip @ (point.X[1] + 1j * point.X[2]))))
+    check = transient_stability(small_model, cfg, None, balance, point.X, point.omega, 1.0, tip)
+    assert check.stable and check.growth.max() < 0
+    assert check.by == "transient: ND"
+    # the vibro-impact cycle of ND 6 at 80 deg (~130 um, the shroud open half the time)
+    params = force_parameters(small_model, autonomous_cfg(small_cfg), ANGLES)
+    balance = WaveBalance(small_model, params, small_cfg.wheel.damping_beta, 6, 5, 48)
+    w2, V = np.linalg.eigh(small_model.nd_stiffness(6))
+    v = V[:, 0] / np.linalg.norm(small_model.tip @ V[:, 0])
+    X = np.zeros((11, small_model.modes))
+    X[0] = linearise(small_model, autonomous_cfg(small_cfg), ANGLES)[1][0]  # equilibrium
+    X[1] = 1e-4 * v.real
+    point = periodic_solution(balance, X, math.sqrt(w2[0]), 1.0)
+    tip = float(np.linalg.norm(np.abs(small_model.tip @ (point.X[1] + 1j * point.X[2]))))
+    check = transient_stability(small_model, autonomous_cfg(small_cfg), ANGLES, balance,
+                                point.X, point.omega, 1.0, tip)  # fmt: skip
+    assert not check.stable and check.growth.max() > 1.0
+    assert check.worst_family not in (0, 6)
+
+
+def autonomous_cfg(cfg):
+    return cfg.replace(**{"excitation.force": 0.0, "time.scheme": "exponential"})
+
+

@@ -58,6 +58,7 @@ class FloquetResult:
     multiplier: float
     trivial: float
     stable: bool
+    by: str = "Floquet: family"  # what decided, and what a family is (the transient: "ND")
 
     @property
     def trusted(self) -> bool:

@@ -19,6 +19,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from wheelrom.analysis.continuation import BranchSettings, Corrector, Point, trace
+from wheelrom.analysis.cycle_transient import transient_stability
 from wheelrom.analysis.floquet import FloquetResult, floquet
 from wheelrom.analysis.harmonic_balance import WaveBalance
 from wheelrom.analysis.jacobian import aero_stiffness, van_der_pol_damping
@@ -149,7 +150,7 @@ class WaveBranch:
                          f"the phase-shift multiplier is off 1 by {c.stability.trivial:.1e})")
         elif not c.stable:
             st = c.stability
-            words.append(f"unstable (Floquet: family {st.worst_family} grows at "
+            words.append(f"unstable ({st.by} {st.worst_family} grows at "
                          f"{st.growth.max():.3g} /s; the flutter does not settle on this wave "
                          "alone)")  # fmt: skip
         return ", ".join(words)
@@ -281,10 +282,12 @@ class WaveAnalysis:
     beyond are reached from above); the cycles at ``lam = 1`` and their Floquet stability."""
 
     def __init__(self, model, params, beta, q_eq, blocks, settings: Settings, comm=None,
-                 progress=None):  # fmt: skip
+                 progress=None, cfg: Config | None = None,
+                 angles: dict | None = None):  # fmt: skip
         self.model, self.params, self.beta, self.q_eq = model, params, beta, q_eq
         self.B0, self.B1 = blocks
         self.settings, self.comm, self.progress = settings, comm, progress
+        self.cfg, self.angles = cfg, angles  # the case, for the transient stability check
 
     def run(self, wave: int) -> WaveBranch:
         t0 = time.perf_counter()
@@ -422,7 +425,11 @@ class WaveAnalysis:
                     found.append(p)
         for p in sorted(found, key=self._amplitude):
             cycle = describe(balance, fine, p.X, p.omega, p.lam, self._residual(balance, p))
-            if st.floquet != "off":
+            if st.floquet == "transient":
+                cycle.stability = transient_stability(self.model, self.cfg, self.angles,
+                                                      balance, p.X, p.omega, p.lam,
+                                                      cycle.tip_amplitude)  # fmt: skip
+            elif st.floquet != "off":
                 cycle.stability = floquet(balance, corrector.linearisation(p), p.omega, p.lam,
                                           range(self.model.blades))  # fmt: skip
             branch.cycles.append(cycle)
@@ -481,7 +488,7 @@ def case_limit_cycles(model: ReducedModel, cfg: Config, settings: Settings,
         waves = [int(k) for k in np.flatnonzero(growth > GROWTH_TOLERANCE)]
     waves = sorted(set(waves))
     analysis = WaveAnalysis(model, params, cfg.wheel.damping_beta, q, blocks, settings, comm,
-                            progress)  # fmt: skip
+                            progress, cfg, angles_deg)  # fmt: skip
     branches = [analysis.run(k) for k in waves]
     return CaseLimitCycles(
         angles_deg={k: float(np.atleast_1d(v)[0]) for k, v in params.contacts.angles_deg.items()},

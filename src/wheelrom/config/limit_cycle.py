@@ -41,10 +41,13 @@ class LimitCycleConfig:
                       gt=0.0, allow_empty=True))
     floquet: str = field(
         default="cycles",
-        metadata=_key("-", "Floquet stability: 'cycles' (every Bloch family at the cycles of "
-                      "the configured intensity), 'all' (also the wave's own family at every "
-                      "branch point: the branch drawn stable/unstable), 'off'",
-                      choices=("all", "cycles", "off")))
+        metadata=_key("-", "stability of the cycles: 'cycles' (Floquet by Hill's method, every "
+                      "Bloch family, at the cycles of the configured intensity), 'all' (also "
+                      "the wave's own family at every branch point: the branch drawn "
+                      "stable/unstable), 'transient' (the wheel integrated 60 periods from "
+                      "each cycle with every other ND perturbed: for cycles whose contacts "
+                      "open, where Hill's method does not converge), 'off'",
+                      choices=("all", "cycles", "transient", "off")))
 
 
 def limit_cycle_problems(cfg: Any, problems: list[str]) -> None:
