@@ -27,6 +27,7 @@ from wheelrom.analysis.stability import blade_blocks, is_circulant, linearise, n
 from wheelrom.config import Config
 from wheelrom.forces.parameters import VDP_OFF, ForceParameters
 from wheelrom.rom.model import ReducedModel, nodal_diameter
+from wheelrom.runtime.errors import InputError
 
 GROWTH_TOLERANCE = 1e-6  # [1/s] as the linear verdict
 FASTEST = -1  # in Settings.waves: the wave growing fastest at the configured intensity
@@ -473,11 +474,11 @@ def case_limit_cycles(model: ReducedModel, cfg: Config, settings: Settings,
     ``progress(wave, lam, tip_amplitude)`` is called at every branch point."""
     t0 = time.perf_counter()
     if cfg.flutter.model == "off" or (cfg.flutter.model != "table" and cfg.flutter.mu <= 0):
-        raise ValueError("limit cycles need self-excitation: flutter.model = 'off' or "
+        raise InputError("limit cycles need self-excitation: flutter.model = 'off' or "
                          "flutter.mu = 0 leaves the equilibrium the only periodic state")
     params, q, _, J, _ = linearise(model, cfg, angles_deg, comm)
     if params.vdp_model == VDP_OFF:
-        raise ValueError("limit cycles need self-excitation (flutter.model)")
+        raise InputError("limit cycles need self-excitation (flutter.model)")
     blocks = wave_blocks(model, params, q, J)
     growth = np.array([wave_mode(blocks[0][k], blocks[1][k], 1.0)[0]
                        for k in range(model.blades)])  # fmt: skip

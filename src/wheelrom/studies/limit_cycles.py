@@ -61,9 +61,9 @@ def run_limit_cycles(cfg: Config, comm=None, log=print, waves=None,
         try:
             res = case_limit_cycles(models[model_of[i]], case_cfg, settings_of(case_cfg, waves),
                                     progress=point if progress and rank == 0 else None)
-        except ValueError as exc:  # the configuration cannot have limit cycles: every case
+        except InputError as exc:  # the configuration cannot have limit cycles: every case
             res = str(exc)  # says so, and the command stops with that
-        except (RuntimeError, ArithmeticError, np.linalg.LinAlgError) as exc:
+        except (ValueError, RuntimeError, ArithmeticError, np.linalg.LinAlgError) as exc:
             angles = {k: case_cfg.contact(k).angle_deg for k in case_cfg.contacts.enabled_kinds()}
             res = CaseLimitCycles(angles, (), None, [], 0.0,
                                   failure=f"{type(exc).__name__}: {exc}")  # kept, named
