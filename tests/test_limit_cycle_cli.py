@@ -104,3 +104,20 @@ def test_a_study_of_any_key_is_its_cases_run_alone(tmp_path, capsys):
         np.testing.assert_array_equal(a, b)
         different = f["limit_cycle/case_1/wave_6/cycles/tip_amplitude"][()]
         assert not np.isin(different, g["limit_cycle/case_0/wave_6/cycles/tip_amplitude"][()]).any()
+
+
+def test_a_failed_case_is_named_and_the_others_are_written(tmp_path, capsys):
+    """A study over mu that includes 0: that case cannot have a limit cycle and says why; the
+    other is computed and written; the command exits 1."""
+    out = tmp_path / "mu.h5"
+    status = cli.main(["limit-cycle", SMALL, "--set", "contacts.shroud.angle_deg=80.0",
+                       "--set", "limit_cycle.steps=4", "--set", "limit_cycle.seeds=[]",
+                       "--set", 'limit_cycle.floquet="off"', "--set",
+                       'study.grid={"flutter.mu" = [0.0, 100.0]}', "--nd", "7",
+                       "--out", str(out)])  # fmt: skip
+    assert status == 1
+    capsys.readouterr()
+    with h5py.File(out) as f:
+        verdicts = [v.decode() for v in f["limit_cycle/verdict"][()]]
+        assert verdicts[0].startswith("failed: limit cycles need self-excitation")
+        assert "wave_7" in f["limit_cycle/case_1"]

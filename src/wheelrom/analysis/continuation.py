@@ -193,11 +193,13 @@ class Corrector:
         return 1 / FREQUENCY_RANGE <= ratio <= FREQUENCY_RANGE
 
     def tangent(self, z: np.ndarray, previous: np.ndarray) -> np.ndarray:
-        """Unit tangent of the branch at ``z``, oriented along ``previous`` (from the last
-        Jacobian built: at ``z`` or a nearby iterate, enough for a predictor)."""
-        if self._J is None:
+        """Unit tangent of the branch at ``z``, oriented along ``previous``, from the Jacobian
+        at ``z`` (built here unless the last one was; the next solve's chord steps start from
+        it)."""
+        if self._lin is None or not np.array_equal(self._lin[0], z):
             _, self._J, lin = self.system(z)
             self._lin = (z.copy(), lin)
+            self.jacobians += 1
         t = np.linalg.solve(np.vstack([self._J, previous]), np.r_[np.zeros(self.n - 1), 1.0])
         t /= np.linalg.norm(t)
         return t if t @ previous >= 0 else -t

@@ -42,7 +42,7 @@ def transient_stability(model: ReducedModel, cfg: Config, angles_deg: dict | Non
     N, period = model.blades, 2 * math.pi / omega
     scaled = {"flutter.table_scale": cfg.flutter.table_scale * lam} if \
         cfg.flutter.model == "table" else {"flutter.mu": cfg.flutter.mu * lam}  # fmt: skip
-    steps = max(1, round(period / cfg.time.step))  # a whole number of steps per period
+    steps = max(1, math.ceil(period / cfg.time.step))  # whole steps per period, <= time.step
     run_cfg = cfg.replace(**scaled, **{
         "excitation.force": 0.0, "time.step": period / steps,
         "time.end": PERIODS * period, "time.window": WINDOW_PERIODS * period,

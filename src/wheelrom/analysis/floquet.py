@@ -128,8 +128,8 @@ def floquet(balance: WaveBalance, lin: Linearisation, omega: float, lam: float,
     The phase shift's exponent (multiplier 1) appears in family 0 (slots ``+-1``: the real
     perturbation ``dq/dt``) and in family ``k`` (slot 0, ``+i omega``) and their copies; both
     families are always analysed, ``trivial`` is the distance to 1 of the multiplier closest
-    to it there, and every copy within ten times that distance is removed before the growth
-    rates are taken."""
+    to it there, and that exponent with its slot copies (the same multiplier) is removed
+    before the growth rates are taken."""
     N, k = balance.blades, balance.wave
     families = np.array([k] if families is None else list(families), dtype=int)
 
@@ -140,10 +140,15 @@ def floquet(balance: WaveBalance, lin: Linearisation, omega: float, lam: float,
     computed = {p: exponents(balance, lin, omega, lam, 2 * math.pi * p / N)
                 for p in sorted({mirror(p) for p in families} | {0, mirror(k)})}
     distance = {p: np.abs(np.exp(sigma * period) - 1.0) for p, sigma in computed.items()}
-    trivial = float(min(distance[p].min(initial=math.inf) for p in (0, mirror(k))))
+    holder = min((0, mirror(k)), key=lambda p: distance[p].min(initial=math.inf))
+    trivial = float(distance[holder].min(initial=math.inf))
+    mu_0 = np.exp(computed[holder][int(np.argmin(distance[holder]))] * period)
     growth_of = {}
     for p, sigma in computed.items():
-        rest = sigma[distance[p] > 10 * trivial + 1e-12]
+        # the phase shift's exponent and its slot copies (the same multiplier) only: an
+        # amplitude exponent near 0 (a fold, a subcritical branch) must stay
+        copy = np.abs(np.exp(sigma * period) - mu_0) <= trivial + 1e-9
+        rest = sigma[~copy] if p in (0, mirror(k)) else sigma
         growth_of[p] = float(rest.real.max()) if rest.size else -math.inf
     growth = np.array([growth_of[mirror(p)] for p in families])
     worst = float(growth.max())

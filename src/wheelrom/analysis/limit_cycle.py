@@ -16,20 +16,18 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.sparse as sp
 
 from wheelrom.analysis.continuation import BranchSettings, Corrector, Point, trace
 from wheelrom.analysis.cycle_transient import transient_stability
 from wheelrom.analysis.floquet import FloquetResult, floquet
 from wheelrom.analysis.harmonic_balance import WaveBalance
-from wheelrom.analysis.jacobian import aero_stiffness, van_der_pol_damping
-from wheelrom.analysis.stability import blade_blocks, is_circulant, linearise, nd_block
+from wheelrom.analysis.hopf import GROWTH_TOLERANCE, hopf_point, wave_blocks, wave_mode
+from wheelrom.analysis.stability import linearise
 from wheelrom.config import Config
-from wheelrom.forces.parameters import VDP_OFF, ForceParameters
+from wheelrom.forces.parameters import VDP_OFF
 from wheelrom.rom.model import ReducedModel, nodal_diameter
 from wheelrom.runtime.errors import InputError
 
-GROWTH_TOLERANCE = 1e-6  # [1/s] as the linear verdict
 FASTEST = -1  # in Settings.waves: the wave growing fastest at the configured intensity
 START_AMPLITUDE = 1e-9  # [m] tip amplitude of the first cycle next to the Hopf point
 FINE_SAMPLES = 256  # time samples per period of the reported quantities
@@ -183,48 +181,6 @@ class CaseLimitCycles:
         return f"flutters (ND {worst.nodal_diameter}): {worst.verdict()}"
 
 
-def wave_blocks(model: ReducedModel, params: ForceParameters, q: np.ndarray, J):
-    """``(B0, B1)`` ``(N, 2m, 2m)`` complex: the ND blocks of every wave ``k = 0..N-1`` of the
-    Jacobian without and per unit factor of the self-excitation."""
-    N, m = q.shape
-    zero = sp.csr_matrix((N * m, N * m))
-    J1 = sp.bmat([[zero, zero], [aero_stiffness(params, N, m), van_der_pol_damping(params, q)]],
-                 format="csr")  # fmt: skip
-    J0 = (sp.csr_matrix(J) - J1).tocsr()
-    if not (is_circulant(J0, N, m) and is_circulant(J1, N, m)):
-        raise ValueError("limit cycles need a cyclic (tuned) wheel")
-    r0, r1 = blade_blocks(J0, N, m), blade_blocks(J1, N, m)
-    return (np.stack([nd_block(r0, k) for k in range(N)]),
-            np.stack([nd_block(r1, k) for k in range(N)]))  # fmt: skip
-
-
-def wave_mode(B0, B1, lam):
-    """``(growth [1/s], eigenvalue, vector)`` of the fastest forward mode (``Im > 0``) of one
-    wave's block ``B0 + lam B1`` (:func:`wave_blocks`) at factor ``lam``."""
-    values, vectors = np.linalg.eig(B0 + lam * B1)
-    forward = np.flatnonzero(values.imag > 0)
-    i = forward[int(np.argmax(values.real[forward]))]
-    return float(values.real[i]), values[i], vectors[:, i]
-
-
-def hopf_point(B0, B1, lam_max: float, rtol: float = 1e-10) -> float:
-    """The smallest factor ``lam`` in ``[0, lam_max]`` at which the wave's fastest forward mode
-    crosses (bisection after a doubling scan); ``nan`` when it stays stable; 0 when it is
-    unstable without self-excitation."""
-    if wave_mode(B0, B1, 0.0)[0] > GROWTH_TOLERANCE:
-        return 0.0
-    grid = np.concatenate([[0.0], lam_max * 2.0 ** np.arange(-20, 1)])
-    unstable = [wave_mode(B0, B1, lam)[0] > 0 for lam in grid[1:]]
-    if not any(unstable):
-        return math.nan
-    first = unstable.index(True)
-    low, high = grid[first], grid[first + 1]
-    while high - low > rtol * high:
-        middle = 0.5 * (low + high)
-        low, high = (low, middle) if wave_mode(B0, B1, middle)[0] > 0 else (middle, high)
-    return 0.5 * (low + high)
-
-
 def _energies(b: WaveBalance, X: np.ndarray, omega: float, lam: float):
     """``(work_in, friction (K,), damping, samples)`` per cycle and blade [J] on ``b``'s time
     grid: the self-excitation's work on blade 0, the friction dissipation of one blade pair
@@ -300,16 +256,14 @@ class WaveAnalysis:
         branch.critical_lam = lam_c
         if math.isnan(lam_c):
             branch.note = f"stable up to {st.branch.lam_max:g} x mu (no Hopf point)"
-        elif lam_c == 0.0:
-            branch.note = "unstable without self-excitation (no Hopf point at mu >= 0)"
-        else:
+        else:  # lam_c = 0: unstable without self-excitation, no Hopf branch; seeds still
             self._branches(branch, wave, lam_c)
         branch.wall_s = time.perf_counter() - t0
         return branch
 
     def _branches(self, branch: WaveBranch, wave: int, lam_c: float) -> None:
         st, m = self.settings, self.model.modes
-        _, value, vector = wave_mode(self.B0[wave], self.B1[wave], lam_c)
+        _, value, vector = wave_mode(self.B0[wave], self.B1[wave], lam_c if lam_c > 0 else 1.0)
         omega_c = float(value.imag)
         branch.hopf_hz = omega_c / (2 * math.pi)
         v = vector[:m]
@@ -328,9 +282,12 @@ class WaveAnalysis:
             amplitude_axis = np.zeros(balance.size + 2)
             amplitude_axis[m + j] = 1.0
             segments = []
-            first = corrector.solve(self._guess(corrector, v, START_AMPLITUDE, omega_c, lam_c),
-                                    amplitude_axis, START_AMPLITUDE / x_scale[1] * v[j].real)
-            if first is None:
+            first = None if lam_c == 0 else corrector.solve(
+                self._guess(corrector, v, START_AMPLITUDE, omega_c, lam_c), amplitude_axis,
+                START_AMPLITUDE / x_scale[1] * v[j].real)  # fmt: skip
+            if lam_c == 0:
+                branch.end = "no Hopf point: unstable without self-excitation"
+            elif first is None:
                 branch.end = "Newton failed next to the Hopf point"
             else:
                 points, branch.end = trace(corrector, first, amplitude_axis, st.branch,
@@ -419,8 +376,13 @@ class WaveAnalysis:
                     p = points[i] if points[i].lam == 1.0 else points[i + 1]
                 else:
                     w = (1.0 - lam[i]) / (lam[i + 1] - lam[i])
-                    p = corrector.solve((1 - w) * points[i].z + w * points[i + 1].z, e, 1.0)
-                if p is not None and corrector.plausible(p) and not any(
+                    guess = (1 - w) * points[i].z + w * points[i + 1].z
+                    p = corrector.solve(guess, e, 1.0)
+                    if p is not None and np.linalg.norm(p.z - guess) > np.linalg.norm(
+                            points[i + 1].z - points[i].z):  # fmt: skip
+                        p = None  # landed on another branch
+                if p is not None and corrector.plausible(p) and \
+                        self._amplitude(p) > 10 * START_AMPLITUDE and not any(
                         abs(self._amplitude(p) - self._amplitude(f)) <= 1e-6 * self._amplitude(f)
                         for f in found):  # fmt: skip
                     found.append(p)

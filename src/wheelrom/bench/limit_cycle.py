@@ -21,14 +21,12 @@ import numpy as np
 
 from wheelrom.analysis.floquet import floquet
 from wheelrom.analysis.harmonic_balance import WaveBalance
+from wheelrom.analysis.hopf import hopf_point, wave_blocks, wave_mode
 from wheelrom.analysis.limit_cycle import (
     FASTEST,
     case_limit_cycles,
-    hopf_point,
     periodic_solution,
     settings_of,
-    wave_blocks,
-    wave_mode,
 )
 from wheelrom.analysis.stability import linearise
 from wheelrom.config import Config

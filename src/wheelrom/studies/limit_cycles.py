@@ -39,16 +39,23 @@ def run_limit_cycles(cfg: Config, comm=None, log=print, waves=None,
     say = log if rank == 0 and log is not None else (lambda *_: None)
     t0 = time.perf_counter()
     model_of, members = group_by([model_key(c) for c in study.configs])
-    models = ([build_model(study.configs[m[0]], petsc().COMM_SELF, log=say) for m in members]
-              if rank == 0 else None)  # fmt: skip
+    models: list | str | None = None
+    if rank == 0:
+        try:
+            models = [build_model(study.configs[m[0]], petsc().COMM_SELF, log=say)
+                      for m in members]  # fmt: skip
+        except Exception as exc:  # every rank stops with it, none waits in bcast
+            models = f"the model could not be built: {type(exc).__name__}: {exc}"
     if comm is not None:
         models = comm.bcast(models)
+    if isinstance(models, str):
+        raise InputError(models)
     if not all(m.tuned for m in models):
         raise InputError("limit-cycle: the travelling-wave harmonic balance needs a tuned "
                          "wheel; [mistuning] is set")  # fmt: skip
     say(f"{len(models)} model(s) ready in {time.perf_counter() - t0:.1f} s: "
         f"{models[0].blades} blades x {models[0].modes} modes")  # fmt: skip
-    mine = []
+    mine, refused_input = [], set()  # the reasons of cases refused as bad input ("": other)
     for i in range(rank, study.size, size):
         case_cfg = study.configs[i]
         label = f"[{i + 1}/{study.size}] " + ", ".join(
@@ -61,27 +68,31 @@ def run_limit_cycles(cfg: Config, comm=None, log=print, waves=None,
         try:
             res = case_limit_cycles(models[model_of[i]], case_cfg, settings_of(case_cfg, waves),
                                     progress=point if progress and rank == 0 else None)
-        except InputError as exc:  # the configuration cannot have limit cycles: every case
-            res = str(exc)  # says so, and the command stops with that
-        except (ValueError, RuntimeError, ArithmeticError, np.linalg.LinAlgError) as exc:
+        except Exception as exc:  # one case's failure is kept and named, the others go on
             angles = {k: case_cfg.contact(k).angle_deg for k in case_cfg.contacts.enabled_kinds()}
-            res = CaseLimitCycles(angles, (), None, [], 0.0,
-                                  failure=f"{type(exc).__name__}: {exc}")  # kept, named
-        if not isinstance(res, str):
-            res.parameters = dict(zip(study.names, study.values[i], strict=True))
+            why = str(exc) if isinstance(exc, InputError) else f"{type(exc).__name__}: {exc}"
+            res = CaseLimitCycles(angles, (), None, [], 0.0, failure=why)
+            refused_input.add(why if isinstance(exc, InputError) else "")
+        res.parameters = dict(zip(study.names, study.values[i], strict=True))
         mine.append((i, res))
         if rank == 0:
-            said = res if isinstance(res, str) else f"{res.verdict()} ({res.wall_s:.1f} s)"
-            say(f"{label}: {said}")
+            say(f"{label}: {res.verdict()} ({res.wall_s:.1f} s)")
     gathered = comm.gather(mine, root=0) if comm is not None else [mine]
     ordered = []
     if rank == 0:
         ordered = sorted((item for part in gathered for item in part), key=lambda it: it[0])
-    failed = [(i, why) for i, why in ordered if isinstance(why, str)]
-    failed = comm.bcast(failed) if comm is not None else failed
-    if failed:
-        listing = "; ".join(f"case {i}: {why}" for i, why in failed)
-        raise InputError(f"limit cycles failed for {len(failed)} case(s): {listing}"[:2000])
+    # every case refused as bad input for the same reason (no self-excitation): exit 2,
+    # nothing to write; otherwise the failed cases are written with their reasons (exit 1)
+    parts = comm.gather(refused_input, root=0) if comm is not None else [refused_input]
+    refused = None
+    if rank == 0:
+        reasons = set().union(*parts)
+        every = all(res.failure for _, res in ordered)
+        refused = next(iter(reasons)) if every and len(reasons) == 1 and "" not in reasons \
+            else None  # fmt: skip
+    refused = comm.bcast(refused) if comm is not None else refused
+    if refused:
+        raise InputError(f"limit cycles: {refused}")
     return models[0], [res for _, res in ordered]
 
 

@@ -1,0 +1,60 @@
+"""Where each travelling wave of a tuned wheel loses stability as the self-excitation grows:
+its ND block of the Jacobian at the preloaded equilibrium, affine in the factor ``lam`` on the
+self-excitation (the flutter margin's ``J_0 + lam J_1``, per wave ``k = 0..N-1``), its fastest
+forward mode and its Hopf point (docs/theory.md, "Limit cycles")."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import scipy.sparse as sp
+
+from wheelrom.analysis.jacobian import aero_stiffness, van_der_pol_damping
+from wheelrom.analysis.stability import blade_blocks, is_circulant, nd_block
+from wheelrom.forces.parameters import ForceParameters
+from wheelrom.rom.model import ReducedModel
+
+GROWTH_TOLERANCE = 1e-6  # [1/s] as the linear verdict
+
+
+def wave_blocks(model: ReducedModel, params: ForceParameters, q: np.ndarray, J):
+    """``(B0, B1)`` ``(N, 2m, 2m)`` complex: the ND blocks of every wave ``k = 0..N-1`` of the
+    Jacobian without and per unit factor of the self-excitation."""
+    N, m = q.shape
+    zero = sp.csr_matrix((N * m, N * m))
+    J1 = sp.bmat([[zero, zero], [aero_stiffness(params, N, m), van_der_pol_damping(params, q)]],
+                 format="csr")  # fmt: skip
+    J0 = (sp.csr_matrix(J) - J1).tocsr()
+    if not (is_circulant(J0, N, m) and is_circulant(J1, N, m)):
+        raise ValueError("limit cycles need a cyclic (tuned) wheel")
+    r0, r1 = blade_blocks(J0, N, m), blade_blocks(J1, N, m)
+    return (np.stack([nd_block(r0, k) for k in range(N)]),
+            np.stack([nd_block(r1, k) for k in range(N)]))  # fmt: skip
+
+
+def wave_mode(B0, B1, lam):
+    """``(growth [1/s], eigenvalue, vector)`` of the fastest forward mode (``Im > 0``) of one
+    wave's block ``B0 + lam B1`` (:func:`wave_blocks`) at factor ``lam``."""
+    values, vectors = np.linalg.eig(B0 + lam * B1)
+    forward = np.flatnonzero(values.imag > 0)
+    i = forward[int(np.argmax(values.real[forward]))]
+    return float(values.real[i]), values[i], vectors[:, i]
+
+
+def hopf_point(B0, B1, lam_max: float, rtol: float = 1e-10) -> float:
+    """The smallest factor ``lam`` in ``[0, lam_max]`` at which the wave's fastest forward mode
+    crosses (bisection after a doubling scan); ``nan`` when it stays stable; 0 when it is
+    unstable without self-excitation."""
+    if wave_mode(B0, B1, 0.0)[0] > GROWTH_TOLERANCE:
+        return 0.0
+    grid = np.concatenate([[0.0], lam_max * 2.0 ** np.arange(-20, 1)])
+    unstable = [wave_mode(B0, B1, lam)[0] > 0 for lam in grid[1:]]
+    if not any(unstable):
+        return math.nan
+    first = unstable.index(True)
+    low, high = grid[first], grid[first + 1]
+    while high - low > rtol * high:
+        middle = 0.5 * (low + high)
+        low, high = (low, middle) if wave_mode(B0, B1, middle)[0] > 0 else (middle, high)
+    return 0.5 * (low + high)
