@@ -59,7 +59,6 @@ class Corrector:
         self._lin: tuple | None = None  # (z, its force linearisation)
         self.exact = self.refresh = False
         self._last_norm = np.inf
-        self.jacobians = 0  # force Jacobians built (the cost)
         self.term_size = 0.0
         comm = comm or PETSc.COMM_SELF
         self.snes = PETSc.SNES().create(comm=comm)
@@ -155,7 +154,6 @@ class Corrector:
             _, self._J, lin = self.system(z)
             self._lin = (z, lin)
             self.refresh = False
-            self.jacobians += 1
         P.setValues(range(self.n), range(self.n), np.vstack([self._J, self.constraint[0]]))
         P.assemble()
 
@@ -199,7 +197,6 @@ class Corrector:
         if self._lin is None or not np.array_equal(self._lin[0], z):
             _, self._J, lin = self.system(z)
             self._lin = (z.copy(), lin)
-            self.jacobians += 1
         t = np.linalg.solve(np.vstack([self._J, previous]), np.r_[np.zeros(self.n - 1), 1.0])
         t /= np.linalg.norm(t)
         return t if t @ previous >= 0 else -t

@@ -91,11 +91,9 @@ def hill_matrix(balance: WaveBalance, lin: Linearisation, omega: float, lam: flo
         phase = theta + h * b.phi
         K[i, :, i, :] = b._wave_stiffness(phase)
         if b.table:  # the table's displacement and velocity parts
-            p = b.params.aero
-            z = np.exp(1j * np.arange(b.blades) * phase)
-            mu = lam * b.params.vdp_mu
-            Aq[i, :, i, :] -= mu * np.sum(b.params.aero_displacement * z) * np.outer(p, p)
-            Av[i, :, i, :] -= mu * np.sum(b.params.aero_velocity * z) * np.outer(p, p)
+            A, B = b.table_parts(phase)
+            Aq[i, :, i, :] -= lam * A
+            Av[i, :, i, :] -= lam * B
     size = n * m
     K, Aq, Av = K.reshape(size, size), Aq.reshape(size, size), Av.reshape(size, size)
     Omega = np.diag(np.repeat(harmonics * omega, m)).astype(complex)

@@ -87,6 +87,7 @@ class WaveBalance:
         self.wave, self.H, self.nt = wave % model.blades, harmonics, samples
         self.phi = 2 * math.pi * self.wave / self.blades
         self.window = window_parameters(params)
+        self._window_at = (1.0, self.window)
         self.forces = ReferenceForces(self.window)
         self.kinds = params.contacts.kinds
         H, nt = harmonics, samples
@@ -161,14 +162,20 @@ class WaveBalance:
             Z.append(Zh)
         return Z
 
+    def table_parts(self, phase: float) -> tuple[np.ndarray, np.ndarray]:
+        """``(A, B)`` ``(m, m)``: minus the aerodynamic table's generalised force per unit
+        displacement and per unit velocity of ``c`` on a wave of blade-to-blade ``phase``
+        (``mu`` = the table factor): ``-mu sum_j (a_j, b_j) e^{i j phase} p p^T``."""
+        pp = np.outer(self.params.aero, self.params.aero)
+        z = np.exp(1j * np.arange(self.blades) * phase)
+        mu = self.params.vdp_mu
+        return (mu * np.sum(self.params.aero_displacement * z) * pp,
+                mu * np.sum(self.params.aero_velocity * z) * pp)  # fmt: skip
+
     def _table_operator(self, phase: float, frequency: float) -> np.ndarray:
-        """``(m, m)`` minus the aerodynamic table's generalised force per unit ``c`` on a wave
-        of blade-to-blade ``phase`` at ``frequency`` [rad/s] (``mu`` = the table factor)."""
-        p = self.params.aero
-        j = np.arange(self.blades)
-        a, b = self.params.aero_displacement, self.params.aero_velocity
-        g = np.sum((a + 1j * frequency * b) * np.exp(1j * j * phase))
-        return self.params.vdp_mu * g * np.outer(p, p)
+        """``A + i frequency B`` of :meth:`table_parts` (``frequency`` [rad/s])."""
+        A, B = self.table_parts(phase)
+        return A + 1j * frequency * B
 
     @staticmethod
     def _real_block(Z: np.ndarray) -> np.ndarray:
@@ -212,10 +219,12 @@ class WaveBalance:
         return force[:, 0], normal, power, state
 
     def _at(self, lam: float) -> ForceParameters:
-        if getattr(self, "_lam", None) != lam:
-            self._lam = lam
-            self._window_at = dataclasses.replace(self.window, vdp_mu=lam * self.window.vdp_mu)
-        return self._window_at
+        """The window's parameters with the self-excitation at factor ``lam`` (kept for the
+        last factor asked: a Newton solve asks for one many times)."""
+        if self._window_at[0] != lam:
+            self._window_at = (lam, dataclasses.replace(self.window,
+                                                        vdp_mu=lam * self.window.vdp_mu))
+        return self._window_at[1]
 
     def nonlinear_force(self, X: np.ndarray, omega: float, lam: float) -> np.ndarray:
         """``(n_t, m)`` the forces on blade 0 at the samples."""
@@ -276,10 +285,7 @@ class WaveBalance:
 
     def _table_derivative(self, h: int) -> np.ndarray:
         """d(table operator of harmonic ``h``)/d omega."""
-        p = self.params.aero
-        j = np.arange(self.blades)
-        g = np.sum(1j * h * self.params.aero_velocity * np.exp(1j * j * h * self.phi))
-        return self.params.vdp_mu * g * np.outer(p, p)
+        return 1j * h * self.table_parts(h * self.phi)[1]
 
     def _lambda_column(self, X: np.ndarray, omega: float, lam: float) -> np.ndarray:
         """dR/dlam: the self-excitation is linear in ``lam`` (Van der Pol force and table)."""

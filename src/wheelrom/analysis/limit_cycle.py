@@ -123,6 +123,7 @@ class WaveBranch:
     cycles: list[Cycle] = field(default_factory=list)
     note: str = ""
     wall_s: float = 0.0
+    kinds: tuple = ()  # the contact kinds, in the order of ``fractions``
 
     def verdict(self) -> str:
         """What the wave does at the configured intensity, in words."""
@@ -135,7 +136,7 @@ class WaveBranch:
         c = min(stable or self.cycles, key=lambda c: c.tip_amplitude)
         lead = "settles at" if c.stable else "limit cycle at"
         words = [f"{lead} {c.tip_amplitude * 1e6:.3g} um tip, {c.frequency_hz:.4g} Hz"]
-        for k, kind in enumerate(self._kinds):
+        for k, kind in enumerate(self.kinds):
             open_, _, slip = c.fractions[k]
             words.append(f"{kind} open {100 * open_:.0f} %"
                          + (f", slipping {100 * slip:.0f} %" if slip > 0 else ""))  # fmt: skip
@@ -153,8 +154,6 @@ class WaveBranch:
                          f"{st.growth.max():.3g} /s; the flutter does not settle on this wave "
                          "alone)")  # fmt: skip
         return ", ".join(words)
-
-    _kinds: tuple = ()
 
 
 @dataclass
@@ -250,8 +249,8 @@ class WaveAnalysis:
         t0 = time.perf_counter()
         N, st = self.model.blades, self.settings
         nd = int(nodal_diameter(wave, N))
-        branch = WaveBranch(wave, nd, 1 if wave <= N // 2 else -1, math.nan, math.nan)
-        branch._kinds = self.params.contacts.kinds
+        branch = WaveBranch(wave, nd, 1 if wave <= N // 2 else -1, math.nan, math.nan,
+                            kinds=self.params.contacts.kinds)
         lam_c = hopf_point(self.B0[wave], self.B1[wave], st.branch.lam_max)
         branch.critical_lam = lam_c
         if math.isnan(lam_c):
@@ -399,9 +398,9 @@ class WaveAnalysis:
 
     @staticmethod
     def _residual(balance: WaveBalance, p: Point) -> float:
-        R = balance.residual(p.X, p.omega, p.lam)
-        scale = np.abs(balance.linear_term(p.X, p.omega, p.lam)).max()
-        return float(np.abs(R).max() / max(scale, 1e-300))
+        linear = balance.linear_term(p.X, p.omega, p.lam)
+        R = linear - balance.P @ balance.nonlinear_force(p.X, p.omega, p.lam)
+        return float(np.abs(R).max() / max(np.abs(linear).max(), 1e-300))
 
 
 def periodic_solution(balance: WaveBalance, X: np.ndarray, omega: float, lam: float = 1.0,

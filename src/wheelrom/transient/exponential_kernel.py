@@ -39,7 +39,7 @@ def _propagate(E, j, u, out, NB, n):
 
 
 @_kernel_cache.njit(fastmath={"contract"}, error_model="numpy")
-def etd4_step(t, h, u, ctx, coef, work):  # noqa: PLR0915 - the four stages in one place
+def etd4_step(t, h, u, ctx, coef, work):
     """Advance the kernel state ``u`` (length ``B (2 N m + 4)``) from ``t`` by ``h`` [s] in
     place. ``coef``: ``(C_ROWS, m)`` for this ``h``; ``work``: ``(6, len(u))`` scratch
     (the four stage derivatives, two stage states). Frozen (diverged) cases keep their state.
@@ -56,28 +56,16 @@ def etd4_step(t, h, u, ctx, coef, work):  # noqa: PLR0915 - the four stages in o
     E_half = coef[C_HALF : C_HALF + 4]
     # stage 1: N(u); a = E(h/2) u + h/2 phi1(hL/2) N_u
     rhs_core(t, u, Nu, ctx)
-    for j in range(m):
-        _propagate(E_half, j, u, a, NB, n)
-    _add_phi(a, Nu, coef, C_PHI_HALF, half, m, NB, n)
-    for k in range(2 * n, size):
-        a[k] = u[k] + half * Nu[k]
+    _half_stage(E_half, u, a, Nu, coef, half, u, Nu, half, m, NB, n, size)
     # stage 2: N(a); b = E(h/2) u + h/2 phi1 N_a (b kept in c's scratch until stage 3)
     rhs_core(t + half, a, Na, ctx)
-    for j in range(m):
-        _propagate(E_half, j, u, c, NB, n)
-    _add_phi(c, Na, coef, C_PHI_HALF, half, m, NB, n)
-    for k in range(2 * n, size):
-        c[k] = u[k] + half * Na[k]
+    _half_stage(E_half, u, c, Na, coef, half, u, Na, half, m, NB, n, size)
     rhs_core(t + half, c, Nb, ctx)
     # stage 3: c = E(h/2) a + h/2 phi1 (2 N_b - N_u); Na's scratch is still needed, so the
     # combination 2 N_b - N_u goes into Nc until N(c) overwrites it
     for k in range(n, 2 * n):
         Nc[k] = 2.0 * Nb[k] - Nu[k]
-    for j in range(m):
-        _propagate(E_half, j, a, c, NB, n)
-    _add_phi(c, Nc, coef, C_PHI_HALF, half, m, NB, n)
-    for k in range(2 * n, size):
-        c[k] = u[k] + h * Nb[k]
+    _half_stage(E_half, a, c, Nc, coef, half, u, Nb, h, m, NB, n, size)
     rhs_core(t + h, c, Nc, ctx)
     # u+ = E(h) u + h (f1 N_u + 2 f2 (N_a + N_b) + f3 N_c); W by the classical RK4 weights
     for k in range(n, 2 * n):
@@ -100,6 +88,17 @@ def etd4_step(t, h, u, ctx, coef, work):  # noqa: PLR0915 - the four stages in o
     else:
         for k in range(size):
             u[k] = a[k]
+
+
+@_kernel_cache.njit(fastmath={"contract"}, error_model="numpy")
+def _half_stage(E_half, src, out, f, coef, half, u, w, w_scale, m, NB, n, size):
+    """One stage state: ``out = E(h/2) src + h/2 phi1(hL/2) f`` on the modes, and the work
+    integrals ``out_W = u_W + w_scale w_W`` (explicit, the classical RK4 stages)."""
+    for j in range(m):
+        _propagate(E_half, j, src, out, NB, n)
+    _add_phi(out, f, coef, C_PHI_HALF, half, m, NB, n)
+    for k in range(2 * n, size):
+        out[k] = u[k] + w_scale * w[k]
 
 
 @_kernel_cache.njit(fastmath={"contract"}, error_model="numpy")
