@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
+import functools
 
 from wheelrom.cli.output import LONG_LISTING
 from wheelrom.runtime.errors import InputError
-from wheelrom.runtime.outputs import check_output
+from wheelrom.runtime.outputs import check_output, output_lock
 
 
 def json_out(p: argparse.ArgumentParser) -> None:
@@ -217,6 +219,28 @@ def comm_self():
     from wheelrom.runtime.environment import petsc
 
     return petsc().COMM_SELF
+
+
+def locked(*flags: str):
+    """Decorate a command to run holding the lock of each output file it is given (``"--out"``,
+    ``"--vtu"``, ...: :func:`wheelrom.runtime.outputs.output_lock`; under mpirun rank 0
+    holds them for all), so that a second job on the same file is refused, naming this one."""
+
+    def wrap(cmd):
+        @functools.wraps(cmd)
+        def run(args: argparse.Namespace) -> int:
+            from wheelrom.studies.stability import world_if_parallel
+
+            comm = world_if_parallel()
+            with contextlib.ExitStack() as held:
+                for flag in flags:
+                    path = getattr(args, flag.lstrip("-").replace("-", "_"), None)
+                    held.enter_context(output_lock(path, comm, flag))
+                return cmd(args)
+
+        return run
+
+    return wrap
 
 
 def add_config_args(p: argparse.ArgumentParser, required: bool = False) -> None:

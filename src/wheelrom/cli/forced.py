@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 
-from wheelrom.cli.args import comm_self, force, json_out, load_config
+from wheelrom.cli.args import comm_self, force, json_out, load_config, locked
 from wheelrom.cli.output import log, print_json
 from wheelrom.config import CONTACT_KINDS
 from wheelrom.results.layout import FORCED_FORMAT as FORMAT
@@ -74,6 +74,7 @@ def parse_angles(pairs: list[list[str]]) -> dict:
     return out
 
 
+@locked("--out")
 def cmd_forced(args: argparse.Namespace) -> int:
     """Linear forced response to the nozzle at engine order wheel.stator_vanes: the peak of
     the largest blade tip amplitude over the band of [forced] (or --frequencies), refined

@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 import time
 
-from wheelrom.cli.args import json_out, load_config
+from wheelrom.cli.args import json_out, load_config, locked
 from wheelrom.cli.output import log, print_json
 from wheelrom.runtime.errors import InputError
 from wheelrom.runtime.outputs import check_output, replacing
@@ -37,6 +37,7 @@ def _waves(text: str | None):
     return tuple(int(t) for t in parts)
 
 
+@locked("--out")
 def cmd_limit_cycle(args: argparse.Namespace) -> int:
     """Friction-held limit cycles per travelling wave by harmonic balance (nozzle off, tuned
     wheel): the Hopf point of every unstable wave, the branch of periodic solutions from

@@ -26,7 +26,7 @@ from wheelrom.cli import forced as cli_forced  # noqa: E402
 from wheelrom.cli import limit_cycle as cli_limit_cycle  # noqa: E402
 from wheelrom.cli import motion as cli_motion  # noqa: E402
 from wheelrom.cli import tools as cli_tools  # noqa: E402
-from wheelrom.cli.args import comm_self, load_config  # noqa: E402
+from wheelrom.cli.args import comm_self, load_config, locked  # noqa: E402
 from wheelrom.cli.output import (  # noqa: E402
     EXIT_INTERRUPTED,
     fail,
@@ -97,6 +97,7 @@ def cmd_config_check(args: argparse.Namespace) -> int:
     return 0
 
 
+@locked("--out", "--vtu")
 def cmd_modes(args: argparse.Namespace) -> int:
     """Segment modes (SLEPc) and wheel frequencies by nodal diameter (cyclic synthesis)."""
     from wheelrom.rom.build import build, quiet
@@ -163,6 +164,7 @@ def _full_wheel(args: argparse.Namespace, cfg, wheel, say) -> dict:
     return out
 
 
+@locked("--out")
 def cmd_run(args: argparse.Namespace) -> int:
     """One transient case on PETSc TS (options after -- go to the TS, prefix wheel_)."""
     from wheelrom.rom.build import build_model, quiet
@@ -204,38 +206,73 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
-    """PETSc TS against the plain-numpy serial reference on the same model."""
+    """PETSc TS against the plain-numpy serial reference on the same model, with the scheme
+    the TS integrates (``time.scheme``, or what ``-wheel_ts_type`` chose): the exponential
+    one (ETDRK4) or RK 3bs at fixed steps. A difference that is not finite (either side
+    diverged) or a TS that stopped early exits with status 1."""
+    import math
+
     import numpy as np
 
     from wheelrom.rom.build import build_model, quiet
+    from wheelrom.transient.exponential import safe_step
     from wheelrom.transient.reference import reference_solution
     from wheelrom.transient.run import run_case
-    from wheelrom.transient.ts import time_step
+    from wheelrom.transient.ts import ts_settings
 
     cfg = load_config(args)
     if args.steps < 1:
         raise InputError(f"compare --steps: at least 1 step to compare (got {args.steps})")
-    steps, step = args.steps, time_step(cfg)  # the TS's step: -wheel_ts_dt overrides
+    settings = ts_settings(cfg)  # the TS's scheme and step: -wheel_ts_* options override
+    scheme = _reference_scheme(settings)
+    model = build_model(cfg, comm_self(), log=quiet if args.json else log)
+    step = float(settings["ts_dt"])
+    if scheme == "exponential":  # the TS moves its step off the scheme's resonances
+        step, _ = safe_step(model, step)
+    steps = args.steps
     span = steps * step  # one window over the compared steps, with at least one sample in it
     rate = max(cfg.output.sample_rate_hz, 1.0 / span)
     cfg = cfg.replace(**{"time.end": span, "time.window": span, "output.sample_rate_hz": rate,
                          "output.history_rate_hz": rate, "output.state_rate_hz": 0.0})
-    model = build_model(cfg, comm_self(), log=quiet if args.json else log)
     res = run_case(model, cfg)
-    _, states, ref_wall = reference_solution(model, cfg, steps, step, sample_every=steps)
-    n = model.size
-    ref_tip = states[-1][:n].reshape(model.blades, model.modes) @ model.tip.T
-    ts_tip = res.final_state[:n].reshape(model.blades, model.modes) @ model.tip.T
-    diff = float(np.abs(ref_tip - ts_tip).max() / max(np.abs(ref_tip).max(), 1e-300))
+    with np.errstate(all="ignore"):  # a diverging reference is reported below, in one line
+        _, states, ref_wall = reference_solution(model, cfg, steps, step, sample_every=steps,
+                                                 scheme=scheme)  # fmt: skip
+        n = model.size
+        ref_tip = states[-1][:n].reshape(model.blades, model.modes) @ model.tip.T
+        ts_tip = res.final_state[:n].reshape(model.blades, model.modes) @ model.tip.T
+        diff = float(np.abs(ref_tip - ts_tip).max() / max(np.abs(ref_tip).max(), 1e-300))
     out = {
         "steps": steps,
         "step_s": step,
+        "scheme": scheme,
         "max_relative_difference": diff,
         "petsc_wall_s": res.wall_s,
         "reference_wall_s": ref_wall,
     }
     print_result(out, args.json)
+    if res.status != "done":
+        return fail(f"compare: the PETSc TS did not finish the {steps} steps ({res.status})", 1)
+    if not math.isfinite(diff):
+        return fail(f"compare: the difference is not finite ({diff}): the integration "
+                    f"diverged at step {step:g} s", 1)  # fmt: skip
     return 0
+
+
+def _reference_scheme(settings: dict) -> str:
+    """The serial reference's scheme for the TS ``settings`` (:func:`ts_settings`):
+    ``"exponential"`` or ``"rk"`` (RK 3bs, fixed steps); any other TS has no reference."""
+    from wheelrom.transient.exponential import SCHEME
+
+    if settings.get("ts_scheme") == SCHEME:
+        return "exponential"
+    if (settings.get("ts_type") == "rk" and settings.get("ts_rk_type") == "3bs"
+            and settings.get("ts_adapt_type") == "none"):  # fmt: skip
+        return "rk"
+    chosen = ", ".join(f"{k} {settings[k]}" for k in ("ts_type", "ts_rk_type", "ts_adapt_type")
+                       if k in settings)  # fmt: skip
+    raise InputError(f"compare: the serial reference integrates time.scheme 'exponential' or "
+                     f"RK 3bs at fixed steps, not this TS ({chosen})")
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
@@ -271,6 +308,7 @@ def cmd_study(args: argparse.Namespace) -> int:
     return 1 if summary["transients"]["failed"] else 0
 
 
+@locked("--out")
 def cmd_stability(args: argparse.Namespace) -> int:
     """Linear stability of every case at its preloaded equilibrium (nozzle off): eigenvalues
     per nodal diameter, the fastest-growing mode and what it does at the contacts. Under

@@ -73,6 +73,7 @@ def cmd_accuracy(args: argparse.Namespace) -> int:
     return 0
 
 
+@cli_args.locked("--out")
 def cmd_mesh(args: argparse.Namespace) -> int:
     """Write the segment mesh and node sets (.inp with a CalculiX modal step, .vtu, ...)."""
     from wheelrom.segment.export import cyclic_deck_path, write_segment

@@ -35,6 +35,7 @@ from wheelrom.runtime.outputs import (
     create_collectively,
     disk_full,
     is_disk_full,
+    output_lock,
     output_problem,
     replacing,
 )
@@ -66,8 +67,16 @@ def run_study(cfg: Config, out: str, comm, mode: str = "full", confirm: tuple = 
     that can share one, up to ``HISTORY_BYTES`` of tip histories); ``forced``: also the
     peak forced response of every case and its amplification factor
     (:mod:`wheelrom.studies.mistuning`). Raises :class:`Interrupted` after a Ctrl-C / SIGTERM
-    once the finished rounds are in the file.
+    once the finished rounds are in the file. ``out`` is locked for the whole study
+    (:func:`wheelrom.runtime.outputs.output_lock`): another job on it is refused before
+    anything is computed.
     """
+    with output_lock(out, comm):
+        return _study(cfg, out, comm, mode, confirm, resume, force, log, options, batch, forced)
+
+
+def _study(cfg: Config, out: str, comm, mode: str, confirm: tuple, resume: bool, force: bool,
+           log, options: dict | None, batch: int, forced: bool) -> dict:  # fmt: skip
     petsc()  # PetscInitialize is collective: every rank before one builds alone
     slepc()
     say = log if comm.rank == 0 else (lambda *_: None)

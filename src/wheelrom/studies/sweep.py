@@ -25,7 +25,7 @@ from wheelrom.rom.build import build_model
 from wheelrom.runtime import interrupts
 from wheelrom.runtime.environment import petsc, slepc
 from wheelrom.runtime.errors import InputError, Interrupted
-from wheelrom.runtime.outputs import create_collectively, output_problem
+from wheelrom.runtime.outputs import create_collectively, output_lock, output_problem
 from wheelrom.studies.rounds import check_space_collectively, run_rounds
 from wheelrom.studies.stability import attach_linear, refuse_study
 from wheelrom.transient.run import run_cases
@@ -44,8 +44,16 @@ def run_sweep(cfg: Config, out: str, comm, resume: bool = False, force: bool = F
     build to the eigen-solver tolerance, not bitwise). ``batch``: cases per TS on a rank (0:
     all of the rank's cases at once; see the module docstring). ``options``: PETSc options
     of the case TS (keys without the ``wheel_`` prefix). Raises :class:`Interrupted` after a
-    Ctrl-C / SIGTERM, once the finished rounds are safely in the file.
+    Ctrl-C / SIGTERM, once the finished rounds are safely in the file. ``out`` is locked
+    for the whole sweep (:func:`wheelrom.runtime.outputs.output_lock`): another job on it
+    is refused before anything is computed.
     """
+    with output_lock(out, comm):
+        return _sweep(cfg, out, comm, resume, force, log, options, model_comm, batch)
+
+
+def _sweep(cfg: Config, out: str, comm, resume: bool, force: bool, log, options: dict | None,
+           model_comm: str, batch: int) -> int:  # fmt: skip
     import h5py
 
     # PetscInitialize is collective on COMM_WORLD: every rank initialises before rank 0

@@ -161,9 +161,9 @@ def _alone(names: list[str], keep: str):
     return scope()
 
 
-def _forget_reads(names: list[str]) -> None:
-    """Re-insert ``names`` so that PETSc forgets they were read (by the probes): the
-    unused-option warning must reflect the real solvers only."""
+def forget_reads(names: list[str]) -> None:
+    """Re-insert ``names`` so that PETSc forgets they were read (by the probes, or by a TS
+    that does not act on them): the unused-option warning must reflect what took effect."""
     db = petsc().Options()
     for name in names:
         if db.hasName(name):
@@ -179,7 +179,7 @@ def check(args: list[str]) -> None:
     try:
         _check(names)
     finally:
-        _forget_reads(names)
+        forget_reads(names)
 
 
 def _check(names: list[str]) -> None:
@@ -213,6 +213,14 @@ def _options_used():
     fn.argtypes = [ctypes.c_void_p, ctypes.c_char_p, ctypes.POINTER(ctypes.c_int)]
     fn.restype = ctypes.c_int
     return fn
+
+
+def was_read(name: str) -> bool:
+    """Whether something read option ``name`` (no dash) of the database
+    (``PetscOptionsUsed``)."""
+    petsc()
+    flag = ctypes.c_int()
+    return _options_used()(None, name.encode(), ctypes.byref(flag)) == 0 and bool(flag.value)
 
 
 def unused(args: list[str]) -> list[str]:

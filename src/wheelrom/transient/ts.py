@@ -66,18 +66,47 @@ def reason_words(reason: int) -> str:
 
 
 def ts_options_used(ts, prefix: str) -> dict:
-    """The TS settings in effect (type, RK scheme, step) and every ``<prefix>ts_`` option of
-    the database, prefix stripped: what a result records about its integrator."""
+    """The TS settings in effect (type, RK scheme, step) and the ``<prefix>ts_`` options of
+    the database that took effect, prefix stripped: what a result records about its
+    integrator. An option took effect when PETSc read it (``PetscOptionsUsed``: not
+    ``-wheel_ts_rk_type`` for a TS of another type) and, with the exponential scheme, when
+    it is none of the RK (``ts_rk_*``) or step adaptor (``ts_adapt_*``) options: PETSc
+    reads the latter for any TS type, but the scheme's own fixed step never consults them."""
+    from wheelrom.transient.options import was_read
+
+    exp = _exponential(ts)
     used = {
         "ts_type": ts.getType(),
         "ts_rk_type": ts.getRKType() if ts.getType() == "rk" else None,
-        "ts_scheme": exponential.SCHEME if _exponential(ts) else None,
+        "ts_scheme": exponential.SCHEME if exp else None,
         "ts_dt": ts.getTimeStep(),
     }
     ours = prefix + "ts_"
     everything = petsc().Options().getAll()
-    used.update({k[len(prefix) :]: v for k, v in everything.items() if k.startswith(ours)})
+    for key, value in everything.items():
+        name = key[len(prefix) :]
+        if not key.startswith(ours) or (exp and name.startswith(_NOT_EXPONENTIAL)):
+            continue
+        if was_read(key):
+            used[name] = value
     return {k: v for k, v in used.items() if v is not None}
+
+
+# option families the exponential scheme does not act on (its step is its own, fixed)
+_NOT_EXPONENTIAL = ("ts_rk_", "ts_adapt_")
+
+
+def _ignore_for_exponential(ts, prefix: str) -> None:
+    """After ``setFromOptions`` of an exponential TS: its step adaptor back to ``none`` (an
+    adaptor another ``-<prefix>ts_adapt_type`` chose would not act, but would make the run
+    stop at windows like an adaptive one), and the RK and adaptor options of the database
+    left unread, so that the end of the command reports them unused."""
+    from wheelrom.transient.options import forget_reads
+
+    bridge.set_adapt_type(ts, "none")
+    names = [k for k in petsc().Options().getAll()
+             if k.startswith(prefix) and k[len(prefix) :].startswith(_NOT_EXPONENTIAL)]  # fmt: skip
+    forget_reads(names)
 
 
 def _exponential(ts) -> bool:
@@ -115,6 +144,8 @@ def ts_settings(cfg: Config, prefix: str = PREFIX, options: dict | None = None) 
         with scoped_options(prefix, options):
             ts.setFromOptions()
             used = ts_options_used(ts, prefix)
+            if _exponential(ts):
+                _ignore_for_exponential(ts, prefix)
         used.setdefault("ts_adapt_type", bridge.adapt_type(ts))
         return used
     finally:
@@ -146,6 +177,8 @@ def make_ts(problem: WheelProblem, cfg: Config, prefix: str = PREFIX,
     with scoped_options(prefix, options):
         ts.setFromOptions()
         used = ts_options_used(ts, prefix)
+        if _exponential(ts):
+            _ignore_for_exponential(ts, prefix)
     if ts.getType() == "python" and not _exponential(ts):
         raise InputError("-wheel_ts_type python: wheelrom's python TS is the exponential "
                          "scheme, chosen by time.scheme = 'exponential'")
