@@ -59,10 +59,11 @@ class FloquetResult:
     trivial: float
     stable: bool
     by: str = "Floquet: family"  # what decided, and what a family is (the transient: "ND")
+    trust: float = TRUSTED  # the largest ``trivial`` at which the verdict holds
 
     @property
     def trusted(self) -> bool:
-        return bool(self.trivial <= TRUSTED)
+        return bool(self.trivial <= self.trust)
 
     @property
     def worst_family(self) -> int:

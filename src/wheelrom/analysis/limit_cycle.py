@@ -19,9 +19,11 @@ import numpy as np
 
 from wheelrom.analysis.continuation import BranchSettings, Corrector, Point, trace
 from wheelrom.analysis.cycle_transient import transient_stability
-from wheelrom.analysis.floquet import FloquetResult, floquet
+from wheelrom.analysis.floquet import floquet
 from wheelrom.analysis.harmonic_balance import WaveBalance
 from wheelrom.analysis.hopf import GROWTH_TOLERANCE, hopf_point, wave_blocks, wave_mode
+from wheelrom.analysis.periodic.cycle import Cycle
+from wheelrom.analysis.periodic.exact import exact_cycle, monodromy_stability
 from wheelrom.analysis.stability import linearise
 from wheelrom.config import Config
 from wheelrom.forces.parameters import VDP_OFF
@@ -42,8 +44,13 @@ class Settings:
     harmonics: int = 7
     samples: int = 0  # 0: 8 (H + 1)
     waves: tuple = ()  # travelling-wave indices k (0..N-1); (): every unstable one
-    floquet: str = "cycles"  # 'cycles': every family at the cycles; 'all': also the wave's
-    # own family along the branches; 'off'
+    floquet: str = "auto"  # 'auto': 'monodromy' for shooting, 'cycles' for 'hb'; 'cycles':
+    # Hill, every family at the cycles; 'all': also the wave's own family along the branches;
+    # 'monodromy', 'transient', 'off'
+    method: str = "hb"  # 'shooting': HB cycles polished into exact orbits (the configuration's
+    # default, limit_cycle.method); 'hb': the harmonic balance alone
+    multipliers: int = 10  # monodromy multipliers of largest modulus
+    refine: int = 4  # step halvings of the in-symmetry multiplier check
     seeds: tuple = (1e-6, 1e-5, 1e-4, 1e-3)  # [m] tip amplitudes of the Newton starts at lam = 1
     branch: BranchSettings = field(default_factory=BranchSettings)
 
@@ -59,46 +66,15 @@ def settings_of(cfg: Config, waves=None) -> Settings:
     branch = BranchSettings(lam_max=lc.mu_max, amplitude_max=lc.amplitude_max, steps=lc.steps)
     return Settings(harmonics=lc.harmonics, samples=lc.samples,
                     waves=tuple(lc.waves if waves is None else waves), floquet=lc.floquet,
-                    seeds=tuple(lc.seeds), branch=branch)  # fmt: skip
+                    seeds=tuple(lc.seeds), branch=branch, method=lc.method,
+                    multipliers=lc.multipliers, refine=lc.refine)  # fmt: skip
 
 
-@dataclass
-class Cycle:
-    """One periodic solution. ``lam`` [-] factor on the configured intensity; ``frequency_hz``;
-    ``harmonics`` ``(H + 1, m)`` complex ``c_h`` of blade 0 [sqrt(kg) m] (``c_0`` the mean);
-    ``tip_amplitude`` [m] 0-peak of blade 0's tip vibration; ``tip_harmonics`` ``(H,)`` [m];
-    per contact kind ``normal_force_range`` ``(K, 2)`` [N], ``fractions`` ``(K, 3)`` of the
-    period open / sticking (micro-slip) / slipping; energy per cycle and blade [J]:
-    ``energy_in`` (self-excitation), ``energy_friction`` ``(K,)`` and ``energy_damping``
-    (``beta_D``) taken out, ``energy_residual`` ``|in - out| / in`` on the harmonic
-    balance's samples (the friction dissipation against the work of the contact forces: the
-    normal forces do no work over a cycle) and ``energy_residual_fine`` on 256 samples (the
-    truncation of the harmonics shows there); ``damping_ratio``
-    the mechanical damping of the nonlinear mode at this amplitude; ``residual``: the
-    harmonic balance's relative residual; ``stability``: Floquet (None: not computed)."""
-
-    lam: float
-    frequency_hz: float
-    harmonics: np.ndarray
-    tip_amplitude: float
-    tip_harmonics: np.ndarray
-    normal_force_range: np.ndarray
-    fractions: np.ndarray
-    energy_in: float
-    energy_friction: np.ndarray
-    energy_damping: float
-    energy_residual: float
-    energy_residual_fine: float
-    damping_ratio: float
-    residual: float
-    stability: FloquetResult | None = None
-
-    @property
-    def stable(self) -> bool | None:
-        """Floquet's verdict; None when not computed or not trusted (:attr:`FloquetResult.
-        trusted`: the phase-shift multiplier is not 1 to 1e-3)."""
-        st = self.stability
-        return None if st is None or not st.trusted else st.stable
+def floquet_kind(settings: Settings) -> str:
+    """The stability method in effect (``floquet = 'auto'`` resolved)."""
+    if settings.floquet != "auto":
+        return settings.floquet
+    return "monodromy" if settings.method == "shooting" else "cycles"
 
 
 @dataclass
@@ -129,6 +105,9 @@ class WaveBranch:
         """What the wave does at the configured intensity, in words."""
         if self.note:
             return self.note
+        if not self.cycles and self.critical_lam > 1.0:
+            return (f"stable at the configured intensity (Hopf at {self.critical_lam:.3g} x mu; "
+                    "no cycle there)")
         if not self.cycles:
             top = max((p.tip_amplitude for p in self.points), default=0.0)
             return f"no bounded cycle below {top * 1e6:.3g} um tip ({self.end})"
@@ -146,13 +125,28 @@ class WaveBranch:
         if c.stability is None:
             words.append("stability not computed")
         elif c.stable is None:
-            words.append(f"stability uncertain (Hill's method on a cycle with contacts opening: "
-                         f"the phase-shift multiplier is off 1 by {c.stability.trivial:.1e})")
+            how = "the monodromy" if c.multipliers is not None else \
+                "Hill's method on a cycle with contacts opening"  # fmt: skip
+            words.append(f"stability uncertain ({how}: the phase-shift multiplier is off 1 by "
+                         f"{c.stability.trivial:.1e}, the largest is {c.stability.multiplier:.4g})")
         elif not c.stable:
             st = c.stability
-            words.append(f"unstable ({st.by} {st.worst_family} grows at "
-                         f"{st.growth.max():.3g} /s; the flutter does not settle on this wave "
-                         "alone)")  # fmt: skip
+            if c.multipliers is not None:
+                mu = c.multipliers
+                finer = ""
+                if len(c.refined) > 1:
+                    step, value, nd = c.refined[-1]
+                    finer = f", ND {nd} {value:.3g} at a {step * 1e6:.2g} us step"
+                words.append(f"unstable (monodromy: multiplier {mu.largest:.3g} per period, "
+                             f"ND {mu.nd[mu.worst]}{finer}; the flutter does not settle on "
+                             "this wave alone)")  # fmt: skip
+            else:
+                words.append(f"unstable ({st.by} {st.worst_family} grows at "
+                             f"{st.growth.max():.3g} /s; the flutter does not settle on this "
+                             "wave alone)")  # fmt: skip
+        if c.method == "shooting" and math.isfinite(c.hb_tip_amplitude):
+            words.append(f"exact orbit (harmonic balance {c.hb_tip_amplitude * 1e6:.3g} um, "
+                         f"{c.hb_frequency_hz:.4g} Hz)")
         return ", ".join(words)
 
 
@@ -172,8 +166,11 @@ class CaseLimitCycles:
     def verdict(self) -> str:
         if self.failure:
             return f"failed: {self.failure}"
-        flutter = [b for b in self.branches if not b.note or b.cycles]
+        flutter = [b for b in self.branches if b.cycles or not (b.note or b.critical_lam > 1.0)]
         if not flutter:
+            if any(b.critical_lam > 1.0 for b in self.branches):
+                lowest = min(b.critical_lam for b in self.branches if b.critical_lam > 1.0)
+                return f"stable at the configured intensity (Hopf at {lowest:.3g} x mu)"
             return "stable"
         worst = max(flutter, key=lambda b: max((c.tip_amplitude for c in b.cycles),
                                                default=math.inf))  # fmt: skip
@@ -385,13 +382,23 @@ class WaveAnalysis:
                         abs(self._amplitude(p) - self._amplitude(f)) <= 1e-6 * self._amplitude(f)
                         for f in found):  # fmt: skip
                     found.append(p)
+        kind = floquet_kind(st)
         for p in sorted(found, key=self._amplitude):
             cycle = describe(balance, fine, p.X, p.omega, p.lam, self._residual(balance, p))
-            if st.floquet == "transient":
+            if st.method == "shooting":
+                cycle = exact_cycle(self.model, self.cfg, self.angles, branch, balance, p.X,
+                                    p.omega, cycle, st.harmonics, self.comm)  # fmt: skip
+            if kind == "monodromy" and cycle.orbit is not None:
+                monodromy_stability(self.model, self.cfg, self.angles, cycle, st.multipliers,
+                                    st.refine, self.comm)  # fmt: skip
+            elif kind == "monodromy":
+                cycle.stability = floquet(balance, corrector.linearisation(p), p.omega, p.lam,
+                                          range(self.model.blades))  # fmt: skip
+            elif st.floquet == "transient":
                 cycle.stability = transient_stability(self.model, self.cfg, self.angles,
                                                       balance, p.X, p.omega, p.lam,
                                                       cycle.tip_amplitude)  # fmt: skip
-            elif st.floquet != "off":
+            elif kind != "off":
                 cycle.stability = floquet(balance, corrector.linearisation(p), p.omega, p.lam,
                                           range(self.model.blades))  # fmt: skip
             branch.cycles.append(cycle)

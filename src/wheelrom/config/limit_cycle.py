@@ -18,8 +18,24 @@ class LimitCycleConfig:
         metadata=_key("-", "time samples per period of the AFT force evaluation; 0 = 8 (H + 1) "
                       "(at least 2 H + 1; 4 H + 1 resolves the Floquet analysis; a contact "
                       "that opens within the cycle wants more)", min=0))
+    method: str = field(
+        default="shooting",
+        metadata=_key("-", "'shooting': the exact periodic orbit (shooting on the transient's "
+                      "TS from the harmonic-balance cycle; the answer), 'hb': the harmonic "
+                      "balance alone (seconds; on cycles whose contacts open its amplitude "
+                      "is a few % high: docs/results.md)", choices=("shooting", "hb")))
+    multipliers: int = field(
+        default=10,
+        metadata=_key("-", "Floquet multipliers of largest modulus computed from the whole "
+                      "wheel's monodromy (floquet = 'monodromy')", min=1, max=200))
+    refine: int = field(
+        default=4,
+        metadata=_key("-", "step halvings at which the dominant multiplier inside the "
+                      "cycle's own symmetry is recomputed (the scheme steps over the "
+                      "contacts' lift-off kinks: the multipliers converge at first order "
+                      "in time.step; docs/theory.md)", min=0, max=6))
     waves: tuple[int, ...] = field(
-        default=(),
+        default=(-1,),
         metadata=_key("-", "travelling waves k (blade s+1 leads by 2 pi k / N; 0..N-1) whose "
                       "limit cycles are computed, -1 = the fastest-growing one; [] = every wave "
                       "unstable at the configured intensity", min=-1, integers=True,
@@ -40,14 +56,17 @@ class LimitCycleConfig:
                       "(each cycle found is continued both ways); [] = the Hopf branch only",
                       gt=0.0, allow_empty=True))
     floquet: str = field(
-        default="cycles",
-        metadata=_key("-", "stability of the cycles: 'cycles' (Floquet by Hill's method, every "
+        default="auto",
+        metadata=_key("-", "stability of the cycles: 'auto' ('monodromy' for shooting, "
+                      "'cycles' for 'hb'), 'monodromy' (Floquet multipliers of the whole "
+                      "wheel's monodromy by SLEPc: the exact orbit's), 'cycles' (Floquet by "
+                      "Hill's method, every "
                       "Bloch family, at the cycles of the configured intensity), 'all' (also "
                       "the wave's own family at every branch point: the branch drawn "
                       "stable/unstable), 'transient' (the wheel integrated 60 periods from "
                       "each cycle with every other ND perturbed: for cycles whose contacts "
                       "open, where Hill's method does not converge), 'off'",
-                      choices=("all", "cycles", "transient", "off")))
+                      choices=("auto", "monodromy", "all", "cycles", "transient", "off")))
 
 
 def limit_cycle_problems(cfg: Any, problems: list[str]) -> None:

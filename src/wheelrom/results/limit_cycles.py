@@ -15,7 +15,8 @@ FORMAT = "wheelrom-limit-cycle-1"
 CYCLE_FIELDS = ("lam", "frequency_hz", "tip_amplitude", "tip_harmonics", "normal_force_range",
                 "fractions", "energy_in", "energy_friction", "energy_damping",
                 "energy_residual", "energy_residual_fine", "damping_ratio", "residual",
-                "harmonics")  # fmt: skip
+                "harmonics", "shooting_residual", "hb_tip_amplitude",
+                "hb_frequency_hz")  # fmt: skip
 
 
 def write_limit_cycles(f, cfg: Config, model: ReducedModel, cases: list) -> None:
@@ -31,6 +32,8 @@ def write_limit_cycles(f, cfg: Config, model: ReducedModel, cases: list) -> None
     g.attrs["harmonics"] = lc.harmonics
     g.attrs["samples"] = lc.samples or 8 * (lc.harmonics + 1)
     g.attrs["floquet"] = lc.floquet
+    g.attrs["method"] = lc.method
+    g.attrs["time_step"] = cfg.time.step
     g.attrs["kinds"] = ", ".join(next((c.kinds for c in cases if c.kinds), ()))
     g["angles_deg"] = np.array([[c.angles_deg.get(k, np.nan) for k in ("tieboss", "shroud")]
                                 for c in cases])  # fmt: skip
@@ -76,6 +79,7 @@ def _write_branch(g, branch) -> None:
             c["floquet_growth"] = np.array([x.growth for x in st])
             c["floquet_multiplier"] = np.array([x.multiplier for x in st])
             c["floquet_trivial"] = np.array([x.trivial for x in st])
+        _write_orbits(c, branch.cycles)
 
 
 def _write_cycles(g, cycles) -> None:
@@ -84,3 +88,51 @@ def _write_cycles(g, cycles) -> None:
     # 1 stable, 0 unstable, -1 not computed
     g["stable"] = np.array([-1 if c.stable is None else int(c.stable) for c in cycles],
                            dtype=np.int8)  # fmt: skip
+
+
+def _write_orbits(g, cycles) -> None:
+    """The exact orbits (method 'shooting') and their monodromy multipliers; rows of cycles
+    without one are NaN / -1."""
+    g["method"] = np.array([c.method.encode() for c in cycles])
+    orbits = [c.orbit for c in cycles]
+    if any(o is not None for o in orbits):
+        shape = next(o.state.shape for o in orbits if o is not None)
+        g["orbit_state"] = np.array([o.state if o is not None and o.state.shape == shape
+                                     else np.full(shape, np.nan) for o in orbits])  # fmt: skip
+        g["orbit_state"].attrs["layout"] = "(cycle, q | q', pattern blade, mode): blade s of " \
+            "the wheel is pattern blade s mod N' at t = 0"  # fmt: skip
+        g["orbit_period"] = np.array([o.period if o else np.nan for o in orbits])
+        g["orbit_shift"] = np.array([o.shift if o else -1 for o in orbits], dtype=np.int64)
+        g["orbit_fraction"] = np.array([o.fraction if o else np.nan for o in orbits])
+        g["orbit_steps_per_period"] = np.array([o.steps_per_period if o else -1
+                                                for o in orbits], dtype=np.int64)  # fmt: skip
+        g["orbit_iterations"] = np.array([o.iterations if o else -1 for o in orbits],
+                                         dtype=np.int64)  # fmt: skip
+    mus = [c.multipliers for c in cycles]
+    if any(m is not None for m in mus):
+        E = max(len(m.values) for m in mus if m is not None)
+
+        def padded(get, fill, dtype=float):
+            out = np.full((len(mus), E), fill, dtype=dtype)
+            for i, m in enumerate(mus):
+                if m is not None:
+                    out[i, : len(m.values)] = get(m)
+            return out
+
+        g["multiplier_modulus"] = padded(lambda m: np.abs(m.values), np.nan)
+        g["multiplier_phase"] = padded(lambda m: np.angle(m.values), np.nan)
+        g["multiplier_nd"] = padded(lambda m: m.nd, -1, np.int64)
+        g["multiplier_wave"] = padded(lambda m: m.wave, -1, np.int64)
+        g["multiplier_trivial_error"] = np.array([m.trivial_error if m else np.nan
+                                                  for m in mus])  # fmt: skip
+        g["multiplier_matvecs"] = np.array([m.matvecs if m else -1 for m in mus], np.int64)
+    refined = [c.refined for c in cycles]
+    if any(refined):
+        R = max(len(r) for r in refined)
+        out = np.full((len(refined), R, 3), np.nan)
+        for i, r in enumerate(refined):
+            if r:
+                out[i, : len(r)] = np.array(r, dtype=float)
+        g["refined_multiplier"] = out
+        g["refined_multiplier"].attrs["columns"] = "step [s], |mu| (dominant inside the " \
+            "cycle's symmetry), ND"  # fmt: skip

@@ -126,8 +126,21 @@ def _cycle(c, kinds) -> dict:
                          "normal_force_max_n": float(c.normal_force_range[i, 1]),
                          "open": float(c.fractions[i, 0]), "micro_slip": float(c.fractions[i, 1]),
                          "slip": float(c.fractions[i, 2])} for i, k in enumerate(kinds)},
-        "stable": c.stable,
+        "stable": c.stable, "method": c.method,
     }  # fmt: skip
+    if c.method == "shooting":
+        out["shooting"] = {"residual": c.shooting_residual,
+                           "hb_tip_amplitude_m": c.hb_tip_amplitude,
+                           "hb_frequency_hz": c.hb_frequency_hz,
+                           "hb_amplitude_difference": c.hb_tip_amplitude / c.tip_amplitude - 1,
+                           "hb_frequency_difference": c.hb_frequency_hz / c.frequency_hz - 1}
+    if c.multipliers is not None:
+        mu = c.multipliers
+        out["multipliers"] = [{"modulus": float(abs(v)), "phase_rad": float(np.angle(v)),
+                               "nd": int(nd), "wave": int(k)}
+                              for v, nd, k in zip(mu.values, mu.nd, mu.wave, strict=True)]
+        out["refined_multiplier"] = [{"step_s": s, "modulus": v, "nd": nd}
+                                     for s, v, nd in c.refined]  # fmt: skip
     if c.stability is not None:
         out["floquet"] = {"largest_multiplier": c.stability.multiplier,
                           "trivial_multiplier_error": c.stability.trivial,

@@ -1,0 +1,175 @@
+"""The autonomous flow ``phi_t`` of the tuned wheel on the project's own PETSc TS (the
+configured scheme, whole fixed steps no longer than ``time.step``) for a batch of states:
+the function that shooting and the monodromy evaluate.
+
+Autonomous: the nozzle is off and the self-excitation is scaled by ``lam`` (the factor on
+``flutter.mu`` or ``flutter.table_scale``), as for the harmonic balance. Every state of a
+batch is one case of the compiled kernel's batch dimension, so a batch of perturbed states
+is one compiled call per step. No output samples are taken (the monitor's next sample time
+is set beyond the end): the flow returns end states only.
+
+A travelling wave of index ``k`` repeats every ``N' = N / gcd(k, N)`` blades, so its orbit
+lives on the pattern wheel of ``N'`` blades (:func:`pattern_model`): the same blade blocks
+``A0``, ``A1`` and contact geometry, closed after ``N'`` blades. Its dynamics on patterns of
+period ``N'`` is the full wheel's exactly (the coupling and the contacts act between
+neighbours only), at ``N' / N`` of the cost.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from wheelrom.config import Config
+from wheelrom.forces.parameters import force_parameters
+from wheelrom.rom.model import ReducedModel
+from wheelrom.runtime.environment import petsc
+from wheelrom.runtime.errors import InputError
+from wheelrom.transient import exponential
+from wheelrom.transient.layout import H_NEXT_SAMPLE
+from wheelrom.transient.problem import WheelProblem
+from wheelrom.transient.run import load_kernels
+from wheelrom.transient.ts import PREFIX, make_ts
+
+#: most states integrated in one TS (memory: ~ 60 doubles per modal coordinate and state)
+MAX_BATCH = 256
+
+
+def autonomous(cfg: Config, lam: float = 1.0) -> Config:
+    """``cfg`` with the nozzle off and the self-excitation scaled by ``lam``."""
+    scaled = {"flutter.table_scale": cfg.flutter.table_scale * lam} if \
+        cfg.flutter.model == "table" else {"flutter.mu": cfg.flutter.mu * lam}  # fmt: skip
+    return cfg.replace(**scaled, **{"excitation.force": 0.0, "output.history_rate_hz": 0.0,
+                                    "output.state_rate_hz": 0.0})  # fmt: skip
+
+
+def pattern_blades(wave: int, blades: int) -> tuple[int, int, int]:
+    """``(N', g, j)`` of travelling wave ``wave`` on ``blades`` = N: the pattern period
+    ``N' = N / g``, ``g = gcd(k, N)``, and the blade shift ``j`` (``0 <= j < N'``) with
+    ``j k = g (mod N)``: the wave's state a fraction ``g / N`` of a period later is its state
+    at ``t = 0`` shifted by ``j`` blades, ``x_s(g T / N) = x_{s + j}(0)`` (blade ``s + 1``
+    leads blade ``s`` by ``2 pi k / N``, so it is blade ``s`` a time ``k T / N`` later)."""
+    g = math.gcd(int(wave) % blades, blades)
+    n = blades // g
+    j = pow((int(wave) % blades) // g, -1, n) % n if n > 1 else 0
+    return n, g, j
+
+
+def pattern_model(model: ReducedModel, wave: int, use_pattern: bool = True):
+    """``(model', g, j)``: the pattern wheel of ``wave`` (:func:`pattern_blades`) and the
+    blade shift on it; the whole wheel with ``use_pattern = False`` (an aerodynamic table
+    couples every blade pair)."""
+    if not model.tuned:
+        raise InputError("periodic orbits by shooting need a tuned wheel (mistuning off)")
+    N = model.blades
+    n, g, _ = pattern_blades(wave, N)
+    j = next(j for j in range(N) if (j * int(wave) - g) % N == 0)  # j k = g (mod N)
+    if not use_pattern or n == N:
+        return model, g, j
+    return dataclasses.replace(model, blades=n, mistuning=None), g, j % n
+
+
+def shift_blades(states: np.ndarray, j: int) -> np.ndarray:
+    """``(..., 2, N, m)`` states with blade ``s`` replaced by blade ``s + j``."""
+    return np.roll(states, -j, axis=-2)
+
+
+class WheelFlow:
+    """``phi_t`` of one case for batches of states ``(B, 2, N, m)`` (``q`` [sqrt(kg) m],
+    ``q'`` [sqrt(kg) m/s] of every blade of ``model``). ``lam``: factor on the
+    self-excitation. The TS has the options prefix ``prefix`` (``wheel_``: the transient's
+    ``-wheel_ts_*`` options act here too). :meth:`destroy` frees the PETSc objects."""
+
+    def __init__(self, model: ReducedModel, cfg: Config, angles_deg: dict | None = None,
+                 lam: float = 1.0, prefix: str = PREFIX, options: dict | None = None):  # fmt: skip
+        self.model, self.prefix, self.options = model, prefix, options
+        self.cfg = autonomous(cfg, lam)
+        self.params = force_parameters(model, self.cfg, angles_deg)
+        self.N, self.m = model.blades, model.modes
+        self.n = self.N * self.m
+        load_kernels(self.params)
+        self._batches: dict[int, tuple] = {}
+        self.max_step = float(self.cfg.time.step)
+        self.used: dict = {}
+        self.steps_taken = 0  # TS steps of all calls times their batch size
+
+    def _batch(self, B: int):
+        if B not in self._batches:
+            problem = WheelProblem(self.model, self.cfg, [self.params] * B,
+                                   petsc().COMM_SELF, capacity=4)  # fmt: skip
+            ts, f, used = make_ts(problem, self.cfg, self.prefix, self.options)
+            self.used = used
+            self.max_step = float(used["ts_dt"])
+            self._batches[B] = (problem, ts, f, f.duplicate())
+        return self._batches[B]
+
+    def steps_for(self, duration: float) -> tuple[int, float]:
+        """``(n, h)``: whole steps ``h = duration / n <= time.step`` [s] (off the exponential
+        scheme's resonances)."""
+        if self.max_step <= 0 or not math.isfinite(duration) or duration <= 0:
+            raise ValueError(f"a flow over {duration!r} s with a step of {self.max_step!r} s")
+        n = max(1, math.ceil(duration / self.max_step * (1 - 1e-12)))
+        if self.cfg.time.scheme == "exponential" and \
+                self.used.get("ts_type", "python") == "python":  # fmt: skip
+            while exponential.safe_step(self.model, duration / n)[1] is not None:
+                n += 1
+        return n, duration / n
+
+    def advance(self, states: np.ndarray, duration: float, steps: int = 0) -> np.ndarray:
+        """``phi_duration`` of every state ``(B, 2, N, m)`` -> ``(B, 2, N, m)``, in ``steps``
+        whole steps (0: :meth:`steps_for`)."""
+        states = np.asarray(states, dtype=float)
+        out = np.empty_like(states)
+        for lo in range(0, states.shape[0], MAX_BATCH):
+            chunk = states[lo : lo + MAX_BATCH]
+            out[lo : lo + len(chunk)] = self._advance(chunk, duration, steps)
+        return out
+
+    def _advance(self, states: np.ndarray, duration: float, steps: int) -> np.ndarray:
+        PETSc = petsc()
+        B = states.shape[0]
+        problem, ts, f, u = self._batch(B)
+        n, h = (steps, duration / steps) if steps else self.steps_for(duration)
+        full = np.zeros((B, problem.size()))
+        full[:, : 2 * self.n] = states.reshape(B, 2 * self.n)
+        ctx = problem.context
+        ctx.set_header(H_NEXT_SAMPLE, math.inf)  # no output samples: end states only
+        u.setArray(ctx.pack(full))
+        ts.setTime(0.0)
+        ts.setStepNumber(0)
+        ts.setTimeStep(h)
+        ts.setMaxSteps(n)
+        ts.setMaxTime(duration + 0.5 * h)
+        ts.setExactFinalTime(PETSc.TS.ExactFinalTime.STEPOVER)
+        ts.solve(u)
+        if ts.getStepNumber() != n:
+            raise RuntimeError(f"the flow took {ts.getStepNumber()} of {n} steps")
+        self.steps_taken += n * B
+        end = ctx.unpack(u.getArray(readonly=True))[:, : 2 * self.n]
+        return end.reshape(states.shape)
+
+    def trajectory(self, state: np.ndarray, duration: float, steps: int,
+                   stride: int = 1) -> np.ndarray:  # fmt: skip
+        """``(steps // stride + 1, 2, N, m)``: ``state`` and every ``stride``-th of ``steps``
+        whole steps over ``duration`` [s] (the same steps as one :meth:`advance`)."""
+        h = duration / steps
+        out = [np.asarray(state, dtype=float)]
+        for _ in range(steps // stride):
+            out.append(self.advance(out[-1][None], stride * h, stride)[0])
+        return np.array(out)
+
+    def vector_field(self, state: np.ndarray) -> np.ndarray:
+        """``d/dt (q, q')`` ``(2, N, m)`` of one state (the reference forces, dense ``K_R``)."""
+        problem = self._batch(1)[0]
+        u = np.zeros(problem.size())
+        u[: 2 * self.n] = np.asarray(state, dtype=float).ravel()
+        return problem.rhs_numpy(0.0, u)[: 2 * self.n].reshape(2, self.N, self.m)
+
+    def destroy(self) -> None:
+        for problem, ts, f, u in self._batches.values():
+            for obj in (ts, f, u):
+                obj.destroy()
+            problem.destroy()
+        self._batches = {}

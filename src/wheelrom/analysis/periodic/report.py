@@ -1,0 +1,64 @@
+"""The reported quantities of an exact periodic orbit, from one period at every TS step (the
+same as the harmonic balance reports for its cycles: :func:`wheelrom.analysis.limit_cycle.
+describe`), so either method fills one table."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from wheelrom.analysis.periodic.shooting import Orbit, Shooting, sample_orbit
+from wheelrom.forces.reference import ReferenceForces
+
+
+def orbit_quantities(shooting: Shooting, orbit: Orbit, harmonics: int, lam: float) -> dict:
+    """The :class:`~wheelrom.analysis.limit_cycle.Cycle` fields of ``orbit`` (per blade:
+    blade 0 of the pattern; per contact kind: blade pair ``(0, 1)``, which every pair repeats
+    shifted in time). ``harmonics``: ``H`` of blade 0's harmonics ``c_h`` (``(H + 1, m)``
+    complex, by the DFT of the samples). Energies per cycle by the rectangle rule on the
+    uniform samples (spectral for a periodic integrand)."""
+    samples = sample_orbit(shooting, orbit)
+    model, params = shooting.model, shooting.flow.params
+    states = np.ascontiguousarray(samples.states)
+    S, N, m = states.shape[0], shooting.N, shooting.m
+    q, v = np.ascontiguousarray(states[:, 0]), np.ascontiguousarray(states[:, 1])
+    K = len(params.contacts.kinds)
+    force = np.zeros((S, N, m))
+    normal, power, state = np.zeros((S, K)), np.zeros((S, K)), np.zeros((S, K), np.int8)
+    ReferenceForces(params).evaluate_samples(q, v, force, normal, power, state)
+    force0 = np.zeros((S, N, m))
+    quiet = dataclasses.replace(params, vdp_mu=0.0)
+    ReferenceForces(quiet).evaluate_samples(q, v, force0, np.zeros((S, K)), np.zeros((S, K)),
+                                            np.zeros((S, K), np.int8))  # fmt: skip
+    period = orbit.period
+    omega = 2 * math.pi / period
+    work_in = float(np.mean(np.sum((force - force0)[:, 0] * v[:, 0], axis=1))) * period
+    friction = -power.mean(axis=0) * period
+    Kd = model.dense_stiffness()
+    Kv = (v.reshape(S, N * m) @ Kd.T)[:, :m]
+    beta = shooting.flow.cfg.wheel.damping_beta
+    damping = float(beta * np.mean(np.sum(Kv * v[:, 0], axis=1)) * period)
+    q0 = q[:, 0]
+    spectrum = np.fft.fft(q0, axis=0) / S
+    c = np.zeros((harmonics + 1, m), dtype=complex)
+    top = min(harmonics, (S - 1) // 2)
+    c[0] = spectrum[0].real
+    c[1 : top + 1] = 2 * spectrum[1 : top + 1]
+    tip = (q0 - q0.mean(axis=0)) @ model.tip.T  # (S, 3)
+    h = np.arange(harmonics + 1)
+    kinetic = float(np.sum((h * omega) ** 2 * np.sum(np.abs(c) ** 2, axis=1)))
+    out = float(friction.sum() + damping)
+    balance = abs(work_in - out) / max(abs(work_in), 1e-300)
+    return dict(
+        lam=float(lam), frequency_hz=orbit.frequency_hz, harmonics=c,
+        tip_amplitude=float(np.linalg.norm(tip, axis=1).max()),
+        tip_harmonics=np.linalg.norm(np.abs(c[1:] @ model.tip.T), axis=1),
+        normal_force_range=np.stack([normal.min(axis=0), normal.max(axis=0)], axis=1),
+        fractions=np.array([[np.mean(state[:, k] == s) for s in range(3)] for k in range(K)]),
+        energy_in=work_in, energy_friction=friction, energy_damping=damping,
+        energy_residual=balance, energy_residual_fine=balance,
+        damping_ratio=out / (2 * math.pi * kinetic) if kinetic > 0 else math.nan,
+        residual=orbit.residual, method="shooting", shooting_residual=orbit.residual,
+        orbit=orbit)  # fmt: skip

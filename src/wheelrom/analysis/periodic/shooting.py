@@ -1,0 +1,291 @@
+"""The exact periodic orbit of a travelling wave by shooting on the project's TS, Newton by
+PETSc SNES (docs/theory.md, "Limit cycles: shooting").
+
+Cyclic symmetry makes a shorter shot exact: on the wave's pattern wheel of ``N'`` blades
+(:func:`~wheelrom.analysis.periodic.flow.pattern_blades`) the orbit satisfies::
+
+    phi_tau(x0) = S^j x0,     tau = g T / N
+
+(its state a fraction ``g / N`` of the period later is its state at ``t = 0`` shifted by
+``j`` blades). Applied ``N'`` times this gives ``phi_T(x0) = x0``; conversely a root of it is
+a periodic orbit with that symmetry. The unknowns: ``x0`` (every pattern blade's ``q, q'``)
+and ``T``; the equations: the shot and the phase condition ``q'_{0, j*}(0) = 0`` (blade 0's
+largest modal coordinate at a turning point). Scaled: displacements in units of the
+vibration amplitude ``a``, velocities of ``omega a``, ``T`` of the start period, equations
+likewise. The Jacobian ``[S^{-j} dphi_tau/dx0 - I, dphi_tau/dT]`` by finite differences: all
+``2 N' m`` perturbed shots are one batch of the compiled kernel (one TS), ``dphi/dT`` is
+``(g / N)`` times the vector field at the end state (exact).
+
+The shot's own Jacobian is the pattern map's: its eigenvalues ``nu`` give the multipliers
+``mu = nu^{N'}`` of every perturbation that keeps the pattern (NDs that are multiples of
+``g``: for ND ``N/2``, ND 0 and ``N/2``) at no extra cost: the multipliers "inside the
+cycle's own symmetry".
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from wheelrom.analysis.periodic.flow import WheelFlow, pattern_model, shift_blades
+from wheelrom.config import Config
+from wheelrom.rom.model import ReducedModel
+from wheelrom.runtime.environment import petsc
+
+PREFIX = "limitcycle_shooting_"
+MAX_ITERATIONS = 25
+TOLERANCE = 1e-10  # scaled residual (relative to the vibration) at which Newton stops
+#: reachable residual relative to the largest scaled unknown: the preload's static deflection
+#: in units of a small vibration carries round-off into the shot (measured: 1e-9 for a 0.1 um
+#: cycle on a 40 um static deflection)
+ROUNDOFF = 1e-12
+DIFFERENCE = 1e-6  # finite-difference step, relative to the vibration amplitude
+
+
+@dataclass
+class Orbit:
+    """A periodic orbit of wave ``wave``: ``period`` [s]; ``state`` ``(2, N', m)`` the pattern
+    blades' ``q`` [sqrt(kg) m], ``q'`` [sqrt(kg) m/s] at ``t = 0`` (blade ``s`` of the wheel
+    is pattern blade ``s mod N'``); ``shift`` ``j``, ``fraction`` ``g / N``; ``residual``:
+    the shot's ``|phi_tau(x0) - S^j x0|`` relative to the vibration (max norm, scaled
+    units); ``iterations`` (Newton), ``converged``; ``symmetric_multipliers``: ``mu = nu^{N'}``
+    of the pattern map (complex, largest first) and ``symmetric_nd`` their NDs; ``steps``:
+    TS steps per period; ``wall_s``."""
+
+    wave: int
+    period: float
+    state: np.ndarray
+    shift: int
+    fraction: float
+    residual: float
+    iterations: int
+    converged: bool
+    symmetric_multipliers: np.ndarray = field(default_factory=lambda: np.zeros(0, complex))
+    symmetric_nd: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
+    steps_per_period: int = 0
+    wall_s: float = 0.0
+    reason: str = ""
+
+    @property
+    def frequency_hz(self) -> float:
+        return 1.0 / self.period
+
+    @property
+    def pattern(self) -> int:
+        return self.state.shape[1]
+
+    def wheel_state(self, blades: int) -> np.ndarray:
+        """``(2, N, m)``: every blade's state at ``t = 0``."""
+        return self.state[:, np.arange(blades) % self.pattern]
+
+
+class Shooting:
+    """Shooting for the orbits of wave ``wave`` of one case at factor ``lam`` on the
+    self-excitation (``flow``: on the pattern wheel; :meth:`destroy` frees it)."""
+
+    def __init__(self, model: ReducedModel, cfg: Config, wave: int,
+                 angles_deg: dict | None = None, lam: float = 1.0, comm=None,
+                 options: dict | None = None):  # fmt: skip
+        self.full_model, self.wave = model, int(wave)
+        pattern, g, j = pattern_model(model, wave, cfg.flutter.model != "table")
+        self.model, self.g, self.shift = pattern, g, j
+        self.fraction = g / model.blades
+        self.flow = WheelFlow(pattern, cfg, angles_deg, lam, options=options)
+        self.comm = comm
+        self.N, self.m = pattern.blades, pattern.modes
+        self.n = 2 * self.N * self.m
+
+    def destroy(self) -> None:
+        self.flow.destroy()
+
+    # ------------------------------------------------------------------ the shot
+    def _shot(self, states: np.ndarray, period: float) -> np.ndarray:
+        """``S^{-j} phi_tau(x)`` of states ``(B, 2, N', m)``."""
+        end = self.flow.advance(states, self.fraction * period)
+        return shift_blades(end, -self.shift)
+
+    def _scales(self, x0: np.ndarray, period: float) -> np.ndarray:
+        """``(2, N', m)`` units of the unknowns: ``a`` for ``q``, ``omega a`` for ``q'``,
+        ``a`` the largest modal velocity over ``omega`` (the vibration, not the preload)."""
+        omega = 2 * math.pi / period
+        a = max(float(np.abs(x0[1]).max()) / omega, 1e-300)
+        scale = np.empty_like(x0)
+        scale[0], scale[1] = a, omega * a
+        return scale
+
+    def solve(self, x0: np.ndarray, period: float) -> Orbit:
+        """Newton (SNES, prefix ``limitcycle_shooting_``) from ``x0`` ``(2, N', m)`` and
+        ``period`` [s]; the orbit (``converged`` False when Newton failed)."""
+        t0 = time.perf_counter()
+        x0 = np.asarray(x0, dtype=float).reshape(2, self.N, self.m)
+        system = _ShotSystem(self, x0, period)
+        z, reason, iterations = system.newton()
+        if reason <= 0:  # full Newton steps wandered off: again with backtracking
+            z, reason, more = system.newton("bt", 2 * MAX_ITERATIONS)
+            iterations += more
+        F, _ = system.residual(z)
+        x, T = system.unpack(z)
+        orbit = Orbit(self.wave, float(T), x, self.shift, self.fraction,
+                      float(np.abs(F[: self.n]).max()), int(iterations),
+                      bool(reason > 0 and np.all(np.isfinite(F))),
+                      steps_per_period=self.flow.steps_for(self.fraction * T)[0]
+                      * round(1 / self.fraction), reason=str(reason))  # fmt: skip
+        if orbit.converged:  # the multipliers from the Jacobian at the solution itself
+            G = system.jacobian(z)[: self.n, : self.n] + np.eye(self.n)
+            orbit.symmetric_multipliers, orbit.symmetric_nd = self._pattern_multipliers(
+                G, system.scale)
+        orbit.wall_s = time.perf_counter() - t0
+        return orbit
+
+    def _pattern_multipliers(self, G: np.ndarray, scale: np.ndarray):
+        """``(mu, nd)``: the multipliers ``nu^{N'}`` of the pattern map's Jacobian ``G``
+        ``(n, n)`` (scaled units ``scale``) and the NDs of their eigenvectors."""
+        n = self.n
+        nu, vectors = np.linalg.eig(G)
+        mu = nu**self.N  # G^{N'} is the monodromy on the pattern
+        order = np.argsort(-np.abs(mu))
+        vectors = (vectors * scale.ravel()[:, None])[:, order]
+        nd = self._nd_of(vectors[: n // 2].T.reshape(-1, self.N, self.m))
+        return mu[order], nd
+
+    def _nd_of(self, q: np.ndarray) -> np.ndarray:
+        """NDs on the whole wheel of pattern vectors ``q`` ``(E, N', m)``: the DFT over the
+        pattern's blades, its index times ``g``."""
+        if self.N == 1:
+            return np.zeros(q.shape[0], int)
+        energy = (np.abs(np.fft.fft(q, axis=1)) ** 2).sum(axis=2)  # (E, N')
+        k = np.argmax(energy, axis=1) * self.g
+        Nfull = self.full_model.blades
+        return np.minimum(k % Nfull, (-k) % Nfull)
+
+
+@dataclass
+class OrbitSamples:
+    """One period of an orbit at every TS step: ``time`` ``(S,)`` [s] and ``states``
+    ``(S, 2, N', m)`` (``t = 0`` included, ``t = T`` not: uniform samples of a periodic
+    function)."""
+
+    time: np.ndarray
+    states: np.ndarray
+
+
+def sample_orbit(shooting: Shooting, orbit: Orbit) -> OrbitSamples:
+    """The orbit at every step of its period, with the shot's own steps (``N'`` shots of
+    ``n_tau`` steps each: the same discrete map the orbit is a fixed point of)."""
+    flow = shooting.flow
+    n_tau, h = flow.steps_for(orbit.fraction * orbit.period)
+    steps = n_tau * round(1 / orbit.fraction)
+    path = flow.trajectory(orbit.state, steps * h, steps)
+    return OrbitSamples(np.arange(steps) * h, path[:-1])
+
+
+class _ShotSystem:
+    """The scaled shooting equations of one solve and their SNES: unknowns ``z = (x0 / D,
+    T / T_ref)`` (``D``: ``a`` for ``q``, ``omega a`` for ``q'``, ``a`` the vibration
+    amplitude of the start), equations the shot in the same units and the phase condition
+    ``f . (z - z_start) = 0``, ``f`` the unit vector field at the start (a Poincare section
+    through it: any point of a nearby orbit lies on one)."""
+
+    def __init__(self, shooting: Shooting, x0: np.ndarray, period: float):
+        self.s = shooting
+        self.n = shooting.n
+        omega = 2 * math.pi / period
+        a = max(float(np.abs(x0[1]).max()) / omega, 1e-300)
+        self.scale = np.empty_like(x0)
+        self.scale[0], self.scale[1] = a, omega * a
+        self.T_ref = period
+        self.z_start = (x0 / self.scale).ravel()
+        normal = (shooting.flow.vector_field(x0) / self.scale).ravel() * period
+        self.normal = normal / np.linalg.norm(normal)
+        self.floor = ROUNDOFF * float(np.abs(self.z_start).max())
+        self._cache: tuple = (None, None)
+
+    def unpack(self, z: np.ndarray):
+        return z[: self.n].reshape(self.scale.shape) * self.scale, z[self.n] * self.T_ref
+
+    def residual(self, z: np.ndarray):
+        """``(F (n + 1,), end (2, N', m))``: the equations and the shot's end state."""
+        key = z.tobytes()
+        if self._cache[0] != key:
+            x, T = self.unpack(z)
+            if not (np.all(np.isfinite(z)) and T > 0):  # a Newton step off any orbit
+                return np.full(self.n + 1, np.nan), np.full_like(x, np.nan)
+            self._cache = (key, self.s._shot(x[None], T)[0])
+        end = self._cache[1]
+        x, _ = self.unpack(z)
+        F = np.empty(self.n + 1)
+        F[: self.n] = ((end - x) / self.scale).ravel()
+        F[self.n] = self.normal @ (z[: self.n] - self.z_start)
+        return F, end
+
+    def jacobian(self, z: np.ndarray) -> np.ndarray:
+        """``(n + 1, n + 1)``: finite-difference columns of the shot (all ``n`` perturbed
+        states one batch), ``d/dT`` from the vector field at the end state."""
+        n, s, scale = self.n, self.s, self.scale.ravel()
+        x, T = self.unpack(z)
+        _, end = self.residual(z)
+        perturbed = np.repeat(x.reshape(1, n), n, axis=0)
+        h = DIFFERENCE * scale
+        perturbed[np.arange(n), np.arange(n)] += h
+        shots = s._shot(perturbed.reshape((n,) + x.shape), T).reshape(n, n)
+        columns = (shots - end.ravel()[None]) / h[:, None]  # row i: d end / d x_i
+        A = np.zeros((n + 1, n + 1))
+        A[:n, :n] = columns.T * scale[None, :] / scale[:, None] - np.eye(n)
+        at_end = shift_blades(end, s.shift)  # phi_tau(x) = S^j end
+        field_ = shift_blades(s.flow.vector_field(at_end), -s.shift)
+        A[:n, n] = s.fraction * field_.ravel() / scale * self.T_ref
+        A[n, :n] = self.normal
+        return A
+
+    def _converged(self, snes, iteration, norms):
+        atol, max_it = snes.getTolerances()[1], snes.getTolerances()[3]
+        if norms[2] <= max(atol, self.floor):
+            return 2  # SNES_CONVERGED_FNORM_ABS
+        if not math.isfinite(norms[2]):
+            return -4  # SNES_DIVERGED_FNORM_NAN
+        return -5 if iteration >= max_it else 0
+
+    def newton(self, line_search: str = "basic",
+               max_it: int = MAX_ITERATIONS) -> tuple[np.ndarray, int, int]:  # fmt: skip
+        """``(z, SNES converged reason, iterations)`` from the start (``line_search``: the
+        default when ``-limitcycle_shooting_snes_linesearch_type`` is not given)."""
+        PETSc = petsc()
+        n, self_ = self.n + 1, PETSc.COMM_SELF
+        snes = PETSc.SNES().create(comm=self_)
+        snes.setOptionsPrefix(PREFIX)
+        J = PETSc.Mat().createDense((n, n), comm=self_)
+        J.setUp()
+        r, X = PETSc.Vec().createSeq(n, comm=self_), PETSc.Vec().createSeq(n, comm=self_)
+
+        def function(snes, X, F):
+            F.setArray(self.residual(X.getArray(readonly=True).copy())[0])
+
+        def jacobian(snes, X, J, P):
+            A = self.jacobian(X.getArray(readonly=True).copy())
+            P.setValues(range(n), range(n), A.ravel())
+            P.assemble()
+
+        snes.setFunction(function, r)
+        snes.setJacobian(jacobian, J, J)
+        snes.setTolerances(rtol=1e-30, atol=TOLERANCE, stol=1e-14, max_it=max_it)
+        snes.setConvergenceTest(self._converged)
+        options = PETSc.Options(PREFIX)
+        mine = not options.hasName("snes_linesearch_type")  # the user's choice stands
+        if mine:
+            options.setValue("snes_linesearch_type", line_search)
+        snes.getKSP().setType("preonly")
+        snes.getKSP().getPC().setType("lu")
+        snes.setFromOptions()
+        if mine:
+            options.delValue("snes_linesearch_type")
+        X.setArray(np.concatenate([self.z_start, [1.0]]))
+        try:
+            snes.solve(None, X)
+            return (X.getArray(readonly=True).copy(), int(snes.getConvergedReason()),
+                    int(snes.getIterationNumber()))  # fmt: skip
+        finally:
+            for obj in (snes, J, r, X):
+                obj.destroy()
