@@ -37,12 +37,10 @@ from wheelrom.transient.ts import PREFIX, make_ts
 MAX_BATCH = 256
 
 
-def autonomous(cfg: Config, lam: float = 1.0) -> Config:
-    """``cfg`` with the nozzle off and the self-excitation scaled by ``lam``."""
-    scaled = {"flutter.table_scale": cfg.flutter.table_scale * lam} if \
-        cfg.flutter.model == "table" else {"flutter.mu": cfg.flutter.mu * lam}  # fmt: skip
-    return cfg.replace(**scaled, **{"excitation.force": 0.0, "output.history_rate_hz": 0.0,
-                                    "output.state_rate_hz": 0.0})  # fmt: skip
+def autonomous(cfg: Config) -> Config:
+    """``cfg`` with the nozzle off and no stored histories."""
+    return cfg.replace(**{"excitation.force": 0.0, "output.history_rate_hz": 0.0,
+                          "output.state_rate_hz": 0.0})  # fmt: skip
 
 
 def pattern_blades(wave: int, blades: int) -> tuple[int, int, int]:
@@ -85,8 +83,11 @@ class WheelFlow:
     def __init__(self, model: ReducedModel, cfg: Config, angles_deg: dict | None = None,
                  lam: float = 1.0, prefix: str = PREFIX, options: dict | None = None):  # fmt: skip
         self.model, self.prefix, self.options = model, prefix, options
-        self.cfg = autonomous(cfg, lam)
-        self.params = force_parameters(model, self.cfg, angles_deg)
+        self.cfg = autonomous(cfg)
+        # the factor on the intensity (or the table's scale) on the parameters: a reversed
+        # self-excitation (lam < 0) is no configuration, but an unstable cycle to test on
+        params = force_parameters(model, self.cfg, angles_deg)
+        self.params = dataclasses.replace(params, vdp_mu=params.vdp_mu * lam)
         self.N, self.m = model.blades, model.modes
         self.n = self.N * self.m
         load_kernels(self.params)

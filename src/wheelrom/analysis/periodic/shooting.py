@@ -227,11 +227,14 @@ class _ShotSystem:
         n, s, scale = self.n, self.s, self.scale.ravel()
         x, T = self.unpack(z)
         _, end = self.residual(z)
-        perturbed = np.repeat(x.reshape(1, n), n, axis=0)
+        # central differences: all 2 n perturbed states one batch (the pattern wheel is
+        # small), O(h^2) columns so that the multipliers of the pattern map hold to ~1e-10
         h = DIFFERENCE * scale
+        perturbed = np.repeat(x.reshape(1, n), 2 * n, axis=0)
         perturbed[np.arange(n), np.arange(n)] += h
-        shots = s._shot(perturbed.reshape((n,) + x.shape), T).reshape(n, n)
-        columns = (shots - end.ravel()[None]) / h[:, None]  # row i: d end / d x_i
+        perturbed[n + np.arange(n), np.arange(n)] -= h
+        shots = s._shot(perturbed.reshape((2 * n,) + x.shape), T).reshape(2 * n, n)
+        columns = (shots[:n] - shots[n:]) / (2 * h[:, None])  # row i: d end / d x_i
         A = np.zeros((n + 1, n + 1))
         A[:n, :n] = columns.T * scale[None, :] / scale[:, None] - np.eye(n)
         at_end = shift_blades(end, s.shift)  # phi_tau(x) = S^j end

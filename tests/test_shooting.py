@@ -1,0 +1,186 @@
+"""The exact periodic orbit by shooting and its Floquet multipliers from the monodromy
+(:mod:`wheelrom.analysis.periodic`), against independent truth:
+
+- Van der Pol alone (relative law, ND N/2 of the 12-blade wheel): the orbit is the harmonic
+  balance's cycle (itself the averaging's: tests/test_limit_cycle.py), the multipliers of the
+  pattern map are the averaging's amplitude exponent ``exp(-eps_eff T)`` and the phase shift's
+  1; with the intensity reversed the cycle is unstable and the whole wheel's monodromy by
+  SLEPc finds that multiplier first;
+- the cyclic-symmetry reduction: the pattern wheel's flow equals the whole wheel's on
+  patterns, bitwise;
+- a cycle with contacts opening: Newton converges, the whole wheel's transient started on
+  the orbit stays on it for 10 periods, and the dominant multiplier from the pattern map's
+  Jacobian equals SLEPc's on the whole wheel (two computations of one number).
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from conftest import SMALL
+from wheelrom import config
+from wheelrom.analysis.continuation import BranchSettings
+from wheelrom.analysis.harmonic_balance import WaveBalance
+from wheelrom.analysis.limit_cycle import Settings, case_limit_cycles, periodic_solution
+from wheelrom.analysis.periodic.flow import WheelFlow, pattern_blades, pattern_model
+from wheelrom.analysis.periodic.monodromy import floquet_multipliers
+from wheelrom.analysis.periodic.shooting import Shooting, sample_orbit
+from wheelrom.forces.parameters import force_parameters
+from wheelrom.transient.run import run_case
+
+VDP = ["contacts.tieboss.enabled=false", "contacts.shroud.enabled=false",
+       "wheel.damping_beta=1e-9", "flutter.mu=10.0", 'flutter.model="relative"',
+       'time.scheme="exponential"', "time.step=1e-5", "excitation.force=0.0"]  # fmt: skip
+WAVE = 6  # ND N/2 of the 12-blade wheel
+
+
+@pytest.mark.parametrize("wave", [0, 3, 4, 6, 5])
+def test_pattern_wheel_is_the_whole_wheel_on_patterns(small_model, wave):
+    """A state repeating every N' blades stays so, and the pattern wheel of N' blades
+    integrates it bitwise as the whole wheel does (contacts on, exponential scheme)."""
+    cfg = config.load(SMALL, ['time.scheme="exponential"', "time.step=1e-5"])
+    pattern, g, j = pattern_model(small_model, wave)
+    assert pattern.blades == 12 // math.gcd(wave, 12) and (j * wave - g) % 12 == 0
+    rng = np.random.default_rng(wave)
+    x = rng.normal(size=(2, pattern.blades, small_model.modes))
+    x *= np.array([1e-6, 1e-3])[:, None, None]
+    whole = WheelFlow(small_model, cfg, {"shroud": 80.0})
+    part = WheelFlow(pattern, cfg, {"shroud": 80.0})
+    try:
+        end = whole.advance(x[None, :, np.arange(12) % pattern.blades], 2e-3)[0]
+        end_part = part.advance(x[None], 2e-3)[0]
+    finally:
+        whole.destroy()
+        part.destroy()
+    assert np.array_equal(end[:, : pattern.blades], end_part)
+    assert np.array_equal(end, end[:, np.arange(12) % pattern.blades])
+    assert pattern_blades(wave, 12) == (pattern.blades, g, j)
+
+
+def _vdp_orbit(model, lam):
+    """The HB cycle of the relative Van der Pol ND N/2 wave at factor ``lam`` and the orbit
+    shot from it: ``(point, balance, shooting, orbit)``."""
+    cfg = config.load(SMALL, VDP)
+    params = force_parameters(model, cfg)
+    balance = WaveBalance(model, params, cfg.wheel.damping_beta, WAVE, 7, 32)
+    w2, V = np.linalg.eigh(model.nd_stiffness(WAVE))
+    j = int(np.argmax(np.abs(params.aero @ V)))
+    X = np.zeros((15, model.modes))
+    X[1] = V[:, j] * params.vdp_r / float(params.aero @ V[:, j])  # y = r / 2 per blade
+    point = periodic_solution(balance, X, math.sqrt(w2[j]), lam)
+    assert point is not None
+    shooting = Shooting(model, cfg, WAVE, None, lam)
+    q, v = balance.wheel_state(point.X, point.omega)
+    orbit = shooting.solve(np.stack([q, v])[:, : shooting.N], 2 * math.pi / point.omega)
+    return point, balance, shooting, orbit, cfg
+
+
+@pytest.fixture(scope="module")
+def vdp(small_model):
+    out = {lam: _vdp_orbit(small_model, lam) for lam in (1.0, -1.0)}
+    yield out
+    for *_, shooting, _, _ in out.values():
+        shooting.destroy()
+
+
+@pytest.mark.parametrize("lam", [1.0, -1.0], ids=["stable", "reversed"])
+def test_van_der_pol_orbit_is_the_harmonic_balance_cycle(vdp, small_model, lam):
+    """Smooth cycle: the orbit's period and blade-0 harmonics are the harmonic balance's
+    (7 harmonics of a 3 % Van der Pol) to the time integration's error."""
+    point, balance, shooting, orbit, _ = vdp[lam]
+    assert orbit.converged and orbit.residual < 1e-9
+    assert orbit.pattern == 2 and orbit.shift == 1 and orbit.fraction == 0.5
+    assert orbit.period == pytest.approx(2 * math.pi / point.omega, rel=1e-7)
+    samples = sample_orbit(shooting, orbit).states[:, 0, 0]  # (S, m) blade 0
+    c1 = 2 * np.fft.fft(samples, axis=0)[1] / samples.shape[0]
+    hb = balance.complex_harmonics(point.X)[1]
+    assert np.abs(np.abs(c1) - np.abs(hb)).max() < 1e-6 * np.abs(hb).max()
+
+
+@pytest.mark.parametrize("lam", [1.0, -1.0], ids=["stable", "reversed"])
+def test_van_der_pol_multipliers_are_the_averaging_exponent(vdp, lam):
+    """The pattern map's multipliers hold the phase shift's 1 (to 1e-6: the fixed-step map is
+    not exactly invariant under a time shift, its error that of the integration, 4e-7 and
+    7e-7 measured) and the amplitude's ``exp(-eps_eff T)`` of the averaging = Hill
+    (tests/test_limit_cycle.py: -4.633 /s, +4.634 reversed) to 1e-4 of the exponent."""
+    point, balance, shooting, orbit, cfg = vdp[lam]
+    mu = orbit.symmetric_multipliers
+    T = orbit.period
+    assert np.min(np.abs(mu - 1.0)) < 1e-6
+    from test_limit_cycle import VdpTruth, vdp_params
+
+    params, beta = vdp_params(shooting.full_model, "relative")
+    truth = VdpTruth.of(shooting.full_model, params, beta, "relative", lam)
+    # the averaging's own error is O(e^2) = 4e-5 of the exponent (measured 3e-5)
+    exponents = np.log(np.abs(mu)) / T
+    assert np.min(np.abs(exponents - truth.exponent)) < 1e-4 * abs(truth.exponent)
+    if lam < 0:  # unstable: it is the largest
+        assert exponents[0] == pytest.approx(truth.exponent, rel=1e-4)
+
+
+def test_reversed_van_der_pol_cycle_unstable_by_the_whole_wheel_monodromy(vdp, small_model):
+    """SLEPc on the whole wheel's linearised period: its largest multiplier is the averaging's
+    ``exp(4.634 T)`` in ND 6, the orbit's own, as the pattern map's to 1e-5; the phase
+    shift's multiplier is 1 to 1e-6 (the integration's error)."""
+    point, balance, shooting, orbit, cfg = vdp[-1.0]
+    mu = floquet_multipliers(small_model, cfg, orbit, orbit.steps_per_period, None, -1.0, 3)
+    expected = abs(orbit.symmetric_multipliers[0])
+    assert not mu.stable
+    assert abs(mu.values[0]) == pytest.approx(expected, rel=1e-5), (mu.values, mu.nd)
+    assert mu.nd[0] == 6, (mu.values, mu.nd)
+    assert mu.trivial_error < 1e-6
+
+
+@pytest.fixture(scope="module")
+def impact_cycle(small_model):
+    """The small wheel's ND 6 cycle at shroud 60 deg (contacts open ~half the period), from a
+    1e-3 m seed, polished by shooting, with the whole wheel's multipliers."""
+    cfg = config.load(SMALL, ['time.scheme="exponential"', "time.step=1e-5",
+                              "excitation.force=0.0"])  # fmt: skip
+    settings = Settings(harmonics=7, waves=(WAVE,), seeds=(1e-3,), method="shooting",
+                        floquet="monodromy", multipliers=6, refine=1,
+                        branch=BranchSettings(steps=2))  # fmt: skip
+    angles = {"tieboss": 45.0, "shroud": 60.0}
+    res = case_limit_cycles(small_model, cfg, settings, angles)
+    cycles = [c for c in res.branches[0].cycles if c.method == "shooting"]
+    assert cycles, res.verdict()
+    return cfg, angles, cycles[-1]
+
+
+def test_impact_orbit_converges_and_the_transient_stays_on_it(impact_cycle, small_model):
+    cfg, angles, cycle = impact_cycle
+    orbit = cycle.orbit
+    assert orbit.residual <= 1e-9
+    assert np.all(cycle.fractions[:, 0] > 0.2)  # both contacts open within the period
+    assert cycle.energy_residual < 1e-3  # in = friction + damping over the orbit
+    state = orbit.wheel_state(small_model.blades)
+    steps = orbit.steps_per_period
+    run_cfg = cfg.replace(**{"time.step": orbit.period / steps, "time.end": 10 * orbit.period,
+                             "time.window": 10 * orbit.period, "output.history_rate_hz": 0.0,
+                             "output.sample_rate_hz": 0.5 * steps / orbit.period})  # fmt: skip
+    res = run_case(small_model, run_cfg, angles, u0=state.ravel())
+    n = state[0].size
+    final = res.final_state[: 2 * n].reshape(state.shape)
+    # unstable (multiplier ~1.3 per period): round-off grows ~15x over 10 periods
+    assert np.abs(final[0] - state[0]).max() < 1e-7 * np.abs(state[1]).max() * orbit.period
+    assert np.abs(final[1] - state[1]).max() < 1e-7 * np.abs(state[1]).max()
+
+
+def test_impact_orbit_multiplier_by_two_computations(impact_cycle, small_model):
+    """The dominant multiplier inside the orbit's own symmetry two ways: the eigenvalues of the
+    pattern map's finite-difference Jacobian (half a period, shifted one blade, squared)
+    and SLEPc on the pattern wheel's linearised whole period; the whole wheel's monodromy
+    has others larger still (NDs 3, 4: the cycle is unstable), and a halved step keeps the
+    verdict."""
+    cfg, angles, cycle = impact_cycle
+    mu = cycle.multipliers
+    assert not cycle.stable and mu.largest > 1.1
+    orbit = cycle.orbit
+    pattern, _, _ = pattern_model(small_model, WAVE)
+    inside = floquet_multipliers(pattern, cfg, orbit, orbit.steps_per_period, angles, 1.0, 2)
+    step, dominant, nd = cycle.refined[0]
+    assert abs(inside.values[0]) == pytest.approx(dominant, rel=1e-4)
+    assert (inside.nd[0] == 1) == (nd == 6)  # on 2 pattern blades ND 1 is the wheel's N/2
+    assert mu.largest >= dominant * (1 - 1e-6)
+    assert cycle.refined[1][1] > 1.0
