@@ -17,7 +17,7 @@ import pytest
 
 from conftest import SMALL
 from wheelrom.cli import main as cli
-from wheelrom.runtime.outputs import lock_name, output_lock
+from wheelrom.runtime.locks import lock_name, output_lock
 
 ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
            OMPI_MCA_rmaps_base_oversubscribe="1", MPLBACKEND="Agg")  # fmt: skip

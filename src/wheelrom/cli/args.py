@@ -8,7 +8,8 @@ import functools
 
 from wheelrom.cli.output import LONG_LISTING
 from wheelrom.runtime.errors import InputError
-from wheelrom.runtime.outputs import check_output, output_lock
+from wheelrom.runtime.locks import output_lock
+from wheelrom.runtime.outputs import check_output
 
 
 def json_out(p: argparse.ArgumentParser) -> None:
@@ -223,7 +224,7 @@ def comm_self():
 
 def locked(*flags: str):
     """Decorate a command to run holding the lock of each output file it is given (``"--out"``,
-    ``"--vtu"``, ...: :func:`wheelrom.runtime.outputs.output_lock`; under mpirun rank 0
+    ``"--vtu"``, ...: :func:`wheelrom.runtime.locks.output_lock`; under mpirun rank 0
     holds them for all), so that a second job on the same file is refused, naming this one."""
 
     def wrap(cmd):

@@ -16,6 +16,9 @@ from wheelrom.results.layout import FORCED_FORMAT as FORMAT
 from wheelrom.runtime.errors import InputError
 from wheelrom.runtime.outputs import check_output, replacing
 
+#: the most frequencies ``--frequencies`` / ``--speeds`` may ask for (as forced.points)
+MAX_FREQUENCIES = 100_000
+
 
 def args_forced(p: argparse.ArgumentParser) -> None:
     p.add_argument("--frequencies", metavar="A:B:N",
@@ -48,6 +51,9 @@ def parse_frequencies(text: str, option: str = "--frequencies") -> np.ndarray:
         raise InputError(f"{option} {text}: expected 0 <= A <= B (Hz)")
     if n < 1 or (n > 1 and a == b):
         raise InputError(f"{option} {text}: N must be >= 1 (and 1 when A = B)")
+    if n > MAX_FREQUENCIES:
+        raise InputError(f"{option} {text}: {n} frequencies (one linear solve each, twice "
+                         f"when mistuned); at most {MAX_FREQUENCIES}")  # fmt: skip
     return np.linspace(a, b, n)
 
 
@@ -68,9 +74,13 @@ def parse_angles(pairs: list[list[str]]) -> dict:
         if kind not in CONTACT_KINDS:
             raise InputError(f"--angle {kind}: contact kinds are {', '.join(CONTACT_KINDS)}")
         try:
-            out[kind] = float(value)
+            angle = float(value)
         except ValueError:
             raise InputError(f"--angle {kind} {value}: the angle is a number [deg]") from None
+        if not 0.0 <= angle <= 90.0:  # as contacts.<kind>.angle_deg (NaN included)
+            raise InputError(f"--angle {kind} {value}: the angle must be within 0..90 deg "
+                             f"(as contacts.{kind}.angle_deg)")  # fmt: skip
+        out[kind] = angle
     return out
 
 

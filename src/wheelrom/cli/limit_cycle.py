@@ -9,7 +9,7 @@ import time
 from wheelrom.cli.args import json_out, load_config, locked
 from wheelrom.cli.output import log, print_json
 from wheelrom.runtime.errors import InputError
-from wheelrom.runtime.outputs import check_output, replacing
+from wheelrom.runtime.outputs import agree, check_output, save_hdf5
 
 PROGRESS_EVERY_S = 5.0  # a progress line at most this often
 
@@ -65,20 +65,19 @@ def cmd_limit_cycle(args: argparse.Namespace) -> int:
 
     model, cases = run_limit_cycles(cfg, comm, log=quiet if args.json else log, waves=waves,
                                     progress=None if args.json else progress)  # fmt: skip
-    if not cases:  # ranks other than 0
-        return 0
-    if args.out:
-        import h5py
+    failure = None
+    if cases:  # rank 0: every case
+        rows = [summary(c) for c in cases]
+        if args.json:  # first: a full disk still leaves the numbers
+            print_json({"cases": rows})
+        else:
+            print_limit_cycles(rows)
+        if args.out:
+            from wheelrom.results.limit_cycles import write_limit_cycles
 
-        from wheelrom.results.limit_cycles import write_limit_cycles
-
-        with replacing(args.out) as partial, h5py.File(partial, "w") as f:
-            write_limit_cycles(f, cfg, model, cases)
-    rows = [summary(c) for c in cases]
-    if args.json:
-        print_json({"cases": rows})
-    else:
-        print_limit_cycles(rows)
+            failure = save_hdf5(args.out, lambda f: write_limit_cycles(f, cfg, model, cases),
+                                "the summary is printed above")  # fmt: skip
+    agree(comm, failure)  # every rank stops together, none waits for rank 0's file
     return 1 if any(c.failure for c in cases) else 0
 
 

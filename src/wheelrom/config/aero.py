@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from wheelrom.config.values import beside_toml, file_stamp
+from wheelrom.config.values import beside_toml, file_stamp, input_file_problem
 from wheelrom.config.values import field_key as _key
 
 
@@ -122,6 +122,9 @@ def read_aero_table(name: str, source: str, blades: int, phase: str = "lead",
 @functools.lru_cache(maxsize=16)
 def _read_rows(name: str, path: str, stamp) -> tuple[tuple[str, ...], tuple]:
     """``(header, rows)``: the column names and ``(line, values)`` per data row."""
+    why = input_file_problem(path)
+    if why:
+        raise ValueError(f"{name}: {why}")
     try:
         with open(path, encoding="utf-8") as fh:
             lines = fh.read().splitlines()

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from wheelrom.config.values import beside_toml, file_stamp, is_number
+from wheelrom.config.values import beside_toml, file_stamp, input_file_problem, is_number
 from wheelrom.config.values import field_key as _key
 
 #: largest |delta_s| a pattern or a pattern file may hold (as ``mistuning.pattern``)
@@ -99,6 +99,9 @@ def read_mistuning_file(name: str, source: str, blades: int) -> np.ndarray:
 def _read_values(name: str, path: str, stamp) -> np.ndarray:
     """The numbers of a ``.npy`` or text file (``stamp``: its size and modification time, the
     cache key that makes an edited file read again); ``ValueError`` naming ``name``."""
+    why = input_file_problem(path)
+    if why:
+        raise ValueError(f"{name}: {why}")
     if name.lower().endswith(".npy"):
         try:
             values = np.load(path, allow_pickle=False)

@@ -8,6 +8,7 @@ import dataclasses
 import difflib
 import math
 import os
+import stat
 from collections.abc import Mapping, Sequence
 from dataclasses import fields
 from typing import Any
@@ -244,6 +245,27 @@ def file_stamp(path: str):
     except OSError:
         return None  # not there: the reader names the problem
     return stat.st_size, stat.st_mtime_ns
+
+
+#: the largest input file a key names (``mistuning.file``, ``flutter.table``,
+#: ``study.cases``) that is read: each holds at most a few numbers per blade or case
+MAX_INPUT_BYTES = 64 << 20
+
+
+def input_file_problem(path: str) -> str | None:
+    """Why the input file ``path`` must not be read (None: it may, or it is missing and the
+    reader says so): not a regular file (``/dev/zero``, a FIFO, a directory: read forever
+    or never), or larger than :data:`MAX_INPUT_BYTES`."""
+    try:
+        info = os.stat(path)
+    except OSError:
+        return None
+    if not stat.S_ISREG(info.st_mode):
+        return "is not a regular file (a device, a FIFO or a directory); name a file"
+    if info.st_size > MAX_INPUT_BYTES:
+        return (f"is {info.st_size / 1e6:.1f} MB, more than the {MAX_INPUT_BYTES >> 20} MiB "
+                "an input file of numbers may be")
+    return None
 
 
 def beside_toml(name: str, source: str) -> str:

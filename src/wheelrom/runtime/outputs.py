@@ -9,27 +9,19 @@ under the name the user asked for, nor destroys the file that was there before. 
 temporary name is random and created exclusively (never followed through a link), and only
 a regular file is ever replaced (``--force`` refuses a FIFO, a device, a socket).
 
-One job at a time writes an output: :func:`output_lock` holds ``dir/.name.lock`` (host, pid,
-start time; ``flock``-ed while the job lives) for the whole job; a second job on the same
-output is refused naming the holder, and the lock of a killed job is reported as stale with
-the command that removes it, never taken over silently.
+One job at a time writes an output: :func:`wheelrom.runtime.locks.output_lock`.
 """
 
 from __future__ import annotations
 
 import contextlib
 import errno
-import json
 import os
 import re
-import shlex
 import shutil
-import signal
-import socket
 import stat
 import tempfile
 import threading
-import time
 
 from wheelrom.runtime.errors import DiskFull, InputError, OutputExists
 
@@ -235,212 +227,6 @@ def create_collectively(out: str, comm, fill) -> None:
 # --------------------------------------------------------------------------------------
 
 
-def lock_name(path: str) -> str:
-    """The lock file of output ``path``: ``dir/.name.lock`` beside it."""
-    directory, name = os.path.split(os.path.abspath(path))
-    return os.path.join(directory, f".{name}.lock")
-
-
-@contextlib.contextmanager
-def output_lock(path: str | None, comm=None, flag: str = "--out"):
-    """Hold the output ``path`` for the whole ``with`` block: nobody else (another job on
-    this or another host sharing the directory) writes it meanwhile. ``None``: nothing to
-    hold.
-
-    The lock is ``dir/.name.lock``, created exclusively with the holder's host, pid and start
-    time, and ``flock``-ed for as long as the holder lives. A held lock is an
-    :class:`InputError` naming the holder (exit 2, before anything is computed); a lock whose
-    holder is gone (killed: its ``flock`` is released, its pid dead on this host) is
-    reported as stale with the ``rm`` that removes it, and never taken over. Under MPI
-    (``comm``: mpi4py) rank 0 takes the lock and its verdict is broadcast, so every rank
-    refuses or goes on together. The lock is removed when the block ends, on an error, on
-    Ctrl-C and on SIGTERM (mpirun's Ctrl-C; while held, SIGTERM raises
-    ``KeyboardInterrupt`` unless a handler is set)."""
-    if not path:
-        yield
-        return
-    held, problem = None, None
-    if comm is None or comm.rank == 0:
-        try:
-            held = _acquire(path, flag)
-        except InputError as exc:
-            problem = exc
-        except Exception as exc:  # rank 0's surprise must not leave the others waiting
-            problem = InputError(f"{flag} {path}: cannot take its lock {lock_name(path)} "
-                                 f"({type(exc).__name__}: {exc})")  # fmt: skip
-    if comm is not None:
-        problem = comm.bcast(problem)
-    if problem:
-        if held is not None:  # pragma: no cover (rank 0 never holds a refused lock)
-            _release(*held)
-        raise problem
-    previous = _terminate_as_interrupt() if held is not None else None
-    try:
-        yield
-    finally:
-        if held is not None:
-            _release(*held)
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
-
-
-def _terminate_as_interrupt():
-    """SIGTERM (mpirun's way of passing on Ctrl-C) as KeyboardInterrupt while a lock is
-    held, so that it is removed; returns the handler to restore (None: left as it was)."""
-    if threading.current_thread() is not threading.main_thread():
-        return None
-    if signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL:
-        return None
-
-    def handler(signum, frame):
-        raise KeyboardInterrupt
-
-    return signal.signal(signal.SIGTERM, handler)
-
-
-def _holder() -> dict:
-    return {"host": socket.gethostname(), "pid": os.getpid(),
-            "started": time.strftime("%Y-%m-%d %H:%M:%S %z")}  # fmt: skip
-
-
-def _acquire(path: str, flag: str) -> tuple[int, str]:
-    """Create and ``flock`` the lock of ``path``; ``(fd, lock path)``. Raises the
-    :class:`InputError` of a held or stale lock, or of a directory that cannot hold one."""
-    import fcntl
-
-    directory = os.path.dirname(os.path.abspath(path))
-    why = _directory_problem(directory, flag, path)
-    if why:
-        raise InputError(why)
-    lock = lock_name(path)
-    # the content is written and flock-ed under a private name, then hard-linked to the lock
-    # name (fails if it exists): the lock never appears empty or unlocked
-    fd, private = tempfile.mkstemp(prefix=f".{os.path.basename(lock)}.", dir=directory)
-    try:
-        os.fchmod(fd, 0o644 & ~_umask())  # readable: whoever shares the folder sees the holder
-        os.write(fd, (json.dumps(_holder()) + "\n").encode())
-        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        try:
-            os.link(private, lock)
-        except FileExistsError:
-            raise _lock_problem(path, lock, flag) from None
-        except OSError as exc:  # no hard links here (some FUSE/SMB mounts): exclusive create
-            if exc.errno not in (errno.EPERM, errno.ENOTSUP, errno.EOPNOTSUPP, errno.EXDEV):
-                raise
-            os.close(fd)
-            fd = _create_exclusively(path, lock, flag)
-    except BaseException:
-        os.close(fd)
-        raise
-    finally:
-        with contextlib.suppress(FileNotFoundError):
-            os.remove(private)
-    _remove_leftovers(path)
-    return fd, lock
-
-
-def _create_exclusively(path: str, lock: str, flag: str) -> int:
-    import fcntl
-
-    try:
-        fd = os.open(lock, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o644)
-    except FileExistsError:
-        raise _lock_problem(path, lock, flag) from None
-    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    os.write(fd, (json.dumps(_holder()) + "\n").encode())
-    return fd
-
-
-def _release(fd: int, lock: str) -> None:
-    """Remove the lock (if it is still this one), then let go of its ``flock``."""
-    with contextlib.suppress(OSError):
-        mine, there = os.fstat(fd), os.lstat(lock)
-        if (mine.st_dev, mine.st_ino) == (there.st_dev, there.st_ino):
-            os.remove(lock)
-    os.close(fd)
-
-
-def _remove_leftovers(path: str) -> None:
-    """Temporary files of ``path`` left by a killed job (this job holds the lock: nobody
-    else builds ``path`` now)."""
-    directory = os.path.dirname(os.path.abspath(path))
-    pattern = _partial_pattern(path)
-    for name in os.listdir(directory):
-        if pattern.fullmatch(name):
-            with contextlib.suppress(OSError):
-                os.remove(os.path.join(directory, name))  # a link: the link, not its target
-
-
-def _lock_problem(path: str, lock: str, flag: str, tries: int = 5) -> InputError:
-    """The error of an existing lock ``lock`` of ``path``: held (naming the holder), or
-    stale (naming the command that removes it)."""
-    import fcntl
-
-    remove = f"rm {shlex.quote(lock)}"
-    for attempt in range(tries):
-        try:
-            fd = os.open(lock, os.O_RDONLY | os.O_NOFOLLOW)
-        except FileNotFoundError:  # released meanwhile: the job just ended
-            return InputError(f"{flag} {path}: another job was writing it until just now; "
-                              "run again")  # fmt: skip
-        except OSError:
-            return InputError(f"{flag} {path}: its lock {lock} is not a lock file wheelrom "
-                              f"made; if no job writes {path}, remove it: {remove}")  # fmt: skip
-        try:
-            info = _read_holder(fd)
-            try:
-                fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
-                held = False
-            except BlockingIOError:
-                held = True
-            except OSError:  # no flock on this file system: the pid alone decides
-                held = None
-        finally:
-            os.close(fd)
-        if info is None and held is not True and attempt < tries - 1:
-            time.sleep(0.1)  # an exclusive create (no hard links) still writing its holder
-            continue
-        break
-    who = _describe(info)
-    alive = _alive(info)
-    if held or (held is None and alive is not False):
-        return InputError(f"{flag} {path}: in use by another wheelrom job ({who}); wait for "
-                          f"it to finish or choose another {flag}")  # fmt: skip
-    return InputError(f"{flag} {path}: stale lock {lock} of a job that is no longer running "
-                      f"({who}); if no job writes {path}, remove it and run again: "
-                      f"{remove}")  # fmt: skip
-
-
-def _read_holder(fd: int) -> dict | None:
-    try:
-        info = json.loads(os.read(fd, 4096).decode())
-    except (ValueError, OSError):
-        return None
-    return info if isinstance(info, dict) else None
-
-
-def _describe(info: dict | None) -> str:
-    if info is None:
-        return "holder unknown"
-    return (f"host {info.get('host', '?')}, pid {info.get('pid', '?')}, started "
-            f"{info.get('started', '?')}")  # fmt: skip
-
-
-def _alive(info: dict | None) -> bool | None:
-    """Whether the holder's process lives (None: cannot tell, another host)."""
-    if info is None or info.get("host") != socket.gethostname():
-        return None
-    try:
-        os.kill(int(info.get("pid")), 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:  # someone else's process: it exists
-        return True
-    except (TypeError, ValueError, OverflowError):
-        return None
-    return True
-
-
 def size_text(n: float) -> str:
     """``1536`` -> ``"1.5 kB"``: decimal units, as ``df -H`` prints them."""
     for unit in ("B", "kB", "MB", "GB", "TB"):
@@ -471,15 +257,104 @@ def check_space(path: str, needed: int, flag: str = "--out") -> None:
 
 def is_disk_full(exc: BaseException) -> bool:
     """Whether ``exc`` is the operating system's "no space left" (or quota) error, also as
-    HDF5 reports it through h5py."""
-    if isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT):
-        return True
-    return isinstance(exc, OSError) and "No space left on device" in str(exc)
+    HDF5 reports it through h5py (an ``OSError``, or a ``RuntimeError`` of a failed flush),
+    or raised while handling one."""
+    seen = 0
+    while exc is not None and seen < 8:
+        if isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT):
+            return True
+        if isinstance(exc, OSError | RuntimeError) and any(
+                text in str(exc) for text in ("No space left on device", "Disk quota exceeded")):
+            return True
+        exc, seen = exc.__cause__ or exc.__context__, seen + 1
+    return False
 
 
-def disk_full(path: str, exc: BaseException, kept: str) -> DiskFull:
-    """The one-line error of a write that filled the disk: the file, the errno, what is
-    kept (``kept``)."""
+def disk_full(path: str, exc: BaseException, kept: str, free: bool = False) -> DiskFull:
+    """The one-line error of a write that filled the disk: the file, the errno (``free``:
+    and the space left on its disk), what is kept (``kept``)."""
     code = exc.errno if isinstance(exc, OSError) and exc.errno else errno.ENOSPC
+    left = ""
+    if free:
+        directory = os.path.dirname(os.path.abspath(path))
+        with contextlib.suppress(OSError):
+            left = f"; {size_text(shutil.disk_usage(directory).free)} free in '{directory}'"
     return DiskFull(f"{path}: the disk is full (errno {code}, {errno.errorcode.get(code, '?')}"
-                    f": {os.strerror(code)}); {kept}")
+                    f": {os.strerror(code)}{left}); {kept}")
+
+
+# --------------------------------------------------------------------------------------
+# a results file that survives a full disk
+# --------------------------------------------------------------------------------------
+
+
+def hdf5_image(fill) -> bytes:
+    """The bytes of the HDF5 file ``fill(f)`` writes, built in memory: a full disk then
+    fails in one plain ``write`` of them, never inside HDF5 (whose failed flush left file
+    objects behind that raised at every garbage collection and crashed the process at
+    exit), and the same bytes can be kept elsewhere (:func:`save_image`). For the outputs
+    of a few MB (``modes``, ``stability``, ``limit-cycle``, ``study --stability-only``)."""
+    import io
+
+    import h5py
+
+    buffer = io.BytesIO()
+    with h5py.File(buffer, "w") as f:
+        fill(f)
+    return buffer.getvalue()
+
+
+def write_image(path: str, data: bytes) -> None:
+    """``data`` into the new file ``path`` (flushed to the disk: a full one fails here)."""
+    with open(path, "wb") as fh:
+        fh.write(data)
+        fh.flush()
+        os.fsync(fh.fileno())
+
+
+def save_image(path: str, data: bytes, kept: str) -> DiskFull | None:
+    """Write ``data`` (:func:`hdf5_image`) as ``path`` (:func:`replacing`). On a full disk
+    the bytes are written to a new file in the temporary directory (``$TMPDIR``) instead,
+    and the returned :class:`DiskFull` names ``path``, the free space, where the results
+    are kept and ``kept`` (what else is, e.g. the summary printed above); None: written."""
+    try:
+        with replacing(path) as partial:
+            write_image(partial, data)
+        return None
+    except OSError as exc:
+        if not is_disk_full(exc):
+            raise
+        failure = exc
+    stem, ext = os.path.splitext(os.path.basename(path))
+    fallback = None
+    with contextlib.suppress(OSError):
+        fd, fallback = tempfile.mkstemp(prefix=f"wheelrom-{stem}.", suffix=ext)
+        os.close(fd)
+        try:
+            write_image(fallback, data)
+        except OSError:
+            os.remove(fallback)
+            fallback = None
+    where = (f"the results are kept in {fallback} (move it there once space is freed)"
+             if fallback else "nothing was written (the temporary directory is full too)")
+    return disk_full(path, failure, f"{where}; {kept}" if kept else where, free=True)
+
+
+def save_hdf5(out: str, fill, kept: str) -> BaseException | None:
+    """Write the HDF5 file ``out`` (``fill(f)``) from memory (:func:`hdf5_image`,
+    :func:`save_image`): a full disk keeps it in the temporary directory. Returns the error,
+    if any, for :func:`agree` to tell every rank; a surprise too (one line then, rather
+    than the other ranks left waiting)."""
+    try:
+        return save_image(out, hdf5_image(fill), kept)
+    except Exception as exc:
+        return InputError(f"{out}: cannot be written ({type(exc).__name__}: {exc})")
+
+
+def agree(comm, failure: BaseException | None) -> None:
+    """Raise rank 0's ``failure`` (None: none) on every rank of the mpi4py ``comm`` (None:
+    serial), so that no rank waits in a later collective call for one that stopped."""
+    if comm is not None and comm.size > 1:
+        failure = comm.bcast(failure, root=0)
+    if failure is not None:
+        raise failure

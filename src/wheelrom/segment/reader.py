@@ -61,6 +61,7 @@ def read_segment(cfg: Config) -> SegmentMesh:
     except SystemExit:  # some meshio readers print and call sys.exit on a garbage file
         why = " ".join(said.getvalue().split()) or "meshio gave up"
         raise InputError(f"segment.source: cannot read '{path}' ({why})") from None
+    _check_points(raw.points, path)
     blocks = [b.data for b in raw.cells if b.type == "hexahedron20"]
     if not blocks:
         found = sorted({b.type for b in raw.cells}) or ["no cells"]
@@ -94,6 +95,15 @@ def read_segment(cfg: Config) -> SegmentMesh:
     pair_cut_faces(seg)
     seg.info.update(arm_report(seg, cfg))
     return seg
+
+
+def _check_points(points: np.ndarray, path: str) -> None:
+    """Every node's coordinates are finite numbers (a NaN one broke the node-set search)."""
+    bad = np.flatnonzero(~np.isfinite(np.asarray(points, dtype=float)).all(axis=1))
+    if bad.size:
+        raise InputError(f"segment.source '{path}': node {bad[0] + 1} (in file order) has a "
+                         f"coordinate that is not a finite number {list(points[bad[0]])}"
+                         + (f", and {bad.size - 1} more node(s)" if bad.size > 1 else ""))
 
 
 def _file_sets(raw, user_to_ours: np.ndarray) -> dict[str, np.ndarray]:

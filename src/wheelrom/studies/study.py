@@ -31,13 +31,11 @@ from wheelrom.rom.build import build_model
 from wheelrom.runtime import interrupts
 from wheelrom.runtime.environment import petsc, slepc
 from wheelrom.runtime.errors import InputError, Interrupted
+from wheelrom.runtime.locks import output_lock
 from wheelrom.runtime.outputs import (
     create_collectively,
-    disk_full,
-    is_disk_full,
-    output_lock,
     output_problem,
-    replacing,
+    save_hdf5,
 )
 from wheelrom.studies.mistuning import (
     ForcedCases,
@@ -68,7 +66,7 @@ def run_study(cfg: Config, out: str, comm, mode: str = "full", confirm: tuple = 
     peak forced response of every case and its amplification factor
     (:mod:`wheelrom.studies.mistuning`). Raises :class:`Interrupted` after a Ctrl-C / SIGTERM
     once the finished rounds are in the file. ``out`` is locked for the whole study
-    (:func:`wheelrom.runtime.outputs.output_lock`): another job on it is refused before
+    (:func:`wheelrom.runtime.locks.output_lock`): another job on it is refused before
     anything is computed.
     """
     with output_lock(out, comm):
@@ -218,19 +216,13 @@ def _create(out, cfg, study, models, model_of, stability, chosen, mode, comm,
     """The file with its full layout (serially by rank 0 for ``stability``, else
     collectively), under a temporary name renamed into place when complete; ``extra``:
     :func:`wheelrom.results.study_layout.create`'s ``mistuning`` and ``forced``."""
-    import h5py
 
     if mode == "stability":
         failure = None
-        if comm.rank == 0:
-            try:
-                with replacing(out) as partial, h5py.File(partial, "w") as f:
-                    study_file.create(f, cfg, study, models, model_of, stability, chosen, mode,
-                                      **extra)  # fmt: skip
-            except Exception as exc:  # told to every rank: none waits for a lost file
-                failure = disk_full(out, exc, "nothing was saved: free space and run it "
-                                    "again") if is_disk_full(exc) else InputError(
-                    f"{out}: cannot be written ({type(exc).__name__}: {exc})")  # fmt: skip
+        if comm.rank == 0:  # built in memory: a full disk keeps it in $TMPDIR
+            failure = save_hdf5(out, lambda f: study_file.create(
+                f, cfg, study, models, model_of, stability, chosen, mode, **extra),
+                "")  # fmt: skip
         wait_for_all(comm)
         failure = comm.bcast(failure)
         if failure:

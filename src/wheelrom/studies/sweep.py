@@ -25,7 +25,8 @@ from wheelrom.rom.build import build_model
 from wheelrom.runtime import interrupts
 from wheelrom.runtime.environment import petsc, slepc
 from wheelrom.runtime.errors import InputError, Interrupted
-from wheelrom.runtime.outputs import create_collectively, output_lock, output_problem
+from wheelrom.runtime.locks import output_lock
+from wheelrom.runtime.outputs import create_collectively, output_problem
 from wheelrom.studies.rounds import check_space_collectively, run_rounds
 from wheelrom.studies.stability import attach_linear, refuse_study
 from wheelrom.transient.run import run_cases
@@ -45,7 +46,7 @@ def run_sweep(cfg: Config, out: str, comm, resume: bool = False, force: bool = F
     all of the rank's cases at once; see the module docstring). ``options``: PETSc options
     of the case TS (keys without the ``wheel_`` prefix). Raises :class:`Interrupted` after a
     Ctrl-C / SIGTERM, once the finished rounds are safely in the file. ``out`` is locked
-    for the whole sweep (:func:`wheelrom.runtime.outputs.output_lock`): another job on it
+    for the whole sweep (:func:`wheelrom.runtime.locks.output_lock`): another job on it
     is refused before anything is computed.
     """
     with output_lock(out, comm):

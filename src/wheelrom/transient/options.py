@@ -3,12 +3,18 @@
 Each solver of wheelrom reads its own prefix (docs/usage.md): ``wheel_`` (the case TS),
 ``wheel_K_`` (the ``K_R`` matrix), ``preload_`` (SNES), ``segment_``, ``cyclic_``,
 ``fullwheel_``, ``stability_`` (SLEPc EPS), ``stability_preload_`` (SNES), ``prestress_``,
-``stiffness_`` (KSP). :func:`check` builds a
+``stiffness_`` (KSP), ``limitcycle_`` and ``limitcycle_shooting_`` (SNES),
+``limitcycle_floquet_`` (SLEPc EPS). :func:`check` builds a
 throw-away object of each prefix the user's options name and lets it read them
 (``setFromOptions``, PETSc's own error printing switched off): a value PETSc refuses
-(``-wheel_ts_type nosuch``, ``-wheel_ts_dt abc``, ``-segment_eps_type nosuch``) becomes one
+(``-wheel_ts_type nosuch``, ``-wheel_ts_dt abc``, ``-segment_eps_type nosuch``), or that its
+setter refuses once read (``-limitcycle_snes_max_it -3``: SNES and KSP tolerances are set
+again through ``setTolerances``, which checks them), becomes one
 :class:`~wheelrom.runtime.errors.InputError` naming that option, found by trying the options of the
-failing prefix one at a time. :func:`unused` lists, at the end of a command, the options no
+failing prefix one at a time. A token after ``--`` that is neither an option nor the value of
+the one before it (``-- garbage``), and an option of a wheelrom solver given without the
+number it needs (``-wheel_ts_dt`` alone, which PETSc would ignore), are refused too.
+:func:`unused` lists, at the end of a command, the options no
 solver read (PETSc's ``-options_left``): typically a misspelt name.
 """
 
@@ -76,6 +82,9 @@ def _snes(comm):
 SOLVERS = {
     "wheel_K_": ("Mat", _matrix),
     "wheel_": ("TS", _ts),
+    "limitcycle_shooting_": ("SNES", _snes),
+    "limitcycle_floquet_": ("EPS", _eps),
+    "limitcycle_": ("SNES", _snes),
     "stability_preload_": ("SNES", _snes),
     "preload_": ("SNES", _snes),
     "forced_preload_": ("SNES", _snes),
@@ -134,6 +143,7 @@ def _accepts(prefix: str) -> int:
         obj.setOptionsPrefix(prefix)
         with _silent():
             obj.setFromOptions()
+            _recheck(kind, obj)
         if kind == "TS" and obj.getTimeStep() <= 0:
             return 63
         return 0
@@ -141,6 +151,27 @@ def _accepts(prefix: str) -> int:
         return int(exc.ierr)
     finally:
         obj.destroy()
+
+
+def _recheck(kind: str, obj) -> None:
+    """Set the tolerances ``setFromOptions`` read again through their setters, which refuse
+    what the options reader lets through (a negative ``max_it`` or tolerance: PETSc error
+    63); for a SNES, those of its KSP too. ``-2`` (PETSc's "default" to a setter) is
+    refused as well: read from the options it would stay as the iteration limit."""
+    PETSc = petsc()
+    if kind == "SNES":
+        tolerances = obj.getTolerances()  # rtol, atol, stol, max_it
+        obj.setTolerances(*tolerances)
+        obj.setMaxFunctionEvaluations(obj.getMaxFunctionEvaluations())
+        if min(tolerances) < 0:
+            raise PETSc.Error(63)
+        obj = obj.getKSP()
+        kind = "KSP"
+    if kind == "KSP":
+        rtol, atol, divtol, max_it = obj.getTolerances()
+        obj.setTolerances(rtol, atol, divtol, max_it)
+        if min(rtol, atol, max_it) < 0:
+            raise PETSc.Error(63)
 
 
 def _alone(names: list[str], keep: str):
@@ -175,11 +206,61 @@ def forget_reads(names: list[str]) -> None:
 def check(args: list[str]) -> None:
     """Raise an :class:`InputError` naming the first option of ``args`` (the tokens after
     ``--``, already in the database) that its solver refuses."""
+    _check_tokens(args)
     names = option_names(args)
     try:
         _check(names)
+        _check_values(args)
     finally:
         forget_reads(names)
+
+
+def _check_tokens(args: list[str]) -> None:
+    """A token that is neither an option nor the value right after one: a typo PETSc would
+    silently skip (``-- garbage``, ``-- -wheel_ts_dt 1e-6 2e-6``)."""
+    after_option = False
+    for token in args:
+        if _is_option(token):
+            after_option = True
+        elif after_option:
+            after_option = False  # the option's value
+        else:
+            raise InputError(f"PETSc options after --: '{token}' is neither an option "
+                             "(-name) nor the value of the option before it")  # fmt: skip
+
+
+def _is_option(token: str) -> bool:
+    return token.startswith("-") and len(token) > 1 and not _is_number(token)
+
+
+def _without_value(args: list[str]) -> list[str]:
+    """The option names of ``args`` given without a value (the next token is an option,
+    or there is none)."""
+    return [token.lstrip("-") for token, nxt in zip(args, [*args[1:], None], strict=True)
+            if _is_option(token) and (nxt is None or _is_option(nxt))]  # fmt: skip
+
+
+def _check_values(args: list[str]) -> None:
+    """An option of a wheelrom solver given without a value although its solver reads a
+    number there (``-wheel_ts_dt`` alone): PETSc ignores it silently. Found by giving it a
+    word for a value: a number option refuses it (error 63), a flag or a viewer does not."""
+    db = petsc().Options()
+    names = option_names(args)
+    for name in _without_value(args):
+        prefix = solver_of(name)
+        if prefix is None:
+            continue
+        mine = [n for n in names if solver_of(n) == prefix]
+        with _alone(mine, name):
+            db.setValue(name, "true")
+            try:
+                code = _accepts(prefix)
+            finally:
+                db.delValue(name)
+                db.setValue(name, None)
+        if code == 63:
+            raise InputError(f"PETSc option -{name}: needs a value (-{name} <number>): "
+                             f"the {SOLVERS[prefix][0]} '{prefix}' reads a number there")
 
 
 def _check(names: list[str]) -> None:
