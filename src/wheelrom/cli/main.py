@@ -25,6 +25,7 @@ from wheelrom.cli import args as cli_args  # noqa: E402
 from wheelrom.cli import forced as cli_forced  # noqa: E402
 from wheelrom.cli import limit_cycle as cli_limit_cycle  # noqa: E402
 from wheelrom.cli import motion as cli_motion  # noqa: E402
+from wheelrom.cli import settle as cli_settle  # noqa: E402
 from wheelrom.cli import tools as cli_tools  # noqa: E402
 from wheelrom.cli.args import comm_self, load_config, locked  # noqa: E402
 from wheelrom.cli.output import (  # noqa: E402
@@ -47,11 +48,15 @@ from wheelrom.runtime.errors import (  # noqa: E402
     OutputExists,
 )
 from wheelrom.runtime.outputs import (  # noqa: E402
+    agree,
     check_output,
     check_space,
     disk_full,
+    hdf5_image,
     is_disk_full,
     replacing,
+    save_hdf5,
+    save_image,
 )
 
 
@@ -124,16 +129,9 @@ def cmd_modes(args: argparse.Namespace) -> int:
     extra = {"wheel_hz": hz, "wheel_nd": nd}
     if args.full_wheel:
         extra.update(_full_wheel(args, cfg, wheel, say))
-    if args.out:
-        import h5py
-
-        from wheelrom.results.layout import write_model_file
-
-        with replacing(args.out) as partial, h5py.File(partial, "w") as f:
-            write_model_file(f, cfg, model, extra)
     table = model.frequencies_by_nodal_diameter()
     reference, assembled = extra.get("full_wheel_hz"), extra.get("assembled_wheel_hz")
-    if args.json:
+    if args.json:  # first: a full disk still leaves the numbers
         out = {"segment_hz": model.segment_hz.tolist(), "wheel_hz": hz.tolist(),
                "wheel_nd": nd.tolist(), "reduced_hz_by_nd": table.tolist(), "info": model.info}
         if reference is not None:
@@ -142,8 +140,15 @@ def cmd_modes(args: argparse.Namespace) -> int:
         if assembled is not None:
             out["assembled_wheel_hz"] = assembled.tolist()
         print_json(out)  # fmt: skip
-        return 0
-    print_modes(model, table, reference, assembled)
+    else:
+        print_modes(model, table, reference, assembled)
+    if args.out:
+        from wheelrom.results.layout import write_model_file
+
+        image = hdf5_image(lambda f: write_model_file(f, cfg, model, extra))
+        failure = save_image(args.out, image, "the frequencies are printed above")
+        if failure:
+            raise failure
     return 0
 
 
@@ -313,6 +318,7 @@ def cmd_stability(args: argparse.Namespace) -> int:
     """Linear stability of every case at its preloaded equilibrium (nozzle off): eigenvalues
     per nodal diameter, the fastest-growing mode and what it does at the contacts. Under
     mpirun the cases are spread over the ranks."""
+    from wheelrom.results.layout import write_stability
     from wheelrom.rom.build import quiet
     from wheelrom.studies.stability import run_stability, summary, world_if_parallel
 
@@ -322,20 +328,17 @@ def cmd_stability(args: argparse.Namespace) -> int:
     comm = world_if_parallel()
     model, cases = run_stability(cfg, comm, log=quiet if args.json else log,
                                  margin=args.margin)  # fmt: skip
-    if not cases:  # ranks other than 0
-        return 0
-    if args.out:
-        import h5py
-
-        from wheelrom.results.layout import write_stability
-
-        with replacing(args.out) as partial, h5py.File(partial, "w") as f:
-            write_stability(f, cfg, model, cases)
-    rows = [summary(r) for r in cases]
-    if args.json:
-        print_json({"cases": rows})
-    else:
-        print_stability(rows)
+    failure = None
+    if cases:  # rank 0: every case
+        rows = [summary(r) for r in cases]
+        if args.json:  # first: a full disk still leaves the numbers
+            print_json({"cases": rows})
+        else:
+            print_stability(rows)
+        if args.out:
+            failure = save_hdf5(args.out, lambda f: write_stability(f, cfg, model, cases),
+                                "the summary is printed above")  # fmt: skip
+    agree(comm, failure)  # every rank stops together, none waits for rank 0's file
     return 0
 
 
@@ -370,6 +373,8 @@ COMMANDS: dict[
     "limit-cycle": (cli_limit_cycle.cmd_limit_cycle, "limit cycles per travelling wave by "
                     "harmonic balance: how far the flutter grows",
                     cli_limit_cycle.args_limit_cycle),
+    "settle": (cli_settle.cmd_settle, "where the flutter settles: the wheel integrated from the "
+               "unstable cycle until stationary, classified", cli_settle.args_settle),
     "forced-response": (cli_forced.cmd_forced, "linear forced response to the nozzle, "
                         "tuned and mistuned (amplification factor)", cli_forced.args_forced),
     "contact-stiffness": (cli_tools.cmd_contact_stiffness,

@@ -24,11 +24,18 @@ from wheelrom.config.forced import (
     mistuning_problems,
 )
 from wheelrom.config.limit_cycle import LimitCycleConfig, limit_cycle_problems
+from wheelrom.config.settle import SettleConfig
 from wheelrom.config.values import convert_field, is_number, suggest
 from wheelrom.config.values import field_key as _key
 from wheelrom.config.values import to_toml as to_toml  # re-exported: config.to_toml
 
 CONTACT_KINDS = ("tieboss", "shroud")
+#: the longest ``time.end`` [s]: far beyond any run (seconds), short of what overflows the
+#: time grid (1e300 s)
+MAX_SIMULATED_TIME = 1e4
+#: the largest ``contacts.*.normal_preload`` [N]: far above any wheel's (hundreds of N), short
+#: of what overflows the contact laws (1e308 N)
+MAX_NORMAL_PRELOAD = 1e7
 
 
 class ConfigError(ValueError):
@@ -123,7 +130,8 @@ class ContactConfig:
         default=45.0, metadata=_key("deg", "contact surface angle beta", min=0.0, max=90.0)
     )
     normal_preload: float = field(
-        default=400.0, metadata=_key("N", "initial normal force F_N0", min=0.0)
+        default=400.0,
+        metadata=_key("N", "initial normal force F_N0", min=0.0, max=MAX_NORMAL_PRELOAD),
     )
     stiffness: Any = field(
         default=7.6e7,
@@ -185,7 +193,9 @@ class TimeConfig:
                       "(ETDRK4 with the segment block A0 exact: docs/theory.md)",
                       choices=("rk", "exponential")),
     )
-    end: float = field(default=1.5, metadata=_key("s", "simulated time", gt=0.0))
+    end: float = field(
+        default=1.5, metadata=_key("s", "simulated time", gt=0.0, max=MAX_SIMULATED_TIME)
+    )
     window: float = field(default=0.0375, metadata=_key("s", "evaluation window", gt=0.0))
     start: str = field(
         default="rest",
@@ -302,6 +312,7 @@ class Config:
     forced: ForcedConfig = field(default_factory=ForcedConfig)
     study: StudyConfig = field(default_factory=StudyConfig)
     limit_cycle: LimitCycleConfig = field(default_factory=LimitCycleConfig)
+    settle: SettleConfig = field(default_factory=SettleConfig)
     source: str = field(default="<built-in default>", compare=False)
 
     def replace(self, **changes: Any) -> Config:
@@ -391,13 +402,16 @@ def _cross_checks(cfg: Config, problems: list[str]) -> None:
         problems.append(
             f"friction.dynamic: must not exceed friction.static ({fr.dynamic} > {fr.static})"
         )
-    if all(is_number(v) and math.isfinite(v) for v in (t.step, t.window, t.end)):
+    # out-of-range times are reported by their own keys (time.end = 0 divided by zero here)
+    times = (t.step, t.window, t.end)
+    if all(is_number(v) and 0 < v <= MAX_SIMULATED_TIME for v in times):
         if t.step > t.window:
             problems.append(f"time.step: larger than time.window ({t.step} > {t.window} s)")
         rate = cfg.output.sample_rate_hz
         if is_number(rate) and rate * t.step > 1.0:
             problems.append(f"output.sample_rate_hz: {rate} Hz exceeds 1/time.step")
-        elif is_number(rate) and rate * _shortest_window(t.end, t.window) < 1.0 - 1e-9:
+        elif (is_number(rate) and _shortest_window(t.end, t.window) > 0
+              and rate * _shortest_window(t.end, t.window) < 1.0 - 1e-9):  # fmt: skip
             shortest = _shortest_window(t.end, t.window)
             problems.append(
                 f"output.sample_rate_hz: {rate} Hz leaves a window of {shortest:.6g} s without "

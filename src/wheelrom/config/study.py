@@ -26,7 +26,12 @@ import math
 from dataclasses import dataclass
 
 from wheelrom.config import CONTACT_KINDS, Config, ConfigError, from_dict, to_dict
-from wheelrom.config.values import beside_toml, convert_field, is_number
+from wheelrom.config.values import (
+    beside_toml,
+    convert_field,
+    input_file_problem,
+    is_number,
+)
 
 #: the two keys of a study made from ``[sweep]``
 ANGLE_KEYS = ("contacts.tieboss.angle_deg", "contacts.shroud.angle_deg")
@@ -37,7 +42,7 @@ MAX_CASES = 100_000
 #: keys that do not change the reduced model (forces and time only; the mistuning is put on
 #: the group's tuned model per case: Monte Carlo realisations share one model)
 FORCE_SECTIONS = ("excitation", "flutter", "friction", "time", "output", "sweep", "study",
-                  "mistuning", "forced", "limit_cycle")  # fmt: skip
+                  "mistuning", "forced", "limit_cycle", "settle")  # fmt: skip
 FORCE_WHEEL_KEYS = ("stator_vanes", "damping_beta")
 
 
@@ -245,6 +250,10 @@ def _csv_axis(cfg: Config, problems: list[str]) -> list[tuple[str, list]]:
     """The ``study.cases`` file: one axis, a column per key, a case per non-empty row."""
     path = beside_toml(cfg.study.cases, cfg.source)
     name = cfg.study.cases
+    why = input_file_problem(path)
+    if why:
+        problems.append(f"study.cases: {name}: {why}")
+        return []
     try:
         with open(path, newline="", encoding="utf-8") as fh:
             rows = [(n, r) for n, r in enumerate(csv.reader(fh), start=1)

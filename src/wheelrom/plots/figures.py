@@ -57,6 +57,10 @@ def plot_file(path: str, outdir: str | None = None, pdf: bool = False,
             from wheelrom.plots.limit_cycle import limit_cycle_figures
 
             limit_cycle_figures(f, path, outdir, pdf, written, plt)
+        if "settle" in f:
+            from wheelrom.plots.settle import settle_figures
+
+            settle_figures(f, path, outdir, pdf, written, plt)
         if study:
             from wheelrom.plots.study import study_figures
 

@@ -101,13 +101,30 @@ def _amplitude_over_cases(g, angles, plt, outdir, pdf, written) -> None:
                 else:
                     settle[i] = np.nanmin([settle[i], best])
     fig, ax = plt.subplots(figsize=(7, 4))
-    x, label = angles[:, 1], "shroud angle [deg]"
-    if "parameters" in g:  # a study: its first varied key
-        x, label = g["parameters"][:, 0], g["parameters"].attrs["names"].split(", ")[0]
-    ax.semilogy(x, settle * 1e6, "o-", color="C3")
-    ax.plot(x[stable_found], settle[stable_found] * 1e6, "o", color="C3", ms=8)
+    x, label = varying_key(g, angles)
+    ax.plot(x, settle * 1e6, "o-", color="C3", mfc="none", label="unstable or not decided")
+    ax.plot(x[stable_found], settle[stable_found] * 1e6, "o", color="C3", ms=8,
+            label="stable")  # fmt: skip
+    ax.set_ylim(bottom=0)
     ax.set_xlabel(label)
-    ax.set_ylabel("limit-cycle tip amplitude [um]")
-    ax.set_title("Where the flutter settles (filled: a stable cycle)", fontsize=10)
+    ax.set_ylabel("limit-cycle tip amplitude, 0-peak [um]")
+    ax.set_title("Single-wave limit cycles at the configured intensity\n(where the flutter "
+                 "settles only if stable: wheelrom settle)", fontsize=10)  # fmt: skip
+    ax.legend(fontsize=8)
     save(fig, outdir, "limit_cycle_amplitude", pdf, written)
     plt.close(fig)
+
+
+def varying_key(g, angles: np.ndarray) -> tuple[np.ndarray, str]:
+    """``(values, label)`` of the study key that varies over the cases (the shroud angle when
+    none does): a sweep records both contact angles, of which one is constant."""
+    if "parameters" in g:
+        values = g["parameters"][()]
+        names = g["parameters"].attrs["names"].split(", ")
+        for j, name in enumerate(names):
+            column = values[:, j]
+            if np.unique(column[np.isfinite(column)]).size > 1:
+                return column, name
+    if np.unique(angles[:, 0]).size > 1 and np.unique(angles[:, 1]).size == 1:
+        return angles[:, 0], "tie-boss angle [deg]"
+    return angles[:, 1], "shroud angle [deg]"

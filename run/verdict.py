@@ -1,0 +1,82 @@
+"""The paper study's verdict in one table (run/paper writes it to out/paper-verdict.txt): per
+shroud angle the linear verdict and flutter margin (out/paper-stability.h5), the fastest
+wave's exact single-wave orbit with its largest Floquet multiplier (out/paper-limit-cycle.h5)
+and where the flutter settles, with all NDs free (out/paper-settle.h5). The amplitude a
+designer signs off is the settled one (largest blade), the single-wave orbit beside it.
+
+Usage: .venv/bin/python run/verdict.py STABILITY.h5 [LIMIT_CYCLE.h5] [SETTLE.h5]
+"""
+
+from __future__ import annotations
+
+import sys
+
+import h5py
+import numpy as np
+
+
+def _by_shroud(path: str | None, group: str):
+    if not path:
+        return {}
+    try:
+        f = h5py.File(path, "r")
+    except OSError:
+        return {}
+    with f:
+        g = f[group]
+        return {round(float(a[1]), 6): i for i, a in enumerate(g["angles_deg"][()])}, path
+
+
+def _cycle(path, i):
+    with h5py.File(path, "r") as f:
+        case = f[f"limit_cycle/case_{i}"]
+        for name in case:
+            if name.startswith("wave_") and "cycles" in case[name]:
+                c = case[name]["cycles"]
+                j = 0
+                text = f"{c['tip_amplitude'][j] * 1e6:.2f} um, {c['frequency_hz'][j]:.2f} Hz"
+                if "multiplier_modulus" in c:
+                    k = int(np.nanargmax(c["multiplier_modulus"][j]))
+                    text += (f"; |mu| {c['multiplier_modulus'][j][k]:.2f} "
+                             f"(ND {c['multiplier_nd'][j][k]})")
+                if "hb_tip_amplitude" in c and np.isfinite(c["hb_tip_amplitude"][j]):
+                    text += f"; HB {c['hb_tip_amplitude'][j] * 1e6:.2f} um"
+                return text
+    return "-"
+
+
+def _settled(path, i):
+    with h5py.File(path, "r") as f:
+        g = f[f"settle/case_{i}"]
+        if not g.attrs["settled"]:
+            return f"not settled after {g.attrs['time']:.3g} s"
+        a = g["amplitude"][()]
+        nd = int(np.argmax(g["nd_energy"][()]))
+        return (f"{a.max() * 1e6:.2f} um ({g.attrs['kind']}; blades {a.min() * 1e6:.2f}.."
+                f"{a.max() * 1e6:.2f}; ND {nd} {g['nd_energy'][nd]:.0%})")
+
+
+def main(argv: list[str]) -> None:
+    stability = argv[0]
+    cycles = _by_shroud(argv[1] if len(argv) > 1 else None, "limit_cycle")
+    settled = _by_shroud(argv[2] if len(argv) > 2 else None, "settle")
+    with h5py.File(stability, "r") as f:
+        g = f["stability"]
+        shroud = g["angles_deg"][:, 1]
+        growth = g["max_growth_rate"][()]
+        ratio = g["margin_ratio"][()] if "margin_ratio" in g else np.full(shroud.size, np.nan)
+        nd = g["nodal_diameter"][:, 0]
+    print("| shroud [deg] | linear | growth [1/s] | margin (x mu) | settled (largest blade) "
+          "| single-wave exact orbit |")
+    print("|---|---|---|---|---|---|")
+    for k, a in enumerate(shroud):
+        key = round(float(a), 6)
+        verdict = "flutters" if growth[k] > 1e-6 else "stable"
+        lc = _cycle(cycles[1], cycles[0][key]) if cycles and key in cycles[0] else "-"
+        st = _settled(settled[1], settled[0][key]) if settled and key in settled[0] else "-"
+        print(f"| {a:g} | {verdict} (ND {nd[k]}) | {growth[k]:+.3f} | {ratio[k]:.3g} | {st} "
+              f"| {lc} |")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])

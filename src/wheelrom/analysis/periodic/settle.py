@@ -1,0 +1,326 @@
+"""Where the flutter settles: the wheel integrated from an unstable state until its motion is
+stationary, then the settled state classified (docs/theory.md, "Where the flutter settles").
+
+**Stationarity.** The motion is integrated in windows of ``window_periods`` periods of the
+start's frequency (a whole number of nozzle periods when the nozzle is on, so that a window
+restarts exactly). After each window: the per-blade amplitude ``A_s`` (the largest tip
+displacement about the blade's mean over the window, [m]) and the ND energy fractions ``e_k``
+(the share of each nodal diameter in the window's mean square tip ``y`` motion). The window is
+stationary against the one before when ``max_s |A_s - A'_s| / max_s A'_s <= tolerance`` and
+``sum_k |e_k - e'_k| / 2 <= tolerance``; the motion has settled after ``consecutive`` such
+windows in a row and at least ``min_time``; at ``max_time`` without it the case is reported
+"not settled after X s" and no settled state is claimed.
+
+**Classification** of the last window, from blade ``s*`` (the largest amplitude): its tip ``y``
+history's envelope (the peak of every period, between successive zero crossings) and that
+envelope's spectrum. *Periodic*: the envelope is flat (peak-to-peak below ``2 tolerance`` of
+its mean) and the state returns to itself after one period (over the window's last period,
+the largest distance of the state from its cubic-spline interpolant one period earlier,
+relative to the motion, the period refined to bring them closest, below ``RETURN`` = 1 %).
+*Quasi-periodic*: otherwise, when one line of the envelope's spectrum (its mean
+removed, Hann window) holds at least ``LINE_SHARE`` of its power: its frequency is the
+modulation frequency. *Chaotic*: neither; the line's share is reported as the test that
+decided.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from wheelrom.transient.problem import nd_amplitudes
+
+LINE_SHARE = 0.5  # of the envelope spectrum's power in its largest line: quasi-periodic
+RETURN = 0.01  # relative return distance after one period below which the state is periodic
+
+
+@dataclass
+class Settings:
+    """The ``[settle]`` keys (docs/usage.md)."""
+
+    window_periods: int = 20
+    tolerance: float = 0.005
+    consecutive: int = 2
+    min_time: float = 0.2
+    max_time: float = 5.0
+
+
+@dataclass
+class Window:
+    """One window's statistics: ``end`` [s], ``amplitude`` ``(N,)`` per blade [m],
+    ``nd_energy`` ``(N // 2 + 1,)`` fractions, ``change`` (amplitude, ND) against the window
+    before (nan for the first)."""
+
+    end: float
+    amplitude: np.ndarray
+    nd_energy: np.ndarray
+    change: tuple[float, float] = (math.nan, math.nan)
+
+
+def window_statistics(time: np.ndarray, tip: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(amplitude (N,), nd_energy (N // 2 + 1,))`` of a window's tip history ``tip``
+    ``(S, N, 3)`` [m] at times ``time`` ``(S,)``."""
+    vibration = tip - tip.mean(axis=0)
+    amplitude = np.sqrt((vibration**2).sum(axis=2)).max(axis=0)
+    spectrum = nd_amplitudes(vibration[:, :, 1])  # (S, N // 2 + 1) [m]
+    energy = (spectrum**2).mean(axis=0)
+    total = energy.sum()
+    return amplitude, energy / total if total > 0 else energy
+
+
+def changes(previous: Window, amplitude: np.ndarray, nd_energy: np.ndarray) -> tuple[float, float]:
+    """``(amplitude change, ND distribution change)`` of a window against ``previous``."""
+    scale = max(float(previous.amplitude.max()), 1e-300)
+    return (float(np.abs(amplitude - previous.amplitude).max() / scale),
+            float(0.5 * np.abs(nd_energy - previous.nd_energy).sum()))  # fmt: skip
+
+
+def stationary(windows: list[Window], settings: Settings) -> bool:
+    """Whether the last ``consecutive`` windows each changed by at most ``tolerance`` and the
+    last one ends at or after ``min_time``."""
+    last = windows[-settings.consecutive :]
+    if len(last) < settings.consecutive or windows[-1].end < settings.min_time * (1 - 1e-9):
+        return False
+    return all(max(w.change) <= settings.tolerance for w in last)
+
+
+@dataclass
+class Classification:
+    """``kind``: 'periodic', 'quasi-periodic' or 'chaotic'; ``frequency_hz`` of the motion
+    (the tip signal's spectral peak); ``modulation_hz`` of the envelope (nan when flat);
+    ``modulation_depth``: envelope peak-to-peak over its mean; ``line_share``: the largest
+    envelope line's share of its power; ``return_distance``: relative; ``decided_by``: the
+    test, in words."""
+
+    kind: str
+    frequency_hz: float
+    modulation_hz: float
+    modulation_depth: float
+    line_share: float
+    return_distance: float
+    decided_by: str
+
+
+def envelope(time: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(times, peaks)``: the largest ``|y - mean|`` between successive upward zero crossings
+    of ``y - mean`` (one per period), at the time of the peak."""
+    x = y - y.mean()
+    up = np.flatnonzero((x[:-1] < 0) & (x[1:] >= 0))
+    times, peaks = [], []
+    for a, b in zip(up[:-1], up[1:], strict=True):
+        i = a + int(np.argmax(np.abs(x[a:b])))
+        times.append(time[i])
+        peaks.append(abs(x[i]))
+    return np.array(times), np.array(peaks)
+
+
+def dominant_frequency(time: np.ndarray, y: np.ndarray) -> float:
+    """The frequency [Hz] of the largest line of ``y``'s spectrum (mean removed, Hann window,
+    refined by a parabola through the peak's neighbours in log power)."""
+    x = (y - y.mean()) * np.hanning(y.size)
+    power = np.abs(np.fft.rfft(x)) ** 2
+    dt = (time[-1] - time[0]) / (time.size - 1)
+    k = int(np.argmax(power[1:])) + 1
+    shift = 0.0
+    if 1 <= k < power.size - 1 and np.all(power[k - 1 : k + 2] > 0):
+        a, b, c = np.log(power[k - 1 : k + 2])
+        shift = 0.5 * (a - c) / (a - 2 * b + c) if (a - 2 * b + c) != 0 else 0.0
+    return (k + shift) / (time.size * dt)
+
+
+def return_distance(time: np.ndarray, states: np.ndarray, period: float) -> tuple[float, float]:
+    """``(distance, period)``: how far the state over the window's last period is from itself
+    one period earlier (max over that period and the components, relative to the states'
+    spread; ``states`` ``(S, n)`` at ``time``), the earlier states by cubic splines, the
+    period the one within 2 % of ``period`` [s] that brings them closest."""
+    from scipy.interpolate import CubicSpline
+
+    if time[-1] - time[0] < 2.05 * period:
+        return math.inf, period
+    spread = max(float(np.abs(states - states.mean(axis=0)).max()), 1e-300)
+    spline = CubicSpline(time, states, axis=0)
+    last = time >= time[-1] - period
+
+    def gap(T):
+        return float(np.abs(states[last] - spline(time[last] - T)).max()) / spread
+
+    grid = period * np.linspace(0.98, 1.02, 81)
+    gaps = np.array([gap(T) for T in grid])
+    i = int(np.argmin(gaps))
+    lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
+    for _ in range(30):  # golden section on the bracket
+        m1, m2 = lo + 0.382 * (hi - lo), lo + 0.618 * (hi - lo)
+        if gap(m1) < gap(m2):
+            hi = m2
+        else:
+            lo = m1
+    best = 0.5 * (lo + hi)
+    return gap(best), best
+
+
+def classify(time: np.ndarray, y: np.ndarray, states: np.ndarray | None = None,
+             tolerance: float = 0.005) -> Classification:  # fmt: skip
+    """The :class:`Classification` of a signal ``y`` ``(S,)`` at uniform ``time`` (the tip
+    of the largest blade over the settled window; ``states`` ``(S, n)``: the whole state at
+    the same samples, for the return test)."""
+    frequency = dominant_frequency(time, y)
+    t_env, peaks = envelope(time, y)
+    if peaks.size < 8:
+        return Classification("chaotic", frequency, math.nan, math.nan, 0.0, math.inf,
+                              f"fewer than 8 periods in the window ({peaks.size})")  # fmt: skip
+    depth = float((peaks.max() - peaks.min()) / peaks.mean())
+    distance, period = return_distance(time, states if states is not None else y[:, None],
+                                       1.0 / frequency)  # fmt: skip
+    if depth <= 2 * tolerance and distance <= RETURN:
+        return Classification("periodic", 1.0 / period, math.nan, depth, 1.0, distance,
+                              f"flat envelope (peak-to-peak {depth:.2%} of its mean) and the "
+                              f"state returns after one period to {distance:.1e}")  # fmt: skip
+    # the envelope resampled uniformly (one sample per period) and its spectrum
+    grid = np.linspace(t_env[0], t_env[-1], t_env.size)
+    e = np.interp(grid, t_env, peaks)
+    x = (e - e.mean()) * np.hanning(e.size)
+    power = np.abs(np.fft.rfft(x))[1:] ** 2
+    share = float(power.max() / power.sum()) if power.sum() > 0 else 0.0
+    modulation = dominant_frequency(grid, e)
+    if share >= LINE_SHARE:
+        return Classification("quasi-periodic", frequency, modulation, depth, share, distance,
+                              f"the envelope's spectrum has one line holding {share:.0%} of "
+                              f"its power at {modulation:.4g} Hz")  # fmt: skip
+    return Classification("chaotic", frequency, modulation, depth, share, distance,
+                          f"the envelope's spectrum is broad (its largest line holds "
+                          f"{share:.0%} of the power, below {LINE_SHARE:.0%})")  # fmt: skip
+
+
+@dataclass
+class Settled:
+    """What :func:`wheelrom.studies.settle` finds for one case (arrays over blades, NDs and
+    windows; see docs/output.md ``/settle``)."""
+
+    settled: bool
+    time: float  # [s] simulated
+    windows: list[Window] = field(default_factory=list)
+    classification: Classification | None = None
+    amplitude: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (N,) last window
+    nd_energy: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    fractions: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # (K, 3)
+    normal_force_range: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    energy_balance: float = math.nan  # |sum of the works| / the self-excitation's, last window
+    tip_time: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    tip: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 3)))  # last window
+    start: str = ""
+    start_amplitude: float = math.nan
+    wall_s: float = 0.0
+    status: str = "done"
+
+    def verdict(self) -> str:
+        if self.status != "done":
+            return self.status
+        if not self.settled:
+            return f"not settled after {self.time:.3g} s"
+        c, A = self.classification, self.amplitude
+        top = int(np.argmax(A))
+        nd = int(np.argmax(self.nd_energy))
+        words = [f"settles {c.kind} at {A.max() * 1e6:.3g} um tip (blade {top}; mean "
+                 f"{A.mean() * 1e6:.3g}, min {A.min() * 1e6:.3g} um at blade "
+                 f"{int(np.argmin(A))}), {c.frequency_hz:.4g} Hz, ND {nd} "
+                 f"{self.nd_energy[nd]:.0%} of the energy"]  # fmt: skip
+        if c.kind != "periodic" and math.isfinite(c.modulation_hz):
+            words.append(f"modulated at {c.modulation_hz:.3g} Hz (depth {c.modulation_depth:.0%})")
+        words.append(f"after {self.time:.3g} s")
+        return ", ".join(words)
+
+
+SAMPLES_PER_PERIOD = 24  # tip and state samples per period of the start's frequency
+
+
+def window_config(cfg, frequency_hz: float, settings: Settings, nozzle: bool):
+    """``(cfg of one window, window length [s])``: whole steps no longer than ``time.step``,
+    samples (tips and states) about ``SAMPLES_PER_PERIOD`` per period on whole steps, no
+    perturbation (the start carries it); with the nozzle on, a whole number of nozzle periods
+    (a window restarts its time at 0)."""
+    window = settings.window_periods / frequency_hz
+    if nozzle:
+        nozzle_period = 1.0 / (cfg.wheel.stator_vanes * cfg.wheel.speed_hz)
+        window = max(1, round(window / nozzle_period)) * nozzle_period
+    steps = max(1, math.ceil(window / cfg.time.step * (1 - 1e-12)))
+    h = window / steps
+    every = max(1, round(1.0 / (SAMPLES_PER_PERIOD * frequency_hz * h)))
+    rate = 1.0 / (every * h) * (1 + 1e-9)  # a sample at every every-th step, no round-off
+    changes_ = {"time.step": h, "time.end": window, "time.window": window,
+                "time.perturbation": 0.0, "time.perturbation_waves": [],
+                "output.sample_rate_hz": rate, "output.history_rate_hz": rate,
+                "output.state_rate_hz": rate}  # fmt: skip
+    if not nozzle:
+        changes_["excitation.force"] = 0.0
+    return cfg.replace(**changes_), window
+
+
+def settle_case(model, cfg, angles: dict | None, u0: np.ndarray, frequency_hz: float,
+                settings: Settings, nozzle: bool = False, progress=None) -> Settled:  # fmt: skip
+    """Integrate ``u0`` (``(2 N m,)`` modal ``q, q'``) window by window until stationary
+    (:func:`stationary`) or ``max_time``; classify the last window."""
+    import time as clock
+
+    from wheelrom.transient.run import run_case
+
+    t0 = clock.perf_counter()
+    run_cfg, length = window_config(cfg, frequency_hz, settings, nozzle)
+    out = Settled(False, 0.0)
+    u = np.asarray(u0, dtype=float).copy()
+    res = None
+    while out.time < settings.max_time - 0.5 * length:
+        res = run_case(model, run_cfg, angles, u0=u)
+        if not res.status.startswith("done"):
+            out.status = f"failed at {out.time + res.window_end[-1:].sum():.3g} s: {res.status}"
+            break
+        t = res.sample_time + out.time
+        amplitude, nd_energy = window_statistics(t, res.tip_history)
+        out.time += length
+        w = Window(out.time, amplitude, nd_energy)
+        if out.windows:
+            w.change = changes(out.windows[-1], amplitude, nd_energy)
+        out.windows.append(w)
+        u = res.final_state[: u.size]
+        if progress:
+            progress(out.time, w)
+        if stationary(out.windows, settings):
+            out.settled = True
+            break
+    out.wall_s = clock.perf_counter() - t0
+    if res is None or out.status != "done":
+        return out
+    _describe_last(out, res, model, run_cfg, angles, settings)
+    return out
+
+
+def _describe_last(out: Settled, res, model, cfg, angles, settings: Settings) -> None:
+    """The last window's amplitude, ND content, classification, contacts and energies."""
+    from wheelrom.forces.parameters import force_parameters
+    from wheelrom.forces.reference import ReferenceForces
+
+    w = out.windows[-1]
+    out.amplitude, out.nd_energy = w.amplitude, w.nd_energy
+    out.tip_time = res.sample_time + out.time - res.window_end[-1]
+    out.tip = res.tip_history
+    top = int(np.argmax(w.amplitude))
+    states = res.state_history.reshape(res.state_history.shape[0], -1)
+    S = min(states.shape[0], out.tip.shape[0])
+    if out.settled:  # a state still changing is not classified as a result
+        out.classification = classify(out.tip_time[:S], out.tip[:S, top, 1], states[:S],
+                                      settings.tolerance)  # fmt: skip
+    forces = ReferenceForces(force_parameters(model, cfg, angles))
+    K = len(forces.params.contacts.kinds)
+    counts = np.zeros((K, 3))
+    low, high = np.full(K, np.inf), np.full(K, -np.inf)
+    for q, v in res.state_history:
+        forces.evaluate(0.0, q, v)
+        for k in range(K):
+            counts[k] += np.bincount(forces.contact_state[k].astype(int), minlength=3)[:3]
+        low = np.minimum(low, forces.normal_force.min(axis=1))
+        high = np.maximum(high, forces.normal_force.max(axis=1))
+    out.fractions = counts / np.maximum(counts.sum(axis=1, keepdims=True), 1)
+    out.normal_force_range = np.stack([low, high], axis=1) if K else np.zeros((0, 2))
+    work = res.work[-1]  # (nozzle, Van der Pol, friction, damping) over the window [J]
+    out.energy_balance = float(abs(work.sum()) / max(abs(work[1]) + abs(work[0]), 1e-300))

@@ -1,0 +1,50 @@
+"""The ``[settle]`` section: where the flutter settles (``wheelrom settle``; docs/theory.md
+"Where the flutter settles", docs/usage.md)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from wheelrom.config.values import field_key as _key
+
+
+@dataclass(frozen=True)
+class SettleConfig:
+    start: str = field(
+        default="cycle",
+        metadata=_key("-", "'cycle': the fastest wave's exact orbit (from settle --cycles FILE, "
+                      "else computed), every ND perturbed; 'preload': the preloaded "
+                      "equilibrium with the unstable waves seeded at seed_amplitude (slow to "
+                      "grow where the flutter is weak)", choices=("cycle", "preload")))
+    perturbation: float = field(
+        default=1e-3,
+        metadata=_key("-", "largest tip displacement of the perturbation of every ND, as a "
+                      "fraction of the start's tip amplitude (the lowest mode of every ND, "
+                      "random phases: time.perturbation's pattern)", gt=0.0, max=1.0))
+    seed: int = field(
+        default=0, metadata=_key("-", "seed of the perturbation's random phases", min=0))
+    seed_amplitude: float = field(
+        default=1e-6,
+        metadata=_key("m", "tip amplitude of the unstable waves' seed (start = 'preload')",
+                      gt=0.0, max=1e-2))
+    window_periods: int = field(
+        default=20,
+        metadata=_key("-", "periods (of the start's frequency) per stationarity window",
+                      min=2, max=100000))
+    tolerance: float = field(
+        default=0.005,
+        metadata=_key("-", "stationary: the per-blade amplitude and the ND energy distribution "
+                      "change by at most this between consecutive windows", gt=0.0, max=0.5))
+    consecutive: int = field(
+        default=2, metadata=_key("-", "stationary windows in a row that make it settled",
+                                 min=1, max=100))
+    min_time: float = field(
+        default=0.2, metadata=_key("s", "simulated time at least", min=0.0, max=1e4))
+    max_time: float = field(
+        default=5.0,
+        metadata=_key("s", "simulated time at most; then 'not settled after X s'", gt=0.0,
+                      max=1e4))
+    nozzle: bool = field(
+        default=False,
+        metadata=_key("-", "nozzle excitation on (excitation.force; windows a whole number of "
+                      "nozzle periods)"))

@@ -1,0 +1,80 @@
+"""``/settle`` of a settle file (``wheelrom settle --out``; docs/output.md): per case where the
+flutter settled, how it was decided, and the last window's tip histories."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from wheelrom import config as config_mod
+from wheelrom.config import Config
+from wheelrom.results.layout import write_model
+from wheelrom.rom.model import ReducedModel
+
+FORMAT = "wheelrom-settle-1"
+KINDS = ("periodic", "quasi-periodic", "chaotic")
+
+
+def write_settle(f, cfg: Config, model: ReducedModel, cases: list) -> None:
+    """The whole file from ``[(angles, parameters, Settled)]`` in case order."""
+    f.attrs["format"] = FORMAT
+    f.attrs["config"] = config_mod.to_toml(cfg)
+    f.attrs["config_source"] = cfg.source
+    write_model(f.create_group("model"), model)
+    g = f.create_group("settle")
+    s = cfg.settle
+    for key in ("window_periods", "tolerance", "consecutive", "min_time", "max_time",
+                "perturbation", "seed", "start", "nozzle"):  # fmt: skip
+        g.attrs[key] = getattr(s, key)
+    g.attrs["time_step"] = cfg.time.step
+    g["angles_deg"] = np.array([[a.get(k, np.nan) for k in ("tieboss", "shroud")]
+                                for a, _, _ in cases])  # fmt: skip
+    g["angles_deg"].attrs["columns"] = "tieboss, shroud"
+    names = list(cases[0][1]) if cases else []
+    if names:
+        g["parameters"] = np.array([[_number(p[n]) for n in names] for _, p, _ in cases])
+        g["parameters"].attrs["names"] = ", ".join(names)
+    g["verdict"] = np.array([r.verdict().encode() for _, _, r in cases])
+    g["settled"] = np.array([r.settled for _, _, r in cases])
+    g["time"] = np.array([r.time for _, _, r in cases])
+    g["kind"] = np.array([(r.classification.kind if r.classification else "").encode()
+                          for _, _, r in cases])  # fmt: skip
+    g["max_amplitude"] = np.array([r.amplitude.max() if r.amplitude.size else np.nan
+                                   for _, _, r in cases])  # fmt: skip
+    g["wall_s"] = np.array([r.wall_s for _, _, r in cases])
+    g["start_amplitude"] = np.array([r.start_amplitude for _, _, r in cases])
+    g["start_amplitude"].attrs["meaning"] = "tip amplitude [m] of the single-wave exact orbit " \
+        "the case started from (NaN: started from the preloaded equilibrium)"  # fmt: skip
+    for i, (_, _, r) in enumerate(cases):
+        _write_case(g.create_group(f"case_{i}"), r)
+
+
+def _number(value) -> float:
+    return float(value) if isinstance(value, bool | int | float) else float("nan")
+
+
+def _write_case(g, r) -> None:
+    g.attrs["verdict"] = r.verdict()
+    g.attrs["status"] = r.status
+    g.attrs["start"] = r.start
+    g.attrs["start_amplitude"] = r.start_amplitude
+    g.attrs["settled"] = r.settled
+    g.attrs["time"] = r.time
+    g.attrs["energy_balance"] = r.energy_balance
+    g["window_end"] = np.array([w.end for w in r.windows])
+    g["window_amplitude"] = np.array([w.amplitude for w in r.windows])
+    g["window_nd_energy"] = np.array([w.nd_energy for w in r.windows])
+    g["window_change"] = np.array([w.change for w in r.windows], dtype=float).reshape(-1, 2)
+    g["window_change"].attrs["columns"] = "amplitude, ND energy distribution"
+    if r.classification is not None:  # a settled state only
+        for key in ("kind", "frequency_hz", "modulation_hz", "modulation_depth", "line_share",
+                    "return_distance", "decided_by"):  # fmt: skip
+            g.attrs[key] = getattr(r.classification, key)
+    if not r.amplitude.size:
+        return
+    g["amplitude"] = r.amplitude
+    g["nd_energy"] = r.nd_energy
+    g["fractions"] = r.fractions
+    g["fractions"].attrs["columns"] = "open, micro-slip (stick), slip"
+    g["normal_force_range"] = r.normal_force_range
+    g.create_dataset("tip_time", data=r.tip_time)
+    g.create_dataset("tip", data=r.tip, compression="gzip", shuffle=True)

@@ -1,0 +1,278 @@
+"""Where the flutter settles, over the cases (``wheelrom settle``): every case of the
+``[study]`` or of the sweep's angles, dealt round-robin to the MPI ranks; per case the start
+(the fastest wave's exact orbit, from a limit-cycle file or computed here, or the preloaded
+equilibrium with the unstable waves seeded), every ND perturbed, then the wheel integrated
+until stationary (:mod:`wheelrom.analysis.periodic.settle`).
+
+Nothing computed is lost: each finished case is saved at once by the rank that computed it in
+a folder beside the output (``.name.settle/case_<i>.npz``, plain arrays, no pickles, and a
+JSON of its scalars, each renamed into place when complete); ``--resume`` skips the cases
+found there with the same configuration; rank 0 writes the HDF5 file from them at the end
+and removes the folder.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+import os
+import time
+
+import numpy as np
+
+from wheelrom.analysis.periodic.settle import (
+    Classification,
+    Settings,
+    Settled,
+    Window,
+    settle_case,
+)
+from wheelrom.config import Config, to_toml
+from wheelrom.config.study import expand, model_key, short_name
+from wheelrom.rom.build import build_model
+from wheelrom.runtime.errors import InputError
+from wheelrom.studies.plan import group_by
+
+
+def settings_of(cfg: Config) -> Settings:
+    s = cfg.settle
+    return Settings(window_periods=s.window_periods, tolerance=s.tolerance,
+                    consecutive=s.consecutive, min_time=s.min_time, max_time=s.max_time)
+
+
+def sidecar_dir(out: str) -> str:
+    directory, name = os.path.split(os.path.abspath(out))
+    return os.path.join(directory, f".{os.path.splitext(name)[0]}.settle")
+
+
+def config_digest(cfg: Config) -> str:
+    return hashlib.sha256(to_toml(cfg).encode()).hexdigest()[:16]
+
+
+# ------------------------------------------------------------------ the start of one case
+def _cycle_from_file(path: str, angles: dict, blades: int):
+    """``(state (2, N, m), frequency [Hz], tip amplitude [m])`` of the first exact orbit (else
+    harmonic-balance cycle) of the case with ``angles`` in a limit-cycle file; None."""
+    import h5py
+
+    with h5py.File(path, "r") as f:
+        g = f["limit_cycle"]
+        table = g["angles_deg"][()]
+        want = np.array([angles.get("tieboss", np.nan), angles.get("shroud", np.nan)])
+        rows = [i for i, row in enumerate(table)
+                if np.allclose(row, want, equal_nan=True, atol=1e-9)]  # fmt: skip
+        for i in rows:
+            case = g[f"case_{i}"]
+            for name in case:
+                if not name.startswith("wave_") or "cycles" not in case[name]:
+                    continue
+                c = case[name]["cycles"]
+                if "orbit_state" in c:
+                    for j in range(c["orbit_state"].shape[0]):
+                        state = c["orbit_state"][j]
+                        if np.all(np.isfinite(state)):
+                            full = state[:, np.arange(blades) % state.shape[1]]
+                            return full, 1.0 / c["orbit_period"][j], c["tip_amplitude"][j]
+    return None
+
+
+def _start(model, cfg: Config, angles: dict, cycles_file: str | None, comm=None):
+    """``(u0 (2 N m,), frequency [Hz], words, cycle tip amplitude [m] or nan)`` of one case's
+    start, the perturbation added."""
+    from wheelrom.analysis.limit_cycle import case_limit_cycles
+    from wheelrom.analysis.limit_cycle import settings_of as lc_settings
+    from wheelrom.transient.preload import start_perturbation
+
+    st, N = cfg.settle, model.blades
+    found = None
+    if st.start == "cycle" and cycles_file:
+        found = _cycle_from_file(cycles_file, angles, N)
+        words = f"the exact orbit in {os.path.basename(cycles_file)}"
+    if st.start == "cycle" and found is None:
+        lc = dataclasses.replace(lc_settings(cfg, (-1,)), method="shooting", floquet="off",
+                                 refine=0)  # fmt: skip
+        res = case_limit_cycles(model, cfg, lc, angles, comm)
+        for branch in res.branches:
+            for c in branch.cycles:
+                if found is None and c.orbit is not None:
+                    found = (c.orbit.wheel_state(N), c.frequency_hz, c.tip_amplitude)
+                    words = f"the exact orbit of wave {branch.wave}"
+    if found is not None:
+        state, frequency, amplitude = found
+        u0 = state.reshape(2, -1)
+        q0 = u0[0].reshape(N, -1)
+        seed = amplitude * st.perturbation
+    else:  # the preloaded equilibrium, the unstable waves seeded
+        from wheelrom.analysis.hopf import wave_blocks, wave_mode
+        from wheelrom.analysis.stability import linearise
+
+        params, q, _, J, _ = linearise(model, cfg, angles, comm)
+        B0, B1 = wave_blocks(model, params, q, J)
+        growth = np.array([wave_mode(B0[k], B1[k], 1.0)[0] for k in range(N)])
+        fastest = int(np.argmax(growth))
+        frequency = float(wave_mode(B0[fastest], B1[fastest], 1.0)[1].imag) / (2 * math.pi)
+        unstable = [int(k) for k in np.flatnonzero(growth > 0)] or [fastest]
+        seeded = cfg.replace(**{"time.perturbation": st.seed_amplitude,
+                                "time.perturbation_waves": unstable, "time.seed": st.seed})
+        q0 = q + start_perturbation(model, seeded)
+        u0 = np.stack([q0.ravel(), np.zeros(q0.size)])
+        seed = st.seed_amplitude * st.perturbation
+        amplitude = math.nan
+        words = f"the preloaded equilibrium, waves {unstable} seeded at {st.seed_amplitude:g} m"
+    every = cfg.replace(**{"time.perturbation": seed, "time.perturbation_waves": [],
+                           "time.seed": st.seed})  # fmt: skip
+    u0 = u0.copy()
+    u0[0] = (q0 + start_perturbation(model, every)).ravel()
+    return (u0.ravel(), frequency,
+            f"{words}, every ND perturbed at {seed:.3g} m (seed {st.seed})", float(amplitude))
+
+
+# ------------------------------------------------------------------ sidecars
+def save_case(directory: str, index: int, digest: str, result: Settled) -> None:
+    """Case ``index`` as ``case_<index>.npz`` + ``.json`` in ``directory`` (atomic)."""
+    os.makedirs(directory, exist_ok=True)
+    c = result.classification
+    scalars = {"digest": digest, "settled": result.settled, "time": result.time,
+               "status": result.status, "start": result.start, "wall_s": result.wall_s,
+               "start_amplitude": result.start_amplitude,
+               "energy_balance": result.energy_balance,
+               "classification": dataclasses.asdict(c) if c else None,
+               "changes": [list(w.change) for w in result.windows]}  # fmt: skip
+    arrays = {"window_end": np.array([w.end for w in result.windows]),
+              "window_amplitude": np.array([w.amplitude for w in result.windows]),
+              "window_nd_energy": np.array([w.nd_energy for w in result.windows]),
+              "amplitude": result.amplitude, "nd_energy": result.nd_energy,
+              "fractions": result.fractions, "normal_force_range": result.normal_force_range,
+              "tip_time": result.tip_time, "tip": result.tip}  # fmt: skip
+    base = os.path.join(directory, f"case_{index}")
+    np.savez(base + ".partial.npz", **arrays)
+    os.replace(base + ".partial.npz", base + ".npz")
+    with open(base + ".partial.json", "w") as f:
+        json.dump(scalars, f, default=float)
+    os.replace(base + ".partial.json", base + ".json")
+
+
+def load_case(directory: str, index: int, digest: str) -> Settled | None:
+    """A saved case of the same configuration, else None."""
+    base = os.path.join(directory, f"case_{index}")
+    try:
+        with open(base + ".json") as f:
+            scalars = json.load(f)
+        if scalars.get("digest") != digest:
+            return None
+        with np.load(base + ".npz", allow_pickle=False) as z:
+            arrays = {k: z[k] for k in z.files}
+    except (OSError, ValueError, KeyError):
+        return None
+    windows = [Window(float(e), a, n, tuple(ch)) for e, a, n, ch in
+               zip(arrays["window_end"], arrays["window_amplitude"],
+                   arrays["window_nd_energy"], scalars["changes"], strict=True)]  # fmt: skip
+    c = scalars["classification"]
+    return Settled(scalars["settled"], scalars["time"], windows,
+                   Classification(**c) if c else None, arrays["amplitude"],
+                   arrays["nd_energy"], arrays["fractions"], arrays["normal_force_range"],
+                   scalars["energy_balance"], arrays["tip_time"], arrays["tip"],
+                   scalars["start"], scalars["start_amplitude"], scalars["wall_s"],
+                   scalars["status"])  # fmt: skip
+
+
+# ------------------------------------------------------------------ the cases
+def run_settle(cfg: Config, out: str | None, comm=None, log=print, resume: bool = False,
+               cycles_file: str | None = None, progress=None):  # fmt: skip
+    """``(model, [(angles, parameters, Settled)])`` of every case on rank 0 (others: the
+    model and ``[]``)."""
+    from wheelrom.runtime.environment import petsc, slepc
+
+    study = expand(cfg)
+    petsc()
+    slepc()
+    rank, size = (comm.rank, comm.size) if comm is not None else (0, 1)
+    say = log if rank == 0 and log is not None else (lambda *_: None)
+    model_of, members = group_by([model_key(c) for c in study.configs])
+    models: list | str | None = None
+    if rank == 0:
+        try:
+            models = [build_model(study.configs[m[0]], petsc().COMM_SELF, log=say)
+                      for m in members]  # fmt: skip
+        except Exception as exc:
+            models = f"the model could not be built: {type(exc).__name__}: {exc}"
+    if comm is not None:
+        models = comm.bcast(models)
+    if isinstance(models, str):
+        raise InputError(models)
+    if not all(m.tuned for m in models):
+        raise InputError("settle: the start from a travelling-wave cycle needs a tuned wheel")
+    directory = sidecar_dir(out) if out else None
+    mine = []
+    for i in range(rank, study.size, size):
+        case_cfg = study.configs[i]
+        angles = {k: case_cfg.contact(k).angle_deg for k in ("tieboss", "shroud")}
+        label = f"[{i + 1}/{study.size}] " + ", ".join(
+            f"{short_name(k)} {v:g}" if isinstance(v, float) else f"{short_name(k)} {v}"
+            for k, v in zip(study.names, study.values[i], strict=True))
+        digest = config_digest(case_cfg)
+        done = load_case(directory, i, digest) if resume and directory else None
+        if done is None:
+            done = _settle_one(models[model_of[i]], case_cfg, angles, cycles_file, label,
+                               progress if rank == 0 else None)  # fmt: skip
+            if directory:
+                save_case(directory, i, digest, done)
+        else:
+            say(f"{label}: kept from the interrupted run")
+        mine.append((i, angles, dict(zip(study.names, study.values[i], strict=True)), done))
+        say(f"{label}: {done.verdict()} ({done.wall_s:.1f} s)")
+    gathered = comm.gather(mine, root=0) if comm is not None else [mine]
+    ordered = []
+    if rank == 0:
+        ordered = sorted((it for part in gathered for it in part), key=lambda it: it[0])
+    return models[0], [(a, p, r) for _, a, p, r in ordered], directory
+
+
+def _settle_one(model, cfg: Config, angles: dict, cycles_file, label, progress) -> Settled:
+    t0 = time.perf_counter()
+    try:
+        u0, frequency, words, amplitude = _start(model, cfg, angles, cycles_file)
+    except Exception as exc:  # the case is named failed, the others go on
+        why = str(exc) if isinstance(exc, InputError) else f"{type(exc).__name__}: {exc}"
+        return Settled(False, 0.0, status=f"failed: no start ({why})")
+
+    def say(t, w):
+        if progress:
+            progress(f"{label}: {t:.3g} s, largest blade {w.amplitude.max() * 1e6:.3g} um, "
+                     f"window change {max(w.change):.2%}")
+
+    result = settle_case(model, cfg, angles, u0, frequency, settings_of(cfg),
+                         cfg.settle.nozzle, say)  # fmt: skip
+    result.start, result.start_amplitude = words, amplitude
+    result.wall_s = time.perf_counter() - t0
+    return result
+
+
+def summary(angles: dict, parameters: dict, r: Settled) -> dict:
+    """One case as plain data (``settle --json``)."""
+    c = r.classification
+    label = ", ".join(f"{k} {v:g} deg" for k, v in angles.items())
+    out = {"label": label, "angles_deg": angles, "parameters": parameters,
+           "verdict": r.verdict(), "settled": r.settled, "simulated_s": r.time,
+           "status": r.status, "start": r.start, "wall_s": r.wall_s,
+           "windows": len(r.windows)}  # fmt: skip
+    if c is not None:
+        out.update({
+            "kind": c.kind, "decided_by": c.decided_by, "frequency_hz": c.frequency_hz,
+            "modulation_hz": c.modulation_hz if math.isfinite(c.modulation_hz) else None,
+            "modulation_depth": c.modulation_depth})  # fmt: skip
+    if r.amplitude.size:
+        A = r.amplitude
+        out.update({
+            "amplitude_m": {"max": float(A.max()), "mean": float(A.mean()),
+                            "min": float(A.min()), "max_blade": int(np.argmax(A)),
+                            "min_blade": int(np.argmin(A))},
+            "nd_energy": [float(e) for e in r.nd_energy],
+            "energy_balance": r.energy_balance,
+            "contacts": [{"open": float(f[0]), "micro_slip": float(f[1]), "slip": float(f[2]),
+                          "normal_force_min_n": float(n[0]), "normal_force_max_n": float(n[1])}
+                         for f, n in zip(r.fractions, r.normal_force_range, strict=True)],
+        })  # fmt: skip
+    return out

@@ -1,0 +1,138 @@
+"""Where the flutter settles (``wheelrom settle``, :mod:`wheelrom.analysis.periodic.settle`)
+against independent truth:
+
+- the classifier on two uncoupled Van der Pol oscillators of incommensurate frequencies
+  (scipy's DOP853): their sum is quasi-periodic, its envelope modulated at the frequency
+  difference; one alone is periodic;
+- the relative Van der Pol wheel without contacts: it settles periodic on the ND N/2 cycle at
+  the averaging's amplitude, stopped by the stationarity criterion long before the maximum;
+- a case still growing at the maximum time is "not settled", with no class claimed;
+- an interrupted run resumed keeps the finished case bitwise.
+"""
+
+import math
+import os
+
+import h5py
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from conftest import SMALL
+from wheelrom import config
+from wheelrom.analysis.periodic.settle import classify
+
+VDP = ["contacts.tieboss.enabled=false", "contacts.shroud.enabled=false",
+       "wheel.damping_beta=1e-9", "flutter.mu=10.0", "flutter.r=1e-5",
+       'flutter.model="relative"', 'time.scheme="exponential"', "time.step=1e-5",
+       "sweep.shroud_angles_deg=[50.0]"]  # fmt: skip
+
+
+def _van_der_pol(f_hz: float, e: float, t: np.ndarray) -> np.ndarray:
+    """``(x, x')`` ``(2, S)`` of ``x'' - e w (1 - x^2) x' + w^2 x = 0`` from near its cycle
+    (amplitude 2)."""
+    w = 2 * math.pi * f_hz
+    sol = solve_ivp(lambda _, z: [z[1], e * w * (1 - z[0] ** 2) * z[1] - w * w * z[0]],
+                    (0.0, t[-1]), [2.0, 0.0], method="DOP853", t_eval=t, rtol=1e-10,
+                    atol=1e-12)  # fmt: skip
+    return sol.y
+
+
+def test_two_uncoupled_van_der_pol_oscillators_are_quasi_periodic():
+    """f1 = 100 Hz, f2 = 100 sqrt(2) - 40 = 101.42 Hz: the sum beats at f2 - f1 = 1.42 Hz."""
+    f1, f2 = 100.0, 100 * math.sqrt(2) - 40
+    t = np.arange(0.0, 4.0, 1.0 / 4000)
+    (x1, v1), (x2, _) = _van_der_pol(f1, 0.05, t), _van_der_pol(f2, 0.05, t)
+    c = classify(t, x1 + 0.5 * x2)
+    assert c.kind == "quasi-periodic", c
+    assert c.modulation_hz == pytest.approx(f2 - f1, rel=0.01)
+    alone = classify(t, x1, np.column_stack([x1, v1]))
+    assert alone.kind == "periodic", alone
+    assert alone.frequency_hz == pytest.approx(f1 * (1 - 0.05**2 / 16), rel=1e-3)
+
+
+@pytest.fixture(scope="module")
+def vdp_settled(tmp_path_factory):
+    from wheelrom.cli import main as cli
+
+    out = tmp_path_factory.mktemp("settle") / "vdp.h5"
+    assert cli.main(["settle", SMALL, *sum((["--set", k] for k in VDP), []),
+                     "--out", str(out)]) == 0  # fmt: skip
+    return out
+
+
+def test_van_der_pol_wheel_settles_periodic_at_the_averaging_amplitude(vdp_settled,
+                                                                       small_model):  # fmt: skip
+    """Relative law, ND N/2 (every blade's tip the same amplitude): the averaging's Van der
+    Pol amplitude ``r sqrt(1 - lam_c)`` of ``y = p . q`` carried to the tip by the ND 6
+    mode, to 0.5 %; periodic; stopped after a few windows (max_time 5 s)."""
+    from test_limit_cycle import VdpTruth
+    from wheelrom.forces.parameters import force_parameters
+
+    cfg = config.load(SMALL, VDP)
+    params = force_parameters(small_model, cfg)
+    truth = VdpTruth.of(small_model, params, cfg.wheel.damping_beta, "relative", 1.0)
+    tip = np.linalg.norm(small_model.tip @ truth.phi) * truth.amplitude / abs(truth.p_phi)
+    with h5py.File(vdp_settled, "r") as f:
+        g = f["settle/case_0"]
+        assert g.attrs["kind"] == "periodic" and g.attrs["settled"]
+        assert g.attrs["time"] < 1.0 < f["settle"].attrs["max_time"]
+        amplitude = g["amplitude"][()]
+        assert amplitude.max() == pytest.approx(tip, rel=5e-3)
+        assert amplitude.min() == pytest.approx(tip, rel=5e-3)
+        assert np.argmax(g["nd_energy"][()]) == 6 and g["nd_energy"][6] > 0.99
+        assert g.attrs["frequency_hz"] == pytest.approx(truth.omega / (2 * math.pi), rel=1e-3)
+
+
+def test_a_case_still_growing_is_not_settled(small_model, capsys):
+    """From the preloaded equilibrium with the waves seeded at 1 nm, 0.3 s is far too short:
+    the verdict says so and no class is claimed."""
+    from wheelrom.cli import main as cli
+
+    keys = [*VDP, 'settle.start="preload"', "settle.seed_amplitude=1e-9",
+            "settle.max_time=0.3", "settle.min_time=0.1"]  # fmt: skip
+    assert cli.main(["settle", SMALL, *sum((["--set", k] for k in keys), []), "--json"]) == 0
+    import json
+
+    row = json.loads(capsys.readouterr().out)["cases"][0]
+    assert row["settled"] is False and "kind" not in row
+    assert row["verdict"].startswith("not settled after 0.3")
+
+
+def test_an_interrupted_run_resumes_keeping_the_finished_case(tmp_path, monkeypatch):
+    """Two cases; the second interrupted: the first is kept beside the output and --resume
+    finishes the file with it unchanged (bitwise), computing only the second."""
+    from wheelrom.cli import main as cli
+    from wheelrom.studies import settle as study
+
+    keys = [*VDP[:-1], "sweep.shroud_angles_deg=[50.0, 60.0]"]
+    args = ["settle", SMALL, *sum((["--set", k] for k in keys), []), "--out",
+            str(tmp_path / "s.h5")]  # fmt: skip
+    real = study._settle_one
+    calls = []
+
+    def second_interrupted(*a, **k):
+        calls.append(a[3])
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return real(*a, **k)
+
+    monkeypatch.setattr(study, "_settle_one", second_interrupted)
+    assert cli.main(args) != 0
+    kept = os.listdir(tmp_path / ".s.settle")
+    assert "case_0.npz" in kept and "case_1.npz" not in kept
+    assert not (tmp_path / "s.h5").exists()
+    import json
+
+    with open(tmp_path / ".s.settle" / "case_0.json") as f:
+        digest = json.load(f)["digest"]
+    first = study.load_case(str(tmp_path / ".s.settle"), 0, digest)
+    assert first is not None and first.settled
+    calls.clear()
+    monkeypatch.setattr(study, "_settle_one", lambda *a, **k: calls.append(a[3]) or real(*a, **k))
+    assert cli.main([*args, "--resume"]) == 0
+    assert len(calls) == 1  # only the second case ran
+    with h5py.File(tmp_path / "s.h5", "r") as f:
+        assert f["settle/settled"][()].all()
+        np.testing.assert_array_equal(f["settle/case_0/amplitude"][()], first.amplitude)
+    assert not (tmp_path / ".s.settle").exists()
