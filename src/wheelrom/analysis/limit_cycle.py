@@ -133,13 +133,15 @@ class WaveBranch:
             st = c.stability
             if c.multipliers is not None:
                 mu = c.multipliers
-                finer = ""
-                if len(c.refined) > 1:
-                    step, value, nd = c.refined[-1]
-                    finer = f", ND {nd} {value:.3g} at a {step * 1e6:.2g} us step"
-                words.append(f"unstable (monodromy: multiplier {mu.largest:.3g} per period, "
-                             f"ND {mu.nd[mu.worst]}{finer}; the flutter does not settle on "
-                             "this wave alone)")  # fmt: skip
+                whole = f"the whole wheel's largest {mu.largest:.3g}, ND {mu.nd[mu.worst]}"
+                if st.by.startswith("monodromy inside"):
+                    step = c.refined[-1][0]
+                    words.append(f"unstable inside its own symmetry (ND {st.worst_family}: "
+                                 f"multiplier {st.multiplier:.3g} per period at a "
+                                 f"{step * 1e6:.2g} us step; {whole} at time.step)")  # fmt: skip
+                else:
+                    words.append(f"unstable (monodromy: {whole} per period)")
+                words[-1] = words[-1][:-1] + "; the flutter does not settle on this wave alone)"
             else:
                 words.append(f"unstable ({st.by} {st.worst_family} grows at "
                              f"{st.growth.max():.3g} /s; the flutter does not settle on this "

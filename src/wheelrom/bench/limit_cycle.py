@@ -8,7 +8,13 @@ Floquet analysis of every Bloch family at the cycle.
   Floquet (the branch from the Hopf point and from the seeds) [s];
 - ``limit_cycle_floquet_s``: every Bloch family at the cycle [s];
 - ``limit_cycle_case``: the shroud angle, wave, harmonics, samples, tip amplitude and
-  Newton iterations of that cycle.
+  Newton iterations of that cycle;
+- ``shooting_s``: the exact orbit by shooting from that cycle (issue #38: <= 20 s on the
+  paper wheel), ``shooting``: its Newton iterations, residual, HB-vs-orbit amplitude and
+  frequency difference;
+- ``monodromy_s``: the ``limit_cycle.multipliers`` largest Floquet multipliers of the whole
+  wheel's monodromy (SLEPc; issue #38: 10 in <= 15 s), ``monodromy``: their count converged,
+  linearised periods, the largest and its ND.
 """
 
 from __future__ import annotations
@@ -25,6 +31,7 @@ from wheelrom.analysis.hopf import hopf_point, wave_blocks, wave_mode
 from wheelrom.analysis.limit_cycle import (
     FASTEST,
     case_limit_cycles,
+    describe,
     periodic_solution,
     settings_of,
 )
@@ -63,6 +70,8 @@ def limit_cycle_figures(model: ReducedModel, cfg: Config, say) -> dict:
     branch_s = time.perf_counter() - t0
     c1 = point.X[1] + 1j * point.X[2]
     tip = float(np.linalg.norm(np.abs(model.tip @ c1)))
+    hb_tip = describe(balance, balance, point.X, point.omega, 1.0, 0.0).tip_amplitude  # 0-peak
+    exact = _exact(model, cfg, case, wave, balance, point, settings, hb_tip, say)
     say(f"limit cycle: shroud {case.get('shroud', math.nan):g} deg, wave {wave}: one cycle "
         f"{one:.2f} s ({point.iterations} Newton iterations, {tip * 1e6:.3g} um), branch "
         f"{branch_s:.1f} s, Floquet {floquet_s:.1f} s")  # fmt: skip
@@ -73,6 +82,47 @@ def limit_cycle_figures(model: ReducedModel, cfg: Config, say) -> dict:
         "limit_cycle_case": {"angles_deg": case, "wave": wave, "harmonics": settings.harmonics,
                              "samples": settings.time_samples, "tip_amplitude_m": tip,
                              "newton_iterations": point.iterations},
+        **exact,
+    }  # fmt: skip
+
+
+def _exact(model, cfg, case, wave, balance, point, settings, hb_tip, say) -> dict:
+    """The shooting from the HB cycle and the monodromy's multipliers, timed."""
+    from wheelrom.analysis.periodic.monodromy import floquet_multipliers
+    from wheelrom.analysis.periodic.report import orbit_quantities
+    from wheelrom.analysis.periodic.shooting import Shooting
+
+    t0 = time.perf_counter()
+    shooting = Shooting(model, cfg, wave, case)
+    try:
+        q, v = balance.wheel_state(point.X, point.omega)
+        orbit = shooting.solve(np.stack([q, v])[:, : shooting.N], 2 * math.pi / point.omega)
+        shooting_s = time.perf_counter() - t0
+        if not orbit.converged:
+            return {"shooting_s": shooting_s, "shooting": {"converged": False}}
+        exact = orbit_quantities(shooting, orbit, settings.harmonics, 1.0)
+    finally:
+        shooting.destroy()
+    hb_hz = point.omega / (2 * math.pi)
+    t0 = time.perf_counter()
+    mu = floquet_multipliers(model, cfg, orbit, orbit.steps_per_period, case, 1.0,
+                             settings.multipliers)  # fmt: skip
+    monodromy_s = time.perf_counter() - t0
+    say(f"exact orbit: shooting {shooting_s:.2f} s ({orbit.iterations} iterations, residual "
+        f"{orbit.residual:.1e}), {exact['tip_amplitude'] * 1e6:.4g} um, "
+        f"{exact['frequency_hz']:.5g} Hz; {len(mu.values)} multipliers in {monodromy_s:.1f} s "
+        f"({mu.matvecs} linearised periods), largest {mu.largest:.4g}")  # fmt: skip
+    return {
+        "shooting_s": shooting_s,
+        "shooting": {"converged": True, "iterations": orbit.iterations,
+                     "residual": orbit.residual, "tip_amplitude_m": exact["tip_amplitude"],
+                     "frequency_hz": exact["frequency_hz"],
+                     "hb_amplitude_difference": hb_tip / exact["tip_amplitude"] - 1,
+                     "hb_frequency_difference": hb_hz / exact["frequency_hz"] - 1},
+        "monodromy_s": monodromy_s,
+        "monodromy": {"requested": settings.multipliers, "converged": int(len(mu.values)),
+                      "linearised_periods": mu.matvecs, "largest": mu.largest,
+                      "largest_nd": int(mu.nd[mu.worst]) if mu.worst >= 0 else None},
     }  # fmt: skip
 
 

@@ -53,8 +53,9 @@ def config_digest(cfg: Config) -> str:
 
 # ------------------------------------------------------------------ the start of one case
 def _cycle_from_file(path: str, angles: dict, blades: int):
-    """``(state (2, N, m), frequency [Hz], tip amplitude [m])`` of the first exact orbit (else
-    harmonic-balance cycle) of the case with ``angles`` in a limit-cycle file; None."""
+    """``(state (2, N, m), frequency [Hz], tip amplitude [m])`` of the case with ``angles`` in
+    a limit-cycle file: its first exact orbit, else its first harmonic-balance cycle (every
+    blade from blade 0's harmonics, ``q_s(0) = Re sum_h c_h e^{i h s 2 pi k / N}``); None."""
     import h5py
 
     with h5py.File(path, "r") as f:
@@ -65,16 +66,23 @@ def _cycle_from_file(path: str, angles: dict, blades: int):
                 if np.allclose(row, want, equal_nan=True, atol=1e-9)]  # fmt: skip
         for i in rows:
             case = g[f"case_{i}"]
-            for name in case:
-                if not name.startswith("wave_") or "cycles" not in case[name]:
-                    continue
-                c = case[name]["cycles"]
-                if "orbit_state" in c:
-                    for j in range(c["orbit_state"].shape[0]):
+            waves = [case[n] for n in case if n.startswith("wave_") and "cycles" in case[n]]
+            for w in waves:
+                c = w["cycles"]
+                for j in range(c["tip_amplitude"].shape[0]):
+                    if "orbit_state" in c and np.all(np.isfinite(c["orbit_state"][j])):
                         state = c["orbit_state"][j]
-                        if np.all(np.isfinite(state)):
-                            full = state[:, np.arange(blades) % state.shape[1]]
-                            return full, 1.0 / c["orbit_period"][j], c["tip_amplitude"][j]
+                        full = state[:, np.arange(blades) % state.shape[1]]
+                        return full, 1.0 / c["orbit_period"][j], c["tip_amplitude"][j]
+            for w in waves:  # no exact orbit: the harmonic balance's cycle
+                c = w["cycles"]
+                harmonics, hz = c["harmonics"][0], c["frequency_hz"][0]
+                h = np.arange(harmonics.shape[0])
+                rotor = np.exp(1j * np.outer(np.arange(blades) * 2 * np.pi * w.attrs["wave"]
+                                             / blades, h))  # fmt: skip
+                q = (rotor @ harmonics).real
+                v = (rotor * (1j * h * 2 * np.pi * hz)) @ harmonics
+                return np.stack([q, v.real]), hz, c["tip_amplitude"][0]
     return None
 
 

@@ -16,35 +16,51 @@ from wheelrom.analysis.periodic.report import orbit_quantities
 from wheelrom.analysis.periodic.shooting import Orbit, Shooting
 from wheelrom.runtime.environment import petsc
 
+#: halvings of time.step tried when the shot does not converge at the configured step: a
+#: fixed step that straddles a contact's lift-off makes the discrete map's derivative jump
+#: where the lift-off crosses a step (measured: the paper's 65 deg ND 33 orbit stalls at a
+#: residual of 8e-3 at 10 us and converges at 5 us)
+STEP_HALVINGS = 2
+
 
 def exact_cycle(model, cfg, angles, branch, balance, X: np.ndarray, omega: float,
                 cycle: Cycle, harmonics: int, comm=None) -> Cycle:  # fmt: skip
     """The HB cycle ``X`` ``(2H + 1, m)``, ``omega`` [rad/s] (described as ``cycle``) of
-    ``branch``'s wave polished into the exact orbit by shooting at ``cycle.lam``; ``cycle``
-    itself, its shooting residual set and the failure said in ``branch.end``, when Newton
-    does not converge."""
-    shooting = Shooting(model, cfg, branch.wave, angles, cycle.lam, comm)
-    try:
-        q, v = balance.wheel_state(X, omega)
-        start = np.stack([q, v])[:, : shooting.N]
+    ``branch``'s wave polished into the exact orbit by shooting at ``cycle.lam``, at
+    ``time.step`` or, when that does not converge, at up to :data:`STEP_HALVINGS` halvings of
+    it; ``cycle`` itself, its shooting residual set and the failure said in ``branch.end``,
+    when none converges."""
+    q, v = balance.wheel_state(X, omega)
+    residual, start, period = math.inf, None, 2 * math.pi / omega
+    for r in range(STEP_HALVINGS + 1):
+        step_cfg = cfg if r == 0 else cfg.replace(**{"time.step": cfg.time.step / 2**r})
+        shooting = Shooting(model, step_cfg, branch.wave, angles, cycle.lam, comm)
         try:
-            orbit = shooting.solve(start, 2 * math.pi / omega)
-        except (ValueError, RuntimeError, petsc().Error) as exc:  # the flow failed on a step
-            orbit = Orbit(branch.wave, math.nan, start, 0, 0.0, math.inf, 0, False,
-                          reason=f"{type(exc).__name__}: {exc}")  # fmt: skip
-        moving = orbit.converged and np.abs(orbit.state[1]).max() > 1e-3 * np.abs(start[1]).max()
-        plausible = moving and abs(math.log(orbit.period * omega / (2 * math.pi))) < math.log(2)
-        if not plausible:
-            cycle.shooting_residual = orbit.residual
-            branch.end += (f"{'; ' if branch.end else ''}shooting did not converge from the "
-                           f"{cycle.tip_amplitude * 1e6:.3g} um cycle (residual "
-                           f"{orbit.residual:.2g})")  # fmt: skip
-            return cycle
-        exact = Cycle(**orbit_quantities(shooting, orbit, harmonics, cycle.lam))
-    finally:
-        shooting.destroy()
-    exact.hb_tip_amplitude, exact.hb_frequency_hz = cycle.tip_amplitude, cycle.frequency_hz
-    return exact
+            if start is None:
+                start = np.stack([q, v])[:, : shooting.N]
+            try:
+                orbit = shooting.solve(start, period)
+            except (ValueError, RuntimeError, petsc().Error) as exc:  # a step of the flow failed
+                orbit = Orbit(branch.wave, math.nan, start, 0, 0.0, math.inf, 0, False,
+                              reason=f"{type(exc).__name__}: {exc}")  # fmt: skip
+            moving = orbit.converged and \
+                np.abs(orbit.state[1]).max() > 1e-3 * np.abs(start[1]).max()  # fmt: skip
+            if moving and abs(math.log(orbit.period * omega / (2 * math.pi))) < math.log(2):
+                exact = Cycle(**orbit_quantities(shooting, orbit, harmonics, cycle.lam))
+                exact.hb_tip_amplitude = cycle.tip_amplitude
+                exact.hb_frequency_hz = cycle.frequency_hz
+                return exact
+            if orbit.residual < min(residual, 0.1) and math.isfinite(orbit.period):
+                # a near miss at this step: the finer step starts from where it stalled
+                start, period = orbit.state, orbit.period
+            residual = min(residual, orbit.residual)
+        finally:
+            shooting.destroy()
+    cycle.shooting_residual = residual
+    branch.end += (f"{'; ' if branch.end else ''}shooting did not converge from the "
+                   f"{cycle.tip_amplitude * 1e6:.3g} um cycle (residual {residual:.2g} down "
+                   f"to a {cfg.time.step / 2**STEP_HALVINGS * 1e6:.3g} us step)")  # fmt: skip
+    return cycle
 
 
 def monodromy_stability(model, cfg, angles, cycle: Cycle, count: int, refine: int,
@@ -56,8 +72,12 @@ def monodromy_stability(model, cfg, angles, cycle: Cycle, count: int, refine: in
     pattern wheel, cheap): the scheme steps over the contacts' lift-off kinks, so the
     multipliers of a cycle whose contacts open converge at first order in the step."""
     orbit = cycle.orbit
-    steps = orbit.steps_per_period
-    mu = floquet_multipliers(model, cfg, orbit, steps, angles, cycle.lam, count, comm)
+    # at the configured step, also for an orbit that needed a finer one (there a point within
+    # the integration error of the coarser map's orbit): 4x the cost at a quarter step
+    steps = max(orbit.steps_per_period, 1)
+    coarse = max(1, math.ceil(orbit.period / float(cfg.time.step) * (1 - 1e-12)))
+    mu = floquet_multipliers(model, cfg, orbit, min(steps, coarse), angles, cycle.lam, count,
+                             comm)  # fmt: skip
     cycle.multipliers = mu
     rest = mu.nontrivial()
     # the error of the one multiplier known exactly (the phase shift's, 1) measures the
@@ -68,19 +88,38 @@ def monodromy_stability(model, cfg, angles, cycle: Cycle, count: int, refine: in
         mu.largest, mu.trivial_error, mu.stable, by="monodromy: ND",
         trust=max(TRUSTED, 0.5 * abs(mu.largest - 1.0)))  # fmt: skip
     if orbit.symmetric_multipliers.size:
-        cycle.refined.append((orbit.period / steps, float(abs(orbit.symmetric_multipliers[0])),
+        cycle.refined.append((orbit.period / orbit.steps_per_period,
+                              float(abs(orbit.symmetric_multipliers[0])),
                               int(orbit.symmetric_nd[0])))  # fmt: skip
-    state, step = orbit.state, float(cfg.time.step)
+    _refine(model, cfg, angles, cycle, refine, comm)
+    finest = cycle.refined[-2:]
+    if len(finest) == 2 and not cycle.stable:
+        # one multiplier above 1 proves instability: the in-symmetry one, where it stands
+        # above 1 by more than twice its change over the last halving of the step
+        (_, a, nd), (_, b, _) = finest
+        if min(a, b) - 1.0 > 2 * abs(a - b):
+            cycle.stability = FloquetResult(
+                np.array([nd]), np.array([math.log(b) / orbit.period]), b, mu.trivial_error,
+                False, by="monodromy inside the cycle's symmetry at the finest step: ND",
+                trust=math.inf)  # fmt: skip
+
+
+def _refine(model, cfg, angles, cycle: Cycle, refine: int, comm=None) -> None:
+    """The dominant in-symmetry multiplier at ``refine`` halvings of the step
+    (``cycle.refined``), each from the pattern map's Jacobian at the orbit (no Newton solve:
+    :meth:`~wheelrom.analysis.periodic.shooting.Shooting.multipliers_at`)."""
+    orbit = cycle.orbit
+    step = float(cfg.time.step)
+    own = orbit.period / orbit.steps_per_period  # the orbit's step (a halving when needed)
     for r in range(1, refine + 1):
+        if step / 2**r >= 0.99 * own:
+            continue
         finer = cfg.replace(**{"time.step": step / 2**r})
         shooting = Shooting(model, finer, orbit.wave, angles, cycle.lam, comm)
         try:
-            again = shooting.solve(state, orbit.period)
+            mu, nd = shooting.multipliers_at(orbit.state, orbit.period)
+            steps = shooting.flow.steps_for(orbit.fraction * orbit.period)[0]
         finally:
             shooting.destroy()
-        if not again.converged or not again.symmetric_multipliers.size:
-            break
-        state = again.state
-        cycle.refined.append((again.period / again.steps_per_period,
-                              float(abs(again.symmetric_multipliers[0])),
-                              int(again.symmetric_nd[0])))  # fmt: skip
+        cycle.refined.append((orbit.period * orbit.fraction / steps, float(abs(mu[0])),
+                              int(nd[0])))  # fmt: skip

@@ -36,7 +36,8 @@ from wheelrom.rom.model import ReducedModel
 from wheelrom.runtime.environment import petsc
 
 PREFIX = "limitcycle_shooting_"
-MAX_ITERATIONS = 25
+MAX_ITERATIONS = 40  # Newton iterations with backtracking
+FULL_STEPS = 12  # full Newton steps first (quadratic where the shot is smooth)
 TOLERANCE = 1e-10  # scaled residual (relative to the vibration) at which Newton stops
 #: reachable residual relative to the largest scaled unknown: the preload's static deflection
 #: in units of a small vibration carries round-off into the shot (measured: 1e-9 for a 0.1 um
@@ -122,9 +123,9 @@ class Shooting:
         t0 = time.perf_counter()
         x0 = np.asarray(x0, dtype=float).reshape(2, self.N, self.m)
         system = _ShotSystem(self, x0, period)
-        z, reason, iterations = system.newton()
+        z, reason, iterations = system.newton("basic", FULL_STEPS)
         if reason <= 0:  # full Newton steps wandered off: again with backtracking
-            z, reason, more = system.newton("bt", 2 * MAX_ITERATIONS)
+            z, reason, more = system.newton("bt", MAX_ITERATIONS)
             iterations += more
         F, _ = system.residual(z)
         x, T = system.unpack(z)
@@ -139,6 +140,16 @@ class Shooting:
                 G, system.scale)
         orbit.wall_s = time.perf_counter() - t0
         return orbit
+
+    def multipliers_at(self, x0: np.ndarray, period: float) -> tuple[np.ndarray, np.ndarray]:
+        """``(mu, nd)`` of the pattern map's Jacobian at ``x0`` ``(2, N', m)``, ``period``
+        [s] without a Newton solve: an orbit of another step is a fixed point of this step's
+        map to the integration error, which moves the multipliers far less than the step's
+        own effect on them (one batch of ``2 n`` shots)."""
+        system = _ShotSystem(self, np.asarray(x0, dtype=float), period)
+        z = np.concatenate([system.z_start, [1.0]])
+        G = system.jacobian(z)[: self.n, : self.n] + np.eye(self.n)
+        return self._pattern_multipliers(G, system.scale)
 
     def _pattern_multipliers(self, G: np.ndarray, scale: np.ndarray):
         """``(mu, nd)``: the multipliers ``nu^{N'}`` of the pattern map's Jacobian ``G``
