@@ -16,7 +16,8 @@ from wheelrom.cli import main as cli
 from wheelrom.forces.parameters import force_parameters
 
 KEYS = ["--set", "sweep.shroud_angles_deg=[80.0]", "--set", "limit_cycle.steps=4", "--set",
-        "limit_cycle.seeds=[1e-4]", "--set", "limit_cycle.harmonics=5"]  # fmt: skip
+        "limit_cycle.seeds=[1e-4]", "--set", "limit_cycle.harmonics=5", "--set",
+        'limit_cycle.method="hb"']  # fmt: skip
 
 
 @pytest.fixture(scope="module")

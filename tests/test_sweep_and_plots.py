@@ -89,6 +89,10 @@ def test_killed_sweep_resumes_to_the_same_file(serial_run, tmp_path):
     with h5py.File(out, "r") as f:  # opens, holds the first case
         status = [s.decode() for s in f["cases/status"][:]]
     assert status[0] == "done" and "pending" in status
+    # the killed job's lock stays and is reported stale (tests/test_safety.py); once removed,
+    # --resume completes the file
+    assert sweep(out, "--resume", check=False).returncode == 2
+    os.remove(tmp_path / ".killed.h5.lock")
     sweep(out, "--resume")
     assert_same(case_data(serial_run), case_data(out))
 

@@ -19,7 +19,7 @@ def test_a_held_lock_stops_every_rank_then_the_job_runs(tmp_path_factory, monkey
     from mpi4py import MPI
 
     from wheelrom.cli import main as cli
-    from wheelrom.runtime.outputs import lock_name
+    from wheelrom.runtime.locks import lock_name
 
     comm = MPI.COMM_WORLD
     assert comm.size == 2, "tests/mpi must run under mpirun -n 2"
