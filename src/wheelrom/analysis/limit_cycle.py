@@ -124,6 +124,9 @@ class WaveBranch:
                          "more limit_cycle.harmonics and samples)")
         if c.stability is None:
             words.append("stability not computed")
+        elif c.stable is None and c.multipliers is not None and not len(c.multipliers.values):
+            words.append("stability not decided (SLEPc converged no multiplier of the whole "
+                         "wheel within its restarts: -limitcycle_floquet_eps_max_it)")
         elif c.stable is None:
             how = "the monodromy" if c.multipliers is not None else \
                 "Hill's method on a cycle with contacts opening"  # fmt: skip

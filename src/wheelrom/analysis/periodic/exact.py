@@ -83,19 +83,21 @@ def monodromy_stability(model, cfg, angles, cycle: Cycle, count: int, refine: in
     # the error of the one multiplier known exactly (the phase shift's, 1) measures the
     # finite-difference monodromy's: the verdict holds while the largest is farther from 1
     # than twice that
+    # nothing converged says nothing: not trusted (reported uncertain), never "stable"
+    trust = max(TRUSTED, 0.5 * abs(mu.largest - 1.0)) if rest.size else -math.inf
     cycle.stability = FloquetResult(
         mu.nd[rest], np.log(np.maximum(np.abs(mu.values[rest]), 1e-300)) / orbit.period,
-        mu.largest, mu.trivial_error, mu.stable, by="monodromy: ND",
-        trust=max(TRUSTED, 0.5 * abs(mu.largest - 1.0)))  # fmt: skip
+        mu.largest, mu.trivial_error, mu.stable, by="monodromy: ND", trust=trust)  # fmt: skip
     if orbit.symmetric_multipliers.size:
         cycle.refined.append((orbit.period / orbit.steps_per_period,
                               float(abs(orbit.symmetric_multipliers[0])),
                               int(orbit.symmetric_nd[0])))  # fmt: skip
     _refine(model, cfg, angles, cycle, refine, comm)
     finest = cycle.refined[-2:]
-    if len(finest) == 2 and not cycle.stable:
-        # one multiplier above 1 proves instability: the in-symmetry one, where it stands
-        # above 1 by more than twice its change over the last halving of the step
+    if len(finest) == 2:
+        # one multiplier above 1 proves instability, whatever the whole wheel's partial
+        # spectrum at time.step says: the in-symmetry one, where it stands above 1 by more
+        # than twice its change over the last halving of the step
         (_, a, nd), (_, b, _) = finest
         if min(a, b) - 1.0 > 2 * abs(a - b):
             cycle.stability = FloquetResult(
