@@ -38,6 +38,7 @@ from wheelrom.runtime.environment import petsc
 PREFIX = "limitcycle_shooting_"
 MAX_ITERATIONS = 40  # Newton iterations with backtracking
 FULL_STEPS = 12  # full Newton steps first (quadratic where the shot is smooth)
+STALL, STALL_ITERATIONS = 0.1, 6  # a solve that removes less than 10 % in 6 iterations stops
 TOLERANCE = 1e-10  # scaled residual (relative to the vibration) at which Newton stops
 #: reachable residual relative to the largest scaled unknown: the preload's static deflection
 #: in units of a small vibration carries round-off into the shot (measured: 1e-9 for a 0.1 um
@@ -256,10 +257,18 @@ class _ShotSystem:
 
     def _converged(self, snes, iteration, norms):
         atol, max_it = snes.getTolerances()[1], snes.getTolerances()[3]
+        if iteration == 0:
+            self._history = []
+        self._history.append(norms[2])
         if norms[2] <= max(atol, self.floor):
             return 2  # SNES_CONVERGED_FNORM_ABS
         if not math.isfinite(norms[2]):
             return -4  # SNES_DIVERGED_FNORM_NAN
+        # stalled: less than STALL of the residual gone over the last STALL_ITERATIONS
+        # (Newton stuck at the kinks of a non-smooth shot: a finer step is the remedy)
+        if len(self._history) > STALL_ITERATIONS and \
+                norms[2] > (1 - STALL) * self._history[-1 - STALL_ITERATIONS]:  # fmt: skip
+            return -5
         return -5 if iteration >= max_it else 0
 
     def newton(self, line_search: str = "basic",
