@@ -67,6 +67,9 @@ class FloquetResult:
 
     @property
     def worst_family(self) -> int:
+        """The family of the largest growth (-1: none computed)."""
+        if not len(self.growth):
+            return -1
         return int(self.families[int(np.argmax(self.growth))])
 
 

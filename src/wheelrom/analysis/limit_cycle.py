@@ -136,7 +136,8 @@ class WaveBranch:
             st = c.stability
             if c.multipliers is not None:
                 mu = c.multipliers
-                whole = f"the whole wheel's largest {mu.largest:.3g}, ND {mu.nd[mu.worst]}"
+                whole = (f"the whole wheel's largest {mu.largest:.3g}, ND {mu.nd[mu.worst]}"
+                         if mu.worst >= 0 else "no multiplier of the whole wheel converged")
                 if st.by.startswith("monodromy inside"):
                     step = c.refined[-1][0]
                     words.append(f"unstable inside its own symmetry (ND {st.worst_family}: "

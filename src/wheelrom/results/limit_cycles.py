@@ -73,7 +73,8 @@ def _write_branch(g, branch) -> None:
     if branch.cycles:
         c = g.create_group("cycles")
         _write_cycles(c, branch.cycles)
-        if all(x.stability is not None for x in branch.cycles):
+        if all(x.stability is not None for x in branch.cycles) and \
+                len({len(x.stability.families) for x in branch.cycles}) == 1:  # fmt: skip
             st = [x.stability for x in branch.cycles]
             c["floquet_families"] = st[0].families
             c["floquet_growth"] = np.array([x.growth for x in st])
