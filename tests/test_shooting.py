@@ -193,3 +193,23 @@ def test_impact_orbit_multiplier_by_two_computations(impact_cycle, small_model):
     assert (inside.nd[0] == 1) == (nd == 6)  # on 2 pattern blades ND 1 is the wheel's N/2
     assert mu.largest >= dominant * (1 - 1e-6)
     assert cycle.refined[1][1] > 1.0
+
+
+def test_a_monodromy_that_converged_nothing_decides_nothing():
+    """SLEPc within its restarts found no multiplier: the cycle is not called stable (its
+    largest would read 0), and the verdict says what happened."""
+    from wheelrom.analysis.floquet import FloquetResult
+    from wheelrom.analysis.limit_cycle import WaveBranch
+    from wheelrom.analysis.periodic.cycle import Cycle
+    from wheelrom.analysis.periodic.monodromy import Multipliers
+
+    empty = Multipliers(np.zeros(0, complex), np.zeros(0, int), np.zeros(0, int), -1, 0.01)
+    assert empty.largest == 0.0 and empty.worst == -1 and empty.stable
+    cycle = Cycle(1.0, 100.0, np.zeros((2, 1), complex), 1e-5, np.zeros(1), np.zeros((1, 2)),
+                  np.zeros((1, 3)), 1.0, np.zeros(1), 0.0, 0.0, 0.0, 0.0, 0.0,
+                  stability=FloquetResult(np.zeros(0, int), np.zeros(0), 0.0, 0.1, True,
+                                          by="monodromy: ND", trust=-math.inf),
+                  multipliers=empty, method="shooting")  # fmt: skip
+    assert cycle.stable is None and cycle.stability.worst_family == -1
+    branch = WaveBranch(6, 6, 1, 0.5, 100.0, cycles=[cycle], kinds=("shroud",))
+    assert "stability not decided" in branch.verdict()
