@@ -181,7 +181,10 @@ def floquet_multipliers(model: ReducedModel, cfg: Config, orbit: Orbit, steps: i
         # the phase shift's multiplier, checked directly: M f = f along the flow at x*
         f = (flow.vector_field(x_star) / scale).ravel()
         f /= np.linalg.norm(f)
-        x, y = PETSc.Vec().createWithArray(f.copy()), PETSc.Vec().createSeq(n)
+        # COMM_SELF explicitly: ranks work on different cases; a COMM_WORLD Vec here made
+        # one rank wait in a collective for another that had finished (a deadlock)
+        x = PETSc.Vec().createWithArray(f.copy(), comm=PETSc.COMM_SELF)
+        y = PETSc.Vec().createSeq(n, comm=PETSc.COMM_SELF)
         shell.mult(None, x, y)
         trivial_error = float(np.linalg.norm(y.getArray() - f))
         for obj in (x, y):
