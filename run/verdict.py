@@ -28,29 +28,41 @@ def _by_shroud(path: str | None, group: str):
 
 
 def _cycle(path, i):
+    """The exact orbit (else the harmonic balance's cycle) with its multipliers in words."""
     with h5py.File(path, "r") as f:
         case = f[f"limit_cycle/case_{i}"]
         for name in case:
-            if name.startswith("wave_") and "cycles" in case[name]:
-                c = case[name]["cycles"]
-                j = 0
-                text = f"{c['tip_amplitude'][j] * 1e6:.2f} um, {c['frequency_hz'][j]:.2f} Hz"
-                if "multiplier_modulus" in c:
-                    k = int(np.nanargmax(c["multiplier_modulus"][j]))
-                    text += (f"; |mu| {c['multiplier_modulus'][j][k]:.2f} "
-                             f"(ND {c['multiplier_nd'][j][k]})")
-                if "hb_tip_amplitude" in c and np.isfinite(c["hb_tip_amplitude"][j]):
-                    text += f"; HB {c['hb_tip_amplitude'][j] * 1e6:.2f} um"
-                return text
+            if not (name.startswith("wave_") and "cycles" in case[name]):
+                continue
+            c = case[name]["cycles"]
+            methods = [m.decode() for m in c["method"][()]] if "method" in c else ["hb"]
+            j = methods.index("shooting") if "shooting" in methods else 0
+            text = f"{c['tip_amplitude'][j] * 1e6:.2f} um, {c['frequency_hz'][j]:.2f} Hz"
+            if methods[j] != "shooting":
+                return text + " (harmonic balance; shooting did not converge)"
+            text += f" (HB {c['hb_tip_amplitude'][j] * 1e6:.2f} um)"
+            if "refined_multiplier" in c:
+                step, value, nd = c["refined_multiplier"][j][-1]
+                text += f"; in symmetry |mu| {value:.3g} (ND {int(nd)}) at {step * 1e6:.2g} us"
+            if "multiplier_modulus" in c and np.isfinite(c["multiplier_modulus"][j]).any():
+                k = int(np.nanargmax(c["multiplier_modulus"][j]))
+                text += (f"; whole wheel {c['multiplier_modulus'][j][k]:.2f} "
+                         f"(ND {c['multiplier_nd'][j][k]})")
+            return text
     return "-"
 
 
 def _settled(path, i):
     with h5py.File(path, "r") as f:
         g = f[f"settle/case_{i}"]
-        if not g.attrs["settled"]:
-            return f"not settled after {g.attrs['time']:.3g} s"
         a = g["amplitude"][()]
+        if not g.attrs["settled"]:
+            top = g["window_amplitude"][()].max(axis=1)
+            half = top[top.size // 2 :] * 1e6
+            nd = int(np.argmax(g["nd_energy"][()]))
+            return (f"not settled in {g.attrs['time']:.3g} s; bounded: largest blade "
+                    f"{half.min():.1f}..{half.max():.1f} um over the second half (ND {nd} "
+                    f"{g['nd_energy'][nd]:.0%})")
         nd = int(np.argmax(g["nd_energy"][()]))
         return (f"{a.max() * 1e6:.2f} um ({g.attrs['kind']}; blades {a.min() * 1e6:.2f}.."
                 f"{a.max() * 1e6:.2f}; ND {nd} {g['nd_energy'][nd]:.0%})")

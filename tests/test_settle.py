@@ -97,6 +97,7 @@ def test_a_case_still_growing_is_not_settled(small_model, capsys):
     row = json.loads(capsys.readouterr().out)["cases"][0]
     assert row["settled"] is False and "kind" not in row
     assert row["verdict"].startswith("not settled after 0.3")
+    assert "bounded, the largest blade" in row["verdict"]
 
 
 def test_an_interrupted_run_resumes_keeping_the_finished_case(tmp_path, monkeypatch):

@@ -214,11 +214,29 @@ class Settled:
     wall_s: float = 0.0
     status: str = "done"
 
+    def bounded(self) -> tuple[float, float, float] | None:
+        """``(low, high, duration)``: the range [m] of the largest blade's amplitude over the
+        windows of the run's second half, and that span [s] (None without two windows):
+        how large a motion that does not settle stays."""
+        if len(self.windows) < 2:
+            return None
+        half = self.windows[len(self.windows) // 2 :]
+        top = np.array([w.amplitude.max() for w in half])
+        start = self.windows[len(self.windows) // 2 - 1].end
+        return float(top.min()), float(top.max()), self.time - start
+
     def verdict(self) -> str:
         if self.status != "done":
             return self.status
         if not self.settled:
-            return f"not settled after {self.time:.3g} s"
+            words = f"not settled after {self.time:.3g} s"
+            span = self.bounded()
+            if span is not None and self.nd_energy.size:
+                nd = int(np.argmax(self.nd_energy))
+                words += (f": bounded, the largest blade {span[0] * 1e6:.3g}-"
+                          f"{span[1] * 1e6:.3g} um over the last {span[2]:.2g} s, ND {nd} "
+                          f"{self.nd_energy[nd]:.0%} of the energy in the last window")
+            return words
         c, A = self.classification, self.amplitude
         top = int(np.argmax(A))
         nd = int(np.argmax(self.nd_energy))
