@@ -72,6 +72,15 @@ def _summary(g, angles, plt, outdir, pdf, written) -> None:
         pick = settled & np.array([k == kind for k in kinds])
         ax.plot(x[pick], amp[pick], marker, color="C0", ms=7, label=f"settled, {kind}")
     ax.plot(x[~settled], amp[~settled], "x", color="C3", ms=8, label="not settled (last window)")
+    low, high = np.full(x.size, np.nan), np.full(x.size, np.nan)
+    for i in range(x.size):  # how large an unsettled motion stays: the run's second half
+        windows = g[f"case_{i}"].get("window_amplitude")
+        if windows is not None and windows.shape[0] >= 2:
+            top = windows[()].max(axis=1)[windows.shape[0] // 2 :] * 1e6
+            low[i], high[i] = top.min(), top.max()
+    pick = ~settled & np.isfinite(low)
+    ax.vlines(x[pick], low[pick], high[pick], color="C3", lw=3, alpha=0.4,
+              label="not settled: range over the second half")  # fmt: skip
     if "start_amplitude" in g:
         ax.plot(x, g["start_amplitude"][()] * 1e6, "d--", color="0.5", ms=5, lw=0.8,
                 label="single-wave exact orbit (the start)")  # fmt: skip
