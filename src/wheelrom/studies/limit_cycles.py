@@ -17,10 +17,9 @@ import numpy as np
 
 from wheelrom.analysis.limit_cycle import CaseLimitCycles, case_limit_cycles, settings_of
 from wheelrom.config import Config
-from wheelrom.config.study import expand, model_key, short_name
-from wheelrom.rom.build import build_model
+from wheelrom.config.study import expand, short_name
 from wheelrom.runtime.errors import InputError
-from wheelrom.studies.plan import group_by
+from wheelrom.studies.plan import shared_models
 
 
 def run_limit_cycles(cfg: Config, comm=None, log=print, waves=None,
@@ -30,26 +29,11 @@ def run_limit_cycles(cfg: Config, comm=None, log=print, waves=None,
     ``comm`` (``None``: serial); other ranks get ``(model, [])`` (``model``: the first
     case's). ``waves``: the travelling waves to analyse instead of ``limit_cycle.waves``;
     ``progress(text)`` (rank 0) at every branch point."""
-    from wheelrom.runtime.environment import petsc, slepc
-
     study = expand(cfg)
-    petsc()  # PetscInitialize is collective: every rank, before rank 0 builds alone
-    slepc()
     rank, size = (comm.rank, comm.size) if comm is not None else (0, 1)
     say = log if rank == 0 and log is not None else (lambda *_: None)
     t0 = time.perf_counter()
-    model_of, members = group_by([model_key(c) for c in study.configs])
-    models: list | str | None = None
-    if rank == 0:
-        try:
-            models = [build_model(study.configs[m[0]], petsc().COMM_SELF, log=say)
-                      for m in members]  # fmt: skip
-        except Exception as exc:  # every rank stops with it, none waits in bcast
-            models = f"the model could not be built: {type(exc).__name__}: {exc}"
-    if comm is not None:
-        models = comm.bcast(models)
-    if isinstance(models, str):
-        raise InputError(models)
+    model_of, models = shared_models(study.configs, comm, say)
     if not all(m.tuned for m in models):
         raise InputError("limit-cycle: the travelling-wave harmonic balance needs a tuned "
                          "wheel; [mistuning] is set")  # fmt: skip

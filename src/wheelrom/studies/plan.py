@@ -79,3 +79,29 @@ def batches(items: Sequence[int], keys: Sequence[str], width: int) -> list[list[
         step = width or len(cases)
         out += [cases[k : k + step] for k in range(0, len(cases), step)]
     return sorted(out, key=lambda b: b[0])
+
+
+def shared_models(configs: Sequence, comm, say) -> tuple[list[int], list]:
+    """``(model_of, models)``: one reduced model per group of ``configs`` that share one,
+    built on rank 0 of the mpi4py ``comm`` (None: serial) and broadcast, so that results do
+    not depend on the number of ranks; a model that cannot be built stops every rank with one
+    :class:`~wheelrom.runtime.errors.InputError` (none is left waiting in the broadcast)."""
+    from wheelrom.config.study import model_key
+    from wheelrom.rom.build import build_model
+    from wheelrom.runtime.environment import petsc, slepc
+    from wheelrom.runtime.errors import InputError
+
+    petsc()  # PetscInitialize is collective: every rank, before rank 0 builds alone
+    slepc()
+    model_of, members = group_by([model_key(c) for c in configs])
+    models: list | str | None = None
+    if comm is None or comm.rank == 0:
+        try:
+            models = [build_model(configs[m[0]], petsc().COMM_SELF, log=say) for m in members]
+        except Exception as exc:  # every rank stops with it, none waits in bcast
+            models = f"the model could not be built: {type(exc).__name__}: {exc}"
+    if comm is not None:
+        models = comm.bcast(models)
+    if isinstance(models, str):
+        raise InputError(models)
+    return model_of, models

@@ -30,10 +30,9 @@ from wheelrom.analysis.periodic.settle import (
     settle_case,
 )
 from wheelrom.config import Config, to_toml
-from wheelrom.config.study import expand, model_key, short_name
-from wheelrom.rom.build import build_model
+from wheelrom.config.study import expand, short_name
 from wheelrom.runtime.errors import InputError
-from wheelrom.studies.plan import group_by
+from wheelrom.studies.plan import shared_models
 
 
 def settings_of(cfg: Config) -> Settings:
@@ -191,25 +190,10 @@ def run_settle(cfg: Config, out: str | None, comm=None, log=print, resume: bool 
                cycles_file: str | None = None, progress=None):  # fmt: skip
     """``(model, [(angles, parameters, Settled)])`` of every case on rank 0 (others: the
     model and ``[]``)."""
-    from wheelrom.runtime.environment import petsc, slepc
-
     study = expand(cfg)
-    petsc()
-    slepc()
     rank, size = (comm.rank, comm.size) if comm is not None else (0, 1)
     say = log if rank == 0 and log is not None else (lambda *_: None)
-    model_of, members = group_by([model_key(c) for c in study.configs])
-    models: list | str | None = None
-    if rank == 0:
-        try:
-            models = [build_model(study.configs[m[0]], petsc().COMM_SELF, log=say)
-                      for m in members]  # fmt: skip
-        except Exception as exc:
-            models = f"the model could not be built: {type(exc).__name__}: {exc}"
-    if comm is not None:
-        models = comm.bcast(models)
-    if isinstance(models, str):
-        raise InputError(models)
+    model_of, models = shared_models(study.configs, comm, say)
     if not all(m.tuned for m in models):
         raise InputError("settle: the start from a travelling-wave cycle needs a tuned wheel")
     directory = sidecar_dir(out) if out else None
