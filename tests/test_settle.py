@@ -65,7 +65,7 @@ def test_van_der_pol_wheel_settles_periodic_at_the_averaging_amplitude(vdp_settl
                                                                        small_model):  # fmt: skip
     """Relative law, ND N/2 (every blade's tip the same amplitude): the averaging's Van der
     Pol amplitude ``r sqrt(1 - lam_c)`` of ``y = p . q`` carried to the tip by the ND 6
-    mode, to 0.5 %; periodic; stopped after a few windows (max_time 5 s)."""
+    mode, to 0.5 %; periodic; stopped at min_time, 1 s, of a 5 s maximum."""
     from test_limit_cycle import VdpTruth
     from wheelrom.forces.parameters import force_parameters
 
@@ -76,7 +76,7 @@ def test_van_der_pol_wheel_settles_periodic_at_the_averaging_amplitude(vdp_settl
     with h5py.File(vdp_settled, "r") as f:
         g = f["settle/case_0"]
         assert g.attrs["kind"] == "periodic" and g.attrs["settled"]
-        assert g.attrs["time"] < 1.0 < f["settle"].attrs["max_time"]
+        assert g.attrs["time"] < 2.0 < f["settle"].attrs["max_time"]  # min_time 1 s
         amplitude = g["amplitude"][()]
         assert amplitude.max() == pytest.approx(tip, rel=5e-3)
         assert amplitude.min() == pytest.approx(tip, rel=5e-3)

@@ -39,7 +39,10 @@ class SettleConfig:
         default=2, metadata=_key("-", "stationary windows in a row that make it settled",
                                  min=1, max=100))
     min_time: float = field(
-        default=0.2, metadata=_key("s", "simulated time at least", min=0.0, max=1e4))
+        default=1.0,
+        metadata=_key("s", "simulated time at least: long enough for the start's instability "
+                      "to show (a weakly unstable cycle perturbed at 1e-3 looks stationary "
+                      "for its first windows)", min=0.0, max=1e4))
     max_time: float = field(
         default=5.0,
         metadata=_key("s", "simulated time at most; then 'not settled after X s'", gt=0.0,

@@ -43,7 +43,7 @@ class Settings:
     window_periods: int = 20
     tolerance: float = 0.005
     consecutive: int = 2
-    min_time: float = 0.2
+    min_time: float = 1.0
     max_time: float = 5.0
 
 
