@@ -174,3 +174,21 @@ def test_full_disk_keeps_the_results_elsewhere(command, full_disk, capsys):
     assert not os.listdir(out)  # no half file, no temporary
     with h5py.File(spare / kept, "r") as f:  # the whole results file
         assert f.attrs["config"]
+
+
+def test_version_and_the_nd_list(capsys):
+    """``--version`` answers; ``--nd -1`` is the fastest wave as ``limit_cycle.waves = [-1]``;
+    an empty item in ``--nd 5,,6`` is refused, not skipped."""
+    from wheelrom import __version__
+    from wheelrom.cli import main as cli_main
+    from wheelrom.cli.limit_cycle import _waves
+    from wheelrom.runtime.errors import InputError
+
+    with pytest.raises(SystemExit) as stop:
+        cli_main.main(["--version"])
+    assert stop.value.code == 0 and __version__ in capsys.readouterr().out
+    assert _waves("-1") == _waves("fastest") == (-1,)
+    assert _waves("5, 33") == (5, 33)
+    for bad in ("5,,6", "", "-2", "x"):
+        with pytest.raises(InputError, match="--nd"):
+            _waves(bad)

@@ -25,15 +25,18 @@ def args_limit_cycle(p: argparse.ArgumentParser) -> None:
 
 
 def _waves(text: str | None):
+    """``--nd``: wave indices ``0..N-1``, ``-1`` or ``fastest`` for the fastest-growing one
+    (as ``limit_cycle.waves``); an empty item (``5,,6``) is refused, not skipped."""
     if text is None:
         return None
-    if text.strip() == "fastest":
-        from wheelrom.analysis.limit_cycle import FASTEST
+    from wheelrom.analysis.limit_cycle import FASTEST
 
+    if text.strip() == "fastest":
         return (FASTEST,)
-    parts = [t.strip() for t in text.split(",") if t.strip()]
-    if not parts or not all(t.isdigit() for t in parts):
-        raise InputError(f"--nd: '{text}' is not a list of wave indices (0, 1, ...)")
+    parts = [t.strip() for t in text.split(",")]
+    if not parts or not all(t.isdigit() or t == "-1" for t in parts):
+        raise InputError(f"--nd: '{text}' is not a list of wave indices (0, 1, ..., or -1 / "
+                         "'fastest' for the fastest-growing one)")  # fmt: skip
     return tuple(int(t) for t in parts)
 
 

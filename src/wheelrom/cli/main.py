@@ -396,6 +396,9 @@ def build_parser() -> argparse.ArgumentParser:
             "Arguments after '--' go to the PETSc options database."
         ),
     )
+    from wheelrom import __version__
+
+    parser.add_argument("--version", action="version", version=f"wheelrom {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
 
