@@ -192,3 +192,12 @@ def test_version_and_the_nd_list(capsys):
     for bad in ("5,,6", "", "-2", "x"):
         with pytest.raises(InputError, match="--nd"):
             _waves(bad)
+
+
+def test_a_sweep_angle_listed_twice_is_refused(capsys):
+    from conftest import SMALL
+    from wheelrom.cli import main as cli_main
+
+    assert cli_main.main(["config", "check", SMALL, "--set",
+                          "sweep.shroud_angles_deg=[50.0, 60.0, 50.0]"]) == 2  # fmt: skip
+    assert "sweep.shroud_angles_deg: [50.0] listed more than once" in capsys.readouterr().err

@@ -398,6 +398,12 @@ def _shortest_window(end: float, window: float) -> float:
 
 def _cross_checks(cfg: Config, problems: list[str]) -> None:
     fr, t = cfg.friction, cfg.time
+    for key in ("tieboss_angles_deg", "shroud_angles_deg"):  # a case computed twice
+        angles = getattr(cfg.sweep, key)
+        twice = sorted({a for a in angles if is_number(a) and list(angles).count(a) > 1})
+        if twice:
+            problems.append(f"sweep.{key}: {twice} listed more than once (each would be "
+                            "computed twice)")
     if is_number(fr.dynamic) and is_number(fr.static) and fr.dynamic > fr.static:
         problems.append(
             f"friction.dynamic: must not exceed friction.static ({fr.dynamic} > {fr.static})"
