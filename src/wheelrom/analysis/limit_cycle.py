@@ -397,14 +397,11 @@ class WaveAnalysis:
             if kind == "monodromy" and cycle.orbit is not None:
                 monodromy_stability(self.model, self.cfg, self.angles, cycle, st.multipliers,
                                     st.refine, self.comm)  # fmt: skip
-            elif kind == "monodromy":
-                cycle.stability = floquet(balance, corrector.linearisation(p), p.omega, p.lam,
-                                          range(self.model.blades))  # fmt: skip
             elif st.floquet == "transient":
                 cycle.stability = transient_stability(self.model, self.cfg, self.angles,
                                                       balance, p.X, p.omega, p.lam,
                                                       cycle.tip_amplitude)  # fmt: skip
-            elif kind != "off":
+            elif kind != "off":  # Hill's method (also a "monodromy" cycle shooting missed)
                 cycle.stability = floquet(balance, corrector.linearisation(p), p.omega, p.lam,
                                           range(self.model.blades))  # fmt: skip
             branch.cycles.append(cycle)

@@ -4,12 +4,11 @@ write and format."""
 from __future__ import annotations
 
 import argparse
-import time
 
 from wheelrom.cli.args import json_out, load_config, locked
-from wheelrom.cli.output import log, print_json
+from wheelrom.cli.output import log, report_and_save, throttled
 from wheelrom.runtime.errors import InputError
-from wheelrom.runtime.outputs import agree, check_output, save_hdf5
+from wheelrom.runtime.outputs import agree, check_output
 
 PROGRESS_EVERY_S = 5.0  # a progress line at most this often
 
@@ -58,28 +57,16 @@ def cmd_limit_cycle(args: argparse.Namespace) -> int:
                          f"{cfg.wheel.blades}")  # fmt: skip
     if args.out:
         check_output(args.out, args.force)
+    from wheelrom.results.limit_cycles import write_limit_cycles
+
     comm = world_if_parallel()
-    last = [time.monotonic()]
-
-    def progress(text: str) -> None:
-        if time.monotonic() - last[0] >= PROGRESS_EVERY_S:
-            last[0] = time.monotonic()
-            log(text)
-
+    progress = None if args.json else throttled(PROGRESS_EVERY_S)
     model, cases = run_limit_cycles(cfg, comm, log=quiet if args.json else log, waves=waves,
-                                    progress=None if args.json else progress)  # fmt: skip
+                                    progress=progress)  # fmt: skip
     failure = None
     if cases:  # rank 0: every case
-        rows = [summary(c) for c in cases]
-        if args.json:  # first: a full disk still leaves the numbers
-            print_json({"cases": rows})
-        else:
-            print_limit_cycles(rows)
-        if args.out:
-            from wheelrom.results.limit_cycles import write_limit_cycles
-
-            failure = save_hdf5(args.out, lambda f: write_limit_cycles(f, cfg, model, cases),
-                                "the summary is printed above")  # fmt: skip
+        failure = report_and_save([summary(c) for c in cases], args.json, print_limit_cycles,
+                                  args.out, lambda f: write_limit_cycles(f, cfg, model, cases))
     agree(comm, failure)  # every rank stops together, none waits for rank 0's file
     return 1 if any(c.failure for c in cases) else 0
 

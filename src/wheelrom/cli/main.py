@@ -37,6 +37,7 @@ from wheelrom.cli.output import (  # noqa: E402
     print_result,
     print_stability,
     print_study,
+    report_and_save,
     warn_unused,
     world_rank,
 )
@@ -55,7 +56,6 @@ from wheelrom.runtime.outputs import (  # noqa: E402
     hdf5_image,
     is_disk_full,
     replacing,
-    save_hdf5,
     save_image,
 )
 
@@ -334,14 +334,8 @@ def cmd_stability(args: argparse.Namespace) -> int:
                                  margin=args.margin)  # fmt: skip
     failure = None
     if cases:  # rank 0: every case
-        rows = [summary(r) for r in cases]
-        if args.json:  # first: a full disk still leaves the numbers
-            print_json({"cases": rows})
-        else:
-            print_stability(rows)
-        if args.out:
-            failure = save_hdf5(args.out, lambda f: write_stability(f, cfg, model, cases),
-                                "the summary is printed above")  # fmt: skip
+        failure = report_and_save([summary(r) for r in cases], args.json, print_stability,
+                                  args.out, lambda f: write_stability(f, cfg, model, cases))
     agree(comm, failure)  # every rank stops together, none waits for rank 0's file
     return 0
 

@@ -19,6 +19,36 @@ def log(msg: str) -> None:
     print(msg, file=sys.stderr, flush=True)
 
 
+def throttled(every_s: float = 5.0):
+    """A ``progress(text)`` that logs at most one line every ``every_s`` seconds."""
+    import time
+
+    last = [time.monotonic()]
+
+    def progress(text: str) -> None:
+        if time.monotonic() - last[0] >= every_s:
+            last[0] = time.monotonic()
+            log(text)
+
+    return progress
+
+
+def report_and_save(rows: list[dict], as_json: bool, printer, out: str | None, fill,
+                    kept: str = "the summary is printed above"):  # fmt: skip
+    """Rank 0 of a per-case command: the rows printed (JSON or ``printer(rows)``) before the
+    file is written, so a full disk still leaves the numbers; ``fill(f)`` builds the HDF5
+    file ``out`` (None: none). Returns the write's failure for ``agree``."""
+    from wheelrom.runtime.outputs import save_hdf5
+
+    if as_json:
+        print_json({"cases": rows})
+    else:
+        printer(rows)
+    if not out:
+        return None
+    return save_hdf5(out, fill, kept)
+
+
 def world_rank() -> int:
     """This process's rank under mpirun (from the launcher's environment: no MPI import)."""
     for name in ("OMPI_COMM_WORLD_RANK", "PMIX_RANK", "PMI_RANK"):

@@ -6,12 +6,11 @@ from __future__ import annotations
 import argparse
 import os
 import shutil
-import time
 
 from wheelrom.cli.args import json_out, load_config, locked
-from wheelrom.cli.output import log, print_json
+from wheelrom.cli.output import log, report_and_save, throttled
 from wheelrom.runtime.errors import InputError
-from wheelrom.runtime.outputs import agree, check_output, save_hdf5
+from wheelrom.runtime.outputs import agree, check_output
 
 PROGRESS_EVERY_S = 5.0
 
@@ -44,31 +43,24 @@ def cmd_settle(args: argparse.Namespace) -> int:
         raise InputError(f"--cycles {args.cycles}: no such file")
     if args.out and not args.resume and os.path.isdir(sidecar_dir(args.out)):
         shutil.rmtree(sidecar_dir(args.out))  # an earlier run's cases, not asked for
+    from wheelrom.results.settle import write_settle
+
     comm = world_if_parallel()
-    last = [time.monotonic()]
-
-    def progress(text: str) -> None:
-        if time.monotonic() - last[0] >= PROGRESS_EVERY_S:
-            last[0] = time.monotonic()
-            log(text)
-
     model, cases, directory = run_settle(
         cfg, args.out, comm, log=quiet if args.json else log, resume=args.resume,
-        cycles_file=args.cycles, progress=None if args.json else progress)  # fmt: skip
+        cycles_file=args.cycles, progress=None if args.json else throttled(PROGRESS_EVERY_S))
     failure = None
     if cases:
-        rows = [summary(a, p, r) for a, p, r in cases]
-        if args.json:
-            print_json({"cases": rows})
-        else:
-            for row in rows:
-                print(f"{row['label']}: {row['verdict']}")
-        if args.out:
-            from wheelrom.results.settle import write_settle
-
-            failure = save_hdf5(args.out, lambda f: write_settle(f, cfg, model, cases),
-                                f"the finished cases stay in {directory}")  # fmt: skip
-            if failure is None and directory and os.path.isdir(directory):
-                shutil.rmtree(directory)
+        failure = report_and_save(
+            [summary(a, p, r) for a, p, r in cases], args.json, _print_rows, args.out,
+            lambda f: write_settle(f, cfg, model, cases),
+            f"the finished cases stay in {directory}")  # fmt: skip
+        if args.out and failure is None and directory and os.path.isdir(directory):
+            shutil.rmtree(directory)
     agree(comm, failure)
     return 1 if any(r.status != "done" for _, _, r in cases) else 0
+
+
+def _print_rows(rows: list[dict]) -> None:
+    for row in rows:
+        print(f"{row['label']}: {row['verdict']}")

@@ -40,7 +40,7 @@ def write_limit_cycles(f, cfg: Config, model: ReducedModel, cases: list) -> None
     g["angles_deg"].attrs["columns"] = "tieboss, shroud"
     names = list(cases[0].parameters) if cases else []
     if names:
-        g["parameters"] = np.array([[_number(c.parameters[n]) for n in names] for c in cases])
+        g["parameters"] = np.array([[study_number(c.parameters[n]) for n in names] for c in cases])
         g["parameters"].attrs["names"] = ", ".join(names)
     g["verdict"] = np.array([c.verdict().encode() for c in cases])
     g["wall_s"] = np.array([c.wall_s for c in cases])
@@ -53,7 +53,7 @@ def write_limit_cycles(f, cfg: Config, model: ReducedModel, cases: list) -> None
             _write_branch(cg.create_group(f"wave_{branch.wave}"), branch)
 
 
-def _number(value) -> float:
+def study_number(value) -> float:
     """A study value as a number (``true``/``false`` as 1/0; a named choice as NaN)."""
     if isinstance(value, bool | int | float):
         return float(value)

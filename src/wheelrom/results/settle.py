@@ -8,6 +8,7 @@ import numpy as np
 from wheelrom import config as config_mod
 from wheelrom.config import Config
 from wheelrom.results.layout import write_model
+from wheelrom.results.limit_cycles import study_number
 from wheelrom.rom.model import ReducedModel
 
 FORMAT = "wheelrom-settle-1"
@@ -31,7 +32,7 @@ def write_settle(f, cfg: Config, model: ReducedModel, cases: list) -> None:
     g["angles_deg"].attrs["columns"] = "tieboss, shroud"
     names = list(cases[0][1]) if cases else []
     if names:
-        g["parameters"] = np.array([[_number(p[n]) for n in names] for _, p, _ in cases])
+        g["parameters"] = np.array([[study_number(p[n]) for n in names] for _, p, _ in cases])
         g["parameters"].attrs["names"] = ", ".join(names)
     g["verdict"] = np.array([r.verdict().encode() for _, _, r in cases])
     g["settled"] = np.array([r.settled for _, _, r in cases])
@@ -46,10 +47,6 @@ def write_settle(f, cfg: Config, model: ReducedModel, cases: list) -> None:
         "the case started from (NaN: started from the preloaded equilibrium)"  # fmt: skip
     for i, (_, _, r) in enumerate(cases):
         _write_case(g.create_group(f"case_{i}"), r)
-
-
-def _number(value) -> float:
-    return float(value) if isinstance(value, bool | int | float) else float("nan")
 
 
 def _write_case(g, r) -> None:

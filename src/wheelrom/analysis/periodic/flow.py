@@ -61,12 +61,12 @@ def pattern_model(model: ReducedModel, wave: int, use_pattern: bool = True):
     couples every blade pair)."""
     if not model.tuned:
         raise InputError("periodic orbits by shooting need a tuned wheel (mistuning off)")
-    N = model.blades
-    n, g, _ = pattern_blades(wave, N)
-    j = next(j for j in range(N) if (j * int(wave) - g) % N == 0)  # j k = g (mod N)
-    if not use_pattern or n == N:
+    # j k' = 1 (mod N') with k = g k' gives j k = g (mod N): the shift holds on the whole
+    # wheel as on the pattern
+    n, g, j = pattern_blades(wave, model.blades)
+    if not use_pattern or n == model.blades:
         return model, g, j
-    return dataclasses.replace(model, blades=n, mistuning=None), g, j % n
+    return dataclasses.replace(model, blades=n, mistuning=None), g, j
 
 
 def shift_blades(states: np.ndarray, j: int) -> np.ndarray:
