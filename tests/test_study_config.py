@@ -106,7 +106,7 @@ def test_named_errors(tmp_path, text, message):
     ("friction.static\n0.6\nabc\n",
      "cases.csv row 3 column friction.static: 'abc' is not a number"),
     ("friction.static\n0.6\n0.7, 3\n", "cases.csv row 3: 2 values for 1 columns"),
-    ("friction.nosuch\n0.6\n", "cases.csv column friction.nosuch: unknown key"),
+    ("friction.nosuch\n0.6\n", "cases.csv column 1 ('friction.nosuch'): unknown key"),
     ("friction.static\n-1\n", "cases.csv row 2 column friction.static: must be >= 0.0, got -1"),
     ("friction.static\n", "study.cases: cases.csv: needs a header of dotted keys and a row"),
 ])  # fmt: skip

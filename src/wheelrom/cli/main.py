@@ -91,13 +91,18 @@ def cmd_config_show(args: argparse.Namespace) -> int:
 def cmd_config_check(args: argparse.Namespace) -> int:
     """The keys, and for a user mesh (``segment.source``) the file and its node sets: what
     a run would refuse, found without computing anything."""
+    from wheelrom.config.study import expand
+
     cfg = load_config(args)
+    study = expand(cfg)  # every case validated as 'study' will (a [study] section, or none)
     if cfg.segment.source != "builtin":
         from wheelrom.segment.load import load_segment
 
         seg = load_segment(cfg)
         print(f"{cfg.segment.source}: {seg.nodes.shape[0]} nodes, node sets "
               + ", ".join(sorted(seg.node_sets)))  # fmt: skip
+    if not study.legacy:
+        print(f"study: {study.size} case(s) of {', '.join(study.names)}")
     print(f"{cfg.source}: OK")
     return 0
 

@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from wheelrom.config.values import beside_toml, file_stamp, input_file_problem
+from wheelrom.config.values import beside_toml, file_stamp, input_file_problem, quoted
 from wheelrom.config.values import field_key as _key
 
 
@@ -126,7 +126,7 @@ def _read_rows(name: str, path: str, stamp) -> tuple[tuple[str, ...], tuple]:
     if why:
         raise ValueError(f"{name}: {why}")
     try:
-        with open(path, encoding="utf-8") as fh:
+        with open(path, encoding="utf-8-sig") as fh:  # a BOM (Excel) is not data
             lines = fh.read().splitlines()
     except (OSError, UnicodeDecodeError) as exc:
         raise ValueError(f"{name}: cannot be read ({exc})") from None
@@ -148,7 +148,7 @@ def _read_rows(name: str, path: str, stamp) -> tuple[tuple[str, ...], tuple]:
             try:
                 value = float(word)
             except ValueError:
-                raise ValueError(f"{name}: line {number}, {column} = {word!r} is not a "
+                raise ValueError(f"{name}: line {number}, {column} = {quoted(word)} is not a "
                                  "number") from None  # fmt: skip
             if not math.isfinite(value):
                 raise ValueError(f"{name}: line {number}, {column} = {word} is not finite")
@@ -165,7 +165,7 @@ def _check_header(name: str, line: int, header: tuple[str, ...]) -> None:
     known = PHASE_COLUMNS + VALUE_COLUMNS
     for column in header:
         if column not in known:
-            raise ValueError(f"{name}: line {line}: unknown column {column!r} (known: "
+            raise ValueError(f"{name}: line {line}: unknown column {quoted(column)} (known: "
                              f"{', '.join(known)})")  # fmt: skip
     for column in set(header):
         if header.count(column) > 1:

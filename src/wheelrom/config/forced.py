@@ -13,7 +13,13 @@ from typing import Any
 
 import numpy as np
 
-from wheelrom.config.values import beside_toml, file_stamp, input_file_problem, is_number
+from wheelrom.config.values import (
+    beside_toml,
+    file_stamp,
+    input_file_problem,
+    is_number,
+    quoted,
+)
 from wheelrom.config.values import field_key as _key
 
 #: largest |delta_s| a pattern or a pattern file may hold (as ``mistuning.pattern``)
@@ -114,7 +120,7 @@ def _read_values(name: str, path: str, stamp) -> np.ndarray:
             raise ValueError(f"{name}: holds {values.dtype}, not numbers")
         return np.asarray(values, dtype=float).reshape(-1)
     try:
-        with open(path, encoding="utf-8") as fh:
+        with open(path, encoding="utf-8-sig") as fh:  # a BOM (Excel) is not data
             text = fh.read()
     except (OSError, UnicodeDecodeError) as exc:
         raise ValueError(f"{name}: cannot be read ({exc})") from None
@@ -125,7 +131,7 @@ def _read_values(name: str, path: str, stamp) -> np.ndarray:
         try:
             values[i] = float(word)
         except ValueError:
-            raise ValueError(f"{name}: value {i + 1} ({word!r}) is not a number") from None
+            raise ValueError(f"{name}: value {i + 1} ({quoted(word)}) is not a number") from None
     return values
 
 

@@ -473,8 +473,8 @@ def load(path: str | Path | None = None, overrides: Sequence[str] = ()) -> Confi
     if path is not None:
         source = str(path)
         try:
-            with open(path, "rb") as fh:
-                data = tomllib.load(fh)
+            with open(path, "rb") as fh:  # a BOM (some Windows editors) is not TOML
+                data = tomllib.loads(fh.read().decode("utf-8-sig"))
         except FileNotFoundError:
             raise ConfigError([f"{source}: file not found"]) from None
         except IsADirectoryError:

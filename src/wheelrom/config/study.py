@@ -31,6 +31,7 @@ from wheelrom.config.values import (
     convert_field,
     input_file_problem,
     is_number,
+    quoted,
 )
 
 #: the two keys of a study made from ``[sweep]``
@@ -162,7 +163,7 @@ def study_field(key: str) -> tuple[dataclasses.Field | None, str | None]:
                  if not (isinstance(node, Config) and f.name == "source")]  # fmt: skip
         if part not in names:
             where = ".".join(parts[:depth]) or "the configuration"
-            return None, f"unknown key ('{part}' is not in {where})"
+            return None, f"unknown key ({quoted(part)} is not in {where})"
         f = next(f for f in dataclasses.fields(node) if f.name == part)
         value = getattr(node, part)
         if dataclasses.is_dataclass(value):
@@ -171,7 +172,7 @@ def study_field(key: str) -> tuple[dataclasses.Field | None, str | None]:
             node = value
             continue
         if depth != len(parts) - 1:
-            return None, f"unknown key ('{part}' is a key, not a section)"
+            return None, f"unknown key ({quoted(part)} is a key, not a section)"
         return _variable(key, f, value)
     return None, "unknown key"  # pragma: no cover
 
@@ -255,7 +256,8 @@ def _csv_axis(cfg: Config, problems: list[str]) -> list[tuple[str, list]]:
         problems.append(f"study.cases: {name}: {why}")
         return []
     try:
-        with open(path, newline="", encoding="utf-8") as fh:
+        # utf-8-sig: a byte-order mark (Excel's "CSV UTF-8") is not part of the first key
+        with open(path, newline="", encoding="utf-8-sig") as fh:
             rows = [(n, r) for n, r in enumerate(csv.reader(fh), start=1)
                     if any(c.strip() for c in r)]  # fmt: skip
     except (OSError, UnicodeDecodeError) as exc:
@@ -266,10 +268,10 @@ def _csv_axis(cfg: Config, problems: list[str]) -> list[tuple[str, list]]:
         return []
     header = [h.strip() for h in rows[0][1]]
     fields = []
-    for key in header:
+    for column, key in enumerate(header, start=1):
         f, why = study_field(key)
         if f is None:
-            problems.append(f"{name} column {key}: {why}")
+            problems.append(f"{name} column {column} ({quoted(key)}): {why}")
         fields.append(f)
     columns: list[list] = [[] for _ in header]
     for line, row in rows[1:]:
@@ -281,7 +283,7 @@ def _csv_axis(cfg: Config, problems: list[str]) -> list[tuple[str, list]]:
             if f is not None:
                 numeric = is_number(f.default) if f.default is not dataclasses.MISSING else True
                 if numeric and not is_number(value):
-                    problems.append(f"{name} row {line} column {key}: {text.strip()!r} is not "
+                    problems.append(f"{name} row {line} column {key}: {quoted(text)} is not "
                                     "a number")  # fmt: skip
                 else:
                     convert_field(f"{name} row {line} column {key}", f, value, problems)

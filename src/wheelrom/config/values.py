@@ -8,6 +8,7 @@ import dataclasses
 import difflib
 import math
 import os
+import re
 import stat
 from collections.abc import Mapping, Sequence
 from dataclasses import fields
@@ -266,6 +267,16 @@ def input_file_problem(path: str) -> str | None:
         return (f"is {info.st_size / 1e6:.1f} MB, more than the {MAX_INPUT_BYTES >> 20} MiB "
                 "an input file of numbers may be")
     return None
+
+
+def quoted(text: str) -> str:
+    """A word read from a user's file, for an error message: quoted when it looks like a
+    token (a number, a column or key name), else only its length. A key that points at the
+    wrong file (``/etc/passwd``) must not print that file's lines into a log."""
+    text = text.strip()
+    if re.fullmatch(r"[A-Za-z0-9_.+\-]{1,40}", text):
+        return repr(text)
+    return f"a {len(text)}-character text (not shown)"
 
 
 def beside_toml(name: str, source: str) -> str:

@@ -24,6 +24,7 @@ import os
 import numpy as np
 
 from wheelrom.config import Config
+from wheelrom.config.values import beside_toml
 from wheelrom.runtime.errors import InputError
 from wheelrom.segment.mesh import (
     HEX20_EDGES,
@@ -37,11 +38,9 @@ from wheelrom.segment.mesh import (
 
 
 def source_path(cfg: Config) -> str:
-    """``segment.source`` resolved against the configuration file's directory."""
-    path = os.path.expanduser(cfg.segment.source)
-    if not os.path.isabs(path) and os.path.isfile(cfg.source):
-        path = os.path.join(os.path.dirname(os.path.abspath(cfg.source)), path)
-    return path
+    """``segment.source`` resolved against the configuration file's directory (as every file
+    key is, ``--set`` overrides included)."""
+    return beside_toml(cfg.segment.source, cfg.source)
 
 
 def read_segment(cfg: Config) -> SegmentMesh:
@@ -50,8 +49,11 @@ def read_segment(cfg: Config) -> SegmentMesh:
     from skfem.io.meshio import from_meshio
 
     path = source_path(cfg)
-    if not os.path.isfile(path):
+    if not os.path.exists(path):
         raise InputError(f"segment.source: mesh file '{path}' not found")
+    if not os.path.isfile(path):  # a FIFO, a device or a directory: read forever, or never
+        raise InputError(f"segment.source: '{path}' is not a regular file (a directory, a "
+                         "device or a FIFO); name a mesh file")  # fmt: skip
     said = io.StringIO()
     try:
         with contextlib.redirect_stdout(said), contextlib.redirect_stderr(said):
@@ -98,7 +100,12 @@ def read_segment(cfg: Config) -> SegmentMesh:
 
 
 def _check_points(points: np.ndarray, path: str) -> None:
-    """Every node's coordinates are finite numbers (a NaN one broke the node-set search)."""
+    """There are nodes, in three dimensions, and every node's coordinates are finite numbers
+    (a NaN one broke the node-set search)."""
+    shape = np.shape(points)
+    if len(shape) != 2 or shape[0] == 0 or shape[1] != 3:
+        raise InputError(f"segment.source '{path}': no nodes with x, y, z coordinates (meshio "
+                         f"read {shape[0] if shape else 0} node(s)); a volume mesh?")
     bad = np.flatnonzero(~np.isfinite(np.asarray(points, dtype=float)).all(axis=1))
     if bad.size:
         raise InputError(f"segment.source '{path}': node {bad[0] + 1} (in file order) has a "

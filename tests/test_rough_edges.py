@@ -1,0 +1,85 @@
+"""The rough edges of issue #40: each small, each a surprise to a user. `config check`
+refuses what `study` refuses; a byte-order mark is not part of a key; a FIFO, a directory
+or a text file named as a mesh is told for what it is; a key pointing at the wrong file
+does not print that file's lines."""
+
+import os
+
+import pytest
+
+from wheelrom.cli import main as cli
+
+SECRET = "root:x:0:0:root:/root:/bin/bash"
+
+
+def _write(path, text: str | bytes) -> str:
+    mode = "wb" if isinstance(text, bytes) else "w"
+    with open(path, mode) as fh:
+        fh.write(text)
+    return str(path)
+
+
+def _one_error(capsys) -> str:
+    err = capsys.readouterr().err
+    assert "Traceback" not in err, err
+    return err
+
+
+@pytest.fixture
+def empty_toml(tmp_path):
+    return _write(tmp_path / "empty.toml", "[segment]\npreset = 'coarse'\n")
+
+
+def test_config_check_refuses_what_study_refuses(tmp_path, capsys):
+    toml = _write(tmp_path / "st.toml", "[study.grid]\n'contacts.shroud.angle_deg' = [30.0, 120.0]\n")
+    assert cli.main(["config", "check", toml]) == 2
+    err = _one_error(capsys)
+    assert "angle_deg[1]" in err and "must be <= 90" in err, err
+    good = _write(tmp_path / "ok.toml", "[study.grid]\n'contacts.shroud.angle_deg' = [30.0, 60.0]\n")
+    assert cli.main(["config", "check", good]) == 0
+    assert "study: 2 case(s) of contacts.shroud.angle_deg" in capsys.readouterr().out
+
+
+def test_a_byte_order_mark_is_not_part_of_the_first_key(tmp_path, empty_toml, capsys):
+    _write(tmp_path / "bom.csv", b"\xef\xbb\xbfcontacts.shroud.angle_deg\n30\n60\n")
+    assert cli.main(["config", "check", empty_toml, "--set", 'study.cases="bom.csv"']) == 0
+    assert "2 case(s)" in capsys.readouterr().out
+    toml = _write(tmp_path / "bom.toml", b"\xef\xbb\xbf[time]\nend = 0.1\n")
+    assert cli.main(["config", "show", toml]) == 0
+    assert "end = 0.1" in capsys.readouterr().out
+    _write(tmp_path / "pattern.csv", b"\xef\xbb\xbf" + b"0.01\n" * 66)
+    assert cli.main(["config", "check", empty_toml, "--set", 'mistuning.file="pattern.csv"']) == 0
+
+
+@pytest.mark.parametrize("kind", ["fifo", "directory", "device"])
+def test_a_mesh_that_is_not_a_regular_file_says_so(kind, tmp_path, empty_toml, capsys):
+    path = str(tmp_path / "seg.inp")
+    if kind == "fifo":
+        os.mkfifo(path)  # reading it would block forever
+    elif kind == "directory":
+        os.mkdir(path)
+    else:
+        path = "/dev/zero"
+    assert cli.main(["config", "check", empty_toml, "--set", f'segment.source="{path}"']) == 2
+    err = _one_error(capsys)
+    assert "not a regular file" in err and path in err and "not found" not in err, err
+
+
+def test_a_text_file_as_mesh_is_one_line(tmp_path, empty_toml, capsys):
+    _write(tmp_path / "seg.inp", SECRET + "\n")
+    assert cli.main(["config", "check", empty_toml, "--set", 'segment.source="seg.inp"']) == 2
+    err = _one_error(capsys)
+    assert "no nodes" in err and SECRET not in err, err
+
+
+@pytest.mark.parametrize("key, extra, words", [
+    ("study.cases", [], ["column 1", "31-character text"]),
+    ("flutter.table", ["--set", 'flutter.model="table"'], ["unknown column", "31-character"]),
+    ("mistuning.file", [], ["value 1", "31-character text"]),
+])  # fmt: skip
+def test_a_wrong_file_is_not_echoed(key, extra, words, tmp_path, empty_toml, capsys):
+    _write(tmp_path / "secret.txt", SECRET + "\n" + "daemon:x:1:1::/usr/sbin:/bin/false\n")
+    assert cli.main(["config", "check", empty_toml, "--set", f'{key}="secret.txt"', *extra]) == 2
+    err = _one_error(capsys)
+    assert SECRET not in err and "root:x" not in err and "daemon" not in err, err
+    assert all(w in err for w in words), err
