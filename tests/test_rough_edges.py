@@ -83,3 +83,32 @@ def test_a_wrong_file_is_not_echoed(key, extra, words, tmp_path, empty_toml, cap
     err = _one_error(capsys)
     assert SECRET not in err and "root:x" not in err and "daemon" not in err, err
     assert all(w in err for w in words), err
+
+
+def test_config_show_writes_file_keys_that_work_anywhere(tmp_path, capsys, monkeypatch):
+    """`config show sub/x.toml > y.toml` and a results file's stored configuration name the
+    files the configuration meant, wherever they are read (animate from another folder)."""
+    import h5py
+
+    from wheelrom import config
+    from wheelrom.results.layout import read_config
+
+    sub = tmp_path / "sub"
+    sub.mkdir()
+    _write(sub / "pattern.txt", "0.01\n" * 66)
+    _write(sub / "x.toml", "[segment]\npreset = 'coarse'\n[mistuning]\nfile = 'pattern.txt'\n")
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(["config", "show", "sub/x.toml"]) == 0
+    _write(tmp_path / "y.toml", capsys.readouterr().out)
+    assert f'file = "{sub / "pattern.txt"}"' in (tmp_path / "y.toml").read_text()
+    assert cli.main(["config", "check", "y.toml"]) == 0
+    # a results file written from tmp_path, read from another folder
+    cfg = config.load("sub/x.toml")
+    with h5py.File(tmp_path / "r.h5", "w") as f:
+        f.attrs["config"] = config.to_toml(cfg)
+        f.attrs["config_source"] = cfg.source  # relative: sub/x.toml
+    (tmp_path / "elsewhere").mkdir()
+    monkeypatch.chdir(tmp_path / "elsewhere")
+    with h5py.File("../r.h5", "r") as f:
+        again = read_config(f, "../r.h5")
+    assert again.mistuning.file == str(sub / "pattern.txt")

@@ -139,10 +139,24 @@ def _toml_value(v: Any) -> str:
     raise TypeError(v)
 
 
+#: keys that name a file, resolved beside the TOML, with the value that names none
+FILE_KEYS = {"segment.source": "builtin", "mistuning.file": "", "study.cases": "",
+             "flutter.table": ""}  # fmt: skip
+
+
 def to_toml(cfg: Any, comments: bool = True) -> str:
     """The effective configuration (a :class:`wheelrom.config.Config`) as TOML, with units and
-    help as comments."""
+    help as comments. File keys (:data:`FILE_KEYS`) are written as absolute paths: the text
+    means the same wherever it is saved (``config show sub/x.toml > y.toml``) or read back
+    (the ``config`` attribute of a results file, read by ``animate`` from any directory)."""
     lines: list[str] = []
+    source = getattr(cfg, "source", "")
+
+    def value_of(obj: Any, name: str, key: str) -> Any:
+        value = getattr(obj, key)
+        if f"{name}.{key}" in FILE_KEYS and value != FILE_KEYS[f"{name}.{key}"]:
+            return os.path.abspath(beside_toml(value, source))
+        return value
 
     def section(obj: Any, name: str) -> None:
         plain = [f for f in fields(obj) if not dataclasses.is_dataclass(getattr(obj, f.name))]
@@ -151,7 +165,7 @@ def to_toml(cfg: Any, comments: bool = True) -> str:
         if plain:
             lines.append(f"[{name}]")
             for f in plain:
-                text = f"{f.name} = {_toml_value(getattr(obj, f.name))}"
+                text = f"{f.name} = {_toml_value(value_of(obj, name, f.name))}"
                 if comments and f.metadata:
                     text = f"{text:<40} # [{f.metadata['unit']}] {f.metadata['help']}"
                 lines.append(text)
