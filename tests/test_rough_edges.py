@@ -112,3 +112,23 @@ def test_config_show_writes_file_keys_that_work_anywhere(tmp_path, capsys, monke
     with h5py.File("../r.h5", "r") as f:
         again = read_config(f, "../r.h5")
     assert again.mistuning.file == str(sub / "pattern.txt")
+
+
+def test_copy_paste_hints_survive_a_shell(tmp_path, capsys):
+    """The --resume line and the CalculiX line are shell-quoted: pasted, they name the files
+    they meant (a space, a quote)."""
+    import shlex
+
+    from wheelrom.results.info import resume_hint
+
+    path, source = "my runs/it's.h5", "cases dir/my study.toml"
+    hint = resume_hint(path, source, {"pending": 2, "failed": 0}, "study", " --screen")
+    words = shlex.split(hint[hint.index(": wheelrom") + 2 :])
+    assert words == ["wheelrom", "study", source, "--out", path, "--screen", "--resume"], hint
+    folder = tmp_path / "a b"
+    folder.mkdir()
+    out = folder / "seg x.inp"
+    assert cli.main(["mesh", "--set", "segment.preset='coarse'", "--out", str(out)]) == 0
+    line = next(ln for ln in capsys.readouterr().out.splitlines() if "ccx -i" in ln)
+    command = line[line.index("(") + 1 : line.rindex(")")]
+    assert shlex.split(command) == ["cd", str(folder), "&&", "ccx", "-i", "seg x_cyclic"], line

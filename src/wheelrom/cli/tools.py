@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import shlex
 
 from wheelrom.cli import args as cli_args
 from wheelrom.cli.args import comm_self, load_config
@@ -90,7 +91,7 @@ def cmd_mesh(args: argparse.Namespace) -> int:
     for deck in written[1:]:
         folder, name = os.path.split(os.path.abspath(deck))
         print(f"wrote {deck}: CalculiX wheel modes per nodal diameter "
-              f"(cd {folder} && ccx -i {os.path.splitext(name)[0]})")  # fmt: skip
+              f"(cd {shlex.quote(folder)} && ccx -i {shlex.quote(os.path.splitext(name)[0])})")
     return 0
 
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import os
+import shlex
 import tomllib
 
 import numpy as np
@@ -202,10 +203,11 @@ def resume_hint(path: str, source: str | None, counts: dict, command: str = "swe
     if not counts["pending"]:
         return failed
     what = f"{counts['pending']} case(s) pending: rerun the {command} with{flags} --resume"
+    out = shlex.quote(path)  # a line to paste into a shell: spaces and quotes survive
     if source == "<built-in default>":
-        what += f": wheelrom {command} --out {path}{flags} --resume"
+        what += f": wheelrom {command} --out {out}{flags} --resume"
     elif source and " + --set " not in source and not source.startswith("<"):
-        what += f": wheelrom {command} {source} --out {path}{flags} --resume"
+        what += f": wheelrom {command} {shlex.quote(source)} --out {out}{flags} --resume"
     else:
         what += f" and the same configuration ({source or 'the file attribute config'})"
     return what + (f"; {failed}" if failed else "")
