@@ -132,3 +132,23 @@ def test_copy_paste_hints_survive_a_shell(tmp_path, capsys):
     line = next(ln for ln in capsys.readouterr().out.splitlines() if "ccx -i" in ln)
     command = line[line.index("(") + 1 : line.rindex(")")]
     assert shlex.split(command) == ["cd", str(folder), "&&", "ccx", "-i", "seg x_cyclic"], line
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["animate", "r.h5", "--scale", "-1"], ["--scale", "finite number > 0, got -1"]),
+    (["animate", "r.h5", "--scale", "nan"], ["--scale", "got nan"]),
+    (["accuracy", "--modes", "10", "-2"], ["--modes", "at least 1, got -2"]),
+    (["accuracy", "--families", "0"], ["--families", "at least 1"]),
+    (["modes", "--full-wheel", "assembled", "--full-wheel-modes", "0"],
+     ["--full-wheel-modes", "at least 1"]),
+])  # fmt: skip
+def test_counts_and_scales_out_of_range_are_refused(argv, words, capsys, monkeypatch):
+    def computed(*_):
+        raise AssertionError("computed before the refusal")
+
+    monkeypatch.setattr("wheelrom.segment.load.build_builtin", computed)
+    with pytest.raises(SystemExit) as stop:
+        cli.main(argv)
+    assert stop.value.code == 2
+    err = _one_error(capsys)
+    assert all(w in err for w in words), err

@@ -5,11 +5,35 @@ from __future__ import annotations
 import argparse
 import contextlib
 import functools
+import math
 
 from wheelrom.cli.output import LONG_LISTING
 from wheelrom.runtime.errors import InputError
 from wheelrom.runtime.locks import output_lock
 from wheelrom.runtime.outputs import check_output
+
+
+def positive_number(text: str) -> float:
+    """An argparse type: a finite number > 0 (``--scale``); anything else is argparse's one
+    line naming the option, exit 2."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text}")
+    return value
+
+
+def count(text: str) -> int:
+    """An argparse type: a whole number >= 1 (mode counts, families)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
 
 
 def json_out(p: argparse.ArgumentParser) -> None:
@@ -31,7 +55,8 @@ def args_modes(p):
         help="full-wheel FE reference: exact cyclic symmetry per ND (default, any preset) "
         "and/or N assembled segment copies (SLEPc on all ranks; coarse preset)",
     )
-    p.add_argument("--full-wheel-modes", type=int, default=20, help="modes of the assembled wheel")
+    p.add_argument("--full-wheel-modes", type=count, default=20,
+                   help="modes of the assembled wheel")  # fmt: skip
     p.add_argument("--vtu", help="write a wheel mode on the whole-wheel mesh (.vtu, meshio)")
     p.add_argument("--vtu-nd", type=int, help="nodal diameter of that mode (default 5)")
     p.add_argument("--vtu-family", type=int, help="mode family (default 0 = the lowest)")
@@ -163,9 +188,9 @@ def args_mesh(p):
 
 def args_accuracy(p):
     json_out(p)
-    p.add_argument("--modes", type=int, nargs="+", default=[10, 20, 40], help="free bases m")
-    p.add_argument("--enriched-modes", type=int, default=10, help="m of the enriched basis")
-    p.add_argument("--families", type=int, default=4, help="families compared")
+    p.add_argument("--modes", type=count, nargs="+", default=[10, 20, 40], help="free bases m")
+    p.add_argument("--enriched-modes", type=count, default=10, help="m of the enriched basis")
+    p.add_argument("--families", type=count, default=4, help="families compared")
 
 
 def args_plot(p):

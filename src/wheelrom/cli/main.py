@@ -133,7 +133,7 @@ def cmd_modes(args: argparse.Namespace) -> int:
         say(f"wrote {args.vtu}: ND {args.vtu_nd} mode at {f_mode:.2f} Hz on the whole wheel")
     extra = {"wheel_hz": hz, "wheel_nd": nd}
     if args.full_wheel:
-        extra.update(_full_wheel(args, cfg, wheel, say))
+        extra.update(_full_wheel(args, cfg, wheel))
     table = model.frequencies_by_nodal_diameter()
     reference, assembled = extra.get("full_wheel_hz"), extra.get("assembled_wheel_hz")
     if args.json:  # first: a full disk still leaves the numbers
@@ -157,7 +157,7 @@ def cmd_modes(args: argparse.Namespace) -> int:
     return 0
 
 
-def _full_wheel(args: argparse.Namespace, cfg, wheel, say) -> dict:
+def _full_wheel(args: argparse.Namespace, cfg, wheel) -> dict:
     """The full-wheel FE references of ``modes --full-wheel`` on the model's own matrices."""
     from wheelrom.rom import references
 
@@ -165,7 +165,8 @@ def _full_wheel(args: argparse.Namespace, cfg, wheel, say) -> dict:
     c1, m = cfg.wheel.coupling_stiffness, wheel.model.modes
     out = {}
     if args.full_wheel in ("cyclic", "both"):
-        out["full_wheel_hz"] = references.cyclic_table(seg, mats, c1, m, comm_self(), log=say)
+        # minutes on the default wheel: its progress reaches stderr even with --json
+        out["full_wheel_hz"] = references.cyclic_table(seg, mats, c1, m, comm_self(), log=log)
     if args.full_wheel in ("assembled", "both"):
         from wheelrom.runtime.environment import petsc
 

@@ -12,7 +12,7 @@ import time
 
 import numpy as np
 
-from wheelrom.cli.args import comm_self
+from wheelrom.cli.args import comm_self, positive_number
 from wheelrom.cli.output import log
 from wheelrom.runtime.errors import InputError
 from wheelrom.runtime.outputs import check_output, replacing
@@ -186,7 +186,7 @@ def cmd_contacts(args: argparse.Namespace) -> int:
 
 def args_animate(p: argparse.ArgumentParser) -> None:
     _file_case(p)
-    p.add_argument("--scale", type=float, default=None,
+    p.add_argument("--scale", type=positive_number, default=None,
                    help="displacement scale of the pictures (default: the largest tip "
                    "displacement drawn as 4 %% of the tip radius); the XDMF holds true "
                    "displacements [m]")  # fmt: skip
