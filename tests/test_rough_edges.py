@@ -31,11 +31,12 @@ def empty_toml(tmp_path):
 
 
 def test_config_check_refuses_what_study_refuses(tmp_path, capsys):
-    toml = _write(tmp_path / "st.toml", "[study.grid]\n'contacts.shroud.angle_deg' = [30.0, 120.0]\n")
+    grid = "[study.grid]\n'contacts.shroud.angle_deg' = "
+    toml = _write(tmp_path / "st.toml", grid + "[30.0, 120.0]\n")
     assert cli.main(["config", "check", toml]) == 2
     err = _one_error(capsys)
     assert "angle_deg[1]" in err and "must be <= 90" in err, err
-    good = _write(tmp_path / "ok.toml", "[study.grid]\n'contacts.shroud.angle_deg' = [30.0, 60.0]\n")
+    good = _write(tmp_path / "ok.toml", grid + "[30.0, 60.0]\n")
     assert cli.main(["config", "check", good]) == 0
     assert "study: 2 case(s) of contacts.shroud.angle_deg" in capsys.readouterr().out
 
@@ -152,3 +153,12 @@ def test_counts_and_scales_out_of_range_are_refused(argv, words, capsys, monkeyp
     assert stop.value.code == 2
     err = _one_error(capsys)
     assert all(w in err for w in words), err
+
+
+def test_python_dash_m_wheelrom_is_the_command():
+    import subprocess
+    import sys
+
+    res = subprocess.run([sys.executable, "-m", "wheelrom", "--version"], capture_output=True,
+                         text=True, timeout=120)  # fmt: skip
+    assert res.returncode == 0 and res.stdout.startswith("wheelrom "), res.stderr[-500:]
