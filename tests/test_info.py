@@ -13,7 +13,7 @@ import pytest
 
 from conftest import SMALL
 from wheelrom.cli import main as cli
-from wheelrom.cli.output import LONG_LISTING, print_info
+from wheelrom.cli.output_info import LONG_LISTING, print_info
 from wheelrom.results.info import file_info, resume_hint, study_flags, ts_scheme
 
 END = ["--set", "time.end=0.001"]  # two windows of 0.5 ms: a short sweep

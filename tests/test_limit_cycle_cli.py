@@ -122,3 +122,24 @@ def test_a_failed_case_is_named_and_the_others_are_written(tmp_path, capsys):
         verdicts = [v.decode() for v in f["limit_cycle/verdict"][()]]
         assert verdicts[0].startswith("failed: limit cycles need self-excitation")
         assert "wave_7" in f["limit_cycle/case_1"]
+
+
+def test_info_reads_a_limit_cycle_file(limit_cycle_file, capsys):
+    """`info` on a limit-cycle file: the verdict and the cycle's amplitude and frequency as
+    stored, per wave its Hopf point (issue #40: it was refused as an unknown format)."""
+    assert cli.main(["info", str(limit_cycle_file), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["kind"] == "limit-cycle" and out["settings"]["method"] == "hb"
+    case = out["cases"][0]
+    assert case["shroud_deg"] == 80.0
+    with h5py.File(limit_cycle_file, "r") as f:
+        g = f["limit_cycle/case_0/wave_6"]
+        assert case["verdict"] == f["limit_cycle/verdict"][0].decode()
+        wave = case["waves"][0]
+        assert wave["nodal_diameter"] == 6 and wave["hopf_hz"] == g.attrs["hopf_hz"]
+        assert wave["cycles"][0]["tip_amplitude_m"] == g["cycles/tip_amplitude"][0]
+        assert wave["cycles"][0]["frequency_hz"] == g["cycles/frequency_hz"][0]
+    assert cli.main(["info", str(limit_cycle_file)]) == 0
+    text = capsys.readouterr().out
+    assert "limit cycles, 1 case(s) (harmonic balance; H = 5" in text
+    assert "tieboss 45 deg, shroud 80 deg" in text and "wave 6 (ND 6 forward, Hopf at" in text

@@ -137,3 +137,23 @@ def test_an_interrupted_run_resumes_keeping_the_finished_case(tmp_path, monkeypa
         assert f["settle/settled"][()].all()
         np.testing.assert_array_equal(f["settle/case_0/amplitude"][()], first.amplitude)
     assert not (tmp_path / ".s.settle").exists()
+
+
+def test_info_reads_a_settle_file(vdp_settled, capsys):
+    """`info` on a settle file: settled, periodic, at the time and amplitude stored (issue
+    #40: it was refused as an unknown format)."""
+    import json
+
+    from wheelrom.cli import main as cli
+
+    assert cli.main(["info", str(vdp_settled), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["kind"] == "settle" and out["counts"] == {"settled": 1, "not_settled": 0,
+                                                         "total": 1}  # fmt: skip
+    case = out["cases"][0]
+    with h5py.File(vdp_settled, "r") as f:
+        g = f["settle"]
+        assert case["kind"] == "periodic" and case["settled"]
+        assert case["time_s"] == g["time"][0] and case["max_amplitude_m"] == g["max_amplitude"][0]
+    assert cli.main(["info", str(vdp_settled)]) == 0
+    assert "1 case(s): 1 settled, 0 not" in capsys.readouterr().out

@@ -7,10 +7,14 @@ import contextlib
 import functools
 import math
 
-from wheelrom.cli.output import LONG_LISTING
+from wheelrom.cli.output_info import LONG_LISTING
 from wheelrom.runtime.errors import InputError
 from wheelrom.runtime.locks import output_lock
 from wheelrom.runtime.outputs import check_output
+
+#: every file `info` and `plot` read (their help lists them all)
+ANY_FILE = ("sweep, run --out, study, stability --out, limit-cycle --out, settle --out, "
+            "forced-response --out or modes --out")  # fmt: skip
 
 
 def positive_number(text: str) -> float:
@@ -212,7 +216,7 @@ def args_plot(p):
 
 
 def args_export(p):
-    p.add_argument("file", help="HDF5 file from sweep or run --out")
+    p.add_argument("file", help="HDF5 file from sweep, study or run --out")
     p.add_argument("--case", type=int, default=0, help="case index as 'wheelrom info' lists it")
     p.add_argument("--csv", required=True, metavar="PREFIX",
                    help="writes PREFIX_<table>.csv per table of --what")  # fmt: skip
@@ -227,7 +231,7 @@ def args_export(p):
 
 
 def args_info(p):
-    p.add_argument("file", help="HDF5 file from sweep, run --out or modes --out")
+    p.add_argument("file", help="HDF5 file of any wheelrom command: " + ANY_FILE)
     json_out(p)
     p.add_argument("--all", action="store_true",
                    help=f"list every case (default: a sweep of more than {LONG_LISTING} cases "

@@ -415,7 +415,8 @@ def build_parser() -> argparse.ArgumentParser:
     for name, (func, help_text, extra) in COMMANDS.items():
         p = sub.add_parser(name, help=help_text, description=func.__doc__)
         if name == "plot":
-            p.add_argument("results", help="HDF5 file from sweep, run or modes --out")
+            p.add_argument("results", help="HDF5 file of any wheelrom command: "
+                           + cli_args.ANY_FILE)  # fmt: skip
         elif name not in ("info", "export", "animate", "contacts"):  # these read a file
             cli_args.add_config_args(p)
         extra(p)

@@ -202,7 +202,8 @@ def args_contacts(p: argparse.ArgumentParser) -> None:
 
 
 def _file_case(p: argparse.ArgumentParser) -> None:
-    p.add_argument("file", help="HDF5 file from sweep or run --out")
+    p.add_argument("file", help="HDF5 file from sweep, study or run --out with a state "
+                   "history (output.state_rate_hz > 0)")  # fmt: skip
     p.add_argument("--case", type=int, default=0, help="case index as 'wheelrom info' lists it")
     p.add_argument("--window", default=None, metavar="A:B",
                    help="time window [s] (default: the case's last window)")  # fmt: skip

@@ -14,10 +14,10 @@ from wheelrom.cli.output import (
     log,
     print_accuracy,
     print_contact_stiffness,
-    print_info,
     print_json,
     print_result,
 )
+from wheelrom.cli.output_info import print_info
 from wheelrom.runtime.errors import InputError
 from wheelrom.runtime.outputs import check_outdir, check_output
 
@@ -134,7 +134,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
 
 def cmd_plot(args: argparse.Namespace) -> int:
-    """Figures (PNG, PDF with --pdf) from a sweep/run/modes HDF5 file."""
+    """Figures (PNG, PDF with --pdf) from a results file of any wheelrom command: a sweep, run,
+    study, stability, limit-cycle, settle, forced-response or modes file."""
     from wheelrom.plots.figures import plot_file
 
     if args.outdir:
@@ -147,7 +148,8 @@ def cmd_plot(args: argparse.Namespace) -> int:
 
 def cmd_info(args: argparse.Namespace) -> int:
     """What a results or model file holds: format, configuration source, model size, and
-    per case the contact angles, status (failure reasons), windows done and wall time."""
+    per case the contact angles, status (failure reasons), windows done and wall time (a
+    stability, limit-cycle, settle or forced-response file: its verdicts and amplitudes)."""
     from wheelrom.results.info import file_info
 
     info = file_info(args.file)

@@ -3,9 +3,9 @@ model size, and per case the contact angles, status, windows done and wall time.
 
 Works on sweep files and ``run --out`` files (docs/output.md, format ``wheelrom-sweep-1``),
 study files (``wheelrom-sweep-2``), stability files, forced-response files
-(``wheelrom-forced-1``) and ``modes --out`` model files (``/model`` and the configuration
-only). Returns plain Python values (no NaN: a value that is not there is ``None``), ready
-for JSON.
+(``wheelrom-forced-1``), limit-cycle and settle files (:mod:`.info_periodic`) and
+``modes --out`` model files (``/model`` and the configuration only). Returns plain Python
+values (no NaN: a value that is not there is ``None``), ready for JSON.
 """
 
 from __future__ import annotations
@@ -18,7 +18,10 @@ import tomllib
 import numpy as np
 
 from wheelrom.results.histories import case_bytes
+from wheelrom.results.info_periodic import limit_cycle_info, settle_info
 from wheelrom.results.layout import FORCED_FORMAT, FORMAT, STABILITY_FORMAT, statuses
+from wheelrom.results.limit_cycles import FORMAT as LIMIT_CYCLE_FORMAT
+from wheelrom.results.settle import FORMAT as SETTLE_FORMAT
 from wheelrom.results.study_layout import FORMAT as STUDY_FORMAT
 from wheelrom.results.study_layout import read_parameters, summary
 from wheelrom.runtime.errors import InputError
@@ -66,10 +69,15 @@ def file_info(path: str) -> dict:
             return _stability_info(f, path)
         if fmt == FORCED_FORMAT and "blade_amplitude" in f:
             return _forced_info(f, path)
+        if fmt == LIMIT_CYCLE_FORMAT and "limit_cycle" in f:
+            return limit_cycle_info(f, path, _header(f, path, "limit-cycle"))
+        if fmt == SETTLE_FORMAT and "settle" in f:
+            return settle_info(f, path, _header(f, path, "settle"))
         found = f"format {fmt!r}" if fmt is not None else "no 'format' attribute"
+        known = ", ".join(repr(k) for k in (FORMAT, STUDY_FORMAT, STABILITY_FORMAT,
+                                            FORCED_FORMAT, LIMIT_CYCLE_FORMAT, SETTLE_FORMAT))
         raise InputError(f"{path}: not a wheelrom results or model file ({found}; "
-                         f"expected {FORMAT!r}, {STUDY_FORMAT!r}, {STABILITY_FORMAT!r}, "
-                         f"{FORCED_FORMAT!r} or a modes --out model)")  # fmt: skip
+                         f"expected {known} or a modes --out model)")  # fmt: skip
 
 
 def _text(value) -> str | None:
