@@ -206,3 +206,39 @@ def test_a_bad_forced_solver_option_is_one_named_line(capsys, petsc_options):
     assert cli.main(argv) == 2
     err = capsys.readouterr().err
     assert "-forced_ksp_type bogus" in err and "KSP 'forced_'" in err and "Traceback" not in err
+
+
+def test_figures_of_a_forced_file(forced_file, tmp_path, capsys):
+    """`plot` of a forced-response file draws its response curves and the blade amplitudes
+    at the peaks (issue #40: it exited 0 with an empty folder)."""
+    outdir = tmp_path / "fig"
+    assert cli.main(["plot", str(forced_file), "--outdir", str(outdir)]) == 0
+    names = sorted(p.name for p in outdir.iterdir())
+    assert names == ["forced_localisation.png", "forced_response.png"], names
+    for name in names:
+        assert (outdir / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_plot_replaces_figures_only_with_force(forced_file, tmp_path, capsys):
+    """A second `plot` into the same folder is refused and changes nothing; --force replaces
+    the figures; a link in a figure's place is refused even with --force (issue #40)."""
+    outdir = tmp_path / "fig"
+    argv = ["plot", str(forced_file), "--outdir", str(outdir)]
+    assert cli.main(argv) == 0
+    mine = outdir / "forced_response.png"
+    mine.write_bytes(b"my own figure")
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert "forced_response.png" in err and "--force" in err, err
+    assert mine.read_bytes() == b"my own figure"
+    assert sorted(p.name for p in outdir.iterdir()) == ["forced_localisation.png",
+                                                         "forced_response.png"]  # fmt: skip
+    assert cli.main([*argv, "--force"]) == 0
+    assert mine.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    victim = tmp_path / "victim.txt"
+    victim.write_text("keep")
+    mine.unlink()
+    mine.symlink_to(victim)
+    assert cli.main([*argv, "--force"]) == 2
+    assert "not a regular file" in capsys.readouterr().err
+    assert victim.read_text() == "keep" and mine.is_symlink()

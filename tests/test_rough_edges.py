@@ -162,3 +162,26 @@ def test_python_dash_m_wheelrom_is_the_command():
     res = subprocess.run([sys.executable, "-m", "wheelrom", "--version"], capture_output=True,
                          text=True, timeout=120)  # fmt: skip
     assert res.returncode == 0 and res.stdout.startswith("wheelrom "), res.stderr[-500:]
+
+
+def test_plot_of_a_file_with_nothing_to_draw_is_refused(tmp_path, capsys):
+    import h5py
+
+    path = tmp_path / "bare.h5"
+    with h5py.File(path, "w") as f:
+        f.attrs["config"] = "[time]\nend = 0.1\n"
+    assert cli.main(["plot", str(path)]) == 2
+    assert "nothing to draw" in _one_error(capsys)
+    assert not (tmp_path / "bare_figures").exists()  # no empty folder left behind
+
+
+def test_campbell_refuses_to_replace_its_figure_before_computing(tmp_path, capsys,
+                                                                 monkeypatch):  # fmt: skip
+    def computed(*_, **__):
+        raise AssertionError("computed before the refusal")
+
+    monkeypatch.setattr("wheelrom.rom.campbell.campbell", computed)
+    (tmp_path / "campbell.png").write_bytes(b"mine")
+    assert cli.main(["campbell", "--outdir", str(tmp_path)]) == 2
+    assert "campbell.png" in _one_error(capsys)
+    assert (tmp_path / "campbell.png").read_bytes() == b"mine"

@@ -179,6 +179,7 @@ def args_campbell(p):
         help="directory for campbell.png (default: out/figures, created if missing)",
     )
     p.add_argument("--pdf", action="store_true", help="also write PDF")
+    p.add_argument("--force", action="store_true", help="replace an existing campbell.png")
 
 
 def args_mesh(p):
@@ -213,6 +214,9 @@ def args_plot(p):
         help="shroud angles [deg] of the two ND-spectrum panels (default: most and least "
         "suppressed)",
     )
+    p.add_argument("--force", action="store_true",
+                   help="replace figures of the same name in the folder (default: refused, "
+                   "nothing written)")  # fmt: skip
 
 
 def args_export(p):

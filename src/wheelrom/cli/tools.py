@@ -103,9 +103,11 @@ def cmd_campbell(args: argparse.Namespace) -> int:
 
     cfg = load_config(args)
     check_outdir(args.outdir)
+    for name in ("campbell.png", "campbell.pdf")[: 1 + args.pdf]:  # refused before computing
+        check_output(os.path.join(args.outdir, name), args.force)
     speeds = cli_args.parse_speeds(args.speeds)
     data = campbell(cfg, speeds, comm_self(), log=quiet if args.json else log)
-    written = plot_campbell(data, args.outdir, pdf=args.pdf)
+    written = plot_campbell(data, args.outdir, pdf=args.pdf, force=args.force)
     if args.json:
         print_json({k: (v.tolist() if hasattr(v, "tolist") else v) for k, v in data.items()}
                    | {"figures": written})  # fmt: skip
@@ -140,7 +142,8 @@ def cmd_plot(args: argparse.Namespace) -> int:
 
     if args.outdir:
         check_outdir(args.outdir)
-    written = plot_file(args.results, args.outdir, pdf=args.pdf, nd_angles=args.nd_angles)
+    written = plot_file(args.results, args.outdir, pdf=args.pdf, nd_angles=args.nd_angles,
+                        force=args.force)  # fmt: skip
     for path in written:
         print(path)
     return 0

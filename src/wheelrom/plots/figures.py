@@ -16,7 +16,8 @@ from wheelrom.forces.parameters import stiffness_at
 from wheelrom.plots.helpers import cell_edges as _cell_edges
 from wheelrom.plots.helpers import need as _need
 from wheelrom.plots.helpers import save as _save
-from wheelrom.results.layout import read_config, statuses
+from wheelrom.plots.helpers import staged
+from wheelrom.results.layout import FORCED_FORMAT, read_config, statuses
 from wheelrom.results.study_layout import FORMAT as STUDY_FORMAT
 from wheelrom.results.study_layout import read_parameters
 from wheelrom.runtime.errors import InputError
@@ -25,8 +26,10 @@ FONT = {"font.size": 11, "axes.titlesize": 12, "axes.labelsize": 11, "figure.dpi
 
 
 def plot_file(path: str, outdir: str | None = None, pdf: bool = False,
-              nd_angles: tuple[float, float] | None = None) -> list[str]:  # fmt: skip
-    """Write every figure the file supports into ``outdir``; returns the paths written."""
+              nd_angles: tuple[float, float] | None = None, force: bool = False) -> list[str]:
+    """Write every figure the file supports into ``outdir``; returns the paths written. An
+    existing figure is replaced only with ``force`` (:func:`~wheelrom.plots.helpers.staged`);
+    a file with nothing to draw is an :class:`InputError` (and leaves no empty folder)."""
     import h5py
     import matplotlib
 
@@ -36,39 +39,50 @@ def plot_file(path: str, outdir: str | None = None, pdf: bool = False,
     if not os.path.exists(path):
         raise InputError(f"{path}: no such results file")
     outdir = outdir or os.path.splitext(path)[0] + "_figures"
-    os.makedirs(outdir, exist_ok=True)
-    written: list[str] = []
     try:
         f = h5py.File(path, "r")
     except OSError as exc:
         raise InputError(f"{path}: not a readable HDF5 file ({exc})") from None
-    with f, plt.rc_context(FONT):
+    with f, plt.rc_context(FONT), staged(outdir, force) as (stage, written):
         cfg = read_config(f, path)
-        if "model" in f:
-            _modal_figures(f, cfg, path, outdir, pdf, written, plt)
-        study = f.attrs.get("format") == STUDY_FORMAT
-        if "cases" in f and (not study or _angle_sweep(f, everything_run=True)):
-            _sweep_figures(f, cfg, path, outdir, pdf, written, plt, nd_angles)
-        if "stability" in f and (not study or _angle_sweep(f)):
-            from wheelrom.plots.stability import stability_figures
-
-            stability_figures(f, path, outdir, pdf, written, plt)
-        if "limit_cycle" in f:
-            from wheelrom.plots.limit_cycle import limit_cycle_figures
-
-            limit_cycle_figures(f, path, outdir, pdf, written, plt)
-        if "settle" in f:
-            from wheelrom.plots.settle import settle_figures
-
-            settle_figures(f, path, outdir, pdf, written, plt)
-        if study:
-            from wheelrom.plots.study import study_figures
-
-            study_figures(f, path, outdir, pdf, written, plt)
-            from wheelrom.plots.montecarlo import montecarlo_figures
-
-            montecarlo_figures(f, path, outdir, pdf, written, plt)
+        _draw(f, cfg, path, stage, pdf, written, plt, nd_angles)
+        if not written:
+            raise InputError(f"{path}: nothing to draw (format {f.attrs.get('format')!r}); "
+                             "plot draws the files of sweep, run, study, stability, "
+                             "limit-cycle, settle, forced-response and modes")  # fmt: skip
     return written
+
+
+def _draw(f, cfg, path, outdir, pdf, written, plt, nd_angles) -> None:
+    """Every figure the file holds the data of, into ``outdir``."""
+    if "model" in f:
+        _modal_figures(f, cfg, path, outdir, pdf, written, plt)
+    study = f.attrs.get("format") == STUDY_FORMAT
+    if "cases" in f and (not study or _angle_sweep(f, everything_run=True)):
+        _sweep_figures(f, cfg, path, outdir, pdf, written, plt, nd_angles)
+    if "stability" in f and (not study or _angle_sweep(f)):
+        from wheelrom.plots.stability import stability_figures
+
+        stability_figures(f, path, outdir, pdf, written, plt)
+    if "limit_cycle" in f:
+        from wheelrom.plots.limit_cycle import limit_cycle_figures
+
+        limit_cycle_figures(f, path, outdir, pdf, written, plt)
+    if "settle" in f:
+        from wheelrom.plots.settle import settle_figures
+
+        settle_figures(f, path, outdir, pdf, written, plt)
+    if f.attrs.get("format") == FORCED_FORMAT:
+        from wheelrom.plots.forced import forced_figures
+
+        forced_figures(f, path, outdir, pdf, written, plt)
+    if study:
+        from wheelrom.plots.study import study_figures
+
+        study_figures(f, path, outdir, pdf, written, plt)
+        from wheelrom.plots.montecarlo import montecarlo_figures
+
+        montecarlo_figures(f, path, outdir, pdf, written, plt)
 
 
 def _angle_sweep(f, everything_run: bool = False) -> bool:
@@ -372,16 +386,21 @@ def _summary_figure(d: _Sweep, plt):
     return fig
 
 
-def plot_campbell(data: dict, outdir: str, pdf: bool = False) -> list[str]:
+def plot_campbell(data: dict, outdir: str, pdf: bool = False, force: bool = False) -> list[str]:
     """Campbell diagram: wheel families (band over nodal diameters), segment modes and
-    engine-order lines, the nozzle order ``n_s`` marked."""
+    engine-order lines, the nozzle order ``n_s`` marked. An existing ``campbell.png`` is
+    replaced only with ``force``."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    os.makedirs(outdir, exist_ok=True)
-    written: list[str] = []
+    with staged(outdir, force) as (stage, written):
+        _campbell(data, stage, pdf, written, plt)
+    return written
+
+
+def _campbell(data: dict, outdir: str, pdf: bool, written: list[str], plt) -> None:
     speeds = data["speeds_hz"]
     wheel = data["wheel_hz_by_nd"]  # (S, ND, m)
     top = float(wheel[..., : min(6, wheel.shape[2])].max()) * 1.1
@@ -410,4 +429,3 @@ def plot_campbell(data: dict, outdir: str, pdf: bool = False) -> list[str]:
     ax.grid(alpha=0.3)
     _save(fig, outdir, "campbell", pdf, written)
     plt.close(fig)
-    return written

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from wheelrom.plots.helpers import need, save
+from wheelrom.plots.helpers import localisation_bars, need, save
 from wheelrom.results.study_layout import distribution, stable_amplification
 
 
@@ -79,15 +79,8 @@ def _localisation(f, path: str, amplification: np.ndarray, plt):
     c = int(np.nanargmax(amplification))
     blades = need(f, "forced/blade_amplitude", path)[c]
     tuned = need(f, "forced/tuned_blade_amplitude", path)[c]
-    s = np.arange(blades.size)
     fig, ax = plt.subplots(figsize=(max(7, 0.14 * blades.size), 4.2), layout="constrained")
-    ax.bar(s, blades, color="tab:blue", label=f"case {c} at "
-           f"{f['forced/peak_frequency_hz'][c]:.6g} Hz")  # fmt: skip
-    ax.step(np.r_[s - 0.5, s[-1] + 0.5], np.r_[tuned, tuned[-1]], where="post", color="k",
-            label=f"tuned at {f['forced/tuned_peak_frequency_hz'][c]:.6g} Hz")  # fmt: skip
-    ax.set_xlabel("blade")
-    ax.set_ylabel("tip amplitude at the peak [m]")
-    ax.legend(fontsize=8)
-    ax.grid(alpha=0.3, axis="y")
+    localisation_bars(ax, blades, tuned, f"case {c} at {f['forced/peak_frequency_hz'][c]:.6g} Hz",
+                      f"tuned at {f['forced/tuned_peak_frequency_hz'][c]:.6g} Hz")  # fmt: skip
     ax.set_title(f"Worst realisation: amplification {amplification[c]:.3g} (localisation)")
     return fig
