@@ -31,11 +31,14 @@ def run_rounds(f, plan: list[list[int]], comm, run_batch: Callable, settings: di
     report of case ``i`` (None: nothing). ``settings``: the TS settings, recorded with a failed
     case; its ``ts_dt`` [s] and ``t_end`` [s] pace the progress lines.
     """
-    rounds = comm.allreduce(len(plan), op=_mpi_op("MAX"))
+    sizes = comm.allgather([len(chunk) for chunk in plan])  # every rank's batch per round
+    rounds = max(len(s) for s in sizes)
     clock = Progress(say, t_end, settings["ts_dt"], rounds)
     for r in range(rounds):
         chunk = plan[r] if r < len(plan) else []
-        finished = _batch(chunk, run_batch, settings, clock.window(r, len(chunk)))
+        elsewhere = sum(s[r] for k, s in enumerate(sizes) if k != comm.rank and r < len(s))
+        progress = clock.window(r, len(chunk), elsewhere, comm.size)
+        finished = _batch(chunk, run_batch, settings, progress)
         chunk = chunk if finished else []
         _write(f, comm, [(i, res) for i, res in zip(chunk, finished, strict=True)], attach)
         report = [(i, res.status, res.wall_s, res.batch, res.compile_s, res.classification)
@@ -124,8 +127,16 @@ class Progress:
         self.say, self.rounds = say, rounds
         self.t_end, self.step = t_end, step  # [s]: simulated end, the TS step
 
-    def window(self, round_index: int, cases: int):
+    def window(self, round_index: int, cases: int, elsewhere: int = 0, ranks: int = 1):
+        """The progress callback of one round: ``cases`` on this rank, ``elsewhere`` on the
+        other ``ranks - 1`` at the same time (said in the line: under mpirun only rank 0
+        prints, and its batch is not the whole round)."""
         first: list[tuple[float, float]] = []  # (simulated, wall) at the end of window 1
+        what, whose = f"{cases} case(s)", ""
+        if ranks > 1:
+            what = (f"{cases} case(s) on rank 0, {elsewhere} more on {ranks - 1} other "
+                    "rank(s) at the same time")  # fmt: skip
+            whose = " on rank 0"
         last_line = [-math.inf]
 
         def progress(window, windows, t, amplitude):
@@ -146,9 +157,9 @@ class Progress:
             else:
                 pace = "measuring the rate"
             self.say(
-                f"  round {round_index + 1}/{self.rounds} ({cases} case(s)): window "
-                f"{window}/{windows}, t = {t:.4g} of {self.t_end:g} s, largest tip amplitude "
-                f"{amplitude:.3g} m; {pace}"
+                f"  round {round_index + 1}/{self.rounds} ({what}): window "
+                f"{window}/{windows}, t = {t:.4g} of {self.t_end:g} s, largest tip "
+                f"amplitude{whose} {amplitude:.3g} m; {pace}"
             )
 
         return progress
