@@ -187,3 +187,38 @@ def test_resume_hint_of_a_study_repeats_its_mode_and_forced():
         "3 case(s) pending: rerun the study with --screen --forced --resume: "
         "wheelrom study map.toml --out m.h5 --screen --forced --resume")
     assert study_flags("full", False) == ""
+
+
+def _flip_byte(path, offset: int) -> None:
+    with open(path, "r+b") as fh:
+        fh.seek(offset)
+        byte = fh.read(1)
+        fh.seek(offset)
+        fh.write(bytes([byte[0] ^ 0x10]))
+
+
+@pytest.mark.parametrize("dataset", ["max_tip_amplitude", "tip_history"])
+def test_info_verify_finds_a_flipped_byte(dataset, tmp_path, capsys):
+    """Issue #40: `info --verify` recomputes each written case's CRC-32 and names the case
+    whose stored numbers changed (a contiguous dataset and a chunked history), exit 1."""
+    out = tmp_path / "r.h5"
+    keys = ["--set", "time.end=0.001", "--set", "sweep.shroud_angles_deg=[20.0, 80.0]"]
+    assert cli.main(["sweep", SMALL, *keys, "--out", str(out)]) == 0
+    capsys.readouterr()
+    assert cli.main(["info", str(out), "--verify", "--json"]) == 0
+    checks = json.loads(capsys.readouterr().out)["checksums"]
+    assert checks == {"stored": True, "checked": 2, "mismatched": []}
+    bad = tmp_path / "copy.h5"
+    shutil.copy(out, bad)
+    with h5py.File(bad, "r") as f:
+        d = f[f"cases/{dataset}"]
+        if d.chunks:  # case 1's first chunk
+            offset = d.id.get_chunk_info_by_coord((1,) + (0,) * (d.ndim - 1)).byte_offset
+        else:  # case 1's row: one row of doubles past the start
+            offset = d.id.get_offset() + int(np.prod(d.shape[1:])) * d.dtype.itemsize
+    _flip_byte(bad, offset + 3)
+    assert cli.main(["info", str(bad), "--verify"]) == 1
+    captured = capsys.readouterr()
+    assert "CHANGED since written: 1" in captured.out
+    assert "case(s) 1 changed since they were written" in captured.err
+    assert cli.main(["info", str(bad)]) == 0  # without --verify: nothing read, nothing said

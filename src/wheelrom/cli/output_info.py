@@ -47,6 +47,13 @@ def print_info(info: dict, show_all: bool = False) -> None:
                   "families (frequencies_by_nd)")  # fmt: skip
         for name, what in model.get("extras", {}).items():
             print(f"  also:          {name}: {what}")
+    checks = info.get("checksums")
+    if checks:
+        bad = checks["mismatched"]
+        print("  checksums:     " + (
+            "none stored (a file of an earlier version)" if not checks["stored"] else
+            f"{checks['checked']} written case(s) checked: "
+            + (f"CHANGED since written: {', '.join(map(str, bad))}" if bad else "all intact")))
     if info["kind"] == "study":
         _print_study_cases(info, show_all)
         return

@@ -155,11 +155,17 @@ def cmd_info(args: argparse.Namespace) -> int:
     stability, limit-cycle, settle or forced-response file: its verdicts and amplitudes)."""
     from wheelrom.results.info import file_info
 
-    info = file_info(args.file)
+    info = file_info(args.file, verify=args.verify)
     if args.json:
         print_json(info)
     else:
         print_info(info, show_all=args.all)
+    checks = info.get("checksums")
+    if checks and checks["mismatched"]:  # exit 1: a script checking a copy sees it
+        if not args.json:
+            log(f"wheelrom: {args.file}: case(s) {', '.join(map(str, checks['mismatched']))} "
+                "changed since they were written (checksum mismatch): recompute them")
+        return 1
     return 0
 
 

@@ -17,6 +17,7 @@ import tomllib
 
 import numpy as np
 
+from wheelrom.results.checksums import verify
 from wheelrom.results.histories import case_bytes
 from wheelrom.results.info_periodic import limit_cycle_info, settle_info
 from wheelrom.results.layout import FORCED_FORMAT, FORMAT, STABILITY_FORMAT, statuses
@@ -34,7 +35,7 @@ MODEL_EXTRAS = {
 }
 
 
-def file_info(path: str) -> dict:
+def file_info(path: str, verify: bool = False) -> dict:
     """Summary of the wheelrom file at ``path``.
 
     Returns ``{"file", "kind": "results" | "model", "format", "config_source", "model": {...},
@@ -44,6 +45,7 @@ def file_info(path: str) -> dict:
     ``cases`` (one dict per case,
     see :func:`case_rows`) and ``hint`` (what to do about pending cases, or None). Raises
     :class:`InputError` naming the file when it is missing or not a wheelrom file.
+    ``verify``: a sweep, run or study file adds ``checksums`` (:func:`verify_cases`).
     """
     import h5py
 
@@ -59,10 +61,11 @@ def file_info(path: str) -> dict:
             from None  # fmt: skip
     with f:
         fmt = f.attrs.get("format")
-        if fmt == FORMAT and "cases" in f:
-            return _results_info(f, path)
-        if fmt == STUDY_FORMAT and "cases" in f:
-            return _study_info(f, path)
+        if fmt in (FORMAT, STUDY_FORMAT) and "cases" in f:
+            info = (_results_info if fmt == FORMAT else _study_info)(f, path)
+            if verify:
+                info["checksums"] = verify_cases(f["cases"], info["cases"])
+            return info
         if fmt is None and "model" in f and "config" in f.attrs:
             return _model_file_info(f, path)
         if fmt == STABILITY_FORMAT and "stability" in f:
@@ -78,6 +81,14 @@ def file_info(path: str) -> dict:
                                             FORCED_FORMAT, LIMIT_CYCLE_FORMAT, SETTLE_FORMAT))
         raise InputError(f"{path}: not a wheelrom results or model file ({found}; "
                          f"expected {known} or a modes --out model)")  # fmt: skip
+
+
+def verify_cases(cases, rows: list[dict]) -> dict:
+    """The stored checksums of the written (done or failed) cases recomputed
+    (:mod:`wheelrom.results.checksums`): ``stored``, ``checked``, ``mismatched`` (case
+    indices whose numbers changed since they were written)."""
+    written = [r["index"] for r in rows if r["status"] in ("done", "failed")]
+    return verify(cases, written)
 
 
 def _text(value) -> str | None:

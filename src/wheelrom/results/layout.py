@@ -14,6 +14,7 @@ import numpy as np
 
 from wheelrom import config as config_mod
 from wheelrom.config import CONTACT_KINDS, Config
+from wheelrom.results.checksums import create_checksums, write_checksum
 from wheelrom.results.histories import create_histories, write_histories
 from wheelrom.rom.model import ReducedModel
 from wheelrom.runtime.errors import InputError
@@ -140,6 +141,7 @@ def create_layout(f, cfg: Config, model: ReducedModel, angles: np.ndarray | None
     for kind in CONTACT_KINDS:
         cases.create_dataset(f"min_normal_force/{kind}", (C, W), **nan)
         cases.create_dataset(f"open_fraction/{kind}", (C, W), **nan)
+    create_checksums(cases, C)
     # every rank writes the same small model arrays; identical values, so this is safe and
     # keeps creation collective
     write_model(f.create_group("model"), model)
@@ -197,6 +199,7 @@ def write_case(f, i: int, res: CaseResult) -> None:
         for key, value in res.linear.items():
             cases[f"linear_{key}"][i] = value
     cases["classification"][i] = res.classification.encode()[:STATUS_LEN]
+    write_checksum(cases, i)  # of the rows as stored, before the status that completes them
     cases["status"][i] = res.status.encode()[:STATUS_LEN]
 
 
