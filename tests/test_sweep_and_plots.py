@@ -28,7 +28,7 @@ def sweep(out, *extra, ranks=1, check=True, env=ENV):
 
 
 # timing and the rank count, not the physics
-NOT_PHYSICS = ("cases/wall_s", "cases/compile_s", "cases/batch")
+NOT_PHYSICS = ("cases/wall_s", "cases/compile_s", "cases/batch", "cases/checksum")  # + wall
 
 
 def case_data(path):
