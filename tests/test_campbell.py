@@ -22,8 +22,10 @@ def test_campbell_json_and_figure(tmp_path, capsys):
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 5000
 
 
-def test_campbell_rejects_bad_speeds(capsys):
+def test_campbell_rejects_bad_speeds(capsys, tmp_path, monkeypatch):
     from wheelrom.cli import main as cli
+
+    monkeypatch.chdir(tmp_path)  # the default --outdir out/figures does not exist yet
 
     assert cli.main(["campbell", SMALL, "--speeds", "0:x:3"]) == 2
     assert "--speeds" in capsys.readouterr().err

@@ -103,9 +103,10 @@ def cmd_campbell(args: argparse.Namespace) -> int:
 
     cfg = load_config(args)
     check_outdir(args.outdir)
-    for name in ("campbell.png", "campbell.pdf")[: 1 + args.pdf]:  # refused before computing
-        check_output(os.path.join(args.outdir, name), args.force)
     speeds = cli_args.parse_speeds(args.speeds)
+    if os.path.isdir(args.outdir):  # a figure there is refused before computing (or --force)
+        for name in ("campbell.png", "campbell.pdf")[: 1 + args.pdf]:
+            check_output(os.path.join(args.outdir, name), args.force, flag="--outdir")
     data = campbell(cfg, speeds, comm_self(), log=quiet if args.json else log)
     written = plot_campbell(data, args.outdir, pdf=args.pdf, force=args.force)
     if args.json:
