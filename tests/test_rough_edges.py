@@ -185,3 +185,20 @@ def test_campbell_refuses_to_replace_its_figure_before_computing(tmp_path, capsy
     assert cli.main(["campbell", "--outdir", str(tmp_path)]) == 2
     assert "campbell.png" in _one_error(capsys)
     assert (tmp_path / "campbell.png").read_bytes() == b"mine"
+
+
+def test_resume_compares_values_not_the_help_text():
+    """A file written by a wheelrom whose help texts (TOML comments) differ is the same
+    configuration for --resume; a changed value is named with both values (the paper's
+    pipeline refused its own finished sweep after a help text changed)."""
+    from wheelrom import config
+    from wheelrom.results.layout import config_changes
+
+    cfg = config.load(None, ["time.end=0.5"])
+    text = config.to_toml(cfg)
+    older = "\n".join(line.split("#")[0].rstrip() + ("  # an older help" if "=" in line else "")
+                      for line in text.splitlines())  # fmt: skip
+    assert older != text and config_changes(older, cfg) is None
+    changed = config_changes(older, config.load(None, ["time.end=0.6"]))
+    assert changed == "time.end: 0.5 -> 0.6", changed
+    assert "not TOML" in config_changes("= nonsense", cfg)

@@ -208,6 +208,32 @@ def statuses(f) -> list[str]:
     return [s.decode() for s in f["cases/status"][:]]
 
 
+def config_changes(stored, cfg: Config) -> str | None:
+    """How the configuration ``stored`` in a file (its TOML text) differs from ``cfg``, as
+    ``key: file value -> now``; None: the same values. Values are compared, not text: a
+    comment or a help text that changed between wheelrom versions is no difference."""
+    def flat(node, prefix=""):
+        out = {}
+        for key, value in node.items():
+            if isinstance(value, dict):
+                out.update(flat(value, f"{prefix}{key}."))
+            else:
+                out[f"{prefix}{key}"] = value
+        return out
+
+    try:
+        old = flat(tomllib.loads(stored.decode() if isinstance(stored, bytes) else stored))
+    except (AttributeError, tomllib.TOMLDecodeError):
+        return "its configuration attribute is missing or not TOML"
+    new = flat(tomllib.loads(config_mod.to_toml(cfg)))
+    keys = sorted(k for k in old.keys() | new.keys() if old.get(k) != new.get(k))
+    if not keys:
+        return None
+    shown = ", ".join(f"{k}: {old.get(k, '(none)')!r} -> {new.get(k, '(none)')!r}"
+                      for k in keys[:3])  # fmt: skip
+    return shown + (f" and {len(keys) - 3} more" if len(keys) > 3 else "")
+
+
 def resume_problem(path: str, cfg: Config) -> str | None:
     """Why the file at ``path`` cannot be completed for ``cfg`` (None: it can)."""
     import h5py
@@ -216,11 +242,10 @@ def resume_problem(path: str, cfg: Config) -> str | None:
         with h5py.File(path, "r") as f:
             if f.attrs.get("format") != FORMAT:
                 return f"{path} is not a wheelrom sweep file"
-            if f.attrs.get("config") != config_mod.to_toml(cfg):
-                return (
-                    f"{path} was written for a different configuration "
-                    "(compare 'wheelrom config show'); use --force to start again"
-                )
+            changed = config_changes(f.attrs.get("config"), cfg)
+            if changed:
+                return (f"{path} was written for a different configuration ({changed}); use "
+                        "--force to start again")  # fmt: skip
     except OSError as exc:
         return f"{path} cannot be opened for --resume ({exc}); use --force to start again"
     return None

@@ -166,9 +166,10 @@ def resume_problem(path: str, cfg: Config, mode: str, forced: bool = False) -> s
         with h5py.File(path, "r") as f:
             if f.attrs.get("format") != FORMAT:
                 return f"{path} is not a wheelrom study file (format {FORMAT!r})"
-            if f.attrs.get("config") != config_mod.to_toml(cfg):
-                return (f"{path} was written for a different configuration (compare "
-                        "'wheelrom config show'); use --force to start again")  # fmt: skip
+            changed = results.config_changes(f.attrs.get("config"), cfg)
+            if changed:
+                return (f"{path} was written for a different configuration ({changed}); use "
+                        "--force to start again")  # fmt: skip
             if f.attrs.get("study_mode") != mode:
                 return (f"{path} was written by a {f.attrs.get('study_mode')!r} study, this is "
                         f"{mode!r}; use --force to start again")  # fmt: skip

@@ -47,7 +47,7 @@ def sidecar_dir(out: str) -> str:
 
 
 def config_digest(cfg: Config) -> str:
-    return hashlib.sha256(to_toml(cfg).encode()).hexdigest()[:16]
+    return hashlib.sha256(to_toml(cfg, comments=False).encode()).hexdigest()[:16]
 
 
 # ------------------------------------------------------------------ the start of one case
