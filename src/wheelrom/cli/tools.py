@@ -141,9 +141,11 @@ def cmd_plot(args: argparse.Namespace) -> int:
     study, stability, limit-cycle, settle, forced-response or modes file."""
     from wheelrom.plots.figures import plot_file
 
-    if args.outdir:
-        check_outdir(args.outdir)
-    written = plot_file(args.results, args.outdir, pdf=args.pdf, nd_angles=args.nd_angles,
+    # the default folder too (beside the results, which may be read-only): one line, not a
+    # traceback from the staging folder
+    outdir = args.outdir or os.path.splitext(args.results)[0] + "_figures"
+    check_outdir(outdir)
+    written = plot_file(args.results, outdir, pdf=args.pdf, nd_angles=args.nd_angles,
                         force=args.force)  # fmt: skip
     for path in written:
         print(path)
