@@ -10,6 +10,11 @@ bootstrap()  # PETSc location and one BLAS thread per process, before numpy load
 os.environ.setdefault("MPLBACKEND", "Agg")
 HERE = os.path.dirname(__file__)
 SMALL = os.path.join(HERE, "data", "small.toml")
+#: the small wheel as a Van der Pol wheel alone: no contacts, (almost) no structural damping,
+#: the relative law at mu = 10 (a smooth cycle; settle and monodromy tests start from it)
+VDP_WHEEL = ["contacts.tieboss.enabled=false", "contacts.shroud.enabled=false",
+             "wheel.damping_beta=1e-9", "flutter.mu=10.0", "flutter.r=1e-5",
+             'flutter.model="relative"', 'time.scheme="exponential"', "time.step=1e-5"]
 
 
 @pytest.fixture(scope="session")

@@ -18,14 +18,11 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from conftest import SMALL
+from conftest import SMALL, VDP_WHEEL
 from wheelrom import config
 from wheelrom.analysis.periodic.settle import classify
 
-VDP = ["contacts.tieboss.enabled=false", "contacts.shroud.enabled=false",
-       "wheel.damping_beta=1e-9", "flutter.mu=10.0", "flutter.r=1e-5",
-       'flutter.model="relative"', 'time.scheme="exponential"', "time.step=1e-5",
-       "sweep.shroud_angles_deg=[50.0]"]  # fmt: skip
+VDP = [*VDP_WHEEL, "sweep.shroud_angles_deg=[50.0]"]
 
 
 def _van_der_pol(f_hz: float, e: float, t: np.ndarray) -> np.ndarray:

@@ -7,17 +7,13 @@ from wheelrom.runtime.environment import bootstrap, petsc
 
 bootstrap()  # one BLAS thread per rank, before numpy loads
 
-import os  # noqa: E402
-
 import numpy as np  # noqa: E402
 
+from conftest import SMALL, VDP_WHEEL  # noqa: E402
 from wheelrom import config  # noqa: E402
 from wheelrom.studies.limit_cycles import run_limit_cycles  # noqa: E402
 
-SMALL = os.path.join(os.path.dirname(os.path.dirname(__file__)), "data", "small.toml")
-KEYS = ["contacts.tieboss.enabled=false", "contacts.shroud.enabled=false",
-        "wheel.damping_beta=1e-9", "flutter.mu=10.0", "flutter.r=1e-5",
-        'flutter.model="relative"', 'time.scheme="exponential"', "time.step=1e-5",
+KEYS = [*VDP_WHEEL,
         "sweep.shroud_angles_deg=[40.0, 50.0, 60.0]", "limit_cycle.steps=4",
         "limit_cycle.seeds=[1e-5]", "limit_cycle.harmonics=3", "limit_cycle.multipliers=2",
         "limit_cycle.refine=1"]  # fmt: skip

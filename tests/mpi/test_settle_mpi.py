@@ -5,17 +5,13 @@ from wheelrom.runtime.environment import bootstrap, petsc
 
 bootstrap()  # one BLAS thread per rank, before numpy loads
 
-import os  # noqa: E402
-
 import numpy as np  # noqa: E402
 
+from conftest import SMALL, VDP_WHEEL  # noqa: E402
 from wheelrom import config  # noqa: E402
 from wheelrom.studies.settle import run_settle  # noqa: E402
 
-SMALL = os.path.join(os.path.dirname(os.path.dirname(__file__)), "data", "small.toml")
-KEYS = ["contacts.tieboss.enabled=false", "contacts.shroud.enabled=false",
-        "wheel.damping_beta=1e-9", "flutter.mu=10.0", "flutter.r=1e-5",
-        'flutter.model="relative"', 'time.scheme="exponential"', "time.step=1e-5",
+KEYS = [*VDP_WHEEL,
         "sweep.shroud_angles_deg=[50.0, 60.0]", 'settle.start="preload"',
         "settle.seed_amplitude=5e-6", "settle.max_time=0.4"]  # fmt: skip
 

@@ -60,6 +60,16 @@ def window_parameters(params: ForceParameters) -> ForceParameters:
         aero_displacement=np.zeros(3), aero_velocity=np.zeros(3), contacts=contacts)  # fmt: skip
 
 
+def wave_state(c: np.ndarray, wave: int, blades: int, omega: float, tau: float = 0.0):
+    """``(q, v)`` ``(N, m)`` of every blade of travelling wave ``wave`` at phase ``tau`` [rad]
+    from blade 0's complex harmonics ``c`` ``(H + 1, m)`` [sqrt(kg) m] (``c_0`` the mean),
+    ``omega`` [rad/s]: blade ``s`` is blade 0 at ``tau + s 2 pi k / N``."""
+    h = np.arange(c.shape[0])
+    phase = tau + np.arange(blades) * 2 * math.pi * (wave % blades) / blades
+    rotor = np.exp(1j * np.outer(phase, h))  # (N, H + 1)
+    return (rotor @ c).real, omega * ((rotor * (1j * h)) @ c).real
+
+
 @dataclasses.dataclass
 class Linearisation:
     """Force derivatives of blade 0 at the time samples: ``dq``, ``dv`` ``(3, n_t, m, m)``
@@ -192,14 +202,7 @@ class WaveBalance:
         """``(q, v)`` ``(N, m)`` of every blade at phase ``tau`` [rad] of the cycle ``X``,
         ``omega``: blade ``s`` is blade 0 at ``tau + s phi`` (the whole wheel's motion, to
         start a transient on the cycle or to check it with another code)."""
-        c = self.complex_harmonics(X)
-        s = np.arange(self.blades)
-        h = np.arange(self.H + 1)
-        rotor = np.exp(1j * np.outer(tau + s * self.phi, h))  # (N, H + 1)
-        rotor[:, 0] = 1.0
-        q = (rotor @ c).real
-        v = omega * ((rotor * (1j * h)) @ c).real
-        return q, v
+        return wave_state(self.complex_harmonics(X), self.wave, self.blades, omega, tau)
 
     # ------------------------------------------------------------------ AFT
     def samples(self, X: np.ndarray, omega: float) -> tuple[np.ndarray, np.ndarray]:

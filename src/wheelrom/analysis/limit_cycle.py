@@ -138,14 +138,15 @@ class WaveBranch:
                 mu = c.multipliers
                 whole = (f"the whole wheel's largest {mu.largest:.3g}, ND {mu.nd[mu.worst]}"
                          if mu.worst >= 0 else "no multiplier of the whole wheel converged")
+                alone = "the flutter does not settle on this wave alone"
                 if st.by.startswith("monodromy inside"):
                     step = c.refined[-1][0]
                     words.append(f"unstable inside its own symmetry (ND {st.worst_family}: "
                                  f"multiplier {st.multiplier:.3g} per period at a "
-                                 f"{step * 1e6:.2g} us step; {whole} at time.step)")  # fmt: skip
+                                 f"{step * 1e6:.2g} us step; {whole} at time.step; "
+                                 f"{alone})")  # fmt: skip
                 else:
-                    words.append(f"unstable (monodromy: {whole} per period)")
-                words[-1] = words[-1][:-1] + "; the flutter does not settle on this wave alone)"
+                    words.append(f"unstable (monodromy: {whole} per period; {alone})")
             else:
                 words.append(f"unstable ({st.by} {st.worst_family} grows at "
                              f"{st.growth.max():.3g} /s; the flutter does not settle on this "

@@ -139,11 +139,11 @@ def cmd_bench(args: argparse.Namespace) -> int:
 def cmd_plot(args: argparse.Namespace) -> int:
     """Figures (PNG, PDF with --pdf) from a results file of any wheelrom command: a sweep, run,
     study, stability, limit-cycle, settle, forced-response or modes file."""
-    from wheelrom.plots.figures import plot_file
+    from wheelrom.plots.figures import figures_dir, plot_file
 
     # the default folder too (beside the results, which may be read-only): one line, not a
     # traceback from the staging folder
-    outdir = args.outdir or os.path.splitext(args.results)[0] + "_figures"
+    outdir = args.outdir or figures_dir(args.results)
     check_outdir(outdir)
     written = plot_file(args.results, outdir, pdf=args.pdf, nd_angles=args.nd_angles,
                         force=args.force)  # fmt: skip

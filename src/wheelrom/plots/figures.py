@@ -25,6 +25,11 @@ from wheelrom.runtime.errors import InputError
 FONT = {"font.size": 11, "axes.titlesize": 12, "axes.labelsize": 11, "figure.dpi": 110}
 
 
+def figures_dir(path: str) -> str:
+    """The default folder of a results file's figures: ``<results>_figures`` beside it."""
+    return os.path.splitext(path)[0] + "_figures"
+
+
 def plot_file(path: str, outdir: str | None = None, pdf: bool = False,
               nd_angles: tuple[float, float] | None = None, force: bool = False) -> list[str]:
     """Write every figure the file supports into ``outdir``; returns the paths written. An
@@ -38,7 +43,7 @@ def plot_file(path: str, outdir: str | None = None, pdf: bool = False,
 
     if not os.path.exists(path):
         raise InputError(f"{path}: no such results file")
-    outdir = outdir or os.path.splitext(path)[0] + "_figures"
+    outdir = outdir or figures_dir(path)
     try:
         f = h5py.File(path, "r")
     except OSError as exc:

@@ -22,6 +22,7 @@ import time
 
 import numpy as np
 
+from wheelrom.analysis.harmonic_balance import wave_state
 from wheelrom.analysis.periodic.settle import (
     Classification,
     Settings,
@@ -54,7 +55,8 @@ def config_digest(cfg: Config) -> str:
 def _cycle_from_file(path: str, angles: dict, blades: int):
     """``(state (2, N, m), frequency [Hz], tip amplitude [m])`` of the case with ``angles`` in
     a limit-cycle file: its first exact orbit, else its first harmonic-balance cycle (every
-    blade from blade 0's harmonics, ``q_s(0) = Re sum_h c_h e^{i h s 2 pi k / N}``); None."""
+    blade from blade 0's harmonics: :func:`~wheelrom.analysis.harmonic_balance.wave_state`);
+    None."""
     import h5py
 
     with h5py.File(path, "r") as f:
@@ -75,13 +77,10 @@ def _cycle_from_file(path: str, angles: dict, blades: int):
                         return full, 1.0 / c["orbit_period"][j], c["tip_amplitude"][j]
             for w in waves:  # no exact orbit: the harmonic balance's cycle
                 c = w["cycles"]
-                harmonics, hz = c["harmonics"][0], c["frequency_hz"][0]
-                h = np.arange(harmonics.shape[0])
-                rotor = np.exp(1j * np.outer(np.arange(blades) * 2 * np.pi * w.attrs["wave"]
-                                             / blades, h))  # fmt: skip
-                q = (rotor @ harmonics).real
-                v = (rotor * (1j * h * 2 * np.pi * hz)) @ harmonics
-                return np.stack([q, v.real]), hz, c["tip_amplitude"][0]
+                hz = float(c["frequency_hz"][0])
+                q, v = wave_state(c["harmonics"][0], int(w.attrs["wave"]), blades,
+                                  2 * math.pi * hz)  # fmt: skip
+                return np.stack([q, v]), hz, c["tip_amplitude"][0]
     return None
 
 
