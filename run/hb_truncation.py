@@ -20,9 +20,9 @@ bootstrap()
 import h5py  # noqa: E402
 import numpy as np  # noqa: E402
 
-from wheelrom.analysis.harmonic_balance import WaveBalance  # noqa: E402
-from wheelrom.analysis.limit_cycle import periodic_solution  # noqa: E402
 from wheelrom.analysis.periodic.flow import WheelFlow, pattern_model  # noqa: E402
+from wheelrom.analysis.periodic.harmonic_balance import WaveBalance  # noqa: E402
+from wheelrom.analysis.periodic.limit_cycle import periodic_solution  # noqa: E402
 from wheelrom.analysis.stability import linearise  # noqa: E402
 from wheelrom.results.layout import read_config  # noqa: E402
 from wheelrom.rom.build import build_model  # noqa: E402

@@ -134,3 +134,21 @@ def test_a_folder_is_a_stage():
             continue
         doc = ast.get_docstring(ast.parse(Path(path).read_text())) or ""
         assert "May import" in doc, f"{prefix}: its face does not say what it may import"
+
+
+#: every periodic-solution method lives in ``analysis.periodic`` (issue #46): a newcomer finds
+#: the harmonic balance, continuation, Hopf points, Floquet (Hill and monodromy), shooting and
+#: settle in one room; ``analysis`` itself keeps the linear analyses
+PERIODIC = {"harmonic_balance", "continuation", "floquet", "hopf", "cycle_transient",
+            "limit_cycle", "shooting", "monodromy", "settle", "flow", "exact"}
+LINEAR = {"jacobian", "stability", "margin", "forced", "forced_peak"}
+
+
+def test_periodic_solutions_live_in_one_package():
+    modules = _modules()
+    analysis = {m.rpartition(".")[2] for m in modules
+                if m.startswith("wheelrom.analysis.") and m.count(".") == 2}  # fmt: skip
+    periodic = {m.rpartition(".")[2] for m in modules
+                if m.startswith("wheelrom.analysis.periodic.")}  # fmt: skip
+    assert PERIODIC <= periodic, PERIODIC - periodic
+    assert analysis - {"periodic"} <= LINEAR, analysis - {"periodic"} - LINEAR

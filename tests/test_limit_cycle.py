@@ -1,6 +1,6 @@
-"""Limit cycles of travelling waves (:mod:`wheelrom.analysis.harmonic_balance`,
-:mod:`wheelrom.analysis.limit_cycle`, :mod:`wheelrom.analysis.floquet`) against truth that does
-not come from the harmonic balance:
+"""Limit cycles of travelling waves (:mod:`wheelrom.analysis.periodic.harmonic_balance`,
+:mod:`wheelrom.analysis.periodic.limit_cycle`, :mod:`wheelrom.analysis.periodic.floquet`)
+against truth that does not come from the harmonic balance:
 
 - Van der Pol alone (contacts off) on the small wheel: the single-mode reduction of the cycle
   to the classical Van der Pol oscillator, its averaging amplitude and Lindstedt-Poincare
@@ -22,9 +22,9 @@ from scipy.optimize import brentq
 
 from conftest import SMALL
 from wheelrom import config
-from wheelrom.analysis.floquet import exponents, floquet, hill_matrix
-from wheelrom.analysis.harmonic_balance import WaveBalance
-from wheelrom.analysis.limit_cycle import periodic_solution
+from wheelrom.analysis.periodic.floquet import exponents, floquet, hill_matrix
+from wheelrom.analysis.periodic.harmonic_balance import WaveBalance
+from wheelrom.analysis.periodic.limit_cycle import periodic_solution
 from wheelrom.forces.parameters import (
     VDP_ABSOLUTE,
     ContactParameters,

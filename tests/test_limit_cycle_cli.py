@@ -11,7 +11,7 @@ import pytest
 
 from conftest import SMALL
 from wheelrom import config
-from wheelrom.analysis.harmonic_balance import WaveBalance
+from wheelrom.analysis.periodic.harmonic_balance import WaveBalance
 from wheelrom.cli import main as cli
 from wheelrom.forces.parameters import force_parameters
 

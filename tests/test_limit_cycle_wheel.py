@@ -6,9 +6,9 @@ import math
 import numpy as np
 import pytest
 
-from wheelrom.analysis.continuation import BranchSettings
-from wheelrom.analysis.harmonic_balance import WaveBalance
-from wheelrom.analysis.limit_cycle import Settings, case_limit_cycles
+from wheelrom.analysis.periodic.continuation import BranchSettings
+from wheelrom.analysis.periodic.harmonic_balance import WaveBalance
+from wheelrom.analysis.periodic.limit_cycle import Settings, case_limit_cycles
 from wheelrom.forces.parameters import force_parameters
 from wheelrom.transient.run import run_case
 
@@ -77,9 +77,9 @@ def test_the_transient_check_agrees_with_hill_on_a_smooth_cycle(small_model, sma
     a smooth cycle: trivial multiplier 1 to 1e-6) and the transient check (the wheel
     integrated 60 periods from the cycle, every other ND perturbed) both call it stable; on
     the vibro-impact ND 6 cycle at 80 deg the transient check finds other NDs growing."""
-    from wheelrom.analysis.cycle_transient import transient_stability
-    from wheelrom.analysis.floquet import floquet
-    from wheelrom.analysis.limit_cycle import periodic_solution
+    from wheelrom.analysis.periodic.cycle_transient import transient_stability
+    from wheelrom.analysis.periodic.floquet import floquet
+    from wheelrom.analysis.periodic.limit_cycle import periodic_solution
     from wheelrom.analysis.stability import linearise
 
     cfg = small_cfg.replace(**{"contacts.tieboss.enabled": False, "contacts.shroud.enabled": False,

@@ -20,10 +20,10 @@ import pytest
 
 from conftest import SMALL
 from wheelrom import config
-from wheelrom.analysis.continuation import BranchSettings
-from wheelrom.analysis.harmonic_balance import WaveBalance
-from wheelrom.analysis.limit_cycle import Settings, case_limit_cycles, periodic_solution
+from wheelrom.analysis.periodic.continuation import BranchSettings
 from wheelrom.analysis.periodic.flow import WheelFlow, pattern_blades, pattern_model
+from wheelrom.analysis.periodic.harmonic_balance import WaveBalance
+from wheelrom.analysis.periodic.limit_cycle import Settings, case_limit_cycles, periodic_solution
 from wheelrom.analysis.periodic.monodromy import floquet_multipliers
 from wheelrom.analysis.periodic.shooting import Shooting, sample_orbit
 from wheelrom.forces.parameters import force_parameters
@@ -198,9 +198,9 @@ def test_impact_orbit_multiplier_by_two_computations(impact_cycle, small_model):
 def test_a_monodromy_that_converged_nothing_decides_nothing():
     """SLEPc within its restarts found no multiplier: the cycle is not called stable (its
     largest would read 0), and the verdict says what happened."""
-    from wheelrom.analysis.floquet import FloquetResult
-    from wheelrom.analysis.limit_cycle import WaveBranch
     from wheelrom.analysis.periodic.cycle import Cycle
+    from wheelrom.analysis.periodic.floquet import FloquetResult
+    from wheelrom.analysis.periodic.limit_cycle import WaveBranch
     from wheelrom.analysis.periodic.monodromy import Multipliers
 
     empty = Multipliers(np.zeros(0, complex), np.zeros(0, int), np.zeros(0, int), -1, 0.01)

@@ -25,10 +25,10 @@ import time
 
 import numpy as np
 
-from wheelrom.analysis.floquet import floquet
-from wheelrom.analysis.harmonic_balance import WaveBalance
-from wheelrom.analysis.hopf import hopf_point, wave_blocks, wave_mode
-from wheelrom.analysis.limit_cycle import (
+from wheelrom.analysis.periodic.floquet import floquet
+from wheelrom.analysis.periodic.harmonic_balance import WaveBalance
+from wheelrom.analysis.periodic.hopf import hopf_point, wave_blocks, wave_mode
+from wheelrom.analysis.periodic.limit_cycle import (
     FASTEST,
     case_limit_cycles,
     describe,

@@ -28,7 +28,7 @@ def _waves(text: str | None):
     (as ``limit_cycle.waves``); an empty item (``5,,6``) is refused, not skipped."""
     if text is None:
         return None
-    from wheelrom.analysis.limit_cycle import FASTEST
+    from wheelrom.analysis.periodic.limit_cycle import FASTEST
 
     if text.strip() == "fastest":
         return (FASTEST,)

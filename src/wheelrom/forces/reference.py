@@ -69,7 +69,8 @@ class ReferenceForces:
         contact kind, ``normal_force`` ``(S, K)`` [N], ``friction_power`` ``(S, K)`` [W] (the
         friction force's power on the pair's relative slip, <= 0) and ``contact_state``
         ``(S, K)`` (OPEN/STICK/SLIP). One compiled call: the harmonic balance's time samples
-        and their finite-difference perturbations (:mod:`wheelrom.analysis.harmonic_balance`)."""
+        and their finite-difference perturbations
+        (:mod:`wheelrom.analysis.periodic.harmonic_balance`)."""
         p, c = self.params, self.params.contacts
         _kernel_samples(q, v, force, p.omega, p.stator_vanes, p.nozzle_force, p.excitation,
                         p.nozzle_phase, p.vdp_model, p.vdp_mu, p.vdp_r, p.aero,

@@ -20,8 +20,9 @@ CYCLE_FIELDS = ("lam", "frequency_hz", "tip_amplitude", "tip_harmonics", "normal
 
 
 def write_limit_cycles(f, cfg: Config, model: ReducedModel, cases: list) -> None:
-    """The whole file from :class:`~wheelrom.analysis.limit_cycle.CaseLimitCycles` per case of
-    ``cfg``'s grid, with the configuration and ``/model``."""
+    """The whole file from
+    :class:`~wheelrom.analysis.periodic.limit_cycle.CaseLimitCycles` per case of ``cfg``'s
+    grid, with the configuration and ``/model``."""
     f.attrs["format"] = FORMAT
     f.attrs["config"] = config_mod.to_toml(cfg)
     f.attrs["config_source"] = cfg.source

@@ -2,7 +2,7 @@
 (any keys: a grid, zipped lists or CSV cases, so a sweep of a preload, a friction coefficient
 or an angle gives the limit-cycle amplitude against it) or of the sweep's contact angles,
 every travelling wave unstable at its preloaded equilibrium (or the waves asked for), by
-harmonic balance and continuation (:mod:`wheelrom.analysis.limit_cycle`); cases dealt
+harmonic balance and continuation (:mod:`wheelrom.analysis.periodic.limit_cycle`); cases dealt
 round-robin to the MPI ranks and gathered on rank 0, which writes the file.
 
 The models (one per group of cases that share one) are built on rank 0 and broadcast, so the
@@ -15,7 +15,7 @@ import time
 
 import numpy as np
 
-from wheelrom.analysis.limit_cycle import CaseLimitCycles, case_limit_cycles, settings_of
+from wheelrom.analysis.periodic.limit_cycle import CaseLimitCycles, case_limit_cycles, settings_of
 from wheelrom.config import Config
 from wheelrom.config.study import expand, short_name
 from wheelrom.runtime.errors import InputError

@@ -22,7 +22,7 @@ import time
 
 import numpy as np
 
-from wheelrom.analysis.harmonic_balance import wave_state
+from wheelrom.analysis.periodic.harmonic_balance import wave_state
 from wheelrom.analysis.periodic.settle import (
     Classification,
     Settings,
@@ -55,8 +55,8 @@ def config_digest(cfg: Config) -> str:
 def _cycle_from_file(path: str, angles: dict, blades: int):
     """``(state (2, N, m), frequency [Hz], tip amplitude [m])`` of the case with ``angles`` in
     a limit-cycle file: its first exact orbit, else its first harmonic-balance cycle (every
-    blade from blade 0's harmonics: :func:`~wheelrom.analysis.harmonic_balance.wave_state`);
-    None."""
+    blade from blade 0's harmonics:
+    :func:`~wheelrom.analysis.periodic.harmonic_balance.wave_state`); None."""
     import h5py
 
     with h5py.File(path, "r") as f:
@@ -87,8 +87,8 @@ def _cycle_from_file(path: str, angles: dict, blades: int):
 def _start(model, cfg: Config, angles: dict, cycles_file: str | None, comm=None):
     """``(u0 (2 N m,), frequency [Hz], words, cycle tip amplitude [m] or nan)`` of one case's
     start, the perturbation added."""
-    from wheelrom.analysis.limit_cycle import case_limit_cycles
-    from wheelrom.analysis.limit_cycle import settings_of as lc_settings
+    from wheelrom.analysis.periodic.limit_cycle import case_limit_cycles
+    from wheelrom.analysis.periodic.limit_cycle import settings_of as lc_settings
     from wheelrom.transient.preload import start_perturbation
 
     st, N = cfg.settle, model.blades
@@ -111,7 +111,7 @@ def _start(model, cfg: Config, angles: dict, cycles_file: str | None, comm=None)
         q0 = u0[0].reshape(N, -1)
         seed = amplitude * st.perturbation
     else:  # the preloaded equilibrium, the unstable waves seeded
-        from wheelrom.analysis.hopf import wave_blocks, wave_mode
+        from wheelrom.analysis.periodic.hopf import wave_blocks, wave_mode
         from wheelrom.analysis.stability import linearise
 
         params, q, _, J, _ = linearise(model, cfg, angles, comm)

@@ -1,5 +1,5 @@
 """One periodic solution of a travelling wave, as the harmonic balance or the shooting finds
-it: what both report (:mod:`wheelrom.analysis.limit_cycle`, :mod:`.exact`)."""
+it: what both report (:mod:`wheelrom.analysis.periodic.limit_cycle`, :mod:`.exact`)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from wheelrom.analysis.floquet import FloquetResult
+from wheelrom.analysis.periodic.floquet import FloquetResult
 
 
 @dataclass

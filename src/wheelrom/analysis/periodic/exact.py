@@ -9,8 +9,8 @@ import math
 
 import numpy as np
 
-from wheelrom.analysis.floquet import TRUSTED, FloquetResult
 from wheelrom.analysis.periodic.cycle import Cycle
+from wheelrom.analysis.periodic.floquet import TRUSTED, FloquetResult
 from wheelrom.analysis.periodic.monodromy import floquet_multipliers
 from wheelrom.analysis.periodic.report import orbit_quantities
 from wheelrom.analysis.periodic.shooting import Orbit, Shooting

@@ -1,5 +1,5 @@
 """The reported quantities of an exact periodic orbit, from one period at every TS step (the
-same as the harmonic balance reports for its cycles: :func:`wheelrom.analysis.limit_cycle.
+same as the harmonic balance reports for its cycles: :func:`wheelrom.analysis.periodic.limit_cycle.
 describe`), so either method fills one table."""
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from wheelrom.forces.reference import ReferenceForces
 
 
 def orbit_quantities(shooting: Shooting, orbit: Orbit, harmonics: int, lam: float) -> dict:
-    """The :class:`~wheelrom.analysis.limit_cycle.Cycle` fields of ``orbit`` (per blade:
+    """The :class:`~wheelrom.analysis.periodic.limit_cycle.Cycle` fields of ``orbit`` (per blade:
     blade 0 of the pattern; per contact kind: blade pair ``(0, 1)``, which every pair repeats
     shifted in time). ``harmonics``: ``H`` of blade 0's harmonics ``c_h`` (``(H + 1, m)``
     complex, by the DFT of the samples). Energies per cycle by the rectangle rule on the

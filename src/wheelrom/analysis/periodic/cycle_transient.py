@@ -8,7 +8,7 @@ The cycle holds the NDs of its harmonics (``h k`` mod ``N``, ``h = 0..H``); ever
 starts at ``PERTURBATION`` of the tip amplitude (the lowest mode of every ND, random phases:
 :func:`wheelrom.transient.preload.start_perturbation`) and is followed over ``PERIODS``
 periods in windows of five periods; its growth rate is the slope of ``log`` of its window
-amplitude over the second half. The result has :class:`~wheelrom.analysis.floquet.
+amplitude over the second half. The result has :class:`~wheelrom.analysis.periodic.floquet.
 FloquetResult`'s shape (the families are the NDs), so reports treat both alike.
 """
 
@@ -18,8 +18,8 @@ import math
 
 import numpy as np
 
-from wheelrom.analysis.floquet import FloquetResult
-from wheelrom.analysis.harmonic_balance import WaveBalance
+from wheelrom.analysis.periodic.floquet import FloquetResult
+from wheelrom.analysis.periodic.harmonic_balance import WaveBalance
 from wheelrom.config import Config
 from wheelrom.rom.model import ReducedModel, nodal_diameter
 from wheelrom.transient.preload import start_perturbation

@@ -1,5 +1,5 @@
 """Newton (PETSc SNES) and pseudo-arclength continuation of a travelling wave's harmonic
-balance (:class:`wheelrom.analysis.harmonic_balance.WaveBalance`).
+balance (:class:`wheelrom.analysis.periodic.harmonic_balance.WaveBalance`).
 
 The extended unknown ``z = (y, Omega, lam)``: the harmonics in units of ``x_scale`` (one per
 packed row: the mean ``c_0``, which carries the preload's static deflection, in its own units,
@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wheelrom.analysis.harmonic_balance import Linearisation, WaveBalance
+from wheelrom.analysis.periodic.harmonic_balance import Linearisation, WaveBalance
 from wheelrom.runtime.environment import petsc
 
 PREFIX = "limitcycle_"

@@ -17,13 +17,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from wheelrom.analysis.continuation import BranchSettings, Corrector, Point, trace
-from wheelrom.analysis.cycle_transient import transient_stability
-from wheelrom.analysis.floquet import floquet
-from wheelrom.analysis.harmonic_balance import WaveBalance
-from wheelrom.analysis.hopf import GROWTH_TOLERANCE, hopf_point, wave_blocks, wave_mode
+from wheelrom.analysis.periodic.continuation import BranchSettings, Corrector, Point, trace
 from wheelrom.analysis.periodic.cycle import Cycle
+from wheelrom.analysis.periodic.cycle_transient import transient_stability
 from wheelrom.analysis.periodic.exact import exact_cycle, monodromy_stability
+from wheelrom.analysis.periodic.floquet import floquet
+from wheelrom.analysis.periodic.harmonic_balance import WaveBalance
+from wheelrom.analysis.periodic.hopf import GROWTH_TOLERANCE, hopf_point, wave_blocks, wave_mode
 from wheelrom.analysis.stability import linearise
 from wheelrom.config import Config
 from wheelrom.forces.parameters import VDP_OFF
