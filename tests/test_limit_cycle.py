@@ -25,6 +25,7 @@ from wheelrom import config
 from wheelrom.analysis.periodic.floquet import exponents, floquet, hill_matrix
 from wheelrom.analysis.periodic.harmonic_balance import WaveBalance
 from wheelrom.analysis.periodic.limit_cycle import periodic_solution
+from wheelrom.forces.contact_law import PAPER, ContactLaw
 from wheelrom.forces.parameters import (
     VDP_ABSOLUTE,
     ContactParameters,
@@ -233,7 +234,7 @@ W0 = 2 * math.pi * 100.0  # [rad/s] a blade alone
 COUPLING = 0.05 * W0**2  # [1/s^2] spring to each neighbour
 MU, R = 40.0, 1e-3  # Van der Pol [N s/m], [m]
 PRELOAD = 10.0  # [N]
-FRICTION = np.array([0.6, 0.4, 2.0, 0.05])  # f_s, f_d, decay [s/m], v_k [m/s]
+FRICTION = ContactLaw(PAPER, 0.6, 0.4, 2.0, 0.05, 0.4)  # f_s, f_d, decay [s/m], v_k [m/s]
 BETA = 1e-6  # [s]
 WAVE = 1  # blade s + 1 leads blade s by 120 deg
 T_END = 0.5  # [s] of transient: ~55 periods, 14 time constants of the slowest exponent
@@ -259,12 +260,12 @@ def friction_wheel():
         point_A=points[:1].copy(), point_B=points[1:].copy(), arm_length=np.array([0.0]),
         frame=np.broadcast_to(contact_frame(90.0), (1, N3, 3, 3)).copy(),
         stiffness=np.full((1, N3), 1e7), preload=np.array([PRELOAD]),
-        angles_deg={"shroud": np.full(N3, 90.0)})  # fmt: skip
+        angles_deg={"shroud": np.full(N3, 90.0)}, tangential=np.zeros((1, N3)))  # fmt: skip
     params = ForceParameters(
         blades=N3, modes=1, omega=0.0, stator_vanes=0, nozzle_force=0.0,
         excitation=np.zeros(1), nozzle_phase=np.zeros(N3), vdp_model=VDP_ABSOLUTE, vdp_mu=MU,
         vdp_r=R, aero=np.array([1.0]), aero_displacement=np.zeros(N3),
-        aero_velocity=np.zeros(N3), friction=FRICTION, rotation=np.eye(3),
+        aero_velocity=np.zeros(N3), law=FRICTION, rotation=np.eye(3),
         contacts=contacts)  # fmt: skip
     return model, params
 

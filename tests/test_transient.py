@@ -373,7 +373,7 @@ def test_kernel_exp_is_within_two_ulp_of_the_correctly_rounded_value():
     double range it accepts (and its clamping outside), in units in the last place."""
     import numba
 
-    from wheelrom.transient.fastmath import fexp
+    from wheelrom.forces.fastmath import fexp
 
     @numba.njit
     def kernel_exp(x):

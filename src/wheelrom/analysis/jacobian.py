@@ -10,8 +10,12 @@ without the work integrals. At a static state (``q' = 0``, nozzle excluded)::
   terms of the preload (the arm direction ``e`` and the force transfer ``L/|d|`` move with
   ``q``), and the aerodynamic table's stiffness part (``-mu a_j p p^T``); friction and Van der
   Pol forces are proportional to ``q'`` and add nothing here;
-- ``F_v``: micro-slip friction, the linear damper ``-(f_s F_n / v_k) (I - n n^T) v_c`` it is
-  below ``v_k``, and the Van der Pol damping ``mu (1 - (y/r)^2)`` (absolute) or its relative
+- under the elastic contact law (``contacts.law = "elastic"``) every closed contact sticks
+  at the equilibrium (its slider at rest there, no tangential force): ``F_q`` gets its
+  tangential spring ``-k_t (I - n n^T) u_c`` and friction adds no damping;
+- ``F_v``: the paper law's micro-slip friction, the linear damper ``-(f_s F_n / v_k) (I -
+  n n^T) v_c`` it is below ``v_k``, and the Van der Pol damping ``mu (1 - (y/r)^2)``
+  (absolute) or its relative
   form (neighbours coupled), on the aero direction ``p`` (one mode when ``flutter.mode`` is
   set: the force parameters carry that choice), or the aerodynamic table's damping part
   (``-mu b_j p p^T`` at block ``(s, s + j)``).
@@ -49,9 +53,12 @@ class ContactLinearisation:
     damping: np.ndarray
 
 
-def contact_linearisation(params: ForceParameters, q: np.ndarray, c: int) -> ContactLinearisation:
+def contact_linearisation(params: ForceParameters, q: np.ndarray, c: int,
+                          static: bool = False) -> ContactLinearisation:  # fmt: skip
     """Linearise contact kind ``c`` of every blade pair at the static state ``q`` ``(N, m)``
-    (vectorised over the pairs; formulas in docs/theory.md, "Linear stability")."""
+    (vectorised over the pairs; formulas in docs/theory.md, "Linear stability"). ``static``:
+    the tangent of the static preload problem, where the elastic law's sliders follow the
+    load (no tangential spring), as the paper law's friction at rest."""
     cp, R = params.contacts, params.rotation
     N, m = q.shape
     XA, XB = cp.shape_A[c], cp.shape_B[c]  # (3, m)
@@ -59,7 +66,7 @@ def contact_linearisation(params: ForceParameters, q: np.ndarray, c: int) -> Con
     T = cp.frame[c]  # (N, 3, 3)
     n = T[:, 1]  # surface normal eta of each pair, sector s's frame
     L, k, preload = cp.arm_length[c], cp.stiffness[c], cp.preload[c]
-    f_s, v_k = params.friction[0], params.friction[3]
+    f_s, v_k = params.law.static, params.law.microslip_velocity
     chord0 = cp.point_B[c] - cp.point_A[c]
     e0 = chord0 / np.linalg.norm(chord0)
     d = chord0 + q @ D.T  # (N, 3)
@@ -76,6 +83,10 @@ def contact_linearisation(params: ForceParameters, q: np.ndarray, c: int) -> Con
     closed = normal_force > 0.0
     F = normal_force[:, None] * n  # the force on A_{s+1}
     dF = n[:, :, None] * (-k[:, None] * np.einsum("ni,nij->nj", n, duc))[:, None, :]
+    tangent = np.eye(3) - n[:, :, None] * n[:, None, :]
+    elastic = params.law.elastic
+    if elastic and not static:  # the stuck contact's spring (no force at rest: no geometric part)
+        dF = dF - cp.tangential[c][:, None, None] * (tangent @ duc)
     # the arm end's share moved onto B: F_B = -(L/|d|) P F; d(1/|d|) = d_inv,
     # d(P F) = P dF - (e.F) de - e (F^T de)
     d_inv = -(e @ dd) / nd[:, :, 0] ** 2  # (N, 2m)
@@ -84,10 +95,11 @@ def contact_linearisation(params: ForceParameters, q: np.ndarray, c: int) -> Con
     dFB = -L * ((P @ F[:, :, None]) * d_inv[:, None, :]
                 + (P @ dF - eF * de - e[:, :, None] * FdE) / nd)  # fmt: skip
     stiffness = _transfer(XA, D, R, dF, dFB)
-    # micro-slip friction at rest: a linear damper in the tangent plane
-    tangent = np.eye(3) - n[:, :, None] * n[:, None, :]
+    # micro-slip friction at rest: a linear damper in the tangent plane (the paper law; a
+    # stuck elastic contact dissipates nothing)
     dvc = np.concatenate([-XA - L * P @ D / nd, np.broadcast_to(R @ XA, (N, 3, m))], axis=2)
-    dF_v = -(f_s * normal_force / v_k)[:, None, None] * (tangent @ dvc)
+    damper = 0.0 if elastic else f_s * normal_force / v_k
+    dF_v = -np.broadcast_to(damper, (N,))[:, None, None] * (tangent @ dvc)
     damping = _transfer(XA, D, R, dF_v, -(L / nd) * (P @ dF_v))
     stiffness[~closed] = 0.0
     damping[~closed] = 0.0
@@ -182,7 +194,7 @@ def force_derivatives(params: ForceParameters, q: np.ndarray, stiffness_only: bo
     contacts = []
     pairs = np.arange(N)
     for c in range(len(params.contacts.kinds)):
-        lin = contact_linearisation(params, q, c)
+        lin = contact_linearisation(params, q, c, static=stiffness_only)
         contacts.append(lin)
         for a, blade in enumerate((pairs, (pairs + 1) % N)):
             for b, other in enumerate((pairs, (pairs + 1) % N)):

@@ -144,6 +144,15 @@ class ContactConfig:
         default=5e8,
         metadata=_key("N/m", "axial stiffness of the arm, in series for stiffness = 'fe'", gt=0.0),
     )
+    tangential_stiffness: Any = field(
+        default="mindlin",
+        metadata=_key(
+            "N/m",
+            "contacts.law = 'elastic' only: tangential stiffness k_t of the stuck contact, a "
+            "number or 'mindlin' (Mindlin's ratio 2 (1 - nu) / (2 - nu) of the normal "
+            "stiffness k_c at each blade's angle, nu = segment.poisson: 0.82 k_c)",
+        ),
+    )
 
 
 def _shroud_default() -> ContactConfig:
@@ -152,8 +161,20 @@ def _shroud_default() -> ContactConfig:
     )
 
 
+#: the contact laws (docs/theory.md, "Contact laws"): the paper's regularised Coulomb law of
+#: the slip velocity (Fig. 4) or the elastic Coulomb contact (a Jenkins slider per contact)
+CONTACT_LAWS = ("paper", "elastic")
+
+
 @dataclass(frozen=True)
 class ContactsConfig:
+    law: str = field(
+        default="paper",
+        metadata=_key("-", "'paper' (friction of the slip velocity, Fig. 4: f_s, f_d, decay, "
+                      "v_k) or 'elastic' (Coulomb with a tangential stiffness k_t while the "
+                      "contact sticks, mu = friction.coulomb when it slips)",
+                      choices=CONTACT_LAWS),  # fmt: skip
+    )
     tieboss: ContactConfig = field(default_factory=ContactConfig)
     shroud: ContactConfig = field(default_factory=_shroud_default)
 
@@ -174,6 +195,12 @@ class FrictionConfig:
     )
     microslip_velocity: float = field(
         default=0.6, metadata=_key("m/s", "micro-slip velocity v_k", gt=0.0)
+    )
+    coulomb: float = field(
+        default=0.4,
+        metadata=_key("-", "contacts.law = 'elastic' only: Coulomb coefficient mu of the "
+                      "slipping contact (Table 1's f_d, the coefficient of sustained sliding)",
+                      min=0.0, max=10.0),  # fmt: skip
     )
 
 
@@ -431,6 +458,7 @@ def _cross_checks(cfg: Config, problems: list[str]) -> None:
                 f"flutter.mode: {cfg.flutter.mode} is not below wheel.modes_per_segment "
                 f"({w.modes_per_segment})"
             )
+    _law_problems(cfg, problems)
     for kind in CONTACT_KINDS:
         c = cfg.contact(kind)
         if is_number(c.profile_thickness) and is_number(c.arm_length):
@@ -438,6 +466,21 @@ def _cross_checks(cfg: Config, problems: list[str]) -> None:
                 problems.append(
                     f"contacts.{kind}.profile_thickness: must be shorter than arm_length"
                 )
+
+
+def _law_problems(cfg: Config, problems: list[str]) -> None:
+    """Keys of the elastic law set under the paper law: they would be silently unused."""
+    if cfg.contacts.law != "paper":
+        return
+    # a value that is wrong by itself is reported by its own key already
+    unused = [f"contacts.{kind}.tangential_stiffness" for kind in CONTACT_KINDS
+              if is_number(k_t := cfg.contact(kind).tangential_stiffness) and k_t > 0]
+    coulomb = cfg.friction.coulomb
+    if is_number(coulomb) and coulomb >= 0 and coulomb != FrictionConfig.coulomb:
+        unused.append("friction.coulomb")
+    for key in unused:
+        problems.append(f"{key}: applies to contacts.law = 'elastic' only (the law is "
+                        "'paper': set contacts.law = 'elastic' or remove the key)")
 
 
 def from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Config:

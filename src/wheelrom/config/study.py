@@ -308,9 +308,11 @@ def model_key(cfg: Config) -> str:
         data.pop(section, None)
     for key in FORCE_WHEEL_KEYS:
         _drop(data, f"wheel.{key}")
+    _drop(data, "contacts.law")
     for kind in CONTACT_KINDS:
         _drop(data, f"contacts.{kind}.angle_deg")
         _drop(data, f"contacts.{kind}.normal_preload")
+        _drop(data, f"contacts.{kind}.tangential_stiffness")
         if cfg.contact(kind).stiffness != "fe":
             for key in ("stiffness", "arm_length", "arm_axial_stiffness"):
                 _drop(data, f"contacts.{kind}.{key}")

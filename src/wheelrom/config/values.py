@@ -72,6 +72,17 @@ def convert_stiffness(where: str, value: Any, problems: list[str]) -> Any:
     return value
 
 
+def convert_tangential_stiffness(where: str, value: Any, problems: list[str]) -> Any:
+    """``k_t`` of the elastic law: a number > 0 [N/m] or ``"mindlin"``."""
+    if isinstance(value, str):
+        if value != "mindlin":
+            problems.append(f"{where}: expected a number [N/m] or 'mindlin', got {value!r}")
+        return value
+    if check_number(where, value, {"gt": 0.0, "unit": "N/m"}, problems):
+        return float(value)
+    return value
+
+
 def convert_node_sets(where: str, value: Any, problems: list[str]) -> Any:
     if not isinstance(value, Mapping):
         problems.append(f"{where}: expected a table name = [[x, y, z], ...]")
@@ -201,6 +212,8 @@ def convert_field(where: str, f: dataclasses.Field, value: Any, problems: list[s
     default = f.default if f.default is not dataclasses.MISSING else f.default_factory()
     if f.name == "stiffness":
         return convert_stiffness(where, value, problems)
+    if f.name == "tangential_stiffness":
+        return convert_tangential_stiffness(where, value, problems)
     if f.name == "node_sets":
         return convert_node_sets(where, value, problems)
     if meta.get("study_table"):

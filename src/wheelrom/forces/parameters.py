@@ -17,12 +17,13 @@ import numpy as np
 from wheelrom.config import Config
 from wheelrom.config.aero import read_aero_table
 from wheelrom.forces.aero import AeroOperator, aero_operator
+from wheelrom.forces.contact_law import OPEN, SLIP, STICK, ContactLaw, contact_law, mindlin_ratio
 from wheelrom.rom.model import ReducedModel
 
 VDP_OFF, VDP_ABSOLUTE, VDP_RELATIVE, AERO_TABLE = 0, 1, 2, 3
 VDP_MODELS = {"off": VDP_OFF, "absolute": VDP_ABSOLUTE, "relative": VDP_RELATIVE,
               "table": AERO_TABLE}  # fmt: skip
-OPEN, STICK, SLIP = 0, 1, 2  # contact states (STICK: micro-slip branch |v| <= v_k)
+__all__ = ["OPEN", "SLIP", "STICK", "ContactParameters", "ForceParameters", "force_parameters"]
 
 
 def contact_frame(angle_deg: float) -> np.ndarray:
@@ -55,7 +56,8 @@ class ContactParameters:
     coordinate; ``point_A``, ``point_B``: ``(K, 3)`` undeformed A, B [m]; ``arm_length``:
     ``(K,)`` rigid arm L [m]; ``frame``: ``(K, N, 3, 3)`` local frame ``T_g2l`` per blade;
     ``stiffness``: ``(K, N)`` normal stiffness k_c [N/m]; ``preload``: ``(K,)`` F_N0 [N];
-    ``angles_deg``: kind -> ``(N,)`` contact surface angle per blade.
+    ``angles_deg``: kind -> ``(N,)`` contact surface angle per blade; ``tangential``:
+    ``(K, N)`` tangential stiffness k_t [N/m] of the elastic law (zeros under the paper law).
     """
 
     kinds: tuple[str, ...]
@@ -68,6 +70,7 @@ class ContactParameters:
     stiffness: np.ndarray
     preload: np.ndarray
     angles_deg: dict
+    tangential: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -81,8 +84,9 @@ class ForceParameters:
     AERO_TABLE), ``vdp_r`` [m]; ``aero``: ``(m,)`` Van der Pol direction (mean aero ``y`` per
     modal coordinate, restricted to ``flutter.mode`` when set); ``aero_displacement``,
     ``aero_velocity``: ``(N,)`` the table's influence coefficients ``a_j`` [N/m], ``b_j``
-    [N s/m] (:mod:`wheelrom.forces.aero`; zeros for the other models); ``friction``:
-    ``(4,)`` (f_s, f_d, decay [s/m], v_k [m/s]); ``rotation``: ``(3, 3)`` R.
+    [N s/m] (:mod:`wheelrom.forces.aero`; zeros for the other models); ``law``: the
+    tangential contact law (:class:`~wheelrom.forces.contact_law.ContactLaw`, ``friction``
+    its packed record); ``rotation``: ``(3, 3)`` R.
     """
 
     blades: int
@@ -98,9 +102,20 @@ class ForceParameters:
     aero: np.ndarray
     aero_displacement: np.ndarray
     aero_velocity: np.ndarray
-    friction: np.ndarray
+    law: ContactLaw
     rotation: np.ndarray
     contacts: ContactParameters
+
+    @property
+    def friction(self) -> np.ndarray:
+        """The contact law's packed record (:meth:`ContactLaw.packed`)."""
+        return self.law.packed()
+
+    @property
+    def sliders(self) -> int:
+        """Slider coordinates of the state per case: ``2 K N`` under the elastic law, 0
+        under the paper law (it has none)."""
+        return 2 * len(self.contacts.kinds) * self.blades if self.law.elastic else 0
 
     def shared(self) -> tuple:
         """Everything but the contact frames and stiffnesses (what the cases of one batch
@@ -133,7 +148,7 @@ def force_parameters(model: ReducedModel, cfg: Config,
     """The force parameters of ``cfg`` on ``model``; ``angles_deg``: kind -> contact angle
     [deg] (a number or one per blade) instead of ``contacts.<kind>.angle_deg``."""
     N, m = model.blades, model.modes
-    w, fl, fr = cfg.wheel, cfg.flutter, cfg.friction
+    w, fl = cfg.wheel, cfg.flutter
     aero = selected_aero(model, cfg)
     a, b = np.zeros(N), np.zeros(N)
     if fl.model == "table":
@@ -153,7 +168,7 @@ def force_parameters(model: ReducedModel, cfg: Config,
         aero=aero,
         aero_displacement=a,
         aero_velocity=b,
-        friction=np.array([fr.static, fr.dynamic, fr.decay, fr.microslip_velocity]),
+        law=contact_law(cfg),
         rotation=np.ascontiguousarray(model.rotation),
         contacts=_contact_parameters(model, cfg, angles_deg or {}),
     )
@@ -188,6 +203,8 @@ def _contact_parameters(model: ReducedModel, cfg: Config, angles_deg: dict) -> C
     K = len(kinds)
     frame = np.zeros((K, N, 3, 3))
     k_c = np.zeros((K, N))
+    k_t = np.zeros((K, N))
+    elastic = cfg.contacts.law == "elastic"
     angles = {}
     for i, kind in enumerate(kinds):
         c = cfg.contact(kind)
@@ -201,6 +218,10 @@ def _contact_parameters(model: ReducedModel, cfg: Config, angles_deg: dict) -> C
         for s in range(N):
             frame[i, s] = contact_frame(ang[s])
             k_c[i, s] = stiffness_at(stiffness, ang[s])
+        if elastic:
+            tangential = c.tangential_stiffness
+            k_t[i] = (mindlin_ratio(cfg.segment.poisson) * k_c[i] if tangential == "mindlin"
+                      else float(tangential))  # fmt: skip
     return ContactParameters(
         kinds=tuple(kinds),
         shape_A=np.array([model.contact_A[k] for k in kinds]).reshape(K, 3, m),
@@ -212,4 +233,5 @@ def _contact_parameters(model: ReducedModel, cfg: Config, angles_deg: dict) -> C
         stiffness=k_c,
         preload=np.array([cfg.contact(k).normal_preload for k in kinds], dtype=float),
         angles_deg=angles,
+        tangential=k_t,
     )

@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 
+from wheelrom.forces.contact_law import tangential_force
 from wheelrom.forces.parameters import ForceParameters
 from wheelrom.runtime import kernel_cache as _kernel_cache
 
@@ -28,6 +29,9 @@ class ReferenceForces:
       kind and blade pair ``(s, s+1)``; ``contact_state``: ``(K, N)`` OPEN/STICK/SLIP;
     - ``relative_displacement``, ``relative_velocity``: ``(K, N, 3)`` local (xi, eta, zeta);
     - ``friction_force``: ``(K, N, 2)`` friction force (xi, zeta) [N] on ``A_{s+1}``;
+    - ``slider``: ``(K, N, 2)`` the elastic law's sliders (xi, zeta) [m] the last evaluation
+      used, ``slider_next`` the same returned onto the Coulomb limit at that state (what a
+      step that ends there keeps; both unused under the paper law);
     - ``vdp_displacement``: ``(N,)`` Van der Pol reference displacement ``y_s`` [m];
     - ``power``: ``(3,)`` power of nozzle, Van der Pol and friction forces [W].
     """
@@ -43,23 +47,35 @@ class ReferenceForces:
         self.relative_displacement = np.zeros((K, N, 3))
         self.relative_velocity = np.zeros((K, N, 3))
         self.friction_force = np.zeros((K, N, 2))
+        self.slider = np.zeros((K, N, 2))
+        self.slider_next = np.zeros((K, N, 2))
         self.vdp_displacement = np.zeros(N)
         self.power = np.zeros(3)
         self._work = np.zeros((N, 4))
 
-    def evaluate(self, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    def evaluate(self, t: float, q: np.ndarray, v: np.ndarray,
+                 slider: np.ndarray | None = None) -> np.ndarray:  # fmt: skip
         """Fill and return ``self.force`` ``(N, m)`` for modal state ``q, v`` ``(N, m)`` at
-        time ``t`` [s]."""
+        time ``t`` [s]; ``slider`` ``(K, N, 2)`` [m]: the elastic law's sliders (None: the
+        ones in ``self.slider``)."""
         p, c = self.params, self.params.contacts
+        if slider is not None:
+            self.slider[...] = np.reshape(slider, self.slider.shape)
         _kernel(t, q, v, self.force, p.omega, p.stator_vanes, p.nozzle_force, p.excitation,
                 p.nozzle_phase, p.vdp_model, p.vdp_mu, p.vdp_r, p.aero, p.aero_displacement,
                 p.aero_velocity, p.friction, p.rotation,
                 c.shape_A, c.shape_B, c.point_A, c.point_B, c.arm_length, c.frame, c.stiffness,
-                c.preload, self.normal_force, self.slip_velocity, self.normal_gap,
-                self.contact_state, self.relative_displacement, self.relative_velocity,
-                self.friction_force, self.vdp_displacement, self.power,
-                self._work)  # fmt: skip
+                c.preload, c.tangential, self.slider, self.slider_next, self.normal_force,
+                self.slip_velocity, self.normal_gap, self.contact_state,
+                self.relative_displacement, self.relative_velocity, self.friction_force,
+                self.vdp_displacement, self.power, self._work)  # fmt: skip
         return self.force
+
+    def sliders_at_rest(self, q: np.ndarray) -> np.ndarray:
+        """``(K, N, 2)`` sliders [m] that leave every contact at ``q`` ``(N, m)`` without
+        tangential force (``w = u_t``): the start of an elastic-law run."""
+        self.evaluate(0.0, q, np.zeros_like(q))
+        return self.relative_displacement[:, :, ::2].copy()
 
     def evaluate_samples(self, q: np.ndarray, v: np.ndarray, force: np.ndarray,
                          normal_force: np.ndarray, friction_power: np.ndarray,
@@ -76,7 +92,8 @@ class ReferenceForces:
                         p.nozzle_phase, p.vdp_model, p.vdp_mu, p.vdp_r, p.aero,
                         p.aero_displacement, p.aero_velocity, p.friction, p.rotation,
                         c.shape_A, c.shape_B, c.point_A, c.point_B, c.arm_length, c.frame,
-                        c.stiffness, c.preload, self.normal_force, self.slip_velocity,
+                        c.stiffness, c.preload, c.tangential, self.slider, self.slider_next,
+                        self.normal_force, self.slip_velocity,
                         self.normal_gap, self.contact_state, self.relative_displacement,
                         self.relative_velocity, self.friction_force, self.vdp_displacement,
                         self.power, self._work, normal_force, friction_power,
@@ -98,15 +115,16 @@ class ReferenceForces:
 
 @_kernel_cache.njit(fastmath=False)
 def _kernel(t, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p_aero, aero_a,
-            aero_b, friction, R, XA, XB, A_pt, B_pt, arm, T, kc, preload, normal, slip, gap,
-            state, rel_u, rel_v, fric, y_vdp, power, work):  # fmt: skip
+            aero_b, law, R, XA, XB, A_pt, B_pt, arm, T, kc, preload, kt, slider, slider_next,
+            normal, slip, gap, state, rel_u, rel_v, fric, y_vdp, power, work):  # fmt: skip
     """The forces of :class:`ReferenceForces` (argument names as in docs/theory.md: ``XA``,
     ``XB`` contact shapes, ``A_pt``, ``B_pt`` undeformed contact points, ``T`` frames)."""
     p_noz, p_vdp = _nozzle_and_van_der_pol(t, q, v, out, omega, n_s, Fb, p_exc, phase,
                                            vdp_model, mu, r, p_aero, aero_a, aero_b, y_vdp,
                                            work)  # fmt: skip
-    p_fric = _contact_forces(q, v, out, friction, R, XA, XB, A_pt, B_pt, arm, T, kc, preload,
-                             normal, slip, gap, state, rel_u, rel_v, fric)  # fmt: skip
+    p_fric = _contact_forces(q, v, out, law, R, XA, XB, A_pt, B_pt, arm, T, kc, preload, kt,
+                             slider, slider_next, normal, slip, gap, state, rel_u, rel_v,
+                             fric)  # fmt: skip
     power[0] = p_noz
     power[1] = p_vdp
     power[2] = p_fric
@@ -114,15 +132,16 @@ def _kernel(t, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p_aero
 
 @_kernel_cache.njit(fastmath=False)
 def _kernel_samples(q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p_aero, aero_a,
-                    aero_b, friction, R, XA, XB, A_pt, B_pt, arm, T, kc, preload, normal, slip,
-                    gap, state, rel_u, rel_v, fric, y_vdp, power, work, normal_out,
-                    power_out, state_out):  # fmt: skip
+                    aero_b, law, R, XA, XB, A_pt, B_pt, arm, T, kc, preload, kt, slider,
+                    slider_next, normal, slip, gap, state, rel_u, rel_v, fric, y_vdp, power,
+                    work, normal_out, power_out, state_out):  # fmt: skip
     """:func:`_kernel` at ``t = 0`` for every state ``q[i], v[i]`` (``(S, N, m)``), keeping
     blade pair 0's normal force, friction power and state per contact kind."""
     for i in range(q.shape[0]):
         _kernel(0.0, q[i], v[i], out[i], omega, n_s, Fb, p_exc, phase, vdp_model, mu, r,
-                p_aero, aero_a, aero_b, friction, R, XA, XB, A_pt, B_pt, arm, T, kc, preload,
-                normal, slip, gap, state, rel_u, rel_v, fric, y_vdp, power, work)
+                p_aero, aero_a, aero_b, law, R, XA, XB, A_pt, B_pt, arm, T, kc, preload, kt,
+                slider, slider_next, normal, slip, gap, state, rel_u, rel_v, fric, y_vdp,
+                power, work)
         for c in range(normal.shape[0]):
             normal_out[i, c] = normal[c, 0]
             power_out[i, c] = fric[c, 0, 0] * rel_v[c, 0, 0] + fric[c, 0, 1] * rel_v[c, 0, 2]
@@ -187,12 +206,12 @@ def _nozzle_and_van_der_pol(t, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_mode
 
 
 @_kernel_cache.njit(fastmath=False)
-def _contact_forces(q, v, out, friction, R, XA, XB, A_pt, B_pt, arm, T, kc, preload, normal,
-                    slip, gap, state, rel_u, rel_v, fric):  # fmt: skip
-    """Contact forces (eqs. 16-20) added to ``out``, contact states left in the arrays;
-    returns the friction power [W]."""
+def _contact_forces(q, v, out, law, R, XA, XB, A_pt, B_pt, arm, T, kc, preload, kt, slider,
+                    slider_next, normal, slip, gap, state, rel_u, rel_v, fric):  # fmt: skip
+    """Contact forces (eqs. 16-20; the tangential law of the record ``law``:
+    :mod:`wheelrom.forces.contact_law`) added to ``out``, contact states and the returned
+    sliders left in the arrays; returns the tangential force's power [W]."""
     N, m = q.shape
-    f_s, f_d, decay, v_k = friction[0], friction[1], friction[2], friction[3]
     p_fric = 0.0
     rows = np.empty((16, 3))  # 3-vectors of one contact, as row views
     uA, uB, vA, vB, uN, vN, d, dd = rows[0], rows[1], rows[2], rows[3], rows[4], rows[5], \
@@ -235,26 +254,16 @@ def _contact_forces(q, v, out, friction, R, XA, XB, A_pt, B_pt, arm, T, kc, prel
             for a in range(3):
                 rel_u[c, s, a] = ul[a]
                 rel_v[c, s, a] = vl[a]
-            Fn = preload[c] - kc[c, s] * ul[1]  # eq. 19
+            Fn = max(preload[c] - kc[c, s] * ul[1], 0.0)  # eq. 19; 0: open
             gap[c, s] = ul[1]
-            vt = math.sqrt(vl[0] * vl[0] + vl[2] * vl[2])
-            slip[c, s] = vt
-            Ft0 = 0.0
-            Ft2 = 0.0
-            if Fn <= 0.0:
-                Fn = 0.0
-                state[c, s] = 0
-            else:
-                if vt <= v_k:
-                    coef = f_s * vt / v_k  # micro-slip branch (Fig. 4)
-                    state[c, s] = 1
-                else:
-                    coef = f_d + (f_s - f_d) * math.exp(-decay * (vt - v_k))
-                    state[c, s] = 2
-                if vt > 0.0:
-                    Ft0 = -coef * Fn * vl[0] / vt
-                    Ft2 = -coef * Fn * vl[2] / vt
-                p_fric += Ft0 * vl[0] + Ft2 * vl[2]
+            slip[c, s] = math.sqrt(vl[0] * vl[0] + vl[2] * vl[2])
+            Ft0, Ft2, st, w0, w2 = tangential_force(law, ul[0], ul[2], vl[0], vl[2],
+                                                    slider[c, s, 0], slider[c, s, 1], Fn,
+                                                    kt[c, s])  # fmt: skip
+            state[c, s] = st
+            slider_next[c, s, 0] = w0
+            slider_next[c, s, 1] = w2
+            p_fric += Ft0 * vl[0] + Ft2 * vl[2]
             normal[c, s] = Fn
             fric[c, s, 0] = Ft0
             fric[c, s, 1] = Ft2

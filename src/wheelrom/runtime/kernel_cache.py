@@ -27,11 +27,12 @@ from collections.abc import Callable
 KERNEL_SOURCES = (
     "transient/kernel.py",
     "transient/contact_kernel.py",
-    "transient/fastmath.py",
+    "forces/fastmath.py",
     "transient/layout.py",
     "transient/bridge.py",
     "transient/exponential_kernel.py",
     "forces/reference.py",
+    "forces/contact_law.py",
 )
 
 COMPILING_MESSAGE = "compiling kernels (first run only)"

@@ -22,6 +22,18 @@ from wheelrom.runtime.errors import InputError
 from wheelrom.studies.plan import shared_models
 
 
+def paper_law_only(study, command: str) -> None:
+    """Refuse, before anything is computed, a study with a case under the elastic contact
+    law in a command that does not carry its sliders yet (the harmonic balance's hysteretic
+    AFT, the shooting and the monodromy with the sliders in the state: issue #44)."""
+    elastic = [i for i, c in enumerate(study.configs) if c.contacts.law == "elastic"]
+    if elastic:
+        which = "the configuration" if study.size == 1 else f"case {elastic[0]} of the study"
+        raise InputError(f"{command}: {which} has contacts.law = 'elastic', which {command} "
+                         "does not carry yet (its periodic solutions need the sliders in the "
+                         "state); the transient, stability, margin, sweep and study do")
+
+
 def run_limit_cycles(cfg: Config, comm=None, log=print, waves=None,
                      progress=None) -> tuple[object, list[CaseLimitCycles]]:  # fmt: skip
     """``(model, results)`` of every case of ``cfg``'s study (``[study]`` grid, zip or CSV
@@ -30,6 +42,7 @@ def run_limit_cycles(cfg: Config, comm=None, log=print, waves=None,
     case's). ``waves``: the travelling waves to analyse instead of ``limit_cycle.waves``;
     ``progress(text)`` (rank 0) at every branch point."""
     study = expand(cfg)
+    paper_law_only(study, "limit-cycle")
     rank, size = (comm.rank, comm.size) if comm is not None else (0, 1)
     say = log if rank == 0 and log is not None else (lambda *_: None)
     t0 = time.perf_counter()

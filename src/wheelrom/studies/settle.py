@@ -33,6 +33,7 @@ from wheelrom.analysis.periodic.settle import (
 from wheelrom.config import Config, to_toml
 from wheelrom.config.study import expand, short_name
 from wheelrom.runtime.errors import InputError
+from wheelrom.studies.limit_cycles import paper_law_only
 from wheelrom.studies.plan import shared_models
 
 
@@ -190,6 +191,7 @@ def run_settle(cfg: Config, out: str | None, comm=None, log=print, resume: bool 
     """``(model, [(angles, parameters, Settled)])`` of every case on rank 0 (others: the
     model and ``[]``)."""
     study = expand(cfg)
+    paper_law_only(study, "settle")
     rank, size = (comm.rank, comm.size) if comm is not None else (0, 1)
     say = log if rank == 0 and log is not None else (lambda *_: None)
     model_of, models = shared_models(study.configs, comm, say)

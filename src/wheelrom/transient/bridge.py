@@ -18,15 +18,16 @@ import numpy as np
 from llvmlite import binding as llvm
 from numba import types
 
+from wheelrom.forces.fastmath import double_ptr, long_ptr
 from wheelrom.runtime import kernel_cache as _kernel_cache
 from wheelrom.runtime.environment import petsc
-from wheelrom.transient.fastmath import double_ptr, long_ptr
-from wheelrom.transient.kernel import rhs_core, sample_core
+from wheelrom.transient.kernel import rhs_core, sample_core, slide_core
 from wheelrom.transient.layout import (
     H_LEN,
     H_NSTATE,
     H_OFFSETS,
     H_RHS_CALLS,
+    H_SLIDERS,
     H_SLOT_F,
     H_SLOT_U,
     H_USER_REASON,
@@ -44,7 +45,7 @@ def _context_at(ctx_addr):
 
 @numba.njit
 def _state_at(address, ctx):
-    """A PETSc state Vec's array (``B (2 N m + 4)`` doubles) at ``address``."""
+    """A PETSc state Vec's array (``H_NSTATE`` doubles: the kernel layout) at ``address``."""
     return numba.carray(double_ptr(address), int(ctx[H_NSTATE]))
 
 
@@ -96,8 +97,9 @@ _vec_restore_array_read = types.ExternalFunction("VecRestoreArrayRead", _I32(_I6
 _vec_get_array = types.ExternalFunction("VecGetArray", _I32(_I64, _I64))
 _vec_restore_array = types.ExternalFunction("VecRestoreArray", _I32(_I64, _I64))
 _ts_set_converged_reason = types.ExternalFunction("TSSetConvergedReason", _I32(_I64, _I32))
+_ts_restart_step = types.ExternalFunction("TSRestartStep", _I32(_I64))
 _PETSC_SYMBOLS = ("VecGetArrayRead", "VecRestoreArrayRead", "VecGetArray", "VecRestoreArray",
-                  "TSSetConvergedReason")  # fmt: skip
+                  "TSSetConvergedReason", "TSRestartStep")  # fmt: skip
 _RHS_SIGNATURE = types.int32(types.int64, types.float64, types.int64, types.int64, types.int64)
 _MONITOR_SIGNATURE = types.int32(types.int64, types.int32, types.float64, types.int64,
                                  types.int64)  # fmt: skip
@@ -126,10 +128,24 @@ def _rhs_callback(ts, t, U, F, ctx_addr):
 
 
 def _monitor_callback(ts, step, t, U, ctx_addr):
-    """``TSMonitor`` (C): the output samples through :func:`sample_core`; stops the TS (user
-    reason) when no case is left running."""
+    """``TSMonitor`` (C), after every step: the elastic law's sliders returned onto the
+    Coulomb limit (:func:`slide_core`; when one moved, the TS restarts its next step: an
+    FSAL scheme's last stage saw the old ones), then the output samples through
+    :func:`sample_core`; stops the TS (user reason) when no case is left running."""
     ctx, slots = _context_at(ctx_addr)
     slot_u = ctx_addr + 8 * H_SLOT_U
+    if ctx[H_SLIDERS] > 0.0:
+        err = _vec_get_array(U, slot_u)
+        if err:
+            return err
+        moved = slide_core(_state_at(slots[H_SLOT_U], ctx), ctx)
+        err = _vec_restore_array(U, slot_u)
+        if err:
+            return err
+        if moved:
+            err = _ts_restart_step(ts)
+            if err:
+                return err
     err = _vec_get_array_read(U, slot_u)
     if err:
         return err

@@ -1,18 +1,16 @@
 """The contact part of the compiled kernel: per contact kind, the displacements and velocities
-of the profile points of every column (blade, case) and the contact law of eqs. 16-20,
+of the profile points of every column (blade, case), the kinematics of eqs. 16-20 and the
+tangential law of :mod:`wheelrom.forces.contact_law` (the record every consumer reads),
 branch-free so that it vectorises (docs/theory.md, docs/performance.md)."""
 
 from __future__ import annotations
 
 import math
 
+from wheelrom.forces.contact_law import LAW_SIZE, tangential_force
+from wheelrom.forces.fastmath import NOALIAS
 from wheelrom.runtime import kernel_cache as _kernel_cache
-from wheelrom.transient.fastmath import NOALIAS, fexp
 from wheelrom.transient.layout import (
-    H_DECAY,
-    H_FD,
-    H_FS,
-    H_VK,
     I_AP,
     I_ARM,
     I_BP,
@@ -20,6 +18,8 @@ from wheelrom.transient.layout import (
     I_FB,
     I_FN,
     I_KC,
+    I_KT,
+    I_LAW,
     I_NORMAL,
     I_PRELOAD,
     I_R,
@@ -29,6 +29,7 @@ from wheelrom.transient.layout import (
     I_UB,
     I_VA,
     I_VB,
+    I_WNEXT,
     I_XA,
     I_XB,
     get,
@@ -36,10 +37,12 @@ from wheelrom.transient.layout import (
 
 
 @_kernel_cache.njit(fastmath={"contract"}, error_model="numpy")
-def contacts(ctx, kind, N, m, K, B, Q, V, column):
+def contacts(ctx, kind, N, m, K, B, Q, V, column, sliders):
     """Contact forces of contact ``kind`` at A (with the neighbour's push on it) and B of
     every column left in ``FA[kind]``, ``FB[kind]`` [N], its friction power per column added
-    to ``column`` [W]; normal forces and states left in the context."""
+    to ``column`` [W]; normal forces, states and the returned sliders left in the context.
+    ``sliders``: ``(K, 2, N B)`` the elastic law's sliders of the state (unread under the
+    paper law)."""
     NB = N * B
     W = (N + 1) * B
     c = kind
@@ -108,13 +111,16 @@ def contacts(ctx, kind, N, m, K, B, Q, V, column):
     normal = get(ctx, I_NORMAL, K * NB).reshape((K, NB))
     state = get(ctx, I_STATE, K * NB).reshape((K, NB))
     R = get(ctx, I_R, 9).reshape((3, 3))
-    law = (ctx[H_FS], ctx[H_FD], ctx[H_DECAY], ctx[H_VK])
+    law = get(ctx, I_LAW, LAW_SIZE)
+    k_t = get(ctx, I_KT, K * NB).reshape((K, NB))
+    slider_next = get(ctx, I_WNEXT, K * 2 * NB).reshape((K, 2, NB))
     geometry = (Apt[c, 0], Apt[c, 1], Apt[c, 2], Bpt[c, 0], Bpt[c, 1], Bpt[c, 2],
                 get(ctx, I_ARM, K)[c], get(ctx, I_PRELOAD, K)[c])  # fmt: skip
     # the next blade's rows as 1-D views (a 2-D view UA[:, B:] would not be contiguous)
     next_a = (UA[0, B:], UA[1, B:], UA[2, B:], VA[0, B:], VA[1, B:], VA[2, B:])
     next_f = (FN[0, B:], FN[1, B:], FN[2, B:])
-    _contact_columns(NB, UA, UB, VA, VB, *next_a, T[c], kc[c], R, geometry, law,
+    _contact_columns(NB, UA, UB, VA, VB, *next_a, T[c], kc[c], R, geometry, law, k_t[c],
+                     sliders[c, 0], sliders[c, 1], slider_next[c, 0], slider_next[c, 1],
                      FA, FB, *next_f, normal[c], state[c], column)  # fmt: skip
     # the force on A_{s+1} of the last blade's arm went to the ghost column: blade 0
     for a in range(3):
@@ -128,8 +134,10 @@ def contacts(ctx, kind, N, m, K, B, Q, V, column):
 
 @_kernel_cache.njit(fastmath={"contract"}, error_model="numpy", **NOALIAS)
 def _contact_columns(NB, UA, UB, VA, VB, uax, uay, uaz, vax, vay, vaz, T, kc, R, geometry, law,
-                     FA, FB, fnx, fny, fnz, normal, state, column):  # fmt: skip
-    """The contact law of every column (eqs. 16-20), branch-free so that it vectorises.
+                     k_t, w_xi, w_zeta, wn_xi, wn_zeta, FA, FB, fnx, fny, fnz, normal, state,
+                     column):  # fmt: skip
+    """The contact law of every column (eqs. 16-20), branch-free so that it vectorises (the
+    law's choice is the same for every column: LLVM unswitches it out of the loop).
 
     ``uax ... vaz``, ``fnx ... fnz``: the rows of ``UA``, ``VA``, ``FN`` from the next blade
     on (entry ``c`` is blade ``s + 1``), as views: see :func:`_load_state` on offset indices.
@@ -138,11 +146,9 @@ def _contact_columns(NB, UA, UB, VA, VB, uax, uay, uaz, vax, vay, vaz, T, kc, R,
     runtime overlap checks that otherwise keep this loop scalar.
     """
     ax, ay, az, bx, by, bz, L, preload = geometry
-    f_s, f_d, decay, v_k = law
     d0x, d0y, d0z = bx - ax, by - ay, bz - az
     l0 = math.sqrt(d0x * d0x + d0y * d0y + d0z * d0z)
     e0x, e0y, e0z = d0x / l0, d0y / l0, d0z / l0
-    inv_vk = 1.0 / v_k
     r00, r01, r02 = R[0, 0], R[0, 1], R[0, 2]
     r10, r11, r12 = R[1, 0], R[1, 1], R[1, 2]
     r20, r21, r22 = R[2, 0], R[2, 1], R[2, 2]
@@ -177,21 +183,18 @@ def _contact_columns(NB, UA, UB, VA, VB, uax, uay, uaz, vax, vay, vaz, T, kc, R,
         t10, t11, t12 = T[3, col], T[4, col], T[5, col]
         t20, t21, t22 = T[6, col], T[7, col], T[8, col]
         gap = t10 * ucx + t11 * ucy + t12 * ucz  # local eta (eq. 18)
+        u_xi = t00 * ucx + t01 * ucy + t02 * ucz
+        u_zeta = t20 * ucx + t21 * ucy + t22 * ucz
         v_xi = t00 * vcx + t01 * vcy + t02 * vcz
         v_zeta = t20 * vcx + t21 * vcy + t22 * vcz
-        trial = preload - kc[col] * gap  # eq. 19; open when <= 0
-        Fn = max(trial, 0.0)
-        vt = math.sqrt(v_xi * v_xi + v_zeta * v_zeta)
-        micro = vt <= v_k  # micro-slip branch (Fig. 4)
-        coef_slip = f_d + (f_s - f_d) * fexp(-decay * (vt - v_k))
-        coef = f_s * vt * inv_vk if micro else coef_slip
-        # vt = 0 gives coef = 0 and zero force, as the law's limit
-        scale = -coef * Fn / max(vt, 1e-300)
-        F_xi = scale * v_xi
-        F_zeta = scale * v_zeta
+        Fn = max(preload - kc[col] * gap, 0.0)  # eq. 19; 0: open
+        F_xi, F_zeta, st, w0, w2 = tangential_force(law, u_xi, u_zeta, v_xi, v_zeta, w_xi[col],
+                                                    w_zeta[col], Fn, k_t[col])  # fmt: skip
+        wn_xi[col] = w0
+        wn_zeta[col] = w2
         column[col] += F_xi * v_xi + F_zeta * v_zeta
         normal[col] = Fn
-        state[col] = 0.0 if trial <= 0.0 else (1.0 if micro else 2.0)
+        state[col] = st
         # force on A_{s+1} in sector s's frame: T^T (F_xi, F_n, F_zeta)
         Fx = t00 * F_xi + t10 * Fn + t20 * F_zeta
         Fy = t01 * F_xi + t11 * Fn + t21 * F_zeta

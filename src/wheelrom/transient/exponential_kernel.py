@@ -15,7 +15,7 @@ and ``e2 = (0, 1)`` (the explicit part acts on the velocity only):
 from __future__ import annotations
 
 from wheelrom.runtime import kernel_cache as _kernel_cache
-from wheelrom.transient.kernel import rhs_core
+from wheelrom.transient.kernel import rhs_core, slide_core
 from wheelrom.transient.layout import H_ACTIVE, H_B, H_M, H_N, H_RHS_CALLS, I_ACTIVE, get
 
 C_FULL, C_HALF, C_PHI_HALF, C_F1, C_F2, C_F3 = 0, 4, 8, 10, 12, 14
@@ -40,9 +40,10 @@ def _propagate(E, j, u, out, NB, n):
 
 @_kernel_cache.njit(fastmath={"contract"}, error_model="numpy")
 def etd4_step(t, h, u, ctx, coef, work):
-    """Advance the kernel state ``u`` (length ``B (2 N m + 4)``) from ``t`` by ``h`` [s] in
-    place. ``coef``: ``(C_ROWS, m)`` for this ``h``; ``work``: ``(6, len(u))`` scratch
-    (the four stage derivatives, two stage states). Frozen (diverged) cases keep their state.
+    """Advance the kernel state ``u`` (kernel layout, :mod:`.layout`) from ``t`` by ``h``
+    [s] in place; the elastic law's sliders are returned onto the Coulomb limit at its end.
+    ``coef``: ``(C_ROWS, m)`` for this ``h``; ``work``: ``(6, len(u))`` scratch (the four
+    stage derivatives, two stage states). Frozen (diverged) cases keep their state.
     """
     N = int(ctx[H_N])
     m = int(ctx[H_M])
@@ -88,6 +89,7 @@ def etd4_step(t, h, u, ctx, coef, work):
     else:
         for k in range(size):
             u[k] = a[k]
+    slide_core(u, ctx)  # the elastic law's sliders at the step's end (none: nothing)
 
 
 @_kernel_cache.njit(fastmath={"contract"}, error_model="numpy")

@@ -37,6 +37,7 @@ from wheelrom.transient.layout import (
     H_R,
     H_SAMPLE_DT,
     H_SKIP_LINEAR,
+    H_SLIDERS,
     H_STATE_CAP,
     H_STATE_EVERY,
     H_VDP,
@@ -74,6 +75,7 @@ from wheelrom.transient.layout import (
     I_TIP,
     I_UB,
     I_VT,
+    I_WNEXT,
     I_WT,
     I_XA,
     I_XB,
@@ -121,6 +123,16 @@ def _load_state(u, ctx, N, m, B, beta):
 
 
 @numba.njit(inline="always")
+def _sliders(u, ctx, n, K, NB, B):
+    """``(K, 2, N B)`` the elastic law's sliders of the state ``u`` (a view); under the paper
+    law, which has none, the context's scratch of returned sliders (never read)."""
+    if ctx[H_SLIDERS] > 0.0:
+        start = 2 * n + 4 * B
+        return u[start : start + K * 2 * NB].reshape((K, 2, NB))
+    return get(ctx, I_WNEXT, K * 2 * NB).reshape((K, 2, NB))
+
+
+@numba.njit(inline="always")
 def _case_sums(column, out, N, B):
     """``out[b] = sum_s column[s B + b]`` (blades in order: the same sum for any ``B``)."""
     for b in range(B):
@@ -133,8 +145,9 @@ def _case_sums(column, out, N, B):
 
 @_kernel_cache.njit(fastmath={"contract"}, error_model="numpy")
 def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
-    """``f = (q', q'', W')`` for the batch state ``u = (q, q', W)`` at ``t`` [s] (kernel
-    layout, length ``B (2 N m + 4)``; see the module docstring)."""
+    """``f = (q', q'', W', w')`` for the batch state ``u = (q, q', W, w)`` at ``t`` [s]
+    (kernel layout, :mod:`.layout`; ``w'`` = 0: the elastic law's sliders move only when a
+    step ends, :func:`slide_core`)."""
     N = int(ctx[H_N])
     m = int(ctx[H_M])
     K = int(ctx[H_K])
@@ -229,8 +242,9 @@ def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
     # contacts: the arm of blade s (A_s, B_s, end C_s) against A_{s+1}
     for c in range(NB):
         column[c] = 0.0
+    sliders = _sliders(u, ctx, n, K, NB, B)
     for kind in range(K):
-        contacts(ctx, kind, N, m, K, B, Q, V, column)
+        contacts(ctx, kind, N, m, K, B, Q, V, column, sliders)
     _case_sums(column, power[2], N, B)
     # K_R w row by row (row s = A0 w_s + A1 w_{s+1} + A1^T w_{s-1}; A0 diagonal in the
     # kernel's basis), written straight into f with the forces: the contact forces are
@@ -326,6 +340,8 @@ def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
         f[2 * n + B + b] = power[1, b]
         f[2 * n + 2 * B + b] = power[2, b]
         f[2 * n + 3 * B + b] = -beta * power[3, b]
+    for k in range(2 * n + 4 * B, f.size):
+        f[k] = 0.0
     if ctx[H_ACTIVE] < B:  # frozen (diverged) cases stay where they stopped
         active = get(ctx, I_ACTIVE, B)
         for b in range(B):
@@ -441,8 +457,9 @@ def sample_core(t, u, ctx):
         Q = u[:n].reshape((m, NB))
         V = u[n : 2 * n].reshape((m, NB))
         column = get(ctx, I_COL, NB)
+        sliders = _sliders(u, ctx, n, K, NB, B)
         for kind in range(K):
-            contacts(ctx, kind, N, m, K, B, Q, V, column)
+            contacts(ctx, kind, N, m, K, B, Q, V, column, sliders)
         normal = get(ctx, I_NORMAL, K * NB).reshape((K, NB))
         state = get(ctx, I_STATE, K * NB).reshape((K, NB))
         for b in range(B):
@@ -460,6 +477,40 @@ def sample_core(t, u, ctx):
                 sopen[b, k, c] = opened
     return 1 if ctx[H_ACTIVE] <= 0.0 else 0
 
+
+@_kernel_cache.njit(fastmath={"contract"}, error_model="numpy")
+def slide_core(u, ctx):
+    """The end of a step under the elastic law: every running case's sliders in ``u``
+    returned onto the Coulomb limit at the state ``u`` (the contact law's return map,
+    :func:`wheelrom.forces.contact_law.elastic_friction`); returns 1 when one moved (the
+    integrator must then restart: the force at the step's end changed with it), 0 when none
+    did or the law has none."""
+    if ctx[H_SLIDERS] <= 0.0:
+        return 0
+    N = int(ctx[H_N])
+    m = int(ctx[H_M])
+    K = int(ctx[H_K])
+    B = int(ctx[H_B])
+    NB = N * B
+    n = m * NB
+    Q = u[:n].reshape((m, NB))
+    V = u[n : 2 * n].reshape((m, NB))
+    column = get(ctx, I_COL, NB)  # scratch: the next rhs_core overwrites it
+    sliders = _sliders(u, ctx, n, K, NB, B)
+    for kind in range(K):
+        contacts(ctx, kind, N, m, K, B, Q, V, column, sliders)
+    returned = get(ctx, I_WNEXT, K * 2 * NB).reshape((K, 2, NB))
+    active = get(ctx, I_ACTIVE, B)
+    moved = 0
+    for c in range(K):
+        for a in range(2):
+            w = sliders[c, a]
+            w_new = returned[c, a]
+            for col in range(NB):
+                if w_new[col] != w[col] and active[col % B] != 0.0:
+                    w[col] = w_new[col]
+                    moved = 1
+    return moved
 
 
 def multiply_adds(N: int, m: int, K: int) -> int:

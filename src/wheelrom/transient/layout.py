@@ -6,14 +6,18 @@ window, with named numpy views into it (:class:`Context`), and the kernel's stat
 sweep: they differ only in their contact frames and stiffnesses). The kernel's state layout
 puts the case index innermost::
 
-    u = ( q[j, s, b],  q'[j, s, b],  W[k, b] )      mode j, blade s, case b
+    u = ( q[j, s, b],  q'[j, s, b],  W[k, b],  w[c, a, s, b] )   mode j, blade s, case b
+
+(``w``: the elastic contact law's sliders, contact kind ``c``, direction ``a`` = xi, zeta;
+none under the paper law)
 
 so every loop runs over the ``N B`` contiguous *columns* ``(s, b)``: the neighbouring blade of
 column ``c`` is column ``c + B``, and the loops vectorise (AVX2) over blades and cases alike.
 Every operation on a column reads and writes that column's case only, so a case's result does
 not depend on the batch it runs in (the sweep tests hold batches of 1 and 3 bitwise equal).
 ``B = 1`` is a single case. :meth:`Context.pack` / :meth:`Context.unpack` convert from and to
-the blade-major single-case state ``(q[s, j], q'[s, j], W[k])`` used everywhere else.
+the blade-major single-case state ``(q[s, j], q'[s, j], W[k], w[c, s, a])`` used everywhere
+else (:func:`state_size`).
 """
 
 from __future__ import annotations
@@ -21,20 +25,22 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from wheelrom.forces.contact_law import LAW_SIZE
 from wheelrom.forces.parameters import ForceParameters
 from wheelrom.runtime.environment import petsc
 
 H_LEN, H_N, H_M, H_K, H_VDP, H_NS, H_OMEGA, H_FB, H_MU, H_R, H_BETA = range(11)
-H_FS, H_FD, H_DECAY, H_VK, H_USER_REASON, H_SAMPLE_DT, H_NEXT_SAMPLE = range(11, 18)
-H_EXPONENTIAL = 18  # 1: leave A0 out of the force (the exponential scheme propagates it)
-H_CAP, H_LIMIT, H_RHS_CALLS, H_SLOT_U, H_SLOT_F, H_OVERFLOW, H_NSTATE = range(19, 26)
-H_SKIP_LINEAR = 26  # 1: leave out the K_R product (benchmarks of the force part alone)
-H_B = 27  # cases in the batch
-H_ACTIVE = 28  # cases still running (a diverged case is frozen)
-H_STATE_EVERY = 29  # record the modal state at every k-th sample (0: never)
-H_STATE_CAP = 30  # state samples one window can hold per case
-H_MISTUNED = 31  # 1: blade s's diagonal block is A0 + delta_s K_seg (a mistuned wheel)
-H_OFFSETS = 32  # offsets of the arrays below start here
+H_SLIDERS = 11  # slider coordinates per case: 2 K N under the elastic law, else 0
+H_USER_REASON, H_SAMPLE_DT, H_NEXT_SAMPLE = range(12, 15)
+H_EXPONENTIAL = 15  # 1: leave A0 out of the force (the exponential scheme propagates it)
+H_CAP, H_LIMIT, H_RHS_CALLS, H_SLOT_U, H_SLOT_F, H_OVERFLOW, H_NSTATE = range(16, 23)
+H_SKIP_LINEAR = 23  # 1: leave out the K_R product (benchmarks of the force part alone)
+H_B = 24  # cases in the batch
+H_ACTIVE = 25  # cases still running (a diverged case is frozen)
+H_STATE_EVERY = 26  # record the modal state at every k-th sample (0: never)
+H_STATE_CAP = 27  # state samples one window can hold per case
+H_MISTUNED = 28  # 1: blade s's diagonal block is A0 + delta_s K_seg (a mistuned wheel)
+H_OFFSETS = 29  # offsets of the arrays below start here
 
 # arrays in the context, in order; shapes from (N, m, K, B, capacity)
 _ARRAYS = (
@@ -96,6 +102,12 @@ _ARRAYS = (
     # the aerodynamic table's influence coefficients a_j [N/m], b_j [N s/m] (H_VDP = 3)
     ("aero_a", lambda N, m, K, B, c, c2: (N,)),
     ("aero_b", lambda N, m, K, B, c, c2: (N,)),
+    # the contact law's record (wheelrom.forces.contact_law, L_* indices), the elastic law's
+    # tangential stiffness k_t [N/m] per column and the sliders returned onto the Coulomb
+    # limit at the last contact evaluation (what the step's end keeps)
+    ("law", lambda N, m, K, B, c, c2: (LAW_SIZE,)),
+    ("k_t", lambda N, m, K, B, c, c2: (K, N * B)),
+    ("slider_next", lambda N, m, K, B, c, c2: (K, 2, N * B)),
 )
 _INDEX = {name: i for i, (name, _) in enumerate(_ARRAYS)}
 (
@@ -103,7 +115,7 @@ _INDEX = {name: i for i, (name, _) in enumerate(_ARRAYS)}
     I_KC, I_PRELOAD, I_TIP, I_ACTIVE, I_STOP, I_STOPT, I_COUNT, I_VT, I_WT, I_KW, I_DV, I_NOZ,
     I_Y, I_YD, I_PAIR, I_G, I_COL, I_UA, I_UB, I_VA, I_VB, I_FA, I_FB, I_FN, I_NORMAL, I_STATE,
     I_POWER, I_STIME, I_STIP, I_SMIN, I_SOPEN, I_STOTAL, I_XCOUNT, I_XTIME, I_XSTATE, I_KSEG,
-    I_DELTA, I_AEROA, I_AEROB,
+    I_DELTA, I_AEROA, I_AEROB, I_LAW, I_KT, I_WNEXT,
 ) = range(len(_ARRAYS))  # fmt: skip
 
 STOP_NONFINITE, STOP_AMPLITUDE = 1, 2
@@ -159,10 +171,10 @@ class Context:
         h[H_LEN], h[H_N], h[H_M], h[H_K], h[H_B], h[H_ACTIVE] = length, N, m, K, B, B
         h[H_VDP], h[H_NS], h[H_OMEGA] = first.vdp_model, first.stator_vanes, first.omega
         h[H_FB], h[H_MU], h[H_R], h[H_BETA] = first.nozzle_force, first.vdp_mu, first.vdp_r, beta
-        h[H_FS : H_VK + 1] = first.friction
+        h[H_SLIDERS] = first.sliders
         h[H_USER_REASON] = int(petsc().TS.ConvergedReason.CONVERGED_USER)
         h[H_SAMPLE_DT], h[H_CAP], h[H_LIMIT] = sample_dt, self.capacity, limit
-        h[H_NSTATE] = B * (2 * N * m + 4)
+        h[H_NSTATE] = B * state_size(first)
         h[H_MISTUNED] = 0.0 if model.tuned else 1.0
         h[H_OFFSETS : H_OFFSETS + len(_ARRAYS)] = self._offsets
 
@@ -201,6 +213,8 @@ class Context:
             "delta": np.repeat(model.mistuning if not model.tuned else np.zeros(N), B),
             "aero_a": first.aero_displacement,
             "aero_b": first.aero_velocity,
+            "law": first.friction,
+            "k_t": columns([f.contacts.tangential for f in cases]),
         }
 
     @property
@@ -218,17 +232,25 @@ class Context:
     def set_header(self, slot: int, value: float) -> None:
         self.array[slot] = value
 
+    @property
+    def sliders(self) -> int:
+        """Slider coordinates per case (``2 K N`` under the elastic law, else 0)."""
+        return int(self.array[H_SLIDERS])
+
     def pack(self, states: np.ndarray) -> np.ndarray:
-        """Kernel state (length ``B (2 N m + 4)``) from blade-major case states
-        ``(B, 2 N m + 4)`` (or ``(2 N m + 4,)`` when ``B = 1``)."""
-        N, m, B = self.N, self.m, self.B
+        """Kernel state (length ``B`` :func:`state_size`) from blade-major case states
+        ``(B, state_size)`` (or ``(state_size,)`` when ``B = 1``)."""
+        N, m, B, K = self.N, self.m, self.B, self.K
         s = np.asarray(states, dtype=float).reshape(B, -1)
         n = N * m
         P = self.basis  # z_s = P^T q_s, i.e. z_s^T = q_s^T P
         q = _times(s[:, :n].reshape(B, N, m), P).transpose(2, 1, 0)  # (m, N, B)
         v = _times(s[:, n : 2 * n].reshape(B, N, m), P).transpose(2, 1, 0)
-        w = s[:, 2 * n :].T  # (4, B)
-        return np.concatenate([q.ravel(), v.ravel(), w.ravel()])
+        w = s[:, 2 * n : 2 * n + 4].T  # (4, B)
+        # sliders: blade-major (c, s, a) per case -> (c, a, s, b)
+        sliders = s[:, 2 * n + 4 :].reshape(B, K, N, 2).transpose(1, 3, 2, 0) if self.sliders \
+            else np.zeros(0)  # fmt: skip
+        return np.concatenate([q.ravel(), v.ravel(), w.ravel(), np.ravel(sliders)])
 
     def unpack_states(self, z: np.ndarray) -> np.ndarray:
         """Blade-major modal states ``(S, 2, N, m)`` (``q``, ``q'`` of every blade) from the
@@ -237,16 +259,18 @@ class Context:
         return _times(np.swapaxes(np.asarray(z), 2, 3), self.basis.T)
 
     def unpack(self, u: np.ndarray) -> np.ndarray:
-        """Blade-major case states ``(B, 2 N m + 4)`` from a kernel state (inverse of
+        """Blade-major case states ``(B, state_size)`` from a kernel state (inverse of
         :meth:`pack`)."""
-        N, m, B = self.N, self.m, self.B
+        N, m, B, K = self.N, self.m, self.B, self.K
         n = N * m * B
         u = np.asarray(u)
         PT = self.basis.T  # q_s = P z_s
         q = _times(u[:n].reshape(m, N, B).transpose(2, 1, 0), PT).reshape(B, N * m)
         v = _times(u[n : 2 * n].reshape(m, N, B).transpose(2, 1, 0), PT).reshape(B, N * m)
-        w = u[2 * n :].reshape(4, B).T
-        return np.concatenate([q, v, w], axis=1)
+        w = u[2 * n : 2 * n + 4 * B].reshape(4, B).T
+        sliders = u[2 * n + 4 * B :].reshape(K, 2, N, B).transpose(3, 0, 2, 1).reshape(B, -1) \
+            if self.sliders else np.zeros((B, 0))  # fmt: skip
+        return np.concatenate([q, v, w, sliders], axis=1)
 
 
 def _times(x: np.ndarray, M: np.ndarray) -> np.ndarray:
@@ -274,6 +298,12 @@ def diagonal_basis(A0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         raise ValueError("the reduced model's A0 (diagonal block of K_R) must be symmetric")
     lam, P = np.linalg.eigh(0.5 * (A0 + A0.T))
     return P, lam
+
+
+def state_size(params: ForceParameters) -> int:
+    """Length of one case's blade-major state: ``q``, ``q'`` (``N m`` each), the four work
+    integrals and the elastic law's sliders (``2 K N``, none under the paper law)."""
+    return 2 * params.blades * params.modes + 4 + params.sliders
 
 
 def check_batchable(cases: list[ForceParameters]) -> None:

@@ -33,8 +33,13 @@ def static_equilibrium(forces, K: np.ndarray, comm, force_scale: float, prefix: 
     N, m = forces.params.blades, forces.params.modes
     zeros_v = np.zeros((N, m))
 
+    elastic = forces.params.law.elastic
+
     def residual_np(q):
-        force = forces.evaluate(0.0, q.reshape(N, m), zeros_v)
+        # elastic law: the sliders follow the static load (no tangential force), as the
+        # paper law's friction at rest: both laws share the preloaded equilibrium
+        slider = forces.sliders_at_rest(q.reshape(N, m)) if elastic else None
+        force = forces.evaluate(0.0, q.reshape(N, m), zeros_v, slider)
         return K @ q - force.ravel()
 
     def residual(snes, x, r):
@@ -119,7 +124,12 @@ def initial_state(problem: WheelProblem, case: int = 0) -> tuple[np.ndarray, flo
     if problem.cfg.time.start == "preload":
         q, residual = static_preload(problem, case=case)
         u0[: problem.n] = q
+    sliders = problem.slider_view(u0)
+    if sliders is not None:  # elastic law: the contacts stuck where the preload left them
+        sliders[...] = problem.forces[case].sliders_at_rest(u0[: problem.n].reshape(
+            problem.N, problem.m))  # fmt: skip
     u0[: problem.n] += start_perturbation(problem.model, problem.cfg).ravel()
+    problem.slide(u0, case)  # a perturbation beyond the stick range starts slipping
     return u0, residual
 
 

@@ -1,11 +1,18 @@
 """The transient problem of the reduced wheel (paper eq. 15) and what a case run returns.
 
-State ``u = (q, q', W)`` with ``q, q'`` of length ``N m`` and four work accumulators
+State ``u = (q, q', W, w)`` with ``q, q'`` of length ``N m``, four work accumulators
 ``W = (W_nozzle, W_vdp, W_friction, W_damping)`` [J] integrated with the same stages as the
-motion, so the energy balance ``E(t) - E(0) = sum W`` is a check of the integration itself:
+motion, so the energy balance ``E(t) - E(0) = sum W`` is a check of the integration itself,
+and under the elastic contact law the sliders ``w`` ``(K, N, 2)`` [m], which hold still
+within a step and are returned onto the Coulomb limit at its end (docs/theory.md, "Contact
+laws"):
 
-    q''  = -K_R (q + beta_D q') + f(q, q', t)
+    q''  = -K_R (q + beta_D q') + f(q, q', w, t)
     W'   = (P_nozzle, P_vdp, P_friction, -beta_D q'^T K_R q')
+
+``W_friction`` is the work of the tangential contact forces on the blades; under the elastic
+law it holds the stuck contacts' spring energy besides the slip dissipation (over a closed
+cycle only the dissipation is left).
 """
 
 from __future__ import annotations
@@ -197,8 +204,33 @@ class WheelProblem:
         self._petsc: list = []  # BAIJ K_R and work Vecs of the Python path, made on demand
 
     def size(self) -> int:
-        """Length of one case's state ``(q, q', W)``."""
-        return 2 * self.n + N_WORK
+        """Length of one case's state ``(q, q', W, w)`` (:func:`~.layout.state_size`)."""
+        return 2 * self.n + N_WORK + self.sliders
+
+    @property
+    def sliders(self) -> int:
+        """Slider coordinates of one case (``2 K N`` under the elastic law, else 0)."""
+        return self.cases[0].sliders
+
+    def slider_view(self, u: np.ndarray) -> np.ndarray | None:
+        """``(K, N, 2)`` view of the sliders of one case's blade-major state (None: the
+        paper law has none)."""
+        if not self.sliders:
+            return None
+        return u[2 * self.n + N_WORK :].reshape(len(self.kinds), self.N, 2)
+
+    def slide(self, u: np.ndarray, case: int = 0) -> bool:
+        """The end of a step (Python paths): one case's sliders in ``u`` (blade-major, in
+        place) returned onto the Coulomb limit at its state; True when one moved."""
+        slider = self.slider_view(u)
+        if slider is None:
+            return False
+        n, forces = self.n, self.forces[case]
+        forces.evaluate(0.0, u[:n].reshape(self.N, self.m),
+                        u[n : 2 * n].reshape(self.N, self.m), slider)  # fmt: skip
+        moved = not np.array_equal(forces.slider_next, slider)
+        slider[...] = forces.slider_next
+        return moved
 
     def rhs(self, ts, t, u, f):
         """Python TS callback (one case): ``f = (q', q'', W')`` with BAIJ products."""
@@ -217,22 +249,25 @@ class WheelProblem:
         K.mult(x, Kq)
         x.setArray(v)
         K.mult(x, Kv)
-        force = forces.evaluate(t, q.reshape(self.N, self.m), v.reshape(self.N, self.m))
+        force = forces.evaluate(t, q.reshape(self.N, self.m), v.reshape(self.N, self.m),
+                                self.slider_view(ua))  # fmt: skip
         Kqa = Kq.getArray(readonly=True)
         Kva = Kv.getArray(readonly=True)
         fa[:n] = v
         fa[n : 2 * n] = force.ravel() - Kqa - self.beta * Kva
         fa[2 * n : 2 * n + 3] = forces.power
         fa[2 * n + 3] = -self.beta * float(v @ Kva)
+        fa[2 * n + N_WORK :] = 0.0  # the sliders move only when a step ends (slide)
 
     def rhs_numpy(self, t: float, u: np.ndarray, case: int = 0) -> np.ndarray:
         """The same right-hand side with numpy only (serial reference), one case."""
         n = self.n
         q, v = u[:n], u[n : 2 * n]
         forces = self.forces[case]
-        force = forces.evaluate(t, q.reshape(self.N, self.m), v.reshape(self.N, self.m))
+        force = forces.evaluate(t, q.reshape(self.N, self.m), v.reshape(self.N, self.m),
+                                self.slider_view(u))  # fmt: skip
         Kv = self.Kd @ v
-        out = np.empty_like(u)
+        out = np.zeros_like(u)  # the sliders' rate is zero (they move when a step ends)
         out[:n] = v
         out[n : 2 * n] = force.ravel() - self.Kd @ q - self.beta * Kv
         out[2 * n : 2 * n + 3] = forces.power
@@ -245,7 +280,8 @@ class WheelProblem:
         n = self.n
         q, v = u[:n], u[n : 2 * n]
         forces = self.forces[case]
-        forces.evaluate(0.0, q.reshape(self.N, self.m), v.reshape(self.N, self.m))
+        forces.evaluate(0.0, q.reshape(self.N, self.m), v.reshape(self.N, self.m),
+                        self.slider_view(u))  # fmt: skip
         return 0.5 * float(v @ v) + 0.5 * float(q @ (self.Kd @ q)) + forces.contact_energy()
 
     def destroy(self) -> None:

@@ -154,8 +154,9 @@ def explicit_part(problem: WheelProblem):
     def explicit(t: float, u: np.ndarray) -> np.ndarray:
         q, v = u[:n], u[n : 2 * n]
         force = forces.evaluate(t, q.reshape(model.blades, model.modes),
-                                v.reshape(model.blades, model.modes))  # fmt: skip
-        out = np.zeros_like(u)
+                                v.reshape(model.blades, model.modes),
+                                problem.slider_view(u))  # fmt: skip
+        out = np.zeros_like(u)  # the sliders' rate: zero within a step
         out[n : 2 * n] = force.ravel() - K_off @ (q + beta * v)
         out[2 * n : 2 * n + 3] = forces.power
         out[2 * n + 3] = -beta * float(v @ (Kd @ v))
@@ -169,8 +170,10 @@ def reference_solution(model: ReducedModel, cfg: Config, steps: int, step: float
                        tableau: Tableau = BOGACKI_SHAMPINE,
                        u0: np.ndarray | None = None, scheme: str = "rk"):  # fmt: skip
     """``steps`` fixed steps of size ``step`` [s] from ``time.start``'s state (or from the
-    modal state ``u0 = (q, q')`` of length ``2 N m``), with ``scheme`` ``"rk"`` (the explicit
-    ``tableau``) or ``"exponential"`` (ETDRK4, :func:`etdrk4_step`).
+    modal state ``u0 = (q, q')`` of length ``2 N m``: the elastic law's sliders then start at
+    rest there), with ``scheme`` ``"rk"`` (the explicit ``tableau``) or ``"exponential"``
+    (ETDRK4, :func:`etdrk4_step`); under the elastic law every step ends with the sliders'
+    return onto the Coulomb limit (:meth:`WheelProblem.slide`), as the compiled paths do.
 
     Returns ``(times, states, wall_s)`` with the blade-major state every ``sample_every``
     steps (and at ``t = 0``).
@@ -185,6 +188,11 @@ def reference_solution(model: ReducedModel, cfg: Config, steps: int, step: float
     else:
         u = np.zeros(problem.size())
         u[: u0.size] = u0
+        sliders = problem.slider_view(u)
+        if sliders is not None and u0.size <= 2 * problem.n:
+            sliders[...] = problem.forces[0].sliders_at_rest(
+                u[: problem.n].reshape(model.blades, model.modes))  # fmt: skip
+        problem.slide(u)  # the start on or within the Coulomb limit
     if scheme == "exponential":
         prop = segment_propagators(model.A0, problem.beta, step)
         explicit = explicit_part(problem)
@@ -199,6 +207,7 @@ def reference_solution(model: ReducedModel, cfg: Config, steps: int, step: float
     times, states = [0.0], [u.copy()]
     for i in range(steps):
         u = advance(i * step, u)
+        problem.slide(u)
         if (i + 1) % sample_every == 0:
             times.append((i + 1) * step)
             states.append(u.copy())

@@ -237,14 +237,24 @@ def load_kernels(case: ForceParameters, rhs_kind: str = "compiled") -> float:
 
 
 def _initial_states(problem: WheelProblem, records, u0) -> np.ndarray:
-    """``(B, 2 N m + 4)`` blade-major states at ``t = 0``; records ``energy0`` and the
-    preload residual."""
+    """``(B, state size)`` blade-major states at ``t = 0``; records ``energy0`` and the
+    preload residual. ``u0[b]``: ``(q, q')`` (the elastic law's sliders then start at rest
+    there, no tangential force) or a whole state (its sliders kept)."""
     states = np.zeros((problem.B, problem.size()))
+    n2 = 2 * problem.n
     for b, rec in enumerate(records):
         if u0 is None:
             states[b], rec.result.preload_residual = initial_state(problem, case=b)
         else:
-            states[b, : 2 * problem.n] = u0[b]
+            given = np.asarray(u0[b], dtype=float)
+            states[b, :n2] = given[:n2]
+            sliders = problem.slider_view(states[b])
+            if sliders is not None:
+                sliders[...] = (given[n2 + N_WORK :].reshape(sliders.shape)
+                                if given.size == states.shape[1] else
+                                problem.forces[b].sliders_at_rest(
+                                    given[: problem.n].reshape(problem.N, problem.m)))  # fmt: skip
+                problem.slide(states[b], b)  # the start on or within the Coulomb limit
         rec.result.energy0 = problem.energy(states[b], case=b)
     return states
 

@@ -204,6 +204,10 @@ def _attach_python(ts, f, problem: WheelProblem) -> None:
     context = problem.context
 
     def monitor(ts, step, t, x):
+        if problem.sliders:  # the step's end: the elastic law's sliders returned
+            with x as u:
+                if problem.slide(u):
+                    ts.restartStep()
         if bridge.sample(t, context.pack(x.getArray(readonly=True)), context):
             ts.setConvergedReason(PETSc.TS.ConvergedReason.CONVERGED_USER)
 
