@@ -33,12 +33,16 @@ def cmd_settle(args: argparse.Namespace) -> int:
     quasi-periodic, chaotic), its amplitude over the blades, ND content, contacts. Under
     mpirun the cases are spread over the ranks."""
     from wheelrom.rom.build import quiet
-    from wheelrom.studies.settle import run_settle, sidecar_dir, summary
+    from wheelrom.studies.settle import resume_problem, run_settle, sidecar_dir, summary
     from wheelrom.studies.stability import world_if_parallel
 
     cfg = load_config(args)
     if args.out:
         check_output(args.out, args.force or args.resume)
+        if args.resume and not args.force and os.path.exists(args.out):
+            why = resume_problem(args.out)  # another command's file is replaced only by --force
+            if why:
+                raise InputError(why)
     if args.cycles and not os.path.isfile(args.cycles):
         raise InputError(f"--cycles {args.cycles}: no such file")
     if args.out and not args.resume and os.path.isdir(sidecar_dir(args.out)):

@@ -135,6 +135,21 @@ def _start(model, cfg: Config, angles: dict, cycles_file: str | None, comm=None)
             f"{words}, every ND perturbed at {seed:.3g} m (seed {st.seed})", float(amplitude))
 
 
+# ------------------------------------------------------------------ the output
+def resume_problem(path: str) -> str | None:
+    """Why ``--resume`` must not replace the existing file at ``path`` (None: it is a settle
+    file, which the resumed run completes): any other kind of file is the user's work of
+    another command, replaced only with ``--force``."""
+    from wheelrom.results.info import kind_of
+    from wheelrom.results.settle import FORMAT
+
+    fmt, kind = kind_of(path)
+    if fmt == FORMAT:
+        return None
+    return (f"--out {path}: is {kind}, not a settle file: --resume completes only a settle "
+            "file; choose another --out, or --force to replace it")  # fmt: skip
+
+
 # ------------------------------------------------------------------ sidecars
 def save_case(directory: str, index: int, digest: str, result: Settled) -> None:
     """Case ``index`` as ``case_<index>.npz`` + ``.json`` in ``directory`` (atomic)."""

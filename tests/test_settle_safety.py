@@ -1,0 +1,93 @@
+"""`wheelrom settle` never loses a user's file nor computes on a wrong input:
+--resume refuses a file of another kind (only --force replaces it); the side folder
+``.NAME.settle`` is refused up front when it is a planted link (never followed, its target
+untouched) or a file, and a damaged case in it is computed again; a --cycles file of another
+kind or of another wheel is refused before any model is built. The files of other kinds are
+made here with their format attribute (what the checks read), in milliseconds."""
+
+import os
+
+import h5py
+import pytest
+
+from conftest import SMALL, VDP_WHEEL
+from wheelrom import config
+from wheelrom.cli import main as cli
+
+#: the Van der Pol wheel, one case, a few ms of simulated time (no window completes)
+SHORT = [*VDP_WHEEL, "sweep.shroud_angles_deg=[50.0]", "settle.max_time=0.02",
+         "settle.min_time=0.01"]  # fmt: skip
+#: format and top-level group of each kind of file, and what the refusal calls it
+KINDS = {
+    "run": ("wheelrom-sweep-1", "cases", "a sweep or run results file"),
+    "stability": ("wheelrom-stability-1", "stability", "a stability file"),
+    "limit-cycle": ("wheelrom-limit-cycle-1", "limit_cycle", "a limit-cycle file"),
+    "settle": ("wheelrom-settle-1", "settle", "a settle file"),
+}
+
+
+def _settle(*extra: str) -> list[str]:
+    return ["settle", SMALL, *sum((["--set", k] for k in SHORT), []), *extra]
+
+
+def _wheelrom_file(path, kind: str, overrides=()) -> bytes:
+    """A file of ``kind`` (KINDS, or ``text``: not HDF5) written for the small wheel with
+    ``overrides``; its bytes."""
+    if kind == "text":
+        path.write_text("precious, not HDF5\n")
+    else:
+        fmt, group, _ = KINDS[kind]
+        cfg = config.load(SMALL, [*SHORT, *overrides])
+        with h5py.File(path, "w") as f:
+            f.attrs["format"] = fmt
+            f.attrs["config"] = config.to_toml(cfg)
+            f.attrs["config_source"] = cfg.source
+            f.create_group(group)
+    return path.read_bytes()
+
+
+def _one_error(capsys) -> str:
+    err = capsys.readouterr().err
+    assert "Traceback" not in err, err
+    lines = [ln for ln in err.splitlines() if ln.startswith("wheelrom:")]
+    assert len(lines) == 1, err
+    return lines[0]
+
+
+@pytest.fixture
+def nothing_computed(monkeypatch):
+    """Fails the test if a segment is built or read: a refusal under it came before any
+    model was built."""
+    def computed(*_):
+        raise AssertionError("a segment was built: the refusal came too late")
+
+    monkeypatch.setattr("wheelrom.segment.load.build_builtin", computed)
+    monkeypatch.setattr("wheelrom.segment.load.read_segment", computed)
+
+
+# --- --resume on a file of another kind ----------------------------------------------------
+
+
+@pytest.mark.parametrize("kind", ["run", "stability", "limit-cycle", "text"])
+def test_resume_refuses_a_file_of_another_kind(kind, tmp_path, capsys, nothing_computed):
+    """It was replaced by the settle file without --force."""
+    out = tmp_path / "x.h5"
+    before = _wheelrom_file(out, kind)
+    assert cli.main(_settle("--resume", "--out", str(out))) == 2
+    line = _one_error(capsys)
+    words = KINDS[kind][2] if kind != "text" else "a file that is not HDF5"
+    assert line.startswith(f"wheelrom: --out {out}: is {words}"), line
+    assert "not a settle file" in line and "--force" in line
+    assert out.read_bytes() == before
+    assert sorted(os.listdir(tmp_path)) == ["x.h5"]
+
+
+def test_resume_accepts_a_settle_file(tmp_path):
+    """What --resume completes is a settle file; a bare HDF5 file is another kind."""
+    from wheelrom.studies.settle import resume_problem
+
+    settle, bare = tmp_path / "s.h5", tmp_path / "bare.h5"
+    _wheelrom_file(settle, "settle")
+    assert resume_problem(str(settle)) is None
+    h5py.File(bare, "w").close()
+    assert "is an HDF5 file without a wheelrom format" in resume_problem(str(bare))
