@@ -91,3 +91,39 @@ def test_resume_accepts_a_settle_file(tmp_path):
     assert resume_problem(str(settle)) is None
     h5py.File(bare, "w").close()
     assert "is an HDF5 file without a wheelrom format" in resume_problem(str(bare))
+
+
+# --- the side folder .NAME.settle -----------------------------------------------------------
+
+
+@pytest.mark.parametrize("resume", [False, True])
+def test_a_link_planted_as_the_side_folder_is_refused_never_followed(resume, tmp_path, capsys,
+                                                                    nothing_computed):  # fmt: skip
+    """It was written through (the cases landed in its target), then rmtree raised
+    "Cannot call rmtree on a symbolic link" after the computation."""
+    victim = tmp_path / "victim"
+    victim.mkdir()
+    (victim / "mine").write_text("not yours")
+    side = tmp_path / ".s.settle"
+    side.symlink_to(victim)
+    out = tmp_path / "s.h5"
+    assert cli.main(_settle("--out", str(out), *(["--resume"] if resume else []))) == 2
+    line = _one_error(capsys)
+    assert f"--out {out}: {side}, where its finished cases are kept, is a symbolic link to a " \
+        "directory: a link there is never followed" in line, line  # fmt: skip
+    assert os.path.islink(side) and os.readlink(side) == str(victim)
+    assert os.listdir(victim) == ["mine"] and (victim / "mine").read_text() == "not yours"
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("resume", [False, True])
+def test_a_file_named_as_the_side_folder_is_refused_up_front(resume, tmp_path, capsys,
+                                                             nothing_computed):  # fmt: skip
+    """It raised FileExistsError when the first case was saved: after computing it."""
+    side = tmp_path / ".s.settle"
+    side.write_text("mine")
+    out = tmp_path / "s.h5"
+    assert cli.main(_settle("--out", str(out), *(["--resume"] if resume else []))) == 2
+    line = _one_error(capsys)
+    assert f"{side}, where its finished cases are kept, is a regular file" in line, line
+    assert side.read_text() == "mine" and not out.exists()

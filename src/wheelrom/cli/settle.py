@@ -10,7 +10,7 @@ import shutil
 from wheelrom.cli.args import json_out, load_config, locked
 from wheelrom.cli.output import log, report_and_save, throttled
 from wheelrom.runtime.errors import InputError
-from wheelrom.runtime.outputs import agree, check_output
+from wheelrom.runtime.outputs import agree, check_output, check_side_folder
 
 PROGRESS_EVERY_S = 5.0
 
@@ -43,6 +43,7 @@ def cmd_settle(args: argparse.Namespace) -> int:
             why = resume_problem(args.out)  # another command's file is replaced only by --force
             if why:
                 raise InputError(why)
+        check_side_folder(sidecar_dir(args.out), args.out)  # before it is used or removed
     if args.cycles and not os.path.isfile(args.cycles):
         raise InputError(f"--cycles {args.cycles}: no such file")
     if args.out and not args.resume and os.path.isdir(sidecar_dir(args.out)):
