@@ -127,3 +127,32 @@ def test_a_file_named_as_the_side_folder_is_refused_up_front(resume, tmp_path, c
     line = _one_error(capsys)
     assert f"{side}, where its finished cases are kept, is a regular file" in line, line
     assert side.read_text() == "mine" and not out.exists()
+
+
+def test_a_damaged_saved_case_is_computed_again(tmp_path, monkeypatch, capsys):
+    """A case_0.npz cut short (a full disk, a kill) raised zipfile.BadZipFile on --resume:
+    it is now missing, said in one line, and the case computed again."""
+    from wheelrom.studies import settle as study
+
+    out = tmp_path / "s.h5"
+
+    def interrupted(*_):  # the cases are saved beside the output, the file is not written
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr("wheelrom.results.settle.write_settle", interrupted)
+    assert cli.main(_settle("--out", str(out))) == 130
+    monkeypatch.undo()
+    saved = tmp_path / ".s.settle" / "case_0.npz"
+    saved.write_bytes(saved.read_bytes()[: saved.stat().st_size // 2])
+    capsys.readouterr()
+    real, calls = study._settle_one, []
+    monkeypatch.setattr(study, "_settle_one", lambda *a, **k: calls.append(a[3]) or real(*a, **k))
+    assert cli.main(_settle("--out", str(out), "--resume")) == 0
+    err = capsys.readouterr().err
+    assert "Traceback" not in err, err
+    [line] = [ln for ln in err.splitlines() if "damaged" in ln]
+    assert line.startswith(f"{saved}: damaged (BadZipFile: ") and "computed again" in line
+    assert len(calls) == 1
+    with h5py.File(out, "r") as f:
+        assert f.attrs["format"] == "wheelrom-settle-1" and f["settle/verdict"].shape == (1,)
+    assert not (tmp_path / ".s.settle").exists()

@@ -53,7 +53,8 @@ def cmd_settle(args: argparse.Namespace) -> int:
     comm = world_if_parallel()
     model, cases, directory = run_settle(
         cfg, args.out, comm, log=quiet if args.json else log, resume=args.resume,
-        cycles_file=args.cycles, progress=None if args.json else throttled(PROGRESS_EVERY_S))
+        cycles_file=args.cycles, progress=None if args.json else throttled(PROGRESS_EVERY_S),
+        warn=log)  # fmt: skip
     failure = None
     if cases:
         failure = report_and_save(

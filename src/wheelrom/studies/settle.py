@@ -175,35 +175,46 @@ def save_case(directory: str, index: int, digest: str, result: Settled) -> None:
     os.replace(base + ".partial.json", base + ".json")
 
 
-def load_case(directory: str, index: int, digest: str) -> Settled | None:
-    """A saved case of the same configuration, else None."""
+def load_case(directory: str, index: int, digest: str, warn=None) -> Settled | None:
+    """A saved case of the same configuration, else None: none saved, another
+    configuration's, or damaged (truncated by a full disk or a kill, garbled): then ``warn``
+    is told in one line which file and why, and the case is computed again."""
     base = os.path.join(directory, f"case_{index}")
+    if not os.path.exists(base + ".json"):
+        return None
+    name = base + ".json"
     try:
-        with open(base + ".json") as f:
+        with open(name) as f:
             scalars = json.load(f)
         if scalars.get("digest") != digest:
             return None
-        with np.load(base + ".npz", allow_pickle=False) as z:
+        name = base + ".npz"
+        # opened here: np.load leaves a file it cannot read as a zip open
+        with open(name, "rb") as fh, np.load(fh, allow_pickle=False) as z:
             arrays = {k: z[k] for k in z.files}
-    except (OSError, ValueError, KeyError):
+        name = base + ".json"  # its windows and classification read back
+        windows = [Window(float(e), a, n, tuple(ch)) for e, a, n, ch in
+                   zip(arrays["window_end"], arrays["window_amplitude"],
+                       arrays["window_nd_energy"], scalars["changes"], strict=True)]  # fmt: skip
+        c = scalars["classification"]
+        return Settled(scalars["settled"], scalars["time"], windows,
+                       Classification(**c) if c else None, arrays["amplitude"],
+                       arrays["nd_energy"], arrays["fractions"], arrays["normal_force_range"],
+                       scalars["energy_balance"], arrays["tip_time"], arrays["tip"],
+                       scalars["start"], scalars["start_amplitude"], scalars["wall_s"],
+                       scalars["status"])  # fmt: skip
+    except Exception as exc:  # whatever a damaged file raises (BadZipFile, EOFError, ...)
+        if warn is not None:
+            warn(f"{name}: damaged ({type(exc).__name__}: {exc}); case {index + 1} is "
+                 "computed again")  # fmt: skip
         return None
-    windows = [Window(float(e), a, n, tuple(ch)) for e, a, n, ch in
-               zip(arrays["window_end"], arrays["window_amplitude"],
-                   arrays["window_nd_energy"], scalars["changes"], strict=True)]  # fmt: skip
-    c = scalars["classification"]
-    return Settled(scalars["settled"], scalars["time"], windows,
-                   Classification(**c) if c else None, arrays["amplitude"],
-                   arrays["nd_energy"], arrays["fractions"], arrays["normal_force_range"],
-                   scalars["energy_balance"], arrays["tip_time"], arrays["tip"],
-                   scalars["start"], scalars["start_amplitude"], scalars["wall_s"],
-                   scalars["status"])  # fmt: skip
 
 
 # ------------------------------------------------------------------ the cases
 def run_settle(cfg: Config, out: str | None, comm=None, log=print, resume: bool = False,
-               cycles_file: str | None = None, progress=None):  # fmt: skip
+               cycles_file: str | None = None, progress=None, warn=print):  # fmt: skip
     """``(model, [(angles, parameters, Settled)])`` of every case on rank 0 (others: the
-    model and ``[]``)."""
+    model and ``[]``). ``warn``: a damaged saved case, on whichever rank finds it."""
     study = expand(cfg)
     rank, size = (comm.rank, comm.size) if comm is not None else (0, 1)
     say = log if rank == 0 and log is not None else (lambda *_: None)
@@ -219,7 +230,7 @@ def run_settle(cfg: Config, out: str | None, comm=None, log=print, resume: bool 
             f"{short_name(k)} {v:g}" if isinstance(v, float) else f"{short_name(k)} {v}"
             for k, v in zip(study.names, study.values[i], strict=True))
         digest = config_digest(case_cfg)
-        done = load_case(directory, i, digest) if resume and directory else None
+        done = load_case(directory, i, digest, warn) if resume and directory else None
         if done is None:
             done = _settle_one(models[model_of[i]], case_cfg, angles, cycles_file, label,
                                progress if rank == 0 else None)  # fmt: skip
