@@ -156,3 +156,49 @@ def test_a_damaged_saved_case_is_computed_again(tmp_path, monkeypatch, capsys):
     with h5py.File(out, "r") as f:
         assert f.attrs["format"] == "wheelrom-settle-1" and f["settle/verdict"].shape == (1,)
     assert not (tmp_path / ".s.settle").exists()
+
+
+# --- --cycles -----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("override, changed", [("wheel.blades=10", "wheel.blades: 10 -> 12"),
+                                               ("wheel.modes_per_segment=4",
+                                                "wheel.modes_per_segment: 4 -> 6")])  # fmt: skip
+def test_cycles_of_another_wheel_are_refused_naming_the_key(override, changed, tmp_path, capsys,
+                                                            nothing_computed):  # fmt: skip
+    """Another blade count was wrapped onto this wheel; another mode count was a numpy
+    broadcast error."""
+    cycles = tmp_path / "lc.h5"
+    _wheelrom_file(cycles, "limit-cycle", [override])
+    assert cli.main(_settle("--cycles", str(cycles))) == 2
+    line = _one_error(capsys)
+    assert line.startswith(f"wheelrom: --cycles {cycles}: written for another wheel "
+                           f"({changed})"), line  # fmt: skip
+
+
+@pytest.mark.parametrize("kind", ["stability", "run", "settle", "text"])
+def test_cycles_of_another_kind_are_refused_naming_it(kind, tmp_path, capsys, nothing_computed):
+    """They failed every case after the model build with a raw KeyError or OSError."""
+    cycles = tmp_path / "other.h5"
+    _wheelrom_file(cycles, kind)
+    assert cli.main(_settle("--cycles", str(cycles))) == 2
+    words = KINDS[kind][2] if kind != "text" else "a file that is not HDF5"
+    assert _one_error(capsys) == (f"wheelrom: --cycles {cycles}: is {words}"
+                                  + (f" (format {KINDS[kind][0]!r})" if kind != "text" else "")
+                                  + ", not a limit-cycle file (wheelrom limit-cycle --out)")
+
+
+def test_cycles_of_the_same_wheel_at_another_intensity_are_accepted(tmp_path):
+    """Only the wheel must agree: the orbit of another flutter intensity, time step or
+    harmonic count is still a start in this model's coordinates."""
+    from wheelrom.runtime.errors import InputError
+    from wheelrom.studies.settle import check_cycles
+
+    cycles = tmp_path / "lc.h5"
+    _wheelrom_file(cycles, "limit-cycle", ["flutter.mu=5.0", "time.step=5e-6",
+                                           "limit_cycle.harmonics=3",
+                                           "contacts.shroud.angle_deg=60.0"])  # fmt: skip
+    cfg = config.load(SMALL, SHORT)
+    check_cycles(str(cycles), cfg)
+    with pytest.raises(InputError, match="contacts.tieboss.height: 1.6 -> 1.7"):
+        check_cycles(str(cycles), config.load(SMALL, [*SHORT, "contacts.tieboss.height=1.7"]))

@@ -33,7 +33,13 @@ def cmd_settle(args: argparse.Namespace) -> int:
     quasi-periodic, chaotic), its amplitude over the blades, ND content, contacts. Under
     mpirun the cases are spread over the ranks."""
     from wheelrom.rom.build import quiet
-    from wheelrom.studies.settle import resume_problem, run_settle, sidecar_dir, summary
+    from wheelrom.studies.settle import (
+        check_cycles,
+        resume_problem,
+        run_settle,
+        sidecar_dir,
+        summary,
+    )
     from wheelrom.studies.stability import world_if_parallel
 
     cfg = load_config(args)
@@ -44,8 +50,8 @@ def cmd_settle(args: argparse.Namespace) -> int:
             if why:
                 raise InputError(why)
         check_side_folder(sidecar_dir(args.out), args.out)  # before it is used or removed
-    if args.cycles and not os.path.isfile(args.cycles):
-        raise InputError(f"--cycles {args.cycles}: no such file")
+    if args.cycles:  # before any model is built: a wrong file fails every case late
+        check_cycles(args.cycles, cfg)
     if args.out and not args.resume and os.path.isdir(sidecar_dir(args.out)):
         shutil.rmtree(sidecar_dir(args.out))  # an earlier run's cases, not asked for
     from wheelrom.results.settle import write_settle

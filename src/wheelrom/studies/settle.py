@@ -52,6 +52,37 @@ def config_digest(cfg: Config) -> str:
 
 
 # ------------------------------------------------------------------ the start of one case
+def check_cycles(path: str, cfg: Config) -> None:
+    """``--cycles``, before any model is built: a limit-cycle file (``wheelrom limit-cycle
+    --out``) of this configuration's wheel (the same model keys:
+    :func:`~wheelrom.config.study.model_data`), whose orbits are in this model's
+    coordinates. Its force, time and limit-cycle keys may differ (an orbit of another
+    intensity is still a start). Anything else is one line naming the file and what is
+    wrong."""
+    import h5py
+
+    from wheelrom.config.study import model_data
+    from wheelrom.results.info import kind_of
+    from wheelrom.results.layout import config_changes
+    from wheelrom.results.limit_cycles import FORMAT as LIMIT_CYCLE_FORMAT
+
+    if not os.path.isfile(path):
+        raise InputError(f"--cycles {path}: no such file")
+    fmt, kind = kind_of(path)
+    if fmt != LIMIT_CYCLE_FORMAT:
+        raise InputError(f"--cycles {path}: is {kind}, not a limit-cycle file (wheelrom "
+                         "limit-cycle --out)")  # fmt: skip
+    with h5py.File(path, "r", locking=False) as f:
+        if "limit_cycle" not in f:
+            raise InputError(f"--cycles {path}: its group /limit_cycle is missing (a limit-cycle "
+                             "file cut short?)")  # fmt: skip
+        changed = config_changes(f.attrs.get("config"), cfg, select=model_data)
+    if changed:
+        raise InputError(f"--cycles {path}: written for another wheel ({changed}): its orbits "
+                         "are not this model's; compute the limit cycles of this "
+                         "configuration")  # fmt: skip
+
+
 def _cycle_from_file(path: str, angles: dict, blades: int):
     """``(state (2, N, m), frequency [Hz], tip amplitude [m])`` of the case with ``angles`` in
     a limit-cycle file: its first exact orbit, else its first harmonic-balance cycle (every
