@@ -202,3 +202,27 @@ def test_cycles_of_the_same_wheel_at_another_intensity_are_accepted(tmp_path):
     check_cycles(str(cycles), cfg)
     with pytest.raises(InputError, match="contacts.tieboss.height: 1.6 -> 1.7"):
         check_cycles(str(cycles), config.load(SMALL, [*SHORT, "contacts.tieboss.height=1.7"]))
+
+
+def test_the_orbit_of_a_wheel_without_contacts_is_read_from_the_file(tmp_path, capsys):
+    """A limit-cycle file records the angles of the enabled contacts only (NaN for the
+    others); settle looked its case up by both angles, never found it on a wheel with a
+    contact disabled and computed the orbit again. A file with one orbit (every blade 1 um
+    in its first mode) is now the start."""
+    import json
+
+    import numpy as np
+
+    cycles = tmp_path / "lc.h5"
+    _wheelrom_file(cycles, "limit-cycle")
+    state = np.zeros((1, 2, 12, 6))
+    state[0, 0, :, 0] = 1e-6
+    with h5py.File(cycles, "a") as f:
+        g = f["limit_cycle"]
+        g["angles_deg"] = np.full((1, 2), np.nan)
+        c = g.create_group("case_0/wave_6/cycles")
+        c["orbit_state"], c["orbit_period"] = state, np.array([1 / 116.5])
+        c["tip_amplitude"] = np.array([1e-5])
+    assert cli.main(_settle("--cycles", str(cycles), "--json")) == 0
+    row = json.loads(capsys.readouterr().out)["cases"][0]
+    assert row["start"].startswith("the exact orbit in lc.h5"), row["start"]

@@ -125,7 +125,9 @@ def _start(model, cfg: Config, angles: dict, cycles_file: str | None, comm=None)
     st, N = cfg.settle, model.blades
     found = None
     if st.start == "cycle" and cycles_file:
-        found = _cycle_from_file(cycles_file, angles, N)
+        # the file holds the angles of the enabled contacts only (NaN for a disabled one)
+        enabled = {k: v for k, v in angles.items() if cfg.contact(k).enabled}
+        found = _cycle_from_file(cycles_file, enabled, N)
         words = f"the exact orbit in {os.path.basename(cycles_file)}"
     if st.start == "cycle" and found is None:
         lc = dataclasses.replace(lc_settings(cfg, (-1,)), method="shooting", floquet="off",
