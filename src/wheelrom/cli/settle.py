@@ -10,7 +10,7 @@ import shutil
 from wheelrom.cli.args import json_out, load_config, locked
 from wheelrom.cli.output import log, report_and_save, throttled
 from wheelrom.runtime.errors import InputError
-from wheelrom.runtime.outputs import agree, check_output
+from wheelrom.runtime.outputs import agree, check_output, check_side_folder
 
 PROGRESS_EVERY_S = 5.0
 
@@ -33,14 +33,25 @@ def cmd_settle(args: argparse.Namespace) -> int:
     quasi-periodic, chaotic), its amplitude over the blades, ND content, contacts. Under
     mpirun the cases are spread over the ranks."""
     from wheelrom.rom.build import quiet
-    from wheelrom.studies.settle import run_settle, sidecar_dir, summary
+    from wheelrom.studies.settle import (
+        check_cycles,
+        resume_problem,
+        run_settle,
+        sidecar_dir,
+        summary,
+    )
     from wheelrom.studies.stability import world_if_parallel
 
     cfg = load_config(args)
     if args.out:
         check_output(args.out, args.force or args.resume)
-    if args.cycles and not os.path.isfile(args.cycles):
-        raise InputError(f"--cycles {args.cycles}: no such file")
+        if args.resume and not args.force and os.path.exists(args.out):
+            why = resume_problem(args.out)  # another command's file is replaced only by --force
+            if why:
+                raise InputError(why)
+        check_side_folder(sidecar_dir(args.out), args.out)  # before it is used or removed
+    if args.cycles:  # before any model is built: a wrong file fails every case late
+        check_cycles(args.cycles, cfg)
     if args.out and not args.resume and os.path.isdir(sidecar_dir(args.out)):
         shutil.rmtree(sidecar_dir(args.out))  # an earlier run's cases, not asked for
     from wheelrom.results.settle import write_settle
@@ -48,7 +59,8 @@ def cmd_settle(args: argparse.Namespace) -> int:
     comm = world_if_parallel()
     model, cases, directory = run_settle(
         cfg, args.out, comm, log=quiet if args.json else log, resume=args.resume,
-        cycles_file=args.cycles, progress=None if args.json else throttled(PROGRESS_EVERY_S))
+        cycles_file=args.cycles, progress=None if args.json else throttled(PROGRESS_EVERY_S),
+        warn=log)  # fmt: skip
     failure = None
     if cases:
         failure = report_and_save(

@@ -300,10 +300,16 @@ def _drop(data: dict, dotted: str) -> None:
 
 def model_key(cfg: Config) -> str:
     """What the reduced model of ``cfg`` depends on, as text: cases with the same key share
-    one model (everything but the force and time keys and ``[mistuning]``, which each case
-    puts on the shared tuned model; a contact's stiffness, arm length and arm axial
-    stiffness only through ``stiffness = "fe"``)."""
-    data = to_dict(cfg)
+    one model (:func:`model_data`)."""
+    return json.dumps(model_data(to_dict(cfg)), sort_keys=True, default=str)
+
+
+def model_data(data: dict) -> dict:
+    """The keys of a configuration's nested dict (``to_dict``, or TOML read back) the reduced
+    model depends on (a copy): everything but the force and time keys and
+    ``[mistuning]``, which each case puts on the shared tuned model; a contact's stiffness,
+    arm length and arm axial stiffness only through ``stiffness = "fe"``."""
+    data = copy.deepcopy(data)
     for section in FORCE_SECTIONS:
         data.pop(section, None)
     for key in FORCE_WHEEL_KEYS:
@@ -313,10 +319,10 @@ def model_key(cfg: Config) -> str:
         _drop(data, f"contacts.{kind}.angle_deg")
         _drop(data, f"contacts.{kind}.normal_preload")
         _drop(data, f"contacts.{kind}.tangential_stiffness")
-        if cfg.contact(kind).stiffness != "fe":
+        if data.get("contacts", {}).get(kind, {}).get("stiffness") != "fe":
             for key in ("stiffness", "arm_length", "arm_axial_stiffness"):
                 _drop(data, f"contacts.{kind}.{key}")
-    return json.dumps(data, sort_keys=True, default=str)
+    return data
 
 
 def batch_key(cfg: Config) -> str:

@@ -83,6 +83,36 @@ def file_info(path: str, verify: bool = False) -> dict:
                          f"expected {known} or a modes --out model)")  # fmt: skip
 
 
+#: what the file of each format is, in words for a refusal ("a stability file")
+KIND_OF_FORMAT = {FORMAT: "sweep or run results", STUDY_FORMAT: "study",
+                  STABILITY_FORMAT: "stability", FORCED_FORMAT: "forced-response",
+                  LIMIT_CYCLE_FORMAT: "limit-cycle", SETTLE_FORMAT: "settle"}  # fmt: skip
+
+
+def kind_of(path: str) -> tuple[str | None, str]:
+    """``(format or None, what it is)`` of the existing file at ``path``, the words following
+    "is" in a refusal: ``"a stability file (format 'wheelrom-stability-1')"``, ``"a model
+    file (modes --out)"``, ``"an HDF5 file of format 'x'"``, ``"an HDF5 file without a
+    wheelrom format"``, ``"a file that is not HDF5"``, ``"a file that cannot be read as HDF5
+    (why)"``."""
+    import h5py
+
+    try:
+        f = h5py.File(path, "r", locking=False)  # a reader only: no job's lock in its way
+    except OSError as exc:
+        if "signature" in str(exc):
+            return None, "a file that is not HDF5"
+        return None, f"a file that cannot be read as HDF5 ({exc})"
+    with f:
+        fmt = _text(f.attrs.get("format"))
+        if fmt in KIND_OF_FORMAT:
+            return fmt, f"a {KIND_OF_FORMAT[fmt]} file (format {fmt!r})"
+        if fmt is None and "model" in f and "config" in f.attrs:
+            return None, "a model file (modes --out)"
+    return fmt, (f"an HDF5 file of format {fmt!r}" if fmt
+                 else "an HDF5 file without a wheelrom format")  # fmt: skip
+
+
 def verify_cases(cases, rows: list[dict]) -> dict:
     """The stored checksums of the written (done or failed) cases recomputed
     (:mod:`wheelrom.results.checksums`): ``stored``, ``checked``, ``mismatched`` (case

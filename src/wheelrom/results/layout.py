@@ -208,10 +208,12 @@ def statuses(f) -> list[str]:
     return [s.decode() for s in f["cases/status"][:]]
 
 
-def config_changes(stored, cfg: Config) -> str | None:
+def config_changes(stored, cfg: Config, select=None) -> str | None:
     """How the configuration ``stored`` in a file (its TOML text) differs from ``cfg``, as
     ``key: file value -> now``; None: the same values. Values are compared, not text: a
-    comment or a help text that changed between wheelrom versions is no difference."""
+    comment or a help text that changed between wheelrom versions is no difference.
+    ``select``: compare only the keys it keeps of either nested dict (e.g.
+    :func:`wheelrom.config.study.model_data`: the same wheel)."""
     def flat(node, prefix=""):
         out = {}
         for key, value in node.items():
@@ -221,11 +223,13 @@ def config_changes(stored, cfg: Config) -> str | None:
                 out[f"{prefix}{key}"] = value
         return out
 
+    select = select or (lambda data: data)
     try:
-        old = flat(tomllib.loads(stored.decode() if isinstance(stored, bytes) else stored))
+        old = flat(select(tomllib.loads(stored.decode() if isinstance(stored, bytes)
+                                        else stored)))  # fmt: skip
     except (AttributeError, tomllib.TOMLDecodeError):
         return "its configuration attribute is missing or not TOML"
-    new = flat(tomllib.loads(config_mod.to_toml(cfg)))
+    new = flat(select(tomllib.loads(config_mod.to_toml(cfg))))
     keys = sorted(k for k in old.keys() | new.keys() if old.get(k) != new.get(k))
     if not keys:
         return None

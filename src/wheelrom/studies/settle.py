@@ -53,6 +53,37 @@ def config_digest(cfg: Config) -> str:
 
 
 # ------------------------------------------------------------------ the start of one case
+def check_cycles(path: str, cfg: Config) -> None:
+    """``--cycles``, before any model is built: a limit-cycle file (``wheelrom limit-cycle
+    --out``) of this configuration's wheel (the same model keys:
+    :func:`~wheelrom.config.study.model_data`), whose orbits are in this model's
+    coordinates. Its force, time and limit-cycle keys may differ (an orbit of another
+    intensity is still a start). Anything else is one line naming the file and what is
+    wrong."""
+    import h5py
+
+    from wheelrom.config.study import model_data
+    from wheelrom.results.info import kind_of
+    from wheelrom.results.layout import config_changes
+    from wheelrom.results.limit_cycles import FORMAT as LIMIT_CYCLE_FORMAT
+
+    if not os.path.isfile(path):
+        raise InputError(f"--cycles {path}: no such file")
+    fmt, kind = kind_of(path)
+    if fmt != LIMIT_CYCLE_FORMAT:
+        raise InputError(f"--cycles {path}: is {kind}, not a limit-cycle file (wheelrom "
+                         "limit-cycle --out)")  # fmt: skip
+    with h5py.File(path, "r", locking=False) as f:
+        if "limit_cycle" not in f:
+            raise InputError(f"--cycles {path}: its group /limit_cycle is missing (a limit-cycle "
+                             "file cut short?)")  # fmt: skip
+        changed = config_changes(f.attrs.get("config"), cfg, select=model_data)
+    if changed:
+        raise InputError(f"--cycles {path}: written for another wheel ({changed}): its orbits "
+                         "are not this model's; compute the limit cycles of this "
+                         "configuration")  # fmt: skip
+
+
 def _cycle_from_file(path: str, angles: dict, blades: int):
     """``(state (2, N, m), frequency [Hz], tip amplitude [m])`` of the case with ``angles`` in
     a limit-cycle file: its first exact orbit, else its first harmonic-balance cycle (every
@@ -95,7 +126,9 @@ def _start(model, cfg: Config, angles: dict, cycles_file: str | None, comm=None)
     st, N = cfg.settle, model.blades
     found = None
     if st.start == "cycle" and cycles_file:
-        found = _cycle_from_file(cycles_file, angles, N)
+        # the file holds the angles of the enabled contacts only (NaN for a disabled one)
+        enabled = {k: v for k, v in angles.items() if cfg.contact(k).enabled}
+        found = _cycle_from_file(cycles_file, enabled, N)
         words = f"the exact orbit in {os.path.basename(cycles_file)}"
     if st.start == "cycle" and found is None:
         lc = dataclasses.replace(lc_settings(cfg, (-1,)), method="shooting", floquet="off",
@@ -136,6 +169,21 @@ def _start(model, cfg: Config, angles: dict, cycles_file: str | None, comm=None)
             f"{words}, every ND perturbed at {seed:.3g} m (seed {st.seed})", float(amplitude))
 
 
+# ------------------------------------------------------------------ the output
+def resume_problem(path: str) -> str | None:
+    """Why ``--resume`` must not replace the existing file at ``path`` (None: it is a settle
+    file, which the resumed run completes): any other kind of file is the user's work of
+    another command, replaced only with ``--force``."""
+    from wheelrom.results.info import kind_of
+    from wheelrom.results.settle import FORMAT
+
+    fmt, kind = kind_of(path)
+    if fmt == FORMAT:
+        return None
+    return (f"--out {path}: is {kind}, not a settle file: --resume completes only a settle "
+            "file; choose another --out, or --force to replace it")  # fmt: skip
+
+
 # ------------------------------------------------------------------ sidecars
 def save_case(directory: str, index: int, digest: str, result: Settled) -> None:
     """Case ``index`` as ``case_<index>.npz`` + ``.json`` in ``directory`` (atomic)."""
@@ -161,35 +209,46 @@ def save_case(directory: str, index: int, digest: str, result: Settled) -> None:
     os.replace(base + ".partial.json", base + ".json")
 
 
-def load_case(directory: str, index: int, digest: str) -> Settled | None:
-    """A saved case of the same configuration, else None."""
+def load_case(directory: str, index: int, digest: str, warn=None) -> Settled | None:
+    """A saved case of the same configuration, else None: none saved, another
+    configuration's, or damaged (truncated by a full disk or a kill, garbled): then ``warn``
+    is told in one line which file and why, and the case is computed again."""
     base = os.path.join(directory, f"case_{index}")
+    if not os.path.exists(base + ".json"):
+        return None
+    name = base + ".json"
     try:
-        with open(base + ".json") as f:
+        with open(name) as f:
             scalars = json.load(f)
         if scalars.get("digest") != digest:
             return None
-        with np.load(base + ".npz", allow_pickle=False) as z:
+        name = base + ".npz"
+        # opened here: np.load leaves a file it cannot read as a zip open
+        with open(name, "rb") as fh, np.load(fh, allow_pickle=False) as z:
             arrays = {k: z[k] for k in z.files}
-    except (OSError, ValueError, KeyError):
+        name = base + ".json"  # its windows and classification read back
+        windows = [Window(float(e), a, n, tuple(ch)) for e, a, n, ch in
+                   zip(arrays["window_end"], arrays["window_amplitude"],
+                       arrays["window_nd_energy"], scalars["changes"], strict=True)]  # fmt: skip
+        c = scalars["classification"]
+        return Settled(scalars["settled"], scalars["time"], windows,
+                       Classification(**c) if c else None, arrays["amplitude"],
+                       arrays["nd_energy"], arrays["fractions"], arrays["normal_force_range"],
+                       scalars["energy_balance"], arrays["tip_time"], arrays["tip"],
+                       scalars["start"], scalars["start_amplitude"], scalars["wall_s"],
+                       scalars["status"])  # fmt: skip
+    except Exception as exc:  # whatever a damaged file raises (BadZipFile, EOFError, ...)
+        if warn is not None:
+            warn(f"{name}: damaged ({type(exc).__name__}: {exc}); case {index + 1} is "
+                 "computed again")  # fmt: skip
         return None
-    windows = [Window(float(e), a, n, tuple(ch)) for e, a, n, ch in
-               zip(arrays["window_end"], arrays["window_amplitude"],
-                   arrays["window_nd_energy"], scalars["changes"], strict=True)]  # fmt: skip
-    c = scalars["classification"]
-    return Settled(scalars["settled"], scalars["time"], windows,
-                   Classification(**c) if c else None, arrays["amplitude"],
-                   arrays["nd_energy"], arrays["fractions"], arrays["normal_force_range"],
-                   scalars["energy_balance"], arrays["tip_time"], arrays["tip"],
-                   scalars["start"], scalars["start_amplitude"], scalars["wall_s"],
-                   scalars["status"])  # fmt: skip
 
 
 # ------------------------------------------------------------------ the cases
 def run_settle(cfg: Config, out: str | None, comm=None, log=print, resume: bool = False,
-               cycles_file: str | None = None, progress=None):  # fmt: skip
+               cycles_file: str | None = None, progress=None, warn=print):  # fmt: skip
     """``(model, [(angles, parameters, Settled)])`` of every case on rank 0 (others: the
-    model and ``[]``)."""
+    model and ``[]``). ``warn``: a damaged saved case, on whichever rank finds it."""
     study = expand(cfg)
     paper_law_only(study, "settle")
     rank, size = (comm.rank, comm.size) if comm is not None else (0, 1)
@@ -206,7 +265,7 @@ def run_settle(cfg: Config, out: str | None, comm=None, log=print, resume: bool 
             f"{short_name(k)} {v:g}" if isinstance(v, float) else f"{short_name(k)} {v}"
             for k, v in zip(study.names, study.values[i], strict=True))
         digest = config_digest(case_cfg)
-        done = load_case(directory, i, digest) if resume and directory else None
+        done = load_case(directory, i, digest, warn) if resume and directory else None
         if done is None:
             done = _settle_one(models[model_of[i]], case_cfg, angles, cycles_file, label,
                                progress if rank == 0 else None)  # fmt: skip

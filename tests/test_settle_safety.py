@@ -1,0 +1,228 @@
+"""`wheelrom settle` never loses a user's file nor computes on a wrong input:
+--resume refuses a file of another kind (only --force replaces it); the side folder
+``.NAME.settle`` is refused up front when it is a planted link (never followed, its target
+untouched) or a file, and a damaged case in it is computed again; a --cycles file of another
+kind or of another wheel is refused before any model is built. The files of other kinds are
+made here with their format attribute (what the checks read), in milliseconds."""
+
+import os
+
+import h5py
+import pytest
+
+from conftest import SMALL, VDP_WHEEL
+from wheelrom import config
+from wheelrom.cli import main as cli
+
+#: the Van der Pol wheel, one case, a few ms of simulated time (no window completes)
+SHORT = [*VDP_WHEEL, "sweep.shroud_angles_deg=[50.0]", "settle.max_time=0.02",
+         "settle.min_time=0.01"]  # fmt: skip
+#: format and top-level group of each kind of file, and what the refusal calls it
+KINDS = {
+    "run": ("wheelrom-sweep-1", "cases", "a sweep or run results file"),
+    "stability": ("wheelrom-stability-1", "stability", "a stability file"),
+    "limit-cycle": ("wheelrom-limit-cycle-1", "limit_cycle", "a limit-cycle file"),
+    "settle": ("wheelrom-settle-1", "settle", "a settle file"),
+}
+
+
+def _settle(*extra: str) -> list[str]:
+    return ["settle", SMALL, *sum((["--set", k] for k in SHORT), []), *extra]
+
+
+def _wheelrom_file(path, kind: str, overrides=()) -> bytes:
+    """A file of ``kind`` (KINDS, or ``text``: not HDF5) written for the small wheel with
+    ``overrides``; its bytes."""
+    if kind == "text":
+        path.write_text("precious, not HDF5\n")
+    else:
+        fmt, group, _ = KINDS[kind]
+        cfg = config.load(SMALL, [*SHORT, *overrides])
+        with h5py.File(path, "w") as f:
+            f.attrs["format"] = fmt
+            f.attrs["config"] = config.to_toml(cfg)
+            f.attrs["config_source"] = cfg.source
+            f.create_group(group)
+    return path.read_bytes()
+
+
+def _one_error(capsys) -> str:
+    err = capsys.readouterr().err
+    assert "Traceback" not in err, err
+    lines = [ln for ln in err.splitlines() if ln.startswith("wheelrom:")]
+    assert len(lines) == 1, err
+    return lines[0]
+
+
+@pytest.fixture
+def nothing_computed(monkeypatch):
+    """Fails the test if a segment is built or read: a refusal under it came before any
+    model was built."""
+    def computed(*_):
+        raise AssertionError("a segment was built: the refusal came too late")
+
+    monkeypatch.setattr("wheelrom.segment.load.build_builtin", computed)
+    monkeypatch.setattr("wheelrom.segment.load.read_segment", computed)
+
+
+# --- --resume on a file of another kind ----------------------------------------------------
+
+
+@pytest.mark.parametrize("kind", ["run", "stability", "limit-cycle", "text"])
+def test_resume_refuses_a_file_of_another_kind(kind, tmp_path, capsys, nothing_computed):
+    """It was replaced by the settle file without --force."""
+    out = tmp_path / "x.h5"
+    before = _wheelrom_file(out, kind)
+    assert cli.main(_settle("--resume", "--out", str(out))) == 2
+    line = _one_error(capsys)
+    words = KINDS[kind][2] if kind != "text" else "a file that is not HDF5"
+    assert line.startswith(f"wheelrom: --out {out}: is {words}"), line
+    assert "not a settle file" in line and "--force" in line
+    assert out.read_bytes() == before
+    assert sorted(os.listdir(tmp_path)) == ["x.h5"]
+
+
+def test_resume_accepts_a_settle_file(tmp_path):
+    """What --resume completes is a settle file; a bare HDF5 file is another kind."""
+    from wheelrom.studies.settle import resume_problem
+
+    settle, bare = tmp_path / "s.h5", tmp_path / "bare.h5"
+    _wheelrom_file(settle, "settle")
+    assert resume_problem(str(settle)) is None
+    h5py.File(bare, "w").close()
+    assert "is an HDF5 file without a wheelrom format" in resume_problem(str(bare))
+
+
+# --- the side folder .NAME.settle -----------------------------------------------------------
+
+
+@pytest.mark.parametrize("resume", [False, True])
+def test_a_link_planted_as_the_side_folder_is_refused_never_followed(resume, tmp_path, capsys,
+                                                                    nothing_computed):  # fmt: skip
+    """It was written through (the cases landed in its target), then rmtree raised
+    "Cannot call rmtree on a symbolic link" after the computation."""
+    victim = tmp_path / "victim"
+    victim.mkdir()
+    (victim / "mine").write_text("not yours")
+    side = tmp_path / ".s.settle"
+    side.symlink_to(victim)
+    out = tmp_path / "s.h5"
+    assert cli.main(_settle("--out", str(out), *(["--resume"] if resume else []))) == 2
+    line = _one_error(capsys)
+    assert f"--out {out}: {side}, where its finished cases are kept, is a symbolic link to a " \
+        "directory: a link there is never followed" in line, line  # fmt: skip
+    assert os.path.islink(side) and os.readlink(side) == str(victim)
+    assert os.listdir(victim) == ["mine"] and (victim / "mine").read_text() == "not yours"
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("resume", [False, True])
+def test_a_file_named_as_the_side_folder_is_refused_up_front(resume, tmp_path, capsys,
+                                                             nothing_computed):  # fmt: skip
+    """It raised FileExistsError when the first case was saved: after computing it."""
+    side = tmp_path / ".s.settle"
+    side.write_text("mine")
+    out = tmp_path / "s.h5"
+    assert cli.main(_settle("--out", str(out), *(["--resume"] if resume else []))) == 2
+    line = _one_error(capsys)
+    assert f"{side}, where its finished cases are kept, is a regular file" in line, line
+    assert side.read_text() == "mine" and not out.exists()
+
+
+def test_a_damaged_saved_case_is_computed_again(tmp_path, monkeypatch, capsys):
+    """A case_0.npz cut short (a full disk, a kill) raised zipfile.BadZipFile on --resume:
+    it is now missing, said in one line, and the case computed again."""
+    from wheelrom.studies import settle as study
+
+    out = tmp_path / "s.h5"
+
+    def interrupted(*_):  # the cases are saved beside the output, the file is not written
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr("wheelrom.results.settle.write_settle", interrupted)
+    assert cli.main(_settle("--out", str(out))) == 130
+    monkeypatch.undo()
+    saved = tmp_path / ".s.settle" / "case_0.npz"
+    saved.write_bytes(saved.read_bytes()[: saved.stat().st_size // 2])
+    capsys.readouterr()
+    real, calls = study._settle_one, []
+    monkeypatch.setattr(study, "_settle_one", lambda *a, **k: calls.append(a[3]) or real(*a, **k))
+    assert cli.main(_settle("--out", str(out), "--resume")) == 0
+    err = capsys.readouterr().err
+    assert "Traceback" not in err, err
+    [line] = [ln for ln in err.splitlines() if "damaged" in ln]
+    assert line.startswith(f"{saved}: damaged (BadZipFile: ") and "computed again" in line
+    assert len(calls) == 1
+    with h5py.File(out, "r") as f:
+        assert f.attrs["format"] == "wheelrom-settle-1" and f["settle/verdict"].shape == (1,)
+    assert not (tmp_path / ".s.settle").exists()
+
+
+# --- --cycles -----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("override, changed", [("wheel.blades=10", "wheel.blades: 10 -> 12"),
+                                               ("wheel.modes_per_segment=4",
+                                                "wheel.modes_per_segment: 4 -> 6")])  # fmt: skip
+def test_cycles_of_another_wheel_are_refused_naming_the_key(override, changed, tmp_path, capsys,
+                                                            nothing_computed):  # fmt: skip
+    """Another blade count was wrapped onto this wheel; another mode count was a numpy
+    broadcast error."""
+    cycles = tmp_path / "lc.h5"
+    _wheelrom_file(cycles, "limit-cycle", [override])
+    assert cli.main(_settle("--cycles", str(cycles))) == 2
+    line = _one_error(capsys)
+    assert line.startswith(f"wheelrom: --cycles {cycles}: written for another wheel "
+                           f"({changed})"), line  # fmt: skip
+
+
+@pytest.mark.parametrize("kind", ["stability", "run", "settle", "text"])
+def test_cycles_of_another_kind_are_refused_naming_it(kind, tmp_path, capsys, nothing_computed):
+    """They failed every case after the model build with a raw KeyError or OSError."""
+    cycles = tmp_path / "other.h5"
+    _wheelrom_file(cycles, kind)
+    assert cli.main(_settle("--cycles", str(cycles))) == 2
+    words = KINDS[kind][2] if kind != "text" else "a file that is not HDF5"
+    assert _one_error(capsys) == (f"wheelrom: --cycles {cycles}: is {words}"
+                                  + (f" (format {KINDS[kind][0]!r})" if kind != "text" else "")
+                                  + ", not a limit-cycle file (wheelrom limit-cycle --out)")
+
+
+def test_cycles_of_the_same_wheel_at_another_intensity_are_accepted(tmp_path):
+    """Only the wheel must agree: the orbit of another flutter intensity, time step or
+    harmonic count is still a start in this model's coordinates."""
+    from wheelrom.runtime.errors import InputError
+    from wheelrom.studies.settle import check_cycles
+
+    cycles = tmp_path / "lc.h5"
+    _wheelrom_file(cycles, "limit-cycle", ["flutter.mu=5.0", "time.step=5e-6",
+                                           "limit_cycle.harmonics=3",
+                                           "contacts.shroud.angle_deg=60.0"])  # fmt: skip
+    cfg = config.load(SMALL, SHORT)
+    check_cycles(str(cycles), cfg)
+    with pytest.raises(InputError, match="contacts.tieboss.height: 1.6 -> 1.7"):
+        check_cycles(str(cycles), config.load(SMALL, [*SHORT, "contacts.tieboss.height=1.7"]))
+
+
+def test_the_orbit_of_a_wheel_without_contacts_is_read_from_the_file(tmp_path, capsys):
+    """A limit-cycle file records the angles of the enabled contacts only (NaN for the
+    others); settle looked its case up by both angles, never found it on a wheel with a
+    contact disabled and computed the orbit again. A file with one orbit (every blade 1 um
+    in its first mode) is now the start."""
+    import json
+
+    import numpy as np
+
+    cycles = tmp_path / "lc.h5"
+    _wheelrom_file(cycles, "limit-cycle")
+    state = np.zeros((1, 2, 12, 6))
+    state[0, 0, :, 0] = 1e-6
+    with h5py.File(cycles, "a") as f:
+        g = f["limit_cycle"]
+        g["angles_deg"] = np.full((1, 2), np.nan)
+        c = g.create_group("case_0/wave_6/cycles")
+        c["orbit_state"], c["orbit_period"] = state, np.array([1 / 116.5])
+        c["tip_amplitude"] = np.array([1e-5])
+    assert cli.main(_settle("--cycles", str(cycles), "--json")) == 0
+    row = json.loads(capsys.readouterr().out)["cases"][0]
+    assert row["start"].startswith("the exact orbit in lc.h5"), row["start"]
