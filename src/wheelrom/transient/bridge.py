@@ -21,7 +21,8 @@ from numba import types
 from wheelrom.forces.fastmath import double_ptr, long_ptr
 from wheelrom.runtime import kernel_cache as _kernel_cache
 from wheelrom.runtime.environment import petsc
-from wheelrom.transient.kernel import rhs_core, sample_core, slide_core
+from wheelrom.transient.contact_kernel import slide_core
+from wheelrom.transient.kernel import rhs_core, sample_core
 from wheelrom.transient.layout import (
     H_LEN,
     H_NSTATE,

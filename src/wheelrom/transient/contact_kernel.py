@@ -7,13 +7,22 @@ from __future__ import annotations
 
 import math
 
+import numba
+
 from wheelrom.forces.contact_law import LAW_SIZE, tangential_force
 from wheelrom.forces.fastmath import NOALIAS
 from wheelrom.runtime import kernel_cache as _kernel_cache
 from wheelrom.transient.layout import (
+    H_B,
+    H_K,
+    H_M,
+    H_N,
+    H_SLIDERS,
+    I_ACTIVE,
     I_AP,
     I_ARM,
     I_BP,
+    I_COL,
     I_FA,
     I_FB,
     I_FN,
@@ -215,3 +224,48 @@ def _contact_columns(NB, UA, UB, VA, VB, uax, uay, uaz, vax, vay, vaz, T, kc, R,
         FA[0, col] = -Fx - fbx
         FA[1, col] = -Fy - fby
         FA[2, col] = -Fz - fbz
+
+
+@numba.njit(inline="always")
+def slider_rows(u, ctx, n, K, NB, B):
+    """``(K, 2, N B)`` the elastic law's sliders of the state ``u`` (a view); under the paper
+    law, which has none, the context's scratch of returned sliders (never read)."""
+    if ctx[H_SLIDERS] > 0.0:
+        start = 2 * n + 4 * B
+        return u[start : start + K * 2 * NB].reshape((K, 2, NB))
+    return get(ctx, I_WNEXT, K * 2 * NB).reshape((K, 2, NB))
+
+
+@_kernel_cache.njit(fastmath={"contract"}, error_model="numpy")
+def slide_core(u, ctx):
+    """The end of a step under the elastic law: every running case's sliders in ``u``
+    returned onto the Coulomb limit at the state ``u`` (the contact law's return map,
+    :func:`wheelrom.forces.contact_law.elastic_friction`); returns 1 when one moved (the
+    integrator must then restart: the force at the step's end changed with it), 0 when none
+    did or the law has none."""
+    if ctx[H_SLIDERS] <= 0.0:
+        return 0
+    N = int(ctx[H_N])
+    m = int(ctx[H_M])
+    K = int(ctx[H_K])
+    B = int(ctx[H_B])
+    NB = N * B
+    n = m * NB
+    Q = u[:n].reshape((m, NB))
+    V = u[n : 2 * n].reshape((m, NB))
+    column = get(ctx, I_COL, NB)  # scratch: the next rhs_core overwrites it
+    sliders = slider_rows(u, ctx, n, K, NB, B)
+    for kind in range(K):
+        contacts(ctx, kind, N, m, K, B, Q, V, column, sliders)
+    returned = get(ctx, I_WNEXT, K * 2 * NB).reshape((K, 2, NB))
+    active = get(ctx, I_ACTIVE, B)
+    moved = 0
+    for c in range(K):
+        for a in range(2):
+            w = sliders[c, a]
+            w_new = returned[c, a]
+            for col in range(NB):
+                if w_new[col] != w[col] and active[col % B] != 0.0:
+                    w[col] = w_new[col]
+                    moved = 1
+    return moved

@@ -15,7 +15,8 @@ and ``e2 = (0, 1)`` (the explicit part acts on the velocity only):
 from __future__ import annotations
 
 from wheelrom.runtime import kernel_cache as _kernel_cache
-from wheelrom.transient.kernel import rhs_core, slide_core
+from wheelrom.transient.contact_kernel import slide_core
+from wheelrom.transient.kernel import rhs_core
 from wheelrom.transient.layout import H_ACTIVE, H_B, H_M, H_N, H_RHS_CALLS, I_ACTIVE, get
 
 C_FULL, C_HALF, C_PHI_HALF, C_F1, C_F2, C_F3 = 0, 4, 8, 10, 12, 14

@@ -16,7 +16,7 @@ import math
 import numba
 
 from wheelrom.runtime import kernel_cache as _kernel_cache
-from wheelrom.transient.contact_kernel import contacts
+from wheelrom.transient.contact_kernel import contacts, slider_rows
 from wheelrom.transient.layout import (
     H_ACTIVE,
     H_B,
@@ -37,7 +37,6 @@ from wheelrom.transient.layout import (
     H_R,
     H_SAMPLE_DT,
     H_SKIP_LINEAR,
-    H_SLIDERS,
     H_STATE_CAP,
     H_STATE_EVERY,
     H_VDP,
@@ -75,7 +74,6 @@ from wheelrom.transient.layout import (
     I_TIP,
     I_UB,
     I_VT,
-    I_WNEXT,
     I_WT,
     I_XA,
     I_XB,
@@ -120,16 +118,6 @@ def _load_state(u, ctx, N, m, B, beta):
             wt[b] = wt[NB + b]
             wt[NB + B + b] = wt[B + b]
     return u[:n].reshape((m, NB)), u[n : 2 * n].reshape((m, NB)), VT, WT
-
-
-@numba.njit(inline="always")
-def _sliders(u, ctx, n, K, NB, B):
-    """``(K, 2, N B)`` the elastic law's sliders of the state ``u`` (a view); under the paper
-    law, which has none, the context's scratch of returned sliders (never read)."""
-    if ctx[H_SLIDERS] > 0.0:
-        start = 2 * n + 4 * B
-        return u[start : start + K * 2 * NB].reshape((K, 2, NB))
-    return get(ctx, I_WNEXT, K * 2 * NB).reshape((K, 2, NB))
 
 
 @numba.njit(inline="always")
@@ -242,7 +230,7 @@ def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
     # contacts: the arm of blade s (A_s, B_s, end C_s) against A_{s+1}
     for c in range(NB):
         column[c] = 0.0
-    sliders = _sliders(u, ctx, n, K, NB, B)
+    sliders = slider_rows(u, ctx, n, K, NB, B)
     for kind in range(K):
         contacts(ctx, kind, N, m, K, B, Q, V, column, sliders)
     _case_sums(column, power[2], N, B)
@@ -457,7 +445,7 @@ def sample_core(t, u, ctx):
         Q = u[:n].reshape((m, NB))
         V = u[n : 2 * n].reshape((m, NB))
         column = get(ctx, I_COL, NB)
-        sliders = _sliders(u, ctx, n, K, NB, B)
+        sliders = slider_rows(u, ctx, n, K, NB, B)
         for kind in range(K):
             contacts(ctx, kind, N, m, K, B, Q, V, column, sliders)
         normal = get(ctx, I_NORMAL, K * NB).reshape((K, NB))
@@ -476,41 +464,6 @@ def sample_core(t, u, ctx):
                 smin[b, k, c] = low
                 sopen[b, k, c] = opened
     return 1 if ctx[H_ACTIVE] <= 0.0 else 0
-
-
-@_kernel_cache.njit(fastmath={"contract"}, error_model="numpy")
-def slide_core(u, ctx):
-    """The end of a step under the elastic law: every running case's sliders in ``u``
-    returned onto the Coulomb limit at the state ``u`` (the contact law's return map,
-    :func:`wheelrom.forces.contact_law.elastic_friction`); returns 1 when one moved (the
-    integrator must then restart: the force at the step's end changed with it), 0 when none
-    did or the law has none."""
-    if ctx[H_SLIDERS] <= 0.0:
-        return 0
-    N = int(ctx[H_N])
-    m = int(ctx[H_M])
-    K = int(ctx[H_K])
-    B = int(ctx[H_B])
-    NB = N * B
-    n = m * NB
-    Q = u[:n].reshape((m, NB))
-    V = u[n : 2 * n].reshape((m, NB))
-    column = get(ctx, I_COL, NB)  # scratch: the next rhs_core overwrites it
-    sliders = _sliders(u, ctx, n, K, NB, B)
-    for kind in range(K):
-        contacts(ctx, kind, N, m, K, B, Q, V, column, sliders)
-    returned = get(ctx, I_WNEXT, K * 2 * NB).reshape((K, 2, NB))
-    active = get(ctx, I_ACTIVE, B)
-    moved = 0
-    for c in range(K):
-        for a in range(2):
-            w = sliders[c, a]
-            w_new = returned[c, a]
-            for col in range(NB):
-                if w_new[col] != w[col] and active[col % B] != 0.0:
-                    w[col] = w_new[col]
-                    moved = 1
-    return moved
 
 
 def multiply_adds(N: int, m: int, K: int) -> int:

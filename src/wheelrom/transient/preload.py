@@ -21,6 +21,21 @@ def static_preload(problem: WheelProblem, case: int = 0,
                               problem.cases[case].nozzle_force, prefix)  # fmt: skip
 
 
+def _static_residual(forces, K):
+    """``q -> K q - f(q, 0, t = 0)`` (``(N m,)``). Under the elastic law the sliders follow
+    the static load (no tangential force), as the paper law's friction at rest: both laws
+    share the preloaded equilibrium."""
+    N, m = forces.params.blades, forces.params.modes
+    zeros_v = np.zeros((N, m))
+    elastic = forces.params.law.elastic
+
+    def residual(q):
+        slider = forces.sliders_at_rest(q.reshape(N, m)) if elastic else None
+        return K @ q - forces.evaluate(0.0, q.reshape(N, m), zeros_v, slider).ravel()
+
+    return residual
+
+
 def static_equilibrium(forces, K: np.ndarray, comm, force_scale: float, prefix: str = "preload_",
                        tangent=None) -> tuple[np.ndarray, float]:  # fmt: skip
     """``K q = f(q, 0, t=0)`` for the :class:`~wheelrom.forces.reference.ReferenceForces`
@@ -31,16 +46,7 @@ def static_equilibrium(forces, K: np.ndarray, comm, force_scale: float, prefix: 
     PETSc = petsc()
     n = K.shape[0]
     N, m = forces.params.blades, forces.params.modes
-    zeros_v = np.zeros((N, m))
-
-    elastic = forces.params.law.elastic
-
-    def residual_np(q):
-        # elastic law: the sliders follow the static load (no tangential force), as the
-        # paper law's friction at rest: both laws share the preloaded equilibrium
-        slider = forces.sliders_at_rest(q.reshape(N, m)) if elastic else None
-        force = forces.evaluate(0.0, q.reshape(N, m), zeros_v, slider)
-        return K @ q - force.ravel()
+    residual_np = _static_residual(forces, K)
 
     def residual(snes, x, r):
         # a writable copy: the compiled force model has one specialisation (writable arrays)
