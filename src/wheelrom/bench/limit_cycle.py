@@ -44,7 +44,8 @@ SEED = 1e-5  # [m] tip amplitude of the first Newton start (then limit_cycle.see
 
 
 def limit_cycle_figures(model: ReducedModel, cfg: Config, say) -> dict:
-    if not model.tuned or cfg.flutter.model == "off":
+    # the elastic law's periodic solutions need the sliders in the state (issue #44)
+    if not model.tuned or cfg.flutter.model == "off" or cfg.contacts.law == "elastic":
         return {"limit_cycle_s_per_case": None}
     angles = case_angles(cfg)
     growth = []

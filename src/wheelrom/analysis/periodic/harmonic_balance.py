@@ -34,6 +34,7 @@ import numpy as np
 from wheelrom.forces.parameters import AERO_TABLE, VDP_OFF, ForceParameters
 from wheelrom.forces.reference import ReferenceForces
 from wheelrom.rom.model import ReducedModel
+from wheelrom.runtime.errors import InputError
 
 WINDOW = (0, 1, -1)  # the window's blades: blade 0, the next, the previous
 #: finite-difference step of the force Jacobian: this physical displacement [m] at the point of
@@ -90,6 +91,9 @@ class WaveBalance:
                  harmonics: int, samples: int):  # fmt: skip
         if not model.tuned:
             raise ValueError("limit cycles need a tuned wheel (mistuning.* is set)")
+        if params.law.elastic:  # a memoryless AFT would hold every slider at zero
+            raise InputError("the harmonic balance does not carry the elastic contact law's "
+                             "hysteresis yet (contacts.law = 'elastic'; issue #44)")
         if samples < 2 * harmonics + 1:
             raise ValueError(f"limit_cycle.samples = {samples} < 2 H + 1 = {2 * harmonics + 1}")
         self.model, self.params, self.beta = model, params, beta
