@@ -114,8 +114,17 @@ class ContactHistory:
 def contact_histories(model: ReducedModel, cfg: Config, angles_deg: dict, times: np.ndarray,
                       states: np.ndarray) -> dict[str, ContactHistory]:  # fmt: skip
     """Kind -> :class:`ContactHistory` at the modal states ``states`` ``(S, 2, N, m)``
-    (``q``, ``q'``) at ``times`` ``(S,)`` of the case with contact angles ``angles_deg``."""
+    (``q``, ``q'``) at ``times`` ``(S,)`` of the case with contact angles ``angles_deg``.
+
+    Under the elastic law the history holds no sliders: they are replayed along the stored
+    states (the law's return map, sample to sample) from rest at the first sample, which is
+    exact for a relative motion monotonic between samples once every contact has slipped
+    (a dense ``output.state_rate_hz``; the first stick phase's forces are relative to the
+    first sample)."""
     forces = ReferenceForces(force_parameters(model, cfg, angles_deg))
+    elastic = forces.params.law.elastic
+    if elastic and len(times):
+        forces.slider[...] = forces.sliders_at_rest(np.ascontiguousarray(states[0, 0]))
     kinds = forces.params.contacts.kinds
     S, K, N = len(times), len(kinds), model.blades
     normal, slip = np.zeros((S, K, N)), np.zeros((S, K, N))
@@ -124,6 +133,8 @@ def contact_histories(model: ReducedModel, cfg: Config, angles_deg: dict, times:
     for i, t in enumerate(times):
         forces.evaluate(float(t), np.ascontiguousarray(states[i, 0]),
                         np.ascontiguousarray(states[i, 1]))  # fmt: skip
+        if elastic:  # the sliders of this sample, kept for the next
+            forces.slider[...] = forces.slider_next
         normal[i], slip[i], state[i] = forces.normal_force, forces.slip_velocity, \
             forces.contact_state  # fmt: skip
         friction[i], rel[i] = forces.friction_force, forces.relative_displacement
