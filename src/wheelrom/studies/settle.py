@@ -230,9 +230,11 @@ def _settle_one(model, cfg: Config, angles: dict, cycles_file, label, progress) 
         return Settled(False, 0.0, status=f"failed: no start ({why})")
 
     def say(t, w):
-        if progress:
+        if progress:  # the first window has no window before it to change against
+            change = (f"window change {max(w.change):.2%}" if math.isfinite(max(w.change))
+                      else "first window")  # fmt: skip
             progress(f"{label}: {t:.3g} s, largest blade {w.amplitude.max() * 1e6:.3g} um, "
-                     f"window change {max(w.change):.2%}")
+                     f"{change}")
 
     result = settle_case(model, cfg, angles, u0, frequency, settings_of(cfg),
                          cfg.settle.nozzle, say)  # fmt: skip
