@@ -63,3 +63,34 @@ def test_plot_of_a_settle_file_warns_nothing(quick_settle, tmp_path, capsys):
     assert cli.main(["plot", str(out), "--outdir", str(tmp_path)]) == 0
     assert "Warning" not in capsys.readouterr().err
     assert (tmp_path / "settle_case0.png").exists()
+
+
+# --- 4: [settle] times that cannot work: one line before anything is integrated ----------
+
+
+def test_min_time_above_max_time_is_refused_naming_both(capsys):
+    keys = [*QUICK, "settle.min_time=0.5", "settle.max_time=0.3"]
+    for command in ("config check", "settle"):  # refused as every configuration error is
+        assert cli.main([*command.split(), SMALL, *_sets(keys)]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("wheelrom: invalid configuration:\n") and "Traceback" not in err
+        (problem,) = err.splitlines()[1:]
+        assert problem.endswith(": settle.min_time = 0.5 s is above settle.max_time = 0.3 s: "
+                                "no case could ever be called settled"), problem  # fmt: skip
+
+
+def test_max_time_shorter_than_one_window_is_refused_before_integrating(capsys, monkeypatch):
+    """Two periods of the ND 6 flutter at 125 Hz are 16 ms: a 5 ms maximum holds no window
+    (it was reported "not settled after 0 s", exit 0). The start (the preloaded equilibrium)
+    gives the frequency; no window is integrated."""
+    from wheelrom.transient import run
+
+    def integrated(*_, **__):
+        raise AssertionError("a window was integrated: the refusal came too late")
+
+    monkeypatch.setattr(run, "run_case", integrated)
+    keys = [*QUICK, 'settle.start="preload"', "settle.min_time=0.0", "settle.max_time=0.005"]
+    assert cli.main(["settle", SMALL, *_sets(keys)]) == 2
+    (line,) = _errors(capsys.readouterr().err)
+    assert line.startswith("wheelrom: settle.max_time = 0.005 s is shorter than one window: "
+                           "settle.window_periods = 2 periods"), line  # fmt: skip

@@ -33,6 +33,7 @@ from wheelrom.analysis.periodic.settle import (
 from wheelrom.config import Config, to_toml
 from wheelrom.config.study import expand, short_name
 from wheelrom.runtime.errors import InputError
+from wheelrom.runtime.outputs import agree
 from wheelrom.studies.plan import shared_models
 
 
@@ -196,28 +197,34 @@ def run_settle(cfg: Config, out: str | None, comm=None, log=print, resume: bool 
     if not all(m.tuned for m in models):
         raise InputError("settle: the start from a travelling-wave cycle needs a tuned wheel")
     directory = sidecar_dir(out) if out else None
-    mine = []
-    for i in range(rank, study.size, size):
-        case_cfg = study.configs[i]
-        angles = {k: case_cfg.contact(k).angle_deg for k in ("tieboss", "shroud")}
-        label = f"[{i + 1}/{study.size}] " + ", ".join(
-            f"{short_name(k)} {v:g}" if isinstance(v, float) else f"{short_name(k)} {v}"
-            for k, v in zip(study.names, study.values[i], strict=True))
-        digest = config_digest(case_cfg)
-        done = load_case(directory, i, digest) if resume and directory else None
-        if done is None:
-            done = _settle_one(models[model_of[i]], case_cfg, angles, cycles_file, label,
-                               progress if rank == 0 else None)  # fmt: skip
-            if directory:
-                save_case(directory, i, digest, done)
-        else:
-            say(f"{label}: kept from the interrupted run")
-        mine.append((i, angles, dict(zip(study.names, study.values[i], strict=True)), done))
-        say(f"{label}: {done.verdict()} ({done.wall_s:.1f} s)")
-    gathered = comm.gather(mine, root=0) if comm is not None else [mine]
+    mine, problem = [], None
+    try:
+        for i in range(rank, study.size, size):
+            case_cfg = study.configs[i]
+            angles = {k: case_cfg.contact(k).angle_deg for k in ("tieboss", "shroud")}
+            label = f"[{i + 1}/{study.size}] " + ", ".join(
+                f"{short_name(k)} {v:g}" if isinstance(v, float) else f"{short_name(k)} {v}"
+                for k, v in zip(study.names, study.values[i], strict=True))
+            digest = config_digest(case_cfg)
+            done = load_case(directory, i, digest) if resume and directory else None
+            if done is None:
+                done = _settle_one(models[model_of[i]], case_cfg, angles, cycles_file, label,
+                                   progress if rank == 0 else None)  # fmt: skip
+                if directory:
+                    save_case(directory, i, digest, done)
+            else:
+                say(f"{label}: kept from the interrupted run")
+            mine.append((i, angles, dict(zip(study.names, study.values[i], strict=True)),
+                         done))  # fmt: skip
+            say(f"{label}: {done.verdict()} ({done.wall_s:.1f} s)")
+    except InputError as exc:  # e.g. a window longer than max_time: told to every rank below
+        problem = exc
+    gathered = comm.gather((mine, problem), root=0) if comm is not None else [(mine, problem)]
     ordered = []
     if rank == 0:
-        ordered = sorted((it for part in gathered for it in part), key=lambda it: it[0])
+        problem = next((p for _, p in gathered if p is not None), None)
+        ordered = sorted((it for part, _ in gathered for it in part), key=lambda it: it[0])
+    agree(comm, problem)  # every rank stops together: none waits for one that stopped
     return models[0], [(a, p, r) for _, a, p, r in ordered], directory
 
 
