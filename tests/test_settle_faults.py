@@ -7,9 +7,14 @@ figure's warnings.
 Small and fast: the small wheel as a Van der Pol wheel (tests/conftest.py), windows of two
 periods (17 ms), a few windows per case."""
 
+import builtins
+import errno
 import io
+import os
 import sys
+import tempfile
 
+import h5py
 import pytest
 
 from conftest import SMALL, VDP_WHEEL
@@ -94,3 +99,98 @@ def test_max_time_shorter_than_one_window_is_refused_before_integrating(capsys, 
     (line,) = _errors(capsys.readouterr().err)
     assert line.startswith("wheelrom: settle.max_time = 0.005 s is shorter than one window: "
                            "settle.window_periods = 2 periods"), line  # fmt: skip
+
+
+# --- 1, 2: a disk that fills keeps what was computed in $TMPDIR -------------------------
+
+
+@pytest.fixture
+def full_disk(tmp_path, monkeypatch):
+    """``(out, spare, fill)``: once ``fill()`` is called, every write into ``tmp_path/out``
+    fails with ENOSPC, from Python (``open``: the side files, a results file's bytes) or from
+    HDF5 (``h5py.File``), as a disk that filled while the job ran; ``tmp_path/tmp`` is
+    $TMPDIR (tests/test_bad_inputs.py's full disk, for every writer)."""
+    out, spare = tmp_path / "out", tmp_path / "tmp"
+    out.mkdir()
+    spare.mkdir()
+    full = [False]
+
+    def on_the_full_disk(path) -> bool:
+        return full[0] and isinstance(path, str | os.PathLike) and \
+            os.path.dirname(os.path.abspath(path)).startswith(str(out))  # fmt: skip
+
+    class Filling:
+        """An open file whose every write finds the disk full."""
+
+        def __init__(self, fh):
+            self._fh = fh
+
+        def write(self, data):
+            raise OSError(errno.ENOSPC, "No space left on device")
+
+        def __getattr__(self, name):
+            return getattr(self._fh, name)
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *_):
+            self._fh.close()
+
+    real_open = io.open
+
+    def opening(file, mode="r", *args, **kwargs):
+        fh = real_open(file, mode, *args, **kwargs)
+        writes = any(c in mode for c in "wax+")
+        return Filling(fh) if writes and on_the_full_disk(file) else fh
+
+    class FullFile(h5py.File):
+        def __init__(self, name, mode="r", *args, **kwargs):
+            if mode != "r" and on_the_full_disk(name):
+                raise OSError(errno.ENOSPC, f"Unable to create file (name = '{name}', errno = "
+                              "28, error message = 'No space left on device')")  # fmt: skip
+            super().__init__(name, mode, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "open", opening)
+    monkeypatch.setattr(io, "open", opening)  # zipfile's (numpy.savez)
+    monkeypatch.setattr(h5py, "File", FullFile)
+    monkeypatch.setattr(tempfile, "tempdir", str(spare))
+    return out, spare, lambda: full.__setitem__(0, True)
+
+
+def test_a_disk_that_fills_during_settle_keeps_every_case_and_names_the_paths(
+        full_disk, capsys, monkeypatch):  # fmt: skip
+    """The first case is saved beside the output, then the disk fills: the second case's
+    side file fails (it was an exception that lost the computed case, left
+    case_1.partial.npz and said "what was written before is kept", naming no path); now it
+    stays in memory, the file of both cases is kept in $TMPDIR, and the one line names it,
+    the output and the case kept beside it."""
+    from wheelrom.studies import settle as study
+
+    out_dir, spare, fill = full_disk
+    real = study.save_case
+
+    def saved_then_full(*args, **kwargs):
+        real(*args, **kwargs)
+        fill()  # while the second case is computed
+
+    monkeypatch.setattr(study, "save_case", saved_then_full)
+    out, beside = out_dir / "s.h5", out_dir / ".s.settle"
+    keys = [*QUICK, "sweep.shroud_angles_deg=[50.0, 60.0]"]
+    assert cli.main(["settle", SMALL, *_sets(keys), "--out", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and "Exception ignored" not in err, err
+    (line,) = _errors(err)
+    (kept,) = os.listdir(spare)
+    free = line.split("; ")[1].split(" free in")[0]
+    assert line == (f"wheelrom: {out}: the disk is full (errno 28, ENOSPC: No space left on "
+                    f"device; {free} free in '{out_dir}'); the results are kept in "
+                    f"{spare / kept} (move it there once space is freed); the summary is "
+                    f"printed above; case 1 of 2 also stays in {beside} (--resume reuses "
+                    "it)")  # fmt: skip
+    assert f"wheelrom: warning: {beside / 'case_1.npz'}: the disk is full" in err
+    assert os.listdir(out_dir) == [".s.settle"]  # no output, no temporary, no lock
+    assert sorted(os.listdir(beside)) == ["case_0.json", "case_0.npz"]  # nothing partial
+    with h5py.File(spare / kept, "r") as f:  # every case computed
+        assert f.attrs["format"] == "wheelrom-settle-1"
+        assert f["settle/time"].shape == (2,) and (f["settle/time"][()] > 0.04).all()

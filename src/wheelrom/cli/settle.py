@@ -8,7 +8,7 @@ import os
 import shutil
 
 from wheelrom.cli.args import json_out, load_config, locked
-from wheelrom.cli.output import log, report_and_save, throttled
+from wheelrom.cli.output import log, number_ranges, report_and_save, throttled
 from wheelrom.runtime.errors import InputError
 from wheelrom.runtime.outputs import agree, check_output
 
@@ -51,14 +51,28 @@ def cmd_settle(args: argparse.Namespace) -> int:
         cycles_file=args.cycles, progress=None if args.json else throttled(PROGRESS_EVERY_S))
     failure = None
     if cases:
+        beside = _kept_beside(directory, cfg) if directory else ""
         failure = report_and_save(
             [summary(a, p, r) for a, p, r in cases], args.json, _print_rows, args.out,
             lambda f: write_settle(f, cfg, model, cases),
-            f"the finished cases stay in {directory}")  # fmt: skip
-        if args.out and failure is None and directory and os.path.isdir(directory):
-            shutil.rmtree(directory)
+            "; ".join(["the summary is printed above", *([beside] if beside else [])]))
+        if directory and os.path.isdir(directory) and (failure is None or not beside):
+            shutil.rmtree(directory)  # in the file, or no case of it kept (a full disk)
     agree(comm, failure)
     return 1 if any(r.status != "done" for _, _, r in cases) else 0
+
+
+def _kept_beside(directory: str, cfg) -> str:
+    """Which cases stay in the side folder for ``--resume`` ("" none)."""
+    from wheelrom.studies.settle import kept_cases
+
+    kept, total = kept_cases(directory, cfg)
+    if not kept:
+        return ""
+    which = number_ranges([i + 1 for i in kept])
+    if len(kept) == 1:
+        return f"case {which} of {total} also stays in {directory} (--resume reuses it)"
+    return f"cases {which} of {total} also stay in {directory} (--resume reuses them)"
 
 
 def _print_rows(rows: list[dict]) -> None:
