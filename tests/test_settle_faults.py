@@ -10,11 +10,13 @@ periods (17 ms), a few windows per case."""
 import builtins
 import errno
 import io
+import json
 import os
 import sys
 import tempfile
 
 import h5py
+import numpy as np
 import pytest
 
 from conftest import SMALL, VDP_WHEEL
@@ -194,3 +196,28 @@ def test_a_disk_that_fills_during_settle_keeps_every_case_and_names_the_paths(
     with h5py.File(spare / kept, "r") as f:  # every case computed
         assert f.attrs["format"] == "wheelrom-settle-1"
         assert f["settle/time"].shape == (2,) and (f["settle/time"][()] > 0.04).all()
+
+
+def test_run_on_a_full_disk_keeps_its_history_in_tmpdir(full_disk, capsys, monkeypatch):
+    """The disk fills while ``run`` integrates: its file, the histories with it, is kept in
+    $TMPDIR and named, as the other commands' (it said "nothing was written")."""
+    from wheelrom.transient import run
+
+    out_dir, spare, fill = full_disk
+    real = run.run_case
+    monkeypatch.setattr(run, "run_case", lambda *a, **k: (real(*a, **k), fill())[0])
+    out = out_dir / "r.h5"
+    argv = ["run", SMALL, "--set", "time.end=0.001", "--set", "time.window=0.0005"]
+    assert cli.main([*argv, "--out", str(out), "--json"]) == 1
+    captured = capsys.readouterr()
+    assert json.loads(captured.out)["status"] == "done"  # the summary first
+    (line,) = _errors(captured.err)
+    (kept,) = os.listdir(spare)
+    assert line.startswith(f"wheelrom: {out}: the disk is full (errno 28, ENOSPC"), line
+    assert line.endswith(f"; the results are kept in {spare / kept} (move it there once space "
+                         "is freed); its summary is printed above"), line  # fmt: skip
+    assert not os.listdir(out_dir)  # no file, no temporary, no lock
+    with h5py.File(spare / kept, "r") as f:  # the whole run, its history too
+        assert f["cases/status"][0] == b"done"
+        tips = f["cases/tip_history"][0]
+        assert tips.size and np.isfinite(tips).all() and np.abs(tips).max() > 0
