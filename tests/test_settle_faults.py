@@ -12,6 +12,9 @@ import errno
 import io
 import json
 import os
+import shlex
+import signal
+import subprocess
 import sys
 import tempfile
 
@@ -221,3 +224,94 @@ def test_run_on_a_full_disk_keeps_its_history_in_tmpdir(full_disk, capsys, monke
         assert f["cases/status"][0] == b"done"
         tips = f["cases/tip_history"][0]
         assert tips.size and np.isfinite(tips).all() and np.abs(tips).max() > 0
+
+
+# --- 3: Ctrl-C names the finished cases kept and the --resume line ----------------------
+
+
+def test_ctrl_c_during_settle_names_the_kept_cases_and_the_resume_line(tmp_path, capsys):
+    """SIGINT while the second of two cases runs (tests/test_safety.py's interrupt, by a
+    real signal to the command): the first case is kept beside the output, and the one line
+    said "nothing was being saved"; now it names the case, the folder and the line that
+    resumes, shell-quoted (a space and a quote in the paths), which then finishes the file
+    computing only the second case."""
+    folder = tmp_path / "my runs"
+    folder.mkdir()
+    keys = [*QUICK, "sweep.shroud_angles_deg=[50.0, 60.0]", "settle.min_time=0.2",
+            "settle.max_time=0.2"]  # fmt: skip
+    assert cli.main(["config", "show", SMALL, *_sets(keys)]) == 0
+    cfg, out = folder / "it's.toml", folder / "it's.h5"
+    cfg.write_text(capsys.readouterr().out)
+    proc = subprocess.Popen([sys.executable, "-m", "wheelrom", "settle", str(cfg), "--out",
+                             str(out)], stderr=subprocess.PIPE, stdout=subprocess.DEVNULL,
+                            text=True, env=dict(os.environ, MPLBACKEND="Agg"))  # fmt: skip
+    seen = []
+    for line in proc.stderr:
+        seen.append(line)
+        if line.startswith("[1/2] ") and line.rstrip().endswith(" s)"):  # the first's verdict
+            proc.send_signal(signal.SIGINT)
+            break
+    seen += proc.stderr.readlines()
+    err = "".join(seen)
+    assert proc.wait(timeout=300) == 130, err
+    assert "Traceback" not in err, err
+    (line,) = _errors(err)
+    beside = folder / ".it's.settle"
+    assert line.startswith(f"wheelrom: interrupted: case 1 of 2 finished and kept in {beside}; "
+                           "to compute only the other 1, rerun the settle with --resume: "
+                           "wheelrom settle "), line  # fmt: skip
+    assert sorted(os.listdir(beside)) == ["case_0.json", "case_0.npz"]
+    words = shlex.split(line[line.index(": wheelrom ") + 2 :])
+    assert words == ["wheelrom", "settle", str(cfg), "--out", str(out), "--resume"], line
+    assert cli.main(words[1:]) == 0  # pasted: the file of both cases, the folder gone
+    assert "kept from the interrupted run" in capsys.readouterr().err
+    with h5py.File(out, "r") as f:
+        assert f["settle/time"].shape == (2,)
+    assert not beside.exists()
+
+
+def test_a_killed_rank_leaves_rank_0_saying_what_is_kept(tmp_path, capsys):
+    """mpirun -n 2, rank 1 killed (SIGKILL) once rank 0 finished its first case: mpirun
+    sends the others SIGTERM and, a second later, SIGKILL. Rank 0 waited for rank 1 in a
+    blocking gather, where no signal reaches Python: it died without a word (and left its
+    lock); now it waits in a polled barrier and names what is kept and the resume line."""
+    cfg = tmp_path / "c.toml"
+    keys = [*QUICK, "sweep.shroud_angles_deg=[50.0, 60.0, 70.0]", "settle.min_time=0.2",
+            "settle.max_time=0.2"]  # fmt: skip
+    assert cli.main(["config", "show", SMALL, *_sets(keys)]) == 0
+    cfg.write_text(capsys.readouterr().out)
+    out = tmp_path / "s.h5"
+    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+               OMPI_MCA_rmaps_base_oversubscribe="1", MPLBACKEND="Agg")  # fmt: skip
+    command = [sys.executable, "-m", "wheelrom", "settle", str(cfg), "--out", str(out)]
+    proc = subprocess.Popen(["mpirun", "-n", "2", *command], stderr=subprocess.PIPE,
+                            stdout=subprocess.DEVNULL, text=True, env=env)  # fmt: skip
+    seen = []
+    for line in proc.stderr:
+        seen.append(line)
+        if line.startswith("[1/3] ") and line.rstrip().endswith(" s)"):
+            os.kill(_rank_pid(" ".join(command), 1), signal.SIGKILL)
+            break
+    seen += proc.stderr.readlines()
+    proc.wait(timeout=300)
+    err = "".join(seen)
+    lines = [ln for ln in err.splitlines() if ln.startswith("wheelrom:")]
+    assert len(lines) == 1 and "Traceback" not in err, err
+    assert lines[0].startswith("wheelrom: interrupted: case"), lines[0]
+    assert f"finished and kept in {tmp_path / '.s.settle'}; " in lines[0], lines[0]
+    assert lines[0].endswith(f": wheelrom settle {cfg} --out {out} --resume"), lines[0]
+    assert not (tmp_path / ".s.h5.lock").exists()
+
+
+def _rank_pid(command: str, rank: int) -> int:
+    """The pid of MPI rank ``rank`` running ``command`` (from its environment)."""
+    found = subprocess.run(["pgrep", "-f", command], capture_output=True, text=True).stdout
+    for pid in map(int, found.split()):
+        try:
+            with open(f"/proc/{pid}/environ", "rb") as fh:
+                env = fh.read().split(b"\0")
+        except OSError:
+            continue
+        if f"OMPI_COMM_WORLD_RANK={rank}".encode() in env:
+            return pid
+    raise AssertionError(f"no rank {rank} running {command}")

@@ -40,6 +40,7 @@ from wheelrom.config.study import expand, short_name
 from wheelrom.runtime.errors import InputError
 from wheelrom.runtime.outputs import agree, disk_full, is_disk_full, replacing, write_image
 from wheelrom.studies.plan import shared_models
+from wheelrom.studies.rounds import wait_for_all
 
 
 def settings_of(cfg: Config) -> Settings:
@@ -269,6 +270,8 @@ def run_settle(cfg: Config, out: str | None, comm=None, log=print, resume: bool 
             say(f"{label}: {done.verdict()} ({done.wall_s:.1f} s)")
     except InputError as exc:  # e.g. a window longer than max_time: told to every rank below
         problem = exc
+    if comm is not None:  # polled: a rank waiting for a killed one still takes mpirun's
+        wait_for_all(comm)  # SIGTERM, and says what is kept (a blocking gather never returns)
     gathered = comm.gather((mine, problem), root=0) if comm is not None else [(mine, problem)]
     ordered = []
     if rank == 0:
