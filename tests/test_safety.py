@@ -456,23 +456,3 @@ def test_a_disk_that_fills_keeps_the_finished_rounds_and_resumes(tmp_path, capsy
     with h5py.File(out, "r") as a, h5py.File(reference, "r") as b:
         for name in ("max_tip_amplitude", "tip_history", "energy", "status"):
             assert np.array_equal(a[f"cases/{name}"][()], b[f"cases/{name}"][()]), name
-
-
-def test_run_out_on_a_full_disk_prints_its_numbers_and_writes_nothing(tmp_path, capsys,
-                                                                     monkeypatch):  # fmt: skip
-    import errno
-
-    from wheelrom.results import layout as results
-
-    def full(*_):
-        raise OSError(errno.ENOSPC, "No space left on device")
-
-    monkeypatch.setattr(results, "write_case", full)
-    out = tmp_path / "r.h5"
-    assert cli.main(["run", SMALL, *QUICK, "--out", str(out), "--json"]) == 1
-    captured = capsys.readouterr()
-    assert json.loads(captured.out)["status"] == "done"
-    assert [ln for ln in captured.err.splitlines() if ln.startswith("wheelrom:")] == [
-        f"wheelrom: {out}: the disk is full (errno 28, ENOSPC: No space left on device); its "
-        "summary is printed above; nothing was written"]
-    assert not os.listdir(tmp_path)  # no file, no temporary

@@ -13,7 +13,7 @@ from wheelrom.studies.settle import run_settle  # noqa: E402
 
 KEYS = [*VDP_WHEEL,
         "sweep.shroud_angles_deg=[50.0, 60.0]", 'settle.start="preload"',
-        "settle.seed_amplitude=5e-6", "settle.max_time=0.4"]  # fmt: skip
+        "settle.seed_amplitude=5e-6", "settle.min_time=0.4", "settle.max_time=0.4"]  # fmt: skip
 
 
 def test_two_ranks_settle_as_one():

@@ -287,7 +287,7 @@ def print_stability(cases: list[dict]) -> None:
             for k in case["min_normal_force_n"]
         )
         nds = case["unstable_nodal_diameters"]
-        unstable = f"; unstable NDs {_ranges(nds)}" if nds else ""
+        unstable = f"; unstable NDs {number_ranges(nds)}" if nds else ""
         print(f"    {contacts}{unstable}")
         if "flutter_margin" in case:
             print(f"    {_margin_words(case['flutter_margin'])}")
@@ -324,7 +324,7 @@ def _margin_words(m: dict) -> str:
             f"N s/m, ND {m['nodal_diameter']} at {m['frequency_hz']:.4g} Hz)")  # fmt: skip
 
 
-def _ranges(values: list[int]) -> str:
+def number_ranges(values: list[int]) -> str:
     """``[3, 4, 5, 9]`` -> ``"3..5, 9"``."""
     out, start = [], None
     for i, v in enumerate(values):

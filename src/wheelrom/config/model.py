@@ -31,7 +31,7 @@ from wheelrom.config.forced import (
     mistuning_problems,
 )
 from wheelrom.config.limit_cycle import LimitCycleConfig, limit_cycle_problems
-from wheelrom.config.settle import SettleConfig
+from wheelrom.config.settle import SettleConfig, settle_problems
 from wheelrom.config.values import convert_field, is_number, suggest
 from wheelrom.config.values import field_key as _key
 from wheelrom.config.values import to_toml as to_toml  # re-exported: config.to_toml
@@ -394,6 +394,7 @@ def from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Config:
     forced_problems(cfg, problems)
     aero_table_problems(cfg, source, problems)
     limit_cycle_problems(cfg, problems)
+    settle_problems(cfg, problems)
     if problems:
         raise ConfigError([f"{source}: {p}" for p in problems])
     return dataclasses.replace(cfg, source=source)

@@ -4,8 +4,10 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 from wheelrom.config.values import field_key as _key
+from wheelrom.config.values import is_number
 
 
 @dataclass(frozen=True)
@@ -51,3 +53,13 @@ class SettleConfig:
         default=False,
         metadata=_key("-", "nozzle excitation on (excitation.force; windows a whole number of "
                       "nozzle periods)"))
+
+
+def settle_problems(cfg: Any, problems: list[str]) -> None:
+    """Cross-checks of ``[settle]``: what the keys alone show. The window's length is known
+    only with the start's frequency (:func:`wheelrom.analysis.periodic.settle.settle_case`
+    checks it against ``max_time`` before integrating)."""
+    s = cfg.settle
+    if is_number(s.min_time) and is_number(s.max_time) and s.min_time > s.max_time:
+        problems.append(f"settle.min_time = {s.min_time:g} s is above settle.max_time = "
+                        f"{s.max_time:g} s: no case could ever be called settled")

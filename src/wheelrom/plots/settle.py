@@ -36,9 +36,10 @@ def _case(case, label, tolerance, plt, outdir, name, pdf, written) -> None:
                     label="blades: min .. max", step="pre")  # fmt: skip
     ax.step(end, A.max(axis=1), "C0", where="pre", label="largest blade")
     ax.step(end, A.mean(axis=1), "C0--", where="pre", lw=0.8, label="mean")
-    quiet = np.flatnonzero(np.nanmax(change, axis=1) <= tolerance)
+    # the first window has nothing before it to change against (its row is NaN): never green
+    quiet = 1 + np.flatnonzero(change[1:].max(axis=1) <= tolerance)
     for k in quiet:
-        ax.axvspan(end[k - 1] if k > 0 else 0.0, end[k], color="C2", alpha=0.15, lw=0)
+        ax.axvspan(end[k - 1], end[k], color="C2", alpha=0.15, lw=0)
     ax.set_xlabel("simulated time [s]")
     ax.set_ylabel("tip amplitude per window [um]")
     verdict = textwrap.fill(case.attrs["verdict"], 95)

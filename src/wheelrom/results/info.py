@@ -251,15 +251,21 @@ def resume_hint(path: str, source: str | None, counts: dict, command: str = "swe
               "them") if counts.get("failed") else None  # fmt: skip
     if not counts["pending"]:
         return failed
-    what = f"{counts['pending']} case(s) pending: rerun the {command} with{flags} --resume"
+    what = (f"{counts['pending']} case(s) pending: rerun the {command} with{flags} --resume"
+            + resume_line(path, source, command, flags))  # fmt: skip
+    return what + (f"; {failed}" if failed else "")
+
+
+def resume_line(path: str, source: str | None, command: str, flags: str = "") -> str:
+    """``": wheelrom COMMAND CONFIG --out PATH FLAGS --resume"``, shell-quoted, when the
+    configuration is a plain file (or the built-in default); else which configuration to
+    repeat (``--set`` overrides are not replayed)."""
     out = shlex.quote(path)  # a line to paste into a shell: spaces and quotes survive
     if source == "<built-in default>":
-        what += f": wheelrom {command} --out {out}{flags} --resume"
-    elif source and " + --set " not in source and not source.startswith("<"):
-        what += f": wheelrom {command} {shlex.quote(source)} --out {out}{flags} --resume"
-    else:
-        what += f" and the same configuration ({source or 'the file attribute config'})"
-    return what + (f"; {failed}" if failed else "")
+        return f": wheelrom {command} --out {out}{flags} --resume"
+    if source and " + --set " not in source and not source.startswith("<"):
+        return f": wheelrom {command} {shlex.quote(source)} --out {out}{flags} --resume"
+    return f" and the same configuration ({source or 'the file attribute config'})"
 
 
 def study_flags(mode: str, forced: bool) -> str:

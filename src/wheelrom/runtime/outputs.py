@@ -316,7 +316,8 @@ def hdf5_image(fill) -> bytes:
     fails in one plain ``write`` of them, never inside HDF5 (whose failed flush left file
     objects behind that raised at every garbage collection and crashed the process at
     exit), and the same bytes can be kept elsewhere (:func:`save_image`). For the outputs
-    of a few MB (``modes``, ``stability``, ``limit-cycle``, ``study --stability-only``)."""
+    of a few MB (``modes``, ``stability``, ``limit-cycle``, ``settle``, ``study
+    --stability-only``) and ``run``'s one case (its histories are in memory already)."""
     import io
 
     import h5py

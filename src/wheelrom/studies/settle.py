@@ -8,16 +8,21 @@ Nothing computed is lost: each finished case is saved at once by the rank that c
 a folder beside the output (``.name.settle/case_<i>.npz``, plain arrays, no pickles, and a
 JSON of its scalars, each renamed into place when complete); ``--resume`` skips the cases
 found there with the same configuration; rank 0 writes the HDF5 file from them at the end
-and removes the folder.
+and removes the folder. A disk that fills keeps a case in memory only (a warning), and the
+file is then kept in the temporary directory, as every command's
+(:func:`wheelrom.runtime.outputs.save_image`).
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import hashlib
+import io
 import json
 import math
 import os
+import sys
 import time
 
 import numpy as np
@@ -33,8 +38,10 @@ from wheelrom.analysis.periodic.settle import (
 from wheelrom.config import Config, to_toml
 from wheelrom.config.study import expand, short_name
 from wheelrom.runtime.errors import InputError
+from wheelrom.runtime.outputs import agree, disk_full, is_disk_full, replacing, write_image
 from wheelrom.studies.limit_cycles import paper_law_only
 from wheelrom.studies.plan import shared_models
+from wheelrom.studies.rounds import wait_for_all
 
 
 def settings_of(cfg: Config) -> Settings:
@@ -186,7 +193,10 @@ def resume_problem(path: str) -> str | None:
 
 # ------------------------------------------------------------------ sidecars
 def save_case(directory: str, index: int, digest: str, result: Settled) -> None:
-    """Case ``index`` as ``case_<index>.npz`` + ``.json`` in ``directory`` (atomic)."""
+    """Case ``index`` as ``case_<index>.npz`` + ``.json`` in ``directory``, each built in
+    memory and renamed into place once written whole (:func:`replacing`): a full disk fails
+    in one plain write and leaves no part of the case behind (numpy's own writer left its
+    half zip open, and retried it at every garbage collection)."""
     os.makedirs(directory, exist_ok=True)
     c = result.classification
     scalars = {"digest": digest, "settled": result.settled, "time": result.time,
@@ -202,11 +212,53 @@ def save_case(directory: str, index: int, digest: str, result: Settled) -> None:
               "fractions": result.fractions, "normal_force_range": result.normal_force_range,
               "tip_time": result.tip_time, "tip": result.tip}  # fmt: skip
     base = os.path.join(directory, f"case_{index}")
-    np.savez(base + ".partial.npz", **arrays)
-    os.replace(base + ".partial.npz", base + ".npz")
-    with open(base + ".partial.json", "w") as f:
-        json.dump(scalars, f, default=float)
-    os.replace(base + ".partial.json", base + ".json")
+    npz = io.BytesIO()
+    np.savez(npz, **arrays)
+    try:  # the arrays first: the JSON (read first by load_case) marks the case complete
+        for path, data in ((base + ".npz", npz.getvalue()),
+                           (base + ".json", json.dumps(scalars, default=float).encode())):
+            with replacing(path) as partial:
+                write_image(partial, data)
+    except BaseException:
+        with contextlib.suppress(FileNotFoundError):
+            os.remove(base + ".npz")  # no arrays without their JSON
+        raise
+
+
+def _save_or_keep(directory: str, index: int, digest: str, result: Settled,
+                  warned: list) -> None:  # fmt: skip
+    """:func:`save_case`; on a full disk the case stays in memory only, to reach ``--out``
+    (or its copy in the temporary directory) with the others at the end, and the first such
+    case on this rank says so on stderr (any rank's write may fail: not rank 0's log)."""
+    try:
+        save_case(directory, index, digest, result)
+    except OSError as exc:
+        if not is_disk_full(exc):
+            raise
+        if not warned:
+            where = os.path.join(directory, f"case_{index}.npz")
+            print(f"wheelrom: warning: {disk_full(where, exc, KEPT_IN_MEMORY)}",
+                  file=sys.stderr, flush=True)  # fmt: skip
+        warned.append(index)
+
+
+KEPT_IN_MEMORY = "the finished cases are kept in memory and written with the others at the end"
+
+
+def kept_cases(directory: str, cfg: Config) -> tuple[dict[int, str], int]:
+    """``({index: status}, cases)``: the cases of ``cfg`` saved in ``directory`` with the
+    same configuration (what ``--resume`` reuses), and how many cases ``cfg`` has."""
+    study = expand(cfg)
+    kept = {}
+    for i, case_cfg in enumerate(study.configs):
+        try:
+            with open(os.path.join(directory, f"case_{i}.json")) as f:
+                scalars = json.load(f)
+        except (OSError, ValueError):
+            continue
+        if scalars.get("digest") == config_digest(case_cfg):
+            kept[i] = str(scalars.get("status"))
+    return kept, study.size
 
 
 def load_case(directory: str, index: int, digest: str, warn=None) -> Settled | None:
@@ -257,28 +309,36 @@ def run_settle(cfg: Config, out: str | None, comm=None, log=print, resume: bool 
     if not all(m.tuned for m in models):
         raise InputError("settle: the start from a travelling-wave cycle needs a tuned wheel")
     directory = sidecar_dir(out) if out else None
-    mine = []
-    for i in range(rank, study.size, size):
-        case_cfg = study.configs[i]
-        angles = {k: case_cfg.contact(k).angle_deg for k in ("tieboss", "shroud")}
-        label = f"[{i + 1}/{study.size}] " + ", ".join(
-            f"{short_name(k)} {v:g}" if isinstance(v, float) else f"{short_name(k)} {v}"
-            for k, v in zip(study.names, study.values[i], strict=True))
-        digest = config_digest(case_cfg)
-        done = load_case(directory, i, digest, warn) if resume and directory else None
-        if done is None:
-            done = _settle_one(models[model_of[i]], case_cfg, angles, cycles_file, label,
-                               progress if rank == 0 else None)  # fmt: skip
-            if directory:
-                save_case(directory, i, digest, done)
-        else:
-            say(f"{label}: kept from the interrupted run")
-        mine.append((i, angles, dict(zip(study.names, study.values[i], strict=True)), done))
-        say(f"{label}: {done.verdict()} ({done.wall_s:.1f} s)")
-    gathered = comm.gather(mine, root=0) if comm is not None else [mine]
+    mine, problem, unsaved = [], None, []
+    try:
+        for i in range(rank, study.size, size):
+            case_cfg = study.configs[i]
+            angles = {k: case_cfg.contact(k).angle_deg for k in ("tieboss", "shroud")}
+            label = f"[{i + 1}/{study.size}] " + ", ".join(
+                f"{short_name(k)} {v:g}" if isinstance(v, float) else f"{short_name(k)} {v}"
+                for k, v in zip(study.names, study.values[i], strict=True))
+            digest = config_digest(case_cfg)
+            done = load_case(directory, i, digest, warn) if resume and directory else None
+            if done is None:
+                done = _settle_one(models[model_of[i]], case_cfg, angles, cycles_file, label,
+                                   progress if rank == 0 else None)  # fmt: skip
+                if directory:
+                    _save_or_keep(directory, i, digest, done, unsaved)
+            else:
+                say(f"{label}: kept from the interrupted run")
+            mine.append((i, angles, dict(zip(study.names, study.values[i], strict=True)),
+                         done))  # fmt: skip
+            say(f"{label}: {done.verdict()} ({done.wall_s:.1f} s)")
+    except InputError as exc:  # e.g. a window longer than max_time: told to every rank below
+        problem = exc
+    if comm is not None:  # polled: a rank waiting for a killed one still takes mpirun's
+        wait_for_all(comm)  # SIGTERM, and says what is kept (a blocking gather never returns)
+    gathered = comm.gather((mine, problem), root=0) if comm is not None else [(mine, problem)]
     ordered = []
     if rank == 0:
-        ordered = sorted((it for part in gathered for it in part), key=lambda it: it[0])
+        problem = next((p for _, p in gathered if p is not None), None)
+        ordered = sorted((it for part, _ in gathered for it in part), key=lambda it: it[0])
+    agree(comm, problem)  # every rank stops together: none waits for one that stopped
     return models[0], [(a, p, r) for _, a, p, r in ordered], directory
 
 
@@ -291,9 +351,11 @@ def _settle_one(model, cfg: Config, angles: dict, cycles_file, label, progress) 
         return Settled(False, 0.0, status=f"failed: no start ({why})")
 
     def say(t, w):
-        if progress:
+        if progress:  # the first window has no window before it to change against
+            change = (f"window change {max(w.change):.2%}" if math.isfinite(max(w.change))
+                      else "first window")  # fmt: skip
             progress(f"{label}: {t:.3g} s, largest blade {w.amplitude.max() * 1e6:.3g} um, "
-                     f"window change {max(w.change):.2%}")
+                     f"{change}")
 
     result = settle_case(model, cfg, angles, u0, frequency, settings_of(cfg),
                          cfg.settle.nozzle, say)  # fmt: skip

@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from wheelrom.runtime.errors import InputError
 from wheelrom.transient.problem import nd_amplitudes
 
 LINE_SHARE = 0.5  # of the envelope spectrum's power in its largest line: quasi-periodic
@@ -285,6 +286,10 @@ def settle_case(model, cfg, angles: dict | None, u0: np.ndarray, frequency_hz: f
 
     t0 = clock.perf_counter()
     run_cfg, length = window_config(cfg, frequency_hz, settings, nozzle)
+    if length > settings.max_time * (1 + 1e-9):  # not one window: "not settled after 0 s"
+        raise InputError(f"settle.max_time = {settings.max_time:g} s is shorter than one "
+                         f"window: settle.window_periods = {settings.window_periods} periods "
+                         f"of the start's {frequency_hz:.4g} Hz last {length:.3g} s")  # fmt: skip
     out = Settled(False, 0.0)
     u = np.asarray(u0, dtype=float).copy()
     res = None
