@@ -68,6 +68,22 @@ def test_two_ranks_bitwise_equal_one_rank(serial_run, tmp_path):
     assert_same(a, b)
 
 
+def test_elastic_law_two_ranks_bitwise_equal_one_rank(tmp_path):
+    """The elastic contact law from the preloaded equilibrium with a 10 um seed (the shroud
+    slips from the start): a sweep on two ranks equals one process, the work and the friction
+    (tangential) work are recorded per window, and friction dissipates."""
+    law = ["--set", "contacts.law=elastic", "--set", "time.start=preload",
+           "--set", "time.perturbation=1e-5"]  # fmt: skip
+    sweep(tmp_path / "n1.h5", *law)
+    sweep(tmp_path / "n2.h5", *law, ranks=2)
+    a, b = case_data(tmp_path / "n1.h5"), case_data(tmp_path / "n2.h5")
+    assert all(s == b"done" for s in a["cases/status"])
+    assert_same(a, b)
+    work = a["cases/work"]
+    assert work.shape[-1] == 4 and np.isfinite(work).all()
+    assert (work[:, -1, 2] < 0).all()  # the tangential forces' work over the run
+
+
 def test_existing_file_is_not_overwritten(serial_run):
     before = os.path.getmtime(serial_run)
     res = sweep(serial_run, check=False)

@@ -303,7 +303,7 @@ def _harvest(rec: _CaseRecord, problem, b: int, state, ts, t_now, fixed_dt, earl
     rec.ends.append(t_now)
     rec.stats.append(stats)
     rec.energy.append(problem.energy(state, case=b))
-    rec.work.append(state[2 * problem.n :].copy())
+    rec.work.append(state[2 * problem.n : 2 * problem.n + N_WORK].copy())
     if early:
         rec.fail(f"TS stopped early at t = {t_now:.6g} s: {reason_words(ts.getConvergedReason())}")
 
