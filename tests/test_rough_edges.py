@@ -202,3 +202,21 @@ def test_resume_compares_values_not_the_help_text():
     changed = config_changes(older, config.load(None, ["time.end=0.6"]))
     assert changed == "time.end: 0.5 -> 0.6", changed
     assert "not TOML" in config_changes("= nonsense", cfg)
+
+
+@pytest.mark.parametrize("given", ["toml", "set"])
+def test_a_huge_value_is_quoted_cut(given, tmp_path, capsys):
+    """A 1 MB string pasted into a key comes back as its first characters and its length, in
+    a line of ordinary size (a 50 MB one was echoed whole to stderr), from a TOML file or
+    from --set (which also names the configuration's source)."""
+    from conftest import SMALL
+
+    value = "a" * 1_000_000
+    if given == "toml":
+        argv = [_write(tmp_path / "big.toml", f'[wheel]\nbasis = "{value}"\n')]
+    else:
+        argv = [SMALL, "--set", f"wheel.basis={value}"]
+    assert cli.main(["config", "check", *argv]) == 2
+    err = _one_error(capsys)
+    assert len(err) < 1000, err[:2000]
+    assert "wheel.basis: 'aaaa" in err and "... (1000000 characters) is not one of" in err, err
