@@ -161,6 +161,21 @@ def test_a_file_not_made_by_wheelrom_is_one_line_exit_2(kind, tmp_path, capsys):
     assert expected[kind] in lines[0]
 
 
+@pytest.mark.parametrize("command, extra", [("info", []), ("info", ["--json"]), ("plot", []),
+                                            ("export", ["--csv", "x"]), ("animate", [])])
+def test_a_directory_is_one_line_naming_it(command, extra, tmp_path, capsys):
+    """`info` and `plot` printed HDF5's two-line dump of its read call, `export` and `animate`
+    said "no such file": each says what the path is, exit 2, nothing written."""
+    folder = tmp_path / "results.h5"
+    folder.mkdir()
+    extra = [str(tmp_path / e) if e == "x" else e for e in extra]
+    assert cli.main([command, str(folder), *extra]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    assert captured.err == f"wheelrom: {folder} is a directory, not a wheelrom results file\n"
+    assert sorted(os.listdir(tmp_path)) == ["results.h5"]
+
+
 def test_ts_scheme_names_the_method_step_and_adaptor():
     assert ts_scheme({"ts_type": "rk", "ts_rk_type": "3bs", "ts_dt": 5e-06,
                       "ts_adapt_type": "none"}) == "rk/3bs dt=5e-06"  # fmt: skip

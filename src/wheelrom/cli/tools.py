@@ -140,7 +140,9 @@ def cmd_plot(args: argparse.Namespace) -> int:
     """Figures (PNG, PDF with --pdf) from a results file of any wheelrom command: a sweep, run,
     study, stability, limit-cycle, settle, forced-response or modes file."""
     from wheelrom.plots.figures import figures_dir, plot_file
+    from wheelrom.results.layout import check_readable
 
+    check_readable(args.results)  # the input first: a directory named is told for what it is
     # the default folder too (beside the results, which may be read-only): one line, not a
     # traceback from the staging folder
     outdir = args.outdir or figures_dir(args.results)

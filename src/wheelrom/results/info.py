@@ -20,7 +20,13 @@ import numpy as np
 from wheelrom.results.checksums import verify
 from wheelrom.results.histories import case_bytes
 from wheelrom.results.info_periodic import limit_cycle_info, settle_info
-from wheelrom.results.layout import FORCED_FORMAT, FORMAT, STABILITY_FORMAT, statuses
+from wheelrom.results.layout import (
+    FORCED_FORMAT,
+    FORMAT,
+    STABILITY_FORMAT,
+    check_readable,
+    statuses,
+)
 from wheelrom.results.limit_cycles import FORMAT as LIMIT_CYCLE_FORMAT
 from wheelrom.results.settle import FORMAT as SETTLE_FORMAT
 from wheelrom.results.study_layout import FORMAT as STUDY_FORMAT
@@ -49,8 +55,7 @@ def file_info(path: str, verify: bool = False) -> dict:
     """
     import h5py
 
-    if not os.path.exists(path):
-        raise InputError(f"{path}: no such file")
+    check_readable(path)
     try:
         # no lock: a sweep still running holds the file open for writing; what it has
         # flushed (every finished round) is readable

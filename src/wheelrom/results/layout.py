@@ -318,15 +318,27 @@ def write_stability(f, cfg: Config, model: ReducedModel, cases: list) -> None:
         g["growth_rate_without_self_excitation"] = np.array([x.growth_at_zero for x in m])
 
 
+def check_readable(path: str) -> None:
+    """One line when ``path`` cannot be a wheelrom file to read: missing, a directory (HDF5's
+    own refusal is a two-line dump of its read call), or no regular file (a FIFO blocks the
+    read, a device never ends it)."""
+    import os
+
+    if os.path.isdir(path):
+        raise InputError(f"{path} is a directory, not a wheelrom results file")
+    if not os.path.exists(path):
+        raise InputError(f"{path}: no such file")
+    if not os.path.isfile(path):
+        raise InputError(f"{path} is not a regular file (a device, a FIFO or a socket), not a "
+                         "wheelrom results file")  # fmt: skip
+
+
 def open_file(path: str):
     """The HDF5 file at ``path`` opened for reading without the file lock (a sweep still
     writing it holds it open; what it flushed is readable), or one line naming it."""
-    import os
-
     import h5py
 
-    if not os.path.isfile(path):
-        raise InputError(f"{path}: no such file")
+    check_readable(path)
     try:
         return h5py.File(path, "r", locking=False)
     except OSError as exc:
