@@ -48,6 +48,9 @@ def write_limit_cycles(f, cfg: Config, model: ReducedModel, cases: list) -> None
     for i, case in enumerate(cases):
         cg = g.create_group(f"case_{i}")
         cg.attrs["verdict"] = case.verdict()
+        k, nd, rate = case.fastest or (-1, -1, np.nan)
+        cg.attrs["fastest_wave"], cg.attrs["fastest_nodal_diameter"] = k, nd
+        cg.attrs["fastest_growth_rate"] = rate
         if case.equilibrium is not None:
             cg["equilibrium"] = case.equilibrium
         for branch in case.branches:

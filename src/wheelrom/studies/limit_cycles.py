@@ -92,8 +92,10 @@ def summary(case: CaseLimitCycles) -> dict:
             "branch_points": len(b.points), "branch_end": b.end, "folds": len(b.folds),
             "cycles": [_cycle(c, case.kinds) for c in b.cycles], "wall_s": b.wall_s,
         })  # fmt: skip
+    fastest = None if case.fastest is None else dict(
+        zip(("wave", "nodal_diameter", "growth_rate"), case.fastest, strict=True))
     return {"angles_deg": case.angles_deg, "verdict": case.verdict(), "waves": waves,
-            "wall_s": case.wall_s}  # fmt: skip
+            "fastest_wave": fastest, "wall_s": case.wall_s}  # fmt: skip
 
 
 def _cycle(c, kinds) -> dict:
