@@ -114,8 +114,11 @@ def _cycle(c, kinds) -> dict:
                          "slip": float(c.fractions[i, 2])} for i, k in enumerate(kinds)},
         "stable": c.stable, "method": c.method,
     }  # fmt: skip
+    out["source"] = c.source
+    if c.shot_missed:
+        out["shooting"] = {"converged": False, "residual": c.shooting_residual}
     if c.method == "shooting":
-        out["shooting"] = {"residual": c.shooting_residual,
+        out["shooting"] = {"converged": True, "residual": c.shooting_residual,
                            "hb_tip_amplitude_m": c.hb_tip_amplitude,
                            "hb_frequency_hz": c.hb_frequency_hz,
                            "hb_amplitude_difference": c.hb_tip_amplitude / c.tip_amplitude - 1,

@@ -115,6 +115,8 @@ class WaveBranch:
         c = min(stable or self.cycles, key=lambda c: c.tip_amplitude)
         lead = "settles at" if c.stable else "limit cycle at"
         words = [f"{lead} {c.tip_amplitude * 1e6:.3g} um tip, {c.frequency_hz:.4g} Hz"]
+        if c.shot_missed:  # the number is the harmonic balance's, not the exact orbit's
+            words[0] += f" by {c.source}"
         for k, kind in enumerate(self.kinds):
             open_, _, slip = c.fractions[k]
             words.append(f"{kind} open {100 * open_:.0f} %"
