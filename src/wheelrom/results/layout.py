@@ -15,6 +15,7 @@ import numpy as np
 from wheelrom import config as config_mod
 from wheelrom.config import CONTACT_KINDS, Config
 from wheelrom.results.checksums import create_checksums, write_checksum
+from wheelrom.results.file_checksums import write_file_checksums
 from wheelrom.results.histories import create_histories, write_histories
 from wheelrom.rom.model import ReducedModel
 from wheelrom.runtime.errors import InputError
@@ -98,6 +99,7 @@ def write_model_file(f, cfg: Config, model: ReducedModel, extra: dict | None = N
     write_model(f.create_group("model"), model)
     for name, value in (extra or {}).items():
         f[f"model/{name}"] = value
+    write_file_checksums(f)
 
 
 def create_layout(f, cfg: Config, model: ReducedModel, angles: np.ndarray | None = None,
@@ -316,6 +318,7 @@ def write_stability(f, cfg: Config, model: ReducedModel, cases: list) -> None:
         g["margin_nodal_diameter"] = np.array([x.nodal_diameter for x in m])
         g["margin_frequency_hz"] = np.array([x.frequency_hz for x in m])
         g["growth_rate_without_self_excitation"] = np.array([x.growth_at_zero for x in m])
+    write_file_checksums(f, {"stability": len(cases)})
 
 
 def check_readable(path: str) -> None:

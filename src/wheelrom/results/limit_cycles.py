@@ -8,6 +8,7 @@ import numpy as np
 
 from wheelrom import config as config_mod
 from wheelrom.config import Config
+from wheelrom.results.file_checksums import write_file_checksums
 from wheelrom.results.layout import write_aero_table, write_model
 from wheelrom.rom.model import ReducedModel
 
@@ -55,6 +56,7 @@ def write_limit_cycles(f, cfg: Config, model: ReducedModel, cases: list) -> None
             cg["equilibrium"] = case.equilibrium
         for branch in case.branches:
             _write_branch(cg.create_group(f"wave_{branch.wave}"), branch)
+    write_file_checksums(f, {"limit_cycle": len(cases)})
 
 
 def study_number(value) -> float:
