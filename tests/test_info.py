@@ -161,6 +161,21 @@ def test_a_file_not_made_by_wheelrom_is_one_line_exit_2(kind, tmp_path, capsys):
     assert expected[kind] in lines[0]
 
 
+@pytest.mark.parametrize("command, extra", [("info", []), ("info", ["--json"]), ("plot", []),
+                                            ("export", ["--csv", "x"]), ("animate", [])])
+def test_a_directory_is_one_line_naming_it(command, extra, tmp_path, capsys):
+    """`info` and `plot` printed HDF5's two-line dump of its read call, `export` and `animate`
+    said "no such file": each says what the path is, exit 2, nothing written."""
+    folder = tmp_path / "results.h5"
+    folder.mkdir()
+    extra = [str(tmp_path / e) if e == "x" else e for e in extra]
+    assert cli.main([command, str(folder), *extra]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    assert captured.err == f"wheelrom: {folder} is a directory, not a wheelrom results file\n"
+    assert sorted(os.listdir(tmp_path)) == ["results.h5"]
+
+
 def test_ts_scheme_names_the_method_step_and_adaptor():
     assert ts_scheme({"ts_type": "rk", "ts_rk_type": "3bs", "ts_dt": 5e-06,
                       "ts_adapt_type": "none"}) == "rk/3bs dt=5e-06"  # fmt: skip
@@ -207,7 +222,7 @@ def test_info_verify_finds_a_flipped_byte(dataset, tmp_path, capsys):
     capsys.readouterr()
     assert cli.main(["info", str(out), "--verify", "--json"]) == 0
     checks = json.loads(capsys.readouterr().out)["checksums"]
-    assert checks == {"stored": True, "checked": 2, "mismatched": []}
+    assert checks == {"stored": True, "checked": 2, "mismatched": [], "scope": "cases"}
     bad = tmp_path / "copy.h5"
     shutil.copy(out, bad)
     with h5py.File(bad, "r") as f:
@@ -222,3 +237,37 @@ def test_info_verify_finds_a_flipped_byte(dataset, tmp_path, capsys):
     assert "CHANGED since written: 1" in captured.out
     assert "case(s) 1 changed since they were written" in captured.err
     assert cli.main(["info", str(bad)]) == 0  # without --verify: nothing read, nothing said
+
+
+#: the files written in one piece: the command, and per dataset flipped its row and how
+#: `info --verify` names it
+ONE_PIECE = {
+    "stability": (["stability", SMALL],
+                  {"stability/growth_rate": (1, "case 1 (stability/growth_rate)")}),
+    "forced-response": (["forced-response", SMALL, "--frequencies", "380:395:4"],
+                        {"blade_amplitude": (2, "blade_amplitude")}),
+    "modes": (["modes", SMALL], {"model/wheel_hz": (5, "model/wheel_hz")}),
+    "study": (["study", SMALL, "--stability-only", "--set",
+               'study.grid={"contacts.shroud.angle_deg" = [20.0, 80.0]}'],
+              {"stability/max_growth_rate": (1, "case 1 (stability/max_growth_rate)"),
+               "models/0/A0": (0, "models/0/A0")}),
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("kind", ONE_PIECE)
+def test_info_verify_checks_a_file_written_in_one_piece(kind, tmp_path, capsys):
+    """Issue 47: `info --verify` exited 0 on a changed value of a stability, forced-response
+    or model file without saying nothing was checked (checksums were a sweep's only). Every
+    dataset (row) and attribute has one: a flipped bit is named, exit 1; a changed attribute
+    too; a file without them says so, exit 0."""
+    from test_periodic_files import check_verify, verify
+
+    argv, flips = ONE_PIECE[kind]
+    path = tmp_path / f"{kind}.h5"
+    assert cli.main([*argv, "--json", "--out", str(path)]) == 0
+    capsys.readouterr()
+    check_verify(path, flips, tmp_path, capsys)
+    with h5py.File(path, "r+") as f:
+        f.attrs["config_source"] = "somewhere else"
+    status, out, _ = verify(path, capsys)
+    assert status == 1 and "CHANGED since written: @config_source" in out, out

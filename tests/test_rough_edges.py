@@ -202,3 +202,62 @@ def test_resume_compares_values_not_the_help_text():
     changed = config_changes(older, config.load(None, ["time.end=0.6"]))
     assert changed == "time.end: 0.5 -> 0.6", changed
     assert "not TOML" in config_changes("= nonsense", cfg)
+
+
+@pytest.mark.parametrize("given", ["toml", "set"])
+def test_a_huge_value_is_quoted_cut(given, tmp_path, capsys):
+    """A 1 MB string pasted into a key comes back as its first characters and its length, in
+    a line of ordinary size (a 50 MB one was echoed whole to stderr), from a TOML file or
+    from --set (which also names the configuration's source)."""
+    from conftest import SMALL
+
+    value = "a" * 1_000_000
+    if given == "toml":
+        argv = [_write(tmp_path / "big.toml", f'[wheel]\nbasis = "{value}"\n')]
+    else:
+        argv = [SMALL, "--set", f"wheel.basis={value}"]
+    assert cli.main(["config", "check", *argv]) == 2
+    err = _one_error(capsys)
+    assert len(err) < 1000, err[:2000]
+    assert "wheel.basis: 'aaaa" in err and "... (1000000 characters) is not one of" in err, err
+
+
+def test_compare_refuses_a_run_larger_than_the_memory(capsys, monkeypatch):
+    """`compare --steps 1000000000` samples 20 kHz over 5000 s: ~150 GB. One line with what it
+    would need against what is available, exit 2, before the model is built (it was numpy's
+    _ArrayMemoryError traceback, allocating 30 GiB for the sample buffers)."""
+    from conftest import SMALL
+
+    def built(*_, **__):
+        raise AssertionError("built before the refusal")
+
+    monkeypatch.setattr("wheelrom.rom.build.build_model", built)
+    monkeypatch.setattr("wheelrom.runtime.environment.available_memory", lambda: 8 * 10**9,
+                        raising=False)  # fmt: skip
+    assert cli.main(["compare", SMALL, "--steps", "1000000000"]) == 2
+    err = _one_error(capsys)
+    assert len(err.splitlines()) == 1, err
+    assert err.startswith("wheelrom: compare --steps 1000000000: the run would need about "), err
+    assert "GB of memory" in err and "8.0 GB is available" in err, err
+
+
+def test_the_memory_estimate_holds_the_context_it_allocates(small_model, small_cfg):
+    """The estimate counts the context as allocated (to its alignment) and more beside it."""
+    from wheelrom.forces.parameters import force_parameters
+    from wheelrom.runtime.environment import petsc
+    from wheelrom.transient.layout import context_bytes
+    from wheelrom.transient.problem import WheelProblem
+    from wheelrom.transient.run import run_bytes
+    from wheelrom.transient.ts import time_grid
+
+    grid = time_grid(small_cfg)
+    problem = WheelProblem(small_model, small_cfg, [force_parameters(small_model, small_cfg)],
+                           petsc().COMM_SELF, grid.sample_capacity, grid.state_capacity)
+    try:
+        allocated = problem.context.array.nbytes
+    finally:
+        problem.destroy()
+    N, m, K = small_model.blades, small_model.modes, len(small_cfg.contacts.enabled_kinds())
+    estimate = context_bytes(N, m, K, 1, grid.sample_capacity, grid.state_capacity)
+    assert allocated <= estimate <= allocated + 8 * 8 * 60
+    assert run_bytes(small_cfg) > estimate + 8 * 2 * grid.sample_capacity * 3 * N

@@ -238,8 +238,10 @@ def args_info(p):
     p.add_argument("file", help="HDF5 file of any wheelrom command: " + ANY_FILE)
     json_out(p)
     p.add_argument("--verify", action="store_true",
-                   help="recompute every written case's checksum (reads the whole file); exit "
-                   "1 if a case's stored numbers changed since it was written")  # fmt: skip
+                   help="recompute the stored checksums (reads the whole file): every written "
+                   "case's of a sweep, run or study, every dataset's and attribute's of the "
+                   "other files; exit 1 naming what changed since it was written (a file "
+                   "without checksums: says so, exit 0)")  # fmt: skip
     p.add_argument("--all", action="store_true",
                    help=f"list every case (default: a sweep of more than {LONG_LISTING} cases "
                    "lists the first and last few and the failed ones)")  # fmt: skip

@@ -169,6 +169,7 @@ def _write(path: str, cfg, model, response, tuned, out: dict, angles: dict | Non
 
     from wheelrom import __version__
     from wheelrom import config as config_mod
+    from wheelrom.results.file_checksums import write_file_checksums
 
     with replacing(path) as partial, h5py.File(partial, "w") as f:
         f.attrs["format"] = FORMAT
@@ -192,6 +193,7 @@ def _write(path: str, cfg, model, response, tuned, out: dict, angles: dict | Non
         f["tuned_peak_blade_amplitude"] = tuned.blade_amplitude
         mistuning = model.mistuning if model.mistuning is not None else np.zeros(model.blades)
         f["mistuning"] = mistuning
+        write_file_checksums(f)
 
 
 def _contact_angles(cfg, angles: dict | None) -> dict:

@@ -86,6 +86,8 @@ def print_limit_cycles(rows: list[dict]) -> None:
                 stable = {True: "stable", False: "unstable",
                           None: "stability uncertain" if "floquet" in c else
                           "stability not computed"}[c["stable"]]  # fmt: skip
+                shot = c.get("shooting", {}).get("converged")  # None: shooting not tried
+                how = {None: "", True: " (exact orbit)", False: f" by {c['source']}"}[shot]
                 print(f"        cycle {c['tip_amplitude_m'] * 1e6:.4g} um tip, "
-                      f"{c['frequency_hz']:.5g} Hz, {stable}, energy balance "
+                      f"{c['frequency_hz']:.5g} Hz{how}, {stable}, energy balance "
                       f"{c['energy_residual']:.1e}")  # fmt: skip

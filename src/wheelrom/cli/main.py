@@ -233,18 +233,13 @@ def cmd_compare(args: argparse.Namespace) -> int:
         raise InputError(f"compare --steps: at least 1 step to compare (got {args.steps})")
     settings = ts_settings(cfg)  # the TS's scheme and step: -wheel_ts_* options override
     scheme = _reference_scheme(settings)
+    steps = args.steps
+    _check_compare_memory(_compare_config(cfg, steps, float(settings["ts_dt"])), steps)
     model = build_model(cfg, comm_self(), log=quiet if args.json else log)
     step = float(settings["ts_dt"])
     if scheme == "exponential":  # the TS moves its step off the scheme's resonances
         step, _ = safe_step(model, step)
-    steps = args.steps
-    span = steps * step  # one window over the compared steps, with at least one sample in it
-    rate = max(cfg.output.sample_rate_hz, 1.0 / span)
-    # from the preloaded equilibrium: from rest the wheel is chaotic for its first ~100 ms,
-    # where two correct integrators part at the round-off's growth (4e-8 after 20 ms)
-    cfg = cfg.replace(**{"time.end": span, "time.window": span, "output.sample_rate_hz": rate,
-                         "output.history_rate_hz": rate, "output.state_rate_hz": 0.0,
-                         "time.start": "preload"})  # fmt: skip
+    cfg = _compare_config(cfg, steps, step)
     res = run_case(model, cfg)
     with np.errstate(all="ignore"):  # a diverging reference is reported below, in one line
         _, states, ref_wall = reference_solution(model, cfg, steps, step, sample_every=steps,
@@ -269,6 +264,33 @@ def cmd_compare(args: argparse.Namespace) -> int:
         return fail(f"compare: the difference is not finite ({diff}): the integration "
                     f"diverged at step {step:g} s", 1)  # fmt: skip
     return 0
+
+
+def _compare_config(cfg, steps: int, step: float):
+    """``cfg`` as ``compare`` runs it: one window over the ``steps`` steps of ``step`` [s],
+    with at least one sample in it, from the preloaded equilibrium (from rest the wheel is
+    chaotic for its first ~100 ms, where two correct integrators part at the round-off's
+    growth: 4e-8 after 20 ms)."""
+    span = steps * step
+    rate = max(cfg.output.sample_rate_hz, 1.0 / span)
+    return cfg.replace(**{"time.end": span, "time.window": span, "output.sample_rate_hz": rate,
+                          "output.history_rate_hz": rate, "output.state_rate_hz": 0.0,
+                          "time.start": "preload"})  # fmt: skip
+
+
+def _check_compare_memory(cfg, steps: int) -> None:
+    """Refuse, before anything is allocated, a comparison whose samples do not fit in the
+    memory available (:func:`~wheelrom.transient.run.run_bytes`)."""
+    from wheelrom.runtime.environment import available_memory
+    from wheelrom.runtime.outputs import size_text
+    from wheelrom.transient.run import run_bytes
+
+    needed, available = run_bytes(cfg), available_memory()
+    if available is not None and needed > available:
+        raise InputError(f"compare --steps {steps}: the run would need about "
+                         f"{size_text(needed)} of memory (its output samples at "
+                         f"{cfg.output.sample_rate_hz:g} Hz over {cfg.time.end:g} s), "
+                         f"{size_text(available)} is available: compare fewer steps")
 
 
 def _reference_scheme(settings: dict) -> str:

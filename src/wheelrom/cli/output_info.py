@@ -16,6 +16,8 @@ def print_info(info: dict, show_all: bool = False) -> None:
     first and last few and every failed one, unless ``show_all``)."""
     if info["kind"] == "forced":
         print_forced(info)
+        if info.get("checksums"):
+            print(f"  checksums:     {checksum_text(info['checksums'])}")
         return
     model = info.get("model") or {}
     if info["kind"] == "model":
@@ -49,11 +51,7 @@ def print_info(info: dict, show_all: bool = False) -> None:
             print(f"  also:          {name}: {what}")
     checks = info.get("checksums")
     if checks:
-        bad = checks["mismatched"]
-        print("  checksums:     " + (
-            "none stored (a file of an earlier version)" if not checks["stored"] else
-            f"{checks['checked']} written case(s) checked: "
-            + (f"CHANGED since written: {', '.join(map(str, bad))}" if bad else "all intact")))
+        print(f"  checksums:     {checksum_text(checks)}")
     if info["kind"] == "study":
         _print_study_cases(info, show_all)
         return
@@ -79,6 +77,28 @@ def print_info(info: dict, show_all: bool = False) -> None:
     _print_cases(info["cases"], info["windows"], show_all)
     if info.get("hint"):
         print(info["hint"])
+
+
+def changed_text(mismatched: list, most: int = 10) -> str:
+    """What ``info --verify`` found changed: case indices (a sweep, run or study), or
+    ``case 2 (limit_cycle/case_2/...)`` and ``path`` / ``object@attribute`` (a file written
+    in one piece); the first ``most`` of them."""
+    words = [str(m) if isinstance(m, int) else
+             f"case {m['case']} ({m['path']})" if m["case"] is not None else m["path"]
+             for m in mismatched[:most]]  # fmt: skip
+    more = len(mismatched) - most
+    return ", ".join(words) + (f" and {more} more (--json lists them all)" if more > 0 else "")
+
+
+def checksum_text(checks: dict) -> str:
+    """The ``checksums:`` line of ``info --verify``."""
+    if not checks["stored"]:
+        return "none stored (a file written before wheelrom kept them): nothing was checked"
+    what = ("datasets, rows and attributes" if checks.get("scope") == "file"
+            else "written case(s) (their /cases rows; the model and configuration have none)")
+    bad = checks["mismatched"]
+    return f"{checks['checked']} {what} checked: " + (
+        f"CHANGED since written: {changed_text(bad)}" if bad else "all intact")
 
 
 def _megabytes(n: int) -> str:

@@ -3,6 +3,8 @@ case (the values come from :mod:`wheelrom.results.info_periodic`)."""
 
 from __future__ import annotations
 
+from wheelrom.analysis.periodic.cycle import cycle_source
+
 PERIODIC_KINDS = ("limit-cycle", "settle")
 
 
@@ -23,6 +25,11 @@ def periodic_title(info: dict) -> str:
     n, s = info["counts"], info["settings"]
     if info["kind"] == "limit-cycle":
         how = "exact orbit by shooting" if s.get("method") == "shooting" else "harmonic balance"
+        cycles = [c for row in info["cases"] for w in row.get("waves", []) for c in w["cycles"]]
+        missed = sum(c.get("shot_missed", False) for c in cycles)
+        if missed:  # the title claims only what the cycles are
+            how = (f"exact orbit by shooting for {len(cycles) - missed} of {len(cycles)} "
+                   f"cycle(s), harmonic balance for {missed} whose shot did not converge")
         return (f"{info['file']}: limit cycles, {n['total']} case(s) ({how}; H = "
                 f"{s.get('harmonics')}, {s.get('samples')} samples, time step "
                 f"{s.get('time_step', 0) * 1e6:g} us)")  # fmt: skip
@@ -34,7 +41,9 @@ def periodic_title(info: dict) -> str:
 
 def _cycle_line(c: dict) -> str:
     um = 1e6
-    text = f"{c['method']}: tip {c['tip_amplitude_m'] * um:.4g} um at {c['frequency_hz']:.5g} Hz"
+    how = cycle_source(c["method"], c.get("shot_missed", False), c["shooting_residual"])
+    text = (f"{how}: tip "
+            f"{c['tip_amplitude_m'] * um:.4g} um at {c['frequency_hz']:.5g} Hz")
     if c["method"] == "shooting" and c["hb_tip_amplitude_m"] is not None:
         text += f" (harmonic balance {c['hb_tip_amplitude_m'] * um:.4g} um)"
     if c["stable"] is not None:

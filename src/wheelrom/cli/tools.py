@@ -17,7 +17,7 @@ from wheelrom.cli.output import (
     print_json,
     print_result,
 )
-from wheelrom.cli.output_info import print_info
+from wheelrom.cli.output_info import changed_text, print_info
 from wheelrom.runtime.errors import InputError
 from wheelrom.runtime.outputs import check_outdir, check_output
 
@@ -140,7 +140,9 @@ def cmd_plot(args: argparse.Namespace) -> int:
     """Figures (PNG, PDF with --pdf) from a results file of any wheelrom command: a sweep, run,
     study, stability, limit-cycle, settle, forced-response or modes file."""
     from wheelrom.plots.figures import figures_dir, plot_file
+    from wheelrom.results.layout import check_readable
 
+    check_readable(args.results)  # the input first: a directory named is told for what it is
     # the default folder too (beside the results, which may be read-only): one line, not a
     # traceback from the staging folder
     outdir = args.outdir or figures_dir(args.results)
@@ -166,9 +168,15 @@ def cmd_info(args: argparse.Namespace) -> int:
     checks = info.get("checksums")
     if checks and checks["mismatched"]:  # exit 1: a script checking a copy sees it
         if not args.json:
-            log(f"wheelrom: {args.file}: case(s) {', '.join(map(str, checks['mismatched']))} "
-                "changed since they were written (checksum mismatch): recompute them")
+            changed = changed_text(checks["mismatched"])
+            log(f"wheelrom: {args.file}: case(s) {changed} changed since they were written "
+                "(checksum mismatch): recompute them" if checks.get("scope") != "file" else
+                f"wheelrom: {args.file}: {changed} changed since written (checksum "
+                "mismatch): compute the file again")  # fmt: skip
         return 1
+    if checks and not checks["stored"] and not args.json:  # exit 0: an older file is whole
+        log(f"wheelrom: {args.file}: no checksums stored (written before wheelrom kept them): "
+            "nothing was verified")
     return 0
 
 

@@ -32,7 +32,7 @@ from wheelrom.config.forced import (
 )
 from wheelrom.config.limit_cycle import LimitCycleConfig, limit_cycle_problems
 from wheelrom.config.settle import SettleConfig, settle_problems
-from wheelrom.config.values import convert_field, is_number, suggest
+from wheelrom.config.values import convert_field, cut, is_number, shown, suggest
 from wheelrom.config.values import field_key as _key
 from wheelrom.config.values import to_toml as to_toml  # re-exported: config.to_toml
 
@@ -41,11 +41,17 @@ from wheelrom.config.values import to_toml as to_toml  # re-exported: config.to_
 MAX_SIMULATED_TIME = 1e4
 
 
+#: characters of one problem line at most: each names a key and quotes at most a cut of its
+#: value (:func:`~wheelrom.config.values.shown`); this bounds a line that quotes user text
+#: some other way (a key's name, a path)
+MAX_PROBLEM = 1000
+
+
 class ConfigError(ValueError):
     """Invalid configuration; ``problems`` lists one message per offending key."""
 
     def __init__(self, problems: Sequence[str]):
-        self.problems = list(problems)
+        self.problems = [cut(p, MAX_PROBLEM) for p in problems]
         super().__init__("invalid configuration:\n  " + "\n  ".join(self.problems))
 
 
@@ -309,7 +315,7 @@ def _build(cls: type, data: Mapping[str, Any], prefix: str, problems: list[str])
         where = f"{prefix}{key}"
         if key not in names:
             kind = "section" if isinstance(value, Mapping) else "key"
-            problems.append(f"{where}: unknown {kind}{suggest(key, names)}")
+            problems.append(f"{cut(where)}: unknown {kind}{suggest(key, names)}")
             continue
         f = next(f for f in fields(cls) if f.name == key)
         default = f.default if f.default is not dataclasses.MISSING else f.default_factory()
@@ -403,7 +409,7 @@ def from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Config:
 def parse_override(text: str) -> tuple[str, Any]:
     """Parse one ``--set section.key=value``; the value is TOML, else a bare string."""
     if "=" not in text:
-        raise ConfigError([f"--set {text}: expected section.key=value"])
+        raise ConfigError([f"--set {cut(text)}: expected section.key=value"])
     key, raw = (s.strip() for s in text.split("=", 1))
     try:
         value = tomllib.loads(f"v = {raw}")["v"]
@@ -435,5 +441,5 @@ def load(path: str | Path | None = None, overrides: Sequence[str] = ()) -> Confi
             raise ConfigError([f"{source}: not valid TOML: {exc}"]) from None
     changes = dict(parse_override(o) for o in overrides)
     if changes:
-        source += " + --set " + " ".join(f"{k}={v!r}" for k, v in changes.items())
+        source += " + --set " + " ".join(f"{cut(k)}={shown(v)}" for k, v in changes.items())
     return from_dict(_set_nested(data, changes), source=source)

@@ -32,6 +32,7 @@ from wheelrom.config.values import (
     input_file_problem,
     is_number,
     quoted,
+    shown,
 )
 
 #: the two keys of a study made from ``[sweep]``
@@ -148,10 +149,10 @@ def case_configs(cfg: Config, names: list[str], values) -> tuple[Config, ...]:
 
 def _raise(cfg: Config, problems: list[str], most: int = 12) -> None:
     if problems:
-        shown = problems[:most]
+        listed = problems[:most]
         if len(problems) > most:
-            shown.append(f"... and {len(problems) - most} more")
-        raise ConfigError([f"{cfg.source}: {p}" for p in shown])
+            listed.append(f"... and {len(problems) - most} more")
+        raise ConfigError([f"{cfg.source}: {p}" for p in listed])
 
 
 def study_field(key: str) -> tuple[dataclasses.Field | None, str | None]:
@@ -208,26 +209,26 @@ def parse_range(where: str, text: str, problems: list[str]) -> list:
     (included when it is reached within 1e-9 steps); integers when all three are."""
     parts = [p.strip() for p in text.split(":")]
     if len(parts) != 3:
-        problems.append(f"{where}: '{text}' is not start:stop:step")
+        problems.append(f"{where}: {shown(text)} is not start:stop:step")
         return []
     try:
         numbers = [int(p) if p.lstrip("+-").isdigit() else float(p) for p in parts]
     except ValueError:
-        problems.append(f"{where}: '{text}' is not start:stop:step (numbers)")
+        problems.append(f"{where}: {shown(text)} is not start:stop:step (numbers)")
         return []
     start, stop, step = numbers
     if not all(math.isfinite(v) for v in numbers):
-        problems.append(f"{where}: '{text}' start, stop and step must be finite")
+        problems.append(f"{where}: {shown(text)} start, stop and step must be finite")
         return []
     if step <= 0:
-        problems.append(f"{where}: '{text}' step must be positive")
+        problems.append(f"{where}: {shown(text)} step must be positive")
         return []
     if stop < start:
-        problems.append(f"{where}: '{text}' stop is below start")
+        problems.append(f"{where}: {shown(text)} stop is below start")
         return []
     count = math.floor((stop - start) / step + 1e-9) + 1
     if count > MAX_CASES:
-        problems.append(f"{where}: '{text}' gives {count} values (more than {MAX_CASES})")
+        problems.append(f"{where}: {shown(text)} gives {count} values (more than {MAX_CASES})")
         return []
     if all(isinstance(v, int) for v in numbers):
         return [start + k * step for k in range(count)]

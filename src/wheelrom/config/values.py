@@ -20,27 +20,51 @@ def field_key(unit: str, help: str, **check: Any) -> dict[str, Any]:
     return {"unit": unit, "help": help, **check}
 
 
+#: characters of a user's value an error message quotes: a 50 MB string pasted into a key
+#: must not come back as a 50 MB message (and into a log)
+SHOWN = 60
+
+
+def shown(value: Any) -> str:
+    """``value`` as an error message quotes it (``repr``), cut after :data:`SHOWN` characters
+    with its size: ``'aaaa...... (50000000 characters)'``."""
+    text = repr(value)
+    if len(text) <= SHOWN:
+        return text
+    if isinstance(value, list | tuple | Mapping):
+        size = f"{len(value)} items"
+    else:
+        size = f"{len(value) if isinstance(value, str | bytes) else len(text)} characters"
+    return f"{text[:SHOWN]}... ({size})"
+
+
+def cut(text: str, limit: int = SHOWN) -> str:
+    """A user's text (a key, a ``--set`` argument) as an error message shows it: at most
+    ``limit`` characters, then its length."""
+    return text if len(text) <= limit else f"{text[:limit]}... ({len(text)} characters)"
+
+
 def is_number(v: Any) -> bool:
     return isinstance(v, int | float) and not isinstance(v, bool)
 
 
 def check_number(where: str, value: Any, meta: Mapping[str, Any], problems: list[str]) -> bool:
     if not is_number(value):
-        problems.append(f"{where}: expected a number, got {value!r}")
+        problems.append(f"{where}: expected a number, got {shown(value)}")
         return False
     if not math.isfinite(value):
-        problems.append(f"{where}: must be finite, got {value!r}")
+        problems.append(f"{where}: must be finite, got {shown(value)}")
         return False
     unit = meta.get("unit", "")
     unit = "" if unit == "-" else f" {unit}"
     if "gt" in meta and not value > meta["gt"]:
-        problems.append(f"{where}: must be > {meta['gt']}{unit}, got {value!r}")
+        problems.append(f"{where}: must be > {meta['gt']}{unit}, got {shown(value)}")
         return False
     if "min" in meta and value < meta["min"]:
-        problems.append(f"{where}: must be >= {meta['min']}{unit}, got {value!r}")
+        problems.append(f"{where}: must be >= {meta['min']}{unit}, got {shown(value)}")
         return False
     if "max" in meta and value > meta["max"]:
-        problems.append(f"{where}: must be <= {meta['max']}{unit}, got {value!r}")
+        problems.append(f"{where}: must be <= {meta['max']}{unit}, got {shown(value)}")
         return False
     return True
 
@@ -48,7 +72,7 @@ def check_number(where: str, value: Any, meta: Mapping[str, Any], problems: list
 def convert_stiffness(where: str, value: Any, problems: list[str]) -> Any:
     if isinstance(value, str):
         if value != "fe":
-            problems.append(f"{where}: expected a number, a table or 'fe', got {value!r}")
+            problems.append(f"{where}: expected a number, a table or 'fe', got {shown(value)}")
         return value
     if is_number(value):
         check_number(where, value, {"gt": 0.0, "unit": "N/m"}, problems)
@@ -57,7 +81,7 @@ def convert_stiffness(where: str, value: Any, problems: list[str]) -> Any:
         rows = []
         for i, row in enumerate(value):
             if not (isinstance(row, list | tuple) and len(row) == 2):
-                problems.append(f"{where}[{i}]: expected [angle_deg, stiffness], got {row!r}")
+                problems.append(f"{where}[{i}]: expected [angle_deg, stiffness], got {shown(row)}")
                 return value
             a_ok = check_number(f"{where}[{i}][0]", row[0], {"min": 0.0, "max": 90.0}, problems)
             k_ok = check_number(f"{where}[{i}][1]", row[1], {"gt": 0.0}, problems)
@@ -126,7 +150,7 @@ def convert_study_table(where: str, value: Any, problems: list[str]) -> Any:
             else:
                 text = "a non-empty list of values" + (
                     " or 'start:stop:step'" if where.endswith("grid") else "")
-                problems.append(f"{where}.{prefix}{key}: expected {text}, got {item!r}")
+                problems.append(f"{where}.{prefix}{key}: expected {text}, got {shown(item)}")
 
     walk(value, "")
     return out
@@ -201,7 +225,10 @@ def to_toml(cfg: Any, comments: bool = True) -> str:
 
 def suggest(name: str, valid: Sequence[str]) -> str:
     """" (did you mean 'x'?)" for a close match of an unknown key, else the valid ones."""
-    close = difflib.get_close_matches(name, valid, n=1, cutoff=0.6)
+    # a name far longer than any key is no misspelling (and difflib indexes every character)
+    longest = max(map(len, valid), default=0)
+    close = difflib.get_close_matches(name, valid, n=1, cutoff=0.6) \
+        if len(name) <= 2 * longest + 10 else []  # fmt: skip
     return f" (did you mean '{close[0]}'?)" if close else f" (valid: {', '.join(valid)})"
 
 
@@ -225,15 +252,15 @@ def convert_field(where: str, f: dataclasses.Field, value: Any, problems: list[s
             check_number(where, value, meta, problems)
             return value
         problems.append(f"{where}: expected 'auto' or an integer (-1: all modes), got "
-                        f"{value!r}")  # fmt: skip
+                        f"{shown(value)}")  # fmt: skip
         return value
     if isinstance(default, bool):
         if not isinstance(value, bool):
-            problems.append(f"{where}: expected true or false, got {value!r}")
+            problems.append(f"{where}: expected true or false, got {shown(value)}")
         return value
     if isinstance(default, int):
         if not isinstance(value, int) or isinstance(value, bool):
-            problems.append(f"{where}: expected an integer, got {value!r}")
+            problems.append(f"{where}: expected an integer, got {shown(value)}")
             return value
         check_number(where, value, meta, problems)
         return value
@@ -243,20 +270,20 @@ def convert_field(where: str, f: dataclasses.Field, value: Any, problems: list[s
         return value
     if isinstance(default, str):
         if not isinstance(value, str):
-            problems.append(f"{where}: expected a string, got {value!r}")
+            problems.append(f"{where}: expected a string, got {shown(value)}")
         elif "choices" in meta and value not in meta["choices"]:
             problems.append(
-                f"{where}: '{value}' is not one of {', '.join(map(repr, meta['choices']))}"
+                f"{where}: {shown(value)} is not one of {', '.join(map(repr, meta['choices']))}"
             )
         return value
     if isinstance(default, tuple):
         if not isinstance(value, list | tuple) or not (value or meta.get("allow_empty")):
-            problems.append(f"{where}: expected a non-empty list of numbers, got {value!r}")
+            problems.append(f"{where}: expected a non-empty list of numbers, got {shown(value)}")
             return value
         if meta.get("integers"):
             bad = [v for v in value if not isinstance(v, int) or isinstance(v, bool)]
             if bad:
-                problems.append(f"{where}: expected a list of integers, got {value!r}")
+                problems.append(f"{where}: expected a list of integers, got {shown(value)}")
                 return value
         ok = all(check_number(f"{where}[{i}]", v, meta, problems) for i, v in enumerate(value))
         if not ok:

@@ -17,7 +17,7 @@ from wheelrom.plots.helpers import cell_edges as _cell_edges
 from wheelrom.plots.helpers import need as _need
 from wheelrom.plots.helpers import save as _save
 from wheelrom.plots.helpers import staged
-from wheelrom.results.layout import FORCED_FORMAT, read_config, statuses
+from wheelrom.results.layout import FORCED_FORMAT, check_readable, read_config, statuses
 from wheelrom.results.study_layout import FORMAT as STUDY_FORMAT
 from wheelrom.results.study_layout import read_parameters
 from wheelrom.runtime.errors import InputError
@@ -41,8 +41,7 @@ def plot_file(path: str, outdir: str | None = None, pdf: bool = False,
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    if not os.path.exists(path):
-        raise InputError(f"{path}: no such results file")
+    check_readable(path)
     outdir = outdir or figures_dir(path)
     try:
         f = h5py.File(path, "r")

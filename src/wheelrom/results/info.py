@@ -18,9 +18,17 @@ import tomllib
 import numpy as np
 
 from wheelrom.results.checksums import verify
+from wheelrom.results.file_checksums import GROUP as FILE_CHECKSUMS
+from wheelrom.results.file_checksums import verify_file
 from wheelrom.results.histories import case_bytes
 from wheelrom.results.info_periodic import limit_cycle_info, settle_info
-from wheelrom.results.layout import FORCED_FORMAT, FORMAT, STABILITY_FORMAT, statuses
+from wheelrom.results.layout import (
+    FORCED_FORMAT,
+    FORMAT,
+    STABILITY_FORMAT,
+    check_readable,
+    statuses,
+)
 from wheelrom.results.limit_cycles import FORMAT as LIMIT_CYCLE_FORMAT
 from wheelrom.results.settle import FORMAT as SETTLE_FORMAT
 from wheelrom.results.study_layout import FORMAT as STUDY_FORMAT
@@ -45,12 +53,11 @@ def file_info(path: str, verify: bool = False) -> dict:
     ``cases`` (one dict per case,
     see :func:`case_rows`) and ``hint`` (what to do about pending cases, or None). Raises
     :class:`InputError` naming the file when it is missing or not a wheelrom file.
-    ``verify``: a sweep, run or study file adds ``checksums`` (:func:`verify_cases`).
+    ``verify``: adds ``checksums``, the stored checksums recomputed (:func:`_verify`).
     """
     import h5py
 
-    if not os.path.exists(path):
-        raise InputError(f"{path}: no such file")
+    check_readable(path)
     try:
         # no lock: a sweep still running holds the file open for writing; what it has
         # flushed (every finished round) is readable
@@ -60,27 +67,42 @@ def file_info(path: str, verify: bool = False) -> dict:
         raise InputError(f"{path}: {what}, not a wheelrom results or model file ({exc})") \
             from None  # fmt: skip
     with f:
-        fmt = f.attrs.get("format")
-        if fmt in (FORMAT, STUDY_FORMAT) and "cases" in f:
-            info = (_results_info if fmt == FORMAT else _study_info)(f, path)
-            if verify:
-                info["checksums"] = verify_cases(f["cases"], info["cases"])
-            return info
-        if fmt is None and "model" in f and "config" in f.attrs:
-            return _model_file_info(f, path)
-        if fmt == STABILITY_FORMAT and "stability" in f:
-            return _stability_info(f, path)
-        if fmt == FORCED_FORMAT and "blade_amplitude" in f:
-            return _forced_info(f, path)
-        if fmt == LIMIT_CYCLE_FORMAT and "limit_cycle" in f:
-            return limit_cycle_info(f, path, _header(f, path, "limit-cycle"))
-        if fmt == SETTLE_FORMAT and "settle" in f:
-            return settle_info(f, path, _header(f, path, "settle"))
-        found = f"format {fmt!r}" if fmt is not None else "no 'format' attribute"
-        known = ", ".join(repr(k) for k in (FORMAT, STUDY_FORMAT, STABILITY_FORMAT,
-                                            FORCED_FORMAT, LIMIT_CYCLE_FORMAT, SETTLE_FORMAT))
-        raise InputError(f"{path}: not a wheelrom results or model file ({found}; "
-                         f"expected {known} or a modes --out model)")  # fmt: skip
+        info = _info(f, path)
+        if verify:
+            info["checksums"] = _verify(f, info)
+        return info
+
+
+def _info(f, path: str) -> dict:
+    """:func:`file_info` of the open file ``f`` by its format."""
+    fmt = f.attrs.get("format")
+    if fmt in (FORMAT, STUDY_FORMAT) and "cases" in f:
+        return (_results_info if fmt == FORMAT else _study_info)(f, path)
+    if fmt is None and "model" in f and "config" in f.attrs:
+        return _model_file_info(f, path)
+    if fmt == STABILITY_FORMAT and "stability" in f:
+        return _stability_info(f, path)
+    if fmt == FORCED_FORMAT and "blade_amplitude" in f:
+        return _forced_info(f, path)
+    if fmt == LIMIT_CYCLE_FORMAT and "limit_cycle" in f:
+        return limit_cycle_info(f, path, _header(f, path, "limit-cycle"))
+    if fmt == SETTLE_FORMAT and "settle" in f:
+        return settle_info(f, path, _header(f, path, "settle"))
+    found = f"format {fmt!r}" if fmt is not None else "no 'format' attribute"
+    known = ", ".join(repr(k) for k in (FORMAT, STUDY_FORMAT, STABILITY_FORMAT,
+                                        FORCED_FORMAT, LIMIT_CYCLE_FORMAT, SETTLE_FORMAT))
+    raise InputError(f"{path}: not a wheelrom results or model file ({found}; "
+                     f"expected {known} or a modes --out model)")  # fmt: skip
+
+
+def _verify(f, info: dict) -> dict:
+    """``info --verify``: the file's checksums recomputed, ``scope`` saying of what. A file
+    written in one piece: every dataset and attribute (``"file"``,
+    :func:`~wheelrom.results.file_checksums.verify_file`); a sweep, run or study with
+    transients: every written case's rows (``"cases"``, :func:`verify_cases`)."""
+    if FILE_CHECKSUMS in f or info["kind"] not in ("results", "study"):
+        return {**verify_file(f), "scope": "file"}
+    return {**verify_cases(f["cases"], info["cases"]), "scope": "cases"}
 
 
 #: what the file of each format is, in words for a refusal ("a stability file")

@@ -5,6 +5,7 @@ format ``wheelrom-limit-cycle-1``) and a settle file (``settle --out``,
 
 from __future__ import annotations
 
+import math
 import os
 
 import numpy as np
@@ -43,8 +44,12 @@ def _cycles(g) -> list[dict]:
         stable = int(g["stable"][i])
         modulus = g["multiplier_modulus"][i] if "multiplier_modulus" in g else np.zeros(0)
         modulus = modulus[np.isfinite(modulus)]
+        method = column("method", i, _text)
+        shot = float(g["shooting_residual"][i]) if "shooting_residual" in g else math.nan
         rows.append({
-            "method": column("method", i, _text),
+            "method": method,
+            # a harmonic-balance cycle shooting was tried from (its residual set) and missed
+            "shot_missed": method == "hb" and not math.isnan(shot),
             "tip_amplitude_m": column("tip_amplitude", i),
             "frequency_hz": column("frequency_hz", i),
             "hb_tip_amplitude_m": column("hb_tip_amplitude", i),

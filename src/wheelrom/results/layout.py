@@ -15,6 +15,7 @@ import numpy as np
 from wheelrom import config as config_mod
 from wheelrom.config import CONTACT_KINDS, Config
 from wheelrom.results.checksums import create_checksums, write_checksum
+from wheelrom.results.file_checksums import write_file_checksums
 from wheelrom.results.histories import create_histories, write_histories
 from wheelrom.rom.model import ReducedModel
 from wheelrom.runtime.errors import InputError
@@ -98,6 +99,7 @@ def write_model_file(f, cfg: Config, model: ReducedModel, extra: dict | None = N
     write_model(f.create_group("model"), model)
     for name, value in (extra or {}).items():
         f[f"model/{name}"] = value
+    write_file_checksums(f)
 
 
 def create_layout(f, cfg: Config, model: ReducedModel, angles: np.ndarray | None = None,
@@ -320,17 +322,30 @@ def write_stability(f, cfg: Config, model: ReducedModel, cases: list) -> None:
         g["margin_nodal_diameter"] = np.array([x.nodal_diameter for x in m])
         g["margin_frequency_hz"] = np.array([x.frequency_hz for x in m])
         g["growth_rate_without_self_excitation"] = np.array([x.growth_at_zero for x in m])
+    write_file_checksums(f, {"stability": len(cases)})
+
+
+def check_readable(path: str) -> None:
+    """One line when ``path`` cannot be a wheelrom file to read: missing, a directory (HDF5's
+    own refusal is a two-line dump of its read call), or no regular file (a FIFO blocks the
+    read, a device never ends it)."""
+    import os
+
+    if os.path.isdir(path):
+        raise InputError(f"{path} is a directory, not a wheelrom results file")
+    if not os.path.exists(path):
+        raise InputError(f"{path}: no such file")
+    if not os.path.isfile(path):
+        raise InputError(f"{path} is not a regular file (a device, a FIFO or a socket), not a "
+                         "wheelrom results file")  # fmt: skip
 
 
 def open_file(path: str):
     """The HDF5 file at ``path`` opened for reading without the file lock (a sweep still
     writing it holds it open; what it flushed is readable), or one line naming it."""
-    import os
-
     import h5py
 
-    if not os.path.isfile(path):
-        raise InputError(f"{path}: no such file")
+    check_readable(path)
     try:
         return h5py.File(path, "r", locking=False)
     except OSError as exc:

@@ -8,6 +8,7 @@ import numpy as np
 
 from wheelrom import config as config_mod
 from wheelrom.config import Config
+from wheelrom.results.file_checksums import write_file_checksums
 from wheelrom.results.layout import write_aero_table, write_model
 from wheelrom.rom.model import ReducedModel
 
@@ -48,10 +49,14 @@ def write_limit_cycles(f, cfg: Config, model: ReducedModel, cases: list) -> None
     for i, case in enumerate(cases):
         cg = g.create_group(f"case_{i}")
         cg.attrs["verdict"] = case.verdict()
+        k, nd, rate = case.fastest or (-1, -1, np.nan)
+        cg.attrs["fastest_wave"], cg.attrs["fastest_nodal_diameter"] = k, nd
+        cg.attrs["fastest_growth_rate"] = rate
         if case.equilibrium is not None:
             cg["equilibrium"] = case.equilibrium
         for branch in case.branches:
             _write_branch(cg.create_group(f"wave_{branch.wave}"), branch)
+    write_file_checksums(f, {"limit_cycle": len(cases)})
 
 
 def study_number(value) -> float:

@@ -7,6 +7,7 @@ import numpy as np
 
 from wheelrom import config as config_mod
 from wheelrom.config import Config
+from wheelrom.results.file_checksums import write_file_checksums
 from wheelrom.results.layout import write_model
 from wheelrom.results.limit_cycles import study_number
 from wheelrom.rom.model import ReducedModel
@@ -47,6 +48,7 @@ def write_settle(f, cfg: Config, model: ReducedModel, cases: list) -> None:
         "the case started from (NaN: started from the preloaded equilibrium)"  # fmt: skip
     for i, (_, _, r) in enumerate(cases):
         _write_case(g.create_group(f"case_{i}"), r)
+    write_file_checksums(f, {"settle": len(cases)})
 
 
 def _write_case(g, r) -> None:

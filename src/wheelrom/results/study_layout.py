@@ -17,6 +17,7 @@ from wheelrom import config as config_mod
 from wheelrom.config import CONTACT_KINDS, Config
 from wheelrom.config.study import Study
 from wheelrom.results import layout as results
+from wheelrom.results.file_checksums import write_file_checksums
 
 FORMAT = "wheelrom-sweep-2"
 MODES = ("full", "screen", "stability")
@@ -74,6 +75,8 @@ def create(f, cfg: Config, study: Study, models: list, model_of: list[int], stab
         group.attrs["whitehead_bound"] = whitehead_bound(models[0].blades)
         for name, data in forced.items():
             group.create_dataset(name, data=data)
+    if mode == "stability":  # complete: nothing is written into it later
+        write_file_checksums(f, {"cases": C, "stability": C, "forced": C})
 
 
 def write_parameters(g, study: Study) -> None:

@@ -95,3 +95,27 @@ def slepc():
     from slepc4py import SLEPc
 
     return SLEPc
+
+
+def available_memory() -> int | None:
+    """The bytes this process can still allocate without swapping: the kernel's
+    ``MemAvailable``, or less when a cgroup (a container, a batch job) limits the memory;
+    None when neither can be read (not Linux)."""
+    found = []
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    found.append(int(line.split()[1]) * 1024)
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        with open("/sys/fs/cgroup/memory.max") as fh:
+            limit = fh.read().strip()
+        with open("/sys/fs/cgroup/memory.current") as fh:
+            used = int(fh.read().strip())
+        if limit != "max":
+            found.append(max(int(limit) - used, 0))
+    except (OSError, ValueError):
+        pass
+    return min(found) if found else None

@@ -105,8 +105,10 @@ def summary(case: CaseLimitCycles) -> dict:
             "branch_points": len(b.points), "branch_end": b.end, "folds": len(b.folds),
             "cycles": [_cycle(c, case.kinds) for c in b.cycles], "wall_s": b.wall_s,
         })  # fmt: skip
+    fastest = None if case.fastest is None else dict(
+        zip(("wave", "nodal_diameter", "growth_rate"), case.fastest, strict=True))
     return {"angles_deg": case.angles_deg, "verdict": case.verdict(), "waves": waves,
-            "wall_s": case.wall_s}  # fmt: skip
+            "fastest_wave": fastest, "wall_s": case.wall_s}  # fmt: skip
 
 
 def _cycle(c, kinds) -> dict:
@@ -125,8 +127,11 @@ def _cycle(c, kinds) -> dict:
                          "slip": float(c.fractions[i, 2])} for i, k in enumerate(kinds)},
         "stable": c.stable, "method": c.method,
     }  # fmt: skip
+    out["source"] = c.source
+    if c.shot_missed:
+        out["shooting"] = {"converged": False, "residual": c.shooting_residual}
     if c.method == "shooting":
-        out["shooting"] = {"residual": c.shooting_residual,
+        out["shooting"] = {"converged": True, "residual": c.shooting_residual,
                            "hb_tip_amplitude_m": c.hb_tip_amplitude,
                            "hb_frequency_hz": c.hb_frequency_hz,
                            "hb_amplitude_difference": c.hb_tip_amplitude / c.tip_amplitude - 1,

@@ -123,6 +123,16 @@ STOP_NONFINITE, STOP_AMPLITUDE = 1, 2
 ALIGN = 8  # doubles: 64 bytes
 
 
+def context_bytes(N: int, m: int, K: int, B: int, capacity: int, state_capacity: int = 0) -> int:
+    """The bytes of a :class:`Context` (its one array) of ``B`` cases of ``N`` blades, ``m``
+    modes and ``K`` contact kinds, ``capacity`` samples per window (``state_capacity`` modal
+    states): known before it is allocated."""
+    doubles = H_OFFSETS + len(_ARRAYS) + ALIGN
+    for _, shape in _ARRAYS:
+        doubles += int(np.prod(shape(N, m, K, B, capacity, state_capacity))) + ALIGN
+    return 8 * doubles
+
+
 def aligned_zeros(size: int) -> np.ndarray:
     """A zeroed float64 array whose data starts on a 64-byte boundary. Measured: shifting the
     context's arrays by 8 bytes made the right-hand side ~15 % slower."""

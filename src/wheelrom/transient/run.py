@@ -23,7 +23,13 @@ from wheelrom.runtime.errors import InputError
 from wheelrom.transient import bridge
 from wheelrom.transient.exponential_kernel import etd4_step
 from wheelrom.transient.kernel import sample_core
-from wheelrom.transient.layout import H_OVERFLOW, H_RHS_CALLS, STOP_AMPLITUDE, STOP_NONFINITE
+from wheelrom.transient.layout import (
+    H_OVERFLOW,
+    H_RHS_CALLS,
+    STOP_AMPLITUDE,
+    STOP_NONFINITE,
+    context_bytes,
+)
 from wheelrom.transient.preload import initial_state
 from wheelrom.transient.problem import (
     N_WORK,
@@ -206,6 +212,22 @@ def run_cases(model: ReducedModel, cfg: Config, angles: list[dict | None],
         obj.destroy()
     problem.destroy()
     return results
+
+
+def run_bytes(cfg: Config, batch: int = 1) -> int:
+    """About the memory [bytes] a run of ``cfg`` (``batch`` cases) holds at its peak, known
+    before anything is allocated: the context with one window's sample buffers
+    (:func:`~wheelrom.transient.layout.context_bytes`), the window's samples taken out of it
+    and their squares, the tip and state histories kept and joined at the end (the model's
+    own arrays, a few MB, left out)."""
+    grid = time_grid(cfg)
+    N, m = cfg.wheel.blades, cfg.wheel.modes_per_segment
+    K = len(cfg.contacts.enabled_kinds())
+    tip, state = 1 + 3 * N, 1 + 2 * N * m  # doubles per sample: its time and the values
+    held = 2 * grid.sample_capacity * tip + 2 * grid.history_max * tip + \
+        2 * grid.state_max * state  # fmt: skip
+    return context_bytes(N, m, K, batch, grid.sample_capacity, grid.state_capacity) + \
+        8 * batch * held  # fmt: skip
 
 
 _LOADED: set[str] = set()  # right-hand side kinds whose kernels this process has

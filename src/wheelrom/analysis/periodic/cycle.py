@@ -11,6 +11,20 @@ import numpy as np
 from wheelrom.analysis.periodic.floquet import FloquetResult
 
 
+def cycle_source(method: str | None, missed: bool = False,
+                 residual: float | None = None) -> str:  # fmt: skip
+    """Which method gave a cycle's numbers, in words: the exact orbit, or the harmonic
+    balance's cycle (``missed``: a shot from it did not converge, with its ``residual`` when
+    the flow got that far)."""
+    if method == "shooting":
+        return "exact orbit by shooting"
+    if not missed:
+        return "harmonic balance"
+    value = f": residual {residual:.2g}" if residual is not None and math.isfinite(residual) \
+        else ""  # fmt: skip
+    return f"harmonic balance (the shot did not converge{value})"
+
+
 @dataclass
 class Cycle:
     """One periodic solution. ``lam`` [-] factor on the configured intensity; ``frequency_hz``;
@@ -48,6 +62,17 @@ class Cycle:
     orbit: object | None = None  # the Orbit (state at t = 0 of the pattern blades)
     multipliers: object | None = None  # the monodromy's Multipliers
     refined: list = field(default_factory=list)  # (step [s], dominant in-symmetry |mu|, ND)
+
+    @property
+    def shot_missed(self) -> bool:
+        """Shooting was tried from this harmonic-balance cycle and did not converge (its
+        residual set; infinite when every shot's flow failed)."""
+        return self.method == "hb" and not math.isnan(self.shooting_residual)
+
+    @property
+    def source(self) -> str:
+        """Which method gave the numbers, in words (:func:`cycle_source`)."""
+        return cycle_source(self.method, self.shot_missed, self.shooting_residual)
 
     @property
     def stable(self) -> bool | None:

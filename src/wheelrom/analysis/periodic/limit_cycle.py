@@ -115,6 +115,8 @@ class WaveBranch:
         c = min(stable or self.cycles, key=lambda c: c.tip_amplitude)
         lead = "settles at" if c.stable else "limit cycle at"
         words = [f"{lead} {c.tip_amplitude * 1e6:.3g} um tip, {c.frequency_hz:.4g} Hz"]
+        if c.shot_missed:  # the number is the harmonic balance's, not the exact orbit's
+            words[0] += f" by {c.source}"
         for k, kind in enumerate(self.kinds):
             open_, _, slip = c.fractions[k]
             words.append(f"{kind} open {100 * open_:.0f} %"
@@ -169,16 +171,27 @@ class CaseLimitCycles:
     wall_s: float
     failure: str = ""  # why the case has no result (its equilibrium failed, ...)
     parameters: dict = field(default_factory=dict)  # the study's varied keys -> values
+    # the linear analysis's fastest-growing wave at the configured intensity, when it grows:
+    # (wave, ND, growth rate [1/s]); None: every wave is stable
+    fastest: tuple | None = None
 
     def verdict(self) -> str:
         if self.failure:
             return f"failed: {self.failure}"
         flutter = [b for b in self.branches if b.cycles or not (b.note or b.critical_lam > 1.0)]
+        hopf = [b.critical_lam for b in self.branches if b.critical_lam > 1.0]
+        at = f" (Hopf at {min(hopf):.3g} x mu)" if hopf else ""
+        if not flutter and self.fastest and self.fastest[0] not in {b.wave for b in self.branches}:
+            # only the waves asked (--nd) were examined: stable they are, the case is not
+            k, nd, rate = self.fastest
+            asked = ", ".join(str(b.nodal_diameter) for b in self.branches)
+            one = len(self.branches) == 1
+            return (f"the wave{'' if one else 's'} asked (ND {asked}) {'is' if one else 'are'} "
+                    f"stable at the configured intensity{at}, but the case flutters: its "
+                    f"fastest wave, ND {nd} (wave {k}, growing at {rate:.3g} /s), was not "
+                    "examined")  # fmt: skip
         if not flutter:
-            if any(b.critical_lam > 1.0 for b in self.branches):
-                lowest = min(b.critical_lam for b in self.branches if b.critical_lam > 1.0)
-                return f"stable at the configured intensity (Hopf at {lowest:.3g} x mu)"
-            return "stable"
+            return f"stable at the configured intensity{at}" if hopf else "stable"
         worst = max(flutter, key=lambda b: max((c.tip_amplitude for c in b.cycles),
                                                default=math.inf))  # fmt: skip
         return f"flutters (ND {worst.nodal_diameter}): {worst.verdict()}"
@@ -463,7 +476,10 @@ def case_limit_cycles(model: ReducedModel, cfg: Config, settings: Settings,
     analysis = WaveAnalysis(model, params, cfg.wheel.damping_beta, q, blocks, settings, comm,
                             progress, cfg, angles_deg)  # fmt: skip
     branches = [analysis.run(k) for k in waves]
+    k = int(np.argmax(growth))
+    fastest = (k, int(nodal_diameter(k, model.blades)), float(growth[k])) \
+        if growth[k] > GROWTH_TOLERANCE else None  # fmt: skip
     return CaseLimitCycles(
         angles_deg={k: float(np.atleast_1d(v)[0]) for k, v in params.contacts.angles_deg.items()},
         kinds=params.contacts.kinds, equilibrium=q, branches=branches,
-        wall_s=time.perf_counter() - t0)  # fmt: skip
+        wall_s=time.perf_counter() - t0, fastest=fastest)  # fmt: skip
