@@ -259,3 +259,64 @@ def test_an_elastic_key_under_the_paper_law_is_refused(key):
     name = key.split("=")[0]
     assert f"{name}: applies to contacts.law = 'elastic' only" in str(err.value)
     config.load(None, [key, "contacts.law=elastic"])  # and accepted under it
+
+
+# --- the harmonic balance's alternating frequency-time method under the elastic law --------
+
+
+@pytest.fixture(scope="module")
+def marching_balance(small_model, small_cfg):
+    """The small wheel's ND 6 harmonic balance (H = 3) under the elastic law at shroud 80
+    deg, and a motion: the equilibrium plus its stuck critical mode at 2 um tip, beyond the
+    shroud's stick range (0.14 um), so the contacts stick and slip within the period."""
+    from wheelrom.analysis.periodic.harmonic_balance import WaveBalance
+    from wheelrom.analysis.periodic.hopf import wave_blocks, wave_mode
+    from wheelrom.analysis.stability import linearise
+
+    cfg = small_cfg.replace(**{"contacts.law": "elastic"})
+    params, q, _, J, _ = linearise(small_model, cfg, {"shroud": 80.0})
+    B0, B1 = wave_blocks(small_model, params, q, J)
+    _, value, vector = wave_mode(B0[6], B1[6], 1.0)
+    m = small_model.modes
+    mode = vector[:m] / np.linalg.norm(np.abs(small_model.tip @ vector[:m]))
+    balance = WaveBalance(small_model, params, cfg.wheel.damping_beta, 6, 3, 64)
+    X = np.zeros((7, m))
+    X[0], X[1], X[2] = q[0], 2e-6 * mode.real, 2e-6 * mode.imag
+    return balance, X, value.imag
+
+
+def test_the_march_closes_the_hysteresis_loop(marching_balance):
+    """The sliders the third period starts with are those the second ended with (the loop
+    is closed: every contact that slips has slipped in the first period), the contacts both
+    stick and slip, and the friction's work over the period is the slip dissipation (> 0):
+    the stuck springs give their energy back."""
+    from wheelrom.analysis.periodic.harmonic_balance import MARCH_PERIODS
+
+    balance, X, omega = marching_balance
+    q, v = balance.samples(X, omega)
+    force, normal, power, state = balance._evaluate(q, v, 1.0)
+    assert MARCH_PERIODS == 3 and {STICK, SLIP} <= set(state.ravel())
+    one_more = balance.forces.slider_next.copy()  # the return after the last sample
+    np.testing.assert_allclose(one_more, balance.sliders[0], rtol=0, atol=1e-18)
+    assert -power.mean() > 0  # the tangential forces take energy out over the cycle
+
+
+def test_the_marched_jacobian_is_the_residuals_derivative(marching_balance):
+    """The Jacobian through the whole march against central differences of the residual in
+    a few unknowns and the frequency (the hysteresis couples every sample to the ones before
+    it: a sample-local tangent would miss it)."""
+    balance, X, omega = marching_balance
+    R, dRdX, dRdw, _ = balance.jacobian(X, omega, 1.0)
+    np.testing.assert_allclose(R, balance.residual(X, omega, 1.0), rtol=1e-12, atol=1e-12)
+    m = balance.modes
+    for row, col in ((1, 0), (2, 1), (0, 2), (3, m - 1)):
+        h = 1e-3 * np.abs(X[1:3]).max()
+        up, down = X.copy(), X.copy()
+        up[row, col] += h
+        down[row, col] -= h
+        fd = (balance.residual(up, omega, 1.0) - balance.residual(down, omega, 1.0)) / (2 * h)
+        scale = np.abs(fd).max()
+        assert np.abs(dRdX[:, :, row, col] - fd).max() < 1e-3 * scale, (row, col)
+    h = 1e-6 * omega
+    fd = (balance.residual(X, omega + h, 1.0) - balance.residual(X, omega - h, 1.0)) / (2 * h)
+    assert np.abs(dRdw - fd).max() < 1e-3 * np.abs(fd).max()

@@ -79,21 +79,34 @@ class ReferenceForces:
 
     def evaluate_samples(self, q: np.ndarray, v: np.ndarray, force: np.ndarray,
                          normal_force: np.ndarray, friction_power: np.ndarray,
-                         contact_state: np.ndarray) -> None:
-        """The forces of ``S`` independent states at once (nozzle at ``t = 0``): ``q``, ``v``
+                         contact_state: np.ndarray, sliders: np.ndarray | None = None,
+                         periods: int = 0, block: int = 0) -> None:  # fmt: skip
+        """The forces of ``S`` states at once (nozzle at ``t = 0``): ``q``, ``v``
         ``(S, N, m)``; writes ``force`` ``(S, N, m)`` and, of blade pair ``(0, 1)`` of every
         contact kind, ``normal_force`` ``(S, K)`` [N], ``friction_power`` ``(S, K)`` [W] (the
-        friction force's power on the pair's relative slip, <= 0) and ``contact_state``
+        tangential force's power on the pair's relative slip) and ``contact_state``
         ``(S, K)`` (OPEN/STICK/SLIP). One compiled call: the harmonic balance's time samples
         and their finite-difference perturbations
-        (:mod:`wheelrom.analysis.periodic.harmonic_balance`)."""
+        (:mod:`wheelrom.analysis.periodic.harmonic_balance`).
+
+        The elastic law's ``sliders`` ``(S, K, N, 2)`` [m]: with ``periods = 0`` the slider of
+        each (independent) state; with ``periods > 0`` the states are the samples of one
+        period in order, ``sliders[0]`` the slider at the first, and the law is marched
+        through them ``periods`` times (each sample's slider is the previous one's return, the
+        hysteresis of the alternating frequency-time method); the last period's forces are
+        written and ``sliders`` holds the slider each sample used. ``block``: samples of one
+        period (0: all ``S``); the states are then ``S / block`` periods marched each on its
+        own from its first slider. None: zeros (the paper law reads none)."""
         p, c = self.params, self.params.contacts
+        if sliders is None:
+            sliders = np.zeros((q.shape[0], *self.slider.shape))
         _kernel_samples(q, v, force, p.omega, p.stator_vanes, p.nozzle_force, p.excitation,
                         p.nozzle_phase, p.vdp_model, p.vdp_mu, p.vdp_r, p.aero,
                         p.aero_displacement, p.aero_velocity, p.friction, p.rotation,
                         c.shape_A, c.shape_B, c.point_A, c.point_B, c.arm_length, c.frame,
-                        c.stiffness, c.preload, c.tangential, self.slider, self.slider_next,
-                        self.normal_force, self.slip_velocity,
+                        c.stiffness, c.preload, c.tangential, sliders, periods,
+                        block or q.shape[0], self.slider,
+                        self.slider_next, self.normal_force, self.slip_velocity,
                         self.normal_gap, self.contact_state, self.relative_displacement,
                         self.relative_velocity, self.friction_force, self.vdp_displacement,
                         self.power, self._work, normal_force, friction_power,
@@ -132,20 +145,40 @@ def _kernel(t, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p_aero
 
 @_kernel_cache.njit(fastmath=False)
 def _kernel_samples(q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p_aero, aero_a,
-                    aero_b, law, R, XA, XB, A_pt, B_pt, arm, T, kc, preload, kt, slider,
-                    slider_next, normal, slip, gap, state, rel_u, rel_v, fric, y_vdp, power,
-                    work, normal_out, power_out, state_out):  # fmt: skip
-    """:func:`_kernel` at ``t = 0`` for every state ``q[i], v[i]`` (``(S, N, m)``), keeping
+                    aero_b, law, R, XA, XB, A_pt, B_pt, arm, T, kc, preload, kt, sliders,
+                    periods, block, slider, slider_next, normal, slip, gap, state, rel_u, rel_v,
+                    fric, y_vdp, power, work, normal_out, power_out, state_out):  # fmt: skip
+    """:func:`_kernel` at ``t = 0`` for every state ``q[i], v[i]`` (``(S, N, m)``) with the
+    slider ``sliders[i]``, or marched (``periods > 0``, :meth:`evaluate_samples`), keeping
     blade pair 0's normal force, friction power and state per contact kind."""
-    for i in range(q.shape[0]):
-        _kernel(0.0, q[i], v[i], out[i], omega, n_s, Fb, p_exc, phase, vdp_model, mu, r,
-                p_aero, aero_a, aero_b, law, R, XA, XB, A_pt, B_pt, arm, T, kc, preload, kt,
-                slider, slider_next, normal, slip, gap, state, rel_u, rel_v, fric, y_vdp,
-                power, work)
-        for c in range(normal.shape[0]):
-            normal_out[i, c] = normal[c, 0]
-            power_out[i, c] = fric[c, 0, 0] * rel_v[c, 0, 0] + fric[c, 0, 1] * rel_v[c, 0, 2]
-            state_out[i, c] = state[c, 0]
+    for start in range(0, q.shape[0], block):
+        if periods > 0:
+            slider[...] = sliders[start]
+        for _period in range(max(periods, 1)):
+            for i in range(start, start + block):
+                if periods > 0:
+                    sliders[i] = slider  # the slider this sample sees: the last one's return
+                _sample(i, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p_aero,
+                        aero_a, aero_b, law, R, XA, XB, A_pt, B_pt, arm, T, kc, preload, kt,
+                        sliders[i], slider_next, normal, slip, gap, state, rel_u, rel_v, fric,
+                        y_vdp, power, work, normal_out, power_out, state_out)
+                if periods > 0:
+                    slider[...] = slider_next
+
+
+@_kernel_cache.njit(fastmath=False)
+def _sample(i, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p_aero, aero_a,
+            aero_b, law, R, XA, XB, A_pt, B_pt, arm, T, kc, preload, kt, slider, slider_next,
+            normal, slip, gap, state, rel_u, rel_v, fric, y_vdp, power, work, normal_out,
+            power_out, state_out):  # fmt: skip
+    """State ``i`` of :func:`_kernel_samples`."""
+    _kernel(0.0, q[i], v[i], out[i], omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p_aero,
+            aero_a, aero_b, law, R, XA, XB, A_pt, B_pt, arm, T, kc, preload, kt, slider,
+            slider_next, normal, slip, gap, state, rel_u, rel_v, fric, y_vdp, power, work)
+    for c in range(normal.shape[0]):
+        normal_out[i, c] = normal[c, 0]
+        power_out[i, c] = fric[c, 0, 0] * rel_v[c, 0, 0] + fric[c, 0, 1] * rel_v[c, 0, 2]
+        state_out[i, c] = state[c, 0]
 
 
 @_kernel_cache.njit(fastmath=False)

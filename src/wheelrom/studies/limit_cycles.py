@@ -24,9 +24,16 @@ from wheelrom.studies.plan import shared_models
 
 def paper_law_only(study, command: str) -> None:
     """Refuse, before anything is computed, a study with a case under the elastic contact
-    law in a command that does not carry its sliders yet (the harmonic balance's hysteretic
-    AFT, the shooting and the monodromy with the sliders in the state: issue #44)."""
-    elastic = [i for i, c in enumerate(study.configs) if c.contacts.law == "elastic"]
+    law in a command that does not carry its sliders yet (the shooting and the monodromy
+    with the sliders in the state: issue #44); ``limit-cycle`` takes it with
+    ``limit_cycle.method = "hb"`` (the harmonic balance marches the hysteresis)."""
+    elastic = [i for i, c in enumerate(study.configs) if c.contacts.law == "elastic"
+               and (command != "limit-cycle" or c.limit_cycle.method != "hb")]  # fmt: skip
+    if elastic and command == "limit-cycle":
+        which = "the configuration" if study.size == 1 else f"case {elastic[0]} of the study"
+        raise InputError(f"limit-cycle: {which} has contacts.law = 'elastic': set "
+                         "limit_cycle.method = 'hb' (the harmonic balance marches the "
+                         "sliders; the shooting does not carry them yet)")
     if elastic:
         which = "the configuration" if study.size == 1 else f"case {elastic[0]} of the study"
         raise InputError(f"{command}: {which} has contacts.law = 'elastic', which {command} "

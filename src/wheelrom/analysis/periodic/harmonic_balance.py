@@ -34,12 +34,14 @@ import numpy as np
 from wheelrom.forces.parameters import AERO_TABLE, VDP_OFF, ForceParameters
 from wheelrom.forces.reference import ReferenceForces
 from wheelrom.rom.model import ReducedModel
-from wheelrom.runtime.errors import InputError
 
 WINDOW = (0, 1, -1)  # the window's blades: blade 0, the next, the previous
 #: finite-difference step of the force Jacobian: this physical displacement [m] at the point of
 #: a modal coordinate that moves most (contacts or tip)
 FD_DISPLACEMENT = 1e-10
+#: periods the AFT marches the elastic law's sliders (NLvib and pyHarm march 2-3): the loop
+#: of a contact that slips in the first period is closed in the second
+MARCH_PERIODS = 3
 
 
 def window_parameters(params: ForceParameters) -> ForceParameters:
@@ -91,9 +93,6 @@ class WaveBalance:
                  harmonics: int, samples: int):  # fmt: skip
         if not model.tuned:
             raise ValueError("limit cycles need a tuned wheel (mistuning.* is set)")
-        if params.law.elastic:  # a memoryless AFT would hold every slider at zero
-            raise InputError("the harmonic balance does not carry the elastic contact law's "
-                             "hysteresis yet (contacts.law = 'elastic'; issue #44)")
         if samples < 2 * harmonics + 1:
             raise ValueError(f"limit_cycle.samples = {samples} < 2 H + 1 = {2 * harmonics + 1}")
         self.model, self.params, self.beta = model, params, beta
@@ -104,6 +103,10 @@ class WaveBalance:
         self._window_at = (1.0, self.window)
         self.forces = ReferenceForces(self.window)
         self.kinds = params.contacts.kinds
+        # the elastic law's hysteresis: the AFT marches the sliders through the samples
+        self.elastic = params.law.elastic
+        self.exact_tangent = True  # elastic: the Jacobian through the march (else local)
+        self.sliders = None  # (n_t, K, 3, 2) the sliders of the last march's samples
         H, nt = harmonics, samples
         self.tau = 2 * math.pi * np.arange(nt) / nt
         self.h = np.arange(H + 1)
@@ -215,14 +218,31 @@ class WaveBalance:
         v = omega * np.einsum("wjh,hm->jwm", self.D, X)
         return np.ascontiguousarray(q), np.ascontiguousarray(v)
 
-    def _evaluate(self, q: np.ndarray, v: np.ndarray, lam: float):
-        """Forces on blade 0 ``(S, m)`` and pair-0 contact records of ``S`` window states."""
+    def _evaluate(self, q: np.ndarray, v: np.ndarray, lam: float,
+                  sliders: np.ndarray | None = None):  # fmt: skip
+        """Forces on blade 0 ``(S, m)`` and pair-0 contact records of ``S`` window states.
+
+        Elastic law: with ``sliders`` ``(S, K, 3, 2)`` each state's own; without, the states
+        are one period's samples and the sliders are marched through them
+        (:data:`MARCH_PERIODS` periods from rest at the period's mean state: a converged
+        loop once every contact has slipped; a contact that never slips acts as its stuck
+        spring about the mean, the stuck linearisation's limit), kept in ``self.sliders``."""
         S, K = q.shape[0], len(self.kinds)
         self.forces.params = self._at(lam)
         force = np.empty((S, 3, self.modes))
         normal, power = np.empty((S, K)), np.empty((S, K))
         state = np.empty((S, K), dtype=np.int8)
-        self.forces.evaluate_samples(q, v, force, normal, power, state)
+        periods, block = 0, 0
+        if self.elastic and sliders is None:  # S / n_t periods of samples, each marched
+            block = self.nt if S % self.nt == 0 else S
+            sliders = np.empty((S, *self.forces.slider.shape))
+            for start in range(0, S, block):
+                mean = np.ascontiguousarray(q[start : start + block].mean(axis=0))
+                sliders[start] = self.forces.sliders_at_rest(mean)
+            periods = MARCH_PERIODS
+        self.forces.evaluate_samples(q, v, force, normal, power, state, sliders, periods, block)
+        if periods:
+            self.sliders = sliders
         return force[:, 0], normal, power, state
 
     def _at(self, lam: float) -> ForceParameters:
@@ -247,6 +267,14 @@ class WaveBalance:
         window's ``6 m`` inputs, all samples and perturbations in one compiled call."""
         q, v = self.samples(X, omega)
         m, nt = self.modes, self.nt
+        sliders = None
+        if self.elastic:
+            force = self._evaluate(q, v, lam)[0]
+            if self.exact_tangent:  # the Jacobian comes from the whole march
+                return Linearisation(force, None, None)
+            # the march's sliders held at every sample: the hysteresis's local tangent
+            sliders = np.broadcast_to(self.sliders, (12 * m + 1, *self.sliders.shape))
+            sliders = sliders.reshape(-1, *self.sliders.shape[1:]).copy()
         n_in = 6 * m  # (q, v) x 3 blades x m
         steps = np.concatenate([self.fd_step, self.fd_step * max(omega, 1.0)])
         Q = np.broadcast_to(q, (2 * n_in + 1, nt, 3, m)).copy()
@@ -258,7 +286,7 @@ class WaveBalance:
             step = steps[kind * m + j]
             target[1 + 2 * i, :, w, j] += step
             target[2 + 2 * i, :, w, j] -= step
-        f = self._evaluate(Q.reshape(-1, 3, m), V.reshape(-1, 3, m), lam)[0]
+        f = self._evaluate(Q.reshape(-1, 3, m), V.reshape(-1, 3, m), lam, sliders)[0]
         f = f.reshape(2 * n_in + 1, nt, m)
         d = (f[1::2] - f[2::2]) / (2 * np.repeat(steps.reshape(2, 1, m), 3, axis=1)
                                    .reshape(n_in)[:, None, None])  # fmt: skip
@@ -269,6 +297,8 @@ class WaveBalance:
         """``(R, dR/dX, dR/domega, dR/dlam)``: packed residual ``(2H+1, m)``, its derivative
         ``(2H+1, m, 2H+1, m)`` and the two parameter columns ``(2H+1, m)``."""
         lin = lin or self.linearise(X, omega, lam)
+        if lin.dq is None:
+            return self._marched_jacobian(X, omega, lam)
         R = self.linear_term(X, omega, lam) - self.P @ lin.force
         Z = self._dynamic_stiffness(omega, lam)
         n = 2 * self.H + 1
@@ -289,6 +319,42 @@ class WaveBalance:
         dRdw -= self.P @ np.einsum("wjil,wjl->ji", lin.dv, DX)
         dRdlam = self._lambda_column(X, omega, lam)
         return R, dRdX, dRdw, dRdlam
+
+    def _marched_jacobian(self, X: np.ndarray, omega: float, lam: float):
+        """:meth:`jacobian` of the elastic law: the hysteresis makes a sample's force depend
+        on the motion before it (the sliders), so the force part is differenced through the
+        whole march, every unknown and ``omega`` at once (one compiled call over ``(2H+1) m +
+        1`` perturbed periods), forward differences of the physical step ``FD_DISPLACEMENT``."""
+        n, m = 2 * self.H + 1, self.modes
+        steps = np.tile(self.fd_step, n)  # (n m,) per unknown: its mode's step
+        Xs = np.broadcast_to(X, (n * m + 2, n, m)).copy()
+        Xs.reshape(n * m + 2, n * m)[1 : n * m + 1] += np.diag(steps)
+        d_omega = 1e-7 * omega
+        omegas = np.full(n * m + 2, omega)
+        omegas[-1] += d_omega
+        q = np.einsum("wjh,khm->kjwm", self.E, Xs)
+        v = omegas[:, None, None, None] * np.einsum("wjh,khm->kjwm", self.D, Xs)
+        nt = self.nt
+        f = self._evaluate(q.reshape(-1, 3, m), v.reshape(-1, 3, m), lam)[0]
+        fh = np.einsum("pj,kjm->kpm", self.P, f.reshape(n * m + 2, nt, m))  # (k, n, m)
+        base = fh[0]
+        R = self.linear_term(X, omega, lam) - base
+        dRdX = np.empty((n, m, n, m))
+        Z = self._dynamic_stiffness(omega, lam)
+        linear = np.zeros((n, m, n, m))
+        linear[0, :, 0, :] = Z[0].real
+        for h in range(1, self.H + 1):
+            B = self._real_block(Z[h]).reshape(2, m, 2, m)
+            rows = slice(2 * h - 1, 2 * h + 1)
+            linear[rows, :, rows, :] = B
+        dforce = (fh[1 : n * m + 1] - base) / steps[:, None, None]  # (n m, n, m): d f / d X_k
+        dRdX = linear - dforce.transpose(1, 2, 0).reshape(n, m, n, m)
+        c = self.complex_harmonics(X)
+        dZ = [self.stiffness[h] * (1j * h * self.beta) - 2 * h * h * omega * np.eye(m)
+              + (lam * self._table_derivative(h) if self.table else 0) for h in range(self.H + 1)]
+        dRdw = self.packed(np.stack([dZ[h] @ c[h] for h in range(self.H + 1)]))
+        dRdw -= (fh[-1] - base) / d_omega
+        return R, dRdX, dRdw, self._lambda_column(X, omega, lam)
 
     def _table_derivative(self, h: int) -> np.ndarray:
         """d(table operator of harmonic ``h``)/d omega."""

@@ -64,8 +64,10 @@ def settings_of(cfg: Config, waves=None) -> Settings:
     ``limit_cycle.waves``."""
     lc = cfg.limit_cycle
     branch = BranchSettings(lam_max=lc.mu_max, amplitude_max=lc.amplitude_max, steps=lc.steps)
+    # the elastic law: Hill's method would read the hysteresis's local tangent only
+    floquet = "off" if cfg.contacts.law == "elastic" and lc.floquet == "auto" else lc.floquet
     return Settings(harmonics=lc.harmonics, samples=lc.samples,
-                    waves=tuple(lc.waves if waves is None else waves), floquet=lc.floquet,
+                    waves=tuple(lc.waves if waves is None else waves), floquet=floquet,
                     seeds=tuple(lc.seeds), branch=branch, method=lc.method,
                     multipliers=lc.multipliers, refine=lc.refine)  # fmt: skip
 
