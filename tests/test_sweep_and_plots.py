@@ -82,6 +82,8 @@ def test_elastic_law_two_ranks_bitwise_equal_one_rank(tmp_path):
     work = a["cases/work"]
     assert work.shape[-1] == 4 and np.isfinite(work).all()
     assert (work[:, -1, 2] < 0).all()  # the tangential forces' work over the run
+    slip = a["cases/slip_fraction/shroud"]  # the seed makes the shroud slip, then it sticks
+    assert slip.max() > 0 and np.nanmin(slip) < slip.max()
 
 
 def test_existing_file_is_not_overwritten(serial_run):

@@ -90,6 +90,9 @@ def _windows(c, case: int) -> tuple[list[str], np.ndarray]:
     for kind in sorted(c["min_normal_force"]):
         header += [f"min_normal_force_{kind}_N", f"open_fraction_{kind}"]
         columns += [c[f"min_normal_force/{kind}"][case, :w], c[f"open_fraction/{kind}"][case, :w]]
+        if f"slip_fraction/{kind}" in c:  # files before issue #44 have none
+            header.append(f"slip_fraction_{kind}")
+            columns.append(c[f"slip_fraction/{kind}"][case, :w])
     header.append("energy_J")
     columns.append(c["energy"][case, :w])
     names = [n.strip() for n in c["work"].attrs["columns"].split(",")]

@@ -143,6 +143,7 @@ def create_layout(f, cfg: Config, model: ReducedModel, angles: np.ndarray | None
     for kind in CONTACT_KINDS:
         cases.create_dataset(f"min_normal_force/{kind}", (C, W), **nan)
         cases.create_dataset(f"open_fraction/{kind}", (C, W), **nan)
+        cases.create_dataset(f"slip_fraction/{kind}", (C, W), **nan)
     create_checksums(cases, C)
     # every rank writes the same small model arrays; identical values, so this is safe and
     # keeps creation collective
@@ -194,6 +195,7 @@ def write_case(f, i: int, res: CaseResult) -> None:
         for kind, values in res.min_normal_force.items():
             cases[f"min_normal_force/{kind}"][i, :w] = values
             cases[f"open_fraction/{kind}"][i, :w] = res.open_fraction[kind]
+            cases[f"slip_fraction/{kind}"][i, :w] = res.slip_fraction[kind]
     write_histories(cases, i, res)
     if w >= 2:
         cases["growth_rate"][i], cases["nd_growth_rate"][i] = res.growth_rates()

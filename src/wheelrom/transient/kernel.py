@@ -65,6 +65,7 @@ from wheelrom.transient.layout import (
     I_SIN,
     I_SMIN,
     I_SOPEN,
+    I_SSLIP,
     I_STATE,
     I_STIME,
     I_STIP,
@@ -400,6 +401,7 @@ def sample_core(t, u, ctx):
     tips = get(ctx, I_STIP, B * cap * N * 3).reshape((B, cap, N, 3))
     smin = get(ctx, I_SMIN, B * cap * K).reshape((B, cap, K))
     sopen = get(ctx, I_SOPEN, B * cap * K).reshape((B, cap, K))
+    sslip = get(ctx, I_SSLIP, B * cap * K).reshape((B, cap, K))
     UB = get(ctx, I_UB, 3 * NB).reshape((3, NB))  # scratch: tip displacement per column
     for a in range(3):
         x = UB[a]
@@ -457,12 +459,16 @@ def sample_core(t, u, ctx):
             for c in range(K):
                 low = normal[c, b]
                 opened = 0.0
+                slipping = 0.0
                 for s in range(N):
                     low = min(low, normal[c, s * B + b])
                     if state[c, s * B + b] == 0.0:
                         opened += 1.0
+                    elif state[c, s * B + b] == 2.0:
+                        slipping += 1.0
                 smin[b, k, c] = low
                 sopen[b, k, c] = opened
+                sslip[b, k, c] = slipping
     return 1 if ctx[H_ACTIVE] <= 0.0 else 0
 
 

@@ -39,14 +39,17 @@ class WindowStats:
     ``max_tip_amplitude`` [m]: largest tip displacement magnitude over blades and samples;
     ``nd_spectrum``: ``(N // 2 + 1,)`` largest amplitude over the samples of each nodal
     diameter component of the tip ``y`` displacement [m] (:func:`nd_amplitudes`);
-    ``min_normal_force``: kind -> smallest normal force [N]; ``open_fraction``: kind ->
-    fraction of (blade, sample) pairs with the contact open.
+    ``min_normal_force``: kind -> smallest normal force [N]; ``open_fraction``,
+    ``slip_fraction``: kind -> fraction of (blade, sample) pairs with the contact open, or
+    slipping (elastic law: beyond the Coulomb limit; paper law: above ``v_k``); the rest
+    sticks (paper law: the micro-slip branch).
     """
 
     max_tip_amplitude: float
     nd_spectrum: np.ndarray
     min_normal_force: dict
     open_fraction: dict
+    slip_fraction: dict = field(default_factory=dict)
 
 
 def nd_amplitudes(tip_y: np.ndarray) -> np.ndarray:
@@ -72,7 +75,7 @@ class CaseResult:
     Attributes:
         status: ``"done"`` or ``"failed: <reason>"``.
         window_end: ``(W,)`` end time of each window [s].
-        max_tip_amplitude, nd_spectrum, min_normal_force, open_fraction: the
+        max_tip_amplitude, nd_spectrum, min_normal_force, open_fraction, slip_fraction: the
             :class:`WindowStats` of every window, stacked: ``(W,)``, ``(W, N//2+1)``,
             kind -> ``(W,)``.
         energy: ``(W,)`` kinetic + potential energy at window end [J]; ``energy0`` at t = 0.
@@ -103,6 +106,7 @@ class CaseResult:
     max_tip_amplitude: np.ndarray = field(default_factory=lambda: np.zeros(0))
     min_normal_force: dict = field(default_factory=dict)
     open_fraction: dict = field(default_factory=dict)
+    slip_fraction: dict = field(default_factory=dict)
     nd_spectrum: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     energy: np.ndarray = field(default_factory=lambda: np.zeros(0))
     energy0: float = 0.0
@@ -158,6 +162,7 @@ class CaseResult:
                 k: float(v[-1]) for k, v in self.min_normal_force.items() if v.size
             },
             "open_fraction": {k: float(v[-1]) for k, v in self.open_fraction.items() if v.size},
+            "slip_fraction": {k: float(v[-1]) for k, v in self.slip_fraction.items() if v.size},
             "energy_balance_error": self.energy_balance_error(),
             "preload_residual": self.preload_residual,
             "options": self.options,

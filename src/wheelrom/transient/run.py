@@ -94,6 +94,7 @@ class Samples:
         tip = ctx.view("sample_tip")[b, :count].copy()
         low = ctx.view("sample_min_normal")[b, :count]
         opened = ctx.view("sample_open")[b, :count]
+        slipping = ctx.view("sample_slip")[b, :count]
         ctx.view("count")[b] = 0
         self._keep_history(t, tip)
         self._take_states()
@@ -106,6 +107,8 @@ class Samples:
             nd_spectrum=nd_amplitudes(tip[:, :, 1]).max(axis=0),
             min_normal_force={k: float(low[:, i].min()) for i, k in enumerate(self.kinds)},
             open_fraction={k: float(opened[:, i].sum() / (count * N))
+                           for i, k in enumerate(self.kinds)},
+            slip_fraction={k: float(slipping[:, i].sum() / (count * N))
                            for i, k in enumerate(self.kinds)},
         )  # fmt: skip
 
@@ -342,6 +345,8 @@ def _finish(rec: _CaseRecord, problem, used, final_state, wall, compile_s) -> Ca
     res.work = np.array(rec.work).reshape(-1, N_WORK)
     res.min_normal_force = {k: np.array([s.min_normal_force[k] for s in rec.stats]) for k in kinds}
     res.open_fraction = {k: np.array([s.open_fraction[k] for s in rec.stats]) for k in kinds}
+    res.slip_fraction = {k: np.array([s.slip_fraction.get(k, np.nan) for s in rec.stats])
+                         for k in kinds}  # fmt: skip
     times, tips = rec.samples.times, rec.samples.tips
     res.sample_time = np.concatenate(times) if times else np.zeros(0)
     res.tip_history = (np.concatenate(tips) if tips else np.zeros(0)).reshape(-1, problem.N, 3)
