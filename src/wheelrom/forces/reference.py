@@ -98,8 +98,8 @@ class ReferenceForces:
         period (0: all ``S``); the states are then ``S / block`` periods marched each on its
         own from its first slider. None: zeros (the paper law reads none)."""
         p, c = self.params, self.params.contacts
-        if sliders is None:
-            sliders = np.zeros((q.shape[0], *self.slider.shape))
+        if sliders is None:  # one slider for every state (the paper law reads none)
+            sliders = np.zeros((1, *self.slider.shape))
         _kernel_samples(q, v, force, p.omega, p.stator_vanes, p.nozzle_force, p.excitation,
                         p.nozzle_phase, p.vdp_model, p.vdp_mu, p.vdp_r, p.aero,
                         p.aero_displacement, p.aero_velocity, p.friction, p.rotation,
@@ -160,8 +160,9 @@ def _kernel_samples(q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p
                     sliders[i] = slider  # the slider this sample sees: the last one's return
                 _sample(i, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p_aero,
                         aero_a, aero_b, law, R, XA, XB, A_pt, B_pt, arm, T, kc, preload, kt,
-                        sliders[i], slider_next, normal, slip, gap, state, rel_u, rel_v, fric,
-                        y_vdp, power, work, normal_out, power_out, state_out)
+                        sliders[min(i, sliders.shape[0] - 1)], slider_next, normal, slip, gap,
+                        state, rel_u, rel_v, fric, y_vdp, power, work, normal_out, power_out,
+                        state_out)  # fmt: skip
                 if periods > 0:
                     slider[...] = slider_next
 
