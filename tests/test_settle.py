@@ -97,6 +97,47 @@ def test_a_case_still_growing_is_not_settled(small_model, capsys):
     assert "bounded, the largest blade" in row["verdict"]
 
 
+def test_the_elastic_law_settles_from_the_preload_carrying_its_sliders(small_model):
+    """Under the elastic law settle starts from the preloaded equilibrium (it refuses a start
+    from an orbit: the shooting does not carry the sliders yet). Two windows of settle are
+    one transient over both: the sliders are carried from window to window, not restarted
+    at rest (restarted at rest, the state parts from the continuous run's)."""
+    from wheelrom.analysis.periodic.settle import (
+        Settings,
+        settle_case,
+        window_config,
+    )
+    from wheelrom.config.study import expand
+    from wheelrom.runtime.errors import InputError
+    from wheelrom.studies.limit_cycles import paper_law_only
+    from wheelrom.transient.run import run_case
+
+    cfg = config.load(SMALL, ["contacts.law=elastic", "sweep.shroud_angles_deg=[80.0]",
+                              "excitation.force=0.0"])  # fmt: skip
+    with pytest.raises(InputError, match="settle.start = 'preload' does"):
+        paper_law_only(expand(cfg), "settle")
+    paper_law_only(expand(cfg.replace(**{"settle.start": "preload"})), "settle")
+    angles = {"shroud": 80.0}
+    rng = np.random.default_rng(3)
+    u0 = np.concatenate([rng.normal(size=small_model.size) * 3e-4, np.zeros(small_model.size)])
+    frequency = 100.0  # a window of 2 periods: 20 ms
+    settings = Settings(window_periods=2, min_time=1.0, max_time=0.04)
+    out = settle_case(small_model, cfg, angles, u0, frequency, settings)
+    assert len(out.windows) == 2 and not out.settled
+    # what settle does from window to window: the whole final state on
+    run_cfg, length = window_config(cfg, frequency, settings, False)
+    first = run_case(small_model, run_cfg, angles, u0=u0)
+    chained = run_case(small_model, run_cfg, angles, u0=first.final_state)
+    restarted = run_case(small_model, run_cfg, angles, u0=first.final_state[: 2 * small_model.size])
+    whole = run_case(small_model, run_cfg.replace(**{"time.end": 2 * length,
+                                                      "time.window": length}), angles, u0=u0)
+    n = 2 * small_model.size
+    scale = np.abs(whole.final_state[:n]).max()
+    assert np.abs(chained.final_state[:n] - whole.final_state[:n]).max() < 1e-10 * scale
+    assert np.abs(restarted.final_state[:n] - whole.final_state[:n]).max() > 1e-6 * scale
+    assert whole.slip_fraction["tieboss"].max() > 0  # the contacts did slip
+
+
 def test_an_interrupted_run_resumes_keeping_the_finished_case(tmp_path, monkeypatch):
     """Two cases; the second interrupted: the first is kept beside the output and --resume
     finishes the file with it unchanged (bitwise), computing only the second."""

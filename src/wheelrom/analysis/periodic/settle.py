@@ -278,7 +278,8 @@ def window_config(cfg, frequency_hz: float, settings: Settings, nozzle: bool):
 
 def settle_case(model, cfg, angles: dict | None, u0: np.ndarray, frequency_hz: float,
                 settings: Settings, nozzle: bool = False, progress=None) -> Settled:  # fmt: skip
-    """Integrate ``u0`` (``(2 N m,)`` modal ``q, q'``) window by window until stationary
+    """Integrate ``u0`` (``(2 N m,)`` modal ``q, q'``; the elastic law's sliders start at
+    rest there and are carried from window to window) window by window until stationary
     (:func:`stationary`) or ``max_time``; classify the last window."""
     import time as clock
 
@@ -305,7 +306,8 @@ def settle_case(model, cfg, angles: dict | None, u0: np.ndarray, frequency_hz: f
         if out.windows:
             w.change = changes(out.windows[-1], amplitude, nd_energy)
         out.windows.append(w)
-        u = res.final_state[: u.size]
+        # the whole state on: under the elastic law the sliders carry the contacts' history
+        u = res.final_state
         if progress:
             progress(out.time, w)
         if stationary(out.windows, settings):
@@ -337,8 +339,13 @@ def _describe_last(out: Settled, res, model, cfg, angles, settings: Settings) ->
     K = len(forces.params.contacts.kinds)
     counts = np.zeros((K, 3))
     low, high = np.full(K, np.inf), np.full(K, -np.inf)
+    elastic = forces.params.law.elastic
+    if elastic and len(res.state_history):  # replayed from rest (results.reconstruct)
+        forces.slider[...] = forces.sliders_at_rest(res.state_history[0, 0])
     for q, v in res.state_history:
         forces.evaluate(0.0, q, v)
+        if elastic:
+            forces.slider[...] = forces.slider_next
         for k in range(K):
             counts[k] += np.bincount(forces.contact_state[k].astype(int), minlength=3)[:3]
         low = np.minimum(low, forces.normal_force.min(axis=1))
