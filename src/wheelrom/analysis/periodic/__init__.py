@@ -5,7 +5,7 @@
   its pseudo-arclength continuation (:mod:`.continuation`), the Hopf points where a branch is
   born (:mod:`.hopf`), Hill's Floquet exponents (:mod:`.floquet`), the stability of a cycle by
   a transient started on it (:mod:`.cycle_transient`) and the driver over the waves of a case
-  (:mod:`.limit_cycle`);
+  (:mod:`.limit_cycle`); the nonlinear forced response to the nozzle (:mod:`.forced_wave`);
 - by time integration: the wheel's flow on its own TS (:mod:`.flow`), the exact periodic orbit
   by shooting (:mod:`.shooting`, :mod:`.exact`), its Floquet multipliers from the monodromy
   (:mod:`.monodromy`) and where a flutter transient settles (:mod:`.settle`).

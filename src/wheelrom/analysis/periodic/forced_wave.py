@@ -1,0 +1,170 @@
+"""The nonlinear forced response of the tuned wheel to the nozzle (issue #45, first part): the
+steady periodic state at the excitation frequency, by harmonic balance on one blade with the
+travelling-wave condition, under either contact law (docs/theory.md, "Nonlinear forced
+response").
+
+The nozzle force on blade ``s``, ``F_b cos(w t - phi_s)``, ``phi_s = 2 pi (1 - n_s / N) s``
+(eq. 13), is a travelling wave: blade ``s`` feels blade 0's force ``s`` phases ``2 pi n_s /
+N`` later, the wave ``k = n_s mod N`` of :class:`~.harmonic_balance.WaveBalance` (ND
+``min(k, N - k)``: 2 on the paper wheel). With ``tau = w t`` the response is blade 0's
+harmonics ``c_h`` of the same packing, and the equations are the autonomous ones plus the
+force on harmonic 1, at the fixed ``w`` (no phase condition: the force sets the phase)::
+
+    (K_h (1 + i h w beta_D) - (h w)^2) c_h - f_h(c, w) - F_b p_exc delta_{h1} = 0
+
+``f_h``: the contacts (marching the elastic law's sliders) and, when on, the Van der Pol
+force by AFT, as for the limit cycles. Newton per frequency, from the last frequency's
+solution (natural continuation over a grid; folds are not followed yet).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from wheelrom.analysis.periodic.harmonic_balance import WaveBalance
+from wheelrom.forces.parameters import ForceParameters
+from wheelrom.rom.model import ReducedModel, nodal_diameter
+
+#: Newton iterations of one frequency at most
+MAX_ITERATIONS = 40
+#: converged when the residual is this small against the nozzle's generalised force, or
+#: against the balanced terms (the preload's static forces and the stiff contact springs,
+#: whose rounding a Newton iteration cannot go below)
+TOLERANCE = 1e-10
+#: the rounding floor of the equations against the static terms (the preload's forces): the
+#: arm kinematics' ``L (e - e0)`` loses the unit vector's last digits, which the contact
+#: springs ``k_c`` turn into force noise of ~2e-11 of the static terms (measured); the
+#: harmonics' equations are held to it or to 1e-7 of their own terms, whichever is larger
+ROUNDOFF_STATIC = 1e-10
+ROUNDOFF_MOVING = 1e-7
+
+
+@dataclass
+class ForcedCurve:
+    """The steady response over ``F`` excitation frequencies.
+
+    ``frequency``: ``(F,)`` [rad/s]; ``harmonics``: ``(F, 2H + 1, m)`` blade 0's packed
+    harmonics (NaN where Newton failed); ``tip_amplitude``: ``(F,)`` 0-peak tip amplitude
+    [m] of the motion about its mean (every blade the same: a tuned travelling wave);
+    ``converged``: ``(F,)``; ``iterations``: ``(F,)``; ``fractions``: ``(F, K, 3)`` share of
+    the period each contact kind is open / sticks / slips (blade pair 0); ``wave``,
+    ``nodal_diameter``; ``wall_s``.
+    """
+
+    frequency: np.ndarray
+    harmonics: np.ndarray
+    tip_amplitude: np.ndarray
+    converged: np.ndarray
+    iterations: np.ndarray
+    fractions: np.ndarray
+    wave: int
+    nodal_diameter: int
+    wall_s: float = 0.0
+    kinds: tuple = field(default_factory=tuple)
+
+    @property
+    def peak(self) -> int:
+        """Index of the largest converged tip amplitude."""
+        amplitude = np.where(self.converged, self.tip_amplitude, -np.inf)
+        return int(np.argmax(amplitude))
+
+
+class ForcedWave:
+    """The forced harmonic balance of one case: ``params`` with the nozzle (``n_s``,
+    ``F_b``) and the self-excitation at factor ``lam`` (0: off), ``H`` harmonics and
+    ``samples`` per period of the AFT."""
+
+    def __init__(self, model: ReducedModel, params: ForceParameters, beta: float,
+                 harmonics: int, samples: int, lam: float = 1.0):  # fmt: skip
+        self.wave = params.stator_vanes % model.blades
+        self.balance = WaveBalance(model, params, beta, self.wave, harmonics, samples)
+        self.lam = lam
+        self.force = np.zeros((2 * harmonics + 1, model.modes))
+        self.force[1] = params.nozzle_force * np.asarray(params.excitation, dtype=float)
+
+    def residual(self, X: np.ndarray, omega: float) -> np.ndarray:
+        """``(2H + 1, m)`` packed residual at the excitation frequency ``omega`` [rad/s]."""
+        return self.balance.residual(X, omega, self.lam) - self.force
+
+    def solve(self, X0: np.ndarray, omega: float) -> tuple[np.ndarray, bool, int]:
+        """Newton from ``X0`` ``(2H + 1, m)``: ``(X, converged, iterations)``."""
+        b = self.balance
+        X = np.array(X0, dtype=float)
+        for it in range(MAX_ITERATIONS + 1):
+            R, dRdX, _, _ = b.jacobian(X, omega, self.lam)
+            R = R - self.force
+            if not np.all(np.isfinite(R)):
+                return X, False, it
+            if self._converged(R, X, omega):
+                return X, True, it
+            if it == MAX_ITERATIONS:
+                break
+            step = np.linalg.solve(dRdX.reshape(b.size, b.size), R.ravel())
+            X = X - step.reshape(X.shape)
+        return X, False, MAX_ITERATIONS
+
+    def _converged(self, R: np.ndarray, X: np.ndarray, omega: float) -> bool:
+        """The mean's equations against their own terms (the preload's static forces), the
+        harmonics' against theirs or the nozzle force: a small force's response is not
+        lost in the rounding of the static terms."""
+        terms = np.abs(self.balance.linear_term(X, omega, self.lam))
+        floor = TOLERANCE * float(np.abs(self.force).max())
+        static = max(ROUNDOFF_STATIC * float(terms[0].max()), floor, 1e-300)
+        moving = max(ROUNDOFF_MOVING * float(terms[1:].max()), floor, static)
+        return bool(np.abs(R[0]).max() <= static and np.abs(R[1:]).max() <= moving)
+
+    def tip_amplitude(self, X: np.ndarray, omega: float) -> float:
+        """0-peak tip amplitude [m] of the motion about its mean (fine time grid)."""
+        tau = np.linspace(0.0, 2 * math.pi, 4 * self.balance.nt, endpoint=False)
+        c = self.balance.complex_harmonics(X)
+        h = np.arange(1, c.shape[0])
+        q = (np.exp(1j * np.outer(tau, h)) @ c[1:]).real  # (S, m) about the mean
+        return float(np.linalg.norm(q @ self.balance.model.tip.T, axis=1).max())
+
+    def fractions(self, X: np.ndarray, omega: float) -> np.ndarray:
+        """``(K, 3)`` share of the period each contact kind of blade pair 0 is open, sticks,
+        slips (paper law: sticks = the micro-slip branch)."""
+        b = self.balance
+        q, v = b.samples(X, omega)
+        state = b._evaluate(q, v, self.lam)[3]
+        return np.array([[np.mean(state[:, k] == s) for s in range(3)]
+                         for k in range(state.shape[1])])  # fmt: skip
+
+
+def forced_curve(model: ReducedModel, params: ForceParameters, beta: float,
+                 frequencies, equilibrium: np.ndarray, harmonics: int = 7,
+                 samples: int = 0, lam: float = 1.0, progress=None) -> ForcedCurve:  # fmt: skip
+    """The steady response at every excitation frequency of ``frequencies`` [rad/s], in the
+    order given (natural continuation: each Newton solve starts from the last solution, the
+    first from the preloaded ``equilibrium`` ``(N, m)`` at rest). ``progress(i, omega,
+    amplitude)`` after each frequency."""
+    t0 = time.perf_counter()
+    samples = samples or 8 * (harmonics + 1)
+    problem = ForcedWave(model, params, beta, harmonics, samples, lam)
+    w_all = np.atleast_1d(np.asarray(frequencies, dtype=float))
+    F = w_all.size
+    K = len(params.contacts.kinds)
+    out = ForcedCurve(w_all, np.full((F, 2 * harmonics + 1, model.modes), np.nan),
+                      np.full(F, np.nan), np.zeros(F, bool), np.zeros(F, int),
+                      np.full((F, K, 3), np.nan), problem.wave,
+                      int(nodal_diameter(problem.wave, model.blades)),
+                      kinds=params.contacts.kinds)  # fmt: skip
+    X = np.zeros((2 * harmonics + 1, model.modes))
+    X[0] = equilibrium[0]
+    for i, w in enumerate(w_all):
+        X_new, ok, iterations = problem.solve(X, float(w))
+        out.converged[i], out.iterations[i] = ok, iterations
+        if ok:
+            X = X_new
+            out.harmonics[i] = X
+            out.tip_amplitude[i] = problem.tip_amplitude(X, float(w))
+            if K:
+                out.fractions[i] = problem.fractions(X, float(w))
+        if progress is not None:
+            progress(i, float(w), out.tip_amplitude[i])
+    out.wall_s = time.perf_counter() - t0
+    return out

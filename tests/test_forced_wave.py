@@ -1,0 +1,71 @@
+"""The nonlinear forced response by harmonic balance (:mod:`wheelrom.analysis.periodic.
+forced_wave`, issue #45) against the linear forced response (:mod:`wheelrom.analysis.forced`,
+a second implementation: the whole wheel's complex linear system per frequency):
+
+- contacts off, no self-excitation: the balance is linear and its harmonic 1 on blade 0
+  equals the linear response of blade 0 to 1e-6 at every frequency (the travelling-wave
+  condition and the nozzle's phases are right);
+- a force small enough that the contacts stay linear: under the elastic law every contact
+  sticks and the response is the stuck wheel's (tangential springs, no friction damping);
+  under the paper law the contacts stay on the micro-slip branch, the linearised damper
+  ``f_s F_n / v_k``: 1e-6, and the contacts' shares say stuck (micro-slip).
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from wheelrom.analysis import forced
+from wheelrom.analysis.periodic.forced_wave import forced_curve
+from wheelrom.analysis.stability import linearise
+from wheelrom.forces.contact_law import STICK
+from wheelrom.forces.parameters import force_parameters
+
+FREQUENCIES_HZ = np.array([150.0, 300.0, 450.0, 480.0, 495.0])
+
+
+def _harmonic_1(curve) -> np.ndarray:
+    """``(F, m)`` complex harmonic 1 of blade 0."""
+    return curve.harmonics[:, 1] + 1j * curve.harmonics[:, 2]
+
+
+def test_without_contacts_it_is_the_linear_forced_response(small_model, small_cfg):
+    cfg = small_cfg.replace(**{"contacts.tieboss.enabled": False,
+                               "contacts.shroud.enabled": False, "flutter.model": "off"})
+    w = 2 * math.pi * FREQUENCIES_HZ
+    params = force_parameters(small_model, cfg)
+    curve = forced_curve(small_model, params, cfg.wheel.damping_beta, w,
+                         np.zeros((small_model.blades, small_model.modes)), harmonics=3)
+    assert curve.converged.all() and curve.wave == cfg.wheel.stator_vanes % small_model.blades
+    K, C = forced.operators(small_model, cfg, contacts=False)
+    F = forced.nozzle_amplitude(small_model, cfg.wheel.stator_vanes, cfg.excitation.force)
+    for i, wi in enumerate(w):
+        Q = forced.direct_solve(K, C, F.ravel(), wi).reshape(small_model.blades, -1)
+        np.testing.assert_allclose(_harmonic_1(curve)[i], Q[0], rtol=1e-6,
+                                   atol=1e-6 * np.abs(Q[0]).max())  # fmt: skip
+        # the higher harmonics of a linear wheel are zero
+        assert np.abs(curve.harmonics[i, 3:]).max() < 1e-9 * np.abs(Q[0]).max()
+
+
+# the paper law's friction is bilinear (F_n(t) v(t)): linear to 1e-6 at 0.1 N; the stuck
+# elastic contact is linear but for the arm's geometry, and its force noise (the kinematics'
+# rounding) needs a response well above it: 1 N
+@pytest.mark.parametrize(("law", "force"), [("paper", 0.1), ("elastic", 1.0)])
+@pytest.mark.parametrize("angle", [30.0, 50.0])
+def test_small_forcing_is_the_linearised_response(small_model, small_cfg, angle, law, force):
+    cfg = small_cfg.replace(**{"contacts.law": law, "flutter.model": "off",
+                               "excitation.force": force})  # fmt: skip
+    angles = {"shroud": angle}
+    _, q, _, J, _ = linearise(small_model, cfg, angles)  # the equilibrium (nozzle off)
+    params = force_parameters(small_model, cfg, angles)  # with the nozzle
+    w = 2 * math.pi * FREQUENCIES_HZ
+    curve = forced_curve(small_model, params, cfg.wheel.damping_beta, w, q, harmonics=3)
+    assert curve.converged.all()
+    assert (curve.fractions[:, :, STICK] == 1.0).all()  # stuck / on the micro-slip branch
+    K, C = forced.operators(small_model, cfg, True, angles, jacobian=J)
+    F = forced.nozzle_amplitude(small_model, cfg.wheel.stator_vanes, cfg.excitation.force)
+    for i, wi in enumerate(w):
+        Q = forced.direct_solve(K, C, F.ravel(), wi).reshape(small_model.blades, -1)
+        np.testing.assert_allclose(_harmonic_1(curve)[i], Q[0], rtol=1e-6,
+                                   atol=1e-6 * np.abs(Q[0]).max())  # fmt: skip
