@@ -30,6 +30,12 @@ def args_forced(p: argparse.ArgumentParser) -> None:
     p.add_argument("--contacts", action=argparse.BooleanOptionalAction, default=None,
                    help="linearise the contacts at the preloaded equilibrium or leave them out "
                    "(K_R and beta_D K_R only); default forced.contacts")  # fmt: skip
+    p.add_argument("--nonlinear", action="store_true",
+                   help="also the nonlinear steady response at every frequency of the grid: "
+                   "harmonic balance of the nozzle's travelling wave under contacts.law "
+                   "(tuned wheel; docs/theory.md 'Nonlinear forced response')")  # fmt: skip
+    p.add_argument("--harmonics", type=int, default=5,
+                   help="harmonics of --nonlinear (default 5)")
     p.add_argument("--angle", nargs=2, action="append", default=[], metavar=("KIND", "DEG"),
                    help="contact angle [deg] of a kind (tieboss, shroud) instead of "
                    "contacts.<kind>.angle_deg (repeatable)")  # fmt: skip
@@ -95,6 +101,13 @@ def cmd_forced(args: argparse.Namespace) -> int:
     from wheelrom.rom.build import build_model, quiet
 
     cfg = load_config(args)
+    if args.nonlinear and args.out:
+        raise InputError("--nonlinear writes no file yet (issue #45): leave out --out, or "
+                         "--json for the numbers")  # fmt: skip
+    if args.harmonics < 1:
+        raise InputError(f"--harmonics {args.harmonics}: at least 1")
+    if cfg.excitation.force <= 0:  # a response of zero (and a peak search of nothing)
+        raise InputError("excitation.force = 0: the nozzle force is off, nothing is forced")
     hz = excitation_grid(args, cfg.wheel.stator_vanes)
     band, points = ((hz[0], hz[-1]), hz.size) if hz is not None else (None, None)
     contacts = cfg.forced.contacts if args.contacts is None else args.contacts
@@ -112,6 +125,8 @@ def cmd_forced(args: argparse.Namespace) -> int:
         response = peak_response(model, cfg, tuned.band_hz, contacts, angles, comm_self(),
                                  points=points)  # fmt: skip
     out = summary(response, tuned, cfg, model, contacts)
+    if args.nonlinear:
+        out["nonlinear"] = _nonlinear(model, cfg, response.grid, angles, args.harmonics, say)
     if args.out:
         _write(args.out, cfg, model, response, tuned, out, angles)
     if args.json:
@@ -154,6 +169,29 @@ def summary(response, tuned, cfg, model, contacts: bool) -> dict:
         "wall_s": response.wall_s,
         "solve_s_per_frequency": response.wall_s / max(response.solves, 1),
     }
+
+
+def _nonlinear(model, cfg, grid: np.ndarray, angles: dict | None, harmonics: int,
+               say) -> dict:  # fmt: skip
+    """The nonlinear curve over the coarse grid (plain data): tip amplitude per frequency,
+    Newton's verdict, the peak with its contacts' open / stick / slip shares."""
+    from wheelrom.studies.forced_nonlinear import nonlinear_forced
+
+    say(f"the nonlinear response (harmonic balance, H = {harmonics}, "
+        f"contacts.law = '{cfg.contacts.law}') at {grid.size} frequencies")  # fmt: skip
+    curve = nonlinear_forced(model, cfg, grid, angles, harmonics, comm_self())
+    amplitude = [float(a) if ok else None
+                 for a, ok in zip(curve.tip_amplitude, curve.converged, strict=True)]
+    out = {"law": cfg.contacts.law, "harmonics": harmonics, "tip_amplitude_m": amplitude,
+           "converged": curve.converged.tolist(), "wall_s": curve.wall_s}  # fmt: skip
+    if curve.converged.any():
+        i = curve.peak
+        out["peak_amplitude_m"] = float(curve.tip_amplitude[i])
+        out["peak_frequency_hz"] = float(curve.frequency[i] / (2 * math.pi))
+        out["peak_shares"] = {kind: dict(zip(("open", "stick", "slip"),
+                                             map(float, curve.fractions[i, k]), strict=True))
+                              for k, kind in enumerate(curve.kinds)}  # fmt: skip
+    return out
 
 
 def _write(path: str, cfg, model, response, tuned, out: dict, angles: dict | None) -> None:
@@ -221,5 +259,25 @@ def _print(out: dict) -> None:
     print(f"rotor speeds of the peaks (engine order {out['stator_vanes']}): "
           f"{out['peak_speed_hz']:.6f} Hz ({60 * out['peak_speed_hz']:.2f} rpm), tuned "
           f"{out['tuned_peak_speed_hz']:.6f} Hz ({60 * out['tuned_peak_speed_hz']:.2f} rpm)")
+    if "nonlinear" in out:
+        _print_nonlinear(out)
+
+
+def _print_nonlinear(out: dict) -> None:
+    """The nonlinear tip amplitude beside the linear one at every frequency, its peak."""
+    nl = out["nonlinear"]
+    print(f"nonlinear (harmonic balance, H = {nl['harmonics']}, contacts.law = "
+          f"'{nl['law']}', {nl['wall_s']:.1f} s):")  # fmt: skip
+    print(f"{'f [Hz]':>12s} {'linear [m]':>12s} {'nonlinear [m]':>14s}")
+    rows = zip(out["frequency_hz"], out["max_amplitude_m"], nl["tip_amplitude_m"], strict=True)
+    for f, a, b in rows:
+        text = f"{b:14.4e}" if b is not None else f"{'no solution':>14s}"
+        print(f"{f:12.4f} {a:12.4e} {text}")
+    if "peak_amplitude_m" in nl:
+        shares = "; ".join(f"{kind} open {100 * s['open']:.0f} %, stick {100 * s['stick']:.0f}"
+                           f" %, slip {100 * s['slip']:.0f} %"
+                           for kind, s in nl["peak_shares"].items())  # fmt: skip
+        print(f"nonlinear peak on the grid: {nl['peak_amplitude_m']:.4e} m at "
+              f"{nl['peak_frequency_hz']:.4f} Hz ({shares})")
     print(f"{out['solves']} solves ({out['candidates']} candidates, {out['refined']} refined), "
           f"{1e3 * out['solve_s_per_frequency']:.3g} ms per solve")  # fmt: skip
