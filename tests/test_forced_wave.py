@@ -92,8 +92,34 @@ def test_the_command_sets_the_friction_limited_peak_beside_the_linear_one(capsys
     assert max(s["slip"] for s in nl["peak_shares"].values()) > 0.1
 
 
+def test_the_curve_is_written_and_read_back(tmp_path, capsys):
+    """``--out`` keeps the nonlinear curve in ``/nonlinear`` (covered by the file's
+    checksums), ``info`` names it."""
+    import h5py
+
+    from conftest import SMALL
+    from wheelrom.cli import main as cli
+
+    path = tmp_path / "f.h5"
+    argv = ["forced-response", SMALL, "--set", "contacts.law=elastic", "--nonlinear",
+            "--frequencies", "252:259:4", "--harmonics", "3", "--out", str(path)]  # fmt: skip
+    assert cli.main(argv) == 0
+    with h5py.File(path, "r") as f:
+        g = f["nonlinear"]
+        assert g.attrs["law"] == "elastic" and g["harmonics"].shape[:2] == (4, 7)
+        assert g["contact_shares"].shape == (4, 2, 3)
+        converged = g["converged"][()]
+        assert np.isfinite(g["tip_amplitude"][()][converged]).all()
+    capsys.readouterr()
+    assert cli.main(["info", str(path), "--verify"]) == 0
+    text = capsys.readouterr().out
+    assert "nonlinear:     harmonic balance, H = 3, contacts.law = 'elastic'" in text
+    with h5py.File(path, "r+") as f:  # a changed value of the curve is found
+        f["nonlinear/tip_amplitude"][0] = 1.0
+    assert cli.main(["info", str(path), "--verify"]) == 1
+
+
 @pytest.mark.parametrize(("extra", "message"), [
-    (["--out", "x.h5"], "--nonlinear writes no file yet"),
     (["--set", "excitation.force=0.0"], "excitation.force = 0: the nozzle force is off"),
     (["--harmonics", "0"], "--harmonics 0: at least 1"),
 ])  # fmt: skip

@@ -101,9 +101,6 @@ def cmd_forced(args: argparse.Namespace) -> int:
     from wheelrom.rom.build import build_model, quiet
 
     cfg = load_config(args)
-    if args.nonlinear and args.out:
-        raise InputError("--nonlinear writes no file yet (issue #45): leave out --out, or "
-                         "--json for the numbers")  # fmt: skip
     if args.harmonics < 1:
         raise InputError(f"--harmonics {args.harmonics}: at least 1")
     if cfg.excitation.force <= 0:  # a response of zero (and a peak search of nothing)
@@ -125,10 +122,12 @@ def cmd_forced(args: argparse.Namespace) -> int:
         response = peak_response(model, cfg, tuned.band_hz, contacts, angles, comm_self(),
                                  points=points)  # fmt: skip
     out = summary(response, tuned, cfg, model, contacts)
+    curve = None
     if args.nonlinear:
-        out["nonlinear"] = _nonlinear(model, cfg, response.grid, angles, args.harmonics, say)
+        out["nonlinear"], curve = _nonlinear(model, cfg, response.grid, angles,
+                                             args.harmonics, say)  # fmt: skip
     if args.out:
-        _write(args.out, cfg, model, response, tuned, out, angles)
+        _write(args.out, cfg, model, response, tuned, out, angles, curve)
     if args.json:
         print_json(out)
     else:
@@ -172,9 +171,10 @@ def summary(response, tuned, cfg, model, contacts: bool) -> dict:
 
 
 def _nonlinear(model, cfg, grid: np.ndarray, angles: dict | None, harmonics: int,
-               say) -> dict:  # fmt: skip
-    """The nonlinear curve over the coarse grid (plain data): tip amplitude per frequency,
-    Newton's verdict, the peak with its contacts' open / stick / slip shares."""
+               say):  # fmt: skip
+    """``(plain data, ForcedCurve)``: the nonlinear curve over the coarse grid (tip
+    amplitude per frequency, Newton's verdict, the peak with its contacts' open / stick /
+    slip shares)."""
     from wheelrom.studies.forced_nonlinear import nonlinear_forced
 
     say(f"the nonlinear response (harmonic balance, H = {harmonics}, "
@@ -191,16 +191,18 @@ def _nonlinear(model, cfg, grid: np.ndarray, angles: dict | None, harmonics: int
         out["peak_shares"] = {kind: dict(zip(("open", "stick", "slip"),
                                              map(float, curve.fractions[i, k]), strict=True))
                               for k, kind in enumerate(curve.kinds)}  # fmt: skip
-    return out
+    return out, curve
 
 
-def _write(path: str, cfg, model, response, tuned, out: dict, angles: dict | None) -> None:
+def _write(path: str, cfg, model, response, tuned, out: dict, angles: dict | None,
+           curve=None) -> None:  # fmt: skip
     """The response as HDF5 (docs/output.md, format ``wheelrom-forced-1``): ``frequency_hz``
     ``(F,)`` (the coarse grid), ``blade_amplitude`` and ``tuned_blade_amplitude`` ``(F, N)``
     [m] on it, ``peak_blade_amplitude`` and ``tuned_peak_blade_amplitude`` ``(N,)`` [m] at the
     refined peaks, ``mistuning`` ``(N,)``; attributes: the configuration and its source, the
     wheelrom version, the scalars of ``out``, the model size, the contact angles (JSON) and
-    the KSP settings (``solver``, JSON: :func:`wheelrom.analysis.forced.ksp_settings`)."""
+    the KSP settings (``solver``, JSON: :func:`wheelrom.analysis.forced.ksp_settings`);
+    with ``--nonlinear`` the group ``/nonlinear`` (``curve``: :func:`_write_nonlinear`)."""
     import json
 
     import h5py
@@ -231,7 +233,28 @@ def _write(path: str, cfg, model, response, tuned, out: dict, angles: dict | Non
         f["tuned_peak_blade_amplitude"] = tuned.blade_amplitude
         mistuning = model.mistuning if model.mistuning is not None else np.zeros(model.blades)
         f["mistuning"] = mistuning
+        if curve is not None:
+            _write_nonlinear(f.create_group("nonlinear"), out["nonlinear"], curve)
         write_file_checksums(f)
+
+
+def _write_nonlinear(g, out: dict, curve) -> None:
+    """``/nonlinear``: ``tip_amplitude`` ``(F,)`` [m] (NaN where Newton failed),
+    ``converged`` ``(F,)``, ``harmonics`` ``(F, 2H + 1, m)`` blade 0's packed harmonics
+    [sqrt(kg) m], ``contact_shares`` ``(F, K, 3)`` open / stick / slip of each kind;
+    attributes ``law``, ``harmonics``, ``kinds`` (JSON), the peak's amplitude and frequency
+    when one converged."""
+    import json
+
+    g.attrs["law"], g.attrs["harmonics"] = out["law"], out["harmonics"]
+    g.attrs["kinds"] = json.dumps(list(curve.kinds))
+    for key in ("peak_amplitude_m", "peak_frequency_hz"):
+        if key in out:
+            g.attrs[key] = out[key]
+    g["tip_amplitude"] = curve.tip_amplitude
+    g["converged"] = curve.converged
+    g["harmonics"] = curve.harmonics
+    g["contact_shares"] = curve.fractions
 
 
 def _contact_angles(cfg, angles: dict | None) -> dict:

@@ -26,6 +26,12 @@ def print_forced(info: dict) -> None:
               f"blade {peak['blade']}")  # fmt: skip
     factor = info["amplification_factor"]
     print(f"  amplification: {'-' if factor is None else f'{factor:.4f}'} (peak over tuned peak)")
+    nl = info.get("nonlinear")
+    if nl:
+        peak = (f"; peak {nl['peak_amplitude_m']:.4e} m at {nl['peak_frequency_hz']:g} Hz"
+                if nl["peak_amplitude_m"] is not None else "")
+        print(f"  nonlinear:     harmonic balance, H = {nl['harmonics']}, contacts.law = "
+              f"'{nl['law']}', {nl['converged']} of {nl['count']} frequencies solved{peak}")
     solver = info.get("solver")
     if solver:
         shown = [solver.get(k) for k in ("ksp_type", "pc_type", "pc_factor_mat_solver_type")]

@@ -449,4 +449,16 @@ def _forced_info(f, path: str) -> dict:
         "file_bytes": os.path.getsize(path),
         "solve_s_per_frequency": number("solve_s_per_frequency"),
         "solver": solver,
+        "nonlinear": _nonlinear_info(f["nonlinear"]) if "nonlinear" in f else None,
     }
+
+
+def _nonlinear_info(g) -> dict:
+    """A forced-response file's nonlinear curve (``--nonlinear``): the law, harmonics,
+    frequencies solved, the peak on the grid."""
+    return {"law": _text(g.attrs["law"]), "harmonics": int(g.attrs["harmonics"]),
+            "converged": int(np.sum(g["converged"][()])), "count": int(g["converged"].size),
+            "peak_amplitude_m": float(g.attrs["peak_amplitude_m"])
+            if "peak_amplitude_m" in g.attrs else None,
+            "peak_frequency_hz": float(g.attrs["peak_frequency_hz"])
+            if "peak_frequency_hz" in g.attrs else None}  # fmt: skip
