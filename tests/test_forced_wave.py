@@ -114,6 +114,8 @@ def test_the_curve_is_written_and_read_back(tmp_path, capsys):
     assert cli.main(["info", str(path), "--verify"]) == 0
     text = capsys.readouterr().out
     assert "nonlinear:     harmonic balance, H = 3, contacts.law = 'elastic'" in text
+    assert cli.main(["plot", str(path), "--outdir", str(tmp_path / "fig")]) == 0
+    assert (tmp_path / "fig" / "forced_response.png").stat().st_size > 1000
     with h5py.File(path, "r+") as f:  # a changed value of the curve is found
         f["nonlinear/tip_amplitude"][0] = 1.0
     assert cli.main(["info", str(path), "--verify"]) == 1

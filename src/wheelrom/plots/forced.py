@@ -27,6 +27,14 @@ def forced_figures(f, path: str, outdir: str, pdf: bool, written: list[str], plt
                     mfc="none", color="tab:red",
                     label=f"{what} {attrs[f'{key}peak_amplitude_m']:.3g} m at "
                     f"{attrs[f'{key}peak_frequency_hz']:.6g} Hz")  # fmt: skip
+    if "nonlinear" in f:  # the nonlinear steady response on the same grid (--nonlinear)
+        g = f["nonlinear"]
+        tip, ok = g["tip_amplitude"][()], g["converged"][()]
+        law = g.attrs["law"]
+        law = law.decode() if isinstance(law, bytes) else str(law)
+        keep = order[ok[order]]
+        ax.plot(hz[keep], tip[keep], "-", marker=".", color="tab:green", lw=1.6,
+                label=f"nonlinear (contacts.law = '{law}', harmonic balance)")  # fmt: skip
     ax.set(xlabel="excitation frequency [Hz]", ylabel="blade tip amplitude [m]", yscale="log")
     factor = attrs.get("amplification_factor")
     ax.set_title("Forced response to the nozzle (engine order "
