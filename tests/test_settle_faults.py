@@ -54,7 +54,8 @@ def quick_settle(tmp_path_factory):
         patch.setattr(cli_settle, "throttled", lambda every_s: log)
         err = io.StringIO()
         patch.setattr(sys, "stderr", err)
-        assert cli.main(["settle", SMALL, *_sets(QUICK), "--out", str(out)]) == 0
+        code = cli.main(["settle", SMALL, *_sets(QUICK), "--out", str(out)])
+    assert code == 0, err.getvalue()[-2000:]
     return out, err.getvalue()
 
 
