@@ -109,14 +109,14 @@ def test_the_elastic_law_settles_from_the_preload_carrying_its_sliders(small_mod
     )
     from wheelrom.config.study import expand
     from wheelrom.runtime.errors import InputError
-    from wheelrom.studies.limit_cycles import paper_law_only
+    from wheelrom.studies.limit_cycles import refuse_uncarried_law
     from wheelrom.transient.run import run_case
 
     cfg = config.load(SMALL, ["contacts.law=elastic", "sweep.shroud_angles_deg=[80.0]",
                               "excitation.force=0.0"])  # fmt: skip
     with pytest.raises(InputError, match="settle.start = 'preload' does"):
-        paper_law_only(expand(cfg), "settle")
-    paper_law_only(expand(cfg.replace(**{"settle.start": "preload"})), "settle")
+        refuse_uncarried_law(expand(cfg), "settle")
+    refuse_uncarried_law(expand(cfg.replace(**{"settle.start": "preload"})), "settle")
     angles = {"shroud": 80.0}
     rng = np.random.default_rng(3)
     u0 = np.concatenate([rng.normal(size=small_model.size) * 3e-4, np.zeros(small_model.size)])

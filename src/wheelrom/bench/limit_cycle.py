@@ -44,7 +44,7 @@ SEED = 1e-5  # [m] tip amplitude of the first Newton start (then limit_cycle.see
 
 
 def limit_cycle_figures(model: ReducedModel, cfg: Config, say) -> dict:
-    # the elastic law's periodic solutions need the sliders in the state (issue #44)
+    # the elastic law: no exact orbit yet (the shooting carries no sliders; issue #44)
     if not model.tuned or cfg.flutter.model == "off" or cfg.contacts.law == "elastic":
         return {"limit_cycle_s_per_case": None}
     angles = case_angles(cfg)

@@ -57,10 +57,6 @@ class ContactLaw:
     def elastic(self) -> bool:
         return self.code == ELASTIC
 
-    @property
-    def name(self) -> str:
-        return "elastic" if self.elastic else "paper"
-
     def packed(self) -> np.ndarray:
         """``(LAW_SIZE,)`` the record as compiled code reads it (``L_*`` indices)."""
         return np.array([self.code, self.static, self.dynamic, self.decay,

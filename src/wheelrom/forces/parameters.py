@@ -9,6 +9,7 @@ force [sqrt(kg) m/s^2] (= N / sqrt(kg), since ``M_R = I``).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -106,9 +107,10 @@ class ForceParameters:
     rotation: np.ndarray
     contacts: ContactParameters
 
-    @property
+    @functools.cached_property
     def friction(self) -> np.ndarray:
-        """The contact law's packed record (:meth:`ContactLaw.packed`)."""
+        """The contact law's packed record (:meth:`ContactLaw.packed`; built once: every
+        force evaluation of the reference passes it)."""
         return self.law.packed()
 
     @property

@@ -71,6 +71,23 @@ class ReferenceForces:
                 self.vdp_displacement, self.power, self._work)  # fmt: skip
         return self.force
 
+    def replay(self, times, states):
+        """Evaluate the stored states ``states`` ``(S, 2, N, m)`` (``q``, ``q'``) at ``times``
+        ``(S,)`` [s] in order, yielding each index after its evaluation (the arrays then hold
+        its forces). The states hold no sliders: under the elastic law they are replayed
+        from rest at the first state, sample to sample (exact for a relative motion monotonic
+        between samples once every contact has slipped; the first stick phase's forces are
+        relative to the first state)."""
+        elastic = self.params.law.elastic
+        if elastic and len(times):
+            self.slider[...] = self.sliders_at_rest(np.ascontiguousarray(states[0][0]))
+        for i, t in enumerate(times):
+            self.evaluate(float(t), np.ascontiguousarray(states[i][0]),
+                          np.ascontiguousarray(states[i][1]))  # fmt: skip
+            yield i
+            if elastic:  # the sliders this sample returned, for the next
+                self.slider[...] = self.slider_next
+
     def sliders_at_rest(self, q: np.ndarray) -> np.ndarray:
         """``(K, N, 2)`` sliders [m] that leave every contact at ``q`` ``(N, m)`` without
         tangential force (``w = u_t``): the start of an elastic-law run."""

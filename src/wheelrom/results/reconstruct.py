@@ -116,25 +116,15 @@ def contact_histories(model: ReducedModel, cfg: Config, angles_deg: dict, times:
     """Kind -> :class:`ContactHistory` at the modal states ``states`` ``(S, 2, N, m)``
     (``q``, ``q'``) at ``times`` ``(S,)`` of the case with contact angles ``angles_deg``.
 
-    Under the elastic law the history holds no sliders: they are replayed along the stored
-    states (the law's return map, sample to sample) from rest at the first sample, which is
-    exact for a relative motion monotonic between samples once every contact has slipped
-    (a dense ``output.state_rate_hz``; the first stick phase's forces are relative to the
-    first sample)."""
+    Under the elastic law the sliders are replayed along the stored states
+    (:meth:`ReferenceForces.replay`: a dense ``output.state_rate_hz``)."""
     forces = ReferenceForces(force_parameters(model, cfg, angles_deg))
-    elastic = forces.params.law.elastic
-    if elastic and len(times):
-        forces.slider[...] = forces.sliders_at_rest(np.ascontiguousarray(states[0, 0]))
     kinds = forces.params.contacts.kinds
     S, K, N = len(times), len(kinds), model.blades
     normal, slip = np.zeros((S, K, N)), np.zeros((S, K, N))
     friction, rel = np.zeros((S, K, N, 2)), np.zeros((S, K, N, 3))
     state = np.zeros((S, K, N), dtype=np.int8)
-    for i, t in enumerate(times):
-        forces.evaluate(float(t), np.ascontiguousarray(states[i, 0]),
-                        np.ascontiguousarray(states[i, 1]))  # fmt: skip
-        if elastic:  # the sliders of this sample, kept for the next
-            forces.slider[...] = forces.slider_next
+    for i in forces.replay(times, states):
         normal[i], slip[i], state[i] = forces.normal_force, forces.slip_velocity, \
             forces.contact_state  # fmt: skip
         friction[i], rel[i] = forces.friction_force, forces.relative_displacement

@@ -22,7 +22,7 @@ from wheelrom.runtime.errors import InputError
 from wheelrom.studies.plan import shared_models
 
 
-def paper_law_only(study, command: str) -> None:
+def refuse_uncarried_law(study, command: str) -> None:
     """Refuse, before anything is computed, a study with a case under the elastic contact
     law in a command that does not carry its sliders yet (the shooting and the monodromy
     with the sliders in the state: issue #44); ``limit-cycle`` takes it with
@@ -54,7 +54,7 @@ def run_limit_cycles(cfg: Config, comm=None, log=print, waves=None,
     case's). ``waves``: the travelling waves to analyse instead of ``limit_cycle.waves``;
     ``progress(text)`` (rank 0) at every branch point."""
     study = expand(cfg)
-    paper_law_only(study, "limit-cycle")
+    refuse_uncarried_law(study, "limit-cycle")
     rank, size = (comm.rank, comm.size) if comm is not None else (0, 1)
     say = log if rank == 0 and log is not None else (lambda *_: None)
     t0 = time.perf_counter()

@@ -39,7 +39,7 @@ from wheelrom.config import Config, to_toml
 from wheelrom.config.study import expand, short_name
 from wheelrom.runtime.errors import InputError
 from wheelrom.runtime.outputs import agree, disk_full, is_disk_full, replacing, write_image
-from wheelrom.studies.limit_cycles import paper_law_only
+from wheelrom.studies.limit_cycles import refuse_uncarried_law
 from wheelrom.studies.plan import shared_models
 from wheelrom.studies.rounds import wait_for_all
 
@@ -302,7 +302,7 @@ def run_settle(cfg: Config, out: str | None, comm=None, log=print, resume: bool 
     """``(model, [(angles, parameters, Settled)])`` of every case on rank 0 (others: the
     model and ``[]``). ``warn``: a damaged saved case, on whichever rank finds it."""
     study = expand(cfg)
-    paper_law_only(study, "settle")
+    refuse_uncarried_law(study, "settle")
     rank, size = (comm.rank, comm.size) if comm is not None else (0, 1)
     say = log if rank == 0 and log is not None else (lambda *_: None)
     model_of, models = shared_models(study.configs, comm, say)

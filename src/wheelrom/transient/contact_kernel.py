@@ -39,6 +39,7 @@ from wheelrom.transient.layout import (
     I_VA,
     I_VB,
     I_WNEXT,
+    I_WNONE,
     I_XA,
     I_XB,
     get,
@@ -229,11 +230,11 @@ def _contact_columns(NB, UA, UB, VA, VB, uax, uay, uaz, vax, vay, vaz, T, kc, R,
 @numba.njit(inline="always")
 def slider_rows(u, ctx, n, K, NB, B):
     """``(K, 2, N B)`` the elastic law's sliders of the state ``u`` (a view); under the paper
-    law, which has none, the context's scratch of returned sliders (never read)."""
+    law, which has none, the context's zeros (``slider_none``, never written)."""
     if ctx[H_SLIDERS] > 0.0:
         start = 2 * n + 4 * B
         return u[start : start + K * 2 * NB].reshape((K, 2, NB))
-    return get(ctx, I_WNEXT, K * 2 * NB).reshape((K, 2, NB))
+    return get(ctx, I_WNONE, K * 2 * NB).reshape((K, 2, NB))
 
 
 @_kernel_cache.njit(fastmath={"contract"}, error_model="numpy")

@@ -110,6 +110,9 @@ _ARRAYS = (
     ("slider_next", lambda N, m, K, B, c, c2: (K, 2, N * B)),
     # slipping contacts per kind at each sample of the current window
     ("sample_slip", lambda N, m, K, B, c, c2: (B, c, K)),
+    # zeros: the sliders the contact loop reads under the paper law (which has none), apart
+    # from the returned ones it writes (the loop promises LLVM its arrays do not overlap)
+    ("slider_none", lambda N, m, K, B, c, c2: (K, 2, N * B)),
 )
 _INDEX = {name: i for i, (name, _) in enumerate(_ARRAYS)}
 (
@@ -117,7 +120,7 @@ _INDEX = {name: i for i, (name, _) in enumerate(_ARRAYS)}
     I_KC, I_PRELOAD, I_TIP, I_ACTIVE, I_STOP, I_STOPT, I_COUNT, I_VT, I_WT, I_KW, I_DV, I_NOZ,
     I_Y, I_YD, I_PAIR, I_G, I_COL, I_UA, I_UB, I_VA, I_VB, I_FA, I_FB, I_FN, I_NORMAL, I_STATE,
     I_POWER, I_STIME, I_STIP, I_SMIN, I_SOPEN, I_STOTAL, I_XCOUNT, I_XTIME, I_XSTATE, I_KSEG,
-    I_DELTA, I_AEROA, I_AEROB, I_LAW, I_KT, I_WNEXT, I_SSLIP,
+    I_DELTA, I_AEROA, I_AEROB, I_LAW, I_KT, I_WNEXT, I_SSLIP, I_WNONE,
 ) = range(len(_ARRAYS))  # fmt: skip
 
 STOP_NONFINITE, STOP_AMPLITUDE = 1, 2

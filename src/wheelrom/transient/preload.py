@@ -130,10 +130,7 @@ def initial_state(problem: WheelProblem, case: int = 0) -> tuple[np.ndarray, flo
     if problem.cfg.time.start == "preload":
         q, residual = static_preload(problem, case=case)
         u0[: problem.n] = q
-    sliders = problem.slider_view(u0)
-    if sliders is not None:  # elastic law: the contacts stuck where the preload left them
-        sliders[...] = problem.forces[case].sliders_at_rest(u0[: problem.n].reshape(
-            problem.N, problem.m))  # fmt: skip
+    problem.rest_sliders(u0, case)  # elastic law: stuck where the preload left them
     u0[: problem.n] += start_perturbation(problem.model, problem.cfg).ravel()
     problem.slide(u0, case)  # a perturbation beyond the stick range starts slipping
     return u0, residual

@@ -49,7 +49,7 @@ class WindowStats:
     nd_spectrum: np.ndarray
     min_normal_force: dict
     open_fraction: dict
-    slip_fraction: dict = field(default_factory=dict)
+    slip_fraction: dict
 
 
 def nd_amplitudes(tip_y: np.ndarray) -> np.ndarray:
@@ -223,6 +223,30 @@ class WheelProblem:
         if not self.sliders:
             return None
         return u[2 * self.n + N_WORK :].reshape(len(self.kinds), self.N, 2)
+
+    def rest_sliders(self, u: np.ndarray, case: int = 0) -> None:
+        """One case's sliders in ``u`` (blade-major, in place) at rest at its displacement:
+        no tangential force there (nothing under the paper law)."""
+        slider = self.slider_view(u)
+        if slider is not None:
+            slider[...] = self.forces[case].sliders_at_rest(u[: self.n].reshape(self.N, self.m))
+
+    def start_state(self, given: np.ndarray, case: int = 0) -> np.ndarray:
+        """One case's whole state from ``given``: ``(q, q')`` (the elastic law's sliders at
+        rest there) or a whole state (its sliders kept; the work integrals start at zero),
+        the sliders then returned onto the Coulomb limit (a start beyond the stick range
+        slips)."""
+        given = np.asarray(given, dtype=float)
+        u = np.zeros(self.size())
+        n2 = 2 * self.n
+        u[:n2] = given[:n2]
+        if self.sliders:
+            if given.size == u.size:
+                u[n2 + N_WORK :] = given[n2 + N_WORK :]
+            else:
+                self.rest_sliders(u, case)
+            self.slide(u, case)
+        return u
 
     def slide(self, u: np.ndarray, case: int = 0) -> bool:
         """The end of a step (Python paths): one case's sliders in ``u`` (blade-major, in

@@ -186,13 +186,7 @@ def reference_solution(model: ReducedModel, cfg: Config, steps: int, step: float
     if u0 is None:
         u, _ = initial_state(problem)
     else:
-        u = np.zeros(problem.size())
-        u[: u0.size] = u0
-        sliders = problem.slider_view(u)
-        if sliders is not None and u0.size <= 2 * problem.n:
-            sliders[...] = problem.forces[0].sliders_at_rest(
-                u[: problem.n].reshape(model.blades, model.modes))  # fmt: skip
-        problem.slide(u)  # the start on or within the Coulomb limit
+        u = problem.start_state(u0)
     if scheme == "exponential":
         prop = segment_propagators(model.A0, problem.beta, step)
         explicit = explicit_part(problem)

@@ -99,9 +99,8 @@ class Samples:
         self._keep_history(t, tip)
         self._take_states()
         if count == 0:
-            return WindowStats(math.nan, np.full(N // 2 + 1, math.nan),
-                               {k: math.nan for k in self.kinds},
-                               {k: math.nan for k in self.kinds})  # fmt: skip
+            nan = {k: math.nan for k in self.kinds}
+            return WindowStats(math.nan, np.full(N // 2 + 1, math.nan), nan, nan, nan)
         return WindowStats(
             max_tip_amplitude=float(np.sqrt((tip * tip).sum(axis=2)).max()),
             nd_spectrum=nd_amplitudes(tip[:, :, 1]).max(axis=0),
@@ -266,20 +265,11 @@ def _initial_states(problem: WheelProblem, records, u0) -> np.ndarray:
     preload residual. ``u0[b]``: ``(q, q')`` (the elastic law's sliders then start at rest
     there, no tangential force) or a whole state (its sliders kept)."""
     states = np.zeros((problem.B, problem.size()))
-    n2 = 2 * problem.n
     for b, rec in enumerate(records):
         if u0 is None:
             states[b], rec.result.preload_residual = initial_state(problem, case=b)
         else:
-            given = np.asarray(u0[b], dtype=float)
-            states[b, :n2] = given[:n2]
-            sliders = problem.slider_view(states[b])
-            if sliders is not None:
-                sliders[...] = (given[n2 + N_WORK :].reshape(sliders.shape)
-                                if given.size == states.shape[1] else
-                                problem.forces[b].sliders_at_rest(
-                                    given[: problem.n].reshape(problem.N, problem.m)))  # fmt: skip
-                problem.slide(states[b], b)  # the start on or within the Coulomb limit
+            states[b] = problem.start_state(u0[b], b)
         rec.result.energy0 = problem.energy(states[b], case=b)
     return states
 
@@ -345,8 +335,7 @@ def _finish(rec: _CaseRecord, problem, used, final_state, wall, compile_s) -> Ca
     res.work = np.array(rec.work).reshape(-1, N_WORK)
     res.min_normal_force = {k: np.array([s.min_normal_force[k] for s in rec.stats]) for k in kinds}
     res.open_fraction = {k: np.array([s.open_fraction[k] for s in rec.stats]) for k in kinds}
-    res.slip_fraction = {k: np.array([s.slip_fraction.get(k, np.nan) for s in rec.stats])
-                         for k in kinds}  # fmt: skip
+    res.slip_fraction = {k: np.array([s.slip_fraction[k] for s in rec.stats]) for k in kinds}
     times, tips = rec.samples.times, rec.samples.tips
     res.sample_time = np.concatenate(times) if times else np.zeros(0)
     res.tip_history = (np.concatenate(tips) if tips else np.zeros(0)).reshape(-1, problem.N, 3)

@@ -105,7 +105,6 @@ class WaveBalance:
         self.kinds = params.contacts.kinds
         # the elastic law's hysteresis: the AFT marches the sliders through the samples
         self.elastic = params.law.elastic
-        self.exact_tangent = True  # elastic: the Jacobian through the march (else local)
         self.sliders = None  # (n_t, K, 3, 2) the sliders of the last march's samples
         H, nt = harmonics, samples
         self.tau = 2 * math.pi * np.arange(nt) / nt
@@ -218,12 +217,11 @@ class WaveBalance:
         v = omega * np.einsum("wjh,hm->jwm", self.D, X)
         return np.ascontiguousarray(q), np.ascontiguousarray(v)
 
-    def _evaluate(self, q: np.ndarray, v: np.ndarray, lam: float,
-                  sliders: np.ndarray | None = None):  # fmt: skip
+    def _evaluate(self, q: np.ndarray, v: np.ndarray, lam: float):
         """Forces on blade 0 ``(S, m)`` and pair-0 contact records of ``S`` window states.
 
-        Elastic law: with ``sliders`` ``(S, K, 3, 2)`` each state's own; without, the states
-        are one period's samples and the sliders are marched through them
+        Elastic law: the states are periods of samples (``S / n_t`` of them, or one of ``S``)
+        and the sliders are marched through each
         (:data:`MARCH_PERIODS` periods from rest at the period's mean state: a converged
         loop once every contact has slipped; a contact that never slips acts as its stuck
         spring about the mean, the stuck linearisation's limit), kept in ``self.sliders``."""
@@ -232,8 +230,8 @@ class WaveBalance:
         force = np.empty((S, 3, self.modes))
         normal, power = np.empty((S, K)), np.empty((S, K))
         state = np.empty((S, K), dtype=np.int8)
-        periods, block = 0, 0
-        if self.elastic and sliders is None:  # S / n_t periods of samples, each marched
+        periods, block, sliders = 0, 0, None
+        if self.elastic:  # S / n_t periods of samples, each marched
             block = self.nt if S % self.nt == 0 else S
             sliders = np.empty((S, *self.forces.slider.shape))
             for start in range(0, S, block):
@@ -267,14 +265,8 @@ class WaveBalance:
         window's ``6 m`` inputs, all samples and perturbations in one compiled call."""
         q, v = self.samples(X, omega)
         m, nt = self.modes, self.nt
-        sliders = None
-        if self.elastic:
-            force = self._evaluate(q, v, lam)[0]
-            if self.exact_tangent:  # the Jacobian comes from the whole march
-                return Linearisation(force, None, None)
-            # the march's sliders held at every sample: the hysteresis's local tangent
-            sliders = np.broadcast_to(self.sliders, (12 * m + 1, *self.sliders.shape))
-            sliders = sliders.reshape(-1, *self.sliders.shape[1:]).copy()
+        if self.elastic:  # no sample-local derivatives: the Jacobian comes from the march
+            return Linearisation(self._evaluate(q, v, lam)[0], None, None)
         n_in = 6 * m  # (q, v) x 3 blades x m
         steps = np.concatenate([self.fd_step, self.fd_step * max(omega, 1.0)])
         Q = np.broadcast_to(q, (2 * n_in + 1, nt, 3, m)).copy()
@@ -286,7 +278,7 @@ class WaveBalance:
             step = steps[kind * m + j]
             target[1 + 2 * i, :, w, j] += step
             target[2 + 2 * i, :, w, j] -= step
-        f = self._evaluate(Q.reshape(-1, 3, m), V.reshape(-1, 3, m), lam, sliders)[0]
+        f = self._evaluate(Q.reshape(-1, 3, m), V.reshape(-1, 3, m), lam)[0]
         f = f.reshape(2 * n_in + 1, nt, m)
         d = (f[1::2] - f[2::2]) / (2 * np.repeat(steps.reshape(2, 1, m), 3, axis=1)
                                    .reshape(n_in)[:, None, None])  # fmt: skip
@@ -296,29 +288,33 @@ class WaveBalance:
     def jacobian(self, X: np.ndarray, omega: float, lam: float, lin: Linearisation | None = None):
         """``(R, dR/dX, dR/domega, dR/dlam)``: packed residual ``(2H+1, m)``, its derivative
         ``(2H+1, m, 2H+1, m)`` and the two parameter columns ``(2H+1, m)``."""
-        lin = lin or self.linearise(X, omega, lam)
-        if lin.dq is None:
+        if self.elastic:  # the forces' part differenced through the march
             return self._marched_jacobian(X, omega, lam)
+        lin = lin or self.linearise(X, omega, lam)
         R = self.linear_term(X, omega, lam) - self.P @ lin.force
-        Z = self._dynamic_stiffness(omega, lam)
-        n = 2 * self.H + 1
-        dRdX = np.zeros((n, self.modes, n, self.modes))
-        dRdX[0, :, 0, :] = Z[0].real
-        for h in range(1, self.H + 1):
-            B = self._real_block(Z[h]).reshape(2, self.modes, 2, self.modes)
-            rows = slice(2 * h - 1, 2 * h + 1)
-            dRdX[rows, :, rows, :] = B.transpose(0, 1, 2, 3)
+        dRdX, dRdw = self._linear_derivatives(X, omega, lam)
         dRdX -= np.einsum("pj,wjil,wjh->pihl", self.P, lin.dq, self.E, optimize=True)
         dRdX -= omega * np.einsum("pj,wjil,wjh->pihl", self.P, lin.dv, self.D, optimize=True)
-        # d/domega: the linear part analytically, the forces through the velocities
-        c = self.complex_harmonics(X)
-        dZ = [self.stiffness[h] * (1j * h * self.beta) - 2 * h * h * omega * np.eye(self.modes)
-              + (lam * self._table_derivative(h) if self.table else 0) for h in range(self.H + 1)]
-        dRdw = self.packed(np.stack([dZ[h] @ c[h] for h in range(self.H + 1)]))
+        # d/domega of the forces through the velocities
         DX = np.einsum("wjh,hm->wjm", self.D, X)
         dRdw -= self.P @ np.einsum("wjil,wjl->ji", lin.dv, DX)
         dRdlam = self._lambda_column(X, omega, lam)
         return R, dRdX, dRdw, dRdlam
+
+    def _linear_derivatives(self, X: np.ndarray, omega: float, lam: float):
+        """``(dR/dX, dR/domega)`` of the linear part ``Z_h c_h``: ``(2H+1, m, 2H+1, m)`` (the
+        real blocks of ``Z_h``) and ``(2H+1, m)`` (analytically)."""
+        n, m = 2 * self.H + 1, self.modes
+        Z = self._dynamic_stiffness(omega, lam)
+        dRdX = np.zeros((n, m, n, m))
+        dRdX[0, :, 0, :] = Z[0].real
+        for h in range(1, self.H + 1):
+            rows = slice(2 * h - 1, 2 * h + 1)
+            dRdX[rows, :, rows, :] = self._real_block(Z[h]).reshape(2, m, 2, m)
+        c = self.complex_harmonics(X)
+        dZ = [self.stiffness[h] * (1j * h * self.beta) - 2 * h * h * omega * np.eye(m)
+              + (lam * self._table_derivative(h) if self.table else 0) for h in range(self.H + 1)]
+        return dRdX, self.packed(np.stack([dZ[h] @ c[h] for h in range(self.H + 1)]))
 
     def _marched_jacobian(self, X: np.ndarray, omega: float, lam: float):
         """:meth:`jacobian` of the elastic law: the hysteresis makes a sample's force depend
@@ -339,20 +335,9 @@ class WaveBalance:
         fh = np.einsum("pj,kjm->kpm", self.P, f.reshape(n * m + 2, nt, m))  # (k, n, m)
         base = fh[0]
         R = self.linear_term(X, omega, lam) - base
-        dRdX = np.empty((n, m, n, m))
-        Z = self._dynamic_stiffness(omega, lam)
-        linear = np.zeros((n, m, n, m))
-        linear[0, :, 0, :] = Z[0].real
-        for h in range(1, self.H + 1):
-            B = self._real_block(Z[h]).reshape(2, m, 2, m)
-            rows = slice(2 * h - 1, 2 * h + 1)
-            linear[rows, :, rows, :] = B
+        dRdX, dRdw = self._linear_derivatives(X, omega, lam)
         dforce = (fh[1 : n * m + 1] - base) / steps[:, None, None]  # (n m, n, m): d f / d X_k
-        dRdX = linear - dforce.transpose(1, 2, 0).reshape(n, m, n, m)
-        c = self.complex_harmonics(X)
-        dZ = [self.stiffness[h] * (1j * h * self.beta) - 2 * h * h * omega * np.eye(m)
-              + (lam * self._table_derivative(h) if self.table else 0) for h in range(self.H + 1)]
-        dRdw = self.packed(np.stack([dZ[h] @ c[h] for h in range(self.H + 1)]))
+        dRdX -= dforce.transpose(1, 2, 0).reshape(n, m, n, m)
         dRdw -= (fh[-1] - base) / d_omega
         return R, dRdX, dRdw, self._lambda_column(X, omega, lam)
 

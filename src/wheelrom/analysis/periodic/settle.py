@@ -339,13 +339,7 @@ def _describe_last(out: Settled, res, model, cfg, angles, settings: Settings) ->
     K = len(forces.params.contacts.kinds)
     counts = np.zeros((K, 3))
     low, high = np.full(K, np.inf), np.full(K, -np.inf)
-    elastic = forces.params.law.elastic
-    if elastic and len(res.state_history):  # replayed from rest (results.reconstruct)
-        forces.slider[...] = forces.sliders_at_rest(res.state_history[0, 0])
-    for q, v in res.state_history:
-        forces.evaluate(0.0, q, v)
-        if elastic:
-            forces.slider[...] = forces.slider_next
+    for _ in forces.replay(np.zeros(len(res.state_history)), res.state_history):
         for k in range(K):
             counts[k] += np.bincount(forces.contact_state[k].astype(int), minlength=3)[:3]
         low = np.minimum(low, forces.normal_force.min(axis=1))
