@@ -74,8 +74,11 @@ def test_small_forcing_is_the_linearised_response(small_model, small_cfg, angle,
 def test_the_command_sets_the_friction_limited_peak_beside_the_linear_one(capsys):
     """``forced-response --nonlinear`` under the elastic law on the small wheel: the stuck
     linearised peak is a lightly damped 0.74 mm; the contacts slip at it and hold the
-    nonlinear response an order of magnitude lower (measured 32 um, tie-boss slipping
-    75 % of the period)."""
+    nonlinear response an order of magnitude lower (measured 24 um, the contacts slipping
+    part of the period). Newton solves 4 of the 8 frequencies since the AFT marches the
+    sliders to their periodic loop (7 of 8 on the loop of 3 periods, which is not periodic
+    in partial slip: tests/test_forced_design.py); the friction-limited peak at the stuck
+    resonance is where it fails (docs/theory.md, "The friction damper's design curve")."""
     import json
 
     from conftest import SMALL
@@ -87,7 +90,7 @@ def test_the_command_sets_the_friction_limited_peak_beside_the_linear_one(capsys
     out = json.loads(capsys.readouterr().out)
     nl = out["nonlinear"]
     assert nl["law"] == "elastic" and len(nl["tip_amplitude_m"]) == 8
-    assert sum(nl["converged"]) >= 6
+    assert sum(nl["converged"]) >= 4
     assert nl["peak_amplitude_m"] < 0.2 * max(out["max_amplitude_m"])
     assert max(s["slip"] for s in nl["peak_shares"].values()) > 0.1
 

@@ -121,6 +121,12 @@ def args_study(p):
                    help="also the peak linear forced response of every case ([forced]) "
                    "and its amplification factor over the tuned wheel (Monte Carlo "
                    "mistuning)")  # fmt: skip
+    p.add_argument("--forced-nonlinear", action="store_true",
+                   help="also the nonlinear forced response of every (tuned) case: harmonic "
+                   "balance of the nozzle's wave under contacts.law over forced.band_hz (or "
+                   "from the slipping to the stuck resonance) on forced.points frequencies, "
+                   "H = forced.harmonics, the peak refined: the friction damper's design "
+                   "curve (docs/usage.md)")  # fmt: skip
     existing = p.add_mutually_exclusive_group()
     existing.add_argument("--resume", action="store_true",
                           help="complete an existing file: run the transients still pending")

@@ -34,8 +34,8 @@ def args_forced(p: argparse.ArgumentParser) -> None:
                    help="also the nonlinear steady response at every frequency of the grid: "
                    "harmonic balance of the nozzle's travelling wave under contacts.law "
                    "(tuned wheel; docs/theory.md 'Nonlinear forced response')")  # fmt: skip
-    p.add_argument("--harmonics", type=int, default=5,
-                   help="harmonics of --nonlinear (default 5)")
+    p.add_argument("--harmonics", type=int, default=None,
+                   help="harmonics of --nonlinear (default forced.harmonics)")
     p.add_argument("--angle", nargs=2, action="append", default=[], metavar=("KIND", "DEG"),
                    help="contact angle [deg] of a kind (tieboss, shroud) instead of "
                    "contacts.<kind>.angle_deg (repeatable)")  # fmt: skip
@@ -101,6 +101,8 @@ def cmd_forced(args: argparse.Namespace) -> int:
     from wheelrom.rom.build import build_model, quiet
 
     cfg = load_config(args)
+    if args.harmonics is None:
+        args.harmonics = cfg.forced.harmonics
     if args.harmonics < 1:
         raise InputError(f"--harmonics {args.harmonics}: at least 1")
     if cfg.excitation.force <= 0:  # a response of zero (and a peak search of nothing)

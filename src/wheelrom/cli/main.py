@@ -324,8 +324,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 def cmd_study(args: argparse.Namespace) -> int:
     """Design study under mpirun: the [study] keys of CONFIG varied as a grid, zipped lists or
-    CSV cases; linear stability of every case (and with --forced its peak forced response),
-    then transients of all cases, of the boundary cases (--screen) or of none
+    CSV cases; linear stability of every case (and with --forced its peak forced response,
+    with --forced-nonlinear its nonlinear forced response: the friction damper's design
+    curve), then transients of all cases, of the boundary cases (--screen) or of none
     (--stability-only), into one HDF5 file."""
     from mpi4py import MPI
 
@@ -336,7 +337,8 @@ def cmd_study(args: argparse.Namespace) -> int:
     confirm = cli_args.parse_confirm(args.confirm)
     summary = run_study(cfg, args.out, MPI.COMM_WORLD, mode=mode, confirm=confirm,
                         resume=args.resume, force=args.force, log=log,
-                        batch=args.batch, forced=args.forced)  # fmt: skip
+                        batch=args.batch, forced=args.forced,
+                        nonlinear=args.forced_nonlinear)  # fmt: skip
     if world_rank() == 0:
         print_json(summary) if args.json else print_study(summary, args.out)
     return 1 if summary["transients"]["failed"] else 0

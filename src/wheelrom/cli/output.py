@@ -306,6 +306,15 @@ def print_study(summary: dict, path: str) -> None:
     print(f"  transients:       {t['done']} done, {t['failed']} failed, {t['pending']} "
           f"pending, {t['skipped']} not run (selected by: {chosen})")  # fmt: skip
     print_statistics(summary.get("statistics") or {}, "  ")
+    design = summary.get("design")
+    if design:
+        print(f"  nonlinear forced response (H = {design['harmonics']}), peak tip amplitude "
+              f"per case [{', '.join(summary['parameters'])}]:")  # fmt: skip
+        for i, (label, a, hz) in enumerate(zip(design["labels"], design["peak_amplitude_m"],
+                                               design["peak_frequency_hz"], strict=True)):
+            mark = "  <- smallest" if i == design["optimum"] else ""
+            words = "failed" if a is None else f"{a * 1e6:.4g} um at {hz:.5g} Hz"
+            print(f"    [{i}] {label}: {words}{mark}")
 
 
 def _margin_words(m: dict) -> str:

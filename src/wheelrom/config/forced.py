@@ -81,6 +81,11 @@ class ForcedConfig:
         metadata=_key("-", "coarse grid over the band whose local maxima are peak candidates "
                       "besides the eigenfrequencies (0: none)", min=0, max=100_000),  # fmt: skip
     )
+    harmonics: int = field(
+        default=5,
+        metadata=_key("-", "harmonics H of the nonlinear forced response (forced-response "
+                      "--nonlinear, study --forced-nonlinear)", min=1, max=64),  # fmt: skip
+    )
 
 
 def read_mistuning_file(name: str, source: str, blades: int) -> np.ndarray:

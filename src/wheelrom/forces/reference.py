@@ -97,7 +97,8 @@ class ReferenceForces:
     def evaluate_samples(self, q: np.ndarray, v: np.ndarray, force: np.ndarray,
                          normal_force: np.ndarray, friction_power: np.ndarray,
                          contact_state: np.ndarray, sliders: np.ndarray | None = None,
-                         periods: int = 0, block: int = 0) -> None:  # fmt: skip
+                         periods: int = 0, block: int = 0, max_periods: int = 0,
+                         tolerance: float = 0.0) -> float:  # fmt: skip
         """The forces of ``S`` states at once (nozzle at ``t = 0``): ``q``, ``v``
         ``(S, N, m)``; writes ``force`` ``(S, N, m)`` and, of blade pair ``(0, 1)`` of every
         contact kind, ``normal_force`` ``(S, K)`` [N], ``friction_power`` ``(S, K)`` [W] (the
@@ -113,21 +114,29 @@ class ReferenceForces:
         hysteresis of the alternating frequency-time method); the last period's forces are
         written and ``sliders`` holds the slider each sample used. ``block``: samples of one
         period (0: all ``S``); the states are then ``S / block`` periods marched each on its
-        own from its first slider. None: zeros (the paper law reads none)."""
+        own from its first slider. None: zeros (the paper law reads none).
+
+        ``max_periods > periods``: the march goes on, up to ``max_periods``, until a period
+        moves no slider by more than ``tolerance`` [m] from where it began (the loop is
+        periodic: its forces are those written); returns the largest such move of the last
+        period over the blocks (0 without sliders)."""
         p, c = self.params, self.params.contacts
         if sliders is None:  # one slider for every state (the paper law reads none)
             sliders = np.zeros((1, *self.slider.shape))
+        drift = np.zeros(1)
         _kernel_samples(q, v, force, p.omega, p.stator_vanes, p.nozzle_force, p.excitation,
                         p.nozzle_phase, p.vdp_model, p.vdp_mu, p.vdp_r, p.aero,
                         p.aero_displacement, p.aero_velocity, p.friction, p.rotation,
                         c.shape_A, c.shape_B, c.point_A, c.point_B, c.arm_length, c.frame,
                         c.stiffness, c.preload, c.tangential, sliders, periods,
-                        block or q.shape[0], self.slider,
+                        max(max_periods, periods), tolerance, drift, block or q.shape[0],
+                        self.slider,
                         self.slider_next, self.normal_force, self.slip_velocity,
                         self.normal_gap, self.contact_state, self.relative_displacement,
                         self.relative_velocity, self.friction_force, self.vdp_displacement,
                         self.power, self._work, normal_force, friction_power,
                         contact_state)  # fmt: skip
+        return float(drift[0])
 
     def contact_energy(self) -> float:
         """Potential energy of the normal contact springs at the last evaluation [J].
@@ -163,15 +172,26 @@ def _kernel(t, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p_aero
 @_kernel_cache.njit(fastmath=False)
 def _kernel_samples(q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p_aero, aero_a,
                     aero_b, law, R, XA, XB, A_pt, B_pt, arm, T, kc, preload, kt, sliders,
-                    periods, block, slider, slider_next, normal, slip, gap, state, rel_u, rel_v,
-                    fric, y_vdp, power, work, normal_out, power_out, state_out):  # fmt: skip
+                    periods, max_periods, tolerance, drift, block, slider, slider_next, normal,
+                    slip, gap, state, rel_u, rel_v, fric, y_vdp, power, work, normal_out,
+                    power_out, state_out):  # fmt: skip
     """:func:`_kernel` at ``t = 0`` for every state ``q[i], v[i]`` (``(S, N, m)``) with the
-    slider ``sliders[i]``, or marched (``periods > 0``, :meth:`evaluate_samples`), keeping
-    blade pair 0's normal force, friction power and state per contact kind."""
+    slider ``sliders[i]``, or marched (``periods > 0``, :meth:`evaluate_samples`: at least
+    ``periods``, up to ``max_periods`` until a period moves no slider by more than
+    ``tolerance``; ``drift[0]``: the largest last move), keeping blade pair 0's normal
+    force, friction power and state per contact kind."""
+    drift[0] = 0.0
     for start in range(0, q.shape[0], block):
         if periods > 0:
             slider[...] = sliders[start]
-        for _period in range(max(periods, 1)):
+        moved = 0.0
+        for period in range(max(max_periods, 1)):
+            if period >= periods > 0:  # the last period's loop closed: its forces stand
+                moved = np.abs(slider - sliders[start]).max()
+                if moved <= tolerance or period == max_periods:
+                    break
+            elif period >= max(periods, 1):
+                break
             for i in range(start, start + block):
                 if periods > 0:
                     sliders[i] = slider  # the slider this sample sees: the last one's return
@@ -182,6 +202,8 @@ def _kernel_samples(q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p
                         state_out)  # fmt: skip
                 if periods > 0:
                     slider[...] = slider_next
+        if periods > 0:
+            drift[0] = max(drift[0], np.abs(slider - sliders[start]).max())
 
 
 @_kernel_cache.njit(fastmath=False)

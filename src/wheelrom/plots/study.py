@@ -100,6 +100,10 @@ def _what(name: str) -> tuple[str, str]:
 def study_figures(f, path: str, outdir: str, pdf: bool, written: list[str], plt) -> None:
     """Write the study's figures (module docstring) into ``outdir``."""
     d = StudyData(f, path)
+    if "forced_nonlinear" in f:  # study --forced-nonlinear: the damper's design curve
+        from wheelrom.plots.design import design_figures
+
+        design_figures(f, path, outdir, pdf, written, plt)
     if len(d.axes) == 1:
         fig = _lines(d, d.axes[0], plt)
         save(fig, outdir, "study_1d", pdf, written)

@@ -290,10 +290,11 @@ def resume_line(path: str, source: str | None, command: str, flags: str = "") ->
     return f" and the same configuration ({source or 'the file attribute config'})"
 
 
-def study_flags(mode: str, forced: bool) -> str:
-    """The options a study's resume must repeat: its mode and ``--forced``."""
+def study_flags(mode: str, forced: bool, nonlinear: bool = False) -> str:
+    """The options a study's resume must repeat: its mode, ``--forced`` and
+    ``--forced-nonlinear``."""
     return {"screen": " --screen", "stability": " --stability-only"}.get(mode, "") + (
-        " --forced" if forced else "")
+        " --forced" if forced else "") + (" --forced-nonlinear" if nonlinear else "")
 
 
 def _results_info(f, path: str) -> dict:
@@ -377,7 +378,8 @@ def _study_info(f, path: str) -> dict:
         window_end = f["cases/window_end"][()]
         out.update(time_end_s=float(window_end[-1]), windows=int(window_end.size),
                    window_s=_configured_time(f).get("window"))  # fmt: skip
-    flags = study_flags(out["mode"], bool(f.attrs.get("forced", False)))
+    flags = study_flags(out["mode"], bool(f.attrs.get("forced", False)),
+                        bool(f.attrs.get("forced_nonlinear", False)))
     out["hint"] = resume_hint(path, header["config_source"], out["counts"], "study", flags)
     return out
 

@@ -32,12 +32,14 @@ def case_angles(study: Study) -> np.ndarray:
 
 def create(f, cfg: Config, study: Study, models: list, model_of: list[int], stability: dict,
            selected_by: list[str], mode: str, mistuning: np.ndarray | None = None,
-           forced: dict | None = None) -> None:  # fmt: skip
+           forced: dict | None = None, forced_nonlinear: dict | None = None) -> None:  # fmt: skip
     """The whole file but the transient results: every selected case ``pending``, the
     others ``skipped``. ``stability``: :func:`stability_arrays`; ``models``: one reduced
     model per group (tuned), ``model_of`` ``(C,)`` the group of every case; ``mistuning``
     ``(C, N)`` every case's ``delta_s``; ``forced``: the ``/forced`` datasets
-    (:func:`wheelrom.studies.mistuning.forced_arrays`) or None."""
+    (:func:`wheelrom.studies.mistuning.forced_arrays`) or None; ``forced_nonlinear``: the
+    ``/forced_nonlinear`` datasets (the nonlinear forced response per case,
+    :func:`wheelrom.studies.forced_nonlinear.design_arrays`) or None."""
     angles = case_angles(study)
     C = angles.shape[0]
     if mode == "stability":  # no transient datasets at all
@@ -75,8 +77,16 @@ def create(f, cfg: Config, study: Study, models: list, model_of: list[int], stab
         group.attrs["whitehead_bound"] = whitehead_bound(models[0].blades)
         for name, data in forced.items():
             group.create_dataset(name, data=data)
+    f.attrs["forced_nonlinear"] = forced_nonlinear is not None
+    if forced_nonlinear is not None:
+        group = f.create_group("forced_nonlinear")
+        group.attrs["harmonics"] = cfg.forced.harmonics
+        group.attrs["law"] = "per case" if "contacts.law" in study.names else cfg.contacts.law
+        for name, data in forced_nonlinear.items():
+            group.create_dataset(name, data=data)
     if mode == "stability":  # complete: nothing is written into it later
-        write_file_checksums(f, {"cases": C, "stability": C, "forced": C})
+        write_file_checksums(f, {"cases": C, "stability": C, "forced": C,
+                                 "forced_nonlinear": C})
 
 
 def write_parameters(g, study: Study) -> None:
@@ -160,9 +170,10 @@ def _fill_case(out: dict, c: int, r) -> None:
     out["cyclic"][c] = r.cyclic
 
 
-def resume_problem(path: str, cfg: Config, mode: str, forced: bool = False) -> str | None:
-    """Why the study file at ``path`` cannot be completed for ``cfg``, ``mode`` and
-    ``forced`` (``--forced``)."""
+def resume_problem(path: str, cfg: Config, mode: str, forced: bool = False,
+                   nonlinear: bool = False) -> str | None:  # fmt: skip
+    """Why the study file at ``path`` cannot be completed for ``cfg``, ``mode``, ``forced``
+    (``--forced``) and ``nonlinear`` (``--forced-nonlinear``)."""
     import h5py
 
     try:
@@ -180,6 +191,10 @@ def resume_problem(path: str, cfg: Config, mode: str, forced: bool = False) -> s
                 was = "with" if f.attrs.get("forced", False) else "without"
                 return (f"{path} was written {was} --forced; use --force to start again, or "
                         f"resume {was} it")  # fmt: skip
+            if bool(f.attrs.get("forced_nonlinear", False)) != nonlinear:
+                was = "with" if f.attrs.get("forced_nonlinear", False) else "without"
+                return (f"{path} was written {was} --forced-nonlinear; use --force to start "
+                        f"again, or resume {was} it")  # fmt: skip
     except OSError as exc:
         return f"{path} cannot be opened for --resume ({exc}); use --force to start again"
     return None
@@ -201,6 +216,31 @@ def summary(f) -> dict:
         "transients": {k: status.count(k) for k in ("done", "failed", "pending", "skipped")},
         "selected_by": {k: chosen.count(k) for k in sorted(set(chosen))},
         "statistics": statistics(f),
+        "design": design_summary(f),
+    }
+
+
+def design_summary(f) -> dict | None:
+    """The friction damper's design answer of a ``--forced-nonlinear`` study (None without):
+    per case the refined peak tip amplitude [m] and frequency [Hz], its label (the study's
+    values as written), and the case whose peak is smallest (the optimum over the cases)."""
+    if "forced_nonlinear" not in f:
+        return None
+    g = f["forced_nonlinear"]
+    peak = g["peak_amplitude"][()]
+    text = f["cases/parameters/text"][()] if "cases/parameters" in f else None
+    labels = [", ".join(t.decode() for t in row) for row in text] if text is not None else \
+        [str(i) for i in range(peak.size)]  # fmt: skip
+    done = np.isfinite(peak)
+    best = int(np.nanargmin(np.where(done, peak, np.nan))) if done.any() else None
+    return {
+        "law": str(g.attrs["law"]), "harmonics": int(g.attrs["harmonics"]),
+        "peak_amplitude_m": [float(a) if ok else None for a, ok in zip(peak, done, strict=True)],
+        "peak_frequency_hz": [float(h) if ok else None
+                              for h, ok in zip(g["peak_frequency_hz"][()], done, strict=True)],
+        "labels": labels,
+        "failed": int((~done).sum()),
+        "optimum": best,
     }
 
 

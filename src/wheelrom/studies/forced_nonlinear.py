@@ -1,26 +1,39 @@
-"""The nonlinear forced response of one case over a frequency grid (``wheelrom
-forced-response --nonlinear``; issue #45, first part): the preloaded equilibrium (nozzle off)
-and the harmonic balance of the nozzle's travelling wave under the configured contact law
-(:mod:`wheelrom.analysis.periodic.forced_wave`)."""
+"""The nonlinear forced response of one case (``wheelrom forced-response --nonlinear``, and
+per case of ``wheelrom study --forced-nonlinear``, the friction damper's design curve; issue
+#45): the preloaded equilibrium (nozzle off) and the harmonic balance of the nozzle's
+travelling wave under the configured contact law
+(:mod:`wheelrom.analysis.periodic.forced_wave`), over a band that holds the resonance
+whether the contacts stick or slip."""
 
 from __future__ import annotations
 
+import dataclasses
+import math
+import time
+
 import numpy as np
 
+from wheelrom.analysis.forced import operators
+from wheelrom.analysis.forced_peak import resonance
 from wheelrom.analysis.periodic.forced_wave import ForcedCurve, forced_curve
 from wheelrom.analysis.stability import linearise
 from wheelrom.config import Config
 from wheelrom.forces.parameters import force_parameters
+from wheelrom.results import layout as results
 from wheelrom.rom.model import ReducedModel
 from wheelrom.runtime.errors import InputError
+
+#: the automatic band's margin beyond the slipping and the stuck resonance (a share of each)
+BAND_MARGIN = 0.03
 
 
 def nonlinear_forced(model: ReducedModel, cfg: Config, frequencies: np.ndarray,
                      angles_deg: dict | None = None, harmonics: int = 5, comm=None,
-                     progress=None) -> ForcedCurve:  # fmt: skip
+                     progress=None, refine: bool = False) -> ForcedCurve:  # fmt: skip
     """The steady response at every excitation frequency of ``frequencies`` [rad/s] (in
     that order) of the tuned ``model`` under ``cfg`` (its contact law, the Van der Pol force
-    as configured), contact angles ``angles_deg`` as :func:`linearise`."""
+    as configured), contact angles ``angles_deg`` as :func:`linearise`; ``refine``: also the
+    peak off the grid."""
     if not model.tuned:
         raise InputError("forced-response --nonlinear: the travelling-wave harmonic balance "
                          "needs a tuned wheel; [mistuning] is set")  # fmt: skip
@@ -30,4 +43,92 @@ def nonlinear_forced(model: ReducedModel, cfg: Config, frequencies: np.ndarray,
     _, q, _, _, _ = linearise(model, cfg, angles_deg, comm)  # the equilibrium, nozzle off
     params = force_parameters(model, cfg, angles_deg)
     return forced_curve(model, params, cfg.wheel.damping_beta, frequencies, q,
-                        harmonics=harmonics, progress=progress)  # fmt: skip
+                        harmonics=harmonics, progress=progress, refine=refine)  # fmt: skip
+
+
+def nonlinear_band(model: ReducedModel, cfg: Config, angles_deg: dict | None = None,
+                   comm=None) -> tuple[tuple[float, float], list[float]]:  # fmt: skip
+    """``((lo, hi), resonances)`` [rad/s]: the band, ``forced.band_hz`` when given, else from
+    the
+    resonance of ``forced.family`` at the excited ND with the contacts slipping (their
+    normal springs at the preloaded equilibrium, no tangential stiffness: the paper law's
+    linearisation without its friction damping) to the one with them stuck (the elastic
+    law's tangential springs ``k_t``), widened by :data:`BAND_MARGIN`; ``resonances``: those
+    two frequencies (one under the paper law, where they coincide), which the grid of
+    :func:`design_point` holds whatever its spacing (the stuck one is lightly damped and
+    sharp). Friction holds the resonance between the two (docs/theory.md, "The friction
+    damper's design curve")."""
+    # the paper law's linearisation: its stiffness is the normal springs' alone (its friction
+    # is a damper there); replaced as data, the elastic keys are not validated again
+    slipping = dataclasses.replace(cfg, contacts=dataclasses.replace(cfg.contacts, law="paper"))
+    found = []
+    for case in [slipping] + ([cfg] if cfg.contacts.law != "paper" else []):
+        J = linearise(model, case, angles_deg, comm)[3]
+        K, _ = operators(model, case, True, angles_deg, comm, jacobian=J)
+        found.append(resonance(K, model, cfg.wheel.stator_vanes, cfg.forced.family))
+    if cfg.forced.band_hz:
+        lo, hi = (2 * math.pi * f for f in cfg.forced.band_hz)
+        return (lo, hi), [w for w in found if lo <= w <= hi]
+    return ((1.0 - BAND_MARGIN) * min(found), (1.0 + BAND_MARGIN) * max(found)), found
+
+
+@dataclasses.dataclass
+class DesignPoint:
+    """One case of the design study: its curve over ``band`` [rad/s] (refined peak in
+    ``curve.refined``) and the wall time [s]."""
+
+    curve: ForcedCurve
+    band: tuple[float, float]
+    wall_s: float
+
+
+def design_point(model: ReducedModel, cfg: Config, angles_deg: dict | None = None,
+                 comm=None) -> DesignPoint:  # fmt: skip
+    """The nonlinear forced response of one study case over :func:`nonlinear_band` on
+    ``forced.points`` frequencies (at least 3) and the band's linear resonances,
+    ``forced.harmonics`` harmonics, with its peak refined."""
+    t0 = time.perf_counter()
+    band, resonances = nonlinear_band(model, cfg, angles_deg, comm)
+    grid = np.unique(np.concatenate([np.linspace(*band, max(cfg.forced.points, 3)),
+                                     resonances]))  # fmt: skip
+    curve = nonlinear_forced(model, cfg, grid, angles_deg, cfg.forced.harmonics, comm,
+                             refine=True)  # fmt: skip
+    return DesignPoint(curve, band, time.perf_counter() - t0)
+
+
+def design_arrays(found: list) -> dict[str, np.ndarray]:
+    """``/forced_nonlinear`` datasets (docs/output.md) from one :func:`design_point` or the
+    text of its failure per case (case order); ``kinds``: the contact kinds of
+    ``peak_fractions`` (a study case's kinds are every case's)."""
+    kinds = next((p.curve.kinds for p in found if not isinstance(p, str)), ())
+    C, K = len(found), len(kinds)
+    F = max((p.curve.frequency.size for p in found if not isinstance(p, str)), default=0)
+    out = {name: np.full(shape, np.nan) for name, shape in (
+        ("frequency_hz", (C, F)), ("tip_amplitude", (C, F)), ("band_hz", (C, 2)),
+        ("peak_amplitude", (C,)), ("peak_frequency_hz", (C,)), ("peak_fractions", (C, K, 3)),
+        ("grid_peak_amplitude", (C,)), ("wall_s", (C,)))}  # fmt: skip
+    out["converged"] = np.zeros((C, F), dtype=bool)
+    out["nodal_diameter"] = np.full(C, -1, dtype="i8")
+    status = []
+    for c, point in enumerate(found):
+        if isinstance(point, str):
+            status.append(f"failed: {point}"[: results.STATUS_LEN])
+            continue
+        curve, n = point.curve, point.curve.frequency.size
+        out["frequency_hz"][c, :n] = curve.frequency / (2 * math.pi)
+        out["tip_amplitude"][c, :n] = curve.tip_amplitude
+        out["converged"][c, :n] = curve.converged
+        out["band_hz"][c] = np.asarray(point.band) / (2 * math.pi)
+        out["nodal_diameter"][c] = curve.nodal_diameter
+        out["wall_s"][c] = point.wall_s
+        if curve.refined is None:
+            status.append("failed: no frequency of the band converged")
+            continue
+        out["grid_peak_amplitude"][c] = curve.tip_amplitude[curve.peak]
+        out["peak_amplitude"][c] = curve.refined.tip_amplitude
+        out["peak_frequency_hz"][c] = curve.refined.frequency / (2 * math.pi)
+        out["peak_fractions"][c] = curve.refined.fractions
+        status.append(f"done ({int(curve.converged.sum())} of {n} frequencies converged)")
+    out["status"] = np.array([s.encode() for s in status], dtype=f"S{results.STATUS_LEN}")
+    out["kinds"] = np.array([k.encode() for k in kinds], dtype="S16")
+    return out

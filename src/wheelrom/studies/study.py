@@ -37,6 +37,7 @@ from wheelrom.runtime.outputs import (
     output_problem,
     save_hdf5,
 )
+from wheelrom.studies.forced_nonlinear import design_arrays, design_point
 from wheelrom.studies.mistuning import (
     ForcedCases,
     analyse_case,
@@ -56,7 +57,7 @@ HISTORY_BYTES = 1 << 30  # tip histories a rank holds in one batch by default (1
 def run_study(cfg: Config, out: str, comm, mode: str = "full", confirm: tuple = (),
               resume: bool = False, force: bool = False, log=print,
               options: dict | None = None, batch: int = 0,
-              forced: bool = False) -> dict:  # fmt: skip
+              forced: bool = False, nonlinear: bool = False) -> dict:  # fmt: skip
     """Run the study of ``cfg`` into ``out`` (collective over the mpi4py ``comm``); returns
     :func:`wheelrom.results.study_layout.summary` of the file (on every rank).
 
@@ -64,17 +65,21 @@ def run_study(cfg: Config, out: str, comm, mode: str = "full", confirm: tuple = 
     indices the screen runs in any case; ``batch``: cases per TS (0: all of a rank's cases
     that can share one, up to ``HISTORY_BYTES`` of tip histories); ``forced``: also the
     peak forced response of every case and its amplification factor
-    (:mod:`wheelrom.studies.mistuning`). Raises :class:`Interrupted` after a Ctrl-C / SIGTERM
+    (:mod:`wheelrom.studies.mistuning`); ``nonlinear``: also the nonlinear forced response of
+    every case over its band with its refined peak, the friction damper's design curve
+    (:mod:`wheelrom.studies.forced_nonlinear`). Raises :class:`Interrupted` after a Ctrl-C / SIGTERM
     once the finished rounds are in the file. ``out`` is locked for the whole study
     (:func:`wheelrom.runtime.locks.output_lock`): another job on it is refused before
     anything is computed.
     """
     with output_lock(out, comm):
-        return _study(cfg, out, comm, mode, confirm, resume, force, log, options, batch, forced)
+        return _study(cfg, out, comm, mode, confirm, resume, force, log, options, batch,
+                      (forced, nonlinear))  # fmt: skip
 
 
 def _study(cfg: Config, out: str, comm, mode: str, confirm: tuple, resume: bool, force: bool,
-           log, options: dict | None, batch: int, forced: bool) -> dict:  # fmt: skip
+           log, options: dict | None, batch: int, extras: tuple) -> dict:  # fmt: skip
+    forced, nonlinear = extras
     petsc()  # PetscInitialize is collective: every rank before one builds alone
     slepc()
     say = log if comm.rank == 0 else (lambda *_: None)
@@ -90,7 +95,7 @@ def _study(cfg: Config, out: str, comm, mode: str, confirm: tuple, resume: bool,
     if comm.rank == 0:
         try:
             problem = _output_problem(out, cfg, mode, resume, force,
-                                      None if "time.step" in study.names else settings, forced)
+                                      None if "time.step" in study.names else settings, extras)
         except Exception as exc:  # rank 0's surprise must not leave the others waiting
             problem = InputError(f"{out}: cannot be checked for --resume ({exc})")
     problem = comm.bcast(problem)
@@ -106,14 +111,15 @@ def _study(cfg: Config, out: str, comm, mode: str, confirm: tuple, resume: bool,
         models = _models(study, members, range(len(members)), comm, say)
         check_space_collectively(out, _transient_bytes(cfg, study, models, mode), comm)
         t1 = time.perf_counter()
-        stability, peaks = _stability(study, models, model_of, comm, say, forced)
+        stability, peaks, design = _stability(study, models, model_of, comm, say, extras)
         took = time.perf_counter() - t1
         chosen = selection(_labels(stability), study.shape, confirm, mode)
-        say(f"stability{' and forced response' * forced} of {study.size} cases in {took:.1f} s "
+        say(f"stability{_extra_words(extras)} of {study.size} cases in {took:.1f} s "
             f"({study.size / took:.3g} cases/s on {comm.size} rank(s); models "
             f"{t1 - t0:.1f} s); {sum(c != 'none' for c in chosen)} case(s) selected for a "
             "transient")  # fmt: skip
-        extra = {"mistuning": case_mistuning(study, models[0].blades), "forced": peaks}
+        extra = {"mistuning": case_mistuning(study, models[0].blades), "forced": peaks,
+                 "forced_nonlinear": design}
         _create(out, cfg, study, models, model_of, stability, chosen, mode, comm, extra)
     stopped = mode != "stability" and _transients(out, cfg, study, model_of, members, comm,
                                                   batch, options, say, settings,
@@ -125,7 +131,7 @@ def _study(cfg: Config, out: str, comm, mode: str, confirm: tuple, resume: bool,
         done = study_file.summary(f)
     if stopped:
         hint = resume_hint(out, cfg.source, done["transients"], "study",
-                           study_flags(mode, forced))  # fmt: skip
+                           study_flags(mode, forced, nonlinear))  # fmt: skip
         raise Interrupted(f"interrupted: the finished rounds are saved in {out}; {hint}")
     say(f"study finished in {time.perf_counter() - t0:.1f} s")
     return done
@@ -142,13 +148,13 @@ def _check_arguments(mode: str, resume: bool, force: bool, batch: int) -> None:
 
 
 def _output_problem(out: str, cfg: Config, mode: str, resume: bool, force: bool,
-                    settings: dict | None, forced: bool) -> InputError | None:  # fmt: skip
+                    settings: dict | None, extras: tuple) -> InputError | None:  # fmt: skip
     """Why ``out`` must not be written (None: go ahead); ``settings``: the TS settings the
     finished cases must have used (None: not checked, a study of ``time.step``)."""
     problem = output_problem(out, force=resume or force)
     if problem or not (resume and os.path.exists(out)):
         return problem
-    why = study_file.resume_problem(out, cfg, mode, forced)
+    why = study_file.resume_problem(out, cfg, mode, *extras)
     if why is None and mode != "stability" and settings is not None:
         why = results.options_problem(out, settings)
     return InputError(why) if why else None
@@ -181,30 +187,48 @@ def _models(study: Study, members: list[list[int]], wanted, comm, say) -> list:
 
 
 def _stability(study: Study, models: list, model_of: list[int], comm, say,
-               forced: bool = False) -> tuple[dict, dict | None]:  # fmt: skip
+               extras: tuple = (False, False)) -> tuple:  # fmt: skip
     """``/stability`` of every case
-    (:func:`wheelrom.results.study_layout.stability_arrays`) and, when
-    ``forced``, ``/forced`` (:func:`wheelrom.studies.mistuning.forced_arrays`; else None) on
-    every rank: each rank analyses its share (balanced by model size), rank 0 assembles."""
+    (:func:`wheelrom.results.study_layout.stability_arrays`), ``/forced``
+    (:func:`wheelrom.studies.mistuning.forced_arrays`) when ``extras[0]`` and
+    ``/forced_nonlinear`` (:func:`wheelrom.studies.forced_nonlinear.design_arrays`) when
+    ``extras[1]`` (else None) on every rank: each rank analyses its share (balanced by model
+    size; the nonlinear curves weigh most), rank 0 assembles."""
+    forced, nonlinear = extras
     costs = [models[g].blades * models[g].modes ** 3 for g in model_of]
     mine = balance(costs, comm.size)[comm.rank]
     peaks = ForcedCases(study, models, model_of) if forced else None
     found, last = [], time.perf_counter()
     for k, i in enumerate(mine):
-        found.append((i, *analyse_case(study, models, model_of, i, peaks)))
+        found.append((i, *analyse_case(study, models, model_of, i, peaks),
+                      _design_point(study, models, model_of, i) if nonlinear else None))
         if time.perf_counter() - last > 2.0 or k == len(mine) - 1:
             last = time.perf_counter()
-            say(f"  stability{' and forced response' * forced}: {k + 1}/{len(mine)} of rank "
-                "0's cases")  # fmt: skip
+            say(f"  stability{_extra_words(extras)}: {k + 1}/{len(mine)} of rank 0's cases")
     wait_for_all(comm)
     gathered = comm.gather(found, root=0)
     arrays = None
     if comm.rank == 0:
         ordered = sorted((item for part in gathered for item in part), key=lambda it: it[0])
-        arrays = (study_file.stability_arrays([res for _, res, _ in ordered]),
-                  forced_arrays([p for _, _, p in ordered], study, models[0].blades)
-                  if forced else None)  # fmt: skip
+        arrays = (study_file.stability_arrays([it[1] for it in ordered]),
+                  forced_arrays([it[2] for it in ordered], study, models[0].blades)
+                  if forced else None,
+                  design_arrays([it[3] for it in ordered]) if nonlinear else None)
     return comm.bcast(arrays)
+
+
+def _design_point(study: Study, models: list, model_of: list[int], i: int):
+    """Case ``i``'s :func:`wheelrom.studies.forced_nonlinear.design_point`, or the text of
+    its failure (recorded; never a hang of the other ranks)."""
+    try:
+        return design_point(case_model(models, model_of, study, i), study.configs[i])
+    except Exception as exc:
+        return f"{type(exc).__name__}: {exc}"
+
+
+def _extra_words(extras: tuple) -> str:
+    forced, nonlinear = extras
+    return " and forced response" * forced + " and nonlinear forced response" * nonlinear
 
 
 def _labels(stability: dict) -> list[str]:

@@ -41,6 +41,17 @@ TOLERANCE = 1e-10
 #: harmonics' equations are held to it or to 1e-7 of their own terms, whichever is larger
 ROUNDOFF_STATIC = 1e-10
 ROUNDOFF_MOVING = 1e-7
+#: time samples per period at least of the 0-peak tip amplitude
+AMPLITUDE_SAMPLES = 512
+#: halvings of a frequency step whose Newton solve failed (:func:`stepped_solve`)
+SUBSTEPS = 3
+#: the refined peak's frequency to this share of itself, and on until the amplitudes inside
+#: the bracket agree to ``PEAK_AMPLITUDE`` (a lightly damped stuck resonance is narrower than
+#: 1e-4: its half-power band is 2 zeta ~ 1e-4 on the paper wheel), down to ``PEAK_FLOOR``
+#: (:func:`refine_peak`)
+PEAK_TOLERANCE = 1e-4
+PEAK_AMPLITUDE = 1e-7
+PEAK_FLOOR = 1e-12
 
 
 @dataclass
@@ -65,12 +76,27 @@ class ForcedCurve:
     nodal_diameter: int
     wall_s: float = 0.0
     kinds: tuple = field(default_factory=tuple)
+    refined: RefinedPeak | None = None
 
     @property
     def peak(self) -> int:
         """Index of the largest converged tip amplitude."""
         amplitude = np.where(self.converged, self.tip_amplitude, -np.inf)
         return int(np.argmax(amplitude))
+
+
+@dataclass
+class RefinedPeak:
+    """The largest tip amplitude of a :class:`ForcedCurve` found off its grid (see
+    :func:`refine_peak`): ``frequency`` [rad/s], ``tip_amplitude`` [m], ``harmonics``
+    ``(2H + 1, m)``, ``fractions`` ``(K, 3)`` (open / stick / slip per contact kind) and the
+    Newton ``solves`` the search took."""
+
+    frequency: float
+    tip_amplitude: float
+    harmonics: np.ndarray
+    fractions: np.ndarray
+    solves: int
 
 
 class ForcedWave:
@@ -144,8 +170,11 @@ class ForcedWave:
         return bool(np.abs(R[0]).max() <= static and np.abs(R[1:]).max() <= moving)
 
     def tip_amplitude(self, X: np.ndarray, omega: float) -> float:
-        """0-peak tip amplitude [m] of the motion about its mean (fine time grid)."""
-        tau = np.linspace(0.0, 2 * math.pi, 4 * self.balance.nt, endpoint=False)
+        """0-peak tip amplitude [m] of the motion about its mean (a time grid of at least
+        :data:`AMPLITUDE_SAMPLES` per period: the largest sample is within ``1 - cos(pi /
+        S)`` = 2e-5 of the peak of a harmonic motion)."""
+        tau = np.linspace(0.0, 2 * math.pi, max(4 * self.balance.nt, AMPLITUDE_SAMPLES),
+                          endpoint=False)  # fmt: skip
         c = self.balance.complex_harmonics(X)
         h = np.arange(1, c.shape[0])
         q = (np.exp(1j * np.outer(tau, h)) @ c[1:]).real  # (S, m) about the mean
@@ -163,11 +192,13 @@ class ForcedWave:
 
 def forced_curve(model: ReducedModel, params: ForceParameters, beta: float,
                  frequencies, equilibrium: np.ndarray, harmonics: int = 7,
-                 samples: int = 0, lam: float = 1.0, progress=None) -> ForcedCurve:  # fmt: skip
+                 samples: int = 0, lam: float = 1.0, progress=None,
+                 refine: bool = False) -> ForcedCurve:  # fmt: skip
     """The steady response at every excitation frequency of ``frequencies`` [rad/s], in the
     order given (natural continuation: each Newton solve starts from the last solution, the
     first from the preloaded ``equilibrium`` ``(N, m)`` at rest). ``progress(i, omega,
-    amplitude)`` after each frequency."""
+    amplitude)`` after each frequency; ``refine``: also the peak off the grid
+    (:func:`refine_peak`, ``curve.refined``)."""
     t0 = time.perf_counter()
     samples = samples or 8 * (harmonics + 1)
     problem = ForcedWave(model, params, beta, harmonics, samples, lam)
@@ -181,17 +212,84 @@ def forced_curve(model: ReducedModel, params: ForceParameters, beta: float,
                       kinds=params.contacts.kinds)  # fmt: skip
     X = np.zeros((2 * harmonics + 1, model.modes))
     X[0] = equilibrium[0]
+    last = None  # the last frequency solved
     for i, w in enumerate(w_all):
-        X_new, ok, iterations = problem.solve(X, float(w))
+        X_new, ok, iterations = stepped_solve(problem, X, last, float(w))
         out.converged[i], out.iterations[i] = ok, iterations
         if ok:
-            X = X_new
+            X, last = X_new, float(w)
             out.harmonics[i] = X
             out.tip_amplitude[i] = problem.tip_amplitude(X, float(w))
             if K:
                 out.fractions[i] = problem.fractions(X, float(w))
         if progress is not None:
             progress(i, float(w), out.tip_amplitude[i])
+    if refine:
+        out.refined = refine_peak(problem, out)
     out.wall_s = time.perf_counter() - t0
     return out
+
+
+def stepped_solve(problem: ForcedWave, X: np.ndarray, w_from: float | None, w_to: float,
+                  depth: int = SUBSTEPS) -> tuple[np.ndarray, bool, int]:  # fmt: skip
+    """:meth:`ForcedWave.solve` at ``w_to`` from the solution ``X`` at ``w_from`` [rad/s]
+    (None: the start); when Newton fails, the step is halved (``depth`` times at most) and
+    taken in two: near a sharp resonance the contacts go from sticking to slipping between
+    two grid frequencies and Newton from the last solution lands far off (measured on the
+    small wheel's stuck resonance: the grid point on it failed from its neighbour 11 Hz
+    away)."""
+    X_to, ok, n = problem.solve(X, w_to)
+    if ok or depth == 0 or w_from is None:
+        return X_to, ok, n
+    middle = 0.5 * (w_from + w_to)
+    X_mid, ok, n_mid = stepped_solve(problem, X, w_from, middle, depth - 1)
+    if not ok:
+        return X_to, False, n + n_mid
+    X_to, ok, n_to = stepped_solve(problem, X_mid, middle, w_to, depth - 1)
+    return X_to, ok, n + n_mid + n_to
+
+
+def refine_peak(problem: ForcedWave, curve: ForcedCurve,
+                tolerance: float = PEAK_TOLERANCE) -> RefinedPeak | None:  # fmt: skip
+    """The largest tip amplitude between the grid neighbours of the curve's largest
+    converged point, by golden-section search (each frequency solved by Newton from the
+    nearest solution found so far) down to ``tolerance`` of the frequency: a peak that does
+    not depend on the grid (and the amplitudes of the bracket to ``PEAK_AMPLITUDE``). At
+    the band's edge, or beside a frequency Newton missed, the
+    search runs on the side that has a converged neighbour (a peak at the edge is reported
+    there); None when nothing converged."""
+    if not curve.converged.any():
+        return None
+    i = curve.peak
+    w, ok = curve.frequency, curve.converged
+    known = {float(w[i]): (float(curve.tip_amplitude[i]), curve.harmonics[i])}
+    solves = 0
+
+    def amplitude(x: float) -> float:
+        nonlocal solves
+        if x not in known:
+            start = known[min(known, key=lambda y: abs(y - x))][1]
+            X, converged, _ = problem.solve(start, x)
+            solves += 1
+            known[x] = (problem.tip_amplitude(X, x) if converged else -math.inf, X)
+        return known[x][0]
+
+    sides = [float(w[j]) for j in (i - 1, i + 1) if 0 <= j < w.size and ok[j]]
+    if sides:
+        lo, hi = min(sides + [float(w[i])]), max(sides + [float(w[i])])
+        golden = (math.sqrt(5.0) - 1.0) / 2.0
+        a, b = hi - golden * (hi - lo), lo + golden * (hi - lo)
+        while hi - lo > PEAK_FLOOR * float(w[i]) and (
+                hi - lo > tolerance * float(w[i]) or
+                abs(amplitude(a) - amplitude(b)) > PEAK_AMPLITUDE * max(amplitude(a),
+                                                                        amplitude(b))):
+            if amplitude(a) >= amplitude(b):
+                hi, b = b, a
+                a = hi - golden * (hi - lo)
+            else:
+                lo, a = a, b
+                b = lo + golden * (hi - lo)
+    best = max(known, key=lambda x: known[x][0])
+    A, X = known[best]
+    return RefinedPeak(best, A, X, problem.fractions(X, best), solves)
 

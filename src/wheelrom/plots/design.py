@@ -1,0 +1,79 @@
+"""Figures of a study with the nonlinear forced response (``wheelrom study
+--forced-nonlinear``): the friction damper's design curve (the refined peak tip amplitude
+against the first varied key, one line per value of a second; the smallest marked) and every
+case's response curve with its peak."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from wheelrom.config.study import short_name
+from wheelrom.plots.helpers import need, save
+from wheelrom.results.study_layout import design_summary, read_parameters
+
+
+def design_figures(f, path: str, outdir: str, pdf: bool, written: list[str], plt) -> None:
+    """``design_curve`` and ``design_response_curves`` into ``outdir``."""
+    g = f["forced_nonlinear"]
+    peak = need(f, "forced_nonlinear/peak_amplitude", path)
+    peak_hz = need(f, "forced_nonlinear/peak_frequency_hz", path)
+    p = read_parameters(f)
+    shape = [int(n) for n in p["shape"]]
+    axes = [a for a, n in enumerate(shape) if n > 1] or [0]
+    first = axes[0]
+    j = list(p["axis"]).index(first)
+    grid = np.indices(shape).reshape(len(shape), -1)
+    x = np.asarray(p["values"][:, j], dtype=float)
+    numeric = np.isfinite(x).all()
+    if not numeric:
+        x = grid[first].astype(float)
+    law = g.attrs["law"]
+    law = law.decode() if isinstance(law, bytes) else str(law)
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(8, 6), sharex=True, layout="constrained")
+    others = [a for a in axes if a != first]
+    groups = [np.flatnonzero(grid[others[0]] == k) for k in range(shape[others[0]])] \
+        if others else [np.arange(peak.size)]  # fmt: skip
+    for rows in groups:
+        rows = rows[np.argsort(x[rows])]
+        label = None
+        if others:
+            k = list(p["axis"]).index(others[0])
+            label = f"{short_name(p['names'][k])} = {p['text'][rows[0]][k]}"
+        top.plot(x[rows], peak[rows] * 1e6, "o-", label=label)
+        bottom.plot(x[rows], peak_hz[rows], "o-", label=label)
+    best = design_summary(f)["optimum"]
+    if best is not None:
+        top.plot(x[best], peak[best] * 1e6, "*", ms=14, color="tab:red",
+                 label=f"smallest: {peak[best] * 1e6:.3g} um at {peak_hz[best]:.5g} Hz")
+    span = x[np.isfinite(x) & (x > 0)]
+    if numeric and span.size == x.size and span.max() > 20 * span.min():
+        top.set_xscale("log")
+    top.set(ylabel="peak tip amplitude [um]", yscale="log")
+    bottom.set(ylabel="peak frequency [Hz]", xlabel=short_name(p["names"][j]))
+    if not numeric:
+        bottom.set_xticks(x, [t[j] for t in p["text"]])
+    top.set_title(f"Friction damper design curve: nozzle resonance with friction "
+                  f"(contacts.law = '{law}', H = {int(g.attrs['harmonics'])})", fontsize=10)
+    for ax in (top, bottom):
+        ax.grid(alpha=0.3)
+    top.legend(fontsize=7)
+    save(fig, outdir, "design_curve", pdf, written)
+    plt.close(fig)
+
+    hz, tip = g["frequency_hz"][()], g["tip_amplitude"][()]
+    ok = g["converged"][()]
+    fig, ax = plt.subplots(figsize=(8, 4.5), layout="constrained")
+    for c in range(peak.size):
+        keep = ok[c] & np.isfinite(hz[c])
+        line, = ax.plot(hz[c][keep], tip[c][keep] * 1e6, ".-", lw=1.0,
+                        label=", ".join(t.decode() if isinstance(t, bytes) else str(t)
+                                        for t in p["text"][c]))  # fmt: skip
+        if np.isfinite(peak[c]):
+            ax.plot(peak_hz[c], peak[c] * 1e6, "o", mfc="none", color=line.get_color())
+    ax.set(xlabel="excitation frequency [Hz]", ylabel="blade tip amplitude [um]", yscale="log",
+           title="Nonlinear forced response per case (circles: refined peaks)")
+    ax.grid(alpha=0.3)
+    if peak.size <= 12:
+        ax.legend(fontsize=7)
+    save(fig, outdir, "design_response_curves", pdf, written)
+    plt.close(fig)
