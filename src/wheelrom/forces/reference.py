@@ -184,11 +184,9 @@ def _kernel_samples(q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p
     for start in range(0, q.shape[0], block):
         if periods > 0:
             slider[...] = sliders[start]
-        moved = 0.0
         for period in range(max(max_periods, 1)):
             if period >= periods > 0:  # the last period's loop closed: its forces stand
-                moved = np.abs(slider - sliders[start]).max()
-                if moved <= tolerance or period == max_periods:
+                if np.abs(slider - sliders[start]).max() <= tolerance:
                     break
             elif period >= max(periods, 1):
                 break
