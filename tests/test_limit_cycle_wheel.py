@@ -118,3 +118,40 @@ def autonomous_cfg(cfg):
     return cfg.replace(**{"excitation.force": 0.0, "time.scheme": "exponential"})
 
 
+
+
+def test_the_physical_differencing_equals_the_modal_one(small_model, small_cfg, comm):
+    """The force Jacobian by central differences over the blade-0 force's 2 x 33 physical
+    inputs (contact points, Van der Pol y) equals the one over the window's 6 m modal
+    coordinates: the force depends on q through those inputs only (a second implementation
+    of the same derivative; both O(step^2), step 1e-10 m). The free basis's 6 modes cannot
+    move 13 inputs of a blade apart: the modal differencing serves there."""
+    from wheelrom.analysis.stability import linearise
+    from wheelrom.rom.build import build_model
+
+    free = WaveBalance(small_model, force_parameters(small_model, autonomous_cfg(small_cfg),
+                                                     ANGLES), 5e-8, 6, 1, 8)  # fmt: skip
+    assert free.inputs is None
+    cfg = autonomous_cfg(small_cfg).replace(**{"wheel.basis": "attachment"})
+    model = build_model(cfg, comm)
+    params = force_parameters(model, cfg, ANGLES)
+    balance = WaveBalance(model, params, small_cfg.wheel.damping_beta, 6, 5, 48)
+    assert balance.inputs is not None and balance.inputs[0].size == 33
+    small_model = model
+    w2, V = np.linalg.eigh(small_model.nd_stiffness(6))
+    v = V[:, 0] / np.linalg.norm(small_model.tip @ V[:, 0])
+    X = np.zeros((11, small_model.modes))
+    X[0] = linearise(small_model, cfg, ANGLES)[1][0]
+    X[1], X[4] = 1.5e-4 * v.real, 3e-5 * v.real  # the shroud opens and closes in the period
+    omega = math.sqrt(w2[0])
+    q, v_ = balance.samples(X, omega)
+    physical = balance._linearise_physical(q, v_, omega, 1.0)
+    modal = balance._linearise_modal(q, v_, omega, 1.0)
+    _, normal, _, _ = balance._evaluate(q, v_, 1.0)
+    assert (normal == 0).any() and (normal > 0).any()  # a contact opens within the period
+    np.testing.assert_array_equal(physical.force, modal.force)
+    for a, b in ((physical.dq, modal.dq), (physical.dv, modal.dv)):
+        scale = np.abs(b).max()
+        assert scale > 0
+        # measured 1.7e-7: differences straddling the lift-off kink at a sample
+        assert np.abs(a - b).max() <= 1e-6 * scale, np.abs(a - b).max() / scale

@@ -20,6 +20,7 @@ from wheelrom.config import Config
 from wheelrom.config.study import expand, short_name
 from wheelrom.runtime.errors import InputError
 from wheelrom.studies.plan import shared_models
+from wheelrom.studies.queue import CaseQueue
 
 
 def refuse_uncarried_law(study, command: str) -> None:
@@ -55,7 +56,7 @@ def run_limit_cycles(cfg: Config, comm=None, log=print, waves=None,
     ``progress(text)`` (rank 0) at every branch point."""
     study = expand(cfg)
     refuse_uncarried_law(study, "limit-cycle")
-    rank, size = (comm.rank, comm.size) if comm is not None else (0, 1)
+    rank = comm.rank if comm is not None else 0
     say = log if rank == 0 and log is not None else (lambda *_: None)
     t0 = time.perf_counter()
     model_of, models = shared_models(study.configs, comm, say)
@@ -65,7 +66,8 @@ def run_limit_cycles(cfg: Config, comm=None, log=print, waves=None,
     say(f"{len(models)} model(s) ready in {time.perf_counter() - t0:.1f} s: "
         f"{models[0].blades} blades x {models[0].modes} modes")  # fmt: skip
     mine, refused_input = [], set()  # the reasons of cases refused as bad input ("": other)
-    for i in range(rank, study.size, size):
+    queue = CaseQueue(study.size, comm)
+    for i in queue:
         case_cfg = study.configs[i]
         label = f"[{i + 1}/{study.size}] " + ", ".join(
             f"{short_name(k)} {v:g}" if isinstance(v, float) else f"{short_name(k)} {v}"
@@ -87,6 +89,7 @@ def run_limit_cycles(cfg: Config, comm=None, log=print, waves=None,
         if rank == 0:
             say(f"{label}: {res.verdict()} ({res.wall_s:.1f} s)")
     gathered = comm.gather(mine, root=0) if comm is not None else [mine]
+    queue.free()
     ordered = []
     if rank == 0:
         ordered = sorted((item for part in gathered for item in part), key=lambda it: it[0])

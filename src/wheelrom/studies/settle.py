@@ -41,6 +41,7 @@ from wheelrom.runtime.errors import InputError
 from wheelrom.runtime.outputs import agree, disk_full, is_disk_full, replacing, write_image
 from wheelrom.studies.limit_cycles import refuse_uncarried_law
 from wheelrom.studies.plan import shared_models
+from wheelrom.studies.queue import CaseQueue
 from wheelrom.studies.rounds import wait_for_all
 
 
@@ -303,15 +304,16 @@ def run_settle(cfg: Config, out: str | None, comm=None, log=print, resume: bool 
     model and ``[]``). ``warn``: a damaged saved case, on whichever rank finds it."""
     study = expand(cfg)
     refuse_uncarried_law(study, "settle")
-    rank, size = (comm.rank, comm.size) if comm is not None else (0, 1)
+    rank = comm.rank if comm is not None else 0
     say = log if rank == 0 and log is not None else (lambda *_: None)
     model_of, models = shared_models(study.configs, comm, say)
     if not all(m.tuned for m in models):
         raise InputError("settle: the start from a travelling-wave cycle needs a tuned wheel")
     directory = sidecar_dir(out) if out else None
     mine, problem, unsaved = [], None, []
+    queue = CaseQueue(study.size, comm)
     try:
-        for i in range(rank, study.size, size):
+        for i in queue:
             case_cfg = study.configs[i]
             angles = {k: case_cfg.contact(k).angle_deg for k in ("tieboss", "shroud")}
             label = f"[{i + 1}/{study.size}] " + ", ".join(
@@ -334,6 +336,7 @@ def run_settle(cfg: Config, out: str | None, comm=None, log=print, resume: bool 
     if comm is not None:  # polled: a rank waiting for a killed one still takes mpirun's
         wait_for_all(comm)  # SIGTERM, and says what is kept (a blocking gather never returns)
     gathered = comm.gather((mine, problem), root=0) if comm is not None else [(mine, problem)]
+    queue.free()
     ordered = []
     if rank == 0:
         problem = next((p for _, p in gathered if p is not None), None)

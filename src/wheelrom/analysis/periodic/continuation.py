@@ -23,6 +23,11 @@ from wheelrom.runtime.environment import petsc
 
 PREFIX = "limitcycle_"
 MAX_ITERATIONS = 30  # Newton iterations of one corrector solve
+#: Newton iterations of one branch point: a predictor within the step converges in a few (the
+#: step grows below 5 and shrinks above 10); one that has not by then is on its way off the
+#: branch, and the halved step's retry is cheaper than the rest of the 30 (measured: a branch
+#: that stalls at a grazing point spent 1100 Jacobians, 84 s, on its failing retries)
+BRANCH_ITERATIONS = 12
 ROUNDOFF = 1e-10  # reachable residual relative to the balanced terms
 CONTRACTION = 0.25  # a chord step that reduces the residual less asks for a fresh Jacobian
 FREQUENCY_RANGE = 2.0  # solutions beyond this factor off the Hopf frequency are rejected
@@ -60,6 +65,7 @@ class Corrector:
         self.exact = self.refresh = False
         self._last_norm = np.inf
         self.term_size = 0.0
+        self.cap = MAX_ITERATIONS  # iterations of the current solve (at most SNES's max_it)
         comm = comm or PETSc.COMM_SELF
         self.snes = PETSc.SNES().create(comm=comm)
         self.snes.setOptionsPrefix(prefix)
@@ -135,7 +141,7 @@ class Corrector:
         self._last_norm = fnorm
         if fnorm <= max(atol, ROUNDOFF * self.term_size):
             return 2  # SNES_CONVERGED_FNORM_ABS
-        if iteration >= max_it:
+        if iteration >= min(max_it, self.cap):
             return -5  # SNES_DIVERGED_MAX_IT
         return 0
 
@@ -157,13 +163,14 @@ class Corrector:
         P.setValues(range(self.n), range(self.n), np.vstack([self._J, self.constraint[0]]))
         P.assemble()
 
-    def solve(self, z0: np.ndarray, a: np.ndarray, b: float,
-              chord: bool = False) -> Point | None:  # fmt: skip
+    def solve(self, z0: np.ndarray, a: np.ndarray, b: float, chord: bool = False,
+              iterations: int = MAX_ITERATIONS) -> Point | None:  # fmt: skip
         """Newton from ``z0`` on the balance, the phase condition and ``a . z = b`` with a
         fresh Jacobian every iteration; ``chord``: first with the last Jacobian kept while
         the residual falls fast (chord steps: a continuation's small steps), then, if that
-        fails, exactly. ``None`` when Newton fails (the caller shortens its step)."""
-        self.constraint = (a, b)
+        fails, exactly; each at most ``iterations``. ``None`` when Newton fails (the caller
+        shortens its step)."""
+        self.constraint, self.cap = (a, b), iterations
         for exact in (False, True) if chord else (True,):
             self.exact, self.refresh, self._last_norm = exact, exact, np.inf
             self.x.setArray(z0)
@@ -232,7 +239,8 @@ def trace(corrector: Corrector, first: Point, direction: np.ndarray, settings: B
         if len(points) >= settings.steps:
             return points, f"stopped after {settings.steps} points (limit_cycle.steps)"
         predictor = z + ds * t
-        point = corrector.solve(predictor, t, float(t @ predictor), chord=True)
+        point = corrector.solve(predictor, t, float(t @ predictor), chord=True,
+                                iterations=BRANCH_ITERATIONS)
         if point is not None and (np.linalg.norm(point.z - predictor) > ds
                                   or not corrector.plausible(point)):  # fmt: skip
             point = None  # the corrector jumped (to another branch, or the trivial one)

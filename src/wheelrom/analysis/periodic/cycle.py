@@ -57,6 +57,7 @@ class Cycle:
     stability: FloquetResult | None = None
     method: str = "hb"  # 'hb' or 'shooting' (the exact orbit)
     shooting_residual: float = math.nan  # the shot's |phi_tau(x0) - S^j x0| / vibration
+    floquet_skipped: str = ""  # why no stability was computed for it (in words)
     hb_tip_amplitude: float = math.nan  # [m] the harmonic balance's cycle it started from
     hb_frequency_hz: float = math.nan
     orbit: object | None = None  # the Orbit (state at t = 0 of the pattern blades)

@@ -82,6 +82,31 @@ def wave_state(c: np.ndarray, wave: int, blades: int, omega: float, tau: float =
     return (rotor @ c).real, omega * ((rotor * (1j * h)) @ c).real
 
 
+def force_inputs(params: ForceParameters):
+    """``(blades (n,), rows (n, m), directions (n, m))``: the physical inputs of the force on
+    window blade 0 (rows ``r_i``: ``u_i = r_i . q`` of window blade ``blades[i]``) and modal
+    directions ``d_i`` that move input ``i`` alone (``r_j . d_i = delta_ij`` per blade); None
+    when a blade's rows are dependent (fewer modes than inputs): the modal differencing then.
+
+    Blade 0 feels its contacts with both neighbours (its own points A and B of every kind, the
+    next blade's A, the previous blade's A and B: the arm geometry) and the Van der Pol force
+    of its displacement ``y = aero . q`` and both neighbours'. The window's spurious pair
+    (1, 2) acts on the neighbours only, so the next blade's B is not an input."""
+    c = params.contacts
+    A = [np.asarray(a) for a in c.shape_A]  # (3, m) per kind
+    B = [np.asarray(b) for b in c.shape_B]
+    y = np.asarray(params.aero)[None]
+    per_blade = [np.vstack(A + B + [y]), np.vstack(A + [y]), np.vstack(A + B + [y])]
+    blades, rows, directions = [], [], []
+    for w, R in enumerate(per_blade):
+        if np.linalg.matrix_rank(R) < R.shape[0]:
+            return None
+        blades += [w] * R.shape[0]
+        rows.append(R)
+        directions.append(np.linalg.pinv(R).T)  # (r, m): R @ directions.T = I
+    return np.array(blades), np.vstack(rows), np.vstack(directions)
+
+
 @dataclasses.dataclass
 class Linearisation:
     """Force derivatives of blade 0 at the time samples: ``dq``, ``dv`` ``(3, n_t, m, m)``
@@ -131,6 +156,7 @@ class WaveBalance:
                            + [np.asarray(b) for b in model.contact_B.values()])  # fmt: skip
         reach = np.abs(moving).max(axis=0)  # (m,) largest displacement per modal coordinate
         self.fd_step = FD_DISPLACEMENT / np.maximum(reach, 1e-30)
+        self.inputs = force_inputs(params)
         self.table = params.vdp_model == AERO_TABLE
 
     @property
@@ -272,12 +298,49 @@ class WaveBalance:
         return self.linear_term(X, omega, lam) - self.P @ self.nonlinear_force(X, omega, lam)
 
     def linearise(self, X: np.ndarray, omega: float, lam: float) -> Linearisation:
-        """The forces at the samples and their derivatives by central differences over the
-        window's ``6 m`` inputs, all samples and perturbations in one compiled call."""
+        """The forces at the samples and their derivatives by central differences, all
+        samples and perturbations in one compiled call: over the blade-0 force's physical
+        inputs (:func:`force_inputs`) when the basis resolves them, else over the window's
+        ``6 m`` modal coordinates."""
         q, v = self.samples(X, omega)
-        m, nt = self.modes, self.nt
         if self.elastic:  # no sample-local derivatives: the Jacobian comes from the march
             return Linearisation(self._evaluate(q, v, lam)[0], None, None)
+        if self.inputs is not None:
+            return self._linearise_physical(q, v, omega, lam)
+        return self._linearise_modal(q, v, omega, lam)
+
+    def _linearise_physical(self, q, v, omega: float, lam: float) -> Linearisation:
+        """Central differences of the force on blade 0 along each physical input ``u_i =
+        r_i . q_w`` (a contact point's displacement component, the Van der Pol ``y``), moved
+        alone by ``FD_DISPLACEMENT`` through the modal direction ``d_i`` with ``r_j . d_i =
+        delta_ij``; the chain rule ``d f / d q_w = sum_i (d f / d u_i) r_i`` gives the modal
+        derivatives. The force depends on ``q`` through these inputs only, so this is the
+        modal differencing's result on 2 x 33 inputs instead of 6 m (132: half the cost)."""
+        m, nt = self.modes, self.nt
+        blades, rows, directions = self.inputs
+        n_in = len(blades)
+        steps = np.array([FD_DISPLACEMENT, FD_DISPLACEMENT * max(omega, 1.0)])
+        Q = np.broadcast_to(q, (4 * n_in + 1, nt, 3, m)).copy()
+        V = np.broadcast_to(v, (4 * n_in + 1, nt, 3, m)).copy()
+        for kind, target in enumerate((Q, V)):
+            for i in range(n_in):
+                k = 1 + 2 * (kind * n_in + i)
+                delta = steps[kind] * directions[i]
+                target[k, :, blades[i]] += delta
+                target[k + 1, :, blades[i]] -= delta
+        f = self._evaluate(Q.reshape(-1, 3, m), V.reshape(-1, 3, m), lam)[0]
+        f = f.reshape(4 * n_in + 1, nt, m)
+        d = (f[1::2] - f[2::2]).reshape(2, n_in, nt, m) / (2 * steps[:, None, None, None])
+        dq, dv = np.zeros((2, 3, nt, m, m))
+        for w in range(3):
+            own = blades == w
+            dq[w] = np.einsum("itj,il->tjl", d[0, own], rows[own])
+            dv[w] = np.einsum("itj,il->tjl", d[1, own], rows[own])
+        return Linearisation(f[0], dq, dv)
+
+    def _linearise_modal(self, q, v, omega: float, lam: float) -> Linearisation:
+        """Central differences over the window's ``6 m`` modal inputs."""
+        m, nt = self.modes, self.nt
         n_in = 6 * m  # (q, v) x 3 blades x m
         steps = np.concatenate([self.fd_step, self.fd_step * max(omega, 1.0)])
         Q = np.broadcast_to(q, (2 * n_in + 1, nt, 3, m)).copy()

@@ -127,7 +127,8 @@ class WaveBranch:
             words.append(f"poorly resolved (energy balance off by {c.energy_residual:.2g}: "
                          "more limit_cycle.harmonics and samples)")
         if c.stability is None:
-            words.append("stability not computed")
+            words.append("stability not computed" + (f" ({c.floquet_skipped})"
+                                                      if c.floquet_skipped else ""))
         elif c.stable is None and c.multipliers is not None and not len(c.multipliers.values):
             words.append("stability not decided (SLEPc converged no multiplier of the whole "
                          "wheel within its restarts: -limitcycle_floquet_eps_max_it)")
@@ -417,6 +418,11 @@ class WaveAnalysis:
                 cycle.stability = transient_stability(self.model, self.cfg, self.angles,
                                                       balance, p.X, p.omega, p.lam,
                                                       cycle.tip_amplitude)  # fmt: skip
+            elif kind == "monodromy" and cycle.fractions[:, 0].max() > 0:
+                # the shot missed a cycle whose contacts open: Hill's method does not converge
+                # on it (docs/theory.md), 60 s on the paper's wheel to say "uncertain"
+                cycle.floquet_skipped = "Hill's method does not converge on a cycle whose " \
+                    "contacts open; limit_cycle.floquet = 'transient' decides it"  # fmt: skip
             elif kind != "off":  # Hill's method (also a "monodromy" cycle shooting missed)
                 cycle.stability = floquet(balance, corrector.linearisation(p), p.omega, p.lam,
                                           range(self.model.blades))  # fmt: skip
