@@ -8,6 +8,9 @@ from wheelrom.runtime.environment import bootstrap
 
 bootstrap()  # PETSc location and one BLAS thread per process, before numpy loads
 os.environ.setdefault("MPLBACKEND", "Agg")
+# every model built, none read from a cache of earlier runs (tests/test_model_cache.py checks
+# the cache in a directory of its own)
+os.environ["WHEELROM_MODEL_CACHE"] = "off"
 HERE = os.path.dirname(__file__)
 SMALL = os.path.join(HERE, "data", "small.toml")
 #: the small wheel as a Van der Pol wheel alone: no contacts, (almost) no structural damping,

@@ -184,5 +184,17 @@ def build(cfg: Config, comm, log=quiet, segment: SegmentBuild | None = None) -> 
 
 
 def build_model(cfg: Config, comm, log=quiet) -> ReducedModel:
-    """The reduced model of ``cfg`` alone (see :func:`build`)."""
-    return build(cfg, comm, log).model
+    """The reduced model of ``cfg`` alone (see :func:`build`), read from the model cache when
+    an earlier command built the same (:mod:`wheelrom.rom.cache`)."""
+    from wheelrom.rom import cache
+
+    def fresh() -> ReducedModel:
+        model = build(cfg, comm, log).model
+        model.mistuning = None  # the cache holds the tuned wheel
+        return model
+
+    # a model built by several ranks together is not read from the cache: a rank that found
+    # it would leave the others alone in the collective build
+    model = cache.cached(cfg, fresh, log) if comm.getSize() == 1 else fresh()
+    model.mistuning = blade_mistuning(cfg)
+    return model
