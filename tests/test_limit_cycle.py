@@ -435,3 +435,25 @@ def test_floquet_keeps_phase_shift_of_nd_half_wave(vdp_cycle):
     balance, pt = cycle.balance, cycle.point
     result = floquet(balance, pt.linearisation, pt.omega, 1.0, range(balance.blades))
     assert result.trivial < 1e-6
+
+
+def test_a_seed_between_a_branch_crossing_of_lam_1_is_known():
+    """A seed cycle at lam = 1 whose amplitude lies between the two branch points that
+    bracket lam = 1 is that crossing's cycle (not traced again); one outside is new."""
+    from types import SimpleNamespace
+
+    from wheelrom.analysis.periodic.continuation import Point
+    from wheelrom.analysis.periodic.limit_cycle import WaveAnalysis
+
+    analysis = WaveAnalysis.__new__(WaveAnalysis)
+    analysis.model = SimpleNamespace(tip=np.eye(1, 1))  # tip amplitude = |c_1| of mode 0
+
+    def point(lam, amplitude):
+        X = np.array([[0.0], [amplitude], [0.0]])
+        return Point(np.zeros(3), X, 1.0, lam, 1)
+
+    branch = [[point(0.8, 1e-6), point(0.95, 20e-6), point(1.05, 24e-6), point(1.2, 30e-6)]]
+    assert analysis._known(22e-6, branch)  # between the crossing's points
+    assert analysis._known(30e-6 * (1 + 5e-4), branch)  # next to a point
+    assert not analysis._known(26e-6, branch)  # on the branch's far side of lam = 1: another
+    assert not analysis._known(5e-6, branch)

@@ -213,3 +213,24 @@ def test_a_monodromy_that_converged_nothing_decides_nothing():
     assert cycle.stable is None and cycle.stability.worst_family == -1
     branch = WaveBranch(6, 6, 1, 0.5, 100.0, cycles=[cycle], kinds=("shroud",))
     assert "stability not decided" in branch.verdict()
+
+
+def test_undecided_skips_the_whole_wheel_where_the_symmetry_proves_it(impact_cycle,
+                                                                      small_model):  # fmt: skip
+    """``whole_wheel = 'undecided'``: the in-symmetry multipliers above 1 at two steps prove
+    the impact orbit unstable, so the whole wheel's monodromy is not computed; the verdict is
+    the proof's, the same multiplier as with the whole wheel computed, and says what was
+    skipped."""
+    from wheelrom.analysis.periodic.exact import _instability_proof
+
+    cfg, angles, full = impact_cycle
+    assert _instability_proof(full) is not None  # the fixture's cycle is proven unstable
+    assert full.stability.by.startswith("monodromy inside")
+    settings = Settings(harmonics=7, waves=(WAVE,), seeds=(1e-3,), method="shooting",
+                        floquet="monodromy", multipliers=6, refine=1, whole_wheel="undecided",
+                        branch=BranchSettings(steps=2))  # fmt: skip
+    res = case_limit_cycles(small_model, cfg, settings, angles)
+    (cycle,) = [c for c in res.branches[0].cycles if c.method == "shooting"]
+    assert cycle.multipliers is None and cycle.stable is False
+    assert cycle.stability.multiplier == pytest.approx(full.stability.multiplier, rel=1e-9)
+    assert "the whole wheel's not computed (limit_cycle.whole_wheel)" in res.verdict()

@@ -25,13 +25,13 @@ import time
 
 import numpy as np
 
+from wheelrom.analysis.periodic.cycle import describe
 from wheelrom.analysis.periodic.floquet import floquet
 from wheelrom.analysis.periodic.harmonic_balance import WaveBalance
 from wheelrom.analysis.periodic.hopf import hopf_point, wave_blocks, wave_mode
 from wheelrom.analysis.periodic.limit_cycle import (
     FASTEST,
     case_limit_cycles,
-    describe,
     periodic_solution,
     settings_of,
 )

@@ -29,6 +29,14 @@ class LimitCycleConfig:
         default=10,
         metadata=_key("-", "Floquet multipliers of largest modulus computed from the whole "
                       "wheel's monodromy (floquet = 'monodromy')", min=1, max=200))
+    whole_wheel: str = field(
+        default="always",
+        metadata=_key("-", "the whole wheel's monodromy multipliers (floquet = 'monodromy'): "
+                      "'always', or 'undecided': only when the dominant multiplier inside the "
+                      "cycle's own symmetry at the refined steps does not already prove it "
+                      "unstable (the whole wheel's then adds the ND the flutter grows in, at "
+                      "time.step, which resolves a cycle whose contacts open to first order "
+                      "only; 15-20 s per paper angle)", choices=("always", "undecided")))
     refine: int = field(
         default=4,
         metadata=_key("-", "step halvings at which the dominant multiplier inside the "

@@ -1,5 +1,7 @@
 """One periodic solution of a travelling wave, as the harmonic balance or the shooting finds
-it: what both report (:mod:`wheelrom.analysis.periodic.limit_cycle`, :mod:`.exact`)."""
+it: what both report (:mod:`wheelrom.analysis.periodic.limit_cycle`, :mod:`.exact`), and
+what a harmonic-balance cycle reports (:func:`describe`: its energies per cycle, tip
+amplitude, contact states)."""
 
 from __future__ import annotations
 
@@ -9,6 +11,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from wheelrom.analysis.periodic.floquet import FloquetResult
+from wheelrom.analysis.periodic.harmonic_balance import WaveBalance
+
+UNRESOLVED = 0.05  # energy balance residual above which a cycle is called poorly resolved
 
 
 def cycle_source(method: str | None, missed: bool = False,
@@ -81,3 +86,54 @@ class Cycle:
         trusted`: the phase-shift multiplier is not 1 to 1e-3)."""
         st = self.stability
         return None if st is None or not st.trusted else st.stable
+
+
+def _energies(b: WaveBalance, X: np.ndarray, omega: float, lam: float):
+    """``(work_in, friction (K,), damping, samples)`` per cycle and blade [J] on ``b``'s time
+    grid: the self-excitation's work on blade 0, the friction dissipation of one blade pair
+    per contact kind, the ``beta_D`` dissipation; ``samples``: ``(q, v, normal, state)``."""
+    q, v = b.samples(X, omega)
+    force, normal, power, state = b._evaluate(q, v, lam)
+    period = 2 * math.pi / omega
+    c = b.complex_harmonics(X)
+    h = np.arange(b.H + 1)
+    if b.table:  # linear in the harmonics: its work per cycle from them
+        ops = [b._table_operator(k * b.phi, k * omega) for k in h]
+        work_in = sum(0.5 * period * float(np.real(np.conj(1j * k * omega * c[k])
+                                                   @ (-lam * ops[k] @ c[k]))) for k in h[1:])
+    else:
+        force0 = b._evaluate(q, v, 0.0)[0]
+        work_in = float(np.mean(np.sum((force - force0) * v[:, 0], axis=1))) * period
+    friction = -power.mean(axis=0) * period  # (K,) taken out per cycle and blade
+    damping = 0.5 * period * b.beta * sum(
+        (k * omega) ** 2 * float(np.real(np.conj(c[k]) @ b.stiffness[k] @ c[k])) for k in h)
+    return work_in, friction, float(damping), (q, v, normal, state)
+
+
+def _balance_error(work_in: float, friction: np.ndarray, damping: float) -> float:
+    return abs(work_in - friction.sum() - damping) / max(abs(work_in), 1e-300)
+
+
+def describe(balance: WaveBalance, fine: WaveBalance, X: np.ndarray, omega: float,
+             lam: float, residual: float) -> Cycle:  # fmt: skip
+    """The reported quantities of a solved cycle, on ``fine``'s time grid; the energy balance
+    also on ``balance``'s (the harmonic balance's own samples)."""
+    work_in, friction, damping, (q, _, normal, state) = _energies(fine, X, omega, lam)
+    own = _balance_error(*_energies(balance, X, omega, lam)[:3])
+    c = fine.complex_harmonics(X)
+    h = np.arange(fine.H + 1)
+    tip = np.einsum("im,jm->ji", fine.model.tip, q[:, 0] - X[0])  # (n_t, 3)
+    tip_h = np.linalg.norm(np.abs(c[1:] @ fine.model.tip.T), axis=1)
+    kinetic = float(np.sum((h * omega) ** 2 * np.sum(np.abs(c) ** 2, axis=1)))
+    K = normal.shape[1]
+    fractions = np.array([[np.mean(state[:, k] == s) for s in range(3)] for k in range(K)])
+    out = float(friction.sum() + damping)
+    return Cycle(
+        lam=float(lam), frequency_hz=omega / (2 * math.pi), harmonics=c,
+        tip_amplitude=float(np.linalg.norm(tip, axis=1).max()), tip_harmonics=tip_h,
+        normal_force_range=np.stack([normal.min(axis=0), normal.max(axis=0)], axis=1),
+        fractions=fractions, energy_in=work_in, energy_friction=friction,
+        energy_damping=damping, energy_residual=own,
+        energy_residual_fine=_balance_error(work_in, friction, damping),
+        damping_ratio=out / (2 * math.pi * kinetic) if kinetic > 0 else math.nan,
+        residual=residual)  # fmt: skip

@@ -5,6 +5,7 @@ recomputed at finer steps (docs/theory.md, "Limit cycles")."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -64,14 +65,24 @@ def exact_cycle(model, cfg, angles, branch, balance, X: np.ndarray, omega: float
 
 
 def monodromy_stability(model, cfg, angles, cycle: Cycle, count: int, refine: int,
-                        comm=None) -> None:  # fmt: skip
-    """Floquet multipliers of the exact orbit ``cycle.orbit``: the ``count`` largest of the
-    whole wheel's monodromy at the configured step (``cycle.multipliers``, and
-    ``cycle.stability`` from them), and the dominant one inside the cycle's symmetry at the
-    step and ``refine`` halvings of it (``cycle.refined``: ``(step [s], |mu|, ND)``; on the
-    pattern wheel, cheap): the scheme steps over the contacts' lift-off kinks, so the
-    multipliers of a cycle whose contacts open converge at first order in the step."""
+                        comm=None, whole_wheel: str = "always") -> None:  # fmt: skip
+    """Floquet multipliers of the exact orbit ``cycle.orbit``: the dominant one inside the
+    cycle's symmetry at the step and ``refine`` halvings of it (``cycle.refined``: ``(step
+    [s], |mu|, ND)``; on the pattern wheel, cheap), and the ``count`` largest of the whole
+    wheel's monodromy at the configured step (``cycle.multipliers``, and ``cycle.stability``
+    from them) unless ``whole_wheel = 'undecided'`` and the first already proves the cycle
+    unstable. The scheme steps over the contacts' lift-off kinks, so the multipliers of a
+    cycle whose contacts open converge at first order in the step."""
     orbit = cycle.orbit
+    if orbit.symmetric_multipliers.size:
+        cycle.refined.append((orbit.period / orbit.steps_per_period,
+                              float(abs(orbit.symmetric_multipliers[0])),
+                              int(orbit.symmetric_nd[0])))  # fmt: skip
+    _refine(model, cfg, angles, cycle, refine, comm)
+    proof = _instability_proof(cycle)
+    if proof is not None and whole_wheel == "undecided":
+        cycle.stability = proof
+        return
     # at the configured step, also for an orbit that needed a finer one (there a point within
     # the integration error of the coarser map's orbit): 4x the cost at a quarter step
     steps = max(orbit.steps_per_period, 1)
@@ -88,22 +99,24 @@ def monodromy_stability(model, cfg, angles, cycle: Cycle, count: int, refine: in
     cycle.stability = FloquetResult(
         mu.nd[rest], np.log(np.maximum(np.abs(mu.values[rest]), 1e-300)) / orbit.period,
         mu.largest, mu.trivial_error, mu.stable, by="monodromy: ND", trust=trust)  # fmt: skip
-    if orbit.symmetric_multipliers.size:
-        cycle.refined.append((orbit.period / orbit.steps_per_period,
-                              float(abs(orbit.symmetric_multipliers[0])),
-                              int(orbit.symmetric_nd[0])))  # fmt: skip
-    _refine(model, cfg, angles, cycle, refine, comm)
+    if proof is not None:
+        cycle.stability = dataclasses.replace(proof, trivial=mu.trivial_error)
+
+
+def _instability_proof(cycle: Cycle) -> FloquetResult | None:
+    """One multiplier above 1 proves instability, whatever the whole wheel's partial spectrum
+    at ``time.step`` could say: the in-symmetry one, where it stands above 1 by more than
+    twice its change over the last halving of the step (``cycle.refined``'s last two)."""
     finest = cycle.refined[-2:]
-    if len(finest) == 2:
-        # one multiplier above 1 proves instability, whatever the whole wheel's partial
-        # spectrum at time.step says: the in-symmetry one, where it stands above 1 by more
-        # than twice its change over the last halving of the step
-        (_, a, nd), (_, b, _) = finest
-        if min(a, b) - 1.0 > 2 * abs(a - b):
-            cycle.stability = FloquetResult(
-                np.array([nd]), np.array([math.log(b) / orbit.period]), b, mu.trivial_error,
-                False, by="monodromy inside the cycle's symmetry at the finest step: ND",
-                trust=math.inf)  # fmt: skip
+    if len(finest) < 2:
+        return None
+    (_, a, nd), (_, b, _) = finest
+    if min(a, b) - 1.0 <= 2 * abs(a - b):
+        return None
+    return FloquetResult(
+        np.array([nd]), np.array([math.log(b) / cycle.orbit.period]), b, math.nan, False,
+        by="monodromy inside the cycle's symmetry at the finest step: ND",
+        trust=math.inf)  # fmt: skip
 
 
 def _refine(model, cfg, angles, cycle: Cycle, refine: int, comm=None) -> None:

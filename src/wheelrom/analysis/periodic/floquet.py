@@ -63,7 +63,8 @@ class FloquetResult:
 
     @property
     def trusted(self) -> bool:
-        return bool(self.trivial <= self.trust)
+        # infinite trust: a verdict that needs no phase-shift check (a proof of instability)
+        return bool(self.trust == math.inf or self.trivial <= self.trust)
 
     @property
     def worst_family(self) -> int:

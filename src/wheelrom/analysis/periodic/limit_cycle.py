@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from wheelrom.analysis.periodic.continuation import BranchSettings, Corrector, Point, trace
-from wheelrom.analysis.periodic.cycle import Cycle
+from wheelrom.analysis.periodic.cycle import UNRESOLVED, Cycle, describe
 from wheelrom.analysis.periodic.cycle_transient import transient_stability
 from wheelrom.analysis.periodic.exact import exact_cycle, monodromy_stability
 from wheelrom.analysis.periodic.floquet import floquet
@@ -33,7 +33,6 @@ from wheelrom.runtime.errors import InputError
 FASTEST = -1  # in Settings.waves: the wave growing fastest at the configured intensity
 START_AMPLITUDE = 1e-9  # [m] tip amplitude of the first cycle next to the Hopf point
 FINE_SAMPLES = 256  # time samples per period of the reported quantities
-UNRESOLVED = 0.05  # energy balance residual above which a cycle is called poorly resolved
 SEED_HARMONICS = 3  # harmonics of the first Newton solve of a seed that fails with H
 
 
@@ -51,6 +50,7 @@ class Settings:
     # default, limit_cycle.method); 'hb': the harmonic balance alone
     multipliers: int = 10  # monodromy multipliers of largest modulus
     refine: int = 4  # step halvings of the in-symmetry multiplier check
+    whole_wheel: str = "always"  # 'undecided': the whole wheel's only when the above has not
     seeds: tuple = (1e-6, 1e-5, 1e-4, 1e-3)  # [m] tip amplitudes of the Newton starts at lam = 1
     branch: BranchSettings = field(default_factory=BranchSettings)
 
@@ -69,7 +69,8 @@ def settings_of(cfg: Config, waves=None) -> Settings:
     return Settings(harmonics=lc.harmonics, samples=lc.samples,
                     waves=tuple(lc.waves if waves is None else waves), floquet=floquet,
                     seeds=tuple(lc.seeds), branch=branch, method=lc.method,
-                    multipliers=lc.multipliers, refine=lc.refine)  # fmt: skip
+                    multipliers=lc.multipliers, refine=lc.refine,
+                    whole_wheel=lc.whole_wheel)  # fmt: skip
 
 
 def floquet_kind(settings: Settings) -> str:
@@ -139,10 +140,14 @@ class WaveBranch:
                          f"{c.stability.trivial:.1e}, the largest is {c.stability.multiplier:.4g})")
         elif not c.stable:
             st = c.stability
-            if c.multipliers is not None:
+            if c.multipliers is not None or st.by.startswith("monodromy inside"):
                 mu = c.multipliers
-                whole = (f"the whole wheel's largest {mu.largest:.3g}, ND {mu.nd[mu.worst]}"
-                         if mu.worst >= 0 else "no multiplier of the whole wheel converged")
+                if mu is None:
+                    whole = "the whole wheel's not computed (limit_cycle.whole_wheel)"
+                elif mu.worst >= 0:
+                    whole = f"the whole wheel's largest {mu.largest:.3g}, ND {mu.nd[mu.worst]}"
+                else:
+                    whole = "no multiplier of the whole wheel converged"
                 alone = "the flutter does not settle on this wave alone"
                 if st.by.startswith("monodromy inside"):
                     step = c.refined[-1][0]
@@ -198,57 +203,6 @@ class CaseLimitCycles:
         worst = max(flutter, key=lambda b: max((c.tip_amplitude for c in b.cycles),
                                                default=math.inf))  # fmt: skip
         return f"flutters (ND {worst.nodal_diameter}): {worst.verdict()}"
-
-
-def _energies(b: WaveBalance, X: np.ndarray, omega: float, lam: float):
-    """``(work_in, friction (K,), damping, samples)`` per cycle and blade [J] on ``b``'s time
-    grid: the self-excitation's work on blade 0, the friction dissipation of one blade pair
-    per contact kind, the ``beta_D`` dissipation; ``samples``: ``(q, v, normal, state)``."""
-    q, v = b.samples(X, omega)
-    force, normal, power, state = b._evaluate(q, v, lam)
-    period = 2 * math.pi / omega
-    c = b.complex_harmonics(X)
-    h = np.arange(b.H + 1)
-    if b.table:  # linear in the harmonics: its work per cycle from them
-        ops = [b._table_operator(k * b.phi, k * omega) for k in h]
-        work_in = sum(0.5 * period * float(np.real(np.conj(1j * k * omega * c[k])
-                                                   @ (-lam * ops[k] @ c[k]))) for k in h[1:])
-    else:
-        force0 = b._evaluate(q, v, 0.0)[0]
-        work_in = float(np.mean(np.sum((force - force0) * v[:, 0], axis=1))) * period
-    friction = -power.mean(axis=0) * period  # (K,) taken out per cycle and blade
-    damping = 0.5 * period * b.beta * sum(
-        (k * omega) ** 2 * float(np.real(np.conj(c[k]) @ b.stiffness[k] @ c[k])) for k in h)
-    return work_in, friction, float(damping), (q, v, normal, state)
-
-
-def _balance_error(work_in: float, friction: np.ndarray, damping: float) -> float:
-    return abs(work_in - friction.sum() - damping) / max(abs(work_in), 1e-300)
-
-
-def describe(balance: WaveBalance, fine: WaveBalance, X: np.ndarray, omega: float,
-             lam: float, residual: float) -> Cycle:  # fmt: skip
-    """The reported quantities of a solved cycle, on ``fine``'s time grid; the energy balance
-    also on ``balance``'s (the harmonic balance's own samples)."""
-    work_in, friction, damping, (q, _, normal, state) = _energies(fine, X, omega, lam)
-    own = _balance_error(*_energies(balance, X, omega, lam)[:3])
-    c = fine.complex_harmonics(X)
-    h = np.arange(fine.H + 1)
-    tip = np.einsum("im,jm->ji", fine.model.tip, q[:, 0] - X[0])  # (n_t, 3)
-    tip_h = np.linalg.norm(np.abs(c[1:] @ fine.model.tip.T), axis=1)
-    kinetic = float(np.sum((h * omega) ** 2 * np.sum(np.abs(c) ** 2, axis=1)))
-    K = normal.shape[1]
-    fractions = np.array([[np.mean(state[:, k] == s) for s in range(3)] for k in range(K)])
-    out = float(friction.sum() + damping)
-    return Cycle(
-        lam=float(lam), frequency_hz=omega / (2 * math.pi), harmonics=c,
-        tip_amplitude=float(np.linalg.norm(tip, axis=1).max()), tip_harmonics=tip_h,
-        normal_force_range=np.stack([normal.min(axis=0), normal.max(axis=0)], axis=1),
-        fractions=fractions, energy_in=work_in, energy_friction=friction,
-        energy_damping=damping, energy_residual=own,
-        energy_residual_fine=_balance_error(work_in, friction, damping),
-        damping_ratio=out / (2 * math.pi * kinetic) if kinetic > 0 else math.nan,
-        residual=residual)  # fmt: skip
 
 
 class WaveAnalysis:
@@ -315,11 +269,10 @@ class WaveAnalysis:
             lam_axis = np.zeros(balance.size + 2)
             lam_axis[-1] = 1.0
             for amplitude in st.seeds:
-                known = [self._amplitude(p) for points in segments for p in points]
                 seed = self._seed(corrector, v, amplitude, omega_c, j)
                 if seed is None or not corrector.plausible(seed) or \
-                        self._amplitude(seed) < 10 * START_AMPLITUDE or any(
-                        abs(self._amplitude(seed) - a) <= 1e-3 * a for a in known):
+                        self._amplitude(seed) < 10 * START_AMPLITUDE or \
+                        self._known(self._amplitude(seed), segments):  # fmt: skip
                     continue
                 half = dataclasses.replace(st.branch, steps=max(2, st.branch.steps // 10))
                 for direction in (lam_axis, -lam_axis):
@@ -328,6 +281,22 @@ class WaveAnalysis:
             self._report(branch, corrector, balance, fine, segments)
         finally:
             corrector.destroy()
+
+    def _known(self, amplitude: float, segments: list[list[Point]]) -> bool:
+        """Whether a cycle of tip amplitude ``amplitude`` [m] at ``lam = 1`` lies on a branch
+        already traced: within 1e-3 of one of its points, or between the two points where it
+        crosses ``lam = 1`` (a seed that lands between them is that crossing's cycle: traced
+        again both ways it only repeats the branch, 24 points)."""
+        for points in segments:
+            a = np.array([self._amplitude(p) for p in points])
+            lam = np.array([p.lam for p in points])
+            if np.any(np.abs(amplitude - a) <= 1e-3 * a):
+                return True
+            for i in np.flatnonzero((lam[:-1] - 1.0) * (lam[1:] - 1.0) <= 0):
+                lo, hi = sorted((a[i], a[i + 1]))
+                if lo * (1 - 1e-3) <= amplitude <= hi * (1 + 1e-3):
+                    return True
+        return False
 
     def _seed(self, corrector: Corrector, v, amplitude: float, omega: float,
               j: int) -> Point | None:  # fmt: skip
@@ -413,7 +382,7 @@ class WaveAnalysis:
                                     p.omega, cycle, st.harmonics, self.comm)  # fmt: skip
             if kind == "monodromy" and cycle.orbit is not None:
                 monodromy_stability(self.model, self.cfg, self.angles, cycle, st.multipliers,
-                                    st.refine, self.comm)  # fmt: skip
+                                    st.refine, self.comm, st.whole_wheel)  # fmt: skip
             elif st.floquet == "transient":
                 cycle.stability = transient_stability(self.model, self.cfg, self.angles,
                                                       balance, p.X, p.omega, p.lam,
