@@ -25,9 +25,15 @@ PREFIX = "limitcycle_"
 MAX_ITERATIONS = 30  # Newton iterations of one corrector solve
 #: Newton iterations of one branch point: a predictor within the step converges in a few (the
 #: step grows below 5 and shrinks above 10); one that has not by then is on its way off the
-#: branch, and the halved step's retry is cheaper than the rest of the 30 (measured: a branch
-#: that stalls at a grazing point spent 1100 Jacobians, 84 s, on its failing retries)
+#: branch, or at a grazing point whose slow iterations cost more than the seeds at lam = 1
+#: that reach the cycles beyond it (measured on the paper's wheel: 70 deg 69 s with 12, 105 s
+#: with 30; 80 deg's branch passes its grazing point with 30, stops there with 12: 33 / 37 s)
 BRANCH_ITERATIONS = 12
+#: halvings of a failed branch step before the branch is said to stall: a grazing point
+#: (a contact starting to touch or lift off within the cycle) either yields within a few or
+#: not at all (measured: the paper's 70 deg branch spent 1100 Jacobians, 84 s, halving its
+#: step 17 times down to step_min; its 80 deg branch passes its grazing point after 3)
+RETRIES = 8
 ROUNDOFF = 1e-10  # reachable residual relative to the balanced terms
 CONTRACTION = 0.25  # a chord step that reduces the residual less asks for a fresh Jacobian
 FREQUENCY_RANGE = 2.0  # solutions beyond this factor off the Hopf frequency are rejected
@@ -233,7 +239,7 @@ def trace(corrector: Corrector, first: Point, direction: np.ndarray, settings: B
     points and why the branch ends (in words). ``amplitude(point)`` [m] (tip, 0-peak)."""
     points = [first]
     t = corrector.tangent(first.z, direction)
-    ds = settings.step
+    ds, failures = settings.step, 0
     while True:
         z = points[-1].z
         if len(points) >= settings.steps:
@@ -246,9 +252,12 @@ def trace(corrector: Corrector, first: Point, direction: np.ndarray, settings: B
             point = None  # the corrector jumped (to another branch, or the trivial one)
         if point is None:
             ds /= 2
-            if ds < settings.step_min:
-                return points, "continuation stalled (Newton fails at the smallest step)"
+            failures += 1
+            if ds < settings.step_min or failures > RETRIES:
+                return points, ("continuation stalled (Newton fails at the smallest step or "
+                                f"after {RETRIES} halvings of it)")  # fmt: skip
             continue
+        failures = 0
         t = corrector.tangent(point.z, t)
         points.append(point)
         if progress is not None:
