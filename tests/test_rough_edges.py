@@ -261,3 +261,24 @@ def test_the_memory_estimate_holds_the_context_it_allocates(small_model, small_c
     estimate = context_bytes(N, m, K, 1, grid.sample_capacity, grid.state_capacity)
     assert allocated <= estimate <= allocated + 8 * 8 * 60
     assert run_bytes(small_cfg) > estimate + 8 * 2 * grid.sample_capacity * 3 * N
+
+
+def test_resume_of_a_file_from_before_a_new_key():
+    """A file written before a key existed (here `forced.harmonics`, added after the paper's
+    sweep file was written: ./run/paper's --resume refused it) is the same configuration while
+    the key keeps its default; set to another value, the key is named."""
+    from wheelrom import config
+    from wheelrom.results.layout import config_changes
+
+    cfg = config.load(None, ["time.end=0.5"])
+    lines = config.to_toml(cfg).splitlines()
+    section = ""
+    kept = []
+    for line in lines:
+        section = line if line.startswith("[") else section
+        if not (section == "[forced]" and line.startswith("harmonics")):
+            kept.append(line)
+    older = "\n".join(kept)
+    assert older != config.to_toml(cfg) and config_changes(older, cfg) is None
+    changed = config_changes(older, config.load(None, ["time.end=0.5", "forced.harmonics=9"]))
+    assert changed == "forced.harmonics: '(none)' -> 9", changed

@@ -217,7 +217,8 @@ def config_changes(stored, cfg: Config, select=None) -> str | None:
     ``key: file value -> now``; None: the same values. Values are compared, not text: a
     comment or a help text that changed between wheelrom versions is no difference.
     ``select``: compare only the keys it keeps of either nested dict (e.g.
-    :func:`wheelrom.config.study.model_data`: the same wheel)."""
+    :func:`wheelrom.config.study.model_data`: the same wheel). A key missing from the file
+    (an older wheelrom) counts only when its value now is not its default."""
     def flat(node, prefix=""):
         out = {}
         for key, value in node.items():
@@ -234,7 +235,11 @@ def config_changes(stored, cfg: Config, select=None) -> str | None:
     except (AttributeError, tomllib.TOMLDecodeError):
         return "its configuration attribute is missing or not TOML"
     new = flat(select(tomllib.loads(config_mod.to_toml(cfg))))
-    keys = sorted(k for k in old.keys() | new.keys() if old.get(k) != new.get(k))
+    # a key the file's wheelrom version did not have, now at its default, is no difference: a
+    # new key's default keeps the behaviour it had (an upgrade must not refuse a --resume)
+    default = flat(select(tomllib.loads(config_mod.to_toml(config_mod.from_dict({})))))
+    keys = sorted(k for k in old.keys() | new.keys() if old.get(k) != new.get(k)
+                  and not (k not in old and k in default and new[k] == default[k]))
     if not keys:
         return None
     shown = ", ".join(f"{k}: {old.get(k, '(none)')!r} -> {new.get(k, '(none)')!r}"
