@@ -145,18 +145,19 @@ class WaveBranch:
                 if mu is None:
                     whole = "the whole wheel's not computed (limit_cycle.whole_wheel)"
                 elif mu.worst >= 0:
-                    whole = f"the whole wheel's largest {mu.largest:.3g}, ND {mu.nd[mu.worst]}"
+                    whole = (f"the whole wheel's largest {mu.largest:.3g} per period, ND "
+                             f"{mu.nd[mu.worst]} at time.step")  # fmt: skip
                 else:
-                    whole = "no multiplier of the whole wheel converged"
+                    whole = "no multiplier of the whole wheel converged at time.step"
                 alone = "the flutter does not settle on this wave alone"
                 if st.by.startswith("monodromy inside"):
                     step = c.refined[-1][0]
                     words.append(f"unstable inside its own symmetry (ND {st.worst_family}: "
                                  f"multiplier {st.multiplier:.3g} per period at a "
-                                 f"{step * 1e6:.2g} us step; {whole} at time.step; "
+                                 f"{step * 1e6:.2g} us step; {whole}; "
                                  f"{alone})")  # fmt: skip
                 else:
-                    words.append(f"unstable (monodromy: {whole} per period; {alone})")
+                    words.append(f"unstable (monodromy: {whole}; {alone})")
             else:
                 words.append(f"unstable ({st.by} {st.worst_family} grows at "
                              f"{st.growth.max():.3g} /s; the flutter does not settle on this "
