@@ -46,12 +46,32 @@ def test_an_unreadable_file_is_built_again(small_cfg, comm, tmp_path, monkeypatc
     monkeypatch.setenv(cache.ENVIRONMENT, str(tmp_path))
     built = build_model(small_cfg, comm)
     (path,) = tmp_path.glob("*.npz")
-    path.write_bytes(b"not a model")
-    said = []
-    again = build_model(small_cfg, comm, log=said.append)
-    assert not any("from the cache" in line for line in said)
-    _equal(built, again)
-    assert cache.load(path) is not None  # replaced by a whole file
+    whole = path.read_bytes()
+    for damaged in (b"not a model", whole[: len(whole) // 2], b""):  # ValueError, zip, EOF
+        path.write_bytes(damaged)
+        assert cache.load(path) is None
+        said = []
+        again = build_model(small_cfg, comm, log=said.append)
+        assert not any("from the cache" in line for line in said)
+        _equal(built, again)
+        assert cache.load(path) is not None  # replaced by a whole file
+
+
+def test_the_model_solvers_options_are_part_of_the_key(small_cfg):
+    from wheelrom.runtime.environment import petsc
+
+    options = petsc().Options()
+    before = cache.cache_key(small_cfg)
+    options.setValue("segment_eps_tol", "1e-12")
+    try:
+        assert cache.cache_key(small_cfg) != before
+    finally:
+        options.delValue("segment_eps_tol")
+    options.setValue("wheel_ts_type", "rk")  # the transient's: the same model
+    try:
+        assert cache.cache_key(small_cfg) == before
+    finally:
+        options.delValue("wheel_ts_type")
 
 
 def test_off_builds_every_time(small_cfg, comm, tmp_path, monkeypatch):

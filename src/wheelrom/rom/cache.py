@@ -6,9 +6,11 @@ A model is stored once built and read back by the next command whose model is th
 
 **What "the same" means**, the cache key (SHA-256) over: the configuration's keys the model
 depends on (:func:`wheelrom.config.study.model_key`: not the forces, the contact angles,
-preloads or the mistuning, which each case puts on the tuned model), the contents of a mesh
-file (``segment.source``), the source code of the segment and rom stages, and the versions of
-numpy, PETSc, SLEPc and scikit-fem. Anything else that changed builds a new model.
+preloads or the mistuning, which each case puts on the tuned model), the path and contents of
+a mesh file (``segment.source``, beside the TOML), the source code of the segment and rom
+stages, the PETSc options of the model's solvers (:data:`PREFIXES`) and the versions of numpy,
+scipy, meshio, PETSc, SLEPc and scikit-fem. Anything else that changed builds a new model
+(a mesh format's side files, e.g. an XDMF's HDF5, are not hashed: ``off`` after editing them).
 
 **Where**: ``$WHEELROM_MODEL_CACHE`` (a directory; ``off``: no cache), else
 ``$XDG_CACHE_HOME/wheelrom/models`` (``~/.cache/...``). Files are ``.npz`` read with
@@ -22,7 +24,9 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import socket
 import time
+import uuid
 from pathlib import Path
 
 import numpy as np
@@ -34,6 +38,10 @@ ENVIRONMENT = "WHEELROM_MODEL_CACHE"
 ARRAYS = ("segment_hz", "K_seg", "A0", "A1", "rotation", "tip", "aero", "excitation")
 PER_KIND = ("contact_A", "contact_B", "contact_points", "contact_stiffness")
 STAGES = ("segment", "rom")  # the code a model is built by
+#: options prefixes of the PETSc/SLEPc objects that build a model (the segment's modes, the
+#: prestress solve, the attachment and enrichment vectors, the FE contact stiffness): a
+#: tighter -segment_eps_tol is another model
+PREFIXES = ("segment_", "prestress_", "attachment_", "cyclic_", "stiffness_")
 
 
 def directory() -> Path | None:
@@ -58,12 +66,23 @@ def _code_digest() -> str:
 
 
 def _versions() -> dict:
+    import meshio
     import petsc4py
+    import scipy
     import skfem
     import slepc4py
 
-    return {"numpy": np.__version__, "petsc4py": petsc4py.__version__,
-            "slepc4py": slepc4py.__version__, "skfem": skfem.__version__}  # fmt: skip
+    return {"numpy": np.__version__, "scipy": scipy.__version__, "meshio": meshio.__version__,
+            "petsc4py": petsc4py.__version__, "slepc4py": slepc4py.__version__,
+            "skfem": skfem.__version__}  # fmt: skip
+
+
+def _solver_options() -> dict:
+    """The PETSc options database's entries that reach the model's solvers."""
+    from wheelrom.runtime.environment import petsc
+
+    every = petsc().Options().getAll()
+    return {k: str(v) for k, v in every.items() if k.startswith(PREFIXES)}
 
 
 def cache_key(cfg) -> str:
@@ -72,10 +91,14 @@ def cache_key(cfg) -> str:
 
     h = hashlib.sha256()
     h.update(model_key(cfg).encode())
-    if cfg.segment.source != "builtin":
-        h.update(Path(cfg.segment.source).read_bytes())
+    if cfg.segment.source != "builtin":  # the file the reader reads: beside the TOML
+        from wheelrom.segment.reader import source_path
+
+        path = Path(source_path(cfg))
+        h.update(str(path.resolve()).encode())
+        h.update(path.read_bytes())
     h.update(_code_digest().encode())
-    h.update(json.dumps(_versions(), sort_keys=True).encode())
+    h.update(json.dumps([_versions(), _solver_options()], sort_keys=True).encode())
     return h.hexdigest()
 
 
@@ -90,9 +113,12 @@ def load(path: Path) -> ReducedModel | None:
             model = ReducedModel(int(data["blades"]), int(data["modes"]),
                                  *(data[name].copy() for name in ARRAYS), **per_kind,
                                  info=info)  # fmt: skip
-    except (OSError, KeyError, ValueError, TypeError):
+    except Exception:  # noqa: BLE001 (missing, truncated: BadZipFile, EOFError; damaged)
         return None
-    os.utime(path)  # most recently used
+    try:
+        os.utime(path)  # most recently used
+    except OSError:  # a read-only cache, or pruned meanwhile by another command
+        pass
     return model
 
 
@@ -105,7 +131,8 @@ def store(path: Path, model: ReducedModel) -> None:
         table = getattr(model, name)
         kinds[name] = sorted(table)
         arrays.update({f"{name}/{k}": np.asarray(v) for k, v in table.items()})
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp = path.with_name(f".{path.name}.{socket.gethostname()}.{os.getpid()}."
+                         f"{uuid.uuid4().hex}.tmp")  # unique on a shared file system
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         with open(tmp, "wb") as f:
@@ -132,7 +159,10 @@ def cached(cfg, build, log) -> ReducedModel:
     if folder is None:
         return build()
     t0 = time.perf_counter()
-    path = folder / f"{cache_key(cfg)}.npz"
+    try:
+        path = folder / f"{cache_key(cfg)}.npz"
+    except OSError:  # a mesh file that cannot be read: the build says why
+        return build()
     model = load(path)
     if model is not None:
         model.info["build_s"] = time.perf_counter() - t0  # this command's cost of it

@@ -156,6 +156,7 @@ def _cycle(c, kinds) -> dict:
         out["multipliers"] = [{"modulus": float(abs(v)), "phase_rad": float(np.angle(v)),
                                "nd": int(nd), "wave": int(k)}
                               for v, nd, k in zip(mu.values, mu.nd, mu.wave, strict=True)]
+    if c.refined:  # the in-symmetry multiplier's steps (also without the whole wheel's)
         out["refined_multiplier"] = [{"step_s": s, "modulus": v, "nd": nd}
                                      for s, v, nd in c.refined]  # fmt: skip
     if c.stability is not None:

@@ -51,6 +51,9 @@ MARCH_PERIODS = 3
 #: decades below the Jacobian's differencing step (:data:`FD_DISPLACEMENT`)
 MARCH_MAX_PERIODS = 2000
 MARCH_TOLERANCE = 1e-13
+#: condition number of a blade's physical-input rows above which the force Jacobian is
+#: differenced over the modal coordinates instead (:func:`force_inputs`)
+MAX_INPUT_CONDITION = 1e8
 
 
 def window_parameters(params: ForceParameters) -> ForceParameters:
@@ -99,7 +102,9 @@ def force_inputs(params: ForceParameters):
     per_blade = [np.vstack(A + B + [y]), np.vstack(A + [y]), np.vstack(A + B + [y])]
     blades, rows, directions = [], [], []
     for w, R in enumerate(per_blade):
-        if np.linalg.matrix_rank(R) < R.shape[0]:
+        # nearly dependent rows would need huge modal directions, whose round-off the
+        # differences amplify by the condition number: the modal differencing then
+        if R.shape[0] > R.shape[1] or np.linalg.cond(R) > MAX_INPUT_CONDITION:
             return None
         blades += [w] * R.shape[0]
         rows.append(R)
