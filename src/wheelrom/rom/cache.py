@@ -105,7 +105,8 @@ def cache_key(cfg) -> str:
 def load(path: Path) -> ReducedModel | None:
     """The model stored at ``path``; None when it is missing or unreadable."""
     try:
-        with np.load(path, allow_pickle=False) as data:
+        # opened here: np.load leaves its own handle open when a damaged file raises
+        with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as data:
             info = json.loads(str(data["info"]))
             kinds = json.loads(str(data["kinds"]))
             per_kind = {name: {k: data[f"{name}/{k}"].copy() for k in kinds[name]}
