@@ -234,3 +234,23 @@ def test_undecided_skips_the_whole_wheel_where_the_symmetry_proves_it(impact_cyc
     assert cycle.multipliers is None and cycle.stable is False
     assert cycle.stability.multiplier == pytest.approx(full.stability.multiplier, rel=1e-9)
     assert "the whole wheel's not computed (limit_cycle.whole_wheel)" in res.verdict()
+
+
+def test_a_shot_that_lands_on_another_orbit_says_so():
+    """The paper's 70 deg: the shot from the 22.3 um harmonic-balance cycle converges to a
+    16.6 um orbit, 26 % apart (the balance's truncation bias there is 2-8.5 %): the verdict
+    calls it another orbit; 21.2 against 21.6 um (65 deg) is the same cycle."""
+    from wheelrom.analysis.periodic.cycle import Cycle
+    from wheelrom.analysis.periodic.limit_cycle import WaveBranch
+
+    def verdict(tip_um, hb_um):
+        cycle = Cycle(1.0, 136.0, np.zeros((2, 1), complex), tip_um * 1e-6, np.zeros(1),
+                      np.zeros((1, 2)), np.zeros((1, 3)), 1.0, np.zeros(1), 0.0, 0.0, 0.0,
+                      0.0, 0.0, method="shooting", hb_tip_amplitude=hb_um * 1e-6,
+                      hb_frequency_hz=135.3)  # fmt: skip
+        return WaveBranch(33, 33, 1, 0.8, 137.0, cycles=[cycle], kinds=("shroud",)).verdict()
+
+    assert "not the harmonic balance's cycle it was shot from (22.3 um" in verdict(16.6, 22.3)
+    assert "26 % apart" in verdict(16.6, 22.3)
+    same = verdict(21.2, 21.6)
+    assert "exact orbit (harmonic balance 21.6 um" in same and "another orbit" not in same
