@@ -137,3 +137,24 @@ def test_the_command_refuses_in_one_line(extra, message, capsys, tmp_path, monke
     assert cli.main(argv) == 2
     assert message in capsys.readouterr().err
     assert not (tmp_path / "x.h5").exists()
+
+
+def test_a_range_without_a_resonance_says_so(capsys):
+    """10..20 Hz holds neither the slipping (120 Hz) nor the stuck (257 Hz) ND 2 resonance of
+    the small wheel: the command says so in one line (and in --json), and computes the
+    off-resonance response all the same; 110..130 Hz holds the slipping one: no such line."""
+    import json
+
+    from conftest import SMALL
+    from wheelrom.cli import main as cli
+
+    args = ["forced-response", SMALL, "--nonlinear", "--harmonics", "1", "--json",
+            "--set", 'contacts.law="elastic"']  # fmt: skip
+    assert cli.main([*args, "--frequencies", "10:20:3"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    said = out["nonlinear"]["no_resonance"]
+    assert said.startswith("no resonance in 10..20 Hz: the ND 2 family 0 resonates with the "
+                           "contacts slipping 120"), said  # fmt: skip
+    assert "stuck 256" in said and all(out["nonlinear"]["converged"])
+    assert cli.main([*args, "--frequencies", "110:130:3"]) == 0
+    assert "no_resonance" not in json.loads(capsys.readouterr().out)["nonlinear"]

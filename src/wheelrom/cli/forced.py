@@ -179,6 +179,9 @@ def _nonlinear(model, cfg, grid: np.ndarray, angles: dict | None, harmonics: int
     slip shares)."""
     from wheelrom.studies.forced_nonlinear import nonlinear_forced
 
+    outside = _no_resonance(model, cfg, grid, angles)
+    if outside:
+        say(outside)
     say(f"the nonlinear response (harmonic balance, H = {harmonics}, "
         f"contacts.law = '{cfg.contacts.law}') at {grid.size} frequencies")  # fmt: skip
     curve = nonlinear_forced(model, cfg, grid, angles, harmonics, comm_self())
@@ -186,6 +189,8 @@ def _nonlinear(model, cfg, grid: np.ndarray, angles: dict | None, harmonics: int
                  for a, ok in zip(curve.tip_amplitude, curve.converged, strict=True)]
     out = {"law": cfg.contacts.law, "harmonics": harmonics, "tip_amplitude_m": amplitude,
            "converged": curve.converged.tolist(), "wall_s": curve.wall_s}  # fmt: skip
+    if outside:
+        out["no_resonance"] = outside
     if curve.converged.any():
         i = curve.peak
         out["peak_amplitude_m"] = float(curve.tip_amplitude[i])
@@ -194,6 +199,30 @@ def _nonlinear(model, cfg, grid: np.ndarray, angles: dict | None, harmonics: int
                                              map(float, curve.fractions[i, k]), strict=True))
                               for k, kind in enumerate(curve.kinds)}  # fmt: skip
     return out, curve
+
+
+def _no_resonance(model, cfg, grid: np.ndarray, angles: dict | None) -> str:
+    """One line when the frequencies ``grid`` [rad/s] hold neither resonance that friction
+    keeps the peak between (the excited ND's ``forced.family`` with the contacts slipping
+    and, under the elastic law, stuck: :func:`~wheelrom.studies.forced_nonlinear.
+    nonlinear_band`); "" when they hold one."""
+    import dataclasses
+
+    from wheelrom.rom.model import nodal_diameter
+    from wheelrom.studies.forced_nonlinear import nonlinear_band
+
+    whole = dataclasses.replace(cfg, forced=dataclasses.replace(cfg.forced, band_hz=()))
+    _, found = nonlinear_band(model, whole, angles, comm_self())
+    lo, hi = float(grid.min()), float(grid.max())
+    if any(lo <= w <= hi for w in found):
+        return ""
+    names = ("slipping", "stuck")
+    where = ", ".join(f"{name} {w / (2 * math.pi):.5g} Hz"
+                      for name, w in zip(names, found, strict=False))  # fmt: skip
+    nd = int(nodal_diameter(cfg.wheel.stator_vanes, model.blades))
+    return (f"no resonance in {lo / (2 * math.pi):.5g}..{hi / (2 * math.pi):.5g} Hz: the ND "
+            f"{nd} family {cfg.forced.family} resonates with the contacts {where}; the "
+            "response computed here is off resonance (its largest value at an edge)")
 
 
 def _write(path: str, cfg, model, response, tuned, out: dict, angles: dict | None,
@@ -304,5 +333,7 @@ def _print_nonlinear(out: dict) -> None:
                            for kind, s in nl["peak_shares"].items())  # fmt: skip
         print(f"nonlinear peak on the grid: {nl['peak_amplitude_m']:.4e} m at "
               f"{nl['peak_frequency_hz']:.4f} Hz ({shares})")
+    if "no_resonance" in nl:
+        print(nl["no_resonance"])
     print(f"{out['solves']} solves ({out['candidates']} candidates, {out['refined']} refined), "
           f"{1e3 * out['solve_s_per_frequency']:.3g} ms per solve")  # fmt: skip
