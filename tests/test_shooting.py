@@ -254,3 +254,27 @@ def test_a_shot_that_lands_on_another_orbit_says_so():
     assert "26 % apart" in verdict(16.6, 22.3)
     same = verdict(21.2, 21.6)
     assert "exact orbit (harmonic balance 21.6 um" in same and "another orbit" not in same
+
+
+def test_a_whole_wheel_that_converged_nothing_says_how_far_it_got():
+    """An in-symmetry proof of instability beside a whole-wheel monodromy that converged no
+    multiplier: the verdict says how many linearised periods SLEPc integrated and how far the
+    phase shift's multiplier was off 1 (the paper's 80 deg: 140 periods, 0.35)."""
+    from wheelrom.analysis.periodic.cycle import Cycle
+    from wheelrom.analysis.periodic.floquet import FloquetResult
+    from wheelrom.analysis.periodic.limit_cycle import WaveBranch
+    from wheelrom.analysis.periodic.monodromy import Multipliers
+
+    empty = Multipliers(np.zeros(0, complex), np.zeros(0, int), np.zeros(0, int), -1, 0.007,
+                        matvecs=140, trivial_check=0.35)  # fmt: skip
+    proof = FloquetResult(np.array([33]), np.array([15.0]), 1.11, 0.35, False,
+                          by="monodromy inside the cycle's symmetry at the finest step: ND",
+                          trust=math.inf)  # fmt: skip
+    cycle = Cycle(1.0, 143.0, np.zeros((2, 1), complex), 22e-6, np.zeros(1), np.zeros((1, 2)),
+                  np.zeros((1, 3)), 1.0, np.zeros(1), 0.0, 0.0, 0.0, 0.0, 0.0,
+                  stability=proof, multipliers=empty, method="shooting",
+                  refined=[(6.25e-7, 1.11, 33)])  # fmt: skip
+    text = WaveBranch(33, 33, 1, 0.74, 148.0, cycles=[cycle], kinds=("shroud",)).verdict()
+    assert "unstable inside its own symmetry (ND 33: multiplier 1.11" in text, text
+    assert "converged at time.step in 140 linearised periods (its phase-shift multiplier " \
+           "off 1 by 0.35)" in text, text  # fmt: skip

@@ -152,7 +152,10 @@ class WaveBranch:
                     whole = (f"the whole wheel's largest {mu.largest:.3g} per period, ND "
                              f"{mu.nd[mu.worst]} at time.step")  # fmt: skip
                 else:
-                    whole = "no multiplier of the whole wheel converged at time.step"
+                    # how far it got: the periods integrated and the one check it has
+                    whole = (f"no multiplier of the whole wheel converged at time.step in "
+                             f"{mu.matvecs} linearised periods (its phase-shift multiplier "
+                             f"off 1 by {mu.trivial_error:.2g})")  # fmt: skip
                 alone = "the flutter does not settle on this wave alone"
                 if st.by.startswith("monodromy inside"):
                     step = c.refined[-1][0]
