@@ -62,19 +62,24 @@ def _nd_blocks(J: sp.spmatrix, N: int, m: int) -> np.ndarray:
     return np.stack([nd_block(row, k) for k in range(N // 2 + 1)])
 
 
+def _spectra(blocks0: np.ndarray, blocks1: np.ndarray, mu: float, nds=None):
+    """``(nds, eigenvalues (K, 2m))`` of ``J_0 + mu J_1`` at the nodal diameters ``nds``
+    (None: all)."""
+    nds = np.arange(len(blocks0)) if nds is None else np.asarray(nds)
+    return nds, np.linalg.eigvals(blocks0[nds] + mu * blocks1[nds])
+
+
 def _fastest(blocks0: np.ndarray, blocks1: np.ndarray, mu: float, nds=None):
     """``(growth [1/s], nd, frequency [Hz])`` of the fastest mode of ``J_0 + mu J_1`` over the
     nodal diameters ``nds`` (None: all)."""
-    nds = np.arange(len(blocks0)) if nds is None else np.asarray(nds)
-    lam = np.linalg.eigvals(blocks0[nds] + mu * blocks1[nds])  # (K, 2m)
+    nds, lam = _spectra(blocks0, blocks1, mu, nds)
     k, i = np.unravel_index(int(np.argmax(lam.real)), lam.shape)
     return float(lam.real[k, i]), int(nds[k]), abs(float(lam.imag[k, i])) / (2 * math.pi)
 
 
-def _growing(blocks0: np.ndarray, blocks1: np.ndarray, mu: float, nds) -> np.ndarray:
-    """The nodal diameters among ``nds`` with a growing mode at ``mu``."""
-    nds = np.asarray(nds)
-    lam = np.linalg.eigvals(blocks0[nds] + mu * blocks1[nds])
+def _growing(blocks0: np.ndarray, blocks1: np.ndarray, mu: float, nds=None) -> np.ndarray:
+    """The nodal diameters among ``nds`` (None: all) with a growing mode at ``mu``."""
+    nds, lam = _spectra(blocks0, blocks1, mu, nds)
     return nds[lam.real.max(axis=1) > TOLERANCE]
 
 
@@ -120,7 +125,7 @@ def flutter_margin(params, q: np.ndarray, J: sp.spmatrix, rtol: float = 1e-4) ->
     # the top comes down: one that is stable there and at the bottom does not cross in
     # between at the scan's resolution (the scan's own premise); at a factor 2 above the
     # crossing 24 of 34 grow on the paper's wheel, a few halvings later one or two
-    crossing = _growing(blocks0, blocks1, high, np.arange(len(blocks0)))
+    crossing = _growing(blocks0, blocks1, high)
     while high / low - 1 > rtol:
         middle = math.sqrt(low * high)
         growing = _growing(blocks0, blocks1, middle, crossing)

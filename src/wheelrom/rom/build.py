@@ -189,12 +189,10 @@ def build_model(cfg: Config, comm, log=quiet) -> ReducedModel:
     from wheelrom.rom import cache
 
     def fresh() -> ReducedModel:
-        model = build(cfg, comm, log).model
-        model.mistuning = None  # the cache holds the tuned wheel
-        return model
+        return build(cfg, comm, log).model
 
     # a model built by several ranks together is not read from the cache: a rank that found
     # it would leave the others alone in the collective build
     model = cache.cached(cfg, fresh, log) if comm.getSize() == 1 else fresh()
-    model.mistuning = blade_mistuning(cfg)
+    model.mistuning = blade_mistuning(cfg)  # each case's: the cache holds the tuned wheel
     return model

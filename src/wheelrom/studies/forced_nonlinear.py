@@ -49,8 +49,7 @@ def nonlinear_forced(model: ReducedModel, cfg: Config, frequencies: np.ndarray,
 def nonlinear_band(model: ReducedModel, cfg: Config, angles_deg: dict | None = None,
                    comm=None) -> tuple[tuple[float, float], list[float]]:  # fmt: skip
     """``((lo, hi), resonances)`` [rad/s]: the band, ``forced.band_hz`` when given, else from
-    the
-    resonance of ``forced.family`` at the excited ND with the contacts slipping (their
+    the resonance of ``forced.family`` at the excited ND with the contacts slipping (their
     normal springs at the preloaded equilibrium, no tangential stiffness: the paper law's
     linearisation without its friction damping) to the one with them stuck (the elastic
     law's tangential springs ``k_t``), widened by :data:`BAND_MARGIN`; ``resonances``: those

@@ -144,7 +144,8 @@ class WaveBranch:
                          f"{c.stability.trivial:.1e}, the largest is {c.stability.multiplier:.4g})")
         elif not c.stable:
             st = c.stability
-            if c.multipliers is not None or st.by.startswith("monodromy inside"):
+            inside = st.by.startswith("monodromy inside")  # proved in the cycle's symmetry
+            if c.multipliers is not None or inside:
                 mu = c.multipliers
                 if mu is None:
                     whole = "the whole wheel's not computed (limit_cycle.whole_wheel)"
@@ -157,7 +158,7 @@ class WaveBranch:
                              f"{mu.matvecs} linearised periods (its phase-shift multiplier "
                              f"off 1 by {mu.trivial_error:.2g})")  # fmt: skip
                 alone = "the flutter does not settle on this wave alone"
-                if st.by.startswith("monodromy inside"):
+                if inside:
                     step = c.refined[-1][0]
                     words.append(f"unstable inside its own symmetry (ND {st.worst_family}: "
                                  f"multiplier {st.multiplier:.3g} per period at a "
@@ -307,7 +308,7 @@ class WaveAnalysis:
             lam = np.array([p.lam for p in points])
             if np.any(np.abs(amplitude - a) <= 1e-3 * a):
                 return True
-            for i in np.flatnonzero((lam[:-1] - 1.0) * (lam[1:] - 1.0) <= 0):
+            for i in crossings(lam):
                 lo, hi = sorted((a[i], a[i + 1]))
                 if lo * (1 - 1e-3) <= amplitude <= hi * (1 + 1e-3):
                     return True
@@ -374,7 +375,7 @@ class WaveAnalysis:
                                               p.lam)  # fmt: skip
                 branch.points.append(cycle)
                 branch.segments.append(number)
-            for i in np.flatnonzero((lam[:-1] - 1.0) * (lam[1:] - 1.0) <= 0):
+            for i in crossings(lam):
                 if points[i].lam == 1.0 or points[i + 1].lam == 1.0:
                     p = points[i] if points[i].lam == 1.0 else points[i + 1]
                 else:
@@ -417,6 +418,12 @@ class WaveAnalysis:
         linear = balance.linear_term(p.X, p.omega, p.lam)
         R = linear - balance.P @ balance.nonlinear_force(p.X, p.omega, p.lam)
         return float(np.abs(R).max() / max(np.abs(linear).max(), 1e-300))
+
+
+def crossings(lam: np.ndarray) -> np.ndarray:
+    """Indices ``i`` of a branch's factors ``lam`` ``(P,)`` between whose points ``i`` and
+    ``i + 1`` the branch crosses ``lam = 1`` (the configured intensity)."""
+    return np.flatnonzero((lam[:-1] - 1.0) * (lam[1:] - 1.0) <= 0)
 
 
 def periodic_solution(balance: WaveBalance, X: np.ndarray, omega: float, lam: float = 1.0,
