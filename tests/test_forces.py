@@ -156,6 +156,8 @@ def test_arm_transfer_preserves_force_and_moment_about_A():
     model.contact_A["shroud"] = np.hstack([np.eye(3), np.zeros((3, 3))])
     model.contact_B["shroud"] = np.hstack([np.zeros((3, 3)), np.eye(3)])
     model.modes = 6
+    # every per-mode array at 6 modes (the kernels read them without bounds checks)
+    model.aero, model.excitation, model.tip = np.zeros(6), np.zeros(6), np.zeros((3, 6))
     fm = _forces(model, cfg)
     rng = np.random.default_rng(7)
     q = rng.normal(size=(8, 6)) * 1e-8
@@ -194,6 +196,15 @@ def test_arm_transfer_preserves_force_and_moment_about_A():
     moment_pair = np.cross(Bd - Ad, FB)
     moment_end = np.cross(L * e, -F)
     np.testing.assert_allclose(moment_pair, moment_end, atol=1e-9 * np.abs(moment_end).max())
+
+
+def test_parameters_of_the_wrong_shape_are_refused():
+    model, cfg, A, B = _point_model()
+    model.contact_A["shroud"] = np.hstack([np.eye(3), np.zeros((3, 3))])
+    model.contact_B["shroud"] = np.hstack([np.zeros((3, 3)), np.eye(3)])
+    model.modes = 6  # aero and excitation still at 3 modes: read past their end otherwise
+    with pytest.raises(ValueError, match=r"excitation has shape \(3,\), expected \(6,\)"):
+        _forces(model, cfg)
 
 
 def test_friction_power_never_positive(coarse_model, coarse_cfg):

@@ -107,6 +107,22 @@ class ForceParameters:
     rotation: np.ndarray
     contacts: ContactParameters
 
+    def __post_init__(self):
+        # the compiled kernels index these by mode and blade without bounds checks: a short
+        # array would be read past its end (garbage, NaN on some machines), so refuse it here
+        m, N, K = self.modes, self.blades, len(self.contacts.kinds)
+        expected = {"excitation": (m,), "nozzle_phase": (N,), "aero": (m,),
+                    "aero_displacement": (N,),
+                    "aero_velocity": (N,), "contacts.shape_A": (K, 3, m),
+                    "contacts.shape_B": (K, 3, m)}  # fmt: skip
+        for name, shape in expected.items():
+            owner, _, field = name.rpartition(".")
+            value = getattr(self.contacts if owner else self, field)
+            if np.shape(value) != shape:
+                raise ValueError(f"force parameters: {name} has shape {np.shape(value)}, "
+                                 f"expected {shape} ({m} modes, {N} blades, {K} contact "
+                                 "kinds)")  # fmt: skip
+
     @functools.cached_property
     def friction(self) -> np.ndarray:
         """The contact law's packed record (:meth:`ContactLaw.packed`; built once: every
