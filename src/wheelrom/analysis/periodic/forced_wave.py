@@ -63,7 +63,9 @@ class ForcedCurve:
     [m] of the motion about its mean (every blade the same: a tuned travelling wave);
     ``converged``: ``(F,)``; ``iterations``: ``(F,)``; ``fractions``: ``(F, K, 3)`` share of
     the period each contact kind is open / sticks / slips (blade pair 0); ``wave``,
-    ``nodal_diameter``; ``wall_s``.
+    ``nodal_diameter``; ``wall_s``. A traced curve (:func:`.forced_branch.traced_curve`)
+    holds its points in the order traced (through a fold the frequency turns back; a row
+    not converged separates two pieces traced from either end of the band).
     """
 
     frequency: np.ndarray
@@ -77,6 +79,10 @@ class ForcedCurve:
     wall_s: float = 0.0
     kinds: tuple = field(default_factory=tuple)
     refined: RefinedPeak | None = None
+    #: arclength continuation (:mod:`.forced_branch`): the folds' frequencies [rad/s] and how
+    #: the trace ended (the frequencies are then the curve's points in the order traced)
+    folds: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    trace: str = ""
 
     @property
     def peak(self) -> int:

@@ -1,0 +1,163 @@
+"""The forced response traced by arclength continuation (:mod:`wheelrom.analysis.periodic.
+forced_branch`, issue #45) on a wheel whose peak folds, against independent truth:
+
+- a ring of three one-mode blades coupled by springs, with a preloaded contact between
+  neighbours whose normal is the blades' direction of motion (no friction: the contact is
+  a normal spring that lifts off), driven by the travelling wave of one nozzle: the spring
+  stiffens the closed wheel, lift-off softens it, and a large enough force bends the peak
+  into a fold pair (three steady states between the folds);
+- below lift-off the wheel is linear: the lower state equals the closed wheel's analytic
+  response; the upper and lower states are the steady states of a time integration
+  (scipy's DOP853, a second implementation of the equations of motion) started on them, and
+  the middle one is unstable: the integration leaves it for another.
+"""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from wheelrom.analysis.periodic.forced_branch import merged_folds, traced_curve
+from wheelrom.analysis.periodic.forced_wave import ForcedWave
+from wheelrom.forces.contact_law import PAPER, ContactLaw
+from wheelrom.forces.parameters import (
+    VDP_OFF,
+    ContactParameters,
+    ForceParameters,
+    contact_frame,
+)
+from wheelrom.rom.model import ReducedModel
+
+N3 = 3
+W0 = 2 * math.pi * 100.0  # [rad/s] a blade alone
+COUPLING = 0.05 * W0**2  # [N/m per kg] spring to each neighbour
+CONTACT = 0.2 * W0**2  # [N/m] normal contact stiffness (unit modal mass)
+PRELOAD = 10.0  # [N]
+BETA = 1e-5  # [s] stiffness-proportional damping (of the ring's springs, not the contact's)
+NOZZLE = 4.0  # [N]
+H = 7
+# the travelling wave of one nozzle on three blades: relative motion of neighbours sqrt(3) a
+W_OPEN = math.sqrt(W0**2 + 3 * COUPLING)  # [rad/s] every contact open
+W_CLOSED = math.sqrt(W0**2 + 3 * COUPLING + 3 * CONTACT)  # every contact closed
+LIFT_OFF = PRELOAD / (math.sqrt(3) * CONTACT)  # [m] amplitude at which the contacts open
+
+
+def lift_off_ring():
+    """``(model, params)``: the ring (unit modal masses; the mode moves the blade, its tip
+    and its profile point by 1 m in y), the contact's normal ``y`` (``contact_frame(0)``),
+    arm length 0, no friction (a zero Coulomb and paper coefficient)."""
+    y = np.array([[0.0], [1.0], [0.0]])
+    points = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.03]])
+    model = ReducedModel(
+        blades=N3, modes=1, segment_hz=np.array([W0 / (2 * math.pi)]),
+        K_seg=np.array([[W0**2]]), A0=np.array([[W0**2 + 2 * COUPLING]]),
+        A1=np.array([[-COUPLING]]), rotation=np.eye(3), tip=y.copy(), aero=np.array([1.0]),
+        excitation=np.array([1.0]), contact_A={"shroud": y.copy()},
+        contact_B={"shroud": y.copy()}, contact_points={"shroud": points})  # fmt: skip
+    contacts = ContactParameters(
+        kinds=("shroud",), shape_A=y[None].copy(), shape_B=y[None].copy(),
+        point_A=points[:1].copy(), point_B=points[1:].copy(), arm_length=np.array([0.0]),
+        frame=np.broadcast_to(contact_frame(0.0), (1, N3, 3, 3)).copy(),
+        stiffness=np.full((1, N3), CONTACT), preload=np.array([PRELOAD]),
+        angles_deg={"shroud": np.zeros(N3)}, tangential=np.zeros((1, N3)))  # fmt: skip
+    params = ForceParameters(
+        blades=N3, modes=1, omega=0.0, stator_vanes=1, nozzle_force=NOZZLE,
+        excitation=np.array([1.0]), nozzle_phase=2 * math.pi * (1 - 1 / N3) * np.arange(N3),
+        vdp_model=VDP_OFF, vdp_mu=0.0, vdp_r=1e-3, aero=np.array([1.0]),
+        aero_displacement=np.zeros(N3), aero_velocity=np.zeros(N3),
+        law=ContactLaw(PAPER, 0.0, 0.0, 1.0, 1.0, 0.0), rotation=np.eye(3),
+        contacts=contacts)  # fmt: skip
+    return model, params
+
+
+def ring_motion(t, state, omega):
+    """The ring's equations of motion written out (scipy's right-hand side): ``state`` =
+    (y_0..2, y'_0..2)."""
+    y, v = state[:3], state[3:]
+    K = np.full((3, 3), -COUPLING) + np.eye(3) * (W0**2 + 3 * COUPLING)
+    f = NOZZLE * np.cos(omega * t - 2 * math.pi * (1 - 1 / N3) * np.arange(3))
+    for s in range(3):
+        gap = y[(s + 1) % 3] - y[s]
+        normal = max(0.0, PRELOAD - CONTACT * gap)  # pushes blade s + 1 on, blade s back
+        f[(s + 1) % 3] += normal
+        f[s] -= normal
+    return np.r_[v, -K @ y - BETA * (K @ v) + f]
+
+
+def steady_amplitude(X, omega, periods=60):
+    """Blade 0's 0-peak amplitude [m] over the last 5 of ``periods`` periods of the
+    integration started on the harmonic-balance state ``X`` (blade ``b`` = blade 0 shifted
+    by ``b`` phases of the wave)."""
+    c = X[1::2, 0] + 1j * X[2::2, 0]  # harmonics 1..H (x = Re c e^{i h tau})
+    h = np.arange(1, H + 1)
+    lead = np.exp(1j * np.outer(2 * math.pi * np.arange(3) / 3, h))  # (3, H)
+    y0 = X[0, 0] + (lead * c).real.sum(axis=1)
+    v0 = (1j * omega * h * lead * c).real.sum(axis=1)
+    T = 2 * math.pi / omega
+    sol = solve_ivp(ring_motion, (0.0, periods * T), np.r_[y0, v0], args=(omega,),
+                    method="DOP853", rtol=1e-10, atol=1e-14, max_step=T / 64,
+                    dense_output=True)  # fmt: skip
+    y = sol.sol(np.linspace((periods - 5) * T, periods * T, 2000))[0]
+    return 0.5 * (y.max() - y.min())
+
+
+@pytest.fixture(scope="module")
+def ring_curve():
+    model, params = lift_off_ring()
+    curve = traced_curve(model, params, BETA, (0.8 * W_OPEN, 1.2 * W_CLOSED),
+                         np.zeros((N3, 1)), harmonics=H, samples=16 * (H + 1), lam=0.0,
+                         x_ref=1e-4, refine=True)  # fmt: skip
+    return model, params, curve
+
+
+def test_the_bent_peak_has_one_fold_pair(ring_curve):
+    _, _, curve = ring_curve
+    assert curve.converged.all() and curve.trace == "reached the end of the range"
+    # softening (the contacts lift off): the lower fold right of the upper one, both between
+    # the open and the closed wheel's frequencies
+    f_upper, f_lower = curve.folds
+    assert W_OPEN < f_upper < f_lower < W_CLOSED
+    # the frequency turns back between them along the traced order
+    w = curve.frequency
+    assert w.max() > f_lower - 1e-3 and np.any(np.diff(w) < 0)
+    # the peak is on the upper branch, far above lift-off
+    assert curve.refined.tip_amplitude > 10 * LIFT_OFF
+    assert curve.refined.tip_amplitude >= curve.tip_amplitude.max() * (1 - 1e-12)
+
+
+def test_three_states_between_the_folds_against_a_time_integration(ring_curve):
+    model, params, curve = ring_curve
+    f_upper, f_lower = curve.folds
+    omega = 0.5 * (f_upper + f_lower)
+    w = curve.frequency
+    crossings = np.flatnonzero((w[:-1] - omega) * (w[1:] - omega) <= 0)
+    assert crossings.size == 3
+    problem = ForcedWave(model, params, BETA, H, 16 * (H + 1), 0.0)
+    states = []
+    for i in crossings:  # each solved at omega from the nearer of its two points
+        j = i if abs(w[i] - omega) < abs(w[i + 1] - omega) else i + 1
+        X, ok, _ = problem.solve(curve.harmonics[j], omega)
+        assert ok
+        states.append((problem.tip_amplitude(X, omega), X))
+    (low, X_low), (middle, X_mid), (high, X_high) = sorted(states, key=lambda s: s[0])
+    assert low < LIFT_OFF < middle < high
+    # below lift-off the wheel is linear: the closed wheel's analytic wave response
+    k = W_CLOSED**2
+    linear = NOZZLE / abs(k - omega**2 + 1j * omega * BETA * (W0**2 + 3 * COUPLING))
+    assert math.hypot(*X_low[1:3, 0]) == pytest.approx(linear, rel=1e-8)
+    assert np.abs(X_low[3:]).max() < 1e-9 * linear  # and harmonic
+    # the lower and the upper state are steady states of the equations of motion over 60
+    # periods (measured 1.4e-5 and 6.3e-5 apart: the amplitudes' sampling, the truncation at
+    # H = 7 of a force with kinks); the middle one is left for another (15 % off by then)
+    assert steady_amplitude(X_low, omega) == pytest.approx(low, rel=1e-4)
+    assert steady_amplitude(X_high, omega) == pytest.approx(high, rel=5e-4)
+    assert abs(steady_amplitude(X_mid, omega) - middle) > 0.05 * middle
+
+
+def test_zig_zags_of_the_sampled_force_are_no_turns():
+    w = 2 * math.pi * 121.5
+    turns = [(w * (1 + 1e-4 * k), k) for k in range(5)]  # five turns within 5e-4
+    assert merged_folds(turns) == [turns[2]]
+    assert merged_folds(turns[:4]) == []  # an even run: no turn
+    assert merged_folds([(1.0, 0), (2.0, 5)]) == [(1.0, 0), (2.0, 5)]
