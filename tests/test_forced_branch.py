@@ -161,3 +161,18 @@ def test_zig_zags_of_the_sampled_force_are_no_turns():
     assert merged_folds(turns) == [turns[2]]
     assert merged_folds(turns[:4]) == []  # an even run: no turn
     assert merged_folds([(1.0, 0), (2.0, 5)]) == [(1.0, 0), (2.0, 5)]
+
+
+def test_the_design_study_stores_the_traced_curve_and_its_folds(ring_curve):
+    from wheelrom.studies.forced_nonlinear import DesignPoint, design_arrays
+
+    _, _, curve = ring_curve
+    band = (curve.frequency[0], curve.frequency[-1])
+    out = design_arrays([DesignPoint(curve, band, 1.0), "Newton fails"])
+    np.testing.assert_array_equal(out["folds_hz"][0], curve.folds / (2 * math.pi))
+    assert np.isnan(out["folds_hz"][1]).all() and out["folds_hz"].shape == (2, 2)
+    n = curve.frequency.size
+    np.testing.assert_array_equal(out["frequency_hz"][0, :n], curve.frequency / (2 * math.pi))
+    assert out["status"][0].decode() == (f"done (traced: {n} points, 2 folds; reached the end "
+                                         "of the range)")  # fmt: skip
+    assert out["peak_amplitude"][0] == curve.refined.tip_amplitude

@@ -72,15 +72,24 @@ def test_the_refined_peak_is_the_linear_peak(small_model, small_cfg):
     assert peak.tip_amplitude == pytest.approx(a, rel=1e-6)
 
 
-def test_a_preload_no_force_overcomes_gives_the_stuck_linear_peak(small_model, small_cfg):
+@pytest.mark.parametrize("continuation", ["grid", "arclength"])
+def test_a_preload_no_force_overcomes_gives_the_stuck_linear_peak(small_model, small_cfg,
+                                                                   continuation):  # fmt: skip
+    """Also traced by arclength: the curve through the lightly damped stuck resonance
+    (half-power band 1e-4 of its frequency) reaches the band's end without a fold, and its
+    peak found on the curve is the linear one."""
     cfg = small_cfg.replace(**{"contacts.law": "elastic", "flutter.model": "off",
                                "excitation.force": 0.01, "forced.points": 5,
-                               "forced.harmonics": 1,
+                               "forced.harmonics": 1, "forced.continuation": continuation,
                                "contacts.tieboss.normal_preload": 1e4,
                                "contacts.shroud.normal_preload": 1e4})  # fmt: skip
     point = design_point(small_model, cfg)
     curve, peak = point.curve, point.curve.refined
     assert curve.converged.all() and (peak.fractions[:, 1] == 1.0).all()  # stuck throughout
+    if continuation == "arclength":
+        assert curve.trace == "reached the end of the range" and curve.folds.size == 0
+        assert curve.frequency[0] == point.band[0] and curve.frequency[-1] == point.band[1]
+        assert (np.diff(curve.frequency) > 0).all()  # a linear curve does not turn
     J = linearise(small_model, cfg)[3]
     K, C = forced.operators(small_model, cfg, True, jacobian=J)
     w, a = _linear_peak(small_model, cfg, K, C, *point.band)

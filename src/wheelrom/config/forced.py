@@ -86,6 +86,14 @@ class ForcedConfig:
         metadata=_key("-", "harmonics H of the nonlinear forced response (forced-response "
                       "--nonlinear, study --forced-nonlinear)", min=1, max=64),  # fmt: skip
     )
+    continuation: str = field(
+        default="grid",
+        metadata=_key("-", "the design study's curve (study --forced-nonlinear): 'grid' "
+                      "(Newton per frequency of forced.points, from the last) or "
+                      "'arclength' (the grid, then the curve traced through its folds by "
+                      "pseudo-arclength continuation over the band)",
+                      choices=("grid", "arclength")),  # fmt: skip
+    )
 
 
 def read_mistuning_file(name: str, source: str, blades: int) -> np.ndarray:

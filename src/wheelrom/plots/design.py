@@ -64,8 +64,10 @@ def design_figures(f, path: str, outdir: str, pdf: bool, written: list[str], plt
     ok = g["converged"][()]
     fig, ax = plt.subplots(figsize=(8, 4.5), layout="constrained")
     for c in range(peak.size):
-        keep = ok[c] & np.isfinite(hz[c])
-        line, = ax.plot(hz[c][keep], tip[c][keep] * 1e6, ".-", lw=1.0,
+        # a traced curve's points in the order traced (its folds turn back); a row Newton
+        # missed, or the gap between two traced pieces, breaks the line
+        line, = ax.plot(np.where(ok[c], hz[c], np.nan), np.where(ok[c], tip[c], np.nan) * 1e6,
+                        ".-", lw=1.0,
                         label=", ".join(t.decode() if isinstance(t, bytes) else str(t)
                                         for t in p["text"][c]))  # fmt: skip
         if np.isfinite(peak[c]):

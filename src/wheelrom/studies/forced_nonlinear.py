@@ -15,6 +15,7 @@ import numpy as np
 
 from wheelrom.analysis.forced import operators
 from wheelrom.analysis.forced_peak import resonance
+from wheelrom.analysis.periodic.forced_branch import traced_curve
 from wheelrom.analysis.periodic.forced_wave import ForcedCurve, forced_curve
 from wheelrom.analysis.stability import linearise
 from wheelrom.config import Config
@@ -34,16 +35,22 @@ def nonlinear_forced(model: ReducedModel, cfg: Config, frequencies: np.ndarray,
     that order) of the tuned ``model`` under ``cfg`` (its contact law, the Van der Pol force
     as configured), contact angles ``angles_deg`` as :func:`linearise`; ``refine``: also the
     peak off the grid."""
+    params, q = _forced_inputs(model, cfg, angles_deg, comm)
+    return forced_curve(model, params, cfg.wheel.damping_beta, frequencies, q,
+                        harmonics=harmonics, progress=progress, refine=refine)  # fmt: skip
+
+
+def _forced_inputs(model: ReducedModel, cfg: Config, angles_deg: dict | None, comm):
+    """``(force parameters, preloaded equilibrium (N, m))`` of a nonlinear forced case (the
+    equilibrium with the nozzle off), after the checks of its configuration."""
     if not model.tuned:
         raise InputError("forced-response --nonlinear: the travelling-wave harmonic balance "
                          "needs a tuned wheel; [mistuning] is set")  # fmt: skip
     if cfg.excitation.force <= 0:
         raise InputError("forced-response --nonlinear: excitation.force = 0: the nozzle "
                          "force is off, nothing is forced")  # fmt: skip
-    _, q, _, _, _ = linearise(model, cfg, angles_deg, comm)  # the equilibrium, nozzle off
-    params = force_parameters(model, cfg, angles_deg)
-    return forced_curve(model, params, cfg.wheel.damping_beta, frequencies, q,
-                        harmonics=harmonics, progress=progress, refine=refine)  # fmt: skip
+    _, q, _, _, _ = linearise(model, cfg, angles_deg, comm)
+    return force_parameters(model, cfg, angles_deg), q
 
 
 def nonlinear_band(model: ReducedModel, cfg: Config, angles_deg: dict | None = None,
@@ -92,7 +99,28 @@ def design_point(model: ReducedModel, cfg: Config, angles_deg: dict | None = Non
                                      resonances]))  # fmt: skip
     curve = nonlinear_forced(model, cfg, grid, angles_deg, cfg.forced.harmonics, comm,
                              refine=True)  # fmt: skip
+    if cfg.forced.continuation == "arclength":
+        curve = _traced(model, cfg, curve, band, angles_deg, comm)
     return DesignPoint(curve, band, time.perf_counter() - t0)
+
+
+def _traced(model: ReducedModel, cfg: Config, grid: ForcedCurve, band: tuple,
+            angles_deg: dict | None, comm) -> ForcedCurve:  # fmt: skip
+    """The curve over ``band`` traced by arclength continuation
+    (:func:`~wheelrom.analysis.periodic.forced_branch.traced_curve`), its unit of the
+    harmonics the largest of the ``grid`` solve; its peak the larger of the two refined
+    ones (a curve of contacts that stick and slip is wavy at low H: either search may find
+    the larger local maximum); the grid's wall time included."""
+    params, q = _forced_inputs(model, cfg, angles_deg, comm)
+    solved = grid.harmonics[grid.converged, 1:]
+    x_ref = float(np.abs(solved).max()) if solved.size else 0.0
+    curve = traced_curve(model, params, cfg.wheel.damping_beta, band, q,
+                         harmonics=cfg.forced.harmonics, x_ref=x_ref, refine=True)  # fmt: skip
+    if grid.refined is not None and (curve.refined is None or grid.refined.tip_amplitude
+                                      > curve.refined.tip_amplitude):  # fmt: skip
+        curve.refined = grid.refined
+    curve.wall_s += grid.wall_s
+    return curve
 
 
 def design_arrays(found: list) -> dict[str, np.ndarray]:
@@ -105,7 +133,9 @@ def design_arrays(found: list) -> dict[str, np.ndarray]:
     out = {name: np.full(shape, np.nan) for name, shape in (
         ("frequency_hz", (C, F)), ("tip_amplitude", (C, F)), ("band_hz", (C, 2)),
         ("peak_amplitude", (C,)), ("peak_frequency_hz", (C,)), ("peak_fractions", (C, K, 3)),
-        ("grid_peak_amplitude", (C,)), ("wall_s", (C,)))}  # fmt: skip
+        ("grid_peak_amplitude", (C,)), ("wall_s", (C,)),
+        ("folds_hz", (C, max((p.curve.folds.size for p in found if not isinstance(p, str)),
+                             default=0))))}  # fmt: skip
     out["converged"] = np.zeros((C, F), dtype=bool)
     out["nodal_diameter"] = np.full(C, -1, dtype="i8")
     status = []
@@ -127,7 +157,12 @@ def design_arrays(found: list) -> dict[str, np.ndarray]:
         out["peak_amplitude"][c] = curve.refined.tip_amplitude
         out["peak_frequency_hz"][c] = curve.refined.frequency / (2 * math.pi)
         out["peak_fractions"][c] = curve.refined.fractions
-        status.append(f"done ({int(curve.converged.sum())} of {n} frequencies converged)")
+        out["folds_hz"][c, : curve.folds.size] = curve.folds / (2 * math.pi)
+        if curve.trace:  # traced by arclength
+            status.append(f"done (traced: {int(curve.converged.sum())} points, "
+                          f"{curve.folds.size} folds; {curve.trace})")  # fmt: skip
+        else:
+            status.append(f"done ({int(curve.converged.sum())} of {n} frequencies converged)")
     out["status"] = np.array([s.encode() for s in status], dtype=f"S{results.STATUS_LEN}")
     out["kinds"] = np.array([k.encode() for k in kinds], dtype="S16")
     return out
