@@ -26,6 +26,7 @@ from wheelrom.forces.parameters import (
     ContactParameters,
     ForceParameters,
     contact_frame,
+    force_parameters,
 )
 from wheelrom.rom.model import ReducedModel
 
@@ -176,3 +177,33 @@ def test_the_design_study_stores_the_traced_curve_and_its_folds(ring_curve):
     assert out["status"][0].decode() == (f"done (traced: {n} points, 2 folds; reached the end "
                                          "of the range)")  # fmt: skip
     assert out["peak_amplitude"][0] == curve.refined.tip_amplitude
+
+
+def test_the_traced_curve_passes_the_grid_solutions(small_model, small_cfg):
+    """The small wheel under the elastic law (H = 3): the curve traced over the band by
+    arclength (stalls at the corners where a contact starts to slip passed by Newton in the
+    frequency, or completed from the other end) and the grid solved by natural continuation
+    (a second method) agree: at every grid frequency the traced curve passes that grid
+    solution (one of its crossings, to 1e-6 of the amplitude), and the peak is the grid's."""
+    from wheelrom.studies.forced_nonlinear import design_point
+
+    cfg = small_cfg.replace(**{"contacts.law": "elastic", "flutter.model": "off",
+                               "forced.points": 9, "forced.harmonics": 3})  # fmt: skip
+    grid = design_point(small_model, cfg).curve
+    traced = design_point(small_model, cfg.replace(**{"forced.continuation": "arclength"}))
+    curve = traced.curve
+    assert curve.trace and curve.converged.sum() > 3 * grid.frequency.size
+    params = force_parameters(small_model, cfg)
+    problem = ForcedWave(small_model, params, cfg.wheel.damping_beta, 3, 32, 1.0)
+    w, ok = curve.frequency, curve.converged
+    for wg, Xg in zip(grid.frequency[grid.converged], grid.harmonics[grid.converged],
+                      strict=True):  # fmt: skip
+        a_grid = problem.tip_amplitude(Xg, wg)
+        found = []
+        for i in np.flatnonzero(ok[:-1] & ok[1:] & ((w[:-1] - wg) * (w[1:] - wg) <= 0)):
+            j = i if abs(w[i] - wg) < abs(w[i + 1] - wg) else i + 1
+            X, converged, _ = problem.solve(curve.harmonics[j], wg)
+            if converged:
+                found.append(problem.tip_amplitude(X, wg))
+        assert min(abs(a - a_grid) for a in found) <= 1e-6 * a_grid, (wg, a_grid, found)
+    assert curve.refined.tip_amplitude >= grid.refined.tip_amplitude * (1 - 1e-9)

@@ -114,8 +114,10 @@ def _traced(model: ReducedModel, cfg: Config, grid: ForcedCurve, band: tuple,
     params, q = _forced_inputs(model, cfg, angles_deg, comm)
     solved = grid.harmonics[grid.converged, 1:]
     x_ref = float(np.abs(solved).max()) if solved.size else 0.0
+    jump = (band[1] - band[0]) / (max(cfg.forced.points, 3) - 1)  # the grid's spacing
     curve = traced_curve(model, params, cfg.wheel.damping_beta, band, q,
-                         harmonics=cfg.forced.harmonics, x_ref=x_ref, refine=True)  # fmt: skip
+                         harmonics=cfg.forced.harmonics, x_ref=x_ref, refine=True,
+                         jump=jump)  # fmt: skip
     if grid.refined is not None and (curve.refined is None or grid.refined.tip_amplitude
                                       > curve.refined.tip_amplitude):  # fmt: skip
         curve.refined = grid.refined

@@ -26,6 +26,7 @@ from wheelrom.analysis.periodic.forced_wave import (
     ForcedCurve,
     ForcedWave,
     RefinedPeak,
+    stepped_solve,
 )
 from wheelrom.rom.model import nodal_diameter
 
@@ -40,6 +41,8 @@ STEP, STEP_MIN, STEP_MAX = 0.02, 1e-6, 0.1
 #: (halving and growing its step in turn: measured, 1200 points within 1e-6 Hz of a corner
 #: of the small wheel's elastic curve): the trace stalls there
 CRAWL, CRAWL_POINTS = 1e-4, 10
+#: the vibration harmonics' unit without a grid: this many times the band edge's response
+START_FACTOR = 10.0
 #: a chord step that reduces the residual less asks for a fresh Jacobian
 CONTRACTION = 0.25
 #: points at most of one curve
@@ -57,13 +60,15 @@ class Branch:
     """The traced curve: ``frequency`` ``(P,)`` [rad/s] in the order traced (not monotonic
     through a fold), ``harmonics`` ``(P, 2H + 1, m)``, ``iterations`` ``(P,)`` Newton per
     point, ``folds``: ``(omega, index)`` per turning point (its frequency [rad/s] and the
-    point before it), ``end``: why the trace stopped (in words)."""
+    point before it), ``end``: why the trace stopped (in words), ``jumps``: ``(from, to)``
+    [rad/s] per stall passed by Newton in the frequency (the curve between not traced)."""
 
     frequency: np.ndarray
     harmonics: np.ndarray
     iterations: np.ndarray
     folds: list = field(default_factory=list)
     end: str = ""
+    jumps: list = field(default_factory=list)
 
 
 class ArclengthCorrector:
@@ -160,22 +165,27 @@ class ArclengthCorrector:
 
 
 def trace_frequency(problem: ForcedWave, X_start: np.ndarray, omega_start: float,
-                    omega_end: float, x_ref: float, progress=None,
+                    omega_end: float, x_ref: float, progress=None, jump: float = 0.0,
                     max_points: int = MAX_POINTS) -> Branch:  # fmt: skip
     """The forced response from the solved point ``X_start`` ``(2H + 1, m)`` at
     ``omega_start`` [rad/s] towards ``omega_end``, by pseudo-arclength continuation, until
     the frequency passes ``omega_end`` (the last point is then the curve at ``omega_end``,
     solved there), the curve turns back past ``omega_start``, or the step stalls.
     ``x_ref`` [sqrt(kg) m]: the vibration harmonics' unit (the response's expected size:
-    the step is ``STEP`` of it at first). ``progress(point_index, omega, X)`` per point."""
+    the step is ``STEP`` of it at first). ``jump`` [rad/s]: where the step stalls (a corner
+    where a contact starts to stick or slip), the curve is taken up again by Newton in the
+    frequency (:func:`~.forced_wave.stepped_solve`, its backtracking and halvings) up to
+    this far on, the jump recorded in ``Branch.jumps``; 0: no jumps.
+    ``progress(point_index, omega, X)`` per point."""
     mean = max(float(np.abs(X_start[0]).max()), x_ref)
     x_scale = np.r_[mean, np.full(X_start.shape[0] - 1, x_ref)]
     corrector = ArclengthCorrector(problem, x_scale, omega_start)
     sense = 1.0 if omega_end >= omega_start else -1.0
+    along = np.r_[np.zeros(X_start.size), sense]  # the frequency's direction
     z = corrector.pack(X_start, omega_start)
     _, J, _ = corrector.system(z)
-    t = corrector.tangent(J, np.r_[np.zeros(z.size - 1), sense])
-    zs, its, folds = [z], [0], []
+    t = corrector.tangent(J, along)
+    zs, its, folds, jumps = [z], [0], [], []
     ds, failures, crawl, end = STEP, 0, 0, f"stopped after {max_points} points"
     while len(zs) < max_points:
         predictor = zs[-1] + ds * t
@@ -183,18 +193,27 @@ def trace_frequency(problem: ForcedWave, X_start: np.ndarray, omega_start: float
         if z_new is None or np.linalg.norm(z_new - predictor) > 2 * ds:
             ds /= 2
             failures += 1
-            if ds < STEP_MIN or failures > RETRIES:
-                end = f"stalled at {corrector.unpack(zs[-1])[1] / (2 * math.pi):.6g} Hz"
+            stalled = ds < STEP_MIN or failures > RETRIES
+        else:
+            failures = 0
+            crawl = crawl + 1 if ds < CRAWL else 0
+            stalled = crawl > CRAWL_POINTS
+        if stalled:  # Newton in the frequency past the corner, else the trace ends here
+            X_last, w_last = corrector.unpack(zs[-1])
+            target = w_last + sense * min(jump, abs(omega_end - w_last))
+            X_new, ok, n = stepped_solve(problem, X_last, w_last, target) \
+                if jump and target != w_last else (X_last, False, 0)  # fmt: skip
+            if not ok:
+                end = f"stalled at {w_last / (2 * math.pi):.6g} Hz"
                 break
+            jumps.append((w_last, target))
+            z_new, ds, failures, crawl = corrector.pack(X_new, target), STEP, 0, 0
+            t = along  # the tangent below is oriented along the frequency
+        elif z_new is None or failures:
             continue
-        failures = 0
-        crawl = crawl + 1 if ds < CRAWL else 0
-        if crawl > CRAWL_POINTS:
-            end = f"stalled at {corrector.unpack(zs[-1])[1] / (2 * math.pi):.6g} Hz"
-            break
         _, J, _ = corrector.system(z_new)  # the tangent's (and the next chord steps')
         t_new = corrector.tangent(J, t)
-        if t_new[-1] * t[-1] < 0:  # the frequency turned: a fold between the two points
+        if t_new[-1] * t[-1] < 0 and not stalled:  # the frequency turned: a fold
             folds.append((_fold(corrector, zs[-1], t, z_new, t_new), len(zs) - 1))
         omega = corrector.unpack(z_new)[1]
         if sense * (omega - omega_end) > 0:  # past the end: the last point at omega_end
@@ -204,20 +223,21 @@ def trace_frequency(problem: ForcedWave, X_start: np.ndarray, omega_start: float
                 its.append(n)
             end = REACHED
             break
-        if sense * (omega - omega_start) < 0 and folds:
-            zs.append(z_new)
-            its.append(n)
-            end = "turned back past the start of the range"
-            break
         zs.append(z_new)
         its.append(n)
         t = t_new
         if progress is not None:
             progress(len(zs) - 1, omega, corrector.unpack(z_new)[0])
+        if sense * (omega - omega_start) < 0 and folds:
+            end = "turned back past the start of the range"
+            break
+        if stalled and sense * (omega - omega_end) == 0:
+            end = REACHED
+            break
         ds = min(STEP_MAX, 1.5 * ds) if n <= 5 else (ds / 2 if n > 10 else ds)
     pts = [corrector.unpack(z) for z in zs]
     return Branch(np.array([w for _, w in pts]), np.stack([X for X, _ in pts]),
-                  np.array(its), merged_folds(folds), end)  # fmt: skip
+                  np.array(its), merged_folds(folds), end, jumps)  # fmt: skip
 
 
 def merged_folds(folds: list) -> list:
@@ -259,23 +279,24 @@ def _fold(corrector: ArclengthCorrector, z0: np.ndarray, t0: np.ndarray, z1: np.
 def traced_curve(model, params, beta: float, band: tuple[float, float],
                  equilibrium: np.ndarray, harmonics: int = 7, samples: int = 0,
                  lam: float = 1.0, x_ref: float = 0.0, progress=None,
-                 refine: bool = False) -> ForcedCurve:  # fmt: skip
+                 refine: bool = False, jump: float = 0.0) -> ForcedCurve:  # fmt: skip
     """The forced response over ``band`` ``(lo, hi)`` [rad/s] by arclength continuation from
     the steady state at ``lo`` (Newton from the preloaded ``equilibrium`` ``(N, m)``); when
     the trace stalls, the rest is traced back from ``hi`` towards where it stalled (the two
     pieces separated by a row not converged). ``x_ref`` [sqrt(kg) m]: the vibration
-    harmonics' unit (0: 1e-3 of the equilibrium's largest coordinate, at least 1e-9; the
+    harmonics' unit (0: :data:`START_FACTOR` times the largest harmonic at ``lo``; the
     largest amplitude of a grid solve is a better one). ``refine``: the peak on the curve
-    (:func:`refine_on_branch`). Arguments otherwise as :func:`.forced_wave.forced_curve`."""
+    (:func:`refine_on_branch`); ``jump`` [rad/s]: stalls passed by Newton in the frequency
+    up to this far (:func:`trace_frequency`). Arguments otherwise as
+    :func:`.forced_wave.forced_curve`."""
     t0 = time.perf_counter()
     samples = samples or 8 * (harmonics + 1)
     problem = ForcedWave(model, params, beta, harmonics, samples, lam)
-    x_ref = x_ref or max(1e-3 * float(np.abs(equilibrium[0]).max()), 1e-9)
     pieces, ends, folds = [], [], []
     lo, hi = (float(w) for w in band)
     for start, end in ((lo, hi), (hi, None)):
         if end is None:  # the way back: from hi to where the first piece stopped
-            if ends[0] == REACHED:
+            if ends[0].startswith(REACHED):
                 break
             end = float(pieces[0].frequency[-1])
         X = np.zeros((2 * harmonics + 1, model.modes))
@@ -284,9 +305,14 @@ def traced_curve(model, params, beta: float, band: tuple[float, float],
         if not ok:
             ends.append(f"Newton fails at {start / (2 * math.pi):.6g} Hz")
             continue
-        branch = trace_frequency(problem, X, start, end, x_ref, progress)
+        # the unit: ten times the band edge's response (off resonance: a resonance is
+        # typically 3-30 times larger), unless given
+        x_ref = x_ref or max(START_FACTOR * float(np.abs(X[1:]).max()), 1e-300)
+        branch = trace_frequency(problem, X, start, end, x_ref, progress, jump)
         pieces.append(branch)
-        ends.append(branch.end)
+        passed = "".join(f"; passed {a / (2 * math.pi):.6g}..{b / (2 * math.pi):.6g} Hz by "
+                         "Newton in the frequency" for a, b in branch.jumps)  # fmt: skip
+        ends.append(branch.end + passed)
         folds += [w for w, _ in branch.folds]
     curve = _curve_of(problem, model, params, pieces, "; ".join(ends), folds)
     if refine and pieces:
