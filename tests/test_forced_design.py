@@ -18,6 +18,7 @@
 """
 
 import math
+import os
 
 import h5py
 import numpy as np
@@ -129,6 +130,42 @@ def test_the_study_stores_the_design_curve(small_model, small_cfg, tmp_path):
     assert "--forced-nonlinear" in why
     written = plot_file(out, str(tmp_path / "fig"))
     assert any(w.endswith("design_curve.png") for w in written)
+
+
+def test_a_resumed_study_reads_the_curves_kept_beside_it(small_model, small_cfg, tmp_path,
+                                                          capsys):  # fmt: skip
+    """Each finished curve is kept beside the output as it finishes; a study interrupted
+    before its file was written, run again with ``--resume``, reads them (here a kept curve
+    whose peak was marked: the file holds the mark) and computes the rest (a damaged one
+    again, with a warning naming it); the folder goes once the file holds every curve."""
+    from mpi4py import MPI
+
+    from wheelrom.studies import design_cases
+    from wheelrom.studies.settle import config_digest
+    from wheelrom.studies.study import run_study
+
+    cfg = small_cfg.replace(**{"flutter.model": "off", "forced.points": 3,
+                               "forced.harmonics": 1, "excitation.force": 10.0,
+                               "study.grid": {"contacts.shroud.normal_preload":
+                                              [100.0, 3000.0, 30000.0]}})  # fmt: skip
+    out = str(tmp_path / "design.h5")
+    folder = design_cases.design_dir(out)
+    cases = [cfg.replace(**{"contacts.shroud.normal_preload": p}) for p in (100.0, 3000.0)]
+    kept = design_point(small_model, cases[0])
+    kept.curve.refined.tip_amplitude = 1.25e-3  # the mark
+    assert design_cases.save_point(folder, 0, config_digest(cases[0]), kept)
+    back = design_cases.load_point(folder, 0, config_digest(cases[0]))
+    np.testing.assert_array_equal(back.curve.harmonics, kept.curve.harmonics)
+    assert back.band == kept.band and back.curve.kinds == kept.curve.kinds
+    assert design_cases.load_point(folder, 0, config_digest(cases[1])) is None  # not its own
+    with open(os.path.join(folder, "case_1.json"), "w") as f:  # damaged: computed again
+        f.write('{"digest": "' + config_digest(cases[1]) + '", "wave"')
+    summary = run_study(cfg, out, MPI.COMM_SELF, mode="stability", log=lambda *_: None,
+                        nonlinear=True, resume=True)  # fmt: skip
+    peaks = summary["design"]["peak_amplitude_m"]
+    assert peaks[0] == 1.25e-3 and peaks[1] < 1e-3 and peaks[2] < 1e-3
+    assert "case_1.json: damaged" in capsys.readouterr().err
+    assert not os.path.exists(folder)
 
 
 def test_the_march_goes_on_until_the_loop_closes(small_model, small_cfg, monkeypatch):

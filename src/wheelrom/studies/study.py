@@ -20,6 +20,7 @@ import dataclasses
 import json
 import math
 import os
+import sys
 import time
 
 from wheelrom.config import Config
@@ -37,6 +38,7 @@ from wheelrom.runtime.outputs import (
     output_problem,
     save_hdf5,
 )
+from wheelrom.studies import design_cases
 from wheelrom.studies.forced_nonlinear import design_arrays, design_point
 from wheelrom.studies.mistuning import (
     ForcedCases,
@@ -47,6 +49,7 @@ from wheelrom.studies.mistuning import (
 )
 from wheelrom.studies.plan import balance, batches, group_by, selection
 from wheelrom.studies.rounds import _mpi_op, check_space_collectively, run_rounds, wait_for_all
+from wheelrom.studies.settle import config_digest
 from wheelrom.studies.stability import attach_classification
 from wheelrom.transient.run import run_cases
 from wheelrom.transient.ts import PREFIX, time_grid, ts_settings
@@ -107,11 +110,22 @@ def _study(cfg: Config, out: str, comm, mode: str, confirm: tuple, resume: bool,
     say(f"study: {study.size} cases of {', '.join(study.names)} ({shape}), {len(members)} "
         f"model(s), {comm.size} rank(s)")  # fmt: skip
     fresh = not (resume and os.path.exists(out))
+    kept = design_cases.design_dir(out)  # the finished nonlinear curves of this study
+    if comm.rank == 0 and nonlinear and not resume:
+        design_cases.remove(kept)  # an earlier run's, not asked for
+    wait_for_all(comm)
     if fresh:
         models = _models(study, members, range(len(members)), comm, say)
         check_space_collectively(out, _transient_bytes(cfg, study, models, mode), comm)
         t1 = time.perf_counter()
-        stability, peaks, design = _stability(study, models, model_of, comm, say, extras)
+        try:
+            stability, peaks, design = _stability(study, models, model_of, comm, say, extras,
+                                                  (kept, resume))  # fmt: skip
+        except KeyboardInterrupt:
+            if not nonlinear:
+                raise
+            raise Interrupted(f"interrupted: the finished nonlinear forced responses are kept "
+                              f"in {kept}; the same command with --resume reads them") from None
         took = time.perf_counter() - t1
         chosen = selection(_labels(stability), study.shape, confirm, mode)
         say(f"stability{_extra_words(extras)} of {study.size} cases in {took:.1f} s "
@@ -121,6 +135,8 @@ def _study(cfg: Config, out: str, comm, mode: str, confirm: tuple, resume: bool,
         extra = {"mistuning": case_mistuning(study, models[0].blades), "forced": peaks,
                  "forced_nonlinear": design}
         _create(out, cfg, study, models, model_of, stability, chosen, mode, comm, extra)
+        if comm.rank == 0 and nonlinear:
+            design_cases.remove(kept)  # every curve is in the file now
     stopped = mode != "stability" and _transients(out, cfg, study, model_of, members, comm,
                                                   batch, options, say, settings,
                                                   models if fresh else None)  # fmt: skip
@@ -187,13 +203,15 @@ def _models(study: Study, members: list[list[int]], wanted, comm, say) -> list:
 
 
 def _stability(study: Study, models: list, model_of: list[int], comm, say,
-               extras: tuple = (False, False)) -> tuple:  # fmt: skip
+               extras: tuple = (False, False), kept: tuple = ("", False)) -> tuple:  # fmt: skip
     """``/stability`` of every case
     (:func:`wheelrom.results.study_layout.stability_arrays`), ``/forced``
     (:func:`wheelrom.studies.mistuning.forced_arrays`) when ``extras[0]`` and
     ``/forced_nonlinear`` (:func:`wheelrom.studies.forced_nonlinear.design_arrays`) when
     ``extras[1]`` (else None) on every rank: each rank analyses its share (balanced by model
-    size; the nonlinear curves weigh most), rank 0 assembles."""
+    size; the nonlinear curves weigh most), rank 0 assembles. ``kept = (folder, resume)``:
+    each nonlinear curve is saved in the folder as it finishes, and with ``resume`` read
+    from it instead of computed (:mod:`wheelrom.studies.design_cases`)."""
     forced, nonlinear = extras
     costs = [models[g].blades * models[g].modes ** 3 for g in model_of]
     mine = balance(costs, comm.size)[comm.rank]
@@ -201,7 +219,8 @@ def _stability(study: Study, models: list, model_of: list[int], comm, say,
     found, last = [], time.perf_counter()
     for k, i in enumerate(mine):
         found.append((i, *analyse_case(study, models, model_of, i, peaks),
-                      _design_point(study, models, model_of, i) if nonlinear else None))
+                      _design_point(study, models, model_of, i, *kept, say)
+                      if nonlinear else None))  # fmt: skip
         if time.perf_counter() - last > 2.0 or k == len(mine) - 1:
             last = time.perf_counter()
             say(f"  stability{_extra_words(extras)}: {k + 1}/{len(mine)} of rank 0's cases")
@@ -217,13 +236,32 @@ def _stability(study: Study, models: list, model_of: list[int], comm, say,
     return comm.bcast(arrays)
 
 
-def _design_point(study: Study, models: list, model_of: list[int], i: int):
-    """Case ``i``'s :func:`wheelrom.studies.forced_nonlinear.design_point`, or the text of
-    its failure (recorded; never a hang of the other ranks)."""
+def _design_point(study: Study, models: list, model_of: list[int], i: int, folder: str,
+                  resume: bool, say):  # fmt: skip
+    """Case ``i``'s :func:`wheelrom.studies.forced_nonlinear.design_point` (read from
+    ``folder`` with ``resume`` when a finished one of the same configuration is there,
+    else computed and saved there), or the text of its failure (recorded; never a hang of
+    the other ranks)."""
+    digest = config_digest(study.configs[i])
+    point = design_cases.load_point(folder, i, digest, warn) if resume else None
+    if point is not None:
+        say(f"  case {i + 1}: its nonlinear forced response kept from the interrupted run")
+        return point
     try:
-        return design_point(case_model(models, model_of, study, i), study.configs[i])
+        point = design_point(case_model(models, model_of, study, i), study.configs[i])
     except Exception as exc:
         return f"{type(exc).__name__}: {exc}"
+    try:
+        if not design_cases.save_point(folder, i, digest, point):
+            warn(f"{folder}: the disk is full; case {i + 1}'s curve is kept in memory only")
+    except OSError as exc:
+        warn(f"{folder}: case {i + 1}'s curve not saved ({exc}); kept in memory only")
+    return point
+
+
+def warn(message: str) -> None:
+    """A warning from any rank (stderr: rank 0's log is not every rank's)."""
+    print(f"wheelrom: warning: {message}", file=sys.stderr, flush=True)
 
 
 def _extra_words(extras: tuple) -> str:

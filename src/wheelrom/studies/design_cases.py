@@ -1,0 +1,105 @@
+"""The design study's finished curves kept on disk as they finish (``study
+--forced-nonlinear``): a nonlinear forced-response curve of the paper wheel under the elastic
+law takes minutes, and the study writes its file only once every case's curve is done, so
+each case's :class:`~wheelrom.studies.forced_nonlinear.DesignPoint` is saved at once by the
+rank that computed it in a folder beside the output (``.name.design/case_<i>.npz`` and
+``.json``: plain arrays, no pickles, each renamed into place when complete). ``--resume``
+reads the cases found there with the same configuration instead of computing them again; the
+folder is removed once the study's file is written. A case's file that cannot be read is
+computed again (a warning names it); a full disk keeps the case in memory only.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import os
+import shutil
+
+import numpy as np
+
+from wheelrom.analysis.periodic.forced_wave import ForcedCurve, RefinedPeak
+from wheelrom.runtime.outputs import is_disk_full, replacing, write_image
+from wheelrom.studies.forced_nonlinear import DesignPoint
+
+_CURVE = ("frequency", "harmonics", "tip_amplitude", "converged", "iterations", "fractions",
+          "folds")  # fmt: skip
+_PEAK = ("harmonics", "fractions")
+
+
+def design_dir(out: str) -> str:
+    """The folder of the finished curves of the study writing ``out``."""
+    directory, name = os.path.split(os.path.abspath(out))
+    return os.path.join(directory, f".{os.path.splitext(name)[0]}.design")
+
+
+def save_point(directory: str, index: int, digest: str, point: DesignPoint) -> bool:
+    """Case ``index``'s curve as ``case_<index>.npz`` + ``.json`` (the JSON last: it marks
+    the case complete); False when the disk is full (the case then stays in memory only)."""
+    c = point.curve
+    arrays = {f"curve_{k}": np.asarray(getattr(c, k)) for k in _CURVE}
+    arrays["band"] = np.asarray(point.band, dtype=float)
+    scalars = {"digest": digest, "wave": c.wave, "nodal_diameter": c.nodal_diameter,
+               "wall_s": c.wall_s, "kinds": list(c.kinds), "trace": c.trace,
+               "point_wall_s": point.wall_s, "refined": None}  # fmt: skip
+    if c.refined is not None:
+        r = c.refined
+        scalars["refined"] = {"frequency": r.frequency, "tip_amplitude": r.tip_amplitude,
+                              "solves": r.solves}  # fmt: skip
+        arrays.update({f"peak_{k}": np.asarray(getattr(r, k)) for k in _PEAK})
+    base = os.path.join(directory, f"case_{index}")
+    npz = io.BytesIO()
+    np.savez(npz, **arrays)
+    try:
+        os.makedirs(directory, exist_ok=True)
+        for path, data in ((base + ".npz", npz.getvalue()),
+                           (base + ".json", json.dumps(scalars, default=float).encode())):
+            with replacing(path) as partial:
+                write_image(partial, data)
+    except OSError as exc:
+        with contextlib.suppress(FileNotFoundError):
+            os.remove(base + ".npz")  # no arrays without their JSON
+        if is_disk_full(exc):
+            return False
+        raise
+    return True
+
+
+def load_point(directory: str, index: int, digest: str, warn=None) -> DesignPoint | None:
+    """The saved curve of case ``index`` with configuration ``digest``, else None (none
+    saved, another configuration's, or damaged: then ``warn`` names the file and why)."""
+    base = os.path.join(directory, f"case_{index}")
+    name = base + ".json"
+    if not os.path.exists(name):
+        return None
+    try:
+        with open(name, encoding="utf-8") as f:
+            scalars = json.load(f)
+        if scalars.get("digest") != digest:
+            return None
+        name = base + ".npz"
+        with open(name, "rb") as fh, np.load(fh, allow_pickle=False) as z:
+            arrays = {k: z[k] for k in z.files}
+        curve = ForcedCurve(*(arrays[f"curve_{k}"] for k in _CURVE[:-1]),
+                            wave=int(scalars["wave"]),
+                            nodal_diameter=int(scalars["nodal_diameter"]),
+                            wall_s=float(scalars["wall_s"]), kinds=tuple(scalars["kinds"]),
+                            folds=arrays["curve_folds"], trace=str(scalars["trace"]))  # fmt: skip
+        r = scalars["refined"]
+        if r is not None:
+            curve.refined = RefinedPeak(float(r["frequency"]), float(r["tip_amplitude"]),
+                                        arrays["peak_harmonics"], arrays["peak_fractions"],
+                                        int(r["solves"]))  # fmt: skip
+        band = tuple(float(b) for b in arrays["band"])
+        return DesignPoint(curve, band, float(scalars["point_wall_s"]))
+    except Exception as exc:  # whatever a damaged file raises (BadZipFile, KeyError, ...)
+        if warn is not None:
+            warn(f"{name}: damaged ({type(exc).__name__}: {exc}); case {index + 1}'s curve "
+                 "is computed again")  # fmt: skip
+        return None
+
+
+def remove(directory: str) -> None:
+    """The folder, once the study's file holds every curve."""
+    shutil.rmtree(directory, ignore_errors=True)
