@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from wheelrom.analysis.periodic.forced_branch import merged_folds, traced_curve
+from wheelrom.analysis.periodic.forced_branch import forced_growth, merged_folds, traced_curve
 from wheelrom.analysis.periodic.forced_wave import ForcedWave
 from wheelrom.forces.contact_law import PAPER, ContactLaw
 from wheelrom.forces.parameters import (
@@ -108,7 +108,7 @@ def ring_curve():
     model, params = lift_off_ring()
     curve = traced_curve(model, params, BETA, (0.8 * W_OPEN, 1.2 * W_CLOSED),
                          np.zeros((N3, 1)), harmonics=H, samples=16 * (H + 1), lam=0.0,
-                         x_ref=1e-4, refine=True)  # fmt: skip
+                         x_ref=1e-4, refine=True, stability=True)  # fmt: skip
     return model, params, curve
 
 
@@ -154,6 +154,18 @@ def test_three_states_between_the_folds_against_a_time_integration(ring_curve):
     assert steady_amplitude(X_low, omega) == pytest.approx(low, rel=1e-4)
     assert steady_amplitude(X_high, omega) == pytest.approx(high, rel=5e-4)
     assert abs(steady_amplitude(X_mid, omega) - middle) > 0.05 * middle
+    # Hill's method says the same: the middle state grows (a real multiplier above 1, the
+    # fold's), the other two decay at about the ring's damping rate (beta k / 2 = 2.3 /s)
+    growth = [forced_growth(problem, X, omega) for X in (X_low, X_mid, X_high)]
+    assert growth[0] < -1.0 and growth[1] > 1.0 and growth[2] < -1.0, growth
+    # and so does the traced curve's stability away from the folds' kinked tips: every
+    # point of the middle branch (amplitude between lift-off and the upper state at the
+    # lower fold's side) grows, the lower branch decays
+    lower = curve.tip_amplitude < 0.9 * LIFT_OFF
+    assert (curve.growth[lower] < 0).all()
+    middle_branch = (w > omega) & (w < f_lower) & (curve.tip_amplitude > 1.5 * LIFT_OFF) & \
+        (curve.tip_amplitude < middle)  # fmt: skip
+    assert middle_branch.any() and (curve.growth[middle_branch] > 1.0).all()
 
 
 def test_zig_zags_of_the_sampled_force_are_no_turns():
@@ -174,6 +186,7 @@ def test_the_design_study_stores_the_traced_curve_and_its_folds(ring_curve):
     assert np.isnan(out["folds_hz"][1]).all() and out["folds_hz"].shape == (2, 2)
     n = curve.frequency.size
     np.testing.assert_array_equal(out["frequency_hz"][0, :n], curve.frequency / (2 * math.pi))
+    np.testing.assert_array_equal(out["growth"][0, :n], curve.growth)
     assert out["status"][0].decode() == (f"done (traced: {n} points, 2 folds; reached the end "
                                          "of the range)")  # fmt: skip
     assert out["peak_amplitude"][0] == curve.refined.tip_amplitude

@@ -72,8 +72,11 @@ def design_figures(f, path: str, outdir: str, pdf: bool, written: list[str], plt
                                         for t in p["text"][c]))  # fmt: skip
         if np.isfinite(peak[c]):
             ax.plot(peak_hz[c], peak[c] * 1e6, "o", mfc="none", color=line.get_color())
+        if "growth" in g:  # a traced curve's unstable points (Hill's method)
+            grows = ok[c] & (g["growth"][c] > 0)
+            ax.plot(hz[c][grows], tip[c][grows] * 1e6, "x", ms=4, color=line.get_color())
     ax.set(xlabel="excitation frequency [Hz]", ylabel="blade tip amplitude [um]", yscale="log",
-           title="Nonlinear forced response per case (circles: refined peaks)")
+           title="Nonlinear forced response per case (circles: refined peaks; x: unstable)")
     ax.grid(alpha=0.3)
     if peak.size <= 12:
         ax.legend(fontsize=7)

@@ -117,7 +117,7 @@ def _traced(model: ReducedModel, cfg: Config, grid: ForcedCurve, band: tuple,
     jump = (band[1] - band[0]) / (max(cfg.forced.points, 3) - 1)  # the grid's spacing
     curve = traced_curve(model, params, cfg.wheel.damping_beta, band, q,
                          harmonics=cfg.forced.harmonics, x_ref=x_ref, refine=True,
-                         jump=jump)  # fmt: skip
+                         jump=jump, stability=True)  # fmt: skip
     if grid.refined is not None and (curve.refined is None or grid.refined.tip_amplitude
                                       > curve.refined.tip_amplitude):  # fmt: skip
         curve.refined = grid.refined
@@ -134,6 +134,7 @@ def design_arrays(found: list) -> dict[str, np.ndarray]:
     F = max((p.curve.frequency.size for p in found if not isinstance(p, str)), default=0)
     out = {name: np.full(shape, np.nan) for name, shape in (
         ("frequency_hz", (C, F)), ("tip_amplitude", (C, F)), ("band_hz", (C, 2)),
+        ("growth", (C, F)),
         ("peak_amplitude", (C,)), ("peak_frequency_hz", (C,)), ("peak_fractions", (C, K, 3)),
         ("grid_peak_amplitude", (C,)), ("wall_s", (C,)),
         ("folds_hz", (C, max((p.curve.folds.size for p in found if not isinstance(p, str)),
@@ -149,6 +150,8 @@ def design_arrays(found: list) -> dict[str, np.ndarray]:
         out["frequency_hz"][c, :n] = curve.frequency / (2 * math.pi)
         out["tip_amplitude"][c, :n] = curve.tip_amplitude
         out["converged"][c, :n] = curve.converged
+        if curve.growth.size:
+            out["growth"][c, :n] = curve.growth
         out["band_hz"][c] = np.asarray(point.band) / (2 * math.pi)
         out["nodal_diameter"][c] = curve.nodal_diameter
         out["wall_s"][c] = point.wall_s

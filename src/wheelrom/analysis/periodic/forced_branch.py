@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from wheelrom.analysis.periodic.floquet import exponents
 from wheelrom.analysis.periodic.forced_wave import (
     PEAK_AMPLITUDE,
     ForcedCurve,
@@ -279,7 +280,8 @@ def _fold(corrector: ArclengthCorrector, z0: np.ndarray, t0: np.ndarray, z1: np.
 def traced_curve(model, params, beta: float, band: tuple[float, float],
                  equilibrium: np.ndarray, harmonics: int = 7, samples: int = 0,
                  lam: float = 1.0, x_ref: float = 0.0, progress=None,
-                 refine: bool = False, jump: float = 0.0) -> ForcedCurve:  # fmt: skip
+                 refine: bool = False, jump: float = 0.0,
+                 stability: bool = False) -> ForcedCurve:  # fmt: skip
     """The forced response over ``band`` ``(lo, hi)`` [rad/s] by arclength continuation from
     the steady state at ``lo`` (Newton from the preloaded ``equilibrium`` ``(N, m)``); when
     the trace stalls, the rest is traced back from ``hi`` towards where it stalled (the two
@@ -287,7 +289,8 @@ def traced_curve(model, params, beta: float, band: tuple[float, float],
     harmonics' unit (0: :data:`START_FACTOR` times the largest harmonic at ``lo``; the
     largest amplitude of a grid solve is a better one). ``refine``: the peak on the curve
     (:func:`refine_on_branch`); ``jump`` [rad/s]: stalls passed by Newton in the frequency
-    up to this far (:func:`trace_frequency`). Arguments otherwise as
+    up to this far (:func:`trace_frequency`); ``stability``: each point's
+    :func:`forced_growth` in ``curve.growth`` (paper law). Arguments otherwise as
     :func:`.forced_wave.forced_curve`."""
     t0 = time.perf_counter()
     samples = samples or 8 * (harmonics + 1)
@@ -315,6 +318,11 @@ def traced_curve(model, params, beta: float, band: tuple[float, float],
         ends.append(branch.end + passed)
         folds += [w for w, _ in branch.folds]
     curve = _curve_of(problem, model, params, pieces, "; ".join(ends), folds)
+    curve.growth = np.full(curve.frequency.size, np.nan)
+    if stability and not params.law.elastic:
+        for i in np.flatnonzero(curve.converged):
+            curve.growth[i] = forced_growth(problem, curve.harmonics[i],
+                                            float(curve.frequency[i]))  # fmt: skip
     if refine and pieces:
         curve.refined = refine_on_branch(problem, curve, x_ref)
     curve.wall_s = time.perf_counter() - t0
@@ -322,6 +330,23 @@ def traced_curve(model, params, beta: float, band: tuple[float, float],
 
 
 REACHED = "reached the end of the range"
+
+
+def forced_growth(problem: ForcedWave, X: np.ndarray, omega: float) -> float:
+    """[1/s] the largest real part of the Floquet exponents of the forced steady state ``X``
+    at ``omega`` [rad/s]: Hill's method on the balance's linearisation
+    (:func:`~.floquet.exponents`) in the forced wave's Bloch family, where the amplitude and
+    phase perturbations of the response live (a fold's real multiplier), and in family 0.
+    No exponent is removed: the nozzle fixes the phase (no phase shift's multiplier 1). A
+    contact that opens within the period makes the force derivatives jump and the exponents
+    converge slowly with ``H``: near a fold the sign can be wrong (measured on the lift-off
+    ring: within 0.1 Hz of its upper fold). Paper law only (the elastic law's hysteresis has
+    no linearisation per time sample)."""
+    b = problem.balance
+    lin = b.linearise(X, omega, problem.lam)
+    families = sorted({0, min(b.wave, b.blades - b.wave)})
+    return max(float(exponents(b, lin, omega, problem.lam,
+                               2 * math.pi * p / b.blades).real.max()) for p in families)
 
 
 def _curve_of(problem: ForcedWave, model, params, pieces: list, trace: str,

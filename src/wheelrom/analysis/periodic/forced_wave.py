@@ -83,6 +83,10 @@ class ForcedCurve:
     #: the trace ended (the frequencies are then the curve's points in the order traced)
     folds: np.ndarray = field(default_factory=lambda: np.zeros(0))
     trace: str = ""
+    #: ``(F,)`` [1/s] the largest Floquet exponent's real part per point (Hill's method in
+    #: the forced wave's family and family 0; NaN: not computed), :func:`.forced_branch.
+    #: forced_growth`
+    growth: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def peak(self) -> int:
