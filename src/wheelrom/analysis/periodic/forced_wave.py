@@ -14,7 +14,8 @@ force on harmonic 1, at the fixed ``w`` (no phase condition: the force sets the 
 
 ``f_h``: the contacts (marching the elastic law's sliders) and, when on, the Van der Pol
 force by AFT, as for the limit cycles. Newton per frequency, from the last frequency's
-solution (natural continuation over a grid; folds are not followed yet).
+solution (natural continuation over a grid; :mod:`.forced_branch` traces the curve through
+its folds by arclength).
 """
 
 from __future__ import annotations
