@@ -11,20 +11,18 @@ computed again (a warning names it); a full disk keeps the case in memory only.
 
 from __future__ import annotations
 
-import contextlib
-import io
-import json
 import os
 import shutil
 
 import numpy as np
 
 from wheelrom.analysis.periodic.forced_wave import ForcedCurve, RefinedPeak
-from wheelrom.runtime.outputs import is_disk_full, replacing, write_image
+from wheelrom.runtime.outputs import is_disk_full
 from wheelrom.studies.forced_nonlinear import DesignPoint
+from wheelrom.studies.kept_cases import DamagedCase, read_case, write_case
 
 _CURVE = ("frequency", "harmonics", "tip_amplitude", "converged", "iterations", "fractions",
-          "folds")  # fmt: skip
+          "folds", "growth")  # fmt: skip
 _PEAK = ("harmonics", "fractions")
 
 
@@ -48,18 +46,9 @@ def save_point(directory: str, index: int, digest: str, point: DesignPoint) -> b
         scalars["refined"] = {"frequency": r.frequency, "tip_amplitude": r.tip_amplitude,
                               "solves": r.solves}  # fmt: skip
         arrays.update({f"peak_{k}": np.asarray(getattr(r, k)) for k in _PEAK})
-    base = os.path.join(directory, f"case_{index}")
-    npz = io.BytesIO()
-    np.savez(npz, **arrays)
     try:
-        os.makedirs(directory, exist_ok=True)
-        for path, data in ((base + ".npz", npz.getvalue()),
-                           (base + ".json", json.dumps(scalars, default=float).encode())):
-            with replacing(path) as partial:
-                write_image(partial, data)
+        write_case(directory, index, scalars, arrays)
     except OSError as exc:
-        with contextlib.suppress(FileNotFoundError):
-            os.remove(base + ".npz")  # no arrays without their JSON
         if is_disk_full(exc):
             return False
         raise
@@ -69,35 +58,36 @@ def save_point(directory: str, index: int, digest: str, point: DesignPoint) -> b
 def load_point(directory: str, index: int, digest: str, warn=None) -> DesignPoint | None:
     """The saved curve of case ``index`` with configuration ``digest``, else None (none
     saved, another configuration's, or damaged: then ``warn`` names the file and why)."""
-    base = os.path.join(directory, f"case_{index}")
-    name = base + ".json"
-    if not os.path.exists(name):
-        return None
     try:
-        with open(name, encoding="utf-8") as f:
-            scalars = json.load(f)
-        if scalars.get("digest") != digest:
+        kept = read_case(directory, index, digest)
+        if kept is None:
             return None
-        name = base + ".npz"
-        with open(name, "rb") as fh, np.load(fh, allow_pickle=False) as z:
-            arrays = {k: z[k] for k in z.files}
-        curve = ForcedCurve(*(arrays[f"curve_{k}"] for k in _CURVE[:-1]),
-                            wave=int(scalars["wave"]),
-                            nodal_diameter=int(scalars["nodal_diameter"]),
-                            wall_s=float(scalars["wall_s"]), kinds=tuple(scalars["kinds"]),
-                            folds=arrays["curve_folds"], trace=str(scalars["trace"]))  # fmt: skip
-        r = scalars["refined"]
-        if r is not None:
-            curve.refined = RefinedPeak(float(r["frequency"]), float(r["tip_amplitude"]),
-                                        arrays["peak_harmonics"], arrays["peak_fractions"],
-                                        int(r["solves"]))  # fmt: skip
-        band = tuple(float(b) for b in arrays["band"])
-        return DesignPoint(curve, band, float(scalars["point_wall_s"]))
-    except Exception as exc:  # whatever a damaged file raises (BadZipFile, KeyError, ...)
+        scalars, arrays = kept
+        try:
+            return _point_of(scalars, arrays)
+        except Exception as exc:  # a field missing or of the wrong kind
+            raise DamagedCase(os.path.join(directory, f"case_{index}.json"), exc) from None
+    except DamagedCase as exc:
         if warn is not None:
-            warn(f"{name}: damaged ({type(exc).__name__}: {exc}); case {index + 1}'s curve "
-                 "is computed again")  # fmt: skip
+            warn(f"{exc}; case {index + 1}'s curve is computed again")
         return None
+
+
+def _point_of(scalars: dict, arrays: dict) -> DesignPoint:
+    curve = ForcedCurve(*(arrays[f"curve_{k}"] for k in _CURVE[:3]),
+                        arrays["curve_converged"], arrays["curve_iterations"],
+                        arrays["curve_fractions"], wave=int(scalars["wave"]),
+                        nodal_diameter=int(scalars["nodal_diameter"]),
+                        wall_s=float(scalars["wall_s"]), kinds=tuple(scalars["kinds"]),
+                        folds=arrays["curve_folds"], trace=str(scalars["trace"]),
+                        growth=arrays["curve_growth"])  # fmt: skip
+    r = scalars["refined"]
+    if r is not None:
+        curve.refined = RefinedPeak(float(r["frequency"]), float(r["tip_amplitude"]),
+                                    arrays["peak_harmonics"], arrays["peak_fractions"],
+                                    int(r["solves"]))  # fmt: skip
+    return DesignPoint(curve, tuple(float(b) for b in arrays["band"]),
+                       float(scalars["point_wall_s"]))
 
 
 def remove(directory: str) -> None:

@@ -15,10 +15,8 @@ file is then kept in the temporary directory, as every command's
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import hashlib
-import io
 import json
 import math
 import os
@@ -38,7 +36,8 @@ from wheelrom.analysis.periodic.settle import (
 from wheelrom.config import Config, to_toml
 from wheelrom.config.study import expand, short_name
 from wheelrom.runtime.errors import InputError
-from wheelrom.runtime.outputs import agree, disk_full, is_disk_full, replacing, write_image
+from wheelrom.runtime.outputs import agree, disk_full, is_disk_full
+from wheelrom.studies.kept_cases import DamagedCase, read_case, write_case
 from wheelrom.studies.limit_cycles import refuse_uncarried_law
 from wheelrom.studies.plan import shared_models
 from wheelrom.studies.queue import CaseQueue
@@ -198,7 +197,6 @@ def save_case(directory: str, index: int, digest: str, result: Settled) -> None:
     memory and renamed into place once written whole (:func:`replacing`): a full disk fails
     in one plain write and leaves no part of the case behind (numpy's own writer left its
     half zip open, and retried it at every garbage collection)."""
-    os.makedirs(directory, exist_ok=True)
     c = result.classification
     scalars = {"digest": digest, "settled": result.settled, "time": result.time,
                "status": result.status, "start": result.start, "wall_s": result.wall_s,
@@ -212,18 +210,7 @@ def save_case(directory: str, index: int, digest: str, result: Settled) -> None:
               "amplitude": result.amplitude, "nd_energy": result.nd_energy,
               "fractions": result.fractions, "normal_force_range": result.normal_force_range,
               "tip_time": result.tip_time, "tip": result.tip}  # fmt: skip
-    base = os.path.join(directory, f"case_{index}")
-    npz = io.BytesIO()
-    np.savez(npz, **arrays)
-    try:  # the arrays first: the JSON (read first by load_case) marks the case complete
-        for path, data in ((base + ".npz", npz.getvalue()),
-                           (base + ".json", json.dumps(scalars, default=float).encode())):
-            with replacing(path) as partial:
-                write_image(partial, data)
-    except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            os.remove(base + ".npz")  # no arrays without their JSON
-        raise
+    write_case(directory, index, scalars, arrays)
 
 
 def _save_or_keep(directory: str, index: int, digest: str, result: Settled,
@@ -266,34 +253,28 @@ def load_case(directory: str, index: int, digest: str, warn=None) -> Settled | N
     """A saved case of the same configuration, else None: none saved, another
     configuration's, or damaged (truncated by a full disk or a kill, garbled): then ``warn``
     is told in one line which file and why, and the case is computed again."""
-    base = os.path.join(directory, f"case_{index}")
-    if not os.path.exists(base + ".json"):
-        return None
-    name = base + ".json"
     try:
-        with open(name) as f:
-            scalars = json.load(f)
-        if scalars.get("digest") != digest:
+        kept = read_case(directory, index, digest)
+        if kept is None:
             return None
-        name = base + ".npz"
-        # opened here: np.load leaves a file it cannot read as a zip open
-        with open(name, "rb") as fh, np.load(fh, allow_pickle=False) as z:
-            arrays = {k: z[k] for k in z.files}
-        name = base + ".json"  # its windows and classification read back
-        windows = [Window(float(e), a, n, tuple(ch)) for e, a, n, ch in
-                   zip(arrays["window_end"], arrays["window_amplitude"],
-                       arrays["window_nd_energy"], scalars["changes"], strict=True)]  # fmt: skip
-        c = scalars["classification"]
-        return Settled(scalars["settled"], scalars["time"], windows,
-                       Classification(**c) if c else None, arrays["amplitude"],
-                       arrays["nd_energy"], arrays["fractions"], arrays["normal_force_range"],
-                       scalars["energy_balance"], arrays["tip_time"], arrays["tip"],
-                       scalars["start"], scalars["start_amplitude"], scalars["wall_s"],
-                       scalars["status"])  # fmt: skip
-    except Exception as exc:  # whatever a damaged file raises (BadZipFile, EOFError, ...)
+        scalars, arrays = kept
+        try:  # its windows and classification read back
+            rows = zip(arrays["window_end"], arrays["window_amplitude"],
+                       arrays["window_nd_energy"], scalars["changes"], strict=True)
+            windows = [Window(float(e), a, n, tuple(ch)) for e, a, n, ch in rows]
+            c = scalars["classification"]
+            return Settled(scalars["settled"], scalars["time"], windows,
+                           Classification(**c) if c else None, arrays["amplitude"],
+                           arrays["nd_energy"], arrays["fractions"],
+                           arrays["normal_force_range"], scalars["energy_balance"],
+                           arrays["tip_time"], arrays["tip"], scalars["start"],
+                           scalars["start_amplitude"], scalars["wall_s"],
+                           scalars["status"])  # fmt: skip
+        except Exception as exc:
+            raise DamagedCase(os.path.join(directory, f"case_{index}.json"), exc) from None
+    except DamagedCase as exc:
         if warn is not None:
-            warn(f"{name}: damaged ({type(exc).__name__}: {exc}); case {index + 1} is "
-                 "computed again")  # fmt: skip
+            warn(f"{exc}; case {index + 1} is computed again")
         return None
 
 
