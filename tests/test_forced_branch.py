@@ -220,3 +220,18 @@ def test_the_traced_curve_passes_the_grid_solutions(small_model, small_cfg):
                 found.append(problem.tip_amplitude(X, wg))
         assert min(abs(a - a_grid) for a in found) <= 1e-6 * a_grid, (wg, a_grid, found)
     assert curve.refined.tip_amplitude >= grid.refined.tip_amplitude * (1 - 1e-9)
+
+
+def test_bench_figures_of_the_forced_response(small_model, small_cfg):
+    """``bench``'s forced figures on the small wheel (paper law, H = 2): the 200-frequency
+    grid solves every frequency, the traced curve crosses the band, its peak inside it."""
+    from wheelrom.bench.forced import forced_figures
+
+    cfg = small_cfg.replace(**{"forced.harmonics": 2})
+    out = forced_figures(small_model, cfg, lambda *_: None)
+    assert out["forced_grid_200_solved"] == 200 and out["forced_traced_points"] > 5
+    assert out["forced_traced_end"].startswith("reached the end of the range")
+    assert out["forced_case"]["law"] == "paper" and out["forced_case"]["nodal_diameter"] == 2
+    band = out["forced_case"]["band_hz"]
+    assert band[0] < out["forced_peak_frequency_hz"] < band[1]
+    assert out["forced_grid_200_s"] > 0 and out["forced_traced_s"] > 0

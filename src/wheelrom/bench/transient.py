@@ -400,6 +400,7 @@ def _work(steps: int, compare_steps: int, batch: int) -> dict:
         "linear stability of the configured angles": 30000,
         "RK and the exponential scheme from the preloaded equilibrium": 40000,
         "limit cycles (harmonic balance)": 30000,
+        "nonlinear forced response (200 frequencies, traced)": 30000,
     }
 
 
@@ -430,23 +431,14 @@ def run(model: ReducedModel, cfg: Config, steps: int = 20000, compare_steps: int
                       res, steps * h, say)  # fmt: skip
     stability = group(next(groups), _stability_figures, model, cfg)
     schemes = group(next(groups), _scheme_figures, model, cfg, h, say)
+    from wheelrom.bench.forced import forced_figures
     from wheelrom.bench.limit_cycle import limit_cycle_figures
 
     cycles = group(next(groups), limit_cycle_figures, model, cfg, say)
-    return {
-        "blades": model.blades,
-        "modes": model.modes,
-        "contact_kinds": list(problem.kinds),
-        **start,
-        **single,
-        **in_batch,
-        **floors,
-        **numpy_cmp,
-        **scipy_cmp,
-        **stability,
-        **schemes,
-        **cycles,
-    }
+    forced = group(next(groups), forced_figures, model, cfg, say)
+    return {"blades": model.blades, "modes": model.modes, "contact_kinds": list(problem.kinds),
+            **start, **single, **in_batch, **floors, **numpy_cmp, **scipy_cmp, **stability,
+            **schemes, **cycles, **forced}
 
 
 SCIPY_BUDGET = 200.0  # x our run: a longer solve_ivp run ends the rtol search (a lower bound)

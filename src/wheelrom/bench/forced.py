@@ -1,0 +1,64 @@
+"""``bench``'s nonlinear forced-response figures (issue #45): the nozzle's resonance of the
+configured wheel with its contacts (Van der Pol off, the nozzle force ``excitation.force``,
+10 N where it is 0), over the automatic band (the excited ND's ``forced.family`` from the
+slipping to the stuck resonance, :func:`~wheelrom.studies.forced_nonlinear.nonlinear_band`),
+``forced.harmonics`` harmonics, one core:
+
+- ``forced_grid_200_s``: the curve at 200 frequencies over the band by natural continuation
+  (issue #45: <= 20 s on the paper wheel), ``forced_grid_200_solved`` of them;
+- ``forced_traced_s``: the curve traced by arclength over the band (grid spacing 1/40 of
+  the band for the stalls' jumps, no stability), ``forced_traced_points``, its folds
+  [Hz] and how the trace ended;
+- ``forced_peak_amplitude_m``, ``forced_peak_frequency_hz``: the traced curve's refined
+  peak; ``forced_case``: the law, harmonics, band [Hz] and ND.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from wheelrom.analysis.periodic.forced_branch import traced_curve
+from wheelrom.analysis.periodic.forced_wave import forced_curve
+from wheelrom.analysis.stability import linearise
+from wheelrom.config import Config
+from wheelrom.forces.parameters import force_parameters
+from wheelrom.rom.model import ReducedModel
+from wheelrom.studies.forced_nonlinear import nonlinear_band
+
+GRID_POINTS = 200
+JUMPS = 40  # the traced curve's jump: this share of the band
+
+
+def forced_figures(model: ReducedModel, cfg: Config, say) -> dict:
+    if not model.tuned:
+        return {"forced_traced_s": None}
+    cfg = cfg.replace(**{"flutter.model": "off",
+                         "excitation.force": cfg.excitation.force or 10.0})  # fmt: skip
+    band, _ = nonlinear_band(model, cfg)
+    _, q, _, _, _ = linearise(model, cfg)
+    params = force_parameters(model, cfg)
+    H, beta = cfg.forced.harmonics, cfg.wheel.damping_beta
+    t0 = time.perf_counter()
+    grid = forced_curve(model, params, beta, np.linspace(*band, GRID_POINTS), q, harmonics=H)
+    t1 = time.perf_counter()
+    say(f"  {GRID_POINTS} frequencies in {t1 - t0:.1f} s ({int(grid.converged.sum())} solved)")
+    traced = traced_curve(model, params, beta, band, q, harmonics=H, refine=True,
+                          jump=(band[1] - band[0]) / JUMPS)  # fmt: skip
+    t2 = time.perf_counter()
+    peak = traced.refined
+    return {
+        "forced_grid_200_s": t1 - t0,
+        "forced_grid_200_solved": int(grid.converged.sum()),
+        "forced_traced_s": t2 - t1,
+        "forced_traced_points": int(traced.converged.sum()),
+        "forced_traced_folds_hz": (traced.folds / (2 * math.pi)).tolist(),
+        "forced_traced_end": traced.trace,
+        "forced_peak_amplitude_m": peak.tip_amplitude if peak else None,
+        "forced_peak_frequency_hz": peak.frequency / (2 * math.pi) if peak else None,
+        "forced_case": {"law": cfg.contacts.law, "harmonics": H,
+                        "band_hz": [b / (2 * math.pi) for b in band],
+                        "nodal_diameter": traced.nodal_diameter},
+    }
