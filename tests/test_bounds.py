@@ -1,0 +1,67 @@
+"""Nothing compiled reads past an array's end (the CI failure of 2026-11-26: a test model of
+6 modes with 3-mode aero and excitation arrays, read past their end by the force kernel,
+gave NaN on the CI machine and finite garbage on the developers').
+
+numba compiles without bounds checks; a fresh process with ``NUMBA_BOUNDSCHECK=1`` (and its
+own kernel cache, so that no checked kernel reaches the real cache) runs every compiled
+consumer of the force parameters on the small wheel under both contact laws: the reference
+forces, the harmonic balance's AFT and its marched Jacobian, and a transient (the compiled
+right-hand side through PETSc's C callbacks). An index out of bounds raises ``IndexError``
+there; a control first proves the checks are on (a shortened array is caught).
+"""
+
+import os
+import subprocess
+import sys
+
+from conftest import SMALL
+
+SCRIPT = r"""
+import math
+import sys
+
+import numpy as np
+
+from wheelrom import config
+from wheelrom.analysis.periodic.forced_wave import ForcedWave
+from wheelrom.forces.parameters import force_parameters
+from wheelrom.forces.reference import ReferenceForces
+from wheelrom.rom.build import build_model
+from wheelrom.runtime.environment import petsc
+from wheelrom.transient.run import run_case
+
+small = sys.argv[1]
+for law in ("paper", "elastic"):
+    cfg = config.load(small, overrides=[f"contacts.law='{law}'", "time.end=2e-4",
+                                        "time.window=1e-4"])
+    model = build_model(cfg, petsc().COMM_SELF)
+    params = force_parameters(model, cfg)
+    if law == "paper":  # the control: a shortened array is caught
+        short = force_parameters(model, cfg)
+        object.__setattr__(short, "excitation", short.excitation[:2].copy())
+        z = np.zeros((model.blades, model.modes))
+        try:
+            ReferenceForces(short).evaluate(0.0, z, z)
+            print("control: not caught")
+        except IndexError:
+            print("control: caught")
+    rng = np.random.default_rng(0)
+    q, v = rng.normal(size=(2, model.blades, model.modes)) * 1e-6
+    ReferenceForces(params).evaluate(0.0, q, v)
+    problem = ForcedWave(model, params, cfg.wheel.damping_beta, 2, 24, 1.0)
+    X = np.zeros((5, model.modes))
+    X[1] = 1e-6
+    problem.balance.jacobian(X, 2 * math.pi * 120.0, 1.0)
+    result = run_case(model, cfg)
+    print(law, result.status)
+"""
+
+
+def test_no_kernel_reads_past_an_array(tmp_path):
+    env = dict(os.environ, NUMBA_BOUNDSCHECK="1", NUMBA_CACHE_DIR=str(tmp_path / "kernels"),
+               WHEELROM_MODEL_CACHE="off")  # fmt: skip
+    done = subprocess.run([sys.executable, "-c", SCRIPT, SMALL], capture_output=True,
+                          text=True, env=env, timeout=600)  # fmt: skip
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert done.stdout.split("\n")[:3] == ["control: caught", "paper done", "elastic done"], \
+        done.stdout + done.stderr[-3000:]  # fmt: skip
