@@ -235,3 +235,30 @@ def test_bench_figures_of_the_forced_response(small_model, small_cfg):
     band = out["forced_case"]["band_hz"]
     assert band[0] < out["forced_peak_frequency_hz"] < band[1]
     assert out["forced_grid_200_s"] > 0 and out["forced_traced_s"] > 0
+
+
+def test_the_growth_of_a_small_forced_state_is_the_linear_analysis(small_model, small_cfg):
+    """Hill's exponents about a forced state whose contacts stay linear (0.01 N: 17 nm) are
+    the linear stability's eigenvalues about the equilibrium (a second implementation: the
+    whole wheel's sparse Jacobian per ND): families 0 and the forced wave's ``k`` hold, in
+    their slots -1..1, the NDs 0, ``k`` and ``2k``; the Van der Pol force on (the small
+    wheel at 50 deg flutters in ND 2..6)."""
+    from wheelrom.analysis.stability import analyse, linearise
+    from wheelrom.rom.model import nodal_diameter
+
+    cfg = small_cfg.replace(**{"excitation.force": 0.01, "contacts.shroud.angle_deg": 50.0})
+    result = analyse(small_model, cfg)
+    N = small_model.blades
+    k = cfg.wheel.stator_vanes % N
+    nds = {0, int(nodal_diameter(k, N)), int(nodal_diameter(2 * k, N))}
+    linear = max(result.eigenvalue[result.nodal_diameter == nd].real.max() for nd in nds)
+    _, q, _, _, _ = linearise(small_model, cfg)
+    problem = ForcedWave(small_model, force_parameters(small_model, cfg),
+                         cfg.wheel.damping_beta, 2, 24, 1.0)  # fmt: skip
+    X = np.zeros((5, small_model.modes))
+    X[0] = q[0]
+    omega = 2 * math.pi * 100.0
+    X, ok, _ = problem.solve(X, omega)
+    assert ok and problem.tip_amplitude(X, omega) < 1e-7
+    assert linear > 1.0  # growing: the check is not of two zeros
+    assert forced_growth(problem, X, omega) == pytest.approx(linear, rel=1e-5)

@@ -158,3 +158,34 @@ def test_a_range_without_a_resonance_says_so(capsys):
     assert "stuck 256" in said and all(out["nonlinear"]["converged"])
     assert cli.main([*args, "--frequencies", "110:130:3"]) == 0
     assert "no_resonance" not in json.loads(capsys.readouterr().out)["nonlinear"]
+
+
+def test_the_command_traces_the_curve_on_request(tmp_path, capsys):
+    """``forced.continuation = "arclength"``: ``forced-response --nonlinear`` also traces the
+    curve over the grid's range (paper law, small wheel): JSON ``traced`` with the points in
+    order, the folds, Hill's growth per point and the refined peak (at least the grid's
+    largest), the same in ``/nonlinear/traced``."""
+    import json
+
+    import h5py
+
+    from conftest import SMALL
+    from wheelrom.cli import main as cli
+
+    path = tmp_path / "f.h5"
+    argv = ["forced-response", SMALL, "--nonlinear", "--frequencies", "110:130:5",
+            "--harmonics", "2", "--set", 'forced.continuation="arclength"', "--json",
+            "--out", str(path)]  # fmt: skip
+    assert cli.main(argv) == 0
+    nl = json.loads(capsys.readouterr().out)["nonlinear"]
+    tr = nl["traced"]
+    assert tr["end"].startswith("reached the end of the range")
+    hz = [f for f in tr["frequency_hz"] if f is not None]
+    assert hz[0] == pytest.approx(110.0) and hz[-1] == pytest.approx(130.0) and len(hz) > 5
+    assert len(tr["growth_per_s"]) == len(tr["frequency_hz"])
+    assert all(g is not None for g in tr["growth_per_s"])  # the paper law: Hill's method
+    assert tr["peak_amplitude_m"] >= max(a for a in nl["tip_amplitude_m"] if a) * (1 - 1e-9)
+    with h5py.File(path) as f:
+        t = f["nonlinear/traced"]
+        assert t["frequency_hz"].shape == (len(tr["frequency_hz"]),)
+        assert t.attrs["peak_amplitude_m"] == tr["peak_amplitude_m"]

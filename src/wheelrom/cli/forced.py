@@ -191,6 +191,9 @@ def _nonlinear(model, cfg, grid: np.ndarray, angles: dict | None, harmonics: int
            "converged": curve.converged.tolist(), "wall_s": curve.wall_s}  # fmt: skip
     if outside:
         out["no_resonance"] = outside
+    if cfg.forced.continuation == "arclength":
+        say("the curve traced by arclength over the same range")
+        out["traced"] = _traced(model, cfg, curve, grid, angles)
     if curve.converged.any():
         i = curve.peak
         out["peak_amplitude_m"] = float(curve.tip_amplitude[i])
@@ -199,6 +202,28 @@ def _nonlinear(model, cfg, grid: np.ndarray, angles: dict | None, harmonics: int
                                              map(float, curve.fractions[i, k]), strict=True))
                               for k, kind in enumerate(curve.kinds)}  # fmt: skip
     return out, curve
+
+
+def _traced(model, cfg, curve, grid: np.ndarray, angles: dict | None) -> dict:
+    """The curve traced by arclength over the grid's range (plain data: the points in the
+    order traced, null where a piece ends; the folds; Hill's growth under the paper law)."""
+    from wheelrom.studies.forced_nonlinear import trace_after_grid
+
+    band = (float(grid.min()), float(grid.max()))
+    traced = trace_after_grid(model, cfg, curve, band, angles, comm_self())
+
+    def listed(values):
+        return [float(v) if ok and np.isfinite(v) else None
+                for v, ok in zip(values, traced.converged, strict=True)]  # fmt: skip
+
+    out = {"frequency_hz": listed(traced.frequency / (2 * math.pi)),
+           "tip_amplitude_m": listed(traced.tip_amplitude), "growth_per_s": listed(traced.growth),
+           "folds_hz": (traced.folds / (2 * math.pi)).tolist(), "end": traced.trace,
+           "wall_s": traced.wall_s}  # fmt: skip
+    if traced.refined is not None:
+        out["peak_amplitude_m"] = traced.refined.tip_amplitude
+        out["peak_frequency_hz"] = traced.refined.frequency / (2 * math.pi)
+    return out
 
 
 def _no_resonance(model, cfg, grid: np.ndarray, angles: dict | None) -> str:
@@ -286,6 +311,15 @@ def _write_nonlinear(g, out: dict, curve) -> None:
     g["converged"] = curve.converged
     g["harmonics"] = curve.harmonics
     g["contact_shares"] = curve.fractions
+    if "traced" in out:  # forced.continuation = "arclength"
+        traced, t = out["traced"], g.create_group("traced")
+        for key in ("frequency_hz", "tip_amplitude_m", "growth_per_s"):
+            t[key] = np.array([np.nan if v is None else v for v in traced[key]])
+        t["folds_hz"] = np.asarray(traced["folds_hz"], dtype=float)
+        t.attrs["end"] = traced["end"]
+        for key in ("peak_amplitude_m", "peak_frequency_hz"):
+            if key in traced:
+                t.attrs[key] = traced[key]
 
 
 def _contact_angles(cfg, angles: dict | None) -> dict:
@@ -333,6 +367,16 @@ def _print_nonlinear(out: dict) -> None:
                            for kind, s in nl["peak_shares"].items())  # fmt: skip
         print(f"nonlinear peak on the grid: {nl['peak_amplitude_m']:.4e} m at "
               f"{nl['peak_frequency_hz']:.4f} Hz ({shares})")
+    if "traced" in nl:
+        tr = nl["traced"]
+        folds = ("folds at " + ", ".join(f"{f:.4f}" for f in tr["folds_hz"]) + " Hz"
+                 if tr["folds_hz"] else "no fold")  # fmt: skip
+        peak = (f"peak {tr['peak_amplitude_m']:.4e} m at {tr['peak_frequency_hz']:.4f} Hz; "
+                if "peak_amplitude_m" in tr else "")  # fmt: skip
+        unstable = sum(g is not None and g > 0 for g in tr["growth_per_s"])
+        print(f"traced by arclength: {sum(f is not None for f in tr['frequency_hz'])} points "
+              f"in {tr['wall_s']:.1f} s, {peak}{folds}, {unstable} unstable "
+              f"points (Hill); {tr['end']}")  # fmt: skip
     if "no_resonance" in nl:
         print(nl["no_resonance"])
     print(f"{out['solves']} solves ({out['candidates']} candidates, {out['refined']} refined), "

@@ -100,13 +100,13 @@ def design_point(model: ReducedModel, cfg: Config, angles_deg: dict | None = Non
     curve = nonlinear_forced(model, cfg, grid, angles_deg, cfg.forced.harmonics, comm,
                              refine=True)  # fmt: skip
     if cfg.forced.continuation == "arclength":
-        curve = _traced(model, cfg, curve, band, angles_deg, comm)
+        curve = trace_after_grid(model, cfg, curve, band, angles_deg, comm)
     return DesignPoint(curve, band, time.perf_counter() - t0)
 
 
-def _traced(model: ReducedModel, cfg: Config, grid: ForcedCurve, band: tuple,
-            angles_deg: dict | None, comm) -> ForcedCurve:  # fmt: skip
-    """The curve over ``band`` traced by arclength continuation
+def trace_after_grid(model: ReducedModel, cfg: Config, grid: ForcedCurve, band: tuple,
+                     angles_deg: dict | None, comm) -> ForcedCurve:  # fmt: skip
+    """The curve over ``band`` [rad/s] traced by arclength continuation
     (:func:`~wheelrom.analysis.periodic.forced_branch.traced_curve`), its unit of the
     harmonics the largest of the ``grid`` solve; its peak the larger of the two refined
     ones (a curve of contacts that stick and slip is wavy at low H: either search may find
@@ -114,7 +114,8 @@ def _traced(model: ReducedModel, cfg: Config, grid: ForcedCurve, band: tuple,
     params, q = _forced_inputs(model, cfg, angles_deg, comm)
     solved = grid.harmonics[grid.converged, 1:]
     x_ref = float(np.abs(solved).max()) if solved.size else 0.0
-    jump = (band[1] - band[0]) / (max(cfg.forced.points, 3) - 1)  # the grid's spacing
+    spacing = np.diff(np.sort(grid.frequency))
+    jump = float(spacing.max()) if spacing.size else band[1] - band[0]  # the grid's spacing
     curve = traced_curve(model, params, cfg.wheel.damping_beta, band, q,
                          harmonics=cfg.forced.harmonics, x_ref=x_ref, refine=True,
                          jump=jump, stability=True)  # fmt: skip

@@ -335,8 +335,11 @@ REACHED = "reached the end of the range"
 def forced_growth(problem: ForcedWave, X: np.ndarray, omega: float) -> float:
     """[1/s] the largest real part of the Floquet exponents of the forced steady state ``X``
     at ``omega`` [rad/s]: Hill's method on the balance's linearisation
-    (:func:`~.floquet.exponents`) in the forced wave's Bloch family, where the amplitude and
-    phase perturbations of the response live (a fold's real multiplier), and in family 0.
+    (:func:`~.floquet.exponents`) in the forced wave's Bloch family ``k``, where the
+    amplitude and phase perturbations of the response live (a fold's real multiplier), and
+    in family 0: their slots -1..1 hold the NDs 0, ``k`` and ``2k`` (tested: about a state
+    whose contacts stay linear, the linear stability's largest growth over those NDs, to
+    1e-5; the other NDs, where a quasi-periodic onset would show, are not checked).
     No exponent is removed: the nozzle fixes the phase (no phase shift's multiplier 1). A
     contact that opens within the period makes the force derivatives jump and the exponents
     converge slowly with ``H``: near a fold the sign can be wrong (measured on the lift-off
