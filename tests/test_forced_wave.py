@@ -189,3 +189,6 @@ def test_the_command_traces_the_curve_on_request(tmp_path, capsys):
         t = f["nonlinear/traced"]
         assert t["frequency_hz"].shape == (len(tr["frequency_hz"]),)
         assert t.attrs["peak_amplitude_m"] == tr["peak_amplitude_m"]
+    capsys.readouterr()
+    assert cli.main(["plot", str(path), "--outdir", str(tmp_path / "fig")]) == 0
+    assert (tmp_path / "fig" / "forced_response.png").stat().st_size > 1000

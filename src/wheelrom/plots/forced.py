@@ -35,6 +35,18 @@ def forced_figures(f, path: str, outdir: str, pdf: bool, written: list[str], plt
         keep = order[ok[order]]
         ax.plot(hz[keep], tip[keep], "-", marker=".", color="tab:green", lw=1.6,
                 label=f"nonlinear (contacts.law = '{law}', harmonic balance)")  # fmt: skip
+        if "traced" in g:  # forced.continuation = "arclength": the points in order traced
+            t = g["traced"]
+            thz, ttip, growth = (t[k][()] for k in ("frequency_hz", "tip_amplitude_m",
+                                                    "growth_per_s"))  # fmt: skip
+            ax.plot(thz, ttip, "-", color="tab:olive", lw=1.0,
+                    label=f"traced by arclength ({thz[np.isfinite(thz)].size} points)")
+            grows = np.isfinite(growth) & (growth > 0)
+            if grows.any():
+                ax.plot(thz[grows], ttip[grows], "x", ms=4, color="tab:olive",
+                        label="traced, unstable (Hill's method)")
+            for fold in t["folds_hz"][()]:
+                ax.axvline(fold, color="tab:olive", lw=0.6, ls=":")
     ax.set(xlabel="excitation frequency [Hz]", ylabel="blade tip amplitude [m]", yscale="log")
     factor = attrs.get("amplification_factor")
     ax.set_title("Forced response to the nozzle (engine order "
