@@ -68,3 +68,37 @@ def small_model(small_cfg, comm):
     from wheelrom.rom.build import build_model
 
     return build_model(small_cfg, comm)
+
+
+def one_mode_ring(blades: int, w0: float, coupling: float, contact_angle_deg: float,
+                  contact_stiffness: float, preload: float, excitation: float = 0.0):
+    """``(model, contacts)``: ``blades`` one-mode blades in a ring (unit modal mass; the mode
+    moves the tip, the aerofoil and the profile points A, B by 1 m in ``y``), stiffness
+    ``w0^2`` [N/m per kg] and a spring ``coupling`` to each neighbour, a contact between
+    neighbours of frame ``contact_frame(contact_angle_deg)`` (0: its normal is ``y``, the
+    gap follows the relative motion; 90: ``z``, the gap never changes), arm length 0 (A is
+    the contact point), normal stiffness ``contact_stiffness`` [N/m] and ``preload`` [N];
+    ``excitation``: the mode's generalised force per unit nozzle force."""
+    import math
+
+    import numpy as np
+
+    from wheelrom.forces.parameters import ContactParameters, contact_frame
+    from wheelrom.rom.model import ReducedModel
+
+    y = np.array([[0.0], [1.0], [0.0]])
+    points = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.03]])
+    model = ReducedModel(
+        blades=blades, modes=1, segment_hz=np.array([w0 / (2 * math.pi)]),
+        K_seg=np.array([[w0**2]]), A0=np.array([[w0**2 + 2 * coupling]]),
+        A1=np.array([[-coupling]]), rotation=np.eye(3), tip=y.copy(), aero=np.array([1.0]),
+        excitation=np.array([excitation]), contact_A={"shroud": y.copy()},
+        contact_B={"shroud": y.copy()}, contact_points={"shroud": points})  # fmt: skip
+    contacts = ContactParameters(
+        kinds=("shroud",), shape_A=y[None].copy(), shape_B=y[None].copy(),
+        point_A=points[:1].copy(), point_B=points[1:].copy(), arm_length=np.array([0.0]),
+        frame=np.broadcast_to(contact_frame(contact_angle_deg), (1, blades, 3, 3)).copy(),
+        stiffness=np.full((1, blades), contact_stiffness), preload=np.array([preload]),
+        angles_deg={"shroud": np.full(blades, contact_angle_deg)},
+        tangential=np.zeros((1, blades)))  # fmt: skip
+    return model, contacts

@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+from conftest import one_mode_ring
 from wheelrom.analysis.periodic.forced_branch import (
     forced_growth,
     merged_folds,
@@ -28,12 +29,9 @@ from wheelrom.analysis.periodic.forced_wave import ForcedWave
 from wheelrom.forces.contact_law import PAPER, ContactLaw
 from wheelrom.forces.parameters import (
     VDP_OFF,
-    ContactParameters,
     ForceParameters,
-    contact_frame,
     force_parameters,
 )
-from wheelrom.rom.model import ReducedModel
 
 N3 = 3
 W0 = 2 * math.pi * 100.0  # [rad/s] a blade alone
@@ -53,20 +51,7 @@ def lift_off_ring():
     """``(model, params)``: the ring (unit modal masses; the mode moves the blade, its tip
     and its profile point by 1 m in y), the contact's normal ``y`` (``contact_frame(0)``),
     arm length 0, no friction (a zero Coulomb and paper coefficient)."""
-    y = np.array([[0.0], [1.0], [0.0]])
-    points = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.03]])
-    model = ReducedModel(
-        blades=N3, modes=1, segment_hz=np.array([W0 / (2 * math.pi)]),
-        K_seg=np.array([[W0**2]]), A0=np.array([[W0**2 + 2 * COUPLING]]),
-        A1=np.array([[-COUPLING]]), rotation=np.eye(3), tip=y.copy(), aero=np.array([1.0]),
-        excitation=np.array([1.0]), contact_A={"shroud": y.copy()},
-        contact_B={"shroud": y.copy()}, contact_points={"shroud": points})  # fmt: skip
-    contacts = ContactParameters(
-        kinds=("shroud",), shape_A=y[None].copy(), shape_B=y[None].copy(),
-        point_A=points[:1].copy(), point_B=points[1:].copy(), arm_length=np.array([0.0]),
-        frame=np.broadcast_to(contact_frame(0.0), (1, N3, 3, 3)).copy(),
-        stiffness=np.full((1, N3), CONTACT), preload=np.array([PRELOAD]),
-        angles_deg={"shroud": np.zeros(N3)}, tangential=np.zeros((1, N3)))  # fmt: skip
+    model, contacts = one_mode_ring(N3, W0, COUPLING, 0.0, CONTACT, PRELOAD, excitation=1.0)
     params = ForceParameters(
         blades=N3, modes=1, omega=0.0, stator_vanes=1, nozzle_force=NOZZLE,
         excitation=np.array([1.0]), nozzle_phase=2 * math.pi * (1 - 1 / N3) * np.arange(N3),

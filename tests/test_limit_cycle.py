@@ -20,7 +20,7 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
-from conftest import SMALL
+from conftest import SMALL, one_mode_ring
 from wheelrom import config
 from wheelrom.analysis.periodic.floquet import exponents, floquet, hill_matrix
 from wheelrom.analysis.periodic.harmonic_balance import WaveBalance
@@ -28,13 +28,10 @@ from wheelrom.analysis.periodic.limit_cycle import periodic_solution
 from wheelrom.forces.contact_law import PAPER, ContactLaw
 from wheelrom.forces.parameters import (
     VDP_ABSOLUTE,
-    ContactParameters,
     ForceParameters,
-    contact_frame,
     force_parameters,
 )
 from wheelrom.forces.reference import ReferenceForces
-from wheelrom.rom.model import ReducedModel
 
 # --------------------------------------------------------------------------- Van der Pol alone
 VDP_ONLY = ["contacts.tieboss.enabled=false", "contacts.shroud.enabled=false",
@@ -247,20 +244,7 @@ def friction_wheel():
     (``contact_frame(90)``): the profile translates rigidly along ``y``, the gap never
     changes, so the normal force stays ``PRELOAD`` and the friction acts on the relative
     ``y`` velocity (arm length 0: A itself is the contact point)."""
-    y = np.array([[0.0], [1.0], [0.0]])
-    points = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.03]])
-    model = ReducedModel(
-        blades=N3, modes=1, segment_hz=np.array([W0 / (2 * math.pi)]),
-        K_seg=np.array([[W0**2]]), A0=np.array([[W0**2 + 2 * COUPLING]]),
-        A1=np.array([[-COUPLING]]), rotation=np.eye(3), tip=y.copy(), aero=np.array([1.0]),
-        excitation=np.array([0.0]), contact_A={"shroud": y.copy()},
-        contact_B={"shroud": y.copy()}, contact_points={"shroud": points})  # fmt: skip
-    contacts = ContactParameters(
-        kinds=("shroud",), shape_A=y[None].copy(), shape_B=y[None].copy(),
-        point_A=points[:1].copy(), point_B=points[1:].copy(), arm_length=np.array([0.0]),
-        frame=np.broadcast_to(contact_frame(90.0), (1, N3, 3, 3)).copy(),
-        stiffness=np.full((1, N3), 1e7), preload=np.array([PRELOAD]),
-        angles_deg={"shroud": np.full(N3, 90.0)}, tangential=np.zeros((1, N3)))  # fmt: skip
+    model, contacts = one_mode_ring(N3, W0, COUPLING, 90.0, 1e7, PRELOAD)
     params = ForceParameters(
         blades=N3, modes=1, omega=0.0, stator_vanes=0, nozzle_force=0.0,
         excitation=np.zeros(1), nozzle_phase=np.zeros(N3), vdp_model=VDP_ABSOLUTE, vdp_mu=MU,
