@@ -265,3 +265,26 @@ def test_the_growth_of_a_small_forced_state_is_the_linear_analysis(small_model, 
     assert ok and problem.tip_amplitude(X, omega) < 1e-7
     assert linear > 1.0  # growing: the check is not of two zeros
     assert forced_growth(problem, X, omega) == pytest.approx(linear, rel=1e-5)
+
+
+def test_a_curve_whose_start_fails_is_traced_from_the_other_end(monkeypatch):
+    """Newton failing at the band's low end: the curve is traced from the high end over the
+    whole band, stored from the low end, and has the same folds."""
+    model, params = lift_off_ring()
+    solve = ForcedWave.solve
+    calls = []
+
+    def first_fails(self, X0, omega):
+        calls.append(omega)
+        return (X0, False, 0) if len(calls) == 1 else solve(self, X0, omega)
+
+    monkeypatch.setattr(ForcedWave, "solve", first_fails)
+    band = (0.8 * W_OPEN, 1.2 * W_CLOSED)
+    curve = traced_curve(model, params, BETA, band, np.zeros((N3, 1)), harmonics=H,
+                         samples=16 * (H + 1), lam=0.0, x_ref=1e-4)  # fmt: skip
+    assert curve.trace.startswith(f"Newton fails at {band[0] / (2 * math.pi):.6g} Hz; "
+                                  "reached the end of the range")  # fmt: skip
+    assert curve.converged.all()
+    assert curve.frequency[0] == pytest.approx(band[0]) and curve.frequency[-1] == band[1]
+    f_upper, f_lower = curve.folds
+    assert W_OPEN < f_upper < f_lower < W_CLOSED

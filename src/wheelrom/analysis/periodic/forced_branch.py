@@ -301,7 +301,8 @@ def traced_curve(model, params, beta: float, band: tuple[float, float],
         if end is None:  # the way back: from hi to where the first piece stopped
             if ends[0].startswith(REACHED):
                 break
-            end = float(pieces[0].frequency[-1])
+            # (the whole band when Newton failed at lo; not below lo after a turn back)
+            end = max(float(pieces[0][0].frequency[-1]), lo) if pieces else lo
         X = np.zeros((2 * harmonics + 1, model.modes))
         X[0] = equilibrium[0]
         X, ok, _ = problem.solve(X, start)
@@ -312,7 +313,7 @@ def traced_curve(model, params, beta: float, band: tuple[float, float],
         # typically 3-30 times larger), unless given
         x_ref = x_ref or max(START_FACTOR * float(np.abs(X[1:]).max()), 1e-300)
         branch = trace_frequency(problem, X, start, end, x_ref, progress, jump)
-        pieces.append(branch)
+        pieces.append((branch, start == hi))
         passed = "".join(f"; passed {a / (2 * math.pi):.6g}..{b / (2 * math.pi):.6g} Hz by "
                          "Newton in the frequency" for a, b in branch.jumps)  # fmt: skip
         ends.append(branch.end + passed)
@@ -354,12 +355,16 @@ def forced_growth(problem: ForcedWave, X: np.ndarray, omega: float) -> float:
 
 def _curve_of(problem: ForcedWave, model, params, pieces: list, trace: str,
               folds: list) -> ForcedCurve:  # fmt: skip
-    """The :class:`ForcedCurve` of the traced ``pieces`` (the second reversed: the curve
-    runs from the band's low end; a row not converged between them)."""
+    """The :class:`ForcedCurve` of the traced ``pieces`` (``(branch, traced from hi)``; one
+    traced from the band's high end reversed: the curve runs from its low end; a row not
+    converged between two that do not meet)."""
+    reversed_ = [Branch(b.frequency[::-1], b.harmonics[::-1], b.iterations[::-1]) if back
+                 else b for b, back in pieces]  # fmt: skip
     if len(pieces) == 2:
-        first, second = pieces
-        back = Branch(second.frequency[::-1], second.harmonics[::-1], second.iterations[::-1])
-        pieces = [first, back] if _meet(first, second) else [first, None, back]
+        first, back = reversed_
+        meet = _meet(pieces[0][0], pieces[1][0])
+        reversed_ = [first, back] if meet else [first, None, back]
+    pieces = reversed_
     n, m = 2 * problem.balance.H + 1, model.modes
     K = len(params.contacts.kinds)
     rows = []
