@@ -190,6 +190,7 @@ def test_the_traced_curve_passes_the_grid_solutions(small_model, small_cfg):
     solution (one of its crossings, to 1e-6 of the amplitude), and the peak found on the
     traced curve is the grid's refined one."""
     from wheelrom.studies.forced_nonlinear import (
+        forced_inputs,
         nonlinear_band,
         nonlinear_forced,
         trace_after_grid,
@@ -199,8 +200,10 @@ def test_the_traced_curve_passes_the_grid_solutions(small_model, small_cfg):
                                "forced.points": 9, "forced.harmonics": 3})  # fmt: skip
     band, resonances = nonlinear_band(small_model, cfg)  # as design_point, the grid shared
     frequencies = np.unique(np.r_[np.linspace(*band, 9), resonances])
-    grid = nonlinear_forced(small_model, cfg, frequencies, harmonics=3, refine=True)
-    curve = trace_after_grid(small_model, cfg, grid, band, None, None)
+    inputs = forced_inputs(small_model, cfg)
+    grid = nonlinear_forced(small_model, cfg, frequencies, harmonics=3, refine=True,
+                            inputs=inputs)  # fmt: skip
+    curve = trace_after_grid(small_model, cfg, grid, band, inputs)
     assert curve.trace and curve.converged.sum() > 3 * grid.frequency.size
     params = force_parameters(small_model, cfg)
     problem = ForcedWave(small_model, params, cfg.wheel.damping_beta, 3, 32, 1.0)

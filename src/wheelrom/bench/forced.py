@@ -22,11 +22,9 @@ import numpy as np
 
 from wheelrom.analysis.periodic.forced_branch import traced_curve
 from wheelrom.analysis.periodic.forced_wave import forced_curve
-from wheelrom.analysis.stability import linearise
 from wheelrom.config import Config
-from wheelrom.forces.parameters import force_parameters
 from wheelrom.rom.model import ReducedModel
-from wheelrom.studies.forced_nonlinear import nonlinear_band
+from wheelrom.studies.forced_nonlinear import forced_inputs, nonlinear_band
 
 GRID_POINTS = 200
 JUMPS = 40  # the traced curve's jump: this share of the band
@@ -38,8 +36,7 @@ def forced_figures(model: ReducedModel, cfg: Config, say) -> dict:
     cfg = cfg.replace(**{"flutter.model": "off",
                          "excitation.force": cfg.excitation.force or 10.0})  # fmt: skip
     band, _ = nonlinear_band(model, cfg)
-    _, q, _, _, _ = linearise(model, cfg)
-    params = force_parameters(model, cfg)
+    params, q = forced_inputs(model, cfg)
     H, beta = cfg.forced.harmonics, cfg.wheel.damping_beta
     t0 = time.perf_counter()
     grid = forced_curve(model, params, beta, np.linspace(*band, GRID_POINTS), q, harmonics=H)

@@ -177,14 +177,15 @@ def _nonlinear(model, cfg, grid: np.ndarray, angles: dict | None, harmonics: int
     """``(plain data, ForcedCurve)``: the nonlinear curve over the coarse grid (tip
     amplitude per frequency, Newton's verdict, the peak with its contacts' open / stick /
     slip shares)."""
-    from wheelrom.studies.forced_nonlinear import nonlinear_forced
+    from wheelrom.studies.forced_nonlinear import forced_inputs, nonlinear_forced
 
     outside = _no_resonance(model, cfg, grid, angles)
     if outside:
         say(outside)
     say(f"the nonlinear response (harmonic balance, H = {harmonics}, "
         f"contacts.law = '{cfg.contacts.law}') at {grid.size} frequencies")  # fmt: skip
-    curve = nonlinear_forced(model, cfg, grid, angles, harmonics, comm_self())
+    inputs = forced_inputs(model, cfg, angles, comm_self())  # the grid's and the trace's
+    curve = nonlinear_forced(model, cfg, grid, angles, harmonics, comm_self(), inputs=inputs)
     amplitude = [float(a) if ok else None
                  for a, ok in zip(curve.tip_amplitude, curve.converged, strict=True)]
     out = {"law": cfg.contacts.law, "harmonics": harmonics, "tip_amplitude_m": amplitude,
@@ -193,7 +194,7 @@ def _nonlinear(model, cfg, grid: np.ndarray, angles: dict | None, harmonics: int
         out["no_resonance"] = outside
     if cfg.forced.continuation == "arclength":
         say("the curve traced by arclength over the same range")
-        out["traced"] = _traced(model, cfg, curve, grid, angles)
+        out["traced"] = _traced(model, cfg, curve, grid, inputs)
     if curve.converged.any():
         i = curve.peak
         out["peak_amplitude_m"] = float(curve.tip_amplitude[i])
@@ -204,13 +205,13 @@ def _nonlinear(model, cfg, grid: np.ndarray, angles: dict | None, harmonics: int
     return out, curve
 
 
-def _traced(model, cfg, curve, grid: np.ndarray, angles: dict | None) -> dict:
+def _traced(model, cfg, curve, grid: np.ndarray, inputs: tuple) -> dict:
     """The curve traced by arclength over the grid's range (plain data: the points in the
     order traced, null where a piece ends; the folds; Hill's growth under the paper law)."""
     from wheelrom.studies.forced_nonlinear import trace_after_grid
 
     band = (float(grid.min()), float(grid.max()))
-    traced = trace_after_grid(model, cfg, curve, band, angles, comm_self())
+    traced = trace_after_grid(model, cfg, curve, band, inputs)
 
     def listed(values):
         return [float(v) if ok and np.isfinite(v) else None

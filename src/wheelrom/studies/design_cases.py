@@ -19,7 +19,7 @@ import numpy as np
 from wheelrom.analysis.periodic.forced_wave import ForcedCurve, RefinedPeak
 from wheelrom.runtime.outputs import is_disk_full
 from wheelrom.studies.forced_nonlinear import DesignPoint
-from wheelrom.studies.kept_cases import DamagedCase, read_case, write_case
+from wheelrom.studies.kept_cases import DamagedCase, kept_dir, read_case, write_case
 
 _CURVE = ("frequency", "harmonics", "tip_amplitude", "converged", "iterations", "fractions",
           "folds", "growth")  # fmt: skip
@@ -28,8 +28,7 @@ _PEAK = ("harmonics", "fractions")
 
 def design_dir(out: str) -> str:
     """The folder of the finished curves of the study writing ``out``."""
-    directory, name = os.path.split(os.path.abspath(out))
-    return os.path.join(directory, f".{os.path.splitext(name)[0]}.design")
+    return kept_dir(out, "design")
 
 
 def save_point(directory: str, index: int, digest: str, point: DesignPoint) -> bool:
@@ -74,9 +73,7 @@ def load_point(directory: str, index: int, digest: str, warn=None) -> DesignPoin
 
 
 def _point_of(scalars: dict, arrays: dict) -> DesignPoint:
-    curve = ForcedCurve(*(arrays[f"curve_{k}"] for k in _CURVE[:3]),
-                        arrays["curve_converged"], arrays["curve_iterations"],
-                        arrays["curve_fractions"], wave=int(scalars["wave"]),
+    curve = ForcedCurve(*(arrays[f"curve_{k}"] for k in _CURVE[:6]), wave=int(scalars["wave"]),
                         nodal_diameter=int(scalars["nodal_diameter"]),
                         wall_s=float(scalars["wall_s"]), kinds=tuple(scalars["kinds"]),
                         folds=arrays["curve_folds"], trace=str(scalars["trace"]),

@@ -30,17 +30,19 @@ BAND_MARGIN = 0.03
 
 def nonlinear_forced(model: ReducedModel, cfg: Config, frequencies: np.ndarray,
                      angles_deg: dict | None = None, harmonics: int = 5, comm=None,
-                     progress=None, refine: bool = False) -> ForcedCurve:  # fmt: skip
+                     progress=None, refine: bool = False,
+                     inputs: tuple | None = None) -> ForcedCurve:  # fmt: skip
     """The steady response at every excitation frequency of ``frequencies`` [rad/s] (in
     that order) of the tuned ``model`` under ``cfg`` (its contact law, the Van der Pol force
     as configured), contact angles ``angles_deg`` as :func:`linearise`; ``refine``: also the
-    peak off the grid."""
-    params, q = _forced_inputs(model, cfg, angles_deg, comm)
+    peak off the grid; ``inputs``: the case's :func:`forced_inputs` when already known."""
+    params, q = inputs or forced_inputs(model, cfg, angles_deg, comm)
     return forced_curve(model, params, cfg.wheel.damping_beta, frequencies, q,
                         harmonics=harmonics, progress=progress, refine=refine)  # fmt: skip
 
 
-def _forced_inputs(model: ReducedModel, cfg: Config, angles_deg: dict | None, comm):
+def forced_inputs(model: ReducedModel, cfg: Config, angles_deg: dict | None = None,
+                  comm=None) -> tuple:  # fmt: skip
     """``(force parameters, preloaded equilibrium (N, m))`` of a nonlinear forced case (the
     equilibrium with the nozzle off), after the checks of its configuration."""
     if not model.tuned:
@@ -97,27 +99,30 @@ def design_point(model: ReducedModel, cfg: Config, angles_deg: dict | None = Non
     band, resonances = nonlinear_band(model, cfg, angles_deg, comm)
     grid = np.unique(np.concatenate([np.linspace(*band, max(cfg.forced.points, 3)),
                                      resonances]))  # fmt: skip
+    inputs = forced_inputs(model, cfg, angles_deg, comm)  # one equilibrium for both
     curve = nonlinear_forced(model, cfg, grid, angles_deg, cfg.forced.harmonics, comm,
-                             refine=True)  # fmt: skip
+                             refine=True, inputs=inputs)  # fmt: skip
     if cfg.forced.continuation == "arclength":
-        curve = trace_after_grid(model, cfg, curve, band, angles_deg, comm)
+        curve = trace_after_grid(model, cfg, curve, band, inputs)
     return DesignPoint(curve, band, time.perf_counter() - t0)
 
 
 def trace_after_grid(model: ReducedModel, cfg: Config, grid: ForcedCurve, band: tuple,
-                     angles_deg: dict | None, comm) -> ForcedCurve:  # fmt: skip
+                     inputs: tuple) -> ForcedCurve:  # fmt: skip
     """The curve over ``band`` [rad/s] traced by arclength continuation
     (:func:`~wheelrom.analysis.periodic.forced_branch.traced_curve`), its unit of the
     harmonics the largest of the ``grid`` solve; its peak the larger of the two refined
     ones (a curve of contacts that stick and slip is wavy at low H: either search may find
-    the larger local maximum); the grid's wall time included."""
-    params, q = _forced_inputs(model, cfg, angles_deg, comm)
+    the larger local maximum); each point's stability by Hill's method under the paper law
+    (``curve.growth``); the grid's harmonics and wall time included; ``inputs``: the case's
+    :func:`forced_inputs` (the grid's)."""
+    params, q = inputs
     solved = grid.harmonics[grid.converged, 1:]
     x_ref = float(np.abs(solved).max()) if solved.size else 0.0
     spacing = np.diff(np.sort(grid.frequency))
     jump = float(spacing.max()) if spacing.size else band[1] - band[0]  # the grid's spacing
     curve = traced_curve(model, params, cfg.wheel.damping_beta, band, q,
-                         harmonics=cfg.forced.harmonics, x_ref=x_ref, refine=True,
+                         harmonics=(grid.harmonics.shape[1] - 1) // 2, x_ref=x_ref, refine=True,
                          jump=jump, stability=True)  # fmt: skip
     if grid.refined is not None and (curve.refined is None or grid.refined.tip_amplitude
                                       > curve.refined.tip_amplitude):  # fmt: skip

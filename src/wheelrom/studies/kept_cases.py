@@ -17,6 +17,13 @@ import numpy as np
 from wheelrom.runtime.outputs import replacing, write_image
 
 
+def kept_dir(out: str, command: str) -> str:
+    """The folder of the finished cases of ``command`` writing ``out``: ``.NAME.command``
+    beside it."""
+    directory, name = os.path.split(os.path.abspath(out))
+    return os.path.join(directory, f".{os.path.splitext(name)[0]}.{command}")
+
+
 class DamagedCase(Exception):
     """A kept case that cannot be read: ``name`` the file, ``cause`` what its reading
     raised (the message says both, as a warning line starts)."""

@@ -37,7 +37,7 @@ from wheelrom.config import Config, to_toml
 from wheelrom.config.study import expand, short_name
 from wheelrom.runtime.errors import InputError
 from wheelrom.runtime.outputs import agree, disk_full, is_disk_full
-from wheelrom.studies.kept_cases import DamagedCase, read_case, write_case
+from wheelrom.studies.kept_cases import DamagedCase, kept_dir, read_case, write_case
 from wheelrom.studies.limit_cycles import refuse_uncarried_law
 from wheelrom.studies.plan import shared_models
 from wheelrom.studies.queue import CaseQueue
@@ -51,8 +51,7 @@ def settings_of(cfg: Config) -> Settings:
 
 
 def sidecar_dir(out: str) -> str:
-    directory, name = os.path.split(os.path.abspath(out))
-    return os.path.join(directory, f".{os.path.splitext(name)[0]}.settle")
+    return kept_dir(out, "settle")
 
 
 def config_digest(cfg: Config) -> str:

@@ -10,7 +10,8 @@ forced balance of :class:`~.forced_wave.ForcedWave`, each row in units of ``omeg
 x_scale``, and the arclength condition ``t . (z - z_pred) = 0`` (``t`` the unit tangent of
 the curve at the last point, ``z_pred = z + ds t``). A fold (turning point in the
 frequency) is where the tangent's frequency component changes sign between two points; it is
-located on the curve by the secant of that component (the curve's points stay as traced).
+located on the cubic Hermite interpolant of the frequency between them (the curve's points
+stay as traced).
 """
 
 from __future__ import annotations
@@ -80,6 +81,8 @@ class ArclengthCorrector:
         self.x_scale = np.asarray(x_scale, dtype=float)[:, None]  # (2H + 1, 1)
         self.shape = problem.force.shape
         self.size = problem.balance.size
+        # the equations' units: each row in omega_ref^2 x_scale
+        self.row_scale = 1.0 / (omega_ref**2 * self.x_scale)  # (2H + 1, 1)
 
     def unpack(self, z: np.ndarray) -> tuple[np.ndarray, float]:
         return self.x_scale * z[:-1].reshape(self.shape), self.omega_ref * float(z[-1])
@@ -94,7 +97,7 @@ class ArclengthCorrector:
         p = self.problem
         R, dRdX, dRdw, _ = p.balance.jacobian(X, omega, p.lam)
         R = R - p.force
-        scale = 1.0 / (self.omega_ref**2 * self.x_scale)  # (2H + 1, 1) per equation row
+        scale = self.row_scale
         J = np.empty((self.size, self.size + 1))
         J[:, :-1] = (dRdX * scale[:, :, None, None]
                      * self.x_scale[None, None, :, :]).reshape(self.size, self.size)
@@ -107,9 +110,8 @@ class ArclengthCorrector:
         samples only: ~1/50 of a marched Jacobian's cost)."""
         X, omega = self.unpack(z)
         R = self.problem.residual(X, omega)
-        scale = 1.0 / (self.omega_ref**2 * self.x_scale)
         ok = bool(np.all(np.isfinite(R))) and self.problem._converged(R, X, omega)
-        return (R * scale).ravel(), ok
+        return (R * self.row_scale).ravel(), ok
 
     def solve(self, z0: np.ndarray, a: np.ndarray, b: float,
               iterations: int = CORRECTOR_ITERATIONS,
