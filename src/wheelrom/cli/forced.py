@@ -36,6 +36,10 @@ def args_forced(p: argparse.ArgumentParser) -> None:
                    "(tuned wheel; docs/theory.md 'Nonlinear forced response')")  # fmt: skip
     p.add_argument("--harmonics", type=int, default=None,
                    help="harmonics of --nonlinear (default forced.harmonics)")
+    p.add_argument("--exact", action="store_true",
+                   help="with --nonlinear: the exact periodic state at the nonlinear peak by "
+                   "shooting on the transient's equations (the harmonic balance's error) and "
+                   "its Floquet multipliers (docs/theory.md)")  # fmt: skip
     p.add_argument("--angle", nargs=2, action="append", default=[], metavar=("KIND", "DEG"),
                    help="contact angle [deg] of a kind (tieboss, shroud) instead of "
                    "contacts.<kind>.angle_deg (repeatable)")  # fmt: skip
@@ -105,6 +109,8 @@ def cmd_forced(args: argparse.Namespace) -> int:
         args.harmonics = cfg.forced.harmonics
     if args.harmonics < 1:
         raise InputError(f"--harmonics {args.harmonics}: at least 1")
+    if args.exact and not args.nonlinear:
+        raise InputError("--exact checks the nonlinear response: give --nonlinear too")
     if cfg.excitation.force <= 0:  # a response of zero (and a peak search of nothing)
         raise InputError("excitation.force = 0: the nozzle force is off, nothing is forced")
     hz = excitation_grid(args, cfg.wheel.stator_vanes)
@@ -127,7 +133,7 @@ def cmd_forced(args: argparse.Namespace) -> int:
     curve = None
     if args.nonlinear:
         out["nonlinear"], curve = _nonlinear(model, cfg, response.grid, angles,
-                                             args.harmonics, say)  # fmt: skip
+                                             args.harmonics, say, args.exact)  # fmt: skip
     if args.out:
         _write(args.out, cfg, model, response, tuned, out, angles, curve)
     if args.json:
@@ -173,11 +179,11 @@ def summary(response, tuned, cfg, model, contacts: bool) -> dict:
 
 
 def _nonlinear(model, cfg, grid: np.ndarray, angles: dict | None, harmonics: int,
-               say):  # fmt: skip
+               say, exact: bool = False):  # fmt: skip
     """``(plain data, ForcedCurve)``: the nonlinear curve over the coarse grid (tip
     amplitude per frequency, Newton's verdict, the peak with its contacts' open / stick /
-    slip shares)."""
-    from wheelrom.studies.forced_nonlinear import forced_inputs, nonlinear_forced
+    slip shares; ``exact``: the peak's exact state by shooting)."""
+    from wheelrom.studies.forced_nonlinear import exact_at, forced_inputs, nonlinear_forced
 
     outside = _no_resonance(model, cfg, grid, angles)
     if outside:
@@ -202,7 +208,27 @@ def _nonlinear(model, cfg, grid: np.ndarray, angles: dict | None, harmonics: int
         out["peak_shares"] = {kind: dict(zip(("open", "stick", "slip"),
                                              map(float, curve.fractions[i, k]), strict=True))
                               for k, kind in enumerate(curve.kinds)}  # fmt: skip
+        if exact:
+            say(f"the exact state at {out['peak_frequency_hz']:.4f} Hz by shooting")
+            out["exact"] = _exact(exact_at(model, cfg, curve, i, inputs, angles))
     return out, curve
+
+
+def _exact(orbit) -> dict:
+    """Plain data of a :class:`~wheelrom.analysis.periodic.forced_shooting.ForcedOrbit`."""
+    out = {"converged": orbit.converged, "residual": orbit.residual,
+           "iterations": orbit.iterations, "reason": orbit.reason, "wall_s": orbit.wall_s,
+           "frequency_hz": orbit.frequency / (2 * math.pi), "pattern_blades": orbit.pattern,
+           "hb_tip_amplitude_m": orbit.hb_tip_amplitude}  # fmt: skip
+    if orbit.converged:
+        mu = orbit.multipliers
+        out.update(tip_amplitude_m=orbit.tip_amplitude,
+                   hb_relative_difference=orbit.relative_difference,
+                   largest_multiplier=orbit.largest, stable=orbit.stable,
+                   largest_multiplier_at_twice_the_step=orbit.coarse_largest,
+                   multipliers_re=mu.real.tolist(), multipliers_im=mu.imag.tolist(),
+                   multiplier_nd=orbit.nodal_diameters.tolist())  # fmt: skip
+    return out
 
 
 def _traced(model, cfg, curve, grid: np.ndarray, inputs: tuple) -> dict:
@@ -321,6 +347,13 @@ def _write_nonlinear(g, out: dict, curve) -> None:
         for key in ("peak_amplitude_m", "peak_frequency_hz"):
             if key in traced:
                 t.attrs[key] = traced[key]
+    if "exact" in out:  # --exact
+        exact, e = out["exact"], g.create_group("exact")
+        for key, value in exact.items():
+            if key.startswith("multiplier"):
+                e[key] = np.asarray(value)
+            else:
+                e.attrs[key] = value
 
 
 def _contact_angles(cfg, angles: dict | None) -> dict:
@@ -368,6 +401,8 @@ def _print_nonlinear(out: dict) -> None:
                            for kind, s in nl["peak_shares"].items())  # fmt: skip
         print(f"nonlinear peak on the grid: {nl['peak_amplitude_m']:.4e} m at "
               f"{nl['peak_frequency_hz']:.4f} Hz ({shares})")
+    if "exact" in nl:
+        _print_exact(nl["exact"])
     if "traced" in nl:
         tr = nl["traced"]
         folds = ("folds at " + ", ".join(f"{f:.4f}" for f in tr["folds_hz"]) + " Hz"
@@ -382,3 +417,19 @@ def _print_nonlinear(out: dict) -> None:
         print(nl["no_resonance"])
     print(f"{out['solves']} solves ({out['candidates']} candidates, {out['refined']} refined), "
           f"{1e3 * out['solve_s_per_frequency']:.3g} ms per solve")  # fmt: skip
+
+
+def _print_exact(ex: dict) -> None:
+    """The exact state's line: its amplitude against the balance's, its multipliers."""
+    if not ex["converged"]:
+        print(f"exact state at {ex['frequency_hz']:.4f} Hz: shooting did not converge "
+              f"({ex['reason']}, residual {ex['residual']:.2g})")  # fmt: skip
+        return
+    verdict = "stable" if ex["stable"] else "unstable"
+    print(f"exact state at {ex['frequency_hz']:.4f} Hz (shooting, {ex['iterations']} "
+          f"iterations, residual {ex['residual']:.1e}, {ex['wall_s']:.1f} s): tip "
+          f"{ex['tip_amplitude_m']:.4e} m, the harmonic balance "
+          f"{100 * ex['hb_relative_difference']:+.3f} %; largest Floquet multiplier "
+          f"|mu| = {ex['largest_multiplier']:.6f} (ND {ex['multiplier_nd'][0]}; "
+          f"{ex['largest_multiplier_at_twice_the_step']:.6f} at twice the step): {verdict} "
+          f"within the NDs of its {ex['pattern_blades']}-blade pattern")  # fmt: skip

@@ -9,6 +9,7 @@ force [sqrt(kg) m/s^2] (= N / sqrt(kg), since ``M_R = I``).
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from dataclasses import dataclass
@@ -134,6 +135,21 @@ class ForceParameters:
         """Slider coordinates of the state per case: ``2 K N`` under the elastic law, 0
         under the paper law (it has none)."""
         return 2 * len(self.contacts.kinds) * self.blades if self.law.elastic else 0
+
+    def first_blades(self, n: int) -> ForceParameters:
+        """The parameters of a tuned wheel's pattern of its first ``n`` blades (the per-blade
+        arrays cut to them; the nozzle's phases stay the whole wheel's, so the pattern feels
+        the whole wheel's travelling force). Not for an aerodynamic table, whose per-blade
+        arrays are influence coefficients over blade distances."""
+        c = self.contacts
+        contacts = dataclasses.replace(
+            c, frame=c.frame[:, :n].copy(), stiffness=c.stiffness[:, :n].copy(),
+            tangential=c.tangential[:, :n].copy(),
+            angles_deg={k: np.asarray(v)[:n].copy() for k, v in c.angles_deg.items()})
+        return dataclasses.replace(
+            self, blades=n, nozzle_phase=self.nozzle_phase[:n].copy(),
+            aero_displacement=self.aero_displacement[:n].copy(),
+            aero_velocity=self.aero_velocity[:n].copy(), contacts=contacts)
 
     def shared(self) -> tuple:
         """Everything but the contact frames and stiffnesses (what the cases of one batch

@@ -16,7 +16,8 @@ import numpy as np
 from wheelrom.analysis.forced import operators
 from wheelrom.analysis.forced_peak import resonance
 from wheelrom.analysis.periodic.forced_branch import traced_curve
-from wheelrom.analysis.periodic.forced_wave import ForcedCurve, forced_curve
+from wheelrom.analysis.periodic.forced_shooting import ForcedOrbit, exact_forced
+from wheelrom.analysis.periodic.forced_wave import ForcedCurve, ForcedWave, forced_curve
 from wheelrom.analysis.stability import linearise
 from wheelrom.config import Config
 from wheelrom.forces.parameters import force_parameters
@@ -39,6 +40,19 @@ def nonlinear_forced(model: ReducedModel, cfg: Config, frequencies: np.ndarray,
     params, q = inputs or forced_inputs(model, cfg, angles_deg, comm)
     return forced_curve(model, params, cfg.wheel.damping_beta, frequencies, q,
                         harmonics=harmonics, progress=progress, refine=refine)  # fmt: skip
+
+
+def exact_at(model: ReducedModel, cfg: Config, curve: ForcedCurve, index: int,
+             inputs: tuple, angles_deg: dict | None = None) -> ForcedOrbit:  # fmt: skip
+    """The exact forced state at point ``index`` of ``curve`` (a converged one) by shooting
+    from its harmonic balance (:func:`~wheelrom.analysis.periodic.forced_shooting.
+    exact_forced`): the check of the balance's truncation and the state's Floquet
+    multipliers; ``inputs``: the case's :func:`forced_inputs`."""
+    params, _ = inputs
+    harmonics = (curve.harmonics.shape[1] - 1) // 2
+    problem = ForcedWave(model, params, cfg.wheel.damping_beta, harmonics)
+    return exact_forced(model, cfg, problem, curve.harmonics[index],
+                        float(curve.frequency[index]), angles_deg)  # fmt: skip
 
 
 def forced_inputs(model: ReducedModel, cfg: Config, angles_deg: dict | None = None,

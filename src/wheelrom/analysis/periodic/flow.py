@@ -3,7 +3,9 @@ configured scheme, whole fixed steps no longer than ``time.step``) for a batch o
 the function that shooting and the monodromy evaluate.
 
 Autonomous: the nozzle is off and the self-excitation is scaled by ``lam`` (the factor on
-``flutter.mu`` or ``flutter.table_scale``), as for the harmonic balance. Every state of a
+``flutter.mu`` or ``flutter.table_scale``), as for the harmonic balance; or forced
+(``nozzle``: the nozzle's travelling wave at a given frequency, :class:`Nozzle`, for the
+forced response's exact orbit). Every state of a
 batch is one case of the compiled kernel's batch dimension, so a batch of perturbed states
 is one compiled call per step. No output samples are taken (the monitor's next sample time
 is set beyond the end): the flow returns end states only.
@@ -19,11 +21,12 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from wheelrom.config import Config
-from wheelrom.forces.parameters import force_parameters
+from wheelrom.forces.parameters import ForceParameters, force_parameters
 from wheelrom.rom.model import ReducedModel
 from wheelrom.runtime.environment import petsc
 from wheelrom.runtime.errors import InputError
@@ -41,6 +44,16 @@ def autonomous(cfg: Config) -> Config:
     """``cfg`` with the nozzle off and no stored histories."""
     return cfg.replace(**{"excitation.force": 0.0, "output.history_rate_hz": 0.0,
                           "output.state_rate_hz": 0.0})  # fmt: skip
+
+
+@dataclass(frozen=True)
+class Nozzle:
+    """The nozzle force of a forced flow: ``frequency`` [rad/s] of the excitation (the rotor
+    speed set to ``frequency / n_s``) and ``phases`` ``(N,)`` [rad] per blade of the flow's
+    wheel (a pattern wheel takes the whole wheel's first ``N'`` phases)."""
+
+    frequency: float
+    phases: np.ndarray
 
 
 def pattern_blades(wave: int, blades: int) -> tuple[int, int, int]:
@@ -77,19 +90,31 @@ def shift_blades(states: np.ndarray, j: int) -> np.ndarray:
 class WheelFlow:
     """``phi_t`` of one case for batches of states ``(B, 2, N, m)`` (``q`` [sqrt(kg) m],
     ``q'`` [sqrt(kg) m/s] of every blade of ``model``). ``lam``: factor on the
-    self-excitation. The TS has the options prefix ``prefix`` (``wheel_``: the transient's
-    ``-wheel_ts_*`` options act here too). :meth:`destroy` frees the PETSc objects."""
+    self-excitation; ``nozzle``: the forced flow's nozzle (None: off, autonomous). The TS has
+    the options prefix ``prefix`` (``wheel_``: the transient's ``-wheel_ts_*`` options act
+    here too); ``params``: the case's force parameters on ``model`` instead of ``cfg``'s
+    (the nozzle's on or off as in them). :meth:`destroy` frees the PETSc objects."""
 
     def __init__(self, model: ReducedModel, cfg: Config, angles_deg: dict | None = None,
-                 lam: float = 1.0, prefix: str = PREFIX, options: dict | None = None):  # fmt: skip
+                 lam: float = 1.0, prefix: str = PREFIX, options: dict | None = None,
+                 nozzle: Nozzle | None = None,
+                 params: ForceParameters | None = None):  # fmt: skip
         self.model, self.prefix, self.options = model, prefix, options
-        self.cfg = autonomous(cfg)
+        self.cfg = autonomous(cfg) if nozzle is None else \
+            cfg.replace(**{"output.history_rate_hz": 0.0, "output.state_rate_hz": 0.0})  # fmt: skip
         # the factor on the intensity (or the table's scale) on the parameters: a reversed
         # self-excitation (lam < 0) is no configuration, but an unstable cycle to test on
-        params = force_parameters(model, self.cfg, angles_deg)
+        if params is None:
+            params = force_parameters(model, self.cfg, angles_deg)
         self.params = dataclasses.replace(params, vdp_mu=params.vdp_mu * lam)
+        if nozzle is not None:  # the kernel's nozzle runs at n_s times the rotor speed
+            self.params = dataclasses.replace(
+                self.params, omega=nozzle.frequency / params.stator_vanes,
+                nozzle_phase=np.ascontiguousarray(nozzle.phases, dtype=float))
         self.N, self.m = model.blades, model.modes
         self.n = self.N * self.m
+        #: the elastic law's slider coordinates of a state (``2 K N``; 0 under the paper law)
+        self.sliders = self.params.sliders
         load_kernels(self.params)
         self._batches: dict[int, tuple] = {}
         self.max_step = float(self.cfg.time.step)
@@ -128,28 +153,48 @@ class WheelFlow:
             out[lo : lo + len(chunk)] = self._advance(chunk, duration, steps)
         return out
 
-    def _advance(self, states: np.ndarray, duration: float, steps: int) -> np.ndarray:
+    def advance_sliding(self, states: np.ndarray, duration: float, steps: int = 0,
+                        start: float = 0.0) -> np.ndarray:  # fmt: skip
+        """As :meth:`advance` for states ``(B, 2 N m + sliders)`` that carry the elastic law's
+        sliders after ``q, q'`` (blade-major ``(K, N, 2)`` [m], as the transient's state),
+        from time ``start`` [s] (the forced flow's nozzle phase)."""
+        states = np.asarray(states, dtype=float)
+        out = np.empty_like(states)
+        for lo in range(0, states.shape[0], MAX_BATCH):
+            chunk = states[lo : lo + MAX_BATCH]
+            out[lo : lo + len(chunk)] = self._advance(chunk, duration, steps, start)
+        return out
+
+    def _advance(self, states: np.ndarray, duration: float, steps: int,
+                 start: float = 0.0) -> np.ndarray:  # fmt: skip
+        """End states of ``states`` ``(B, ...)`` from time ``start`` [s]: ``q, q'`` and, when
+        given (``2 n + sliders`` per state), the sliders; sliders not given start at 0."""
         PETSc = petsc()
         B = states.shape[0]
         problem, ts, f, u = self._batch(B)
         n, h = (steps, duration / steps) if steps else self.steps_for(duration)
         full = np.zeros((B, problem.size()))
-        full[:, : 2 * self.n] = states.reshape(B, 2 * self.n)
+        flat = states.reshape(B, -1)
+        full[:, : 2 * self.n] = flat[:, : 2 * self.n]
+        if flat.shape[1] > 2 * self.n:  # the sliders follow the four work integrals
+            full[:, 2 * self.n + 4 :] = flat[:, 2 * self.n :]
         ctx = problem.context
         ctx.set_header(H_NEXT_SAMPLE, math.inf)  # no output samples: end states only
         u.setArray(ctx.pack(full))
-        ts.setTime(0.0)
+        ts.setTime(start)
         ts.setStepNumber(0)
         ts.setTimeStep(h)
         ts.setMaxSteps(n)
-        ts.setMaxTime(duration + 0.5 * h)
+        ts.setMaxTime(start + duration + 0.5 * h)
         ts.setExactFinalTime(PETSc.TS.ExactFinalTime.STEPOVER)
         ts.solve(u)
         if ts.getStepNumber() != n:
             raise RuntimeError(f"the flow took {ts.getStepNumber()} of {n} steps")
         self.steps_taken += n * B
-        end = ctx.unpack(u.getArray(readonly=True))[:, : 2 * self.n]
-        return end.reshape(states.shape)
+        end = ctx.unpack(u.getArray(readonly=True))
+        if flat.shape[1] > 2 * self.n:
+            end = np.concatenate([end[:, : 2 * self.n], end[:, 2 * self.n + 4 :]], axis=1)
+        return end[:, : flat.shape[1]].reshape(states.shape)
 
     def trajectory(self, state: np.ndarray, duration: float, steps: int,
                    stride: int = 1) -> np.ndarray:  # fmt: skip

@@ -116,10 +116,11 @@ class RefinedPeak:
 class ForcedWave:
     """The forced harmonic balance of one case: ``params`` with the nozzle (``n_s``,
     ``F_b``) and the self-excitation at factor ``lam`` (0: off), ``H`` harmonics and
-    ``samples`` per period of the AFT."""
+    ``samples`` per period of the AFT (0: ``8 (H + 1)``)."""
 
     def __init__(self, model: ReducedModel, params: ForceParameters, beta: float,
-                 harmonics: int, samples: int, lam: float = 1.0):  # fmt: skip
+                 harmonics: int, samples: int = 0, lam: float = 1.0):  # fmt: skip
+        samples = samples or 8 * (harmonics + 1)
         self.wave = params.stator_vanes % model.blades
         self.balance = WaveBalance(model, params, beta, self.wave, harmonics, samples)
         self.lam = lam
@@ -248,7 +249,6 @@ def forced_curve(model: ReducedModel, params: ForceParameters, beta: float,
     amplitude)`` after each frequency; ``refine``: also the peak off the grid
     (:func:`refine_peak`, ``curve.refined``)."""
     t0 = time.perf_counter()
-    samples = samples or 8 * (harmonics + 1)
     problem = ForcedWave(model, params, beta, harmonics, samples, lam)
     w_all = np.atleast_1d(np.asarray(frequencies, dtype=float))
     F = w_all.size

@@ -1,0 +1,276 @@
+"""The forced response's exact periodic state by shooting at the known period, and its
+stability from the period map (issue #45; docs/theory.md, "Nonlinear forced response: the
+exact state").
+
+The nozzle's travelling wave ``F_b cos(w t - phi_s)``, ``phi_s = 2 pi (1 - n_s / N) s``, is
+wave ``k = n_s mod N``: blade ``s + j`` feels at ``t`` what blade ``s`` feels at ``t + g T /
+N`` (``g = gcd(k, N)``, ``j k = g mod N``; :func:`~.flow.pattern_blades`). The steady
+response has the symmetry of its force, so on the wave's pattern wheel of ``N' = N / g``
+blades it satisfies::
+
+    phi_tau(x0) = S^j x0,     tau = g T / N,   T = 2 pi / w
+
+with the flow started at ``t = 0`` each time (the force repeats with the blades). The
+unknowns are ``x0`` alone (every pattern blade's ``q, q'`` and, under the elastic law, its
+sliders): the period is the excitation's and the force fixes the phase, so there is no
+phase condition. Newton on the scaled shot, its Jacobian by central differences (all
+perturbed shots one batch of the compiled kernel), from the harmonic balance's state.
+
+The Jacobian at the solution is the pattern map's ``G``: its eigenvalues ``nu`` give the
+Floquet multipliers ``mu = nu^{N'}`` of every perturbation that keeps the pattern (NDs that
+are multiples of ``g``: for the paper wheel's ND-2 wave the even NDs), labelled by ND. A
+real multiplier through +1 is a fold of the response curve, one through -1 a period
+doubling, a complex pair leaving the unit circle the onset of a quasi-periodic state (a
+self-excited wave beside the forced one). A contact that sticks the whole period leaves its
+slider free (any stuck position repeats): such directions have ``mu = 1`` exactly and are
+neutral, not unstable; they make the Jacobian singular, so the Newton step is the
+least-squares one.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from wheelrom.analysis.periodic.flow import Nozzle, WheelFlow, pattern_model
+from wheelrom.analysis.periodic.forced_wave import ForcedWave
+from wheelrom.config import Config
+from wheelrom.rom.model import ReducedModel
+
+MAX_ITERATIONS = 20
+#: converged at this scaled residual (relative to the vibration), or at the rounding floor
+#: of the static deflection in the same units (as the autonomous shot)
+TOLERANCE, ROUNDOFF = 1e-10, 1e-12
+DIFFERENCE = 1e-6  # central-difference step, relative to the vibration
+#: periods the elastic law's sliders are marched from rest at the mean before Newton (a
+#: slipping contact's loop closes within them; one that walks slowly is Newton's)
+WARMUP_PERIODS = 3
+#: a multiplier this close to the unit circle counts as on it (the differences' error, raised
+#: to the pattern's power)
+UNIT = 1e-6
+
+
+@dataclass
+class ForcedOrbit:
+    """The exact forced state at ``frequency`` [rad/s]: ``state`` the pattern wheel's blades
+    at ``t = 0`` (``q`` ``(N', m)`` [sqrt(kg) m], ``q'`` [sqrt(kg) m/s], then the sliders
+    ``(K, N', 2)`` [m] under the elastic law, flat); ``residual`` the shot's, relative to
+    the vibration (max norm, scaled units); ``multipliers`` ``mu`` (complex, largest
+    modulus first) inside the pattern's symmetry and their ``nodal_diameters``;
+    ``tip_amplitude`` [m] 0-peak about the mean from the orbit's every step;
+    ``hb_tip_amplitude`` [m] the harmonic balance's at the same frequency."""
+
+    frequency: float
+    state: np.ndarray
+    pattern: int
+    residual: float
+    iterations: int
+    converged: bool
+    multipliers: np.ndarray = field(default_factory=lambda: np.zeros(0, complex))
+    nodal_diameters: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
+    tip_amplitude: float = math.nan
+    hb_tip_amplitude: float = math.nan
+    wall_s: float = 0.0
+    reason: str = ""
+    #: the largest ``|mu|`` at twice the step (NaN: not refined), :func:`exact_forced`
+    coarse_largest: float = math.nan
+
+    @property
+    def largest(self) -> float:
+        """``|mu|`` of the dominant multiplier (NaN: none computed)."""
+        return float(np.abs(self.multipliers[0])) if self.multipliers.size else math.nan
+
+    @property
+    def stable(self) -> bool | None:
+        """No multiplier outside the unit circle (None: not computed)."""
+        return None if not self.multipliers.size else bool(self.largest <= 1 + UNIT)
+
+    @property
+    def relative_difference(self) -> float:
+        """``(hb - exact) / exact`` of the tip amplitude."""
+        return (self.hb_tip_amplitude - self.tip_amplitude) / self.tip_amplitude
+
+
+class ForcedShooting:
+    """Shooting for the forced state of one case at excitation frequency ``omega`` [rad/s]
+    (the :class:`~.forced_wave.ForcedWave` ``problem``'s wave, force and self-excitation
+    factor) on the configured transient scheme and step. :meth:`destroy` frees it."""
+
+    def __init__(self, model: ReducedModel, cfg: Config, problem: ForcedWave, omega: float,
+                 angles_deg: dict | None = None):  # fmt: skip
+        params = problem.balance.params
+        self.wave = problem.wave
+        pattern, self.g, self.shift = pattern_model(model, self.wave,
+                                                    cfg.flutter.model != "table")  # fmt: skip
+        self.blades = model.blades
+        self.N, self.m = pattern.blades, pattern.modes
+        self.omega, self.period = float(omega), 2 * math.pi / float(omega)
+        self.tau = self.g / model.blades * self.period
+        # the balance's own parameters (its nozzle, contacts and law), cut to the pattern
+        nozzle = Nozzle(self.omega, np.asarray(params.nozzle_phase)[: self.N])
+        self.flow = WheelFlow(pattern, cfg, angles_deg, problem.lam, nozzle=nozzle,
+                              params=params.first_blades(self.N))  # fmt: skip
+        self.K = len(params.contacts.kinds)
+        self.sliders = self.flow.sliders
+        self.n = 2 * self.N * self.m + self.sliders
+        self.tip = model.tip
+
+    def destroy(self) -> None:
+        self.flow.destroy()
+
+    # ------------------------------------------------------------------ the map
+    def shift_states(self, x: np.ndarray, j: int) -> np.ndarray:
+        """``(B, n)`` states with pattern blade ``s`` replaced by blade ``s + j``."""
+        B, nq = x.shape[0], 2 * self.N * self.m
+        q = np.roll(x[:, :nq].reshape(B, 2, self.N, self.m), -j, axis=2).reshape(B, nq)
+        w = np.roll(x[:, nq:].reshape(B, self.K, self.N, 2), -j, axis=2).reshape(B, -1) \
+            if self.sliders else x[:, nq:]  # fmt: skip
+        return np.concatenate([q, w], axis=1)
+
+    def shot(self, x: np.ndarray) -> np.ndarray:
+        """``S^{-j} phi_tau(x)`` of states ``(B, n)``."""
+        end = self.flow.advance_sliding(x, self.tau)
+        return self.shift_states(end, -self.shift)
+
+    def start(self, problem: ForcedWave, X: np.ndarray) -> np.ndarray:
+        """``(n,)``: the harmonic balance's state ``X`` at ``t = 0`` on the pattern; the
+        sliders at rest at the mean, marched :data:`WARMUP_PERIODS` periods."""
+        q, v = problem.balance.wheel_state(X, self.omega)
+        x = np.concatenate([q[: self.N].ravel(), v[: self.N].ravel()])
+        if not self.sliders:
+            return x
+        forces = self.flow._batch(1)[0].forces[0]
+        mean = np.repeat(np.asarray(X[0], dtype=float)[None], self.N, axis=0)
+        x = np.concatenate([x, forces.sliders_at_rest(mean).ravel()])[None]
+        for _ in range(WARMUP_PERIODS * round(self.period / self.tau)):
+            x = self.shot(x)
+        return x[0]
+
+    def _scale(self, x: np.ndarray, tip_amplitude: float) -> np.ndarray:
+        """Units of the unknowns: ``a`` (the largest modal velocity over ``w``) for ``q``,
+        ``w a`` for ``q'``, the tip amplitude [m] for the sliders."""
+        nq = self.N * self.m
+        a = max(float(np.abs(x[nq : 2 * nq]).max()) / self.omega, 1e-300)
+        scale = np.full(self.n, a)
+        scale[nq : 2 * nq] = self.omega * a
+        scale[2 * nq :] = max(tip_amplitude, 1e-300)
+        return scale
+
+    def jacobian(self, x: np.ndarray, scale: np.ndarray) -> np.ndarray:
+        """``(n, n)`` ``d(S^{-j} phi_tau)/dx`` in scaled units, central differences (one
+        batch of ``2 n`` shots)."""
+        n = self.n
+        h = DIFFERENCE * scale
+        perturbed = np.repeat(x[None], 2 * n, axis=0)
+        perturbed[np.arange(n), np.arange(n)] += h
+        perturbed[n + np.arange(n), np.arange(n)] -= h
+        shots = self.shot(perturbed)
+        columns = (shots[:n] - shots[n:]) / (2 * h[:, None])  # row i: d end / d x_i
+        return columns.T * scale[None, :] / scale[:, None]
+
+    # ------------------------------------------------------------------ Newton
+    def solve(self, x0: np.ndarray, tip_amplitude: float) -> ForcedOrbit:
+        """Newton from ``x0`` ``(n,)``; ``tip_amplitude`` [m]: the start's (the sliders'
+        unit). The orbit with its multipliers when converged."""
+        t0 = time.perf_counter()
+        x = np.array(x0, dtype=float)
+        scale = self._scale(x, tip_amplitude)
+        floor = ROUNDOFF * float(np.abs(x / scale).max())
+        F = (self.shot(x[None])[0] - x) / scale
+        size, reason, it = float(np.abs(F).max()), "iterations", 0
+        for it in range(MAX_ITERATIONS + 1):
+            if not math.isfinite(size):
+                reason = "the shot diverged"
+                break
+            if size <= max(TOLERANCE, floor):
+                reason = "converged"
+                break
+            if it == MAX_ITERATIONS:
+                break
+            G = self.jacobian(x, scale)
+            x, F, size, ok = self._step(x, F, size, G - np.eye(self.n), scale)
+            if not ok:
+                reason = "no step reduces the residual"
+                break
+        converged = reason == "converged"
+        orbit = ForcedOrbit(self.omega, x, self.N, size, it, converged, reason=reason)
+        if converged:  # the multipliers from the Jacobian at the solution itself
+            orbit.multipliers, orbit.nodal_diameters = self._multipliers(
+                self.jacobian(x, scale), scale)
+            orbit.tip_amplitude = self.tip_amplitude(x)
+        orbit.wall_s = time.perf_counter() - t0
+        return orbit
+
+    def _step(self, x, F, size, A, scale):
+        """The Newton step (least squares: a stuck slider's direction is singular),
+        halved until the residual falls (at most 6 times)."""
+        dz = np.linalg.lstsq(A, -F, rcond=1e-13)[0]
+        a = 1.0
+        for _ in range(7):
+            trial = x + a * dz * scale
+            F_trial = (self.shot(trial[None])[0] - trial) / scale
+            size_trial = float(np.abs(F_trial).max())
+            if size_trial < size:
+                return trial, F_trial, size_trial, True
+            a *= 0.5
+        return x, F, size, False
+
+    def _multipliers(self, G: np.ndarray, scale: np.ndarray):
+        """``(mu, nd)`` of the pattern map's Jacobian ``G`` (scaled), largest first; the ND
+        of a vector from the DFT of its ``q`` over the pattern's blades (index times ``g``)."""
+        nu, vectors = np.linalg.eig(G)
+        mu = nu**self.N
+        order = np.argsort(-np.abs(mu))
+        vectors = (vectors * scale[:, None])[:, order]
+        nq = self.N * self.m
+        q = vectors[:nq].T.reshape(-1, self.N, self.m)
+        energy = (np.abs(np.fft.fft(q, axis=1)) ** 2).sum(axis=2)
+        k = np.argmax(energy, axis=1) * self.g
+        return mu[order], np.minimum(k % self.blades, (-k) % self.blades)
+
+    def tip_amplitude(self, x: np.ndarray) -> float:
+        """0-peak tip amplitude [m] about the mean, at every step of one shot of every
+        pattern blade: blade ``s`` is blade 0 a time ``k s T / N`` later, so these samples are
+        blade 0's whole period."""
+        n_tau, h = self.flow.steps_for(self.tau)
+        path = [x]
+        for i in range(n_tau - 1):  # the nozzle's time goes on
+            path.append(self.flow.advance_sliding(path[-1][None], h, 1, start=i * h)[0])
+        nq = self.N * self.m
+        q = np.array(path)[:, :nq].reshape(-1, self.m)  # (steps N', m)
+        q = q - q.mean(axis=0)
+        return float(np.linalg.norm(q @ self.tip.T, axis=1).max())
+
+
+def exact_forced(model: ReducedModel, cfg: Config, problem: ForcedWave, X: np.ndarray,
+                 omega: float, angles_deg: dict | None = None,
+                 refine: bool = True) -> ForcedOrbit:  # fmt: skip
+    """The exact forced state at ``omega`` [rad/s] by shooting from the harmonic balance's
+    solution ``X`` ``(2H + 1, m)`` of ``problem``, with ``hb_tip_amplitude`` set;
+    ``refine``: solved again at half the step from there, the multipliers (and the state)
+    of the finer step reported and the coarse step's largest ``|mu|`` kept in
+    ``coarse_largest`` (a contact opening or sticking within a step makes the multipliers
+    converge with the step erratically: measured 1.45, 1.61, 1.59 at 5, 2.5, 1.25 us)."""
+    hb = problem.tip_amplitude(X, omega)
+    shooting = ForcedShooting(model, cfg, problem, omega, angles_deg)
+    try:
+        orbit = shooting.solve(shooting.start(problem, X), hb)
+    finally:
+        shooting.destroy()
+    orbit.hb_tip_amplitude = hb
+    if refine and orbit.converged:
+        finer = cfg.replace(**{"time.step": cfg.time.step / 2})
+        shooting = ForcedShooting(model, finer, problem, omega, angles_deg)
+        try:
+            fine = shooting.solve(orbit.state, hb)
+        finally:
+            shooting.destroy()
+        if fine.converged:
+            fine.hb_tip_amplitude, fine.coarse_largest = hb, orbit.largest
+            fine.wall_s += orbit.wall_s
+            return fine
+        orbit.reason += f"; at half the step: {fine.reason}"
+    return orbit

@@ -1,0 +1,139 @@
+"""The forced response's exact state by shooting at the excitation's period
+(:mod:`wheelrom.analysis.periodic.forced_shooting`, issue #45) against independent truth:
+
+- the lift-off ring of ``test_forced_branch`` (three one-mode blades, a preloaded normal
+  contact that lifts off, one nozzle's wave bending the peak into a fold pair): between the
+  folds the three harmonic-balance states are made exact; each is periodic under scipy's
+  DOP853 (the equations written out again, a second integrator); the lower one is linear
+  (the contacts stay closed), so its Floquet multipliers are the closed ring's analytic
+  ``exp(lambda T)`` per ND; the middle one has the fold's real multiplier above 1, the upper
+  one none outside the unit circle (as Hill's method and the time integration found);
+- the small wheel under the elastic law: the shot converges with the sliders in the state,
+  the harmonic balance at H = 5 within 2 % of it, the stuck tie-boss's sliders neutral
+  (``|mu| = 1``);
+- ``forced-response --nonlinear --exact`` prints, writes JSON and ``/nonlinear/exact``.
+"""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from test_forced_branch import (
+    BETA,
+    COUPLING,
+    LIFT_OFF,
+    W0,
+    ring_curve,  # noqa: F401 (the fixture)
+    ring_motion,
+)
+from wheelrom.analysis.periodic.forced_shooting import exact_forced
+from wheelrom.analysis.periodic.forced_wave import ForcedWave, forced_curve
+from wheelrom.forces.parameters import force_parameters
+from wheelrom.studies.forced_nonlinear import forced_inputs
+
+
+def _states_between_the_folds(ring_curve):  # noqa: F811
+    model, params, curve = ring_curve
+    f_upper, f_lower = curve.folds
+    omega = 0.5 * (f_upper + f_lower)
+    w = curve.frequency
+    H = (curve.harmonics.shape[1] - 1) // 2
+    problem = ForcedWave(model, params, BETA, H, 16 * (H + 1), 0.0)
+    states = []
+    for i in np.flatnonzero((w[:-1] - omega) * (w[1:] - omega) <= 0):
+        j = i if abs(w[i] - omega) < abs(w[i + 1] - omega) else i + 1
+        X, ok, _ = problem.solve(curve.harmonics[j], omega)
+        assert ok
+        states.append(X)
+    return model, problem, omega, states
+
+
+def test_the_exact_states_between_the_folds(ring_curve, small_cfg):  # noqa: F811
+    model, problem, omega, states = _states_between_the_folds(ring_curve)
+    cfg = small_cfg.replace(**{"wheel.damping_beta": BETA, "time.scheme": "rk",
+                               "time.step": 5e-6})  # fmt: skip
+    T = 2 * math.pi / omega
+    orbits = sorted((exact_forced(model, cfg, problem, X, omega) for X in states),
+                    key=lambda o: o.tip_amplitude)  # fmt: skip
+    low, middle, high = orbits
+    assert all(o.converged and o.pattern == 3 for o in orbits)
+    assert low.tip_amplitude < LIFT_OFF < middle.tip_amplitude < high.tip_amplitude
+    for o in orbits:
+        # the harmonic balance at H = 7 within its truncation of a kinked force (measured
+        # 1.4e-5, 2.2e-4, 2.0e-4)
+        assert abs(o.relative_difference) < 1e-3
+        # periodic in the equations of motion written out and integrated by DOP853 (the
+        # shot is periodic in RK 3bs's map at 5 us: measured 2e-9 of the vibration)
+        y0 = o.state  # (q, q') of blades 0..2: unit modal masses, q = y
+        sol = solve_ivp(ring_motion, (0.0, T), y0, args=(omega,), method="DOP853",
+                        rtol=1e-11, atol=1e-15, max_step=T / 256)  # fmt: skip
+        vibration = np.abs(y0[:3] - y0[:3].mean()).max()
+        assert np.abs(sol.y[:3, -1] - y0[:3]).max() < 1e-6 * vibration
+    # below lift-off the ring is linear: its multipliers are exp(lambda T) of the closed
+    # ring, ND 0 (the contacts do not move: W0^2, damping beta W0^2) and ND 1 (W0^2 + 3
+    # coupling + 3 contact, damping beta (W0^2 + 3 coupling): the contact is undamped)
+    closed = {0: (W0**2, BETA * W0**2), 1: (W0**2 + 3 * COUPLING + 3 * 0.2 * W0**2,
+                                            BETA * (W0**2 + 3 * COUPLING))}  # fmt: skip
+    for nd, (k, c) in closed.items():
+        lam = -c / 2 + 1j * math.sqrt(k - c**2 / 4)
+        expected = np.exp(lam * T)
+        found = low.multipliers[low.nodal_diameters == nd]
+        assert np.abs(found - expected).min() < 1e-6 and \
+            np.abs(found - np.conj(expected)).min() < 1e-6, (nd, found, expected)  # fmt: skip
+    assert low.largest == pytest.approx(math.exp(-BETA * W0**2 * T / 2), rel=1e-7)
+    # the middle state: the fold's real multiplier above 1, in the wave's ND; the upper
+    # state stable (as Hill's method and the time integration of test_forced_branch)
+    assert middle.multipliers[0].imag == 0 and middle.largest > 1.05
+    assert middle.nodal_diameters[0] == 1 and not middle.stable
+    assert high.stable and low.stable and high.largest < 1 - 1e-3
+    # the coarse step's multiplier beside the finer one (the refinement ran)
+    assert middle.coarse_largest == pytest.approx(middle.largest, rel=1e-3)
+
+
+def test_the_elastic_law_shoots_with_its_sliders(small_model, small_cfg):
+    cfg = small_cfg.replace(**{"contacts.law": "elastic", "flutter.model": "off",
+                               "excitation.force": 10.0})  # fmt: skip
+    angles = {"shroud": 50.0}
+    params, q = forced_inputs(small_model, cfg, angles)
+    w = 2 * math.pi * 250.0
+    curve = forced_curve(small_model, params, cfg.wheel.damping_beta, np.array([w]), q,
+                         harmonics=5)  # fmt: skip
+    assert curve.converged[0]
+    shares = curve.fractions[0]  # the shroud slips most of the period, the tie-boss sticks
+    assert shares[1, 2] > 0.5 and shares[0, 1] == 1.0
+    problem = ForcedWave(small_model, params, cfg.wheel.damping_beta, 5)
+    orbit = exact_forced(small_model, cfg, problem, curve.harmonics[0], w, angles)
+    assert orbit.converged and orbit.state.size == 2 * 6 * small_model.modes + 2 * 2 * 6
+    assert abs(orbit.relative_difference) < 0.02  # H = 5 (measured +1.26 %)
+    # the stuck tie-boss's sliders: any stuck position repeats, multiplier 1 (neutral)
+    assert abs(orbit.largest - 1) < 1e-8 and orbit.stable
+    assert force_parameters(small_model, cfg, angles).sliders == 2 * 2 * small_model.blades
+
+
+def test_the_command_checks_the_peak_by_shooting(tmp_path, capsys):
+    import json
+
+    import h5py
+
+    from conftest import SMALL
+    from wheelrom.cli import main as cli
+
+    path = tmp_path / "f.h5"
+    argv = ["forced-response", SMALL, "--nonlinear", "--exact", "--frequencies", "120:135:6",
+            "--harmonics", "11", "--set", 'flutter.model="off"', "--set",
+            "excitation.force=10", "--json", "--out", str(path)]  # fmt: skip
+    assert cli.main(argv) == 0
+    nl = json.loads(capsys.readouterr().out)["nonlinear"]
+    ex = nl["exact"]
+    assert ex["converged"] and ex["frequency_hz"] == pytest.approx(nl["peak_frequency_hz"])
+    assert ex["hb_tip_amplitude_m"] == pytest.approx(nl["peak_amplitude_m"], rel=1e-3)
+    assert abs(ex["hb_relative_difference"]) < 1e-3  # H = 11, no contact opens
+    assert len(ex["multipliers_re"]) == len(ex["multiplier_nd"]) > 0
+    with h5py.File(path) as f:
+        e = f["nonlinear/exact"]
+        assert e.attrs["tip_amplitude_m"] == ex["tip_amplitude_m"]
+        assert e["multipliers_re"].shape == (len(ex["multipliers_re"]),)
+    assert cli.main(["forced-response", SMALL, "--exact"]) == 2  # --nonlinear needed
+    assert "--nonlinear" in capsys.readouterr().err
