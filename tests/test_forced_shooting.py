@@ -11,7 +11,8 @@
 - the small wheel under the elastic law: the shot converges with the sliders in the state,
   the harmonic balance at H = 5 within 2 % of it, the stuck tie-boss's sliders neutral
   (``|mu| = 1``);
-- ``forced-response --nonlinear --exact`` prints, writes JSON and ``/nonlinear/exact``.
+- ``forced-response --nonlinear --exact`` prints, writes JSON and ``/nonlinear/exact``, which
+  ``info`` reads.
 """
 
 import math
@@ -135,5 +136,9 @@ def test_the_command_checks_the_peak_by_shooting(tmp_path, capsys):
         e = f["nonlinear/exact"]
         assert e.attrs["tip_amplitude_m"] == ex["tip_amplitude_m"]
         assert e["multipliers_re"].shape == (len(ex["multipliers_re"]),)
+    capsys.readouterr()
+    assert cli.main(["info", str(path)]) == 0
+    line = [x for x in capsys.readouterr().out.splitlines() if "exact state:" in x]
+    assert line and f"{ex['largest_multiplier']:.6f}" in line[0]
     assert cli.main(["forced-response", SMALL, "--exact"]) == 2  # --nonlinear needed
     assert "--nonlinear" in capsys.readouterr().err

@@ -32,6 +32,14 @@ def print_forced(info: dict) -> None:
                 if nl["peak_amplitude_m"] is not None else "")
         print(f"  nonlinear:     harmonic balance, H = {nl['harmonics']}, contacts.law = "
               f"'{nl['law']}', {nl['converged']} of {nl['count']} frequencies solved{peak}")
+        ex = nl.get("exact")
+        if ex and ex["converged"]:
+            print(f"  exact state:   {ex['tip_amplitude_m']:.4e} m at {ex['frequency_hz']:g} Hz "
+                  f"(the balance {100 * ex['hb_relative_difference']:+.3f} %), largest "
+                  f"multiplier {ex['largest_multiplier']:.6f}: "
+                  f"{'stable' if ex['stable'] else 'unstable'}")  # fmt: skip
+        elif ex:
+            print(f"  exact state:   shooting did not converge at {ex['frequency_hz']:g} Hz")
     solver = info.get("solver")
     if solver:
         shown = [solver.get(k) for k in ("ksp_type", "pc_type", "pc_factor_mat_solver_type")]

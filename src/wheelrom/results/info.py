@@ -463,4 +463,16 @@ def _nonlinear_info(g) -> dict:
             "peak_amplitude_m": float(g.attrs["peak_amplitude_m"])
             if "peak_amplitude_m" in g.attrs else None,
             "peak_frequency_hz": float(g.attrs["peak_frequency_hz"])
-            if "peak_frequency_hz" in g.attrs else None}  # fmt: skip
+            if "peak_frequency_hz" in g.attrs else None,
+            "exact": _exact_info(g["exact"]) if "exact" in g else None}  # fmt: skip
+
+
+def _exact_info(g) -> dict:
+    """``/nonlinear/exact`` (``--exact``): the shot's verdict, the exact amplitude, the
+    balance's difference and the largest multiplier."""
+    out = {"converged": bool(g.attrs["converged"])}
+    for key in ("frequency_hz", "tip_amplitude_m", "hb_relative_difference",
+                "largest_multiplier"):  # fmt: skip
+        out[key] = float(g.attrs[key]) if key in g.attrs else None
+    out["stable"] = bool(g.attrs["stable"]) if "stable" in g.attrs else None
+    return out

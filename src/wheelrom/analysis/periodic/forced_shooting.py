@@ -205,16 +205,16 @@ class ForcedShooting:
         return orbit
 
     def _step(self, x, F, size, A, scale):
-        """The Newton step (least squares: a stuck slider's direction is singular),
-        halved until the residual falls (at most 6 times)."""
+        """The Newton step (least squares: a stuck slider's direction is singular), halved
+        until the residual's 2-norm falls (at most 6 times; the Newton direction descends
+        in the 2-norm, not necessarily in the max norm that decides convergence)."""
         dz = np.linalg.lstsq(A, -F, rcond=1e-13)[0]
-        a = 1.0
+        a, norm = 1.0, float(np.linalg.norm(F))
         for _ in range(7):
             trial = x + a * dz * scale
             F_trial = (self.shot(trial[None])[0] - trial) / scale
-            size_trial = float(np.abs(F_trial).max())
-            if size_trial < size:
-                return trial, F_trial, size_trial, True
+            if np.linalg.norm(F_trial) < norm:
+                return trial, F_trial, float(np.abs(F_trial).max()), True
             a *= 0.5
         return x, F, size, False
 
