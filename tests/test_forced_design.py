@@ -198,3 +198,43 @@ def test_the_march_goes_on_until_the_loop_closes(small_model, small_cfg, monkeyp
     short = harmonics()
     assert np.abs(marched - long).max() < 1e-7 * terms
     assert np.abs(short - long).max() > 1e-5 * terms
+
+
+def test_the_peaks_made_exact(small_model, small_cfg, tmp_path, capsys):
+    """``forced.exact``: each case's refined peak polished by shooting (the same state of the
+    transient's equations: the balance at H = 5 within 1 % of it where the contacts stay on
+    the micro-slip branch), its largest multiplier stored, printed and kept for a resume."""
+    from mpi4py import MPI
+
+    from wheelrom.cli.output import print_study
+    from wheelrom.studies import design_cases
+    from wheelrom.studies.settle import config_digest
+    from wheelrom.studies.study import run_study
+
+    cfg = small_cfg.replace(**{"flutter.model": "off", "forced.points": 5,
+                               "forced.harmonics": 5, "excitation.force": 10.0,
+                               "forced.exact": True,
+                               "study.grid": {"contacts.shroud.normal_preload":
+                                              [3000.0, 30000.0]}})  # fmt: skip
+    out = str(tmp_path / "design.h5")
+    summary = run_study(cfg, out, MPI.COMM_SELF, mode="stability", log=lambda *_: None,
+                        nonlinear=True)  # fmt: skip
+    design = summary["design"]
+    for hb, exact, mu in zip(design["peak_amplitude_m"], design["exact_tip_amplitude_m"],
+                             design["exact_largest_multiplier"], strict=True):  # fmt: skip
+        assert exact is not None and abs(hb - exact) < 0.01 * exact
+        assert 0 < mu < 10
+    print_study(summary, out)
+    lines = [x for x in capsys.readouterr().out.splitlines() if "(exact " in x]
+    assert len(lines) == 2 and "largest |mu|" in lines[0]
+    with h5py.File(out) as f:
+        g = f["forced_nonlinear"]
+        assert (g["exact_multiplier_nd"][()] >= 0).all()
+        assert np.isfinite(g["exact_largest_multiplier_at_twice_the_step"][()]).all()
+    case = cfg.replace(**{"contacts.shroud.normal_preload": 30000.0})
+    point = design_point(small_model, case)
+    assert point.exact["tip_amplitude"] == pytest.approx(design["exact_tip_amplitude_m"][1],
+                                                         rel=1e-9)  # fmt: skip
+    folder = design_cases.design_dir(str(tmp_path / "kept.h5"))
+    assert design_cases.save_point(folder, 0, config_digest(case), point)
+    assert design_cases.load_point(folder, 0, config_digest(case)).exact == point.exact

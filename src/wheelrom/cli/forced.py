@@ -183,7 +183,7 @@ def _nonlinear(model, cfg, grid: np.ndarray, angles: dict | None, harmonics: int
     """``(plain data, ForcedCurve)``: the nonlinear curve over the coarse grid (tip
     amplitude per frequency, Newton's verdict, the peak with its contacts' open / stick /
     slip shares; ``exact``: the peak's exact state by shooting)."""
-    from wheelrom.studies.forced_nonlinear import exact_at, forced_inputs, nonlinear_forced
+    from wheelrom.studies.forced_nonlinear import exact_peak, forced_inputs, nonlinear_forced
 
     outside = _no_resonance(model, cfg, grid, angles)
     if outside:
@@ -210,7 +210,9 @@ def _nonlinear(model, cfg, grid: np.ndarray, angles: dict | None, harmonics: int
                               for k, kind in enumerate(curve.kinds)}  # fmt: skip
         if exact:
             say(f"the exact state at {out['peak_frequency_hz']:.4f} Hz by shooting")
-            out["exact"] = _exact(exact_at(model, cfg, curve, i, inputs, angles))
+            out["exact"] = _exact(exact_peak(model, cfg, curve.harmonics[i],
+                                             float(curve.frequency[i]), harmonics, inputs,
+                                             angles))  # fmt: skip
     return out, curve
 
 

@@ -314,6 +314,10 @@ def print_study(summary: dict, path: str) -> None:
                                                design["peak_frequency_hz"], strict=True)):
             mark = "  <- smallest" if i == design["optimum"] else ""
             words = "failed" if a is None else f"{a * 1e6:.4g} um at {hz:.5g} Hz"
+            exact, mu = design["exact_tip_amplitude_m"][i], design["exact_largest_multiplier"][i]
+            if exact is not None:  # forced.exact
+                words += (f" (exact {exact * 1e6:.4g} um, largest |mu| {mu:.4f}: "
+                          f"{'stable' if design['exact_stable'][i] else 'unstable'})")  # fmt: skip
             print(f"    [{i}] {label}: {words}{mark}")
 
 

@@ -94,6 +94,13 @@ class ForcedConfig:
                       "pseudo-arclength continuation over the band)",
                       choices=("grid", "arclength")),  # fmt: skip
     )
+    exact: bool = field(
+        default=False,
+        metadata=_key("-", "the design study's peaks made exact (study --forced-nonlinear): "
+                      "the state at each case's refined peak by shooting on the transient's "
+                      "equations, its amplitude and Floquet multipliers beside the harmonic "
+                      "balance's (a minute or more a case on the paper wheel)"),  # fmt: skip
+    )
 
 
 def read_mistuning_file(name: str, source: str, blades: int) -> np.ndarray:

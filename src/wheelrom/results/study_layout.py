@@ -14,6 +14,7 @@ import math
 import numpy as np
 
 from wheelrom import config as config_mod
+from wheelrom.analysis.periodic.forced_shooting import UNIT
 from wheelrom.config import CONTACT_KINDS, Config
 from wheelrom.config.study import Study
 from wheelrom.results import layout as results
@@ -233,8 +234,17 @@ def design_summary(f) -> dict | None:
         [str(i) for i in range(peak.size)]  # fmt: skip
     done = np.isfinite(peak)
     best = int(np.nanargmin(np.where(done, peak, np.nan))) if done.any() else None
+    def listed(name):  # forced.exact's per case, None where not computed (or older files)
+        if name not in g:
+            return [None] * peak.size
+        return [float(v) if np.isfinite(v) else None for v in g[name][()]]
+
     return {
         "law": str(g.attrs["law"]), "harmonics": int(g.attrs["harmonics"]),
+        "exact_tip_amplitude_m": listed("exact_tip_amplitude"),
+        "exact_largest_multiplier": listed("exact_largest_multiplier"),
+        "exact_stable": [None if mu is None else mu <= 1 + UNIT
+                         for mu in listed("exact_largest_multiplier")],
         "peak_amplitude_m": [float(a) if ok else None for a, ok in zip(peak, done, strict=True)],
         "peak_frequency_hz": [float(h) if ok else None
                               for h, ok in zip(g["peak_frequency_hz"][()], done, strict=True)],

@@ -39,7 +39,8 @@ def save_point(directory: str, index: int, digest: str, point: DesignPoint) -> b
     arrays["band"] = np.asarray(point.band, dtype=float)
     scalars = {"digest": digest, "wave": c.wave, "nodal_diameter": c.nodal_diameter,
                "wall_s": c.wall_s, "kinds": list(c.kinds), "trace": c.trace,
-               "point_wall_s": point.wall_s, "refined": None}  # fmt: skip
+               "point_wall_s": point.wall_s, "refined": None,
+               "exact": point.exact}  # fmt: skip
     if c.refined is not None:
         r = c.refined
         scalars["refined"] = {"frequency": r.frequency, "tip_amplitude": r.tip_amplitude,
@@ -83,8 +84,12 @@ def _point_of(scalars: dict, arrays: dict) -> DesignPoint:
         curve.refined = RefinedPeak(float(r["frequency"]), float(r["tip_amplitude"]),
                                     arrays["peak_harmonics"], arrays["peak_fractions"],
                                     int(r["solves"]))  # fmt: skip
+    exact = scalars.get("exact")
+    if exact is not None:  # JSON has no NaN of its own: json writes and reads it as NaN
+        exact = {k: (v if k in ("converged", "nodal_diameter") else float(v))
+                 for k, v in exact.items()}  # fmt: skip
     return DesignPoint(curve, tuple(float(b) for b in arrays["band"]),
-                       float(scalars["point_wall_s"]))
+                       float(scalars["point_wall_s"]), exact)
 
 
 def remove(directory: str) -> None:

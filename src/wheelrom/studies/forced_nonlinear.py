@@ -42,19 +42,6 @@ def nonlinear_forced(model: ReducedModel, cfg: Config, frequencies: np.ndarray,
                         harmonics=harmonics, progress=progress, refine=refine)  # fmt: skip
 
 
-def exact_at(model: ReducedModel, cfg: Config, curve: ForcedCurve, index: int,
-             inputs: tuple, angles_deg: dict | None = None) -> ForcedOrbit:  # fmt: skip
-    """The exact forced state at point ``index`` of ``curve`` (a converged one) by shooting
-    from its harmonic balance (:func:`~wheelrom.analysis.periodic.forced_shooting.
-    exact_forced`): the check of the balance's truncation and the state's Floquet
-    multipliers; ``inputs``: the case's :func:`forced_inputs`."""
-    params, _ = inputs
-    harmonics = (curve.harmonics.shape[1] - 1) // 2
-    problem = ForcedWave(model, params, cfg.wheel.damping_beta, harmonics)
-    return exact_forced(model, cfg, problem, curve.harmonics[index],
-                        float(curve.frequency[index]), angles_deg)  # fmt: skip
-
-
 def forced_inputs(model: ReducedModel, cfg: Config, angles_deg: dict | None = None,
                   comm=None) -> tuple:  # fmt: skip
     """``(force parameters, preloaded equilibrium (N, m))`` of a nonlinear forced case (the
@@ -102,6 +89,8 @@ class DesignPoint:
     curve: ForcedCurve
     band: tuple[float, float]
     wall_s: float
+    #: ``forced.exact``: the refined peak's exact state (:func:`exact_summary`), else None
+    exact: dict | None = None
 
 
 def design_point(model: ReducedModel, cfg: Config, angles_deg: dict | None = None,
@@ -118,7 +107,32 @@ def design_point(model: ReducedModel, cfg: Config, angles_deg: dict | None = Non
                              refine=True, inputs=inputs)  # fmt: skip
     if cfg.forced.continuation == "arclength":
         curve = trace_after_grid(model, cfg, curve, band, inputs)
-    return DesignPoint(curve, band, time.perf_counter() - t0)
+    exact = None
+    if cfg.forced.exact and curve.refined is not None:
+        r = curve.refined
+        exact = exact_summary(exact_peak(model, cfg, r.harmonics, r.frequency,
+                                         (curve.harmonics.shape[1] - 1) // 2, inputs))
+    return DesignPoint(curve, band, time.perf_counter() - t0, exact)
+
+
+def exact_peak(model: ReducedModel, cfg: Config, X: np.ndarray, omega: float,
+               harmonics: int, inputs: tuple, angles_deg: dict | None = None) -> ForcedOrbit:
+    """The exact state by shooting from the balance's state ``X`` ``(2H + 1, m)`` at
+    ``omega`` [rad/s] (``inputs``: the case's :func:`forced_inputs`)."""
+    problem = ForcedWave(model, inputs[0], cfg.wheel.damping_beta, harmonics)
+    return exact_forced(model, cfg, problem, X, omega, angles_deg)
+
+
+def exact_summary(orbit: ForcedOrbit) -> dict:
+    """Plain numbers of an exact state: ``converged``, ``tip_amplitude`` [m] (NaN when not
+    converged), ``largest`` ``|mu|`` and ``coarse_largest`` (at twice the step), the
+    dominant multiplier's ``nodal_diameter`` (-1: none), ``residual``."""
+    done = orbit.converged
+    return {"converged": bool(done), "residual": float(orbit.residual),
+            "tip_amplitude": float(orbit.tip_amplitude) if done else math.nan,
+            "largest": float(orbit.largest) if done else math.nan,
+            "coarse_largest": float(orbit.coarse_largest) if done else math.nan,
+            "nodal_diameter": int(orbit.nodal_diameters[0]) if done else -1}
 
 
 def trace_after_grid(model: ReducedModel, cfg: Config, grid: ForcedCurve, band: tuple,
@@ -157,10 +171,13 @@ def design_arrays(found: list) -> dict[str, np.ndarray]:
         ("growth", (C, F)),
         ("peak_amplitude", (C,)), ("peak_frequency_hz", (C,)), ("peak_fractions", (C, K, 3)),
         ("grid_peak_amplitude", (C,)), ("wall_s", (C,)),
+        ("exact_tip_amplitude", (C,)), ("exact_largest_multiplier", (C,)),
+        ("exact_largest_multiplier_at_twice_the_step", (C,)),
         ("folds_hz", (C, max((p.curve.folds.size for p in found if not isinstance(p, str)),
                              default=0))))}  # fmt: skip
     out["converged"] = np.zeros((C, F), dtype=bool)
     out["nodal_diameter"] = np.full(C, -1, dtype="i8")
+    out["exact_multiplier_nd"] = np.full(C, -1, dtype="i8")
     status = []
     for c, point in enumerate(found):
         if isinstance(point, str):
@@ -183,6 +200,12 @@ def design_arrays(found: list) -> dict[str, np.ndarray]:
         out["peak_frequency_hz"][c] = curve.refined.frequency / (2 * math.pi)
         out["peak_fractions"][c] = curve.refined.fractions
         out["folds_hz"][c, : curve.folds.size] = curve.folds / (2 * math.pi)
+        if point.exact is not None:  # forced.exact
+            e = point.exact
+            out["exact_tip_amplitude"][c] = e["tip_amplitude"]
+            out["exact_largest_multiplier"][c] = e["largest"]
+            out["exact_largest_multiplier_at_twice_the_step"][c] = e["coarse_largest"]
+            out["exact_multiplier_nd"][c] = e["nodal_diameter"]
         if curve.trace:  # traced by arclength
             status.append(f"done (traced: {int(curve.converged.sum())} points, "
                           f"{curve.folds.size} folds; {curve.trace})")  # fmt: skip
