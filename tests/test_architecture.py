@@ -140,7 +140,8 @@ def test_a_folder_is_a_stage():
 #: the harmonic balance, continuation, Hopf points, Floquet (Hill and monodromy), shooting and
 #: settle in one room; ``analysis`` itself keeps the linear analyses
 PERIODIC = {"harmonic_balance", "continuation", "floquet", "hopf", "cycle_transient",
-            "limit_cycle", "shooting", "monodromy", "settle", "flow", "exact", "forced_wave"}
+            "limit_cycle", "shooting", "monodromy", "settle", "flow", "exact", "forced_wave",
+            "forced_branch", "forced_shooting"}
 LINEAR = {"jacobian", "stability", "margin", "forced", "forced_peak"}
 
 

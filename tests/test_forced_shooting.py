@@ -142,3 +142,49 @@ def test_the_command_checks_the_peak_by_shooting(tmp_path, capsys):
     assert line and f"{ex['largest_multiplier']:.6f}" in line[0]
     assert cli.main(["forced-response", SMALL, "--exact"]) == 2  # --nonlinear needed
     assert "--nonlinear" in capsys.readouterr().err
+
+
+def test_every_nd_from_the_block_circulant_map(small_model, small_cfg):
+    """The multipliers in every ND (:func:`wheel_multipliers`: the short map's Bloch blocks
+    over the pattern's super-blocks) against the whole wheel's monodromy formed by central
+    differences of whole periods of all 12 blades (no symmetry used): the same complex
+    multipliers, the odd NDs (outside the 6-blade pattern of the ND-2 wave) included."""
+    from wheelrom.analysis.periodic.flow import Nozzle, WheelFlow
+
+    cfg = small_cfg.replace(**{"flutter.model": "off", "excitation.force": 10.0})
+    angles = {"shroud": 50.0}
+    params, q = forced_inputs(small_model, cfg, angles)
+    w = 2 * math.pi * 250.0
+    curve = forced_curve(small_model, params, cfg.wheel.damping_beta, np.array([w]), q,
+                         harmonics=5)  # fmt: skip
+    problem = ForcedWave(small_model, params, cfg.wheel.damping_beta, 5)
+    orbit = exact_forced(small_model, cfg, problem, curve.harmonics[0], w, angles,
+                         refine=False, whole_wheel=True)  # fmt: skip
+    N, m, P = small_model.blades, small_model.modes, orbit.pattern
+    assert orbit.converged and P == 6 and orbit.wheel_multipliers.size == 2 * N * m
+    assert set(orbit.wheel_nodal_diameters) > set(orbit.nodal_diameters)  # odd NDs too
+    blades = np.arange(N) % P
+    x = np.concatenate([orbit.state[: P * m].reshape(P, m)[blades].ravel(),
+                        orbit.state[P * m :].reshape(P, m)[blades].ravel()])  # fmt: skip
+    n = x.size
+    a = np.abs(x[N * m :]).max() / w
+    scale = np.r_[np.full(N * m, a), np.full(N * m, w * a)]
+    h = 1e-6 * scale
+    perturbed = np.repeat(x[None], 2 * n, axis=0)
+    perturbed[np.arange(n), np.arange(n)] += h
+    perturbed[n + np.arange(n), np.arange(n)] -= h
+    flow = WheelFlow(small_model, cfg, angles, 1.0, nozzle=Nozzle(w, params.nozzle_phase),
+                     params=params)  # fmt: skip
+    try:
+        end = flow.advance_sliding(perturbed, 2 * math.pi / w, orbit.steps_per_period)
+    finally:
+        flow.destroy()
+    M = ((end[:n] - end[n:]) / (2 * h[:, None])).T * scale[None, :] / scale[:, None]
+    mu = np.linalg.eigvals(M)
+    mu = mu[np.argsort(-np.abs(mu))]
+    assert max(np.abs(mu - v).min() for v in orbit.wheel_multipliers) < 1e-4
+    np.testing.assert_allclose(np.abs(orbit.wheel_multipliers[:12]), np.abs(mu[:12]),
+                               atol=1e-6)  # fmt: skip
+    # the pattern's own multipliers are among them (p = 0; another set of differences)
+    assert max(np.abs(orbit.wheel_multipliers - v).min() for v in orbit.multipliers) < 1e-4
+    assert abs(orbit.wheel_multipliers[0]) == pytest.approx(orbit.largest, abs=1e-6)

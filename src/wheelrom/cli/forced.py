@@ -212,7 +212,7 @@ def _nonlinear(model, cfg, grid: np.ndarray, angles: dict | None, harmonics: int
             say(f"the exact state at {out['peak_frequency_hz']:.4f} Hz by shooting")
             out["exact"] = _exact(exact_peak(model, cfg, curve.harmonics[i],
                                              float(curve.frequency[i]), harmonics, inputs,
-                                             angles))  # fmt: skip
+                                             angles, whole_wheel=True))  # fmt: skip
     return out, curve
 
 
@@ -230,6 +230,11 @@ def _exact(orbit) -> dict:
                    largest_multiplier_at_twice_the_step=orbit.coarse_largest,
                    multipliers_re=mu.real.tolist(), multipliers_im=mu.imag.tolist(),
                    multiplier_nd=orbit.nodal_diameters.tolist())  # fmt: skip
+    if orbit.wheel_multipliers.size:  # every ND
+        mu = orbit.wheel_multipliers
+        out.update(wheel_largest_multiplier=float(abs(mu[0])),
+                   wheel_multipliers_re=mu.real.tolist(), wheel_multipliers_im=mu.imag.tolist(),
+                   wheel_multiplier_nd=orbit.wheel_nodal_diameters.tolist())  # fmt: skip
     return out
 
 
@@ -352,7 +357,7 @@ def _write_nonlinear(g, out: dict, curve) -> None:
     if "exact" in out:  # --exact
         exact, e = out["exact"], g.create_group("exact")
         for key, value in exact.items():
-            if key.startswith("multiplier"):
+            if key.startswith(("multiplier", "wheel_multiplier")):
                 e[key] = np.asarray(value)
             else:
                 e.attrs[key] = value
@@ -428,10 +433,12 @@ def _print_exact(ex: dict) -> None:
               f"({ex['reason']}, residual {ex['residual']:.2g})")  # fmt: skip
         return
     verdict = "stable" if ex["stable"] else "unstable"
+    every = (f"; in every ND |mu| = {ex['wheel_largest_multiplier']:.6f} (ND "
+             f"{ex['wheel_multiplier_nd'][0]})" if "wheel_largest_multiplier" in ex else "")
     print(f"exact state at {ex['frequency_hz']:.4f} Hz (shooting, {ex['iterations']} "
           f"iterations, residual {ex['residual']:.1e}, {ex['wall_s']:.1f} s): tip "
           f"{ex['tip_amplitude_m']:.4e} m, the harmonic balance "
           f"{100 * ex['hb_relative_difference']:+.3f} %; largest Floquet multiplier "
           f"|mu| = {ex['largest_multiplier']:.6f} (ND {ex['multiplier_nd'][0]}; "
-          f"{ex['largest_multiplier_at_twice_the_step']:.6f} at twice the step): {verdict} "
-          f"within the NDs of its {ex['pattern_blades']}-blade pattern")  # fmt: skip
+          f"{ex['largest_multiplier_at_twice_the_step']:.6f} at twice the step) within the "
+          f"NDs of its {ex['pattern_blades']}-blade pattern{every}: {verdict}")  # fmt: skip

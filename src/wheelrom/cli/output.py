@@ -315,7 +315,9 @@ def print_study(summary: dict, path: str) -> None:
             mark = "  <- smallest" if i == design["optimum"] else ""
             words = "failed" if a is None else f"{a * 1e6:.4g} um at {hz:.5g} Hz"
             exact, mu = design["exact_tip_amplitude_m"][i], design["exact_largest_multiplier"][i]
+            every = design["exact_wheel_largest_multiplier"][i]
             if exact is not None:  # forced.exact
+                mu = mu if every is None else every
                 words += (f" (exact {exact * 1e6:.4g} um, largest |mu| {mu:.4f}: "
                           f"{'stable' if design['exact_stable'][i] else 'unstable'})")  # fmt: skip
             print(f"    [{i}] {label}: {words}{mark}")

@@ -243,8 +243,12 @@ def design_summary(f) -> dict | None:
         "law": str(g.attrs["law"]), "harmonics": int(g.attrs["harmonics"]),
         "exact_tip_amplitude_m": listed("exact_tip_amplitude"),
         "exact_largest_multiplier": listed("exact_largest_multiplier"),
-        "exact_stable": [None if mu is None else mu <= 1 + UNIT
-                         for mu in listed("exact_largest_multiplier")],
+        "exact_wheel_largest_multiplier": listed("exact_wheel_largest_multiplier"),
+        # in every ND where computed, else inside the pattern's symmetry
+        "exact_stable": [None if mu is None else (every if every is not None else mu) <= 1 + UNIT
+                         for mu, every in zip(listed("exact_largest_multiplier"),
+                                              listed("exact_wheel_largest_multiplier"),
+                                              strict=True)],
         "peak_amplitude_m": [float(a) if ok else None for a, ok in zip(peak, done, strict=True)],
         "peak_frequency_hz": [float(h) if ok else None
                               for h, ok in zip(g["peak_frequency_hz"][()], done, strict=True)],

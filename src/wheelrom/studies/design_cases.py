@@ -86,7 +86,8 @@ def _point_of(scalars: dict, arrays: dict) -> DesignPoint:
                                     int(r["solves"]))  # fmt: skip
     exact = scalars.get("exact")
     if exact is not None:  # JSON has no NaN of its own: json writes and reads it as NaN
-        exact = {k: (v if k in ("converged", "nodal_diameter") else float(v))
+        exact = {k: (v if k in ("converged", "nodal_diameter", "wheel_nodal_diameter")
+                     else float(v))
                  for k, v in exact.items()}  # fmt: skip
     return DesignPoint(curve, tuple(float(b) for b in arrays["band"]),
                        float(scalars["point_wall_s"]), exact)

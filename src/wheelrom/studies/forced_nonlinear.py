@@ -111,28 +111,35 @@ def design_point(model: ReducedModel, cfg: Config, angles_deg: dict | None = Non
     if cfg.forced.exact and curve.refined is not None:
         r = curve.refined
         exact = exact_summary(exact_peak(model, cfg, r.harmonics, r.frequency,
-                                         (curve.harmonics.shape[1] - 1) // 2, inputs))
+                                         (curve.harmonics.shape[1] - 1) // 2, inputs,
+                                         angles_deg, whole_wheel=True))  # fmt: skip
     return DesignPoint(curve, band, time.perf_counter() - t0, exact)
 
 
 def exact_peak(model: ReducedModel, cfg: Config, X: np.ndarray, omega: float,
-               harmonics: int, inputs: tuple, angles_deg: dict | None = None) -> ForcedOrbit:
+               harmonics: int, inputs: tuple, angles_deg: dict | None = None,
+               whole_wheel: bool = False) -> ForcedOrbit:  # fmt: skip
     """The exact state by shooting from the balance's state ``X`` ``(2H + 1, m)`` at
-    ``omega`` [rad/s] (``inputs``: the case's :func:`forced_inputs`)."""
+    ``omega`` [rad/s] (``inputs``: the case's :func:`forced_inputs`; ``whole_wheel``: its
+    multipliers in every ND too)."""
     problem = ForcedWave(model, inputs[0], cfg.wheel.damping_beta, harmonics)
-    return exact_forced(model, cfg, problem, X, omega, angles_deg)
+    return exact_forced(model, cfg, problem, X, omega, angles_deg, whole_wheel=whole_wheel)
 
 
 def exact_summary(orbit: ForcedOrbit) -> dict:
     """Plain numbers of an exact state: ``converged``, ``tip_amplitude`` [m] (NaN when not
     converged), ``largest`` ``|mu|`` and ``coarse_largest`` (at twice the step), the
-    dominant multiplier's ``nodal_diameter`` (-1: none), ``residual``."""
+    dominant multiplier's ``nodal_diameter`` (-1: none), ``residual``; in every ND
+    ``wheel_largest`` and ``wheel_nodal_diameter`` (NaN / -1: not computed)."""
     done = orbit.converged
+    every = done and orbit.wheel_multipliers.size > 0
     return {"converged": bool(done), "residual": float(orbit.residual),
             "tip_amplitude": float(orbit.tip_amplitude) if done else math.nan,
             "largest": float(orbit.largest) if done else math.nan,
             "coarse_largest": float(orbit.coarse_largest) if done else math.nan,
-            "nodal_diameter": int(orbit.nodal_diameters[0]) if done else -1}
+            "nodal_diameter": int(orbit.nodal_diameters[0]) if done else -1,
+            "wheel_largest": float(abs(orbit.wheel_multipliers[0])) if every else math.nan,
+            "wheel_nodal_diameter": int(orbit.wheel_nodal_diameters[0]) if every else -1}
 
 
 def trace_after_grid(model: ReducedModel, cfg: Config, grid: ForcedCurve, band: tuple,
@@ -173,11 +180,13 @@ def design_arrays(found: list) -> dict[str, np.ndarray]:
         ("grid_peak_amplitude", (C,)), ("wall_s", (C,)),
         ("exact_tip_amplitude", (C,)), ("exact_largest_multiplier", (C,)),
         ("exact_largest_multiplier_at_twice_the_step", (C,)),
+        ("exact_wheel_largest_multiplier", (C,)),
         ("folds_hz", (C, max((p.curve.folds.size for p in found if not isinstance(p, str)),
                              default=0))))}  # fmt: skip
     out["converged"] = np.zeros((C, F), dtype=bool)
     out["nodal_diameter"] = np.full(C, -1, dtype="i8")
     out["exact_multiplier_nd"] = np.full(C, -1, dtype="i8")
+    out["exact_wheel_multiplier_nd"] = np.full(C, -1, dtype="i8")
     status = []
     for c, point in enumerate(found):
         if isinstance(point, str):
@@ -206,6 +215,8 @@ def design_arrays(found: list) -> dict[str, np.ndarray]:
             out["exact_largest_multiplier"][c] = e["largest"]
             out["exact_largest_multiplier_at_twice_the_step"][c] = e["coarse_largest"]
             out["exact_multiplier_nd"][c] = e["nodal_diameter"]
+            out["exact_wheel_largest_multiplier"][c] = e.get("wheel_largest", math.nan)
+            out["exact_wheel_multiplier_nd"][c] = e.get("wheel_nodal_diameter", -1)
         if curve.trace:  # traced by arclength
             status.append(f"done (traced: {int(curve.converged.sum())} points, "
                           f"{curve.folds.size} folds; {curve.trace})")  # fmt: skip

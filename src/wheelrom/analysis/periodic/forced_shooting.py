@@ -37,6 +37,7 @@ import numpy as np
 
 from wheelrom.analysis.periodic.flow import Nozzle, WheelFlow, pattern_model
 from wheelrom.analysis.periodic.forced_wave import ForcedWave
+from wheelrom.analysis.periodic.monodromy import label_vectors
 from wheelrom.config import Config
 from wheelrom.rom.model import ReducedModel
 
@@ -77,6 +78,10 @@ class ForcedOrbit:
     reason: str = ""
     #: the largest ``|mu|`` at twice the step (NaN: not refined), :func:`exact_forced`
     coarse_largest: float = math.nan
+    steps_per_period: int = 0
+    #: the multipliers in every ND (:func:`wheel_multipliers`), largest first, their NDs
+    wheel_multipliers: np.ndarray = field(default_factory=lambda: np.zeros(0, complex))
+    wheel_nodal_diameters: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
 
     @property
     def largest(self) -> float:
@@ -85,7 +90,10 @@ class ForcedOrbit:
 
     @property
     def stable(self) -> bool | None:
-        """No multiplier outside the unit circle (None: not computed)."""
+        """No multiplier outside the unit circle (None: not computed): in every ND when
+        :func:`wheel_multipliers` ran, else inside the pattern's symmetry."""
+        if self.wheel_multipliers.size:
+            return bool(abs(self.wheel_multipliers[0]) <= 1 + UNIT)
         return None if not self.multipliers.size else bool(self.largest <= 1 + UNIT)
 
     @property
@@ -100,11 +108,12 @@ class ForcedShooting:
     factor) on the configured transient scheme and step. :meth:`destroy` frees it."""
 
     def __init__(self, model: ReducedModel, cfg: Config, problem: ForcedWave, omega: float,
-                 angles_deg: dict | None = None):  # fmt: skip
+                 angles_deg: dict | None = None, whole: bool = False):  # fmt: skip
         params = problem.balance.params
         self.wave = problem.wave
-        pattern, self.g, self.shift = pattern_model(model, self.wave,
-                                                    cfg.flutter.model != "table")  # fmt: skip
+        # whole: the same map on every blade (its Jacobian holds every ND)
+        pattern, self.g, self.shift = pattern_model(
+            model, self.wave, cfg.flutter.model != "table" and not whole)
         self.blades = model.blades
         self.N, self.m = pattern.blades, pattern.modes
         self.omega, self.period = float(omega), 2 * math.pi / float(omega)
@@ -159,17 +168,19 @@ class ForcedShooting:
         scale[2 * nq :] = max(tip_amplitude, 1e-300)
         return scale
 
-    def jacobian(self, x: np.ndarray, scale: np.ndarray) -> np.ndarray:
-        """``(n, n)`` ``d(S^{-j} phi_tau)/dx`` in scaled units, central differences (one
-        batch of ``2 n`` shots)."""
-        n = self.n
-        h = DIFFERENCE * scale
-        perturbed = np.repeat(x[None], 2 * n, axis=0)
-        perturbed[np.arange(n), np.arange(n)] += h
-        perturbed[n + np.arange(n), np.arange(n)] -= h
+    def jacobian(self, x: np.ndarray, scale: np.ndarray,
+                 columns: np.ndarray | None = None) -> np.ndarray:  # fmt: skip
+        """``(n, c)`` columns ``columns`` (default all) of ``d(S^{-j} phi_tau)/dx`` in scaled
+        units, central differences (one batch of ``2 c`` shots)."""
+        cols = np.arange(self.n) if columns is None else np.asarray(columns)
+        c = cols.size
+        h = DIFFERENCE * scale[cols]
+        perturbed = np.repeat(x[None], 2 * c, axis=0)
+        perturbed[np.arange(c), cols] += h
+        perturbed[c + np.arange(c), cols] -= h
         shots = self.shot(perturbed)
-        columns = (shots[:n] - shots[n:]) / (2 * h[:, None])  # row i: d end / d x_i
-        return columns.T * scale[None, :] / scale[:, None]
+        derivative = (shots[:c] - shots[c:]) / (2 * h[:, None])  # row i: d end / d x_i
+        return derivative.T * scale[cols][None, :] / scale[:, None]
 
     # ------------------------------------------------------------------ Newton
     def solve(self, x0: np.ndarray, tip_amplitude: float) -> ForcedOrbit:
@@ -196,7 +207,9 @@ class ForcedShooting:
                 reason = "no step reduces the residual"
                 break
         converged = reason == "converged"
-        orbit = ForcedOrbit(self.omega, x, self.N, size, it, converged, reason=reason)
+        orbit = ForcedOrbit(self.omega, x, self.N, size, it, converged, reason=reason,
+                            steps_per_period=self.flow.steps_for(self.tau)[0]
+                            * round(self.period / self.tau))  # fmt: skip
         if converged:  # the multipliers from the Jacobian at the solution itself
             orbit.multipliers, orbit.nodal_diameters = self._multipliers(
                 self.jacobian(x, scale), scale)
@@ -246,15 +259,17 @@ class ForcedShooting:
 
 
 def exact_forced(model: ReducedModel, cfg: Config, problem: ForcedWave, X: np.ndarray,
-                 omega: float, angles_deg: dict | None = None,
-                 refine: bool = True) -> ForcedOrbit:  # fmt: skip
+                 omega: float, angles_deg: dict | None = None, refine: bool = True,
+                 whole_wheel: bool = False) -> ForcedOrbit:  # fmt: skip
     """The exact forced state at ``omega`` [rad/s] by shooting from the harmonic balance's
     solution ``X`` ``(2H + 1, m)`` of ``problem``, with ``hb_tip_amplitude`` set;
     ``refine``: solved again at half the step from there, the multipliers (and the state)
     of the finer step reported and the coarse step's largest ``|mu|`` kept in
     ``coarse_largest`` (a contact opening or sticking within a step makes the multipliers
-    converge with the step erratically: measured 1.45, 1.61, 1.59 at 5, 2.5, 1.25 us)."""
+    converge with the step erratically: measured 1.45, 1.61, 1.59 at 5, 2.5, 1.25 us);
+    ``whole_wheel``: also the whole wheel's multipliers (:func:`wheel_multipliers`)."""
     hb = problem.tip_amplitude(X, omega)
+    orbit_cfg = cfg  # the configuration of the step the orbit is reported at
     shooting = ForcedShooting(model, cfg, problem, omega, angles_deg)
     try:
         orbit = shooting.solve(shooting.start(problem, X), hb)
@@ -271,6 +286,67 @@ def exact_forced(model: ReducedModel, cfg: Config, problem: ForcedWave, X: np.nd
         if fine.converged:
             fine.hb_tip_amplitude, fine.coarse_largest = hb, orbit.largest
             fine.wall_s += orbit.wall_s
-            return fine
-        orbit.reason += f"; at half the step: {fine.reason}"
+            orbit, orbit_cfg = fine, finer
+        else:
+            orbit.reason += f"; at half the step: {fine.reason}"
+    if whole_wheel and orbit.converged:
+        t0 = time.perf_counter()
+        wheel_multipliers(model, orbit_cfg, problem, orbit, angles_deg)
+        orbit.wall_s += time.perf_counter() - t0
     return orbit
+
+
+
+
+def wheel_multipliers(model: ReducedModel, cfg: Config, problem: ForcedWave,
+                      orbit: ForcedOrbit, angles_deg: dict | None = None) -> None:
+    """The Floquet multipliers of the forced state ``orbit`` in every ND (the pattern's miss
+    the NDs that are no multiple of ``g``: where a self-excited wave of another ND would
+    start beside the forced one), set on ``orbit`` with their NDs, largest first; ``cfg``:
+    the orbit's step.
+
+    The map ``F = S^{-j} phi_tau`` on the whole wheel has the orbit as its fixed point and
+    commutes with the shift by ``N'`` blades (the force repeats every ``N'`` blades), so its
+    Jacobian is block-circulant over the ``g`` super-blocks of ``N'`` blades: the columns of
+    the first super-block (``2 N' m`` perturbed whole-wheel shots over ``tau``, plus the
+    sliders) give every block ``C_r``, and the Bloch blocks ``B_p = sum_r C_{-r} w^{r p}``
+    (``w = e^{2 pi i / g}``, ``p = 0..g-1``) hold the eigenvalues ``nu`` of the perturbations
+    that change by ``w^p`` from one super-block to the next. ``F^{N'} = S^{-j N'} phi_T`` with
+    ``S^{N'} v = w^p v``, so the monodromy's multiplier is ``mu = w^{p j} nu^{N'}``
+    (``p = 0``: the pattern's own). No trivial multiplier: the force fixes the phase."""
+    N, m, P = model.blades, model.modes, orbit.pattern
+    g = N // P
+    whole = ForcedShooting(model, cfg, problem, orbit.frequency, angles_deg, whole=True)
+    try:
+        K = whole.sliders // (2 * N)
+
+        def block(r: int) -> np.ndarray:  # flat indices of super-block r's blades
+            s = np.arange(r * P, (r + 1) * P)
+            q = (s[:, None] * m + np.arange(m)).ravel()
+            parts = [q, N * m + q]
+            if K:  # the sliders (K, N, 2) after q, q'
+                parts.append((2 * N * m + np.arange(K)[:, None, None] * 2 * N
+                              + 2 * s[None, :, None] + np.arange(2)).ravel())  # fmt: skip
+            return np.concatenate(parts)
+
+        x_full = np.empty(whole.n)
+        for r in range(g):  # blade s of the wheel is pattern blade s mod N'
+            x_full[block(r)] = orbit.state
+        scale = whole._scale(x_full, orbit.tip_amplitude)
+        columns = whole.jacobian(x_full, scale, block(0))  # (n, 2 N' m (+ sliders))
+    finally:
+        whole.destroy()
+    C = [columns[block(r)] for r in range(g)]  # C[r]: super-block r's response to block 0
+    values, nds = [], []
+    for p in range(g):
+        w = np.exp(2j * math.pi * p / g)
+        B = sum(C[(-r) % g] * w**r for r in range(g))
+        nu, vectors = np.linalg.eig(B)
+        full = np.zeros((whole.n, nu.size), complex)
+        for r in range(g):
+            full[block(r)] = w**r * vectors
+        values.append(w**(p * whole.shift) * nu**P)
+        nds.append(label_vectors((full * scale[:, None]).T, N, m)[0])
+    values, nds = np.concatenate(values), np.concatenate(nds)
+    order = np.argsort(-np.abs(values))
+    orbit.wheel_multipliers, orbit.wheel_nodal_diameters = values[order], nds[order]

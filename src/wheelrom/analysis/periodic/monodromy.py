@@ -108,12 +108,13 @@ def label_vectors(vectors: np.ndarray, blades: int, modes: int) -> tuple[np.ndar
     return np.asarray(nodal_diameter(k, blades), int), k.astype(int)
 
 
-class _Shell:
-    """The linearised period as a petsc4py shell matrix (scaled units)."""
+class LinearisedPeriod:
+    """The linearised period as a petsc4py shell matrix (scaled units): states flat
+    (``q, q'`` and the elastic law's sliders when the flow carries them)."""
 
     def __init__(self, flow: WheelFlow, x_star: np.ndarray, period: float, steps: int,
                  scale: np.ndarray):  # fmt: skip
-        self.flow, self.x, self.period, self.steps = flow, x_star, period, steps
+        self.flow, self.x, self.period, self.steps = flow, x_star.ravel(), period, steps
         self.scale = scale.ravel()
         self.count = 0
 
@@ -126,11 +127,44 @@ class _Shell:
         eps = DIFFERENCE / norm
         # central: both perturbed periods one batch of two (a forward difference was off by
         # 4e-5 on a Van der Pol multiplier, central by 1e-9)
-        start = self.x.ravel()[None] + np.outer([eps, -eps], self.scale * v)
-        end = self.flow.advance(start.reshape((2,) + self.x.shape), self.period,
-                                self.steps).reshape(2, -1)  # fmt: skip
+        start = self.x[None] + np.outer([eps, -eps], self.scale * v)
+        end = self.flow.advance_sliding(start, self.period, self.steps)
         y.setArray((end[0] - end[1]) / (2 * eps * self.scale))
         self.count += 1
+
+
+def largest_eigenpairs(shell: LinearisedPeriod, n: int, count: int):
+    """``(values, vectors (E, n))``: the converged eigenpairs of largest modulus of the shell's
+    linearised period (SLEPc Krylov-Schur, prefix ``limitcycle_floquet_``), unsorted."""
+    PETSc, SLEPc = petsc(), slepc()
+    A = PETSc.Mat().createPython([n, n], shell, comm=PETSc.COMM_SELF)
+    A.setUp()
+    eps = SLEPc.EPS().create(comm=PETSc.COMM_SELF)
+    eps.setOptionsPrefix(PREFIX)
+    eps.setOperators(A)
+    eps.setProblemType(SLEPc.EPS.ProblemType.NHEP)
+    eps.setType(SLEPc.EPS.Type.KRYLOVSCHUR)
+    eps.setWhichEigenpairs(SLEPc.EPS.Which.LARGEST_MAGNITUDE)
+    eps.setDimensions(count, max(2 * count + 1, 16))
+    # a bounded effort: a weakly unstable cycle has hundreds of multipliers within 1 % of
+    # the unit circle (the lightly damped modes of every ND), among which Krylov-Schur
+    # converges slowly; the largest, which decide, come first (the rest: those converged)
+    eps.setTolerances(RESIDUAL, RESTARTS)
+    # a deterministic start: the same multipliers for the same orbit on every rank
+    start = PETSc.Vec().createSeq(n, comm=PETSc.COMM_SELF)
+    start.setArray(np.random.default_rng(0).standard_normal(n))
+    eps.setInitialSpace([start])
+    eps.setFromOptions()
+    eps.solve()
+    vr, vi = A.createVecs()
+    values, vectors = [], []
+    for i in range(eps.getConverged()):
+        value = eps.getEigenpair(i, vr, vi)
+        values.append(complex(value))
+        vectors.append(vr.getArray().copy() + 1j * vi.getArray().copy())
+    for obj in (eps, A, start, vr, vi):
+        obj.destroy()
+    return np.array(values, dtype=complex), np.array(vectors).reshape(len(values), n)
 
 
 def floquet_multipliers(model: ReducedModel, cfg: Config, orbit: Orbit, steps: int,
@@ -138,7 +172,7 @@ def floquet_multipliers(model: ReducedModel, cfg: Config, orbit: Orbit, steps: i
                         comm=None, progress=None) -> Multipliers:  # fmt: skip
     """The ``count`` multipliers of largest modulus of ``orbit`` on the whole wheel of
     ``model`` (``steps``: TS steps per period, those of the shooting)."""
-    PETSc, SLEPc = petsc(), slepc()
+    PETSc = petsc()
     t0 = time.perf_counter()
     N, m = model.blades, model.modes
     x_star = orbit.wheel_state(N)
@@ -149,35 +183,8 @@ def floquet_multipliers(model: ReducedModel, cfg: Config, orbit: Orbit, steps: i
     flow = WheelFlow(model, cfg, angles_deg, lam)
     n = 2 * N * m
     try:
-        shell = _Shell(flow, x_star, orbit.period, steps, scale)
-        A = PETSc.Mat().createPython([n, n], shell, comm=PETSc.COMM_SELF)
-        A.setUp()
-        eps = SLEPc.EPS().create(comm=PETSc.COMM_SELF)
-        eps.setOptionsPrefix(PREFIX)
-        eps.setOperators(A)
-        eps.setProblemType(SLEPc.EPS.ProblemType.NHEP)
-        eps.setType(SLEPc.EPS.Type.KRYLOVSCHUR)
-        eps.setWhichEigenpairs(SLEPc.EPS.Which.LARGEST_MAGNITUDE)
-        eps.setDimensions(count, max(2 * count + 1, 16))
-        # a bounded effort: a weakly unstable cycle has hundreds of multipliers within 1 % of
-        # the unit circle (the lightly damped modes of every ND), among which Krylov-Schur
-        # converges slowly; the largest, which decide, come first (the rest: those converged)
-        eps.setTolerances(RESIDUAL, RESTARTS)
-        # a deterministic start: the same multipliers for the same orbit on every rank
-        start = PETSc.Vec().createSeq(n, comm=PETSc.COMM_SELF)
-        start.setArray(np.random.default_rng(0).standard_normal(n))
-        eps.setInitialSpace([start])
-        eps.setFromOptions()
-        eps.solve()
-        found = eps.getConverged()
-        vr, vi = A.createVecs()
-        values, vectors = [], []
-        for i in range(found):
-            value = eps.getEigenpair(i, vr, vi)
-            values.append(complex(value))
-            vectors.append(vr.getArray().copy() + 1j * vi.getArray().copy())
-        for obj in (eps, A, start, vr, vi):
-            obj.destroy()
+        shell = LinearisedPeriod(flow, x_star, orbit.period, steps, scale)
+        values, vectors = largest_eigenpairs(shell, n, count)
         # the phase shift's multiplier, checked directly: M f = f along the flow at x*
         f = (flow.vector_field(x_star) / scale).ravel()
         f /= np.linalg.norm(f)
@@ -191,8 +198,7 @@ def floquet_multipliers(model: ReducedModel, cfg: Config, orbit: Orbit, steps: i
             obj.destroy()
     finally:
         flow.destroy()
-    values = np.array(values, dtype=complex)
-    scaled = np.array(vectors).reshape(len(values), n)
+    scaled = vectors
     order = np.argsort(-np.abs(values))
     values, scaled = values[order], scaled[order]
     nd, wave = label_vectors(scaled * scale.ravel()[None], N, m)
