@@ -188,3 +188,43 @@ def test_every_nd_from_the_block_circulant_map(small_model, small_cfg):
     # the pattern's own multipliers are among them (p = 0; another set of differences)
     assert max(np.abs(orbit.wheel_multipliers - v).min() for v in orbit.multipliers) < 1e-4
     assert abs(orbit.wheel_multipliers[0]) == pytest.approx(orbit.largest, abs=1e-6)
+
+
+def test_a_transient_leaves_an_unstable_state_at_its_largest_multiplier(small_model,
+                                                                        small_cfg):  # fmt: skip
+    """The small wheel's paper-law state at 123 Hz (10 N, H = 11): its largest multiplier in
+    every ND, a real one below -1 in ND 3 (outside the ND-2 wave's 6-blade pattern: a period
+    doubling), against the whole wheel integrated from the state with a 1e-10 perturbation
+    of every blade: the deviation grows by the multiplier's modulus a period while it is
+    small (measured 1.736 against 1.743 over periods 8-24)."""
+    from wheelrom.analysis.periodic.flow import Nozzle, WheelFlow
+
+    cfg = small_cfg.replace(**{"flutter.model": "off", "excitation.force": 10.0})
+    params, q = forced_inputs(small_model, cfg)
+    w = 2 * math.pi * 123.0
+    curve = forced_curve(small_model, params, cfg.wheel.damping_beta,
+                         2 * math.pi * np.linspace(130.0, 123.0, 8), q, harmonics=11)  # fmt: skip
+    problem = ForcedWave(small_model, params, cfg.wheel.damping_beta, 11)
+    orbit = exact_forced(small_model, cfg, problem, curve.harmonics[-1], w, refine=False,
+                         whole_wheel=True)  # fmt: skip
+    mu = orbit.wheel_multipliers[0]
+    assert orbit.converged and not orbit.stable
+    assert mu.real < -1.5 and abs(mu.imag) < 1e-9 and orbit.wheel_nodal_diameters[0] == 3
+    N, m, P = small_model.blades, small_model.modes, orbit.pattern
+    blades = np.arange(N) % P
+    x = np.concatenate([orbit.state[: P * m].reshape(P, m)[blades].ravel(),
+                        orbit.state[P * m :].reshape(P, m)[blades].ravel()])  # fmt: skip
+    a = np.abs(x[N * m :]).max() / w
+    scale = np.r_[np.full(N * m, a), np.full(N * m, w * a)]
+    y = x + 1e-10 * scale * np.random.default_rng(1).standard_normal(x.size)
+    flow = WheelFlow(small_model, cfg, None, 1.0, nozzle=Nozzle(w, params.nozzle_phase),
+                     params=params)  # fmt: skip
+    deviation = []
+    try:
+        for _ in range(25):
+            deviation.append(np.linalg.norm((y - x) / scale))
+            y = flow.advance_sliding(y[None], 2 * math.pi / w, orbit.steps_per_period)[0]
+    finally:
+        flow.destroy()
+    growth = (deviation[24] / deviation[8]) ** (1 / 16)
+    assert growth == pytest.approx(abs(mu), rel=0.03)
