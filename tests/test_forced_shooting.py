@@ -140,6 +140,23 @@ def test_the_command_checks_the_peak_by_shooting(tmp_path, capsys):
     assert cli.main(["info", str(path)]) == 0
     line = [x for x in capsys.readouterr().out.splitlines() if "exact state:" in x]
     assert line and f"{ex['largest_multiplier']:.6f}" in line[0]
+    capsys.readouterr()
+    # every solved frequency: the curve's stable and unstable parts
+    argv[argv.index("--exact") + 1 : argv.index("--exact") + 1] = ["all"]
+    assert cli.main(argv[:-2] + ["--out", str(tmp_path / "all.h5")]) == 0
+    nl = json.loads(capsys.readouterr().out)["nonlinear"]
+    rows = nl["exact_curve"]
+    assert len(rows) == 6 and rows[0] is None  # 120 Hz: the balance has no solution
+    assert all(r["converged"] for r in rows[1:])
+    assert rows[1] == nl["exact"]  # 123 Hz: the peak
+    stable = [r["stable"] for r in rows[1:]]
+    assert stable == [False, False, False, True, True]  # measured |mu| 1.89 .. 0.9997
+    with h5py.File(tmp_path / "all.h5") as f:
+        e = f["nonlinear/exact_curve"]
+        assert list(e["stable"][()]) == [False] + stable
+        assert np.isnan(e["tip_amplitude_m"][0]) and e["wheel_multiplier_nd"][1] == 3
+    assert cli.main(["plot", str(tmp_path / "all.h5"), "--outdir", str(tmp_path / "fig")]) == 0
+    capsys.readouterr()
     assert cli.main(["forced-response", SMALL, "--exact"]) == 2  # --nonlinear needed
     assert "--nonlinear" in capsys.readouterr().err
 

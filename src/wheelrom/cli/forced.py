@@ -36,10 +36,12 @@ def args_forced(p: argparse.ArgumentParser) -> None:
                    "(tuned wheel; docs/theory.md 'Nonlinear forced response')")  # fmt: skip
     p.add_argument("--harmonics", type=int, default=None,
                    help="harmonics of --nonlinear (default forced.harmonics)")
-    p.add_argument("--exact", action="store_true",
-                   help="with --nonlinear: the exact periodic state at the nonlinear peak by "
-                   "shooting on the transient's equations (the harmonic balance's error) and "
-                   "its Floquet multipliers (docs/theory.md)")  # fmt: skip
+    p.add_argument("--exact", nargs="?", const="peak", choices=("peak", "all"), default=None,
+                   help="with --nonlinear: the exact periodic state at the nonlinear peak "
+                   "('peak', the default) or at every solved frequency ('all': the curve's "
+                   "stable and unstable parts) by shooting on the transient's equations (the "
+                   "harmonic balance's error) and its Floquet multipliers in every ND "
+                   "(docs/theory.md)")  # fmt: skip
     p.add_argument("--angle", nargs=2, action="append", default=[], metavar=("KIND", "DEG"),
                    help="contact angle [deg] of a kind (tieboss, shroud) instead of "
                    "contacts.<kind>.angle_deg (repeatable)")  # fmt: skip
@@ -179,10 +181,11 @@ def summary(response, tuned, cfg, model, contacts: bool) -> dict:
 
 
 def _nonlinear(model, cfg, grid: np.ndarray, angles: dict | None, harmonics: int,
-               say, exact: bool = False):  # fmt: skip
+               say, exact: str | None = None):  # fmt: skip
     """``(plain data, ForcedCurve)``: the nonlinear curve over the coarse grid (tip
     amplitude per frequency, Newton's verdict, the peak with its contacts' open / stick /
-    slip shares; ``exact``: the peak's exact state by shooting)."""
+    slip shares; ``exact``: the peak's exact state by shooting, ``"all"``: every solved
+    frequency's too)."""
     from wheelrom.studies.forced_nonlinear import exact_peak, forced_inputs, nonlinear_forced
 
     outside = _no_resonance(model, cfg, grid, angles)
@@ -208,11 +211,16 @@ def _nonlinear(model, cfg, grid: np.ndarray, angles: dict | None, harmonics: int
         out["peak_shares"] = {kind: dict(zip(("open", "stick", "slip"),
                                              map(float, curve.fractions[i, k]), strict=True))
                               for k, kind in enumerate(curve.kinds)}  # fmt: skip
-        if exact:
-            say(f"the exact state at {out['peak_frequency_hz']:.4f} Hz by shooting")
-            out["exact"] = _exact(exact_peak(model, cfg, curve.harmonics[i],
-                                             float(curve.frequency[i]), harmonics, inputs,
-                                             angles, whole_wheel=True))  # fmt: skip
+        states = {}
+        for j in (np.flatnonzero(curve.converged) if exact == "all" else [i] if exact else []):
+            say(f"the exact state at {curve.frequency[j] / (2 * math.pi):.4f} Hz by shooting")
+            states[j] = _exact(exact_peak(model, cfg, curve.harmonics[j],
+                                          float(curve.frequency[j]), harmonics, inputs,
+                                          angles, whole_wheel=True))  # fmt: skip
+        if states:
+            out["exact"] = states[i]
+        if exact == "all":
+            out["exact_curve"] = [states.get(j) for j in range(curve.frequency.size)]
     return out, curve
 
 
@@ -354,6 +362,15 @@ def _write_nonlinear(g, out: dict, curve) -> None:
         for key in ("peak_amplitude_m", "peak_frequency_hz"):
             if key in traced:
                 t.attrs[key] = traced[key]
+    if "exact_curve" in out:  # --exact all: per grid frequency, NaN where not solved
+        rows, e = out["exact_curve"], g.create_group("exact_curve")
+        for key in ("tip_amplitude_m", "hb_relative_difference", "wheel_largest_multiplier"):
+            e[key] = np.array([r[key] if r and key in r else np.nan for r in rows], dtype=float)
+        e["wheel_multiplier_nd"] = np.array([r["wheel_multiplier_nd"][0]
+                                             if r and "wheel_multiplier_nd" in r else -1
+                                             for r in rows], dtype="i8")  # fmt: skip
+        e["stable"] = np.array([bool(r and r.get("stable")) for r in rows])
+        e["converged"] = np.array([bool(r and r["converged"]) for r in rows])
     if "exact" in out:  # --exact
         exact, e = out["exact"], g.create_group("exact")
         for key, value in exact.items():
@@ -397,10 +414,18 @@ def _print_nonlinear(out: dict) -> None:
     nl = out["nonlinear"]
     print(f"nonlinear (harmonic balance, H = {nl['harmonics']}, contacts.law = "
           f"'{nl['law']}', {nl['wall_s']:.1f} s):")  # fmt: skip
-    print(f"{'f [Hz]':>12s} {'linear [m]':>12s} {'nonlinear [m]':>14s}")
-    rows = zip(out["frequency_hz"], out["max_amplitude_m"], nl["tip_amplitude_m"], strict=True)
-    for f, a, b in rows:
+    exact = nl.get("exact_curve") or [None] * len(out["frequency_hz"])
+    print(f"{'f [Hz]':>12s} {'linear [m]':>12s} {'nonlinear [m]':>14s}"
+          + (f" {'exact [m]':>12s} {'|mu| (ND)':>16s}" if "exact_curve" in nl else ""))
+    rows = zip(out["frequency_hz"], out["max_amplitude_m"], nl["tip_amplitude_m"], exact,
+               strict=True)  # fmt: skip
+    for f, a, b, ex in rows:
         text = f"{b:14.4e}" if b is not None else f"{'no solution':>14s}"
+        if ex is not None and ex["converged"]:  # --exact all
+            mu = f"{ex['wheel_largest_multiplier']:.4f} ({ex['wheel_multiplier_nd'][0]})"
+            text += f" {ex['tip_amplitude_m']:12.4e} {mu:>16s}"
+        elif ex is not None:
+            text += f" {'no orbit':>12s}"
         print(f"{f:12.4f} {a:12.4e} {text}")
     if "peak_amplitude_m" in nl:
         shares = "; ".join(f"{kind} open {100 * s['open']:.0f} %, stick {100 * s['stick']:.0f}"

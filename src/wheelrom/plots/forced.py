@@ -35,6 +35,14 @@ def forced_figures(f, path: str, outdir: str, pdf: bool, written: list[str], plt
         keep = order[ok[order]]
         ax.plot(hz[keep], tip[keep], "-", marker=".", color="tab:green", lw=1.6,
                 label=f"nonlinear (contacts.law = '{law}', harmonic balance)")  # fmt: skip
+        if "exact_curve" in g:  # --exact all: the exact states, stable and unstable
+            e = g["exact_curve"]
+            etip, stable, done = e["tip_amplitude_m"][()], e["stable"][()], e["converged"][()]
+            for keep, style, what in ((done & stable, "o", "stable in every ND"),
+                                      (done & ~stable, "x", "unstable")):  # fmt: skip
+                if keep.any():
+                    ax.plot(hz[keep], etip[keep], style, ms=5, mfc="none", color="tab:purple",
+                            label=f"exact state (shooting), {what}")
         if "traced" in g:  # forced.continuation = "arclength": the points in order traced
             t = g["traced"]
             thz, ttip, growth = (t[k][()] for k in ("frequency_hz", "tip_amplitude_m",
