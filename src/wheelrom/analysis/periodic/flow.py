@@ -82,6 +82,17 @@ def pattern_model(model: ReducedModel, wave: int, use_pattern: bool = True):
     return dataclasses.replace(model, blades=n, mistuning=None), g, j
 
 
+def pattern_nd(q: np.ndarray, g: int, blades: int) -> np.ndarray:
+    """NDs on the whole wheel of ``blades`` of pattern vectors ``q`` ``(E, N', m)`` (modal
+    displacements of a pattern of ``N'`` blades repeating ``g = blades / N'`` times): the
+    DFT over the pattern's blades, its index of largest energy times ``g``."""
+    if q.shape[1] == 1:
+        return np.zeros(q.shape[0], int)
+    energy = (np.abs(np.fft.fft(q, axis=1)) ** 2).sum(axis=2)  # (E, N')
+    k = np.argmax(energy, axis=1) * g
+    return np.minimum(k % blades, (-k) % blades)
+
+
 def shift_blades(states: np.ndarray, j: int) -> np.ndarray:
     """``(..., 2, N, m)`` states with blade ``s`` replaced by blade ``s + j``."""
     return np.roll(states, -j, axis=-2)

@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from wheelrom.analysis.periodic.flow import Nozzle, WheelFlow, pattern_model
+from wheelrom.analysis.periodic.flow import Nozzle, WheelFlow, pattern_model, pattern_nd
 from wheelrom.analysis.periodic.forced_wave import ForcedWave
 from wheelrom.analysis.periodic.monodromy import label_vectors
 from wheelrom.config import Config
@@ -239,10 +239,8 @@ class ForcedShooting:
         order = np.argsort(-np.abs(mu))
         vectors = (vectors * scale[:, None])[:, order]
         nq = self.N * self.m
-        q = vectors[:nq].T.reshape(-1, self.N, self.m)
-        energy = (np.abs(np.fft.fft(q, axis=1)) ** 2).sum(axis=2)
-        k = np.argmax(energy, axis=1) * self.g
-        return mu[order], np.minimum(k % self.blades, (-k) % self.blades)
+        return mu[order], pattern_nd(vectors[:nq].T.reshape(-1, self.N, self.m), self.g,
+                                     self.blades)  # fmt: skip
 
     def tip_amplitude(self, x: np.ndarray) -> float:
         """0-peak tip amplitude [m] about the mean, at every step of one shot of every

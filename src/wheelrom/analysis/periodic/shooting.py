@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from wheelrom.analysis.periodic.flow import WheelFlow, pattern_model, shift_blades
+from wheelrom.analysis.periodic.flow import WheelFlow, pattern_model, pattern_nd, shift_blades
 from wheelrom.config import Config
 from wheelrom.rom.model import ReducedModel
 from wheelrom.runtime.environment import petsc
@@ -168,14 +168,8 @@ class Shooting:
         return mu[order], nd
 
     def _nd_of(self, q: np.ndarray) -> np.ndarray:
-        """NDs on the whole wheel of pattern vectors ``q`` ``(E, N', m)``: the DFT over the
-        pattern's blades, its index times ``g``."""
-        if self.N == 1:
-            return np.zeros(q.shape[0], int)
-        energy = (np.abs(np.fft.fft(q, axis=1)) ** 2).sum(axis=2)  # (E, N')
-        k = np.argmax(energy, axis=1) * self.g
-        Nfull = self.full_model.blades
-        return np.minimum(k % Nfull, (-k) % Nfull)
+        """NDs on the whole wheel of pattern vectors ``q`` ``(E, N', m)``."""
+        return pattern_nd(q, self.g, self.full_model.blades)
 
 
 @dataclass
