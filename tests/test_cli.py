@@ -15,6 +15,26 @@ def test_compare_command_agrees_with_the_reference(capsys):
     out = json.loads(capsys.readouterr().out)
     assert out["steps"] == 200 and out["step_s"] == 5e-6
     assert 0 <= out["max_relative_difference"] < 1e-9
+    # relative to the run's largest tip displacement (the reference's samples), not the last
+    # instant's: the absolute difference over it
+    assert out["max_relative_difference"] == pytest.approx(
+        out["max_difference_m"] / out["largest_tip_displacement_m"], rel=1e-12)
+    assert out["largest_tip_displacement_m"] > 0
+
+
+def test_the_compared_difference_is_relative_to_the_run():
+    """A last state whose tips pass near zero (the nozzle's response crossing it) is read
+    against the largest tip displacement over the run, not against its own."""
+    from types import SimpleNamespace
+
+    from wheelrom.transient.reference import tip_difference
+
+    model = SimpleNamespace(size=2, blades=2, modes=1, tip=np.array([[0.0], [1.0], [0.0]]))
+    reference = np.array([[5e-5, -4e-5], [1e-9, -2e-9]])  # (samples, state): q of 2 blades
+    final = np.array([1e-9 + 3e-15, -2e-9])
+    relative, absolute, scale = tip_difference(model, reference, final)
+    assert absolute == pytest.approx(3e-15, rel=1e-6) and scale == 5e-5
+    assert relative == pytest.approx(6e-11, rel=1e-6)
 
 
 def test_compare_takes_the_step_from_the_ts():
