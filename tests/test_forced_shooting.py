@@ -258,3 +258,55 @@ def test_a_transient_leaves_an_unstable_state_at_its_largest_multiplier(small_mo
         flow.destroy()
     growth = (deviation[24] / deviation[8]) ** (1 / 16)
     assert growth == pytest.approx(abs(mu), rel=0.03)
+
+
+def test_a_flow_that_fails_ends_one_shot_not_the_curve(small_model, small_cfg, monkeypatch):
+    """A step of the flow that fails (a NaN column, a TS that stops) makes that state's shot
+    a failure with its reason; the caller's curve and other states are kept."""
+    from wheelrom.analysis.periodic import forced_shooting
+
+    cfg = small_cfg.replace(**{"flutter.model": "off", "excitation.force": 10.0})
+    params, q = forced_inputs(small_model, cfg)
+    w = 2 * math.pi * 250.0
+    curve = forced_curve(small_model, params, cfg.wheel.damping_beta, np.array([w]), q,
+                         harmonics=3)  # fmt: skip
+    problem = ForcedWave(small_model, params, cfg.wheel.damping_beta, 3)
+
+    def broken(self, x):
+        raise RuntimeError("the flow took 3 of 27 steps")
+
+    monkeypatch.setattr(forced_shooting.ForcedShooting, "shot", broken)
+    orbit = exact_forced(small_model, cfg, problem, curve.harmonics[0], w, whole_wheel=True)
+    assert not orbit.converged and "RuntimeError: the flow took 3 of 27" in orbit.reason
+    assert orbit.hb_tip_amplitude == pytest.approx(curve.tip_amplitude[0], rel=1e-3)
+
+
+def test_under_an_aerodynamic_table_the_whole_period_is_shot(small_model, tmp_path):
+    """An aerodynamic table couples every blade pair, so the shot is not cut to the ND-2
+    wave's pattern: it takes the whole wheel over a whole period (``mu = nu``; the wave's
+    shift over ``tau`` would raise the multipliers to the pattern's power with the shift's
+    phase), and its multipliers are those of every ND (the block-circulant map's)."""
+    from wheelrom import config
+
+    from conftest import SMALL
+
+    path = tmp_path / "aero.csv"
+    path.write_text("nd,damping_ratio\n" + "\n".join(f"{k},0.002" for k in range(12)) + "\n")
+    cfg = config.load(SMALL, ['flutter.model="table"', f'flutter.table="{path}"'])
+    cfg = cfg.replace(**{"excitation.force": 0.1})
+    params, q = forced_inputs(small_model, cfg)
+    w = 2 * math.pi * 250.0
+    curve = forced_curve(small_model, params, cfg.wheel.damping_beta, np.array([w]), q,
+                         harmonics=3)  # fmt: skip
+    assert curve.converged[0]
+    problem = ForcedWave(small_model, params, cfg.wheel.damping_beta, 3)
+    orbit = exact_forced(small_model, cfg, problem, curve.harmonics[0], w, refine=False,
+                         whole_wheel=True)  # fmt: skip
+    assert orbit.converged and orbit.pattern == small_model.blades
+    assert abs(orbit.relative_difference) < 1e-4  # a linear state (micro-slip branch)
+    # the same multipliers both ways (measured 2.5e-6 apart: two sets of differences; the
+    # pattern's power taken for the whole period would square them, 5e-4 off), every ND,
+    # stable (the table damps every ND)
+    assert orbit.largest == pytest.approx(abs(orbit.wheel_multipliers[0]), abs=1e-5)
+    assert max(np.abs(orbit.wheel_multipliers - v).min() for v in orbit.multipliers[:12]) < 1e-4
+    assert orbit.stable and set(orbit.nodal_diameters) == set(orbit.wheel_nodal_diameters)

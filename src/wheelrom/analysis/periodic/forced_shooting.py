@@ -40,12 +40,17 @@ from wheelrom.analysis.periodic.forced_wave import ForcedWave
 from wheelrom.analysis.periodic.monodromy import label_vectors
 from wheelrom.config import Config
 from wheelrom.rom.model import ReducedModel
+from wheelrom.runtime.environment import petsc
 
 MAX_ITERATIONS = 20
 #: converged at this scaled residual (relative to the vibration), or at the rounding floor
 #: of the static deflection in the same units (as the autonomous shot)
 TOLERANCE, ROUNDOFF = 1e-10, 1e-12
+#: a Newton that no longer reduces a residual this small has reached the rounding of the
+#: shot (a whole period of the whole wheel under an aerodynamic table: 800 steps, 2.9e-10)
+STAGNATION = 1e-8
 DIFFERENCE = 1e-6  # central-difference step, relative to the vibration
+RCOND = 1e-8  # least-squares cut-off of the Newton step, relative to the largest singular value
 #: the elastic law's start is marched period by period from the sliders at rest at the mean
 #: until a period changes the state by less than ``MARCH_TOLERANCE`` of the vibration (at
 #: most ``MARCH_PERIODS``; the best period kept): a contact in partial slip walks to its
@@ -123,6 +128,12 @@ class ForcedShooting:
         # whole: the same map on every blade (its Jacobian holds every ND)
         pattern, self.g, self.shift = pattern_model(
             model, self.wave, cfg.flutter.model != "table" and not whole)
+        if not whole and pattern.blades != model.blades // self.g:
+            # not cut to the pattern (an aerodynamic table couples every blade pair): a
+            # whole period without a shift, so that mu = nu (F^{N'} on the whole wheel
+            # would carry the shift's phase)
+            self.g, self.shift = model.blades, 0
+        self.shots = model.blades // self.g  # shots a period: mu = nu^shots
         self.blades = model.blades
         self.N, self.m = pattern.blades, pattern.modes
         self.omega, self.period = float(omega), 2 * math.pi / float(omega)
@@ -233,10 +244,11 @@ class ForcedShooting:
                 break
             G = self.jacobian(x, scale)
             x, F, size, ok = self._step(x, F, size, G - np.eye(self.n), scale)
-            if not ok:
-                reason = "no step reduces the residual"
+            if not ok:  # stagnated: at the rounding floor of a long shot, or stuck
+                reason = "converged at the rounding floor" if size <= STAGNATION else \
+                    "no step reduces the residual"  # fmt: skip
                 break
-        converged = reason == "converged"
+        converged = reason.startswith("converged")
         orbit = ForcedOrbit(self.omega, x, self.N, size, it, converged, reason=reason,
                             steps_per_period=self.flow.steps_for(self.tau)[0]
                             * round(self.period / self.tau))  # fmt: skip
@@ -251,7 +263,10 @@ class ForcedShooting:
         """The Newton step (least squares: a stuck slider's direction is singular), halved
         until the residual's 2-norm falls (at most 6 times; the Newton direction descends
         in the 2-norm, not necessarily in the max norm that decides convergence)."""
-        dz = np.linalg.lstsq(A, -F, rcond=1e-13)[0]
+        # the cut-off above the differences' noise (~1e-10 of the unknowns over their scale;
+        # a stuck slider's offset is large in units of the vibration): a neutral direction
+        # must not take a step of residual over noise
+        dz = np.linalg.lstsq(A, -F, rcond=RCOND)[0]
         a, norm = 1.0, float(np.linalg.norm(F))
         for _ in range(7):
             trial = x + a * dz * scale
@@ -265,12 +280,12 @@ class ForcedShooting:
         """``(mu, nd)`` of the pattern map's Jacobian ``G`` (scaled), largest first; the ND
         of a vector from the DFT of its ``q`` over the pattern's blades (index times ``g``)."""
         nu, vectors = np.linalg.eig(G)
-        mu = nu**self.N
+        mu = nu**self.shots
         order = np.argsort(-np.abs(mu))
         vectors = (vectors * scale[:, None])[:, order]
         nq = self.N * self.m
-        return mu[order], pattern_nd(vectors[:nq].T.reshape(-1, self.N, self.m), self.g,
-                                     self.blades)  # fmt: skip
+        return mu[order], pattern_nd(vectors[:nq].T.reshape(-1, self.N, self.m),
+                                     self.blades // self.N, self.blades)  # fmt: skip
 
     def tip_amplitude(self, x: np.ndarray) -> float:
         """0-peak tip amplitude [m] about the mean, at every step of one shot of every
@@ -298,32 +313,48 @@ def exact_forced(model: ReducedModel, cfg: Config, problem: ForcedWave, X: np.nd
     ``whole_wheel``: also the whole wheel's multipliers (:func:`wheel_multipliers`)."""
     hb = problem.tip_amplitude(X, omega)
     orbit_cfg = cfg  # the configuration of the step the orbit is reported at
-    shooting = ForcedShooting(model, cfg, problem, omega, angles_deg)
-    try:
-        orbit = shooting.solve(shooting.start(problem, X), hb)
-    finally:
-        shooting.destroy()
+    orbit, failure = _guarded(_shoot, model, cfg, problem, omega, angles_deg, X, None, hb)
+    if failure:  # a step of the flow failed: said, and nothing else computed is lost
+        return ForcedOrbit(float(omega), np.zeros(0), 0, math.inf, 0, False,
+                           hb_tip_amplitude=hb, reason=failure)  # fmt: skip
     orbit.hb_tip_amplitude = hb
     if refine and orbit.converged:
         finer = cfg.replace(**{"time.step": cfg.time.step / 2})
-        shooting = ForcedShooting(model, finer, problem, omega, angles_deg)
-        try:
-            fine = shooting.solve(orbit.state, hb)
-        finally:
-            shooting.destroy()
-        if fine.converged:
+        fine, failure = _guarded(_shoot, model, finer, problem, omega, angles_deg, None,
+                                 orbit.state, hb)  # fmt: skip
+        if fine is not None and fine.converged:
             fine.hb_tip_amplitude, fine.coarse_largest = hb, orbit.largest
             fine.wall_s += orbit.wall_s
             orbit, orbit_cfg = fine, finer
         else:
-            orbit.reason += f"; at half the step: {fine.reason}"
+            orbit.reason += f"; at half the step: {failure or fine.reason}"
     if whole_wheel and orbit.converged:
         t0 = time.perf_counter()
-        wheel_multipliers(model, orbit_cfg, problem, orbit, angles_deg)
+        _, failure = _guarded(wheel_multipliers, model, orbit_cfg, problem, orbit, angles_deg)
+        if failure:
+            orbit.reason += f"; every ND: {failure}"
         orbit.wall_s += time.perf_counter() - t0
     return orbit
 
 
+def _shoot(model, cfg, problem, omega, angles_deg, X, x0, hb) -> ForcedOrbit:
+    """One shot's Newton solve, from the balance's ``X`` (marched) or from the state
+    ``x0``."""
+    shooting = ForcedShooting(model, cfg, problem, omega, angles_deg)
+    try:
+        return shooting.solve(shooting.start(problem, X) if x0 is None else x0, hb)
+    finally:
+        shooting.destroy()
+
+
+def _guarded(function, *args):
+    """``(result, "")`` or ``(None, what failed)``: a flow that diverges or a linear algebra
+    failure on a NaN column ends this state's shot, not the caller's whole curve."""
+    try:
+        return function(*args), ""
+    except (ValueError, RuntimeError, ArithmeticError, np.linalg.LinAlgError,
+            petsc().Error) as exc:  # fmt: skip
+        return None, f"{type(exc).__name__}: {exc}"
 
 
 def wheel_multipliers(model: ReducedModel, cfg: Config, problem: ForcedWave,
@@ -342,24 +373,19 @@ def wheel_multipliers(model: ReducedModel, cfg: Config, problem: ForcedWave,
     that change by ``w^p`` from one super-block to the next. ``F^{N'} = S^{-j N'} phi_T`` with
     ``S^{N'} v = w^p v``, so the monodromy's multiplier is ``mu = w^{p j} nu^{N'}``
     (``p = 0``: the pattern's own). No trivial multiplier: the force fixes the phase."""
-    N, m, P = model.blades, model.modes, orbit.pattern
-    g = N // P
+    N, m = model.blades, model.modes
     whole = ForcedShooting(model, cfg, problem, orbit.frequency, angles_deg, whole=True)
     try:
         K = whole.sliders // (2 * N)
+        P = whole.shots  # the wave's pattern N' (the orbit may be on the whole wheel)
+        g = N // P
 
         def block(r: int) -> np.ndarray:  # flat indices of super-block r's blades
-            s = np.arange(r * P, (r + 1) * P)
-            q = (s[:, None] * m + np.arange(m)).ravel()
-            parts = [q, N * m + q]
-            if K:  # the sliders (K, N, 2) after q, q'
-                parts.append((2 * N * m + np.arange(K)[:, None, None] * 2 * N
-                              + 2 * s[None, :, None] + np.arange(2)).ravel())  # fmt: skip
-            return np.concatenate(parts)
+            return _blade_indices(np.arange(r * P, (r + 1) * P), N, m, K)
 
-        x_full = np.empty(whole.n)
-        for r in range(g):  # blade s of the wheel is pattern blade s mod N'
-            x_full[block(r)] = orbit.state
+        # blade s of the wheel is the orbit's blade s mod its blade count
+        x_full = orbit.state[_blade_indices(np.arange(N) % orbit.pattern, orbit.pattern,
+                                            m, K)]  # fmt: skip
         scale = whole._scale(x_full, orbit.tip_amplitude)
         columns = whole.jacobian(x_full, scale, block(0))  # (n, 2 N' m (+ sliders))
     finally:
@@ -378,3 +404,15 @@ def wheel_multipliers(model: ReducedModel, cfg: Config, problem: ForcedWave,
     values, nds = np.concatenate(values), np.concatenate(nds)
     order = np.argsort(-np.abs(values))
     orbit.wheel_multipliers, orbit.wheel_nodal_diameters = values[order], nds[order]
+
+
+def _blade_indices(blades: np.ndarray, count: int, m: int, sliders: int) -> np.ndarray:
+    """Flat indices of blades ``blades`` (in that order) in a state of ``count`` blades:
+    their ``q`` (``(count, m)``), then ``q'``, then, with ``sliders`` contact kinds, their
+    sliders (``(K, count, 2)``)."""
+    q = (blades[:, None] * m + np.arange(m)).ravel()
+    parts = [q, count * m + q]
+    if sliders:
+        parts.append((2 * count * m + np.arange(sliders)[:, None, None] * 2 * count
+                      + 2 * blades[None, :, None] + np.arange(2)).ravel())  # fmt: skip
+    return np.concatenate(parts)

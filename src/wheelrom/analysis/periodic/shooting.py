@@ -97,6 +97,11 @@ class Shooting:
                              "(contacts.law = 'elastic'; issue #44)")
         self.full_model, self.wave = model, int(wave)
         pattern, g, j = pattern_model(model, wave, cfg.flutter.model != "table")
+        if pattern.blades != model.blades // g:
+            # not cut to the pattern (an aerodynamic table couples every blade pair): a whole
+            # period without a shift, so that mu = nu (the shift's power on the whole wheel
+            # would square a g = 2 wave's multipliers and turn their phase)
+            g, j = model.blades, 0
         self.model, self.g, self.shift = pattern, g, j
         self.fraction = g / model.blades
         self.flow = WheelFlow(pattern, cfg, angles_deg, lam, options=options)
@@ -161,7 +166,7 @@ class Shooting:
         ``(n, n)`` (scaled units ``scale``) and the NDs of their eigenvectors."""
         n = self.n
         nu, vectors = np.linalg.eig(G)
-        mu = nu**self.N  # G^{N'} is the monodromy on the pattern
+        mu = nu ** round(1 / self.fraction)  # G^{N'} is the monodromy on the pattern
         order = np.argsort(-np.abs(mu))
         vectors = (vectors * scale.ravel()[:, None])[:, order]
         nd = self._nd_of(vectors[: n // 2].T.reshape(-1, self.N, self.m))
@@ -169,7 +174,7 @@ class Shooting:
 
     def _nd_of(self, q: np.ndarray) -> np.ndarray:
         """NDs on the whole wheel of pattern vectors ``q`` ``(E, N', m)``."""
-        return pattern_nd(q, self.g, self.full_model.blades)
+        return pattern_nd(q, self.full_model.blades // self.N, self.full_model.blades)
 
 
 @dataclass
