@@ -286,9 +286,8 @@ def test_under_an_aerodynamic_table_the_whole_period_is_shot(small_model, tmp_pa
     wave's pattern: it takes the whole wheel over a whole period (``mu = nu``; the wave's
     shift over ``tau`` would raise the multipliers to the pattern's power with the shift's
     phase), and its multipliers are those of every ND (the block-circulant map's)."""
-    from wheelrom import config
-
     from conftest import SMALL
+    from wheelrom import config
 
     path = tmp_path / "aero.csv"
     path.write_text("nd,damping_ratio\n" + "\n".join(f"{k},0.002" for k in range(12)) + "\n")
