@@ -206,7 +206,7 @@ def test_every_nd_from_the_block_circulant_map(small_model, small_cfg):
     flow = WheelFlow(small_model, cfg, angles, 1.0, nozzle=Nozzle(w, params.nozzle_phase),
                      params=params)  # fmt: skip
     try:
-        end = flow.advance_sliding(perturbed, 2 * math.pi / w, orbit.steps_per_period)
+        end = flow.advance(perturbed, 2 * math.pi / w, orbit.steps_per_period)
     finally:
         flow.destroy()
     M = ((end[:n] - end[n:]) / (2 * h[:, None])).T * scale[None, :] / scale[:, None]
@@ -253,7 +253,7 @@ def test_a_transient_leaves_an_unstable_state_at_its_largest_multiplier(small_mo
     try:
         for _ in range(25):
             deviation.append(np.linalg.norm((y - x) / scale))
-            y = flow.advance_sliding(y[None], 2 * math.pi / w, orbit.steps_per_period)[0]
+            y = flow.advance(y[None], 2 * math.pi / w, orbit.steps_per_period)[0]
     finally:
         flow.destroy()
     growth = (deviation[24] / deviation[8]) ** (1 / 16)

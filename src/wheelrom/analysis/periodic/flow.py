@@ -70,14 +70,19 @@ def pattern_blades(wave: int, blades: int) -> tuple[int, int, int]:
 
 def pattern_model(model: ReducedModel, wave: int, use_pattern: bool = True):
     """``(model', g, j)``: the pattern wheel of ``wave`` (:func:`pattern_blades`) and the
-    blade shift on it; the whole wheel with ``use_pattern = False`` (an aerodynamic table
-    couples every blade pair)."""
+    blade shift on it; with ``use_pattern = False`` (an aerodynamic table couples every
+    blade pair) the whole wheel over a whole period without a shift, ``(model, N, 0)``: the
+    wave's shift over ``g T / N`` on the whole wheel would make the shot's ``N'``-th power
+    ``S^{-j N'} phi_T``, whose eigenvalues carry the shift's phases (a ``g`` = 2 wave's
+    multipliers came out squared)."""
     if not model.tuned:
         raise InputError("periodic orbits by shooting need a tuned wheel (mistuning off)")
+    if not use_pattern:
+        return model, model.blades, 0
     # j k' = 1 (mod N') with k = g k' gives j k = g (mod N): the shift holds on the whole
     # wheel as on the pattern
     n, g, j = pattern_blades(wave, model.blades)
-    if not use_pattern or n == model.blades:
+    if n == model.blades:
         return model, g, j
     return dataclasses.replace(model, blades=n, mistuning=None), g, j
 
@@ -154,21 +159,12 @@ class WheelFlow:
                 n += 1
         return n, duration / n
 
-    def advance(self, states: np.ndarray, duration: float, steps: int = 0) -> np.ndarray:
-        """``phi_duration`` of every state ``(B, 2, N, m)`` -> ``(B, 2, N, m)``, in ``steps``
-        whole steps (0: :meth:`steps_for`)."""
-        states = np.asarray(states, dtype=float)
-        out = np.empty_like(states)
-        for lo in range(0, states.shape[0], MAX_BATCH):
-            chunk = states[lo : lo + MAX_BATCH]
-            out[lo : lo + len(chunk)] = self._advance(chunk, duration, steps)
-        return out
-
-    def advance_sliding(self, states: np.ndarray, duration: float, steps: int = 0,
-                        start: float = 0.0) -> np.ndarray:  # fmt: skip
-        """As :meth:`advance` for states ``(B, 2 N m + sliders)`` that carry the elastic law's
-        sliders after ``q, q'`` (blade-major ``(K, N, 2)`` [m], as the transient's state),
-        from time ``start`` [s] (the forced flow's nozzle phase)."""
+    def advance(self, states: np.ndarray, duration: float, steps: int = 0,
+                start: float = 0.0) -> np.ndarray:  # fmt: skip
+        """``phi_duration`` of every state ``(B, 2, N, m)`` -> ``(B, 2, N, m)``, or of flat
+        states ``(B, 2 N m + sliders)`` that carry the elastic law's sliders after ``q, q'``
+        (blade-major ``(K, N, 2)`` [m], as the transient's state), in ``steps`` whole steps
+        (0: :meth:`steps_for`), from time ``start`` [s] (the forced flow's nozzle phase)."""
         states = np.asarray(states, dtype=float)
         out = np.empty_like(states)
         for lo in range(0, states.shape[0], MAX_BATCH):
@@ -177,7 +173,7 @@ class WheelFlow:
         return out
 
     def _advance(self, states: np.ndarray, duration: float, steps: int,
-                 start: float = 0.0) -> np.ndarray:  # fmt: skip
+                 start: float) -> np.ndarray:  # fmt: skip
         """End states of ``states`` ``(B, ...)`` from time ``start`` [s]: ``q, q'`` and, when
         given (``2 n + sliders`` per state), the sliders; sliders not given start at 0."""
         PETSc = petsc()

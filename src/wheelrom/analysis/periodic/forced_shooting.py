@@ -35,7 +35,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from wheelrom.analysis.periodic.flow import Nozzle, WheelFlow, pattern_model, pattern_nd
+from wheelrom.analysis.periodic.flow import (
+    Nozzle,
+    WheelFlow,
+    pattern_blades,
+    pattern_model,
+    pattern_nd,
+    shift_blades,
+)
 from wheelrom.analysis.periodic.forced_wave import ForcedWave
 from wheelrom.analysis.periodic.monodromy import label_vectors
 from wheelrom.config import Config
@@ -125,14 +132,12 @@ class ForcedShooting:
                  angles_deg: dict | None = None, whole: bool = False):  # fmt: skip
         params = problem.balance.params
         self.wave = problem.wave
-        # whole: the same map on every blade (its Jacobian holds every ND)
-        pattern, self.g, self.shift = pattern_model(
-            model, self.wave, cfg.flutter.model != "table" and not whole)
-        if not whole and pattern.blades != model.blades // self.g:
-            # not cut to the pattern (an aerodynamic table couples every blade pair): a
-            # whole period without a shift, so that mu = nu (F^{N'} on the whole wheel
-            # would carry the shift's phase)
-            self.g, self.shift = model.blades, 0
+        if whole:  # the wave's map on every blade (its Jacobian holds every ND)
+            pattern = model
+            _, self.g, self.shift = pattern_blades(self.wave, model.blades)
+        else:
+            pattern, self.g, self.shift = pattern_model(model, self.wave,
+                                                        cfg.flutter.model != "table")
         self.shots = model.blades // self.g  # shots a period: mu = nu^shots
         self.blades = model.blades
         self.N, self.m = pattern.blades, pattern.modes
@@ -152,16 +157,17 @@ class ForcedShooting:
 
     # ------------------------------------------------------------------ the map
     def shift_states(self, x: np.ndarray, j: int) -> np.ndarray:
-        """``(B, n)`` states with pattern blade ``s`` replaced by blade ``s + j``."""
+        """``(B, n)`` states with pattern blade ``s`` replaced by blade ``s + j`` (the
+        sliders ``(K, N', 2)`` have their blades on the same axis as ``q``)."""
         B, nq = x.shape[0], 2 * self.N * self.m
-        q = np.roll(x[:, :nq].reshape(B, 2, self.N, self.m), -j, axis=2).reshape(B, nq)
-        w = np.roll(x[:, nq:].reshape(B, self.K, self.N, 2), -j, axis=2).reshape(B, -1) \
-            if self.sliders else x[:, nq:]  # fmt: skip
-        return np.concatenate([q, w], axis=1)
+        parts = [shift_blades(x[:, :nq].reshape(B, 2, self.N, self.m), j)]
+        if self.sliders:
+            parts.append(shift_blades(x[:, nq:].reshape(B, self.K, self.N, 2), j))
+        return np.concatenate([p.reshape(B, -1) for p in parts], axis=1)
 
     def shot(self, x: np.ndarray) -> np.ndarray:
         """``S^{-j} phi_tau(x)`` of states ``(B, n)``."""
-        end = self.flow.advance_sliding(x, self.tau)
+        end = self.flow.advance(x, self.tau)
         return self.shift_states(end, -self.shift)
 
     def start(self, problem: ForcedWave, X: np.ndarray) -> np.ndarray:
@@ -184,10 +190,9 @@ class ForcedShooting:
         own approach to a stable state, which Newton then ends."""
         scale = self._scale(x, tip_amplitude)
         best, smallest, found = x, math.inf, 0
-        shots = round(self.period / self.tau)
         for period in range(MARCH_PERIODS):
             y = x[None]
-            for _ in range(shots):
+            for _ in range(self.shots):
                 y = self.shot(y)
             change = float(np.abs((y[0] - x) / scale).max())
             if not math.isfinite(change):
@@ -250,8 +255,7 @@ class ForcedShooting:
                 break
         converged = reason.startswith("converged")
         orbit = ForcedOrbit(self.omega, x, self.N, size, it, converged, reason=reason,
-                            steps_per_period=self.flow.steps_for(self.tau)[0]
-                            * round(self.period / self.tau))  # fmt: skip
+                            steps_per_period=self.flow.steps_for(self.tau)[0] * self.shots)
         if converged:  # the multipliers from the Jacobian at the solution itself
             orbit.multipliers, orbit.nodal_diameters = self._multipliers(
                 self.jacobian(x, scale), scale)
@@ -294,7 +298,7 @@ class ForcedShooting:
         n_tau, h = self.flow.steps_for(self.tau)
         path = [x]
         for i in range(n_tau - 1):  # the nozzle's time goes on
-            path.append(self.flow.advance_sliding(path[-1][None], h, 1, start=i * h)[0])
+            path.append(self.flow.advance(path[-1][None], h, 1, start=i * h)[0])
         nq = self.N * self.m
         q = np.array(path)[:, :nq].reshape(-1, self.m)  # (steps N', m)
         q = q - q.mean(axis=0)

@@ -128,7 +128,7 @@ class LinearisedPeriod:
         # central: both perturbed periods one batch of two (a forward difference was off by
         # 4e-5 on a Van der Pol multiplier, central by 1e-9)
         start = self.x[None] + np.outer([eps, -eps], self.scale * v)
-        end = self.flow.advance_sliding(start, self.period, self.steps)
+        end = self.flow.advance(start, self.period, self.steps)
         y.setArray((end[0] - end[1]) / (2 * eps * self.scale))
         self.count += 1
 
@@ -198,9 +198,8 @@ def floquet_multipliers(model: ReducedModel, cfg: Config, orbit: Orbit, steps: i
             obj.destroy()
     finally:
         flow.destroy()
-    scaled = vectors
     order = np.argsort(-np.abs(values))
-    values, scaled = values[order], scaled[order]
+    values, scaled = values[order], vectors[order]
     nd, wave = label_vectors(scaled * scale.ravel()[None], N, m)
     align = np.array([abs(np.vdot(v, f)) / np.linalg.norm(v) for v in scaled])
     trivial = -1

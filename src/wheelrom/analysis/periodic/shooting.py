@@ -97,11 +97,6 @@ class Shooting:
                              "(contacts.law = 'elastic'; issue #44)")
         self.full_model, self.wave = model, int(wave)
         pattern, g, j = pattern_model(model, wave, cfg.flutter.model != "table")
-        if pattern.blades != model.blades // g:
-            # not cut to the pattern (an aerodynamic table couples every blade pair): a whole
-            # period without a shift, so that mu = nu (the shift's power on the whole wheel
-            # would square a g = 2 wave's multipliers and turn their phase)
-            g, j = model.blades, 0
         self.model, self.g, self.shift = pattern, g, j
         self.fraction = g / model.blades
         self.flow = WheelFlow(pattern, cfg, angles_deg, lam, options=options)
