@@ -195,3 +195,38 @@ def test_info_reads_a_settle_file(vdp_settled, capsys):
         assert case["time_s"] == g["time"][0] and case["max_amplitude_m"] == g["max_amplitude"][0]
     assert cli.main(["info", str(vdp_settled)]) == 0
     assert "1 case(s): 1 settled, 0 not" in capsys.readouterr().out
+
+
+def test_the_preload_start_seeds_the_growing_mode_itself(small_model, small_cfg):
+    """``settle.start = 'preload'`` under the elastic law (shroud 40 deg: the stuck wheel
+    flutters in ND 6 at 491 Hz, +7.0 /s, not in the lowest ND-6 family at 127 Hz): the seed
+    is the growing mode itself, so the flutter ND's amplitude grows at the stuck
+    linearisation's rate from the first window on (measured 7.08, 7.06, 7.02 against 7.017
+    /s; a seed of the ND's lowest mode, ``time.perturbation``'s pattern, read 5.4, 6.8,
+    5.6 /s: mostly stuck modes that do not grow). The seed's largest tip displacement is
+    ``settle.seed_amplitude``."""
+    from wheelrom.analysis.stability import analyse
+    from wheelrom.studies.settle import _start
+    from wheelrom.transient.run import run_case
+
+    cfg = small_cfg.replace(**{"contacts.law": "elastic", "excitation.force": 0.0,
+                               "settle.start": "preload", "settle.seed_amplitude": 1e-12})
+    angles = {"shroud": 40.0}
+    res = analyse(small_model, cfg, angles)
+    i = res.critical()
+    rate, k = res.growth_rate[i], res.nodal_diameter[i]
+    u0, frequency, words, _ = _start(small_model, cfg, angles, None)
+    assert frequency == pytest.approx(491.0, rel=0.01) and rate == pytest.approx(7.0, rel=0.02)
+    assert "seeded at 1e-12 m" in words
+    N, m = small_model.blades, small_model.modes
+    seed = u0[: N * m].reshape(N, m) - res.equilibrium
+    tip = np.linalg.norm(seed @ small_model.tip.T, axis=1).max()
+    assert tip == pytest.approx(1e-12, rel=2e-3)  # plus every ND at 1e-3 of it
+    window = 0.5 / rate  # every statistics sample kept: 4 a period at the default rate
+    out = run_case(small_model, cfg.replace(**{
+        "time.end": 4 * window, "time.window": window,
+        "output.history_rate_hz": cfg.output.sample_rate_hz}), angles, u0=u0)
+    flutter = out.nd_spectrum[:, k]
+    measured = np.log(flutter[1:] / flutter[:-1]) / window
+    np.testing.assert_allclose(measured, rate, rtol=0.015)
+    assert (np.array([out.slip_fraction[c] for c in out.slip_fraction]) == 0).all()

@@ -16,8 +16,9 @@ class SettleConfig:
         default="cycle",
         metadata=_key("-", "'cycle': the fastest wave's exact orbit (from settle --cycles FILE, "
                       "else computed), every ND perturbed; 'preload': the preloaded "
-                      "equilibrium with the unstable waves seeded at seed_amplitude (slow to "
-                      "grow where the flutter is weak)", choices=("cycle", "preload")))
+                      "equilibrium with the growing mode of every unstable wave seeded at "
+                      "seed_amplitude (slow to grow where the flutter is weak)",
+                      choices=("cycle", "preload")))
     perturbation: float = field(
         default=1e-3,
         metadata=_key("-", "largest tip displacement of the perturbation of every ND, as a "

@@ -123,8 +123,12 @@ def _cycle_from_file(path: str, angles: dict, blades: int):
 
 
 def _start(model, cfg: Config, angles: dict, cycles_file: str | None, comm=None):
-    """``(u0 (2 N m,), frequency [Hz], words, cycle tip amplitude [m] or nan)`` of one case's
-    start, the perturbation added."""
+    """``(u0, frequency [Hz], words, cycle tip amplitude [m] or nan)`` of one case's start,
+    the perturbation added: ``u0`` the modal ``(q, q')`` ``(2 N m,)``, and under the elastic
+    law from the preloaded equilibrium the whole state with its sliders at rest at the
+    equilibrium (``(2 N m + 4 + 2 K N,)``: the seed is then a solution of the stuck
+    linearisation; at rest at the seeded state they would offset the stuck springs by the
+    seed itself and ring the stuck modes at its size)."""
     from wheelrom.analysis.periodic.limit_cycle import case_limit_cycles
     from wheelrom.analysis.periodic.limit_cycle import settings_of as lc_settings
     from wheelrom.transient.preload import start_perturbation
@@ -150,28 +154,32 @@ def _start(model, cfg: Config, angles: dict, cycles_file: str | None, comm=None)
         u0 = state.reshape(2, -1)
         q0 = u0[0].reshape(N, -1)
         seed = amplitude * st.perturbation
-    else:  # the preloaded equilibrium, the unstable waves seeded
-        from wheelrom.analysis.periodic.hopf import wave_blocks, wave_mode
+    else:  # the preloaded equilibrium, the unstable waves' growing modes seeded
+        from wheelrom.analysis.periodic.hopf import unstable_seed, wave_blocks, wave_mode
         from wheelrom.analysis.stability import linearise
 
         params, q, _, J, _ = linearise(model, cfg, angles, comm)
         B0, B1 = wave_blocks(model, params, q, J)
-        growth = np.array([wave_mode(B0[k], B1[k], 1.0)[0] for k in range(N)])
-        fastest = int(np.argmax(growth))
+        unstable, dq, dv = unstable_seed(model, B0, B1, st.seed_amplitude, st.seed)
+        fastest = max(unstable, key=lambda k: wave_mode(B0[k], B1[k], 1.0)[0])
         frequency = float(wave_mode(B0[fastest], B1[fastest], 1.0)[1].imag) / (2 * math.pi)
-        unstable = [int(k) for k in np.flatnonzero(growth > 0)] or [fastest]
-        seeded = cfg.replace(**{"time.perturbation": st.seed_amplitude,
-                                "time.perturbation_waves": unstable, "time.seed": st.seed})
-        q0 = q + start_perturbation(model, seeded)
-        u0 = np.stack([q0.ravel(), np.zeros(q0.size)])
+        q0 = q + dq
+        u0 = np.stack([q0.ravel(), dv.ravel()])
         seed = st.seed_amplitude * st.perturbation
         amplitude = math.nan
-        words = f"the preloaded equilibrium, waves {unstable} seeded at {st.seed_amplitude:g} m"
+        words = (f"the preloaded equilibrium, the growing modes of waves {unstable} seeded at "
+                 f"{st.seed_amplitude:g} m")
     every = cfg.replace(**{"time.perturbation": seed, "time.perturbation_waves": [],
                            "time.seed": st.seed})  # fmt: skip
     u0 = u0.copy()
     u0[0] = (q0 + start_perturbation(model, every)).ravel()
-    return (u0.ravel(), frequency,
+    u0 = u0.ravel()
+    if found is None and cfg.contacts.law == "elastic":
+        from wheelrom.forces.reference import ReferenceForces
+
+        sliders = ReferenceForces(params).sliders_at_rest(q)
+        u0 = np.concatenate([u0, np.zeros(4), sliders.ravel()])
+    return (u0, frequency,
             f"{words}, every ND perturbed at {seed:.3g} m (seed {st.seed})", float(amplitude))
 
 

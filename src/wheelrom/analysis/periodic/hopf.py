@@ -58,3 +58,33 @@ def hopf_point(B0, B1, lam_max: float, rtol: float = 1e-10) -> float:
         middle = 0.5 * (low + high)
         low, high = (low, middle) if wave_mode(B0, B1, middle)[0] > 0 else (middle, high)
     return 0.5 * (low + high)
+
+
+def unstable_seed(model: ReducedModel, B0, B1, amplitude: float, seed: int):
+    """``(waves, q (N, m), q' (N, m))``: the growing modes of every unstable wave (growth >
+    ``GROWTH_TOLERANCE`` at factor 1; the fastest wave alone when none grows) as one real
+    start, a solution of the linearised equations about the equilibrium.
+
+    Each wave ``k`` contributes its fastest forward mode ``v_k`` (:func:`wave_mode`, the
+    ``(q, q')`` amplitudes of blade 0; blade ``s`` has ``v_k e^{i 2 pi k s / N}``), scaled to a
+    unit tip displacement of blade 0 and turned by a random phase ``theta_k`` (numpy
+    ``default_rng(seed)``, as ``time.perturbation``'s); the sum's real part is scaled so that
+    the largest tip displacement is ``amplitude`` [m]. Why the mode itself and not the lowest
+    mode of the ND (``time.perturbation``'s pattern): the stuck wheel of the elastic law
+    flutters in a 423 Hz family that the lowest mode of ND 33 (133 Hz) hardly seeds."""
+    N, m = model.blades, model.modes
+    modes = [wave_mode(B0[k], B1[k], 1.0) for k in range(N)]
+    growth = np.array([g for g, _, _ in modes])
+    waves = [int(k) for k in np.flatnonzero(growth > GROWTH_TOLERANCE)]
+    waves = waves or [int(np.argmax(growth))]
+    theta = np.random.default_rng(seed).uniform(0.0, 2 * np.pi, N)
+    blades = np.arange(N)
+    state = np.zeros((N, 2 * m))
+    for k in waves:
+        vector = modes[k][2]
+        tip = model.tip @ vector[:m]  # (3,) complex tip displacement of blade 0
+        wave = np.exp(1j * (theta[k] + 2 * np.pi * k * blades / N))  # (N,)
+        state += (wave[:, None] * (vector / np.linalg.norm(tip))[None, :]).real
+    q, v = state[:, :m], state[:, m:]
+    scale = amplitude / np.linalg.norm(q @ model.tip.T, axis=1).max()
+    return waves, q * scale, v * scale
