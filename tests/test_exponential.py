@@ -143,3 +143,111 @@ def test_the_paper_rk3_stays_available_by_option(small_model, small_cfg):
     switched = run_case(small_model, _exponential(cfg), options={"ts_type": "rk"})
     assert switched.options["ts_type"] == "rk" and "ts_scheme" not in switched.options
     assert np.array_equal(rk.final_state, switched.final_state)
+
+
+def _elastic_flow(attachment, shroud: float):
+    """The attachment wheel under the elastic law, nozzle off, as a flow of the exponential
+    scheme (whole steps as asked: the flow does not lower them), its force parameters."""
+    from wheelrom.analysis.periodic.flow import WheelFlow
+
+    model, cfg = attachment
+    cfg = _exponential(cfg, **{"contacts.law": "elastic", "excitation.force": 0.0})
+    flow = WheelFlow(model, cfg, {"shroud": shroud})
+    return model, cfg, flow
+
+
+def test_the_step_matrix_is_the_compiled_step(attachment):
+    """:func:`step_matrix` of ND ``k`` (the scheme's linear step, assembled from the
+    coefficients and the explicit part's Jacobian) against the compiled ``etd4_step`` on
+    the whole wheel: one step of 10 us from the preloaded equilibrium (the contacts closed
+    and stuck), perturbed by the step matrix's dominant eigenvector expanded over the blades;
+    the difference of the two flows is that matrix's product, to 1e-6 (measured 1.4e-7: the
+    difference's rounding against the equilibrium and the arm's geometry at 1 nm; from rest,
+    which the preload moves within the step, 4.8e-6)."""
+    from wheelrom.analysis.stability import analyse
+    from wheelrom.forces.reference import ReferenceForces
+    from wheelrom.transient.exponential import (
+        _force_jacobian,
+        _nd_explicit,
+        coefficients,
+        step_matrix,
+    )
+
+    model, cfg, flow = _elastic_flow(attachment, 80.0)
+    N, m, h = model.blades, model.modes, 1e-5
+    q = analyse(model, cfg, {"shroud": 80.0}).equilibrium
+    sliders = ReferenceForces(flow.params).sliders_at_rest(q).ravel()
+    a, V = np.linalg.eigh(model.A0)
+    jacobian = _force_jacobian(model, flow.params, q)
+    coef = coefficients(a, cfg.wheel.damping_beta, h)
+    for k in (0, 2, N // 2):
+        R = step_matrix(coef, _nd_explicit(model, *jacobian, cfg.wheel.damping_beta, k)[1], h)
+        values, vectors = np.linalg.eig(R)
+        x = vectors[:, np.argmax(np.abs(values))]
+        wave = np.exp(2j * np.pi * k * np.arange(N) / N)[:, None]
+
+        def on_wheel(y, wave=wave):  # (2m,) kernel basis, blade 0 -> (2 N m,), real
+            return np.concatenate([(wave * (V @ y[:m])[None]).real.ravel(),
+                                   (wave * (V @ y[m:])[None]).real.ravel()])  # fmt: skip
+
+        size = 1e-9 / np.abs(model.tip @ V @ x[:m]).max()
+        rest = np.concatenate([q.ravel(), np.zeros(N * m)])
+        states = np.stack([rest, rest + size * on_wheel(x)])
+        moved = flow.advance(np.concatenate([states, np.stack([sliders] * 2)], axis=1), h,
+                             steps=1)[:, : 2 * N * m]  # fmt: skip
+        truth = on_wheel(R @ x)
+        np.testing.assert_allclose((moved[1] - moved[0]) / size, truth, rtol=0,
+                                   atol=1e-6 * np.abs(truth).max())  # fmt: skip
+    flow.destroy()
+
+
+def test_a_step_the_stuck_contacts_make_unstable_is_lowered(attachment):
+    """Elastic law, shroud 80 deg: at 10 us the scheme grows ND 0 at +22.5 /s where the wheel
+    decays (``stable_step``'s step matrices); the compiled flow from the preloaded
+    equilibrium plus that step matrix's growing mode grows at that rate (measured +23.0 /s
+    over 0.3 s of whole steps); at the lowered step the same start decays (-37.8 /s).
+    ``run_case`` takes the lowered step and says why."""
+    from wheelrom.analysis.stability import analyse
+    from wheelrom.forces.reference import ReferenceForces
+    from wheelrom.transient.exponential import (
+        SPURIOUS_GROWTH,
+        _force_jacobian,
+        _nd_explicit,
+        coefficients,
+        stable_step,
+        step_growth,
+        step_matrix,
+    )
+
+    model, cfg, flow = _elastic_flow(attachment, 80.0)
+    beta, h = cfg.wheel.damping_beta, 1e-5
+    lowered, why = stable_step(model, flow.params, beta, h)
+    assert 8e-6 < lowered < h and "grows ND 0" in why and "stuck springs" in why
+    scheme, wheel = step_growth(model, _force_jacobian(model, flow.params), beta, h)
+    assert scheme[0] > 10.0 and wheel[0] < 0
+    q = analyse(model, cfg, {"shroud": 80.0}).equilibrium
+    sliders = ReferenceForces(flow.params).sliders_at_rest(q)
+    N, m = model.blades, model.modes
+    a, V = np.linalg.eigh(model.A0)
+    explicit = _nd_explicit(model, *_force_jacobian(model, flow.params), beta, 0)[1]
+    values, vectors = np.linalg.eig(step_matrix(coefficients(a, beta, h), explicit, h))
+    x = vectors[:, np.argmax(np.abs(values))]  # ND 0: the same on every blade
+    seed = np.concatenate([np.tile((V @ x[:m]).real, N), np.tile((V @ x[m:]).real, N)])
+    # 1e-15 m of tip: the stiff mode moves the contacts far more than the tip, and beyond
+    # the stick range (0.14 um) the slip would damp it
+    seed *= 1e-15 / np.abs(seed[: N * m].reshape(N, m) @ model.tip.T).max()
+    start = np.concatenate([q.ravel(), np.zeros(N * m)]) + seed
+    start = np.concatenate([start, sliders.ravel()])
+
+    def growth(step):  # of the modal velocities' envelope, over 0.3 s in 6 blocks
+        n = round(0.3 / step)
+        path = flow.trajectory(start, n * step, n, stride=n // 36)
+        speed = np.linalg.norm(path[1:37, N * m : 2 * N * m], axis=1).reshape(6, 6).max(axis=1)
+        return np.polyfit((np.arange(6) + 0.5) * 0.05, np.log(speed), 1)[0]
+
+    assert growth(h) == pytest.approx(scheme[0], rel=0.05)
+    assert growth(lowered) < SPURIOUS_GROWTH + 1.0
+    res = run_case(model, flow.cfg.replace(**{"time.step": h, "time.end": 1e-3,
+                                              "time.window": 1e-3}),
+                   {"shroud": 80.0})  # fmt: skip
+    assert res.options["ts_dt"] == lowered and "stuck springs" in res.options["ts_dt_lowered"]

@@ -222,8 +222,9 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
     import numpy as np
 
+    from wheelrom.forces.parameters import force_parameters
     from wheelrom.rom.build import build_model, quiet
-    from wheelrom.transient.exponential import safe_step
+    from wheelrom.transient.exponential import stable_step
     from wheelrom.transient.reference import reference_solution, tip_difference
     from wheelrom.transient.run import run_case
     from wheelrom.transient.ts import ts_settings
@@ -237,8 +238,9 @@ def cmd_compare(args: argparse.Namespace) -> int:
     _check_compare_memory(_compare_config(cfg, steps, float(settings["ts_dt"])), steps)
     model = build_model(cfg, comm_self(), log=quiet if args.json else log)
     step = float(settings["ts_dt"])
-    if scheme == "exponential":  # the TS moves its step off the scheme's resonances
-        step, _ = safe_step(model, step)
+    if scheme == "exponential":  # the TS moves its step off the scheme's resonances and
+        # within its stability for the explicit contact coupling
+        step, _ = stable_step(model, force_parameters(model, cfg), cfg.wheel.damping_beta, step)
     cfg = _compare_config(cfg, steps, step)
     res = run_case(model, cfg)
     with np.errstate(all="ignore"):  # a diverging reference is reported below, in one line

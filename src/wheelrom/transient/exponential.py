@@ -17,6 +17,7 @@ import math
 import numpy as np
 from scipy.linalg import expm
 
+from wheelrom.runtime.errors import InputError
 from wheelrom.transient.exponential_kernel import (
     C_F1,
     C_F2,
@@ -139,3 +140,147 @@ def safe_step(model, step: float) -> tuple[float, str | None]:
     return h, (f"time.step {step:g} s is {f * step:.3f} periods of the segment's "
                f"{f / 1e3:.4g} kHz mode, a resonance of the exponential scheme: "
                f"lowered to {h:.4g} s")
+
+
+# --- the explicit contact coupling's stability ---------------------------------------------
+# a step is refused when the scheme grows some ND faster than the wheel's linearisation does
+# (a decaying one counted as not growing) by more than this [1/s] (measured on the default
+# wheel: 0.0003-0.005 /s below the limit, 100-1700 /s beyond it; a mode decaying at -6.95 /s
+# decays at -6.82 /s at 10 us: accuracy, not stability)
+SPURIOUS_GROWTH = 0.1
+STEP_FACTOR = 0.9  # a refused step is lowered by this factor until the scheme is stable
+
+
+def _force_jacobian(model, params, q: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """``(d f / d q_0, d f / d q'_0)`` ``(N, m, m)`` [1/s^2, 1/s]: how blade 0's modal
+    displacement and velocity move every blade's modal force (contacts, Van der Pol), by
+    central differences at rest with every contact closed at its preload (and, under the
+    elastic law, stuck: the sliders at rest): the stiffest explicit coupling a run meets. The
+    contact forces are piecewise linear there, so a step that moves a contact point or the
+    tip by 1 nm is exact to rounding. ``q`` ``(N, m)``: another state to linearise about
+    (at rest; the sliders at rest there)."""
+    from wheelrom.forces.reference import ReferenceForces
+
+    N, m = model.blades, model.modes
+    forces = ReferenceForces(params)
+    rest = np.zeros((N, m)) if q is None else np.asarray(q, dtype=float)
+    sliders = forces.sliders_at_rest(rest) if params.law.elastic else None
+    shapes = [model.tip, *model.contact_A.values(), *model.contact_B.values()]
+    reach = np.max(np.abs(np.concatenate([np.atleast_2d(s) for s in shapes])), axis=0)
+    delta = 1e-9 / np.maximum(reach, 1e-300)  # (m,) modal steps of 1 nm (1 nm/s)
+    jacobians = np.zeros((2, N, m, m))
+    for which in range(2):
+        for i in range(m):
+            state = [rest.copy() for _ in range(4)]  # q+, v+, q-, v-
+            state[which][0, i] += delta[i]
+            state[2 + which][0, i] -= delta[i]
+            up = forces.evaluate(0.0, state[0], state[1], sliders).copy()
+            down = forces.evaluate(0.0, state[2], state[3], sliders).copy()
+            jacobians[which, :, :, i] = (up - down) / (2 * delta[i])
+    return jacobians[0], jacobians[1]
+
+
+def _nd_explicit(model, jac_q, jac_v, beta: float, k: int):
+    """``(L, N_k)`` ``(2m, 2m)`` in the kernel's basis (``A0`` diagonal): the exactly
+    propagated part and the explicit part's Jacobian on ND ``k`` (``q_s = q_0 e^{i s phi_k}``):
+    ``N_k = [[0, 0], [F_q - C, F_v - beta_D C]]``, ``C = A1 e^{i phi_k} + A1^T e^{-i phi_k}``."""
+    N, m = model.blades, model.modes
+    a, V = np.linalg.eigh(model.A0)
+    # circulant: d f_0 / d x_d = d f_{-d} / d x_0, the blade-0 column's row -d
+    rows = (-np.arange(N)) % N
+    phase = np.exp(2j * math.pi * k * np.arange(N) / N)
+    F_q = np.einsum("d,dji->ji", phase, jac_q[rows])
+    F_v = np.einsum("d,dji->ji", phase, jac_v[rows])
+    ph = np.exp(2j * math.pi * k / N)
+    C = model.A1 * ph + model.A1.T * np.conj(ph)
+    Z, I = np.zeros((m, m)), np.eye(m)
+    explicit = np.block([[Z, Z], [V.T @ (F_q - C) @ V, V.T @ (F_v - beta * C) @ V]])
+    linear = np.block([[Z, I], [-np.diag(a), -beta * np.diag(a)]])
+    return linear, explicit
+
+
+def step_matrix(coef: np.ndarray, explicit: np.ndarray, h: float) -> np.ndarray:
+    """``(2m, 2m)``: one step of :func:`etd4_step` on the linear problem ``u' = L u + N u``
+    (``coef``: :func:`coefficients` at ``h``; ``explicit``: ``N``, kernel basis)."""
+    m = coef.shape[1]
+    Z = np.zeros((m, m))
+
+    def E(row):  # exp(tau L), per mode a 2 x 2 block
+        return np.block([[np.diag(coef[row]), np.diag(coef[row + 1])],
+                         [np.diag(coef[row + 2]), np.diag(coef[row + 3])]])  # fmt: skip
+
+    def P(row):  # phi(tau L) e2 applied to a force on the velocity rows
+        return np.block([[Z, np.diag(coef[row])], [Z, np.diag(coef[row + 1])]])
+
+    I = np.eye(2 * m)
+    E_half, kick = E(C_HALF), 0.5 * h * P(C_PHI_HALF) @ explicit
+    A = E_half + kick
+    B = E_half + kick @ A
+    C = E_half @ A + kick @ (2 * B - I)
+    return E(C_FULL) + h * (P(C_F1) @ explicit + 2 * P(C_F2) @ explicit @ (A + B)
+                            + P(C_F3) @ explicit @ C)  # fmt: skip
+
+
+def step_growth(model, jacobian, beta: float, h: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(scheme, wheel)`` ``(N // 2 + 1,)`` [1/s] per ND: the largest growth rate of the
+    scheme's step ``ln rho(R_k) / h`` and of the linearisation ``max Re eig(L + N_k)``."""
+    coef = coefficients(np.linalg.eigvalsh(model.A0), beta, h)
+    scheme, wheel = [], []
+    for k in range(model.blades // 2 + 1):
+        linear, explicit = _nd_explicit(model, *jacobian, beta, k)
+        rho = np.abs(np.linalg.eigvals(step_matrix(coef, explicit, h))).max()
+        scheme.append(math.log(max(rho, 1e-300)) / h)
+        wheel.append(np.linalg.eigvals(linear + explicit).real.max())
+    return np.array(scheme), np.array(wheel)
+
+
+_GROWTH_CACHE: dict = {}
+
+
+def _cached_growth(model, jacobian, beta: float, h: float):
+    """:func:`step_growth`, kept per model, Jacobian, ``beta`` and step: every window of a
+    ``settle`` and every batch of a flow asks again (0.2 s a step on the default wheel)."""
+    import hashlib
+
+    digest = hashlib.sha1()
+    for array in (model.A0, model.A1, *jacobian, np.array([beta, h])):
+        digest.update(np.ascontiguousarray(array, dtype=float).tobytes())
+    key = digest.hexdigest()
+    if key not in _GROWTH_CACHE:
+        if len(_GROWTH_CACHE) > 256:
+            _GROWTH_CACHE.clear()
+        _GROWTH_CACHE[key] = step_growth(model, jacobian, beta, h)
+    return _GROWTH_CACHE[key]
+
+
+def stable_step(model, params, beta: float, step: float) -> tuple[float, str | None]:
+    """The largest step ``<= step`` [s] (lowered by ``STEP_FACTOR`` at a time, then off the
+    resonances, :func:`safe_step`) at which the scheme grows no ND faster than the wheel's
+    linearisation at rest with every contact closed (stuck), a decaying ND counted as not
+    growing, by more than ``SPURIOUS_GROWTH``, and why it differs (None when ``step`` is
+    stable and off the resonances).
+
+    Why: the contacts are explicit; the elastic law's stuck tangential springs (``k_t`` in
+    both tangential directions) stiffen that coupling beyond the scheme's reach at the
+    default step (measured on the default wheel: stable to 6 us, at 7 us ND 0 grows at +100
+    /s, at 10 us +1700 /s, where the linearisation decays; the paper law is stable to 20
+    us). Tuned wheel (blade 0's column; a mistuned ``K_R`` is checked as tuned)."""
+    h, why = safe_step(model, step)
+    jacobian = _force_jacobian(model, params)
+    first = None
+    for _ in range(60):
+        scheme, wheel = _cached_growth(model, jacobian, beta, h)
+        excess = scheme - np.maximum(wheel, 0.0)
+        k = int(np.argmax(excess))
+        if excess[k] <= SPURIOUS_GROWTH:
+            if first is None:
+                return h, why
+            law = "the elastic law's stuck springs" if params.law.elastic else "the contacts"
+            k, at, grows, exact = first
+            return h, (f"time.step {step:g} s: at {at:.3g} s the scheme grows ND {k} at "
+                       f"{grows:.3g} /s (the wheel: {exact:.3g} /s), {law} explicit: "
+                       f"lowered to {h:.4g} s")
+        first = first or (k, h, scheme[k], wheel[k])
+        h, _ = safe_step(model, STEP_FACTOR * h)
+    raise InputError(f"time.step {step:g} s: the exponential scheme found no stable step above "
+                     f"{h:.3g} s for this model's explicit contact coupling")

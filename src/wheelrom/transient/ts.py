@@ -187,7 +187,11 @@ def make_ts(problem: WheelProblem, cfg: Config, prefix: str = PREFIX,
             raise InputError("time.scheme = 'exponential' integrates the compiled right-hand "
                              "side only (use time.scheme = 'rk' for the Python one)")
         ts.getPythonContext().attach(True)
-        step, why = exponential.safe_step(problem.model, ts.getTimeStep())
+        # off the resonances and within the explicit contact coupling's stability, for the
+        # stiffest case of the batch
+        step, why = min((exponential.stable_step(problem.model, params, problem.beta,
+                                                 ts.getTimeStep())
+                         for params in problem.cases), key=lambda found: found[0])  # fmt: skip
         if why:
             ts.setTimeStep(step)
             used["ts_dt"] = step
