@@ -33,3 +33,48 @@ def test_two_ranks_settle_as_one():
         assert a.verdict() == b.verdict() and len(a.windows) == len(b.windows) > 1
         np.testing.assert_array_equal(a.amplitude, b.amplitude)
         np.testing.assert_array_equal(a.tip, b.tip)
+
+
+def test_a_stale_case_folder_is_removed_once_under_force(tmp_path_factory, monkeypatch):
+    """``settle --out F --force`` with an earlier run's case folder beside ``F``: one rank
+    removes it, before any rank keeps a case (both ranks removed it, racing: one unlinked
+    what the other had listed, FileNotFoundError, the run lost). Rank 0's removal is made
+    slow here, so a second rank that also removes it is caught doing so."""
+    import os
+    import shutil
+    import time
+
+    from mpi4py import MPI
+
+    from wheelrom.cli import main as cli
+    from wheelrom.studies.settle import sidecar_dir
+
+    comm = MPI.COMM_WORLD
+    folder = comm.bcast(str(tmp_path_factory.mktemp("stale")) if comm.rank == 0 else None)
+    out = os.path.join(folder, "settle.h5")
+    if comm.rank == 0:
+        os.makedirs(sidecar_dir(out))
+        for i in range(20):
+            with open(os.path.join(sidecar_dir(out), f"case_{i}.json"), "w") as f:
+                f.write("stale")
+    comm.barrier()
+    removed = []
+    remove = shutil.rmtree
+
+    def slow_rmtree(path, *args, **kwargs):
+        if os.path.abspath(path) == os.path.abspath(sidecar_dir(out)):
+            removed.append(path)
+            if comm.rank == 0:
+                time.sleep(1.0)
+        return remove(path, *args, **kwargs)
+
+    monkeypatch.setattr(shutil, "rmtree", slow_rmtree)
+    keys = [*KEYS[:-2], "settle.min_time=0.05", "settle.max_time=0.05",
+            "settle.window_periods=2"]  # fmt: skip
+    status = cli.main(["settle", SMALL, *sum((["--set", k] for k in keys), []), "--out", out,
+                       "--force", "--json"])  # fmt: skip
+    assert status == 0
+    calls = comm.gather(len(removed))
+    if comm.rank == 0:
+        assert calls == [1, 0]
+        assert os.path.exists(out) and not os.path.exists(sidecar_dir(out))

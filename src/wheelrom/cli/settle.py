@@ -53,11 +53,16 @@ def cmd_settle(args: argparse.Namespace) -> int:
         check_side_folder(sidecar_dir(args.out), args.out)  # before it is used or removed
     if args.cycles:  # before any model is built: a wrong file fails every case late
         check_cycles(args.cycles, cfg)
-    if args.out and not args.resume and os.path.isdir(sidecar_dir(args.out)):
-        shutil.rmtree(sidecar_dir(args.out))  # an earlier run's cases, not asked for
     from wheelrom.results.settle import write_settle
 
     comm = world_if_parallel()
+    # an earlier run's cases, not asked for: removed by one rank before any rank keeps a case
+    # (two ranks removing it raced, one unlinking what the other had listed)
+    if args.out and not args.resume and (comm is None or comm.rank == 0) and \
+            os.path.isdir(sidecar_dir(args.out)):  # fmt: skip
+        shutil.rmtree(sidecar_dir(args.out))
+    if comm is not None:
+        comm.barrier()
     try:
         model, cases, directory = run_settle(
             cfg, args.out, comm, log=quiet if args.json else log, resume=args.resume,
