@@ -322,3 +322,27 @@ def _rank_pid(command: str, rank: int) -> int:
         if f"OMPI_COMM_WORLD_RANK={rank}".encode() in env:
             return pid
     raise AssertionError(f"no rank {rank} running {command}")
+
+
+def test_an_exception_on_one_rank_aborts_the_job(tmp_path):
+    """mpirun -n 2, rank 1's case loop raises an unexpected error while rank 0 waits for it
+    in a collective: the job ends (rank 1's traceback, exit status not 0) instead of rank 0
+    waiting for ever (a settle whose rank 1 failed kept rank 0 running alone for 40 min)."""
+    script = tmp_path / "one_rank_fails.py"
+    script.write_text(
+        "import sys\n"
+        "from mpi4py import MPI\n"
+        "import wheelrom.studies.settle as settle\n"
+        "def run_settle(*args, **kwargs):\n"
+        "    if MPI.COMM_WORLD.rank == 1:\n"
+        "        raise RuntimeError('rank 1 fails here')\n"
+        "    MPI.COMM_WORLD.barrier()  # waits for rank 1\n"
+        "settle.run_settle = run_settle\n"
+        "from wheelrom.cli.main import main\n"
+        f"sys.exit(main(['settle', {SMALL!r}]))\n")  # fmt: skip
+    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+               OMPI_MCA_rmaps_base_oversubscribe="1", MPLBACKEND="Agg")  # fmt: skip
+    done = subprocess.run(["mpirun", "-n", "2", sys.executable, str(script)], env=env,
+                          capture_output=True, text=True, timeout=120)  # fmt: skip
+    assert done.returncode != 0
+    assert "rank 1: Traceback" in done.stderr and "rank 1 fails here" in done.stderr
