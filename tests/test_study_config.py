@@ -258,3 +258,16 @@ def test_flutter_mode_varies_over_numbers_and_auto(tmp_path):
     bad = study(tmp_path, '[study.grid]\nflutter.mode = ["x"]\n')
     with pytest.raises(ConfigError, match=r"study.grid.flutter.mode\[0\]: expected 'auto' or"):
         expand(bad)
+
+
+def test_tangential_stiffness_varies_over_numbers_and_mindlin(tmp_path):
+    """The elastic law's ``k_t`` is a number or 'mindlin': a study varies it (issue #44:
+    'study (any key, including k_t)'); other words are refused per value, naming it."""
+    key = "contacts.shroud.tangential_stiffness"
+    elastic = '[contacts]\nlaw = "elastic"\n[study.grid]\n'
+    cfg = study(tmp_path, f'{elastic}{key} = [1.5e7, "mindlin"]\n')
+    assert [c.contacts.shroud.tangential_stiffness for c in expand(cfg).configs] == \
+        [1.5e7, "mindlin"]  # fmt: skip
+    bad = study(tmp_path, f'{elastic}{key} = ["stiff"]\n')
+    with pytest.raises(ConfigError, match=rf"study.grid.{key}\[0\]"):
+        expand(bad)

@@ -182,7 +182,9 @@ def _variable(key: str, f: dataclasses.Field, default) -> tuple:
     if key.split(".")[0] in SHARED_SECTIONS or key in SHARED_KEYS:
         return None, ("cannot vary: the cases of one study share the blade count and the time "
                       "grid (wheel.blades, time.end, time.window, output.*); run one study each")
-    numeric = is_number(default) or isinstance(default, bool) or key == "flutter.mode"
+    # a number or a named default ('auto', 'mindlin'): varied over numbers and that name
+    either = key == "flutter.mode" or key.endswith(".tangential_stiffness")
+    numeric = is_number(default) or isinstance(default, bool) or either
     if not (numeric or (isinstance(default, str) and "choices" in f.metadata)):
         return None, ("is not numeric: a study varies numbers, true/false and named choices, "
                       "not lists, tables or free text")  # fmt: skip
