@@ -59,7 +59,7 @@ from wheelrom.rom.model import ReducedModel
 from wheelrom.runtime import kernel_cache as _kernel_cache
 from wheelrom.runtime.environment import petsc
 from wheelrom.transient import bridge, layout, startup
-from wheelrom.transient.exponential import stable_step
+from wheelrom.transient.exponential import taken_step
 from wheelrom.transient.kernel import multiply_adds, rhs_core
 from wheelrom.transient.preload import initial_state
 from wheelrom.transient.problem import WheelProblem
@@ -422,7 +422,7 @@ def run(model: ReducedModel, cfg: Config, steps: int = 20000, compare_steps: int
     h = time_step(cfg)  # the TS's step (-wheel_ts_dt overrides time.step)
     if cfg.time.scheme == "exponential":  # as the TS moves it: off the resonances, and
         # within the explicit contact coupling's stability (the elastic law's 5.9 us)
-        h, _ = stable_step(model, force_parameters(model, cfg), cfg.wheel.damping_beta, h)
+        h = taken_step(model, cfg, h)
     problem = _problem(model, cfg, [None])
     start = group(next(groups), _startup_figures, model, cfg, say)
     single, res = group(next(groups), _timed_single, model, cfg, problem, steps, h, say)

@@ -30,6 +30,7 @@ from wheelrom.cli import tools as cli_tools  # noqa: E402
 from wheelrom.cli.args import comm_self, load_config, locked  # noqa: E402
 from wheelrom.cli.output import (  # noqa: E402
     EXIT_INTERRUPTED,
+    abort_the_job,
     fail,
     log,
     print_json,
@@ -222,9 +223,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from wheelrom.forces.parameters import force_parameters
     from wheelrom.rom.build import build_model, quiet
-    from wheelrom.transient.exponential import stable_step
+    from wheelrom.transient.exponential import taken_step
     from wheelrom.transient.reference import reference_solution, tip_difference
     from wheelrom.transient.run import run_case
     from wheelrom.transient.ts import ts_settings
@@ -238,9 +238,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
     _check_compare_memory(_compare_config(cfg, steps, float(settings["ts_dt"])), steps)
     model = build_model(cfg, comm_self(), log=quiet if args.json else log)
     step = float(settings["ts_dt"])
-    if scheme == "exponential":  # the TS moves its step off the scheme's resonances and
-        # within its stability for the explicit contact coupling
-        step, _ = stable_step(model, force_parameters(model, cfg), cfg.wheel.damping_beta, step)
+    if scheme == "exponential":  # the step the TS takes (off resonances, stable)
+        step = taken_step(model, cfg, step)
     cfg = _compare_config(cfg, steps, step)
     res = run_case(model, cfg)
     with np.errstate(all="ignore"):  # a diverging reference is reported below, in one line
@@ -449,33 +448,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """The command line; under mpirun an exception that escapes one rank aborts the job
-    (the other ranks would wait for it in their next collective for ever: a settle whose
-    rank 1 failed kept rank 0 computing alone for 40 minutes)."""
-    try:
-        return _main(argv)
-    except Exception:
-        _abort_the_job()
-        raise
-
-
-def _abort_the_job() -> None:
-    """Print this rank's traceback and abort every rank, when more than one runs and MPI is
-    up (nothing in a serial run: the exception then ends the process as usual)."""
-    size = os.environ.get("OMPI_COMM_WORLD_SIZE", os.environ.get("PMI_SIZE", "1"))
-    if int(size) <= 1 or "mpi4py.MPI" not in sys.modules:
-        return
-    import traceback
-
-    from mpi4py import MPI
-
-    sys.stderr.write(f"rank {world_rank()}: ")
-    traceback.print_exc()
-    sys.stderr.flush()
-    MPI.COMM_WORLD.Abort(1)
-
-
-def _main(argv: Sequence[str] | None) -> int:
+    """The command line (under mpirun an escaping exception aborts the job: abort_the_job)."""
     argv = list(sys.argv[1:] if argv is None else argv)
     petsc_args: list[str] = []
     if "--" in argv:
@@ -509,9 +482,13 @@ def _main(argv: Sequence[str] | None) -> int:
         return 0
     except OSError as exc:
         if not is_disk_full(exc):
+            abort_the_job()
             raise
         return fail(str(disk_full(getattr(exc, "filename", None) or "output", exc,
                                   "what was written before is kept")), 1)  # fmt: skip
+    except Exception:
+        abort_the_job()
+        raise
     warn_unused(args.petsc_args)
     return status
 

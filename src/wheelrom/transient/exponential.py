@@ -284,3 +284,11 @@ def stable_step(model, params, beta: float, step: float) -> tuple[float, str | N
         h, _ = safe_step(model, STEP_FACTOR * h)
     raise InputError(f"time.step {step:g} s: the exponential scheme found no stable step above "
                      f"{h:.3g} s for this model's explicit contact coupling")
+
+
+def taken_step(model, cfg, step: float) -> float:
+    """The step [s] the exponential TS takes for ``cfg``'s configured case (its angles):
+    ``step`` off the resonances and within the scheme's stability (:func:`stable_step`)."""
+    from wheelrom.forces.parameters import force_parameters
+
+    return stable_step(model, force_parameters(model, cfg), cfg.wheel.damping_beta, step)[0]
