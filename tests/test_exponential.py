@@ -251,3 +251,27 @@ def test_a_step_the_stuck_contacts_make_unstable_is_lowered(attachment):
                                               "time.window": 1e-3}),
                    {"shroud": 80.0})  # fmt: skip
     assert res.options["ts_dt"] == lowered and "stuck springs" in res.options["ts_dt_lowered"]
+
+
+def test_cases_whose_steps_differ_are_not_batched(small_model, small_cfg, monkeypatch):
+    """A batch takes one step: cases for which the scheme's stability check gives different
+    steps (here made to: 10 us at 20 deg, 8 us at 80 deg) run apart, each bitwise as alone
+    at its own step (taking the batch's smallest changed the 20 deg case with its company)."""
+    from wheelrom.transient import exponential
+
+    stable = exponential.stable_step
+
+    def by_angle(model, params, beta, step):
+        if params.contacts.angles_deg["shroud"][0] > 50.0:
+            return 0.8 * step, "lowered"
+        return stable(model, params, beta, step)
+
+    monkeypatch.setattr(exponential, "stable_step", by_angle)
+    cfg = _exponential(small_cfg, **{"time.step": 1e-5, "time.end": 0.001,
+                                     "time.window": 0.0005})  # fmt: skip
+    angles = [{"shroud": 20.0}, {"shroud": 80.0}, {"shroud": 30.0}]
+    batch = run_cases(small_model, cfg, angles)
+    assert [r.options["ts_dt"] for r in batch] == pytest.approx([1e-5, 8e-6, 1e-5], rel=1e-12)
+    for a, res in zip(angles, batch, strict=True):
+        alone = run_case(small_model, cfg, a)
+        assert np.array_equal(res.final_state, alone.final_state)

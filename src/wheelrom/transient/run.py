@@ -162,6 +162,26 @@ def adaptive(options: dict | None, prefix: str = PREFIX) -> bool:
     return str(value) != "none"
 
 
+def _step_groups(model: ReducedModel, cfg: Config, angles: list[dict | None],
+                 options: dict | None, prefix: str) -> list[list[int]]:
+    """The cases grouped by the step the exponential scheme takes for each alone
+    (:func:`~wheelrom.transient.exponential.stable_step` depends on the contact angles under
+    the elastic law): a batch takes one step, and a case's result must not depend on the
+    cases it shares a batch with. One group under the RK scheme."""
+    if cfg.time.scheme != "exponential":
+        return [list(range(len(angles)))]
+    from wheelrom.transient.exponential import stable_step
+    from wheelrom.transient.ts import time_step
+
+    step = time_step(cfg, prefix, options)
+    groups: dict[float, list[int]] = {}
+    for i, a in enumerate(angles):
+        taken, _ = stable_step(model, force_parameters(model, cfg, a), cfg.wheel.damping_beta,
+                               step)  # fmt: skip
+        groups.setdefault(taken, []).append(i)
+    return list(groups.values())
+
+
 def run_cases(model: ReducedModel, cfg: Config, angles: list[dict | None],
               options: dict | None = None, progress=None, prefix: str = PREFIX,
               u0: list[np.ndarray] | None = None,
@@ -179,6 +199,17 @@ def run_cases(model: ReducedModel, cfg: Config, angles: list[dict | None],
         return [run_cases(model, cfg, [a], options, progress, prefix,
                           None if u0 is None else [u0[i]], rhs_kind)[0]
                 for i, a in enumerate(angles)]  # fmt: skip
+    if len(angles) > 1:  # a batch shares its step: cases whose own differ run apart
+        groups = _step_groups(model, cfg, angles, options, prefix)
+        if len(groups) > 1:
+            out: list = [None] * len(angles)
+            for group in groups:
+                done = run_cases(model, cfg, [angles[i] for i in group], options, progress,
+                                 prefix, None if u0 is None else [u0[i] for i in group],
+                                 rhs_kind)  # fmt: skip
+                for i, res in zip(group, done, strict=True):
+                    out[i] = res
+            return out
     params = [force_parameters(model, cfg, a) for a in angles]
     compile_s = load_kernels(params[0], rhs_kind)
     t_wall = time.perf_counter()
