@@ -155,14 +155,13 @@ def _start(model, cfg: Config, angles: dict, cycles_file: str | None, comm=None)
         q0 = u0[0].reshape(N, -1)
         seed = amplitude * st.perturbation
     else:  # the preloaded equilibrium, the unstable waves' growing modes seeded
-        from wheelrom.analysis.periodic.hopf import unstable_seed, wave_blocks, wave_mode
+        from wheelrom.analysis.periodic.hopf import unstable_seed, wave_blocks
         from wheelrom.analysis.stability import linearise
 
         params, q, _, J, _ = linearise(model, cfg, angles, comm)
         B0, B1 = wave_blocks(model, params, q, J)
-        unstable, dq, dv = unstable_seed(model, B0, B1, st.seed_amplitude, st.seed)
-        fastest = max(unstable, key=lambda k: wave_mode(B0[k], B1[k], 1.0)[0])
-        frequency = float(wave_mode(B0[fastest], B1[fastest], 1.0)[1].imag) / (2 * math.pi)
+        unstable, dq, dv, fastest = unstable_seed(model, B0, B1, st.seed_amplitude, st.seed)
+        frequency = float(fastest.imag) / (2 * math.pi)
         q0 = q + dq
         u0 = np.stack([q0.ravel(), dv.ravel()])
         seed = st.seed_amplitude * st.perturbation

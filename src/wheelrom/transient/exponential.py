@@ -181,12 +181,13 @@ def _force_jacobian(model, params, q: np.ndarray | None = None) -> tuple[np.ndar
     return jacobians[0], jacobians[1]
 
 
-def _nd_explicit(model, jac_q, jac_v, beta: float, k: int):
+def _nd_explicit(model, jac_q, jac_v, beta: float, k: int, basis=None):
     """``(L, N_k)`` ``(2m, 2m)`` in the kernel's basis (``A0`` diagonal): the exactly
     propagated part and the explicit part's Jacobian on ND ``k`` (``q_s = q_0 e^{i s phi_k}``):
-    ``N_k = [[0, 0], [F_q - C, F_v - beta_D C]]``, ``C = A1 e^{i phi_k} + A1^T e^{-i phi_k}``."""
+    ``N_k = [[0, 0], [F_q - C, F_v - beta_D C]]``, ``C = A1 e^{i phi_k} + A1^T e^{-i phi_k}``.
+    ``basis``: ``eigh(A0)`` when the caller has it (one per step size, not one per ND)."""
     N, m = model.blades, model.modes
-    a, V = np.linalg.eigh(model.A0)
+    a, V = np.linalg.eigh(model.A0) if basis is None else basis
     # circulant: d f_0 / d x_d = d f_{-d} / d x_0, the blade-0 column's row -d
     rows = (-np.arange(N)) % N
     phase = np.exp(2j * math.pi * k * np.arange(N) / N)
@@ -225,10 +226,11 @@ def step_matrix(coef: np.ndarray, explicit: np.ndarray, h: float) -> np.ndarray:
 def step_growth(model, jacobian, beta: float, h: float) -> tuple[np.ndarray, np.ndarray]:
     """``(scheme, wheel)`` ``(N // 2 + 1,)`` [1/s] per ND: the largest growth rate of the
     scheme's step ``ln rho(R_k) / h`` and of the linearisation ``max Re eig(L + N_k)``."""
-    coef = coefficients(np.linalg.eigvalsh(model.A0), beta, h)
+    basis = np.linalg.eigh(model.A0)
+    coef = coefficients(basis[0], beta, h)
     scheme, wheel = [], []
     for k in range(model.blades // 2 + 1):
-        linear, explicit = _nd_explicit(model, *jacobian, beta, k)
+        linear, explicit = _nd_explicit(model, *jacobian, beta, k, basis)
         rho = np.abs(np.linalg.eigvals(step_matrix(coef, explicit, h))).max()
         scheme.append(math.log(max(rho, 1e-300)) / h)
         wheel.append(np.linalg.eigvals(linear + explicit).real.max())
@@ -288,9 +290,11 @@ def stable_step(model, params, beta: float, step: float) -> tuple[float, str | N
                      f"{h:.3g} s for this model's explicit contact coupling")
 
 
-def taken_step(model, cfg, step: float) -> float:
-    """The step [s] the exponential TS takes for ``cfg``'s configured case (its angles):
-    ``step`` off the resonances and within the scheme's stability (:func:`stable_step`)."""
+def taken_step(model, cfg, step: float, angles_deg: dict | None = None) -> float:
+    """The step [s] the exponential TS takes for one case of ``cfg`` (its contact angles
+    ``angles_deg``, None: the configured ones): ``step`` off the resonances and within the
+    scheme's stability (:func:`stable_step`)."""
     from wheelrom.forces.parameters import force_parameters
 
-    return stable_step(model, force_parameters(model, cfg), cfg.wheel.damping_beta, step)[0]
+    params = force_parameters(model, cfg, angles_deg)
+    return stable_step(model, params, cfg.wheel.damping_beta, step)[0]

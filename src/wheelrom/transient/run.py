@@ -170,15 +170,13 @@ def _step_groups(model: ReducedModel, cfg: Config, angles: list[dict | None],
     cases it shares a batch with. One group under the RK scheme."""
     if cfg.time.scheme != "exponential":
         return [list(range(len(angles)))]
-    from wheelrom.transient.exponential import stable_step
+    from wheelrom.transient.exponential import taken_step
     from wheelrom.transient.ts import time_step
 
     step = time_step(cfg, prefix, options)
     groups: dict[float, list[int]] = {}
     for i, a in enumerate(angles):
-        taken, _ = stable_step(model, force_parameters(model, cfg, a), cfg.wheel.damping_beta,
-                               step)  # fmt: skip
-        groups.setdefault(taken, []).append(i)
+        groups.setdefault(taken_step(model, cfg, step, a), []).append(i)
     return list(groups.values())
 
 

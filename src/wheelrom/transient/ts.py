@@ -187,8 +187,8 @@ def make_ts(problem: WheelProblem, cfg: Config, prefix: str = PREFIX,
             raise InputError("time.scheme = 'exponential' integrates the compiled right-hand "
                              "side only (use time.scheme = 'rk' for the Python one)")
         ts.getPythonContext().attach(True)
-        # off the resonances and within the explicit contact coupling's stability, for the
-        # stiffest case of the batch
+        # off the resonances and within the explicit contact coupling's stability (run_cases
+        # batches only cases that take one step; a flow's batch is one case repeated)
         step, why = min((exponential.stable_step(problem.model, params, problem.beta,
                                                  ts.getTimeStep())
                          for params in problem.cases), key=lambda found: found[0])  # fmt: skip

@@ -61,9 +61,11 @@ def hopf_point(B0, B1, lam_max: float, rtol: float = 1e-10) -> float:
 
 
 def unstable_seed(model: ReducedModel, B0, B1, amplitude: float, seed: int):
-    """``(waves, q (N, m), q' (N, m))``: the growing modes of every unstable wave (growth >
+    """``(waves, q (N, m), q' (N, m), eigenvalue)``: the growing modes of every unstable wave
+    (growth >
     ``GROWTH_TOLERANCE`` at factor 1; the fastest wave alone when none grows) as one real
-    start, a solution of the linearised equations about the equilibrium.
+    start, a solution of the linearised equations about the equilibrium, and the fastest
+    wave's eigenvalue [1/s] (its frequency is the start's).
 
     Each wave ``k`` contributes its fastest forward mode ``v_k`` (:func:`wave_mode`, the
     ``(q, q')`` amplitudes of blade 0; blade ``s`` has ``v_k e^{i 2 pi k s / N}``), scaled to a
@@ -87,4 +89,4 @@ def unstable_seed(model: ReducedModel, B0, B1, amplitude: float, seed: int):
         state += (wave[:, None] * (vector / np.linalg.norm(tip))[None, :]).real
     q, v = state[:, :m], state[:, m:]
     scale = amplitude / np.linalg.norm(q @ model.tip.T, axis=1).max()
-    return waves, q * scale, v * scale
+    return waves, q * scale, v * scale, modes[int(np.argmax(growth))][1]
