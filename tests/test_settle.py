@@ -230,3 +230,37 @@ def test_the_preload_start_seeds_the_growing_mode_itself(small_model, small_cfg)
     measured = np.log(flutter[1:] / flutter[:-1]) / window
     np.testing.assert_allclose(measured, rate, rtol=0.015)
     assert (np.array([out.slip_fraction[c] for c in out.slip_fraction]) == 0).all()
+
+
+def test_a_growing_mode_without_tip_motion_is_seeded_by_its_modal_size():
+    """``unstable_seed`` on synthetic ND blocks of a two-mode blade whose tip moves with mode 0
+    only, the growing wave (ND 1, damping -2 /s in mode 1) moving mode 1 alone: the seed is
+    finite and its largest modal displacement times the tip's reach is the asked amplitude
+    (it divided by the round-off tip motion before); a wave that moves the tip keeps the tip
+    measure exactly."""
+    from types import SimpleNamespace
+
+    from wheelrom.analysis.periodic.hopf import unstable_seed
+
+    N, m = 4, 2
+    tip = np.zeros((3, m))
+    tip[1, 0] = 0.5  # [m per sqrt(kg) m]
+    model = SimpleNamespace(blades=N, modes=m, tip=tip)
+
+    def block(damping):
+        K, C = np.diag([(2 * np.pi * 100.0) ** 2, (2 * np.pi * 300.0) ** 2]), np.diag(damping)
+        return np.block([[np.zeros((m, m)), np.eye(m)], [-K, -C]]).astype(complex)
+
+    for growing_mode, reach_used in ((1, True), (0, False)):
+        damping = [[1.0, 1.0] for _ in range(N)]
+        damping[1][growing_mode] = -2.0
+        B0 = np.stack([block(d) for d in damping])
+        waves, q, v, eigenvalue = unstable_seed(model, B0, np.zeros_like(B0), 1e-9, seed=3)
+        assert waves == [1] and eigenvalue.real == pytest.approx(1.0, rel=1e-9)
+        assert np.all(np.isfinite(q)) and np.all(np.isfinite(v))
+        moved = np.abs(q[:, 1 - growing_mode]).max()
+        assert moved == 0.0  # the seed is the growing mode alone
+        if reach_used:
+            assert 0.5 * np.abs(q).max() == pytest.approx(1e-9, rel=1e-12)
+        else:
+            assert np.linalg.norm(q @ tip.T, axis=1).max() == pytest.approx(1e-9, rel=1e-12)

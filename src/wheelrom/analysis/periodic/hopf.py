@@ -71,7 +71,8 @@ def unstable_seed(model: ReducedModel, B0, B1, amplitude: float, seed: int):
     ``(q, q')`` amplitudes of blade 0; blade ``s`` has ``v_k e^{i 2 pi k s / N}``), scaled to a
     unit tip displacement of blade 0 and turned by a random phase ``theta_k`` (numpy
     ``default_rng(seed)``, as ``time.perturbation``'s); the sum's real part is scaled so that
-    the largest tip displacement is ``amplitude`` [m]. Why the mode itself and not the lowest
+    the largest tip displacement is ``amplitude`` [m] (for a mode that hardly moves the tip,
+    :func:`_tip_measure`). Why the mode itself and not the lowest
     mode of the ND (``time.perturbation``'s pattern): the stuck wheel of the elastic law
     flutters in a 423 Hz family that the lowest mode of ND 33 (133 Hz) hardly seeds."""
     N, m = model.blades, model.modes
@@ -82,11 +83,22 @@ def unstable_seed(model: ReducedModel, B0, B1, amplitude: float, seed: int):
     theta = np.random.default_rng(seed).uniform(0.0, 2 * np.pi, N)
     blades = np.arange(N)
     state = np.zeros((N, 2 * m))
+    reach = np.linalg.norm(model.tip, 2)  # [m per sqrt(kg) m]: the most a unit q moves the tip
     for k in waves:
         vector = modes[k][2]
         tip = model.tip @ vector[:m]  # (3,) complex tip displacement of blade 0
         wave = np.exp(1j * (theta[k] + 2 * np.pi * k * blades / N))  # (N,)
-        state += (wave[:, None] * (vector / np.linalg.norm(tip))[None, :]).real
+        state += (wave[:, None] * (vector / _tip_measure(tip, vector[:m], reach))[None, :]).real
     q, v = state[:, :m], state[:, m:]
-    scale = amplitude / np.linalg.norm(q @ model.tip.T, axis=1).max()
+    scale = amplitude / _tip_measure(np.linalg.norm(q @ model.tip.T, axis=1).max(), q, reach)
     return waves, q * scale, v * scale, modes[int(np.argmax(growth))][1]
+
+
+def _tip_measure(tip, q: np.ndarray, reach: float) -> float:
+    """The tip displacement ``tip`` [m] of modal displacements ``q`` as their size, or, for a
+    motion that hardly moves the tip (a growing torsion of the shroud, say: below 1e-6 of what
+    ``q`` could move it), ``reach`` times the largest modal displacement: the seed is then
+    sized as if that moved the tip, never divided by round-off."""
+    size = float(np.linalg.norm(tip))
+    floor = 1e-6 * reach * float(np.abs(q).max())
+    return size if size > floor else reach * float(np.abs(q).max())
