@@ -181,11 +181,13 @@ def _force_jacobian(model, params, q: np.ndarray | None = None) -> tuple[np.ndar
     return jacobians[0], jacobians[1]
 
 
-def _nd_explicit(model, jac_q, jac_v, beta: float, k: int, basis=None):
+def _nd_explicit(model, jac_q, jac_v, beta: float, k: int, basis=None, delta: float = 0.0):
     """``(L, N_k)`` ``(2m, 2m)`` in the kernel's basis (``A0`` diagonal): the exactly
     propagated part and the explicit part's Jacobian on ND ``k`` (``q_s = q_0 e^{i s phi_k}``):
-    ``N_k = [[0, 0], [F_q - C, F_v - beta_D C]]``, ``C = A1 e^{i phi_k} + A1^T e^{-i phi_k}``.
-    ``basis``: ``eigh(A0)`` when the caller has it (one per step size, not one per ND)."""
+    ``N_k = [[0, 0], [F_q - C, F_v - beta_D C]]``, ``C = A1 e^{i phi_k} + A1^T e^{-i phi_k}
+    + delta K_seg`` (``delta``: a uniform mistuning, which the kernel adds explicitly and
+    which keeps the wheel cyclic). ``basis``: ``eigh(A0)`` when the caller has it (one per
+    step size, not one per ND)."""
     N, m = model.blades, model.modes
     a, V = np.linalg.eigh(model.A0) if basis is None else basis
     # circulant: d f_0 / d x_d = d f_{-d} / d x_0, the blade-0 column's row -d
@@ -194,7 +196,7 @@ def _nd_explicit(model, jac_q, jac_v, beta: float, k: int, basis=None):
     F_q = np.einsum("d,dji->ji", phase, jac_q[rows])
     F_v = np.einsum("d,dji->ji", phase, jac_v[rows])
     ph = np.exp(2j * math.pi * k / N)
-    C = model.A1 * ph + model.A1.T * np.conj(ph)
+    C = model.A1 * ph + model.A1.T * np.conj(ph) + delta * model.K_seg
     Z, I = np.zeros((m, m)), np.eye(m)
     explicit = np.block([[Z, Z], [V.T @ (F_q - C) @ V, V.T @ (F_v - beta * C) @ V]])
     linear = np.block([[Z, I], [-np.diag(a), -beta * np.diag(a)]])
@@ -223,14 +225,16 @@ def step_matrix(coef: np.ndarray, explicit: np.ndarray, h: float) -> np.ndarray:
                             + P(C_F3) @ explicit @ C)  # fmt: skip
 
 
-def step_growth(model, jacobian, beta: float, h: float) -> tuple[np.ndarray, np.ndarray]:
+def step_growth(model, jacobian, beta: float, h: float,
+                delta: float = 0.0) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
     """``(scheme, wheel)`` ``(N // 2 + 1,)`` [1/s] per ND: the largest growth rate of the
-    scheme's step ``ln rho(R_k) / h`` and of the linearisation ``max Re eig(L + N_k)``."""
+    scheme's step ``ln rho(R_k) / h`` and of the linearisation ``max Re eig(L + N_k)``
+    (``delta``: every blade mistuned by it, :func:`_nd_explicit`)."""
     basis = np.linalg.eigh(model.A0)
     coef = coefficients(basis[0], beta, h)
     scheme, wheel = [], []
     for k in range(model.blades // 2 + 1):
-        linear, explicit = _nd_explicit(model, *jacobian, beta, k, basis)
+        linear, explicit = _nd_explicit(model, *jacobian, beta, k, basis, delta)
         rho = np.abs(np.linalg.eigvals(step_matrix(coef, explicit, h))).max()
         scheme.append(math.log(max(rho, 1e-300)) / h)
         wheel.append(np.linalg.eigvals(linear + explicit).real.max())
@@ -240,19 +244,20 @@ def step_growth(model, jacobian, beta: float, h: float) -> tuple[np.ndarray, np.
 _GROWTH_CACHE: dict = {}
 
 
-def _cached_growth(model, jacobian, beta: float, h: float):
-    """:func:`step_growth`, kept per model, Jacobian, ``beta`` and step: every window of a
-    ``settle`` and every batch of a flow asks again (0.2 s a step on the default wheel)."""
+def _cached_growth(model, jacobian, beta: float, h: float, delta: float = 0.0):
+    """:func:`step_growth`, kept per model, Jacobian, ``beta``, step and ``delta``: every
+    window of a ``settle`` and every batch of a flow asks again (0.2 s a step on the default
+    wheel)."""
     import hashlib
 
     digest = hashlib.sha1()
-    for array in (model.A0, model.A1, *jacobian, np.array([beta, h])):
+    for array in (model.A0, model.A1, model.K_seg, *jacobian, np.array([beta, h, delta])):
         digest.update(np.ascontiguousarray(array, dtype=float).tobytes())
     key = digest.hexdigest()
     if key not in _GROWTH_CACHE:
         if len(_GROWTH_CACHE) > 256:
             _GROWTH_CACHE.clear()
-        _GROWTH_CACHE[key] = step_growth(model, jacobian, beta, h)
+        _GROWTH_CACHE[key] = step_growth(model, jacobian, beta, h, delta)
     return _GROWTH_CACHE[key]
 
 
@@ -267,27 +272,44 @@ def stable_step(model, params, beta: float, step: float) -> tuple[float, str | N
     both tangential directions) stiffen that coupling beyond the scheme's reach at the
     default step (measured on the default wheel: stable to 6 us, at 7 us ND 0 grows at +100
     /s, at 10 us +1700 /s, where the linearisation decays; the paper law is stable to 20
-    us). Tuned wheel (blade 0's column; a mistuned ``K_R`` is checked as tuned)."""
+    us). Blade 0's column of the tuned wheel; a mistuned wheel's explicit ``delta_s K_seg``
+    is checked as the two uniformly mistuned wheels of its extreme ``delta_s`` (each cyclic:
+    the largest explicit stiffness the kernel meets, on every blade at once)."""
     h, why = safe_step(model, step)
     jacobian = _force_jacobian(model, params)
+    deltas = [0.0] if model.tuned else sorted({float(np.min(model.mistuning)),
+                                               float(np.max(model.mistuning))})  # fmt: skip
     first = None
     for _ in range(60):
-        scheme, wheel = _cached_growth(model, jacobian, beta, h)
-        # a growing wheel's own rate is reproduced to the scheme's accuracy, not exactly
-        excess = scheme - np.maximum(wheel, 0.0) * (1 + RELATIVE_GROWTH)
-        k = int(np.argmax(excess))
-        if excess[k] <= SPURIOUS_GROWTH:
+        excess, k, scheme, wheel = _worst(model, jacobian, beta, h, deltas)
+        if excess <= SPURIOUS_GROWTH:
             if first is None:
                 return h, why
             law = "the elastic law's stuck springs" if params.law.elastic else "the contacts"
+            if not model.tuned:
+                law += " and the mistuning's delta_s K_seg"
             k, at, grows, exact = first
             return h, (f"time.step {step:g} s: at {at:.3g} s the scheme grows ND {k} at "
                        f"{grows:.3g} /s (the wheel: {exact:.3g} /s), {law} explicit: "
                        f"lowered to {h:.4g} s")
-        first = first or (k, h, scheme[k], wheel[k])
+        first = first or (k, h, scheme, wheel)
         h, _ = safe_step(model, STEP_FACTOR * h)
     raise InputError(f"time.step {step:g} s: the exponential scheme found no stable step above "
                      f"{h:.3g} s for this model's explicit contact coupling")
+
+
+def _worst(model, jacobian, beta: float, h: float, deltas: list[float]):
+    """``(excess, ND, scheme's rate, wheel's rate)`` [1/s] of the ND whose step grows most
+    beyond the wheel's own rate at step ``h`` over the uniform mistunings ``deltas``."""
+    worst = (-math.inf, 0, 0.0, 0.0)
+    for delta in deltas:
+        scheme, wheel = _cached_growth(model, jacobian, beta, h, delta)
+        # a growing wheel's own rate is reproduced to the scheme's accuracy, not exactly
+        excess = scheme - np.maximum(wheel, 0.0) * (1 + RELATIVE_GROWTH)
+        k = int(np.argmax(excess))
+        if excess[k] > worst[0]:
+            worst = (float(excess[k]), k, float(scheme[k]), float(wheel[k]))
+    return worst
 
 
 def taken_step(model, cfg, step: float, angles_deg: dict | None = None) -> float:
