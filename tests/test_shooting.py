@@ -67,7 +67,8 @@ def _vdp_orbit(model, lam):
     w2, V = np.linalg.eigh(model.nd_stiffness(WAVE))
     j = int(np.argmax(np.abs(params.aero @ V)))
     X = np.zeros((15, model.modes))
-    X[1] = V[:, j] * params.vdp_r / float(params.aero @ V[:, j])  # y = r / 2 per blade
+    # the ratio cancels eigh's arbitrary complex phase of the (Hermitian) ND block's vector
+    X[1] = (V[:, j] * params.vdp_r / (params.aero @ V[:, j])).real  # y = r / 2 per blade
     point = periodic_solution(balance, X, math.sqrt(w2[j]), lam)
     assert point is not None
     shooting = Shooting(model, cfg, WAVE, None, lam)
