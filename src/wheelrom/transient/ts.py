@@ -188,10 +188,12 @@ def make_ts(problem: WheelProblem, cfg: Config, prefix: str = PREFIX,
                              "side only (use time.scheme = 'rk' for the Python one)")
         ts.getPythonContext().attach(True)
         # off the resonances and within the explicit contact coupling's stability (run_cases
-        # batches only cases that take one step; a flow's batch is one case repeated)
+        # batches only cases that take one step; a flow's batch is one case repeated: each
+        # distinct case checked once, not 2 n times for a shot's Jacobian)
+        distinct = {id(params): params for params in problem.cases}.values()
         step, why = min((exponential.stable_step(problem.model, params, problem.beta,
                                                  ts.getTimeStep())
-                         for params in problem.cases), key=lambda found: found[0])  # fmt: skip
+                         for params in distinct), key=lambda found: found[0])  # fmt: skip
         if why:
             ts.setTimeStep(step)
             used["ts_dt"] = step

@@ -99,6 +99,5 @@ def _tip_measure(tip, q: np.ndarray, reach: float) -> float:
     motion that hardly moves the tip (a growing torsion of the shroud, say: below 1e-6 of what
     ``q`` could move it), ``reach`` times the largest modal displacement: the seed is then
     sized as if that moved the tip, never divided by round-off."""
-    size = float(np.linalg.norm(tip))
-    floor = 1e-6 * reach * float(np.abs(q).max())
-    return size if size > floor else reach * float(np.abs(q).max())
+    size, most = float(np.linalg.norm(tip)), reach * float(np.abs(q).max())
+    return size if size > 1e-6 * most else most
