@@ -108,6 +108,13 @@ def _write_orbits(g, cycles) -> None:
                                      else np.full(shape, np.nan) for o in orbits])  # fmt: skip
         g["orbit_state"].attrs["layout"] = "(cycle, q | q', pattern blade, mode): blade s of " \
             "the wheel is pattern blade s mod N' at t = 0"  # fmt: skip
+        sliders = [o.sliders if o is not None else None for o in orbits]
+        if any(w is not None for w in sliders):  # the elastic law's, at t = 0
+            shape = next(w.shape for w in sliders if w is not None)
+            g["orbit_sliders"] = np.array([w if w is not None and w.shape == shape
+                                           else np.full(shape, np.nan) for w in sliders])
+            g["orbit_sliders"].attrs["layout"] = "(cycle, contact kind, pattern blade, " \
+                "xi | zeta) [m]: the elastic law's sliders at t = 0"  # fmt: skip
         g["orbit_period"] = np.array([o.period if o else np.nan for o in orbits])
         g["orbit_shift"] = np.array([o.shift if o else -1 for o in orbits], dtype=np.int64)
         g["orbit_fraction"] = np.array([o.fraction if o else np.nan for o in orbits])

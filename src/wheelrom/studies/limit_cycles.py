@@ -25,26 +25,21 @@ from wheelrom.studies.queue import CaseQueue
 
 def refuse_uncarried_law(study, command: str) -> None:
     """Refuse, before anything is computed, a study with a case under the elastic contact
-    law in a command that does not carry its sliders yet (the shooting and the monodromy
-    with the sliders in the state: issue #44); ``limit-cycle`` takes it with
-    ``limit_cycle.method = "hb"`` (the harmonic balance marches the hysteresis), ``settle``
-    with ``settle.start = "preload"`` (a transient, the sliders carried window to window)."""
-    carried = {"limit-cycle": lambda c: c.limit_cycle.method == "hb",
+    law in a command that does not carry its sliders yet: ``settle`` from an orbit (its
+    start is the orbit's ``q, q'``; ``settle.start = "preload"`` carries them, a transient
+    window to window). ``limit-cycle`` carries them (the harmonic balance marches the
+    hysteresis, the shooting has them in its state: issue #44)."""
+    carried = {"limit-cycle": lambda c: True,
                "settle": lambda c: c.settle.start == "preload"}.get(command, lambda c: False)
     elastic = [i for i, c in enumerate(study.configs)
                if c.contacts.law == "elastic" and not carried(c)]  # fmt: skip
-    if elastic and command == "limit-cycle":
-        which = "the configuration" if study.size == 1 else f"case {elastic[0]} of the study"
-        raise InputError(f"limit-cycle: {which} has contacts.law = 'elastic': set "
-                         "limit_cycle.method = 'hb' (the harmonic balance marches the "
-                         "sliders; the shooting does not carry them yet)")
     if elastic:
         which = "the configuration" if study.size == 1 else f"case {elastic[0]} of the study"
         hint = " (settle.start = 'preload' does)" if command == "settle" else ""
         raise InputError(f"{command}: {which} has contacts.law = 'elastic', which {command} "
-                         f"does not carry from an orbit yet{hint}: the shooting needs the "
-                         "sliders in its state; the transient, stability, margin, sweep, study "
-                         "and limit-cycle with limit_cycle.method = 'hb' do")
+                         f"does not carry from an orbit yet{hint}: the start would drop the "
+                         "sliders; the transient, stability, margin, sweep, study and "
+                         "limit-cycle do")
 
 
 def run_limit_cycles(cfg: Config, comm=None, log=print, waves=None,

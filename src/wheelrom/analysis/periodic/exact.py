@@ -1,7 +1,8 @@
 """A harmonic-balance cycle made exact: polished by shooting into the periodic orbit of the
 transient's own equations and steps (:mod:`.shooting`), its stability from the whole wheel's
 monodromy (:mod:`.monodromy`), with the dominant multiplier inside the cycle's own symmetry
-recomputed at finer steps (docs/theory.md, "Limit cycles")."""
+recomputed at finer steps (docs/theory.md, "Limit cycles"); under the elastic law the orbit
+marched and shot with the sliders in the state (:func:`marched_cycle`)."""
 
 from __future__ import annotations
 
@@ -12,9 +13,11 @@ import numpy as np
 
 from wheelrom.analysis.periodic.cycle import Cycle
 from wheelrom.analysis.periodic.floquet import TRUSTED, FloquetResult
+from wheelrom.analysis.periodic.hopf import wave_mode
 from wheelrom.analysis.periodic.monodromy import floquet_multipliers
 from wheelrom.analysis.periodic.report import orbit_quantities
 from wheelrom.analysis.periodic.shooting import Orbit, Shooting
+from wheelrom.analysis.periodic.slider_shooting import SEED, SEED_FRACTION, SliderShooting
 from wheelrom.runtime.environment import petsc
 
 #: halvings of time.step tried when the shot does not converge at the configured step: a
@@ -138,3 +141,50 @@ def _refine(model, cfg, angles, cycle: Cycle, refine: int, comm=None) -> None:
             shooting.destroy()
         cycle.refined.append((orbit.period * orbit.fraction / steps, float(abs(mu[0])),
                               int(nd[0])))  # fmt: skip
+
+
+def marched_cycle(model, cfg, angles, branch, q_eq: np.ndarray, blocks,
+                  harmonics: int) -> None:  # fmt: skip
+    """The elastic law's exact orbit of ``branch``'s wave at the configured intensity
+    (:mod:`.slider_shooting`): its growing mode at ``lam = 1`` (``blocks``: the wave's ND
+    blocks ``(B0, B1)``) seeded at half its slip onset on the wave's pattern wheel with the
+    sliders at rest at the equilibrium ``q_eq`` ``(N, m)``, marched until its energy settles,
+    then shot; appended to ``branch.cycles`` when Newton converges,
+    said in ``branch.end`` either way. Its stability is not computed: the fixed-step map's
+    differenced multipliers are not trusted across stick-slip switches (measured on the paper
+    wheel at 70 deg: a pair of modulus 1.02 with differences of 1e-6 and 1e-7 of the
+    vibration, 1.0003 with 1e-4, where the march itself converges onto the orbit); the march
+    reaching it says that it attracts inside its own symmetry."""
+    lam_c = branch.critical_lam
+    branch.hopf_hz = float(wave_mode(blocks[0], blocks[1], lam_c if lam_c > 0 else 1.0)[1].imag
+                           / (2 * math.pi))  # fmt: skip
+    _, value, vector = wave_mode(blocks[0], blocks[1], 1.0)
+    period = 2 * math.pi / float(value.imag)
+    shooting = SliderShooting(model, cfg, branch.wave, angles, 1.0)
+    try:
+        onset = shooting.slip_onset(q_eq, vector)
+        seed = SEED_FRACTION * onset if math.isfinite(onset) else SEED
+        x = shooting.start(q_eq, vector, seed)
+        x, period, periods = shooting.march(x, period)
+        tip = (
+            float(np.linalg.norm(model.tip @ x[shooting.nq // 2 : shooting.nq // 2 + shooting.m]))
+            * period
+            / (2 * math.pi)
+        )
+        orbit = shooting.solve(x, period, max(tip, 1e-300))
+        how = (f"the elastic law: marched {periods} periods on the {shooting.N}-blade pattern "
+               f"from the growing mode at {seed * 1e6:.3g} um")  # fmt: skip
+        if not orbit.converged:
+            branch.end = f"{how}; the shot from there did not converge ({orbit.reason}, " \
+                f"residual {orbit.residual:.2g})"  # fmt: skip
+            return
+        cycle = Cycle(**orbit_quantities(shooting, orbit, harmonics, 1.0))
+        cycle.floquet_skipped = "the elastic law's multipliers of the fixed-step map are not " \
+            "trusted across stick-slip switches; the march reached the orbit: it attracts " \
+            "inside its own symmetry"  # fmt: skip
+        branch.end = f"{how}, then shot ({orbit.iterations} Newton iterations)"
+        branch.cycles.append(cycle)
+    except (ValueError, RuntimeError, petsc().Error) as exc:  # a step of the flow failed
+        branch.end = f"the elastic law's march and shot failed: {type(exc).__name__}: {exc}"
+    finally:
+        shooting.destroy()

@@ -70,11 +70,15 @@ def unstable_seed(model: ReducedModel, B0, B1, amplitude: float, seed: int):
     Each wave ``k`` contributes its fastest forward mode ``v_k`` (:func:`wave_mode`, the
     ``(q, q')`` amplitudes of blade 0; blade ``s`` has ``v_k e^{i 2 pi k s / N}``), scaled to a
     unit tip displacement of blade 0 and turned by a random phase ``theta_k`` (numpy
-    ``default_rng(seed)``, as ``time.perturbation``'s); the sum's real part is scaled so that
-    the largest tip displacement is ``amplitude`` [m] (for a mode that hardly moves the tip,
-    :func:`_tip_measure`). Why the mode itself and not the lowest
-    mode of the ND (``time.perturbation``'s pattern): the stuck wheel of the elastic law
-    flutters in a 423 Hz family that the lowest mode of ND 33 (133 Hz) hardly seeds."""
+    ``default_rng(seed)``, as ``time.perturbation``'s); the sum is scaled so that its largest
+    complex tip amplitude (for one wave: the tip's peak over the period) is ``amplitude`` [m]
+    (for a mode that hardly moves the tip, :func:`tip_measure`), and its real part is the
+    start. Sized on the complex amplitude, not on the real part's displacement: at a phase
+    where the displacement passes through zero that would blow the velocity up (measured:
+    a "1 nm" seed of the paper wheel's ND 33 at 70 deg moved the tip by 0.5 um). Why the
+    mode itself and not the lowest mode of the ND (``time.perturbation``'s pattern): the
+    stuck wheel of the elastic law flutters in a 423 Hz family that the lowest mode of ND 33
+    (133 Hz) hardly seeds."""
     N, m = model.blades, model.modes
     modes = [wave_mode(B0[k], B1[k], 1.0) for k in range(N)]
     growth = np.array([g for g, _, _ in modes])
@@ -82,19 +86,21 @@ def unstable_seed(model: ReducedModel, B0, B1, amplitude: float, seed: int):
     waves = waves or [int(np.argmax(growth))]
     theta = np.random.default_rng(seed).uniform(0.0, 2 * np.pi, N)
     blades = np.arange(N)
-    state = np.zeros((N, 2 * m))
+    state = np.zeros((N, 2 * m), dtype=complex)
     reach = np.linalg.norm(model.tip, 2)  # [m per sqrt(kg) m]: the most a unit q moves the tip
     for k in waves:
         vector = modes[k][2]
         tip = model.tip @ vector[:m]  # (3,) complex tip displacement of blade 0
         wave = np.exp(1j * (theta[k] + 2 * np.pi * k * blades / N))  # (N,)
-        state += (wave[:, None] * (vector / _tip_measure(tip, vector[:m], reach))[None, :]).real
-    q, v = state[:, :m], state[:, m:]
-    scale = amplitude / _tip_measure(np.linalg.norm(q @ model.tip.T, axis=1).max(), q, reach)
-    return waves, q * scale, v * scale, modes[int(np.argmax(growth))][1]
+        state += wave[:, None] * (vector / tip_measure(tip, vector[:m], reach))[None, :]
+    q = state[:, :m]
+    scale = amplitude / tip_measure(np.linalg.norm(q @ model.tip.T, axis=1).max(), np.abs(q),
+                                    reach)  # fmt: skip
+    state = (state * scale).real
+    return waves, state[:, :m], state[:, m:], modes[int(np.argmax(growth))][1]
 
 
-def _tip_measure(tip, q: np.ndarray, reach: float) -> float:
+def tip_measure(tip, q: np.ndarray, reach: float) -> float:
     """The tip displacement ``tip`` [m] of modal displacements ``q`` as their size, or, for a
     motion that hardly moves the tip (a growing torsion of the shroud, say: below 1e-6 of what
     ``q`` could move it), ``reach`` times the largest modal displacement: the seed is then

@@ -20,7 +20,7 @@ import numpy as np
 from wheelrom.analysis.periodic.continuation import BranchSettings, Corrector, Point, trace
 from wheelrom.analysis.periodic.cycle import UNRESOLVED, Cycle, describe
 from wheelrom.analysis.periodic.cycle_transient import transient_stability
-from wheelrom.analysis.periodic.exact import exact_cycle, monodromy_stability
+from wheelrom.analysis.periodic.exact import exact_cycle, marched_cycle, monodromy_stability
 from wheelrom.analysis.periodic.floquet import floquet
 from wheelrom.analysis.periodic.harmonic_balance import WaveBalance
 from wheelrom.analysis.periodic.hopf import GROWTH_TOLERANCE, hopf_point, wave_blocks, wave_mode
@@ -245,6 +245,9 @@ class WaveAnalysis:
         branch.critical_lam = lam_c
         if math.isnan(lam_c):
             branch.note = f"stable up to {st.branch.lam_max:g} x mu (no Hopf point)"
+        elif self.params.law.elastic and st.method == "shooting":  # no balance: it stalls
+            marched_cycle(self.model, self.cfg, self.angles, branch, self.q_eq,
+                          (self.B0[wave], self.B1[wave]), st.harmonics)
         else:  # lam_c = 0: unstable without self-excitation, no Hopf branch; seeds still
             self._branches(branch, wave, lam_c)
         branch.wall_s = time.perf_counter() - t0

@@ -19,7 +19,8 @@ def orbit_quantities(shooting: Shooting, orbit: Orbit, harmonics: int, lam: floa
     shifted in time). ``harmonics``: ``H`` of blade 0's harmonics ``c_h`` (``(H + 1, m)``
     complex, by the DFT of the samples). Energies per cycle by the rectangle rule on the
     uniform samples (spectral for a periodic integrand)."""
-    samples = sample_orbit(shooting, orbit)
+    samples = shooting.samples(orbit) if hasattr(shooting, "samples") else \
+        sample_orbit(shooting, orbit)  # the slider shot's carry the sliders  # fmt: skip
     model, params = shooting.model, shooting.flow.params
     states = np.ascontiguousarray(samples.states)
     S, N, m = states.shape[0], shooting.N, shooting.m
@@ -27,11 +28,16 @@ def orbit_quantities(shooting: Shooting, orbit: Orbit, harmonics: int, lam: floa
     K = len(params.contacts.kinds)
     force = np.zeros((S, N, m))
     normal, power, state = np.zeros((S, K)), np.zeros((S, K)), np.zeros((S, K), np.int8)
-    ReferenceForces(params).evaluate_samples(q, v, force, normal, power, state)
+    # the elastic law: marched through the samples from the orbit's sliders at t = 0, each
+    # sample's slider the last one's return (as the flow's steps return them)
+    sliders = None if samples.sliders is None else np.ascontiguousarray(samples.sliders)
+    ReferenceForces(params).evaluate_samples(q, v, force, normal, power, state, sliders,
+                                             periods=0 if sliders is None else 1)  # fmt: skip
     force0 = np.zeros((S, N, m))
     quiet = dataclasses.replace(params, vdp_mu=0.0)
     ReferenceForces(quiet).evaluate_samples(q, v, force0, np.zeros((S, K)), np.zeros((S, K)),
-                                            np.zeros((S, K), np.int8))  # fmt: skip
+                                            np.zeros((S, K), np.int8), sliders,
+                                            periods=0 if sliders is None else 1)  # fmt: skip
     period = orbit.period
     omega = 2 * math.pi / period
     work_in = float(np.mean(np.sum((force - force0)[:, 0] * v[:, 0], axis=1))) * period

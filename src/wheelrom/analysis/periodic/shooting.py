@@ -71,6 +71,8 @@ class Orbit:
     steps_per_period: int = 0
     wall_s: float = 0.0
     reason: str = ""
+    #: the elastic law's sliders ``(K, N', 2)`` [m] at ``t = 0`` (None: the paper law)
+    sliders: np.ndarray | None = None
 
     @property
     def frequency_hz(self) -> float:
@@ -176,10 +178,11 @@ class Shooting:
 class OrbitSamples:
     """One period of an orbit at every TS step: ``time`` ``(S,)`` [s] and ``states``
     ``(S, 2, N', m)`` (``t = 0`` included, ``t = T`` not: uniform samples of a periodic
-    function)."""
+    function); under the elastic law ``sliders`` ``(S, K, N', 2)`` [m], each step's start."""
 
     time: np.ndarray
     states: np.ndarray
+    sliders: np.ndarray | None = None
 
 
 def sample_orbit(shooting: Shooting, orbit: Orbit) -> OrbitSamples:

@@ -1,0 +1,336 @@
+"""The exact periodic orbit of a travelling wave under the elastic contact law: shooting with
+the sliders in the state, started from a march of the wave's pattern wheel (issue #44;
+docs/theory.md, "Limit cycles under the elastic law").
+
+Why not from the harmonic balance, as under the paper law: the elastic law's balance stalls
+where a contact starts to slip within the cycle (its hysteresis switches on with a kink in the
+amplitude), and the friction-limited orbits lie beyond. The stuck wheel is linearly unstable,
+so the orbit is the wave's own attractor inside its symmetry: the pattern wheel of ``N'``
+blades (:func:`~.flow.pattern_model`) started from the wave's growing mode at
+``settle.seed_amplitude`` with every slider at rest at the equilibrium, integrated with the
+transient's steps until its vibration energy stops changing (:func:`march`), ends next to it;
+Newton then makes it exact.
+
+The equations are those of :mod:`.shooting` with the state ``x`` flat (``q``, ``q'`` of every
+pattern blade, then the sliders ``(K, N', 2)`` [m]): ``S^{-j} phi_tau(x) = x`` with
+``tau = g T / N`` in a fixed number of steps (the discrete map smooth in ``T``) and the
+Poincare section through the start. A contact that sticks the whole period leaves its slider
+free (any stuck position repeats with its static offset): such directions are neutral
+(``mu = 1``) and make the Jacobian singular, so the Newton step is the least-squares one
+(as the forced shot's); the phase shift's multiplier is 1 as always.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from wheelrom.analysis.periodic.flow import WheelFlow, pattern_model, pattern_nd, shift_blades
+from wheelrom.analysis.periodic.hopf import tip_measure
+from wheelrom.analysis.periodic.shooting import Orbit, OrbitSamples
+from wheelrom.config import Config
+from wheelrom.rom.model import ReducedModel
+
+MAX_ITERATIONS = 25
+TOLERANCE, ROUNDOFF = 1e-10, 1e-12  # as the autonomous shot
+#: a Newton that no longer reduces a residual this small has reached the shot's rounding
+STAGNATION = 1e-8
+DIFFERENCE = 1e-6  # central-difference step, relative to the vibration
+RCOND = 1e-8  # least-squares cut-off of the Newton step (relative to the largest singular value)
+#: the march: chunks of ``MARCH_PERIODS`` periods until the vibration energy changes by less
+#: than ``MARCH_TOLERANCE`` over one, at most ``MARCH_CHUNKS`` chunks
+MARCH_PERIODS, MARCH_TOLERANCE, MARCH_CHUNKS = 20, 1e-4, 300
+UNIT = 1e-6  # a multiplier this close to 1 counts as neutral (a stuck slider, the phase)
+#: the march starts at this fraction of the stuck mode's slip onset (:meth:`SliderShooting.
+#: slip_onset`), from below: a flutter grows from small disturbances, and a start above the
+#: orbit slips contacts that stick on it, locking a tangential prestress into them (a stuck
+#: slider's offset is a neutral direction: another orbit of the family, measured 0.32 against
+#: 0.48 um on the small wheel at 40 deg); when nothing slips or opens: :data:`SEED`
+SEED_FRACTION, SEED = 0.5, 1e-9
+
+
+class SliderShooting:
+    """Shooting for the orbits of wave ``wave`` of one case at factor ``lam`` on the
+    self-excitation, the sliders in the state (on the wave's pattern wheel; :meth:`destroy`
+    frees the flow)."""
+
+    def __init__(self, model: ReducedModel, cfg: Config, wave: int,
+                 angles_deg: dict | None = None, lam: float = 1.0,
+                 options: dict | None = None):  # fmt: skip
+        self.full_model, self.wave = model, int(wave)
+        pattern, g, j = pattern_model(model, wave, cfg.flutter.model != "table")
+        self.model, self.g, self.shift = pattern, g, j
+        self.fraction = g / model.blades
+        self.shots = round(1 / self.fraction)  # shots a period: mu = nu^shots
+        self.flow = WheelFlow(pattern, cfg, angles_deg, lam, options=options)
+        self.N, self.m = pattern.blades, pattern.modes
+        self.K = len(self.flow.params.contacts.kinds)
+        self.sliders = self.flow.sliders
+        self.nq = 2 * self.N * self.m
+        self.n = self.nq + self.sliders
+
+    def destroy(self) -> None:
+        self.flow.destroy()
+
+    # ------------------------------------------------------------------ the map
+    def shift_states(self, x: np.ndarray, j: int) -> np.ndarray:
+        """``(B, n)`` states with pattern blade ``s`` replaced by blade ``s + j`` (the sliders
+        ``(K, N', 2)`` have their blades on the same axis as ``q``)."""
+        B = x.shape[0]
+        parts = [shift_blades(x[:, : self.nq].reshape(B, 2, self.N, self.m), j)]
+        if self.sliders:
+            parts.append(shift_blades(x[:, self.nq :].reshape(B, self.K, self.N, 2), j))
+        return np.concatenate([p.reshape(B, -1) for p in parts], axis=1)
+
+    def shot(self, x: np.ndarray, period: float, steps: int) -> np.ndarray:
+        """``S^{-j} phi_tau(x)`` of states ``(B, n)`` in ``steps`` whole steps."""
+        return self.shift_states(self.flow.advance(x, self.fraction * period, steps),
+                                 -self.shift)  # fmt: skip
+
+    def unit_mode(self, vector: np.ndarray) -> np.ndarray:
+        """``(N', 2 m)`` complex: the wave's mode ``vector`` ``(2 m,)`` (``q, q'`` of blade 0;
+        blade ``s`` has ``e^{i 2 pi k s / N}``) on the pattern's blades, turned so that blade
+        0's tip is at its largest at ``t = 0`` (the real part of an arbitrarily phased
+        eigenvector can be at a zero of the displacement, its velocity then far larger) and
+        scaled to a unit tip amplitude [m] (a mode that hardly moves the tip by its modal
+        reach, as settle's seed)."""
+        m, N = self.m, self.full_model.blades
+        wave = np.exp(2j * math.pi * self.wave * np.arange(self.N) / N)
+        state = wave[:, None] * np.asarray(vector)[None, :]
+        tip = self.model.tip @ state[0, :m]
+        state = state * np.exp(-1j * np.angle(tip[np.argmax(np.abs(tip))]))
+        reach = np.linalg.norm(self.model.tip, 2)
+        size = np.linalg.norm(state[:, :m] @ self.model.tip.T, axis=1).max()
+        return state / tip_measure(size, np.abs(state[:, :m]), reach)
+
+    def start(self, q_eq: np.ndarray, vector: np.ndarray, amplitude: float) -> np.ndarray:
+        """``(n,)``: the equilibrium ``q_eq`` ``(N, m)`` plus the wave's mode ``vector``
+        (:meth:`unit_mode`) at ``amplitude`` [m] of tip amplitude, the sliders at rest at
+        the equilibrium."""
+        m = self.m
+        self.q_eq = np.array(q_eq[: self.N], dtype=float)
+        state = (self.unit_mode(vector) * amplitude).real
+        q = self.q_eq + state[:, :m]
+        x = np.concatenate([q.ravel(), state[:, m:].ravel()])
+        rest = np.concatenate([self.q_eq.ravel(), np.zeros(self.nq // 2)])
+        if self.sliders:
+            forces = self.flow._batch(1)[0].forces[0]
+            sliders = forces.sliders_at_rest(np.ascontiguousarray(self.q_eq)).ravel()
+            x, rest = np.concatenate([x, sliders]), np.concatenate([rest, sliders])
+        self.rest_energy = self.energy(rest)  # the vibration's is measured from it
+        return x
+
+    def slip_onset(self, q_eq: np.ndarray, vector: np.ndarray) -> float:
+        """The tip amplitude [m] at which the wave's stuck mode (:meth:`unit_mode`) first
+        reaches a contact's stick range ``mu F_n / k_t`` in its tangential relative motion or
+        opens one (its normal relative motion reaching ``F_n / k_c``), every contact at its
+        preloaded normal force ``F_n``; ``inf`` when it moves none. Below it the stuck wheel's
+        linear growth is exact: the march starts there instead of growing to it."""
+        forces = self.flow._batch(1)[0].forces[0]
+        q0 = np.ascontiguousarray(q_eq[: self.N], dtype=float)
+        zero = np.zeros_like(q0)
+        forces.evaluate(0.0, q0, zero)
+        base, normal = forces.relative_displacement.copy(), forces.normal_force.copy()
+        mode, eps = self.unit_mode(vector)[:, : self.m], 1e-9
+        parts = []
+        for part in (mode.real, mode.imag):
+            forces.evaluate(0.0, np.ascontiguousarray(q0 + eps * part), zero)
+            parts.append((forces.relative_displacement - base) / eps)
+        d = parts[0] + 1j * parts[1]  # (K, N', 3) per unit tip amplitude, complex
+        tangential = d[:, :, ::2]
+        # the largest |Re(c e^{i theta})| over the phase of a complex 2-vector c
+        reach = np.sqrt(0.5 * (np.sum(np.abs(tangential) ** 2, axis=2)
+                               + np.abs(np.sum(tangential**2, axis=2))))  # fmt: skip
+        c = self.flow.params.contacts
+        stick = self.flow.params.law.coulomb * normal / np.maximum(c.tangential[:, : self.N],
+                                                                   1e-300)  # fmt: skip
+        opening = normal / c.stiffness[:, : self.N]
+        with np.errstate(divide="ignore"):
+            limits = np.concatenate([(stick / reach).ravel(),
+                                     (opening / np.abs(d[:, :, 1])).ravel()])  # fmt: skip
+        return float(limits.min(initial=math.inf))
+
+    def energy(self, x: np.ndarray) -> float:
+        """The pattern wheel's mechanical energy at state ``x`` [J per sqrt(kg)^2 ...]: kinetic,
+        the wheel's elastic ``q K_R q / 2``, the normal contact springs' and the stuck
+        tangential springs' ``|F_t|^2 / (2 k_t)`` (the sliders are on or inside the Coulomb
+        limit at a step's end, so ``F_t = k_t (u_t - w)``). Along a periodic orbit it changes
+        within the period only by the self-excitation's and the friction's work, a fraction
+        of the order of the damping ratio: the march's measure of settling."""
+        half = self.nq // 2
+        q = x[:half].reshape(self.N, self.m)
+        v = x[half : self.nq].reshape(self.N, self.m)
+        forces = self.flow._batch(1)[0].forces[0]
+        slider = x[self.nq :].reshape(self.K, self.N, 2) if self.sliders else None
+        forces.evaluate(0.0, np.ascontiguousarray(q), np.ascontiguousarray(v), slider)
+        if not hasattr(self, "_stiffness"):
+            self._stiffness = self.model.sparse_stiffness()
+        tangential = 0.0
+        if self.sliders:
+            k_t = np.maximum(self.flow.params.contacts.tangential[:, : self.N], 1e-300)
+            tangential = 0.5 * float(np.sum(np.sum(forces.friction_force**2, axis=2) / k_t))
+        flat = q.ravel()
+        return 0.5 * float(v.ravel() @ v.ravel() + flat @ (self._stiffness @ flat)) + \
+            forces.contact_energy() + tangential  # fmt: skip
+
+    def march(self, x: np.ndarray, period: float, tolerance: float = MARCH_TOLERANCE,
+              progress=None):  # fmt: skip
+        """``(x, period, periods)``: the state after marching ``x`` in chunks of
+        :data:`MARCH_PERIODS` periods until its :meth:`energy` changes by less than
+        ``tolerance`` from one chunk's end to the next (at most :data:`MARCH_CHUNKS`), the
+        period measured after it (:meth:`measure_period`, the state there) and the periods
+        marched."""
+        energy, chunks = self.energy(x) - self.rest_energy, 0
+        for chunks in range(1, MARCH_CHUNKS + 1):
+            x = self.flow.advance(x[None], MARCH_PERIODS * period)[0]
+            previous, energy = energy, self.energy(x) - self.rest_energy
+            if not math.isfinite(energy):
+                raise RuntimeError("the march diverged")
+            if progress is not None:
+                progress(chunks * MARCH_PERIODS, energy)
+            if abs(energy - previous) <= tolerance * abs(energy):
+                break
+        # the section's coordinate: blade 0's largest modal displacement about the equilibrium
+        # (a velocity carries the stiff families' ringing at kHz: crossings of that)
+        coordinate = int(np.argmax(np.abs(x[: self.m] - self.q_eq[0])))
+        x, period = self.measure_period(x, period, coordinate)
+        return x, period, chunks * MARCH_PERIODS
+
+    def measure_period(self, x: np.ndarray, period: float,
+                       j: int) -> tuple[np.ndarray, float]:  # fmt: skip
+        """``(x', T)``: the period [s] between the next two upward crossings of blade 0's
+        modal displacement ``j`` through its equilibrium value (interpolated between steps)
+        within three estimated periods ``period`` of ``x``, and the state ``x'`` at the step
+        after the second."""
+        n, h = self.flow.steps_for(period)
+        rest = self.q_eq[0, j]
+        crossings, state, previous = [], x, x[j] - rest
+        for i in range(1, 3 * n + 1):
+            state = self.flow.advance(state[None], h, 1)[0]
+            value = state[j] - rest
+            if previous < 0 <= value:
+                crossings.append((i - value / (value - previous)) * h)
+                if len(crossings) == 2:
+                    return state, crossings[1] - crossings[0]
+            previous = value
+        return state, period  # not two crossings: the estimate stands
+
+    def jacobian(self, x: np.ndarray, period: float, steps: int,
+                 scale: np.ndarray) -> np.ndarray:  # fmt: skip
+        """``(n, n)`` ``d(S^{-j} phi_tau)/dx`` in scaled units, central differences (one
+        batch of ``2 n`` shots)."""
+        n = self.n
+        h = DIFFERENCE * scale
+        perturbed = np.repeat(x[None], 2 * n, axis=0)
+        perturbed[np.arange(n), np.arange(n)] += h
+        perturbed[n + np.arange(n), np.arange(n)] -= h
+        shots = self.shot(perturbed, period, steps)
+        derivative = (shots[:n] - shots[n:]) / (2 * h[:, None])  # row i: d end / d x_i
+        return derivative.T * scale[None, :] / scale[:, None]
+
+    def _scale(self, x: np.ndarray, period: float, tip_amplitude: float) -> np.ndarray:
+        """Units of the unknowns: ``a`` (the largest modal velocity over ``w``) for ``q``,
+        ``w a`` for ``q'``, the tip amplitude [m] for the sliders."""
+        omega = 2 * math.pi / period
+        half = self.nq // 2
+        a = max(float(np.abs(x[half : self.nq]).max()) / omega, 1e-300)
+        scale = np.full(self.n, a)
+        scale[half : self.nq] = omega * a
+        scale[self.nq :] = max(tip_amplitude, 1e-300)
+        return scale
+
+    # ------------------------------------------------------------------ Newton
+    def solve(self, x0: np.ndarray, period: float, tip_amplitude: float) -> Orbit:
+        """Newton from ``x0`` ``(n,)`` and ``period`` [s] (``tip_amplitude`` [m]: the
+        sliders' unit); the orbit with the multipliers of the pattern map (``converged``
+        False when Newton failed)."""
+        t0 = time.perf_counter()
+        x, T = np.array(x0, dtype=float), float(period)
+        steps = self.flow.steps_for(self.fraction * T)[0]  # fixed: the map smooth in T
+        scale = self._scale(x, T, tip_amplitude)
+        one = self.flow.steps_for(self.fraction * T / steps)  # one step along the flow
+        normal = (self.flow.advance(x[None], one[1], 1)[0] - x) / scale
+        normal /= max(np.linalg.norm(normal), 1e-300)
+        start = x / scale
+        floor = ROUNDOFF * float(np.abs(start).max())
+
+        def residual(x, T):
+            F = np.empty(self.n + 1)
+            F[: self.n] = (self.shot(x[None], T, steps)[0] - x) / scale
+            F[self.n] = normal @ (x / scale - start)
+            return F
+
+        F = residual(x, T)
+        size, reason, it = float(np.abs(F).max()), "iterations", 0
+        for it in range(MAX_ITERATIONS + 1):
+            if not math.isfinite(size):
+                reason = "the shot diverged"
+                break
+            if size <= max(TOLERANCE, floor):
+                reason = "converged"
+                break
+            if it == MAX_ITERATIONS:
+                break
+            A = np.zeros((self.n + 1, self.n + 1))
+            A[: self.n, : self.n] = self.jacobian(x, T, steps, scale) - np.eye(self.n)
+            dT = DIFFERENCE * T
+            later = self.shot(x[None], T + dT, steps)[0] - self.shot(x[None], T - dT, steps)[0]
+            A[: self.n, self.n] = later / (2 * dT) / scale * T
+            A[self.n, : self.n] = normal
+            dz = np.linalg.lstsq(A, -F, rcond=RCOND)[0]
+            a, norm, ok = 1.0, float(np.linalg.norm(F)), False
+            for _ in range(7):  # halved until the 2-norm falls (Newton descends in it)
+                trial_x, trial_T = x + a * dz[: self.n] * scale, T * (1 + a * dz[self.n])
+                trial = residual(trial_x, trial_T) if trial_T > 0 else np.full_like(F, np.nan)
+                if np.linalg.norm(trial) < norm:
+                    x, T, F, ok = trial_x, trial_T, trial, True
+                    size = float(np.abs(F).max())
+                    break
+                a *= 0.5
+            if not ok:
+                reason = "converged at the rounding floor" if size <= STAGNATION else \
+                    "no step reduces the residual"  # fmt: skip
+                break
+        converged = reason.startswith("converged")
+        q_v = x[: self.nq].reshape(2, self.N, self.m)
+        orbit = Orbit(self.wave, T, q_v, self.shift, self.fraction, size, it, converged,
+                      steps_per_period=steps * self.shots, reason=reason,
+                      sliders=x[self.nq :].reshape(self.K, self.N, 2) if self.sliders
+                      else None)  # fmt: skip
+        if converged:
+            G = self.jacobian(x, T, steps, scale)
+            orbit.symmetric_multipliers, orbit.symmetric_nd = self._multipliers(G, scale)
+        orbit.wall_s = time.perf_counter() - t0
+        return orbit
+
+    def _multipliers(self, G: np.ndarray, scale: np.ndarray):
+        """``(mu, nd)`` of the pattern map's Jacobian ``G`` (scaled): ``nu^{N'}``, largest
+        first, the neutral ones (a stuck slider's, the phase's: within :data:`UNIT` of 1)
+        left out; the ND of a vector from the DFT of its ``q`` over the pattern's blades."""
+        nu, vectors = np.linalg.eig(G)
+        mu = nu**self.shots
+        keep = np.abs(mu - 1.0) > UNIT
+        mu, vectors = mu[keep], (vectors * scale[:, None])[:, keep]
+        order = np.argsort(-np.abs(mu))
+        half = self.nq // 2
+        q = vectors[:half, order].T.reshape(-1, self.N, self.m)
+        return mu[order], pattern_nd(q, self.full_model.blades // self.N,
+                                     self.full_model.blades)  # fmt: skip
+
+    def samples(self, orbit: Orbit) -> OrbitSamples:
+        """One period of ``orbit`` at every step of its shots (``q, q'`` and the sliders each
+        step starts from)."""
+        n_tau = orbit.steps_per_period // self.shots
+        h = self.fraction * orbit.period / n_tau
+        x = np.concatenate([orbit.state.ravel(), orbit.sliders.ravel()]) \
+            if orbit.sliders is not None else orbit.state.ravel()  # fmt: skip
+        path = [x]
+        for _ in range(orbit.steps_per_period - 1):
+            path.append(self.flow.advance(path[-1][None], h, 1)[0])
+        path = np.array(path)
+        S = path.shape[0]
+        states = path[:, : self.nq].reshape(S, 2, self.N, self.m)
+        sliders = path[:, self.nq :].reshape(S, self.K, self.N, 2) if self.sliders else None
+        return OrbitSamples(np.arange(S) * h, states, sliders)
