@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from tests.conftest import SMALL
 
 SHROUD = 40.0  # the small wheel flutters in ND 6 at 490 Hz, the shroud slipping 15 %
