@@ -6,7 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from tests.conftest import SMALL
+
+from conftest import SMALL
 
 SHROUD = 40.0  # the small wheel flutters in ND 6 at 490 Hz, the shroud slipping 15 %
 ELASTIC = ['contacts.law="elastic"', 'time.scheme="exponential"']
