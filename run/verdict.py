@@ -3,8 +3,12 @@ shroud angle the linear verdict and flutter margin (out/paper-stability.h5), the
 wave's exact single-wave orbit with its largest Floquet multiplier (out/paper-limit-cycle.h5)
 and where the flutter settles, with all NDs free (out/paper-settle.h5). The amplitude a
 designer signs off is the settled one (largest blade), the single-wave orbit beside it.
+Given the elastic law's files too, a second table: the stuck wheel's verdict and margin
+(out/paper-elastic-stability.h5) and the friction-limited exact orbit of its fastest wave
+with the contacts' slip shares (out/paper-elastic-limit-cycle.h5).
 
 Usage: .venv/bin/python run/verdict.py STABILITY.h5 [LIMIT_CYCLE.h5] [SETTLE.h5]
+       [ELASTIC_STABILITY.h5 ELASTIC_LIMIT_CYCLE.h5]
 """
 
 from __future__ import annotations
@@ -40,7 +44,13 @@ def _cycle(path, i):
             text = f"{c['tip_amplitude'][j] * 1e6:.2f} um, {c['frequency_hz'][j]:.2f} Hz"
             if methods[j] != "shooting":
                 return text + " (harmonic balance; shooting did not converge)"
-            text += f" (HB {c['hb_tip_amplitude'][j] * 1e6:.2f} um)"
+            if np.isfinite(c["hb_tip_amplitude"][j]):
+                text += f" (HB {c['hb_tip_amplitude'][j] * 1e6:.2f} um)"
+            if "orbit_sliders" in c:  # the elastic law: who slips on the orbit
+                kinds = str(f["limit_cycle"].attrs["kinds"]).split(", ")
+                shares = c["fractions"][j]
+                text += "; " + ", ".join(f"{kind} slips {100 * shares[k][2]:.0f} %"
+                                         for k, kind in enumerate(kinds))
             if "refined_multiplier" in c:
                 step, value, nd = c["refined_multiplier"][j][-1]
                 text += f"; in symmetry |mu| {value:.3g} (ND {int(nd)}) at {step * 1e6:.2g} us"
@@ -68,16 +78,36 @@ def _settled(path, i):
                 f"{a.max() * 1e6:.2f}; ND {nd} {g['nd_energy'][nd]:.0%})")
 
 
-def main(argv: list[str]) -> None:
-    stability = argv[0]
-    cycles = _by_shroud(argv[1] if len(argv) > 1 else None, "limit_cycle")
-    settled = _by_shroud(argv[2] if len(argv) > 2 else None, "settle")
+def _linear(stability: str):
     with h5py.File(stability, "r") as f:
         g = f["stability"]
         shroud = g["angles_deg"][:, 1]
         growth = g["max_growth_rate"][()]
         ratio = g["margin_ratio"][()] if "margin_ratio" in g else np.full(shroud.size, np.nan)
-        nd = g["nodal_diameter"][:, 0]
+        return shroud, growth, ratio, g["nodal_diameter"][:, 0]
+
+
+def elastic_table(stability: str, limit_cycle: str) -> None:
+    """The elastic law's verdict: the stuck wheel and the friction-limited orbit."""
+    cycles = _by_shroud(limit_cycle, "limit_cycle")
+    shroud, growth, ratio, nd = _linear(stability)
+    print("\nUnder the elastic Coulomb contact (contacts.law = \"elastic\"):\n")
+    print("| shroud [deg] | stuck wheel | growth [1/s] | margin (x mu) "
+          "| friction-limited exact orbit (fastest wave) |")
+    print("|---|---|---|---|---|")
+    for k, a in enumerate(shroud):
+        key = round(float(a), 6)
+        verdict = "flutters" if growth[k] > 1e-6 else "stable"
+        lc = _cycle(cycles[1], cycles[0][key]) if cycles and key in cycles[0] else "-"
+        print(f"| {a:g} | {verdict} (ND {nd[k]}) | {growth[k]:+.3f} | {ratio[k]:.3g} | {lc} |")
+
+
+def main(argv: list[str]) -> None:
+    stability = argv[0]
+    cycles = _by_shroud(argv[1] if len(argv) > 1 else None, "limit_cycle")
+    settled = _by_shroud(argv[2] if len(argv) > 2 else None, "settle")
+    elastic = argv[3:5] if len(argv) > 4 else None
+    shroud, growth, ratio, nd = _linear(stability)
     print("| shroud [deg] | linear | growth [1/s] | margin (x mu) | settled (largest blade) "
           "| single-wave exact orbit |")
     print("|---|---|---|---|---|---|")
@@ -88,6 +118,8 @@ def main(argv: list[str]) -> None:
         st = _settled(settled[1], settled[0][key]) if settled and key in settled[0] else "-"
         print(f"| {a:g} | {verdict} (ND {nd[k]}) | {growth[k]:+.3f} | {ratio[k]:.3g} | {st} "
               f"| {lc} |")
+    if elastic:
+        elastic_table(*elastic)
 
 
 if __name__ == "__main__":

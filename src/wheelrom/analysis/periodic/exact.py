@@ -143,13 +143,14 @@ def _refine(model, cfg, angles, cycle: Cycle, refine: int, comm=None) -> None:
                               int(nd[0])))  # fmt: skip
 
 
-def marched_cycle(model, cfg, angles, branch, q_eq: np.ndarray, blocks,
-                  harmonics: int) -> None:  # fmt: skip
+def marched_cycle(model, cfg, angles, branch, q_eq: np.ndarray, blocks, harmonics: int,
+                  progress=None) -> None:  # fmt: skip
     """The elastic law's exact orbit of ``branch``'s wave at the configured intensity
     (:mod:`.slider_shooting`): its growing mode at ``lam = 1`` (``blocks``: the wave's ND
     blocks ``(B0, B1)``) seeded at half its slip onset on the wave's pattern wheel with the
     sliders at rest at the equilibrium ``q_eq`` ``(N, m)``, marched until its energy settles,
-    then shot; appended to ``branch.cycles`` when Newton converges,
+    then shot (``progress(tip_amplitude)`` [m] after every chunk of the march); appended to
+    ``branch.cycles`` when Newton converges,
     said in ``branch.end`` either way. Its stability is not computed: the fixed-step map's
     differenced multipliers are not trusted across stick-slip switches (measured on the paper
     wheel at 70 deg: a pair of modulus 1.02 with differences of 1e-6 and 1e-7 of the
@@ -165,7 +166,8 @@ def marched_cycle(model, cfg, angles, branch, q_eq: np.ndarray, blocks,
         onset = shooting.slip_onset(q_eq, vector)
         seed = SEED_FRACTION * onset if math.isfinite(onset) else SEED
         x = shooting.start(q_eq, vector, seed)
-        x, period, periods = shooting.march(x, period)
+        say = None if progress is None else (lambda periods, tip: progress(tip))
+        x, period, periods = shooting.march(x, period, progress=say)
         tip = (
             float(np.linalg.norm(model.tip @ x[shooting.nq // 2 : shooting.nq // 2 + shooting.m]))
             * period
@@ -179,9 +181,8 @@ def marched_cycle(model, cfg, angles, branch, q_eq: np.ndarray, blocks,
                 f"residual {orbit.residual:.2g})"  # fmt: skip
             return
         cycle = Cycle(**orbit_quantities(shooting, orbit, harmonics, 1.0))
-        cycle.floquet_skipped = "the elastic law's multipliers of the fixed-step map are not " \
-            "trusted across stick-slip switches; the march reached the orbit: it attracts " \
-            "inside its own symmetry"  # fmt: skip
+        cycle.floquet_skipped = "elastic law: the march reached it, so it attracts inside " \
+            "its own symmetry; differenced multipliers not trusted across stick-slip"  # fmt: skip
         branch.end = f"{how}, then shot ({orbit.iterations} Newton iterations)"
         branch.cycles.append(cycle)
     except (ValueError, RuntimeError, petsc().Error) as exc:  # a step of the flow failed

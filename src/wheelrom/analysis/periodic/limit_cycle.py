@@ -246,8 +246,9 @@ class WaveAnalysis:
         if math.isnan(lam_c):
             branch.note = f"stable up to {st.branch.lam_max:g} x mu (no Hopf point)"
         elif self.params.law.elastic and st.method == "shooting":  # no balance: it stalls
+            say = self.progress and (lambda tip: self.progress(wave, 1.0, tip))
             marched_cycle(self.model, self.cfg, self.angles, branch, self.q_eq,
-                          (self.B0[wave], self.B1[wave]), st.harmonics)
+                          (self.B0[wave], self.B1[wave]), st.harmonics, say)
         else:  # lam_c = 0: unstable without self-excitation, no Hopf branch; seeds still
             self._branches(branch, wave, lam_c)
         branch.wall_s = time.perf_counter() - t0

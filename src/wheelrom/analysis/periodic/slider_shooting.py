@@ -175,6 +175,16 @@ class SliderShooting:
         return 0.5 * float(v.ravel() @ v.ravel() + flat @ (self._stiffness @ flat)) + \
             forces.contact_energy() + tangential  # fmt: skip
 
+    def tip_estimate(self, x: np.ndarray, period: float) -> float:
+        """Blade 0's tip amplitude [m] at state ``x`` as a harmonic oscillator's of
+        ``period`` [s]: ``sqrt(|tip u|^2 + |tip u'|^2 / w^2)`` about the equilibrium (the
+        march's progress)."""
+        omega = 2 * math.pi / period
+        q = x[: self.m] - self.q_eq[0]
+        v = x[self.nq // 2 : self.nq // 2 + self.m]
+        tip = self.model.tip
+        return float(np.sqrt(np.sum((tip @ q) ** 2) + np.sum((tip @ v) ** 2) / omega**2))
+
     def march(self, x: np.ndarray, period: float, tolerance: float = MARCH_TOLERANCE,
               progress=None):  # fmt: skip
         """``(x, period, periods)``: the state after marching ``x`` in chunks of
@@ -189,7 +199,7 @@ class SliderShooting:
             if not math.isfinite(energy):
                 raise RuntimeError("the march diverged")
             if progress is not None:
-                progress(chunks * MARCH_PERIODS, energy)
+                progress(chunks * MARCH_PERIODS, self.tip_estimate(x, period))
             if abs(energy - previous) <= tolerance * abs(energy):
                 break
         # the section's coordinate: blade 0's largest modal displacement about the equilibrium
