@@ -147,6 +147,11 @@ class WheelFlow:
             self._batches[B] = (problem, ts, f, f.duplicate())
         return self._batches[B]
 
+    def forces(self):
+        """The case's :class:`~wheelrom.forces.reference.ReferenceForces` on the flow's wheel
+        (its contact laws, sliders and equilibrium checks)."""
+        return self._batch(1)[0].forces[0]
+
     def steps_for(self, duration: float) -> tuple[int, float]:
         """``(n, h)``: whole steps ``h = duration / n <= time.step`` [s] (off the exponential
         scheme's resonances)."""

@@ -178,7 +178,7 @@ class ForcedShooting:
         x = np.concatenate([q[: self.N].ravel(), v[: self.N].ravel()])
         if not self.sliders:
             return x
-        forces = self.flow._batch(1)[0].forces[0]
+        forces = self.flow.forces()
         mean = np.repeat(np.asarray(X[0], dtype=float)[None], self.N, axis=0)
         x = np.concatenate([x, forces.sliders_at_rest(mean).ravel()])
         return self.march(x, problem.tip_amplitude(X, self.omega))

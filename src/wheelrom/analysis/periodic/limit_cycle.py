@@ -115,6 +115,8 @@ class WaveBranch:
         if not self.cycles and self.critical_lam > 1.0:
             return (f"stable at the configured intensity (Hopf at {self.critical_lam:.3g} x mu; "
                     "no cycle there)")
+        if not self.cycles and not self.points:  # the elastic law's march and shot
+            return f"no exact orbit found ({self.end})"
         if not self.cycles:
             top = max((p.tip_amplitude for p in self.points), default=0.0)
             return f"no bounded cycle below {top * 1e6:.3g} um tip ({self.end})"
