@@ -28,8 +28,10 @@ class SettleConfig:
         default=0, metadata=_key("-", "seed of the perturbation's random phases", min=0))
     seed_amplitude: float = field(
         default=1e-6,
-        metadata=_key("m", "tip amplitude of the unstable waves' seed (start = 'preload')",
-                      gt=0.0, max=1e-2))
+        metadata=_key("m", "tip amplitude of the unstable waves' seed (start = 'preload'; "
+                      "under the elastic law at most half the fastest wave's slip onset: a "
+                      "seed above the bounded state locks prestress into contacts that "
+                      "then stick)", gt=0.0, max=1e-2))
     window_periods: int = field(
         default=20,
         metadata=_key("-", "periods (of the start's frequency) per stationarity window",
