@@ -4,11 +4,12 @@ wave's exact single-wave orbit with its largest Floquet multiplier (out/paper-li
 and where the flutter settles, with all NDs free (out/paper-settle.h5). The amplitude a
 designer signs off is the settled one (largest blade), the single-wave orbit beside it.
 Given the elastic law's files too, a second table: the stuck wheel's verdict and margin
-(out/paper-elastic-stability.h5) and the friction-limited exact orbit of its fastest wave
-with the contacts' slip shares (out/paper-elastic-limit-cycle.h5).
+(out/paper-elastic-stability.h5), the friction-limited exact orbit of its fastest wave
+with the contacts' slip shares (out/paper-elastic-limit-cycle.h5) and, when given, the
+whole wheel's settled state (out/paper-elastic-settle.h5, from ./run/paper_elastic).
 
 Usage: .venv/bin/python run/verdict.py STABILITY.h5 [LIMIT_CYCLE.h5] [SETTLE.h5]
-       [ELASTIC_STABILITY.h5 ELASTIC_LIMIT_CYCLE.h5]
+       [ELASTIC_STABILITY.h5 ELASTIC_LIMIT_CYCLE.h5 [ELASTIC_SETTLE.h5]]
 """
 
 from __future__ import annotations
@@ -87,26 +88,30 @@ def _linear(stability: str):
         return shroud, growth, ratio, g["nodal_diameter"][:, 0]
 
 
-def elastic_table(stability: str, limit_cycle: str) -> None:
-    """The elastic law's verdict: the stuck wheel and the friction-limited orbit."""
+def elastic_table(stability: str, limit_cycle: str, settle: str | None = None) -> None:
+    """The elastic law's verdict: the stuck wheel, the friction-limited orbit and, when
+    ``settle`` is given, the whole wheel's settled state."""
     cycles = _by_shroud(limit_cycle, "limit_cycle")
+    settled = _by_shroud(settle, "settle")
     shroud, growth, ratio, nd = _linear(stability)
     print("\nUnder the elastic Coulomb contact (contacts.law = \"elastic\"):\n")
-    print("| shroud [deg] | stuck wheel | growth [1/s] | margin (x mu) "
+    print("| shroud [deg] | stuck wheel | growth [1/s] | margin (x mu) | settled (largest blade) "
           "| friction-limited exact orbit (fastest wave) |")
-    print("|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|")
     for k, a in enumerate(shroud):
         key = round(float(a), 6)
         verdict = "flutters" if growth[k] > 1e-6 else "stable"
         lc = _cycle(cycles[1], cycles[0][key]) if cycles and key in cycles[0] else "-"
-        print(f"| {a:g} | {verdict} (ND {nd[k]}) | {growth[k]:+.3f} | {ratio[k]:.3g} | {lc} |")
+        st = _settled(settled[1], settled[0][key]) if settled and key in settled[0] else "-"
+        print(f"| {a:g} | {verdict} (ND {nd[k]}) | {growth[k]:+.3f} | {ratio[k]:.3g} | {st} "
+              f"| {lc} |")
 
 
 def main(argv: list[str]) -> None:
     stability = argv[0]
     cycles = _by_shroud(argv[1] if len(argv) > 1 else None, "limit_cycle")
     settled = _by_shroud(argv[2] if len(argv) > 2 else None, "settle")
-    elastic = argv[3:5] if len(argv) > 4 else None
+    elastic = argv[3:6] if len(argv) > 4 else None
     shroud, growth, ratio, nd = _linear(stability)
     print("| shroud [deg] | linear | growth [1/s] | margin (x mu) | settled (largest blade) "
           "| single-wave exact orbit |")
