@@ -98,25 +98,18 @@ def test_a_case_still_growing_is_not_settled(small_model, capsys):
 
 
 def test_the_elastic_law_settles_from_the_preload_carrying_its_sliders(small_model):
-    """Under the elastic law settle starts from the preloaded equilibrium (it refuses a start
-    from an orbit: the shooting does not carry the sliders yet). Two windows of settle are
-    one transient over both: the sliders are carried from window to window, not restarted
-    at rest (restarted at rest, the state parts from the continuous run's)."""
+    """Under the elastic law two windows of settle are one transient over both: the sliders
+    are carried from window to window, not restarted at rest (restarted at rest, the state
+    parts from the continuous run's)."""
     from wheelrom.analysis.periodic.settle import (
         Settings,
         settle_case,
         window_config,
     )
-    from wheelrom.config.study import expand
-    from wheelrom.runtime.errors import InputError
-    from wheelrom.studies.limit_cycles import refuse_uncarried_law
     from wheelrom.transient.run import run_case
 
     cfg = config.load(SMALL, ["contacts.law=elastic", "sweep.shroud_angles_deg=[80.0]",
                               "excitation.force=0.0"])  # fmt: skip
-    with pytest.raises(InputError, match="settle.start = 'preload' does"):
-        refuse_uncarried_law(expand(cfg), "settle")
-    refuse_uncarried_law(expand(cfg.replace(**{"settle.start": "preload"})), "settle")
     angles = {"shroud": 80.0}
     rng = np.random.default_rng(3)
     u0 = np.concatenate([rng.normal(size=small_model.size) * 3e-4, np.zeros(small_model.size)])

@@ -135,3 +135,27 @@ def test_the_whole_wheel_settles_on_the_elastic_orbit(elastic_orbit):
     assert out.settled and int(np.argmax(out.nd_energy)) == 6
     assert out.amplitude.max() == pytest.approx(cycle.tip_amplitude, rel=0.01)
     assert out.classification.frequency_hz == pytest.approx(cycle.frequency_hz, rel=1e-3)
+
+
+def test_settle_from_the_elastic_orbit_carries_its_sliders_and_stays_on_it(elastic_orbit):
+    """``settle.start = "cycle"`` under the elastic law starts the whole wheel on the orbit
+    with its sliders (the file's ``orbit_sliders``, or the orbit computed), every ND
+    perturbed at 1e-3 of it: the orbit attracts the whole wheel (ND 6 is the small wheel's
+    N/2), so it settles where it started, to 2e-3 (measured 4e-4); started with the sliders
+    at rest at the orbit's state instead, the stuck tie-boss takes the orbit's tangential
+    force as a new offset and the wheel settles 1.2 % higher (measured: another orbit of
+    the family)."""
+    from wheelrom.analysis.periodic.settle import Settings, settle_case
+    from wheelrom.studies.settle import _start
+
+    cfg, model, angles, res = elastic_orbit
+    cycle = res.branches[0].cycles[0]
+    u0, frequency, words, amplitude = _start(model, cfg, angles, None)
+    assert words.startswith("the exact orbit of wave 6")
+    n = 2 * model.size
+    tiled = cycle.orbit.sliders[:, np.arange(model.blades) % 2]
+    assert u0.size == n + 4 + tiled.size and np.array_equal(u0[n + 4 :], tiled.ravel())
+    out = settle_case(model, cfg, angles, u0, frequency,
+                      Settings(window_periods=20, min_time=0.3, max_time=1.0))  # fmt: skip
+    assert int(np.argmax(out.nd_energy)) == 6
+    assert out.amplitude.max() == pytest.approx(amplitude, rel=2e-3)

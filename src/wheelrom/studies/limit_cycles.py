@@ -23,25 +23,6 @@ from wheelrom.studies.plan import shared_models
 from wheelrom.studies.queue import CaseQueue
 
 
-def refuse_uncarried_law(study, command: str) -> None:
-    """Refuse, before anything is computed, a study with a case under the elastic contact
-    law in a command that does not carry its sliders yet: ``settle`` from an orbit (its
-    start is the orbit's ``q, q'``; ``settle.start = "preload"`` carries them, a transient
-    window to window). ``limit-cycle`` carries them (the harmonic balance marches the
-    hysteresis, the shooting has them in its state: issue #44)."""
-    carried = {"limit-cycle": lambda c: True,
-               "settle": lambda c: c.settle.start == "preload"}.get(command, lambda c: False)
-    elastic = [i for i, c in enumerate(study.configs)
-               if c.contacts.law == "elastic" and not carried(c)]  # fmt: skip
-    if elastic:
-        which = "the configuration" if study.size == 1 else f"case {elastic[0]} of the study"
-        hint = " (settle.start = 'preload' does)" if command == "settle" else ""
-        raise InputError(f"{command}: {which} has contacts.law = 'elastic', which {command} "
-                         f"does not carry from an orbit yet{hint}: the start would drop the "
-                         "sliders; the transient, stability, margin, sweep, study and "
-                         "limit-cycle do")
-
-
 def run_limit_cycles(cfg: Config, comm=None, log=print, waves=None,
                      progress=None) -> tuple[object, list[CaseLimitCycles]]:  # fmt: skip
     """``(model, results)`` of every case of ``cfg``'s study (``[study]`` grid, zip or CSV
@@ -50,7 +31,6 @@ def run_limit_cycles(cfg: Config, comm=None, log=print, waves=None,
     case's). ``waves``: the travelling waves to analyse instead of ``limit_cycle.waves``;
     ``progress(text)`` (rank 0) at every branch point."""
     study = expand(cfg)
-    refuse_uncarried_law(study, "limit-cycle")
     rank = comm.rank if comm is not None else 0
     say = log if rank == 0 and log is not None else (lambda *_: None)
     t0 = time.perf_counter()

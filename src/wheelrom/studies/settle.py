@@ -38,7 +38,6 @@ from wheelrom.config.study import expand, short_name
 from wheelrom.runtime.errors import InputError
 from wheelrom.runtime.outputs import agree, disk_full, is_disk_full
 from wheelrom.studies.kept_cases import DamagedCase, kept_dir, read_case, write_case
-from wheelrom.studies.limit_cycles import refuse_uncarried_law
 from wheelrom.studies.plan import shared_models
 from wheelrom.studies.queue import CaseQueue
 from wheelrom.studies.rounds import wait_for_all
@@ -91,10 +90,11 @@ def check_cycles(path: str, cfg: Config) -> None:
 
 
 def _cycle_from_file(path: str, angles: dict, blades: int):
-    """``(state (2, N, m), frequency [Hz], tip amplitude [m])`` of the case with ``angles`` in
-    a limit-cycle file: its first exact orbit, else its first harmonic-balance cycle (every
-    blade from blade 0's harmonics:
-    :func:`~wheelrom.analysis.periodic.harmonic_balance.wave_state`); None."""
+    """``(state (2, N, m), frequency [Hz], tip amplitude [m], sliders (K, N, 2) [m] or
+    None)`` of the case with ``angles`` in a limit-cycle file: its first exact orbit (under
+    the elastic law with its sliders), else its first harmonic-balance cycle (every blade
+    from blade 0's harmonics: :func:`~wheelrom.analysis.periodic.harmonic_balance.
+    wave_state`); None."""
     import h5py
 
     with h5py.File(path, "r") as f:
@@ -111,14 +111,17 @@ def _cycle_from_file(path: str, angles: dict, blades: int):
                 for j in range(c["tip_amplitude"].shape[0]):
                     if "orbit_state" in c and np.all(np.isfinite(c["orbit_state"][j])):
                         state = c["orbit_state"][j]
-                        full = state[:, np.arange(blades) % state.shape[1]]
-                        return full, 1.0 / c["orbit_period"][j], c["tip_amplitude"][j]
+                        every = np.arange(blades) % state.shape[1]
+                        sliders = c["orbit_sliders"][j][:, every] if "orbit_sliders" in c \
+                            else None  # fmt: skip
+                        return (state[:, every], 1.0 / c["orbit_period"][j],
+                                c["tip_amplitude"][j], sliders)  # fmt: skip
             for w in waves:  # no exact orbit: the harmonic balance's cycle
                 c = w["cycles"]
                 hz = float(c["frequency_hz"][0])
                 q, v = wave_state(c["harmonics"][0], int(w.attrs["wave"]), blades,
                                   2 * math.pi * hz)  # fmt: skip
-                return np.stack([q, v]), hz, c["tip_amplitude"][0]
+                return np.stack([q, v]), hz, c["tip_amplitude"][0], None
     return None
 
 
@@ -147,10 +150,13 @@ def _start(model, cfg: Config, angles: dict, cycles_file: str | None, comm=None)
         for branch in res.branches:
             for c in branch.cycles:
                 if found is None and c.orbit is not None:
-                    found = (c.orbit.wheel_state(N), c.frequency_hz, c.tip_amplitude)
+                    sliders = c.orbit.sliders
+                    if sliders is not None:  # the elastic law's, every blade
+                        sliders = sliders[:, np.arange(N) % sliders.shape[1]]
+                    found = (c.orbit.wheel_state(N), c.frequency_hz, c.tip_amplitude, sliders)
                     words = f"the exact orbit of wave {branch.wave}"
     if found is not None:
-        state, frequency, amplitude = found
+        state, frequency, amplitude, sliders = found
         u0 = state.reshape(2, -1)
         q0 = u0[0].reshape(N, -1)
         seed = amplitude * st.perturbation
@@ -176,11 +182,17 @@ def _start(model, cfg: Config, angles: dict, cycles_file: str | None, comm=None)
     u0 = u0.copy()
     u0[0] = (q0 + start_perturbation(model, every)).ravel()
     u0 = u0.ravel()
-    if found is None and cfg.contacts.law == "elastic":
+    if cfg.contacts.law == "elastic":  # the whole state: q, q', 4 work integrals, sliders
+        from wheelrom.forces.parameters import force_parameters
         from wheelrom.forces.reference import ReferenceForces
 
-        sliders = ReferenceForces(params).sliders_at_rest(q)
-        u0 = np.concatenate([u0, np.zeros(4), sliders.ravel()])
+        if found is None:  # at rest at the equilibrium: the seed solves the stuck equations
+            sliders = ReferenceForces(params).sliders_at_rest(q)
+        elif sliders is None:  # a harmonic-balance cycle holds none: at rest at its start
+            sliders = ReferenceForces(force_parameters(model, cfg, angles)).sliders_at_rest(
+                np.ascontiguousarray(q0))  # fmt: skip
+            words += " (its sliders at rest there: the cycle file holds none)"
+        u0 = np.concatenate([u0, np.zeros(4), np.ravel(sliders)])
     return (u0, frequency,
             f"{words}, every ND perturbed at {seed:.3g} m (seed {st.seed})", float(amplitude))
 
@@ -317,7 +329,6 @@ def run_settle(cfg: Config, out: str | None, comm=None, log=print, resume: bool 
     """``(model, [(angles, parameters, Settled)])`` of every case on rank 0 (others: the
     model and ``[]``). ``warn``: a damaged saved case, on whichever rank finds it."""
     study = expand(cfg)
-    refuse_uncarried_law(study, "settle")
     rank = comm.rank if comm is not None else 0
     say = log if rank == 0 and log is not None else (lambda *_: None)
     model_of, models = shared_models(study.configs, comm, say)
