@@ -126,10 +126,11 @@ class SliderShooting:
 
     def slip_onset(self, q_eq: np.ndarray, vector: np.ndarray) -> float:
         """The tip amplitude [m] at which the wave's stuck mode (:meth:`unit_mode`) first
-        reaches a contact's stick range ``mu F_n / k_t`` in its tangential relative motion or
-        opens one (its normal relative motion reaching ``F_n / k_c``), every contact at its
-        preloaded normal force ``F_n``; ``inf`` when it moves none. Below it the stuck wheel's
-        linear growth is exact: the march starts there instead of growing to it."""
+        reaches a closed contact's stick range ``mu F_n / k_t`` in its tangential relative
+        motion, opens a closed one (its normal relative motion reaching ``F_n / k_c``) or
+        closes an open one (through its gap), every contact at its preloaded normal force
+        ``F_n``; ``inf`` when it moves none. Below it the stuck wheel's linear growth is
+        exact: the march starts there instead of growing to it."""
         forces = self.flow.forces()
         q0 = np.ascontiguousarray(q_eq[: self.N], dtype=float)
         zero = np.zeros_like(q0)
@@ -146,12 +147,17 @@ class SliderShooting:
         reach = np.sqrt(0.5 * (np.sum(np.abs(tangential) ** 2, axis=2)
                                + np.abs(np.sum(tangential**2, axis=2))))  # fmt: skip
         c = self.flow.params.contacts
+        k_c = c.stiffness[:, : self.N]
+        closed = normal > 0.0
         stick = self.flow.params.law.coulomb * normal / np.maximum(c.tangential[:, : self.N],
                                                                    1e-300)  # fmt: skip
-        opening = normal / c.stiffness[:, : self.N]
+        # a closed contact opens when its normal motion reaches F_n / k_c; an open one (its
+        # preload taken by the static load) closes when it moves through its gap
+        # u_eta - F_N0 / k_c (F_n = max(0, F_N0 - k_c u_eta)): neither slips nor sticks before
+        normal_reach = np.where(closed, normal / k_c, base[:, :, 1] - c.preload[:, None] / k_c)
         with np.errstate(divide="ignore"):
-            limits = np.concatenate([(stick / reach).ravel(),
-                                     (opening / np.abs(d[:, :, 1])).ravel()])  # fmt: skip
+            limits = np.concatenate([(stick / reach)[closed],
+                                     (normal_reach / np.abs(d[:, :, 1])).ravel()])  # fmt: skip
         return float(limits.min(initial=math.inf))
 
     def energy(self, x: np.ndarray) -> float:
