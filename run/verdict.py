@@ -72,7 +72,7 @@ def _settled(path, i):
             half = top[top.size // 2 :] * 1e6
             nd = int(np.argmax(g["nd_energy"][()]))
             return (f"not settled in {g.attrs['time']:.3g} s; bounded: largest blade "
-                    f"{half.min():.1f}..{half.max():.1f} um over the second half (ND {nd} "
+                    f"{half.min():.3g}..{half.max():.3g} um over the second half (ND {nd} "
                     f"{g['nd_energy'][nd]:.0%})")
         nd = int(np.argmax(g["nd_energy"][()]))
         return (f"{a.max() * 1e6:.2f} um ({g.attrs['kind']}; blades {a.min() * 1e6:.2f}.."
