@@ -45,19 +45,16 @@ from wheelrom.analysis.periodic.flow import (
 )
 from wheelrom.analysis.periodic.forced_wave import ForcedWave
 from wheelrom.analysis.periodic.monodromy import label_vectors
+from wheelrom.analysis.periodic.newton import newton_least_squares
 from wheelrom.config import Config
 from wheelrom.rom.model import ReducedModel
 from wheelrom.runtime.environment import petsc
 
 MAX_ITERATIONS = 20
-#: converged at this scaled residual (relative to the vibration), or at the rounding floor
-#: of the static deflection in the same units (as the autonomous shot)
-TOLERANCE, ROUNDOFF = 1e-10, 1e-12
-#: a Newton that no longer reduces a residual this small has reached the rounding of the
-#: shot (a whole period of the whole wheel under an aerodynamic table: 800 steps, 2.9e-10)
-STAGNATION = 1e-8
+#: the rounding floor of the static deflection in units of the vibration (converged there,
+#: or at :data:`~.newton.TOLERANCE`, as the autonomous shot)
+ROUNDOFF = 1e-12
 DIFFERENCE = 1e-6  # central-difference step, relative to the vibration
-RCOND = 1e-8  # least-squares cut-off of the Newton step, relative to the largest singular value
 #: the elastic law's start is marched period by period from the sliders at rest at the mean
 #: until a period changes the state by less than ``MARCH_TOLERANCE`` of the vibration (at
 #: most ``MARCH_PERIODS``; the best period kept): a contact in partial slip walks to its
@@ -236,23 +233,11 @@ class ForcedShooting:
         x = np.array(x0, dtype=float)
         scale = self._scale(x, tip_amplitude)
         floor = ROUNDOFF * float(np.abs(x / scale).max())
-        F = (self.shot(x[None])[0] - x) / scale
-        size, reason, it = float(np.abs(F).max()), "iterations", 0
-        for it in range(MAX_ITERATIONS + 1):
-            if not math.isfinite(size):
-                reason = "the shot diverged"
-                break
-            if size <= max(TOLERANCE, floor):
-                reason = "converged"
-                break
-            if it == MAX_ITERATIONS:
-                break
-            G = self.jacobian(x, scale)
-            x, F, size, ok = self._step(x, F, size, G - np.eye(self.n), scale)
-            if not ok:  # stagnated: at the rounding floor of a long shot, or stuck
-                reason = "converged at the rounding floor" if size <= STAGNATION else \
-                    "no step reduces the residual"  # fmt: skip
-                break
+        z, _, size, reason, it = newton_least_squares(
+            lambda z: (self.shot((z * scale)[None])[0] - z * scale) / scale,
+            lambda z: self.jacobian(z * scale, scale) - np.eye(self.n),
+            x / scale, floor, MAX_ITERATIONS)  # fmt: skip
+        x = z * scale
         converged = reason.startswith("converged")
         orbit = ForcedOrbit(self.omega, x, self.N, size, it, converged, reason=reason,
                             steps_per_period=self.flow.steps_for(self.tau)[0] * self.shots)
@@ -262,23 +247,6 @@ class ForcedShooting:
             orbit.tip_amplitude = self.tip_amplitude(x)
         orbit.wall_s = time.perf_counter() - t0
         return orbit
-
-    def _step(self, x, F, size, A, scale):
-        """The Newton step (least squares: a stuck slider's direction is singular), halved
-        until the residual's 2-norm falls (at most 6 times; the Newton direction descends
-        in the 2-norm, not necessarily in the max norm that decides convergence)."""
-        # the cut-off above the differences' noise (~1e-10 of the unknowns over their scale;
-        # a stuck slider's offset is large in units of the vibration): a neutral direction
-        # must not take a step of residual over noise
-        dz = np.linalg.lstsq(A, -F, rcond=RCOND)[0]
-        a, norm = 1.0, float(np.linalg.norm(F))
-        for _ in range(7):
-            trial = x + a * dz * scale
-            F_trial = (self.shot(trial[None])[0] - trial) / scale
-            if np.linalg.norm(F_trial) < norm:
-                return trial, F_trial, float(np.abs(F_trial).max()), True
-            a *= 0.5
-        return x, F, size, False
 
     def _multipliers(self, G: np.ndarray, scale: np.ndarray):
         """``(mu, nd)`` of the pattern map's Jacobian ``G`` (scaled), largest first; the ND

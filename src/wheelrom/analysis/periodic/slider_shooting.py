@@ -30,16 +30,14 @@ import numpy as np
 
 from wheelrom.analysis.periodic.flow import WheelFlow, pattern_model, shift_blades
 from wheelrom.analysis.periodic.hopf import tip_measure
+from wheelrom.analysis.periodic.newton import newton_least_squares
 from wheelrom.analysis.periodic.shooting import Orbit, OrbitSamples
 from wheelrom.config import Config
 from wheelrom.rom.model import ReducedModel
 
 MAX_ITERATIONS = 25
-TOLERANCE, ROUNDOFF = 1e-10, 1e-12  # as the autonomous shot
-#: a Newton that no longer reduces a residual this small has reached the shot's rounding
-STAGNATION = 1e-8
+ROUNDOFF = 1e-12  # the rounding floor relative to the largest scaled unknown (as the shot's)
 DIFFERENCE = 1e-6  # central-difference step, relative to the vibration
-RCOND = 1e-8  # least-squares cut-off of the Newton step (relative to the largest singular value)
 #: the march: chunks of ``MARCH_PERIODS`` periods until the vibration energy changes by less
 #: than ``MARCH_TOLERANCE`` over one, at most ``MARCH_CHUNKS`` chunks (the paper wheel's ND 33
 #: settles in 200-300 periods; its ND 31, whose pattern is the whole wheel, had not in 6000,
@@ -264,52 +262,42 @@ class SliderShooting:
         """Newton from ``x0`` ``(n,)`` and ``period`` [s] (``tip_amplitude`` [m]: the
         sliders' unit); the orbit (``converged`` False when Newton failed)."""
         t0 = time.perf_counter()
-        x, T = np.array(x0, dtype=float), float(period)
-        steps = self.flow.steps_for(self.fraction * T)[0]  # fixed: the map smooth in T
-        scale = self._scale(x, T, tip_amplitude)
-        one = self.flow.steps_for(self.fraction * T / steps)  # one step along the flow
+        x, period = np.array(x0, dtype=float), float(period)
+        steps = self.flow.steps_for(self.fraction * period)[0]  # fixed: the map smooth in T
+        scale = self._scale(x, period, tip_amplitude)
+        one = self.flow.steps_for(self.fraction * period / steps)  # one step along the flow
         normal = (self.flow.advance(x[None], one[1], 1)[0] - x) / scale
         normal /= max(np.linalg.norm(normal), 1e-300)
         start = x / scale
         floor = ROUNDOFF * float(np.abs(start).max())
 
-        def residual(x, T):
-            F = np.empty(self.n + 1)
-            F[: self.n] = (self.shot(x[None], T, steps)[0] - x) / scale
-            F[self.n] = normal @ (x / scale - start)
+        n = self.n
+
+        def unknowns(z):  # z: x in its units, then T over the start's period
+            return z[:n] * scale, period * z[n]
+
+        def residual(z):
+            x, T = unknowns(z)
+            if not T > 0:
+                return np.full(n + 1, np.nan)
+            F = np.empty(n + 1)
+            F[:n] = (self.shot(x[None], T, steps)[0] - x) / scale
+            F[n] = normal @ (z[:n] - start)
             return F
 
-        F = residual(x, T)
-        size, reason, it = float(np.abs(F).max()), "iterations", 0
-        for it in range(MAX_ITERATIONS + 1):
-            if not math.isfinite(size):
-                reason = "the shot diverged"
-                break
-            if size <= max(TOLERANCE, floor):
-                reason = "converged"
-                break
-            if it == MAX_ITERATIONS:
-                break
-            A = np.zeros((self.n + 1, self.n + 1))
-            A[: self.n, : self.n] = self.jacobian(x, T, steps, scale) - np.eye(self.n)
+        def jacobian(z):
+            x, T = unknowns(z)
+            A = np.zeros((n + 1, n + 1))
+            A[:n, :n] = self.jacobian(x, T, steps, scale) - np.eye(n)
             dT = DIFFERENCE * T
             later = self.shot(x[None], T + dT, steps)[0] - self.shot(x[None], T - dT, steps)[0]
-            A[: self.n, self.n] = later / (2 * dT) / scale * T
-            A[self.n, : self.n] = normal
-            dz = np.linalg.lstsq(A, -F, rcond=RCOND)[0]
-            a, norm, ok = 1.0, float(np.linalg.norm(F)), False
-            for _ in range(7):  # halved until the 2-norm falls (Newton descends in it)
-                trial_x, trial_T = x + a * dz[: self.n] * scale, T * (1 + a * dz[self.n])
-                trial = residual(trial_x, trial_T) if trial_T > 0 else np.full_like(F, np.nan)
-                if np.linalg.norm(trial) < norm:
-                    x, T, F, ok = trial_x, trial_T, trial, True
-                    size = float(np.abs(F).max())
-                    break
-                a *= 0.5
-            if not ok:
-                reason = "converged at the rounding floor" if size <= STAGNATION else \
-                    "no step reduces the residual"  # fmt: skip
-                break
+            A[:n, n] = later / (2 * dT) / scale * period
+            A[n, :n] = normal
+            return A
+
+        z, _, size, reason, it = newton_least_squares(
+            residual, jacobian, np.concatenate([start, [1.0]]), floor, MAX_ITERATIONS)
+        x, T = unknowns(z)
         converged = reason.startswith("converged")
         q_v = x[: self.nq].reshape(2, self.N, self.m)
         orbit = Orbit(self.wave, T, q_v, self.shift, self.fraction, size, it, converged,

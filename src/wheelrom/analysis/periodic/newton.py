@@ -1,0 +1,59 @@
+"""Newton with the least-squares step, for shots whose Jacobian can be singular: a contact
+that sticks the whole period under the elastic law leaves its slider free (a neutral
+direction), so the step is the minimum-norm one (the free directions stay where they are).
+The forced shot (:mod:`.forced_shooting`) and the elastic law's autonomous shot
+(:mod:`.slider_shooting`) solve with it, on unknowns scaled to the vibration."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+
+#: converged at this residual (scaled: relative to the vibration), or at the caller's
+#: rounding floor
+TOLERANCE = 1e-10
+#: a Newton that no longer reduces a residual this small has reached the rounding of the
+#: shot (a whole period of the whole wheel under an aerodynamic table: 800 steps, 2.9e-10)
+STAGNATION = 1e-8
+#: the least-squares cut-off, relative to the largest singular value: above the differences'
+#: noise (~1e-10 of the unknowns over their scale; a stuck slider's offset is large in units
+#: of the vibration), so that a neutral direction takes no step of residual over noise
+RCOND = 1e-8
+HALVINGS = 7  # of a step whose residual's 2-norm does not fall
+
+
+def newton_least_squares(residual: Callable, jacobian: Callable, z: np.ndarray,
+                         floor: float, max_iterations: int):  # fmt: skip
+    """``(z, F, size, reason, iterations)``: Newton on ``residual(z)`` (scaled, ``(r,)``)
+    from ``z`` with ``jacobian(z)`` ``(r, len(z))``, each step the least-squares one halved
+    until the residual's 2-norm falls (the direction descends in it, not necessarily in the
+    max norm ``size`` that decides convergence: ``size <= max(TOLERANCE, floor)``).
+    ``reason`` in words: 'converged', 'converged at the rounding floor', 'the shot
+    diverged', 'no step reduces the residual' or 'iterations'."""
+    F = residual(z)
+    size, reason, it = float(np.abs(F).max()), "iterations", 0
+    for it in range(max_iterations + 1):
+        if not math.isfinite(size):
+            reason = "the shot diverged"
+            break
+        if size <= max(TOLERANCE, floor):
+            reason = "converged"
+            break
+        if it == max_iterations:
+            break
+        dz = np.linalg.lstsq(jacobian(z), -F, rcond=RCOND)[0]
+        a, norm, stepped = 1.0, float(np.linalg.norm(F)), False
+        for _ in range(HALVINGS):
+            trial = residual(z + a * dz)
+            if np.linalg.norm(trial) < norm:
+                z, F, stepped = z + a * dz, trial, True
+                size = float(np.abs(F).max())
+                break
+            a *= 0.5
+        if not stepped:  # stagnated: at the rounding floor of a long shot, or stuck
+            reason = "converged at the rounding floor" if size <= STAGNATION else \
+                "no step reduces the residual"  # fmt: skip
+            break
+    return z, F, size, reason, it
