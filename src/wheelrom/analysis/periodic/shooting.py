@@ -94,9 +94,10 @@ class Shooting:
     def __init__(self, model: ReducedModel, cfg: Config, wave: int,
                  angles_deg: dict | None = None, lam: float = 1.0, comm=None,
                  options: dict | None = None):  # fmt: skip
-        if cfg.contacts.law == "elastic":  # the shot's state would drop the sliders
-            raise InputError("shooting does not carry the elastic contact law's sliders yet "
-                             "(contacts.law = 'elastic'; issue #44)")
+        if cfg.contacts.law == "elastic":  # this shot's state would drop the sliders
+            raise InputError("this shot does not carry the elastic contact law's sliders: "
+                             "under contacts.law = 'elastic' the exact orbit is marched and "
+                             "shot by analysis/periodic/slider_shooting.py (limit-cycle does)")
         self.full_model, self.wave = model, int(wave)
         pattern, g, j = pattern_model(model, wave, cfg.flutter.model != "table")
         self.model, self.g, self.shift = pattern, g, j
