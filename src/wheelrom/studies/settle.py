@@ -215,7 +215,7 @@ def _below_slip_onset(model, cfg, angles, q, B0, B1, size: float) -> tuple[float
         onset = shooting.slip_onset(q, wave_mode(B0[k], B1[k], 1.0)[2])
     finally:
         shooting.destroy()
-    if SEED_FRACTION * onset >= size:
+    if not 0 < SEED_FRACTION * onset < size:  # nothing slips below the configured seed
         return size, ""
     return SEED_FRACTION * onset, (f" (half the stuck mode's slip onset, below "
                                    f"settle.seed_amplitude = {size:g} m)")  # fmt: skip

@@ -150,12 +150,12 @@ def marched_cycle(model, cfg, angles, branch, q_eq: np.ndarray, blocks, harmonic
     blocks ``(B0, B1)``) seeded at half its slip onset on the wave's pattern wheel with the
     sliders at rest at the equilibrium ``q_eq`` ``(N, m)``, marched until its energy settles,
     then shot (``progress(tip_amplitude)`` [m] after every chunk of the march); appended to
-    ``branch.cycles`` when Newton converges,
-    said in ``branch.end`` either way. Its stability is not computed: the fixed-step map's
-    differenced multipliers are not trusted across stick-slip switches (measured on the paper
-    wheel at 70 deg: a pair of modulus 1.02 with differences of 1e-6 and 1e-7 of the
-    vibration, 1.0003 with 1e-4, where the march itself converges onto the orbit); the march
-    reaching it says that it attracts inside its own symmetry."""
+    ``branch.cycles`` when Newton converges, said in ``branch.end`` either way. Its stability
+    is not computed: the fixed-step map's differenced multipliers are not trusted across
+    stick-slip switches (measured on the paper wheel at 70 deg: a pair of modulus 1.02 with
+    differences of 1e-6 and 1e-7 of the vibration, 1.0003 with 1e-4, where the march itself
+    converges onto the orbit); the march reaching it says that it attracts inside its own
+    symmetry."""
     lam_c = branch.critical_lam
     branch.hopf_hz = float(wave_mode(blocks[0], blocks[1], lam_c if lam_c > 0 else 1.0)[1].imag
                            / (2 * math.pi))  # fmt: skip
@@ -164,16 +164,11 @@ def marched_cycle(model, cfg, angles, branch, q_eq: np.ndarray, blocks, harmonic
     shooting = SliderShooting(model, cfg, branch.wave, angles, 1.0)
     try:
         onset = shooting.slip_onset(q_eq, vector)
-        seed = SEED_FRACTION * onset if math.isfinite(onset) else SEED
+        seed = SEED_FRACTION * onset if 0 < onset < math.inf else SEED
         x = shooting.start(q_eq, vector, seed)
         say = None if progress is None else (lambda periods, tip: progress(tip))
         x, period, periods = shooting.march(x, period, progress=say)
-        tip = (
-            float(np.linalg.norm(model.tip @ x[shooting.nq // 2 : shooting.nq // 2 + shooting.m]))
-            * period
-            / (2 * math.pi)
-        )
-        orbit = shooting.solve(x, period, max(tip, 1e-300))
+        orbit = shooting.solve(x, period, max(shooting.tip_estimate(x, period), 1e-300))
         how = (f"the elastic law: marched {periods} periods on the {shooting.N}-blade pattern "
                f"from the growing mode at {seed * 1e6:.3g} um")  # fmt: skip
         if not orbit.converged:
