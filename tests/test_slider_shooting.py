@@ -131,9 +131,10 @@ def test_slip_onset_is_where_the_stuck_mode_first_changes_a_contacts_state(shrou
 def test_the_whole_wheel_settles_on_the_elastic_orbit(elastic_orbit):
     """The whole wheel's transient from the preloaded equilibrium (settle, every unstable
     wave's growing mode seeded at half the fastest one's slip onset, every ND perturbed)
-    settles in ND 6 at the exact orbit's amplitude and frequency to 1 % (measured: 0.321-
-    0.322 against 0.320 um; seeded at 1 um, above the orbit, the shroud's slip on the way
-    down locks a prestress into the stuck tie-boss and it settled at 0.323-0.329 um)."""
+    settles in ND 6 at the exact orbit's amplitude to 2 % and its frequency to 1e-3
+    (measured: 0.321-0.322 against 0.320 um; seeded at 1 um, above the orbit, the shroud's
+    slip on the way down locks a prestress into the stuck tie-boss and it settled at
+    0.323-0.329 um, 2.7 % above)."""
     from wheelrom.analysis.periodic.settle import Settings, settle_case
     from wheelrom.studies.settle import _start
 
@@ -145,7 +146,7 @@ def test_the_whole_wheel_settles_on_the_elastic_orbit(elastic_orbit):
     out = settle_case(model, cfg, angles, u0, frequency,
                       Settings(window_periods=20, min_time=1.0, max_time=2.0))  # fmt: skip
     assert out.settled and int(np.argmax(out.nd_energy)) == 6
-    assert out.amplitude.max() == pytest.approx(cycle.tip_amplitude, rel=0.01)
+    assert out.amplitude.max() == pytest.approx(cycle.tip_amplitude, rel=0.02)
     assert out.classification.frequency_hz == pytest.approx(cycle.frequency_hz, rel=1e-3)
 
 
