@@ -14,7 +14,11 @@ Floquet analysis of every Bloch family at the cycle.
   frequency difference;
 - ``monodromy_s``: the ``limit_cycle.multipliers`` largest Floquet multipliers of the whole
   wheel's monodromy (SLEPc; issue #38: 10 in <= 15 s), ``monodromy``: their count converged,
-  linearised periods, the largest and its ND.
+  linearised periods, the largest and its ND;
+- under the elastic law instead: ``elastic_orbit_s``, the exact orbit of the fastest wave
+  marched and shot with the sliders in the state, equilibrium included (issue #44: <= 20 s
+  on one core), ``elastic_orbit``: its wave, pattern, Newton iterations, residual, tip
+  amplitude and frequency.
 """
 
 from __future__ import annotations
@@ -44,8 +48,7 @@ SEED = 1e-5  # [m] tip amplitude of the first Newton start (then limit_cycle.see
 
 
 def limit_cycle_figures(model: ReducedModel, cfg: Config, say) -> dict:
-    # the elastic law: no exact orbit yet (the shooting carries no sliders; issue #44)
-    if not model.tuned or cfg.flutter.model == "off" or cfg.contacts.law == "elastic":
+    if not model.tuned or cfg.flutter.model == "off":
         return {"limit_cycle_s_per_case": None}
     angles = case_angles(cfg)
     growth = []
@@ -57,6 +60,8 @@ def limit_cycle_figures(model: ReducedModel, cfg: Config, say) -> dict:
         return {"limit_cycle_s_per_case": None}
     case = angles_of(angles[int(np.argmax(growth))])
     settings = settings_of(cfg)
+    if cfg.contacts.law == "elastic":  # no balance branch: the marched and shot orbit
+        return _elastic_orbit(model, cfg, case, settings, say)
     t0 = time.perf_counter()
     point, balance, wave = _one_cycle(model, cfg, case, settings)
     one = time.perf_counter() - t0
@@ -125,6 +130,29 @@ def _exact(model, cfg, case, wave, balance, point, settings, hb_tip, say) -> dic
                       "linearised_periods": mu.matvecs, "largest": mu.largest,
                       "largest_nd": int(mu.nd[mu.worst]) if mu.worst >= 0 else None},
     }  # fmt: skip
+
+
+def _elastic_orbit(model, cfg, case, settings, say) -> dict:
+    """The elastic law's exact orbit of the fastest wave (``wheelrom limit-cycle --nd
+    fastest`` of that case: the march and the shot), timed (issue #44: <= 20 s)."""
+    t0 = time.perf_counter()
+    res = case_limit_cycles(model, cfg, dataclasses.replace(settings, waves=(FASTEST,)), case)
+    wall = time.perf_counter() - t0
+    cycles = [c for b in res.branches for c in b.cycles]
+    if not cycles:
+        return {"limit_cycle_s_per_case": None, "elastic_orbit_s": wall,
+                "elastic_orbit": {"converged": False}}  # fmt: skip
+    c, branch = cycles[0], res.branches[0]
+    say(f"elastic exact orbit: shroud {case.get('shroud', math.nan):g} deg, wave "
+        f"{branch.wave}: {wall:.2f} s ({c.orbit.iterations} Newton iterations, residual "
+        f"{c.orbit.residual:.1e}), {c.tip_amplitude * 1e6:.4g} um, {c.frequency_hz:.5g} Hz")
+    return {"limit_cycle_s_per_case": None, "elastic_orbit_s": wall,
+            "elastic_orbit": {"converged": True, "angles_deg": case, "wave": branch.wave,
+                              "pattern_blades": c.orbit.pattern,
+                              "iterations": c.orbit.iterations,
+                              "residual": c.orbit.residual,
+                              "tip_amplitude_m": c.tip_amplitude,
+                              "frequency_hz": c.frequency_hz}}  # fmt: skip
 
 
 def _one_cycle(model, cfg, case, settings):
