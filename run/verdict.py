@@ -88,15 +88,16 @@ def _linear(stability: str):
         return shroud, growth, ratio, g["nodal_diameter"][:, 0]
 
 
-def elastic_table(stability: str, limit_cycle: str, settle: str | None = None) -> None:
-    """The elastic law's verdict: the stuck wheel, the friction-limited orbit and, when
-    ``settle`` is given, the whole wheel's settled state."""
+def table(stability: str, limit_cycle: str | None, settle: str | None, linear: str,
+          orbit: str) -> None:
+    """One verdict table: per shroud angle the linear verdict (column ``linear``), growth and
+    margin, the settled state and the exact orbit (column ``orbit``) where their files hold
+    the angle."""
     cycles = _by_shroud(limit_cycle, "limit_cycle")
     settled = _by_shroud(settle, "settle")
     shroud, growth, ratio, nd = _linear(stability)
-    print("\nUnder the elastic Coulomb contact (contacts.law = \"elastic\"):\n")
-    print("| shroud [deg] | stuck wheel | growth [1/s] | margin (x mu) | settled (largest blade) "
-          "| friction-limited exact orbit (fastest wave) |")
+    print(f"| shroud [deg] | {linear} | growth [1/s] | margin (x mu) | settled (largest blade) "
+          f"| {orbit} |")
     print("|---|---|---|---|---|---|")
     for k, a in enumerate(shroud):
         key = round(float(a), 6)
@@ -108,23 +109,12 @@ def elastic_table(stability: str, limit_cycle: str, settle: str | None = None) -
 
 
 def main(argv: list[str]) -> None:
-    stability = argv[0]
-    cycles = _by_shroud(argv[1] if len(argv) > 1 else None, "limit_cycle")
-    settled = _by_shroud(argv[2] if len(argv) > 2 else None, "settle")
-    elastic = argv[3:6] if len(argv) > 4 else None
-    shroud, growth, ratio, nd = _linear(stability)
-    print("| shroud [deg] | linear | growth [1/s] | margin (x mu) | settled (largest blade) "
-          "| single-wave exact orbit |")
-    print("|---|---|---|---|---|---|")
-    for k, a in enumerate(shroud):
-        key = round(float(a), 6)
-        verdict = "flutters" if growth[k] > 1e-6 else "stable"
-        lc = _cycle(cycles[1], cycles[0][key]) if cycles and key in cycles[0] else "-"
-        st = _settled(settled[1], settled[0][key]) if settled and key in settled[0] else "-"
-        print(f"| {a:g} | {verdict} (ND {nd[k]}) | {growth[k]:+.3f} | {ratio[k]:.3g} | {st} "
-              f"| {lc} |")
-    if elastic:
-        elastic_table(*elastic)
+    files = argv + [None] * (6 - len(argv))
+    table(files[0], files[1], files[2], "linear", "single-wave exact orbit")
+    if files[4]:  # the elastic law's: the stuck wheel and the friction-limited orbit
+        print("\nUnder the elastic Coulomb contact (contacts.law = \"elastic\"):\n")
+        table(files[3], files[4], files[5], "stuck wheel",
+              "friction-limited exact orbit (fastest wave)")
 
 
 if __name__ == "__main__":

@@ -208,11 +208,11 @@ def _below_slip_onset(model, cfg, angles, q, B0, B1, size: float) -> tuple[float
     from wheelrom.analysis.periodic.hopf import wave_mode
     from wheelrom.analysis.periodic.slider_shooting import SEED_FRACTION, SliderShooting
 
-    growth = [wave_mode(B0[k], B1[k], 1.0)[0] for k in range(model.blades)]
-    k = int(np.argmax(growth))
+    modes = [wave_mode(B0[k], B1[k], 1.0) for k in range(model.blades)]
+    k = int(np.argmax([growth for growth, _, _ in modes]))
     shooting = SliderShooting(model, cfg, k, angles)
     try:
-        onset = shooting.slip_onset(q, wave_mode(B0[k], B1[k], 1.0)[2])
+        onset = shooting.slip_onset(q, modes[k][2])
     finally:
         shooting.destroy()
     if not 0 < SEED_FRACTION * onset < size:  # nothing slips below the configured seed

@@ -147,6 +147,17 @@ class WheelFlow:
             self._batches[B] = (problem, ts, f, f.duplicate())
         return self._batches[B]
 
+    def shift(self, states: np.ndarray, j: int) -> np.ndarray:
+        """Flat states ``(B, 2 N m + sliders)`` (:meth:`advance`'s) with blade ``s`` replaced
+        by blade ``s + j``: ``q``, ``q'`` and the elastic law's sliders ``(K, N, 2)``, whose
+        blades are on the same axis."""
+        B, nq = states.shape[0], 2 * self.n
+        parts = [shift_blades(states[:, :nq].reshape(B, 2, self.N, self.m), j)]
+        if self.sliders:
+            K = self.sliders // (2 * self.N)
+            parts.append(shift_blades(states[:, nq:].reshape(B, K, self.N, 2), j))
+        return np.concatenate([p.reshape(B, -1) for p in parts], axis=1)
+
     def forces(self):
         """The case's :class:`~wheelrom.forces.reference.ReferenceForces` on the flow's wheel
         (its contact laws, sliders and equilibrium checks)."""

@@ -41,7 +41,6 @@ from wheelrom.analysis.periodic.flow import (
     pattern_blades,
     pattern_model,
     pattern_nd,
-    shift_blades,
 )
 from wheelrom.analysis.periodic.forced_wave import ForcedWave
 from wheelrom.analysis.periodic.monodromy import label_vectors
@@ -153,19 +152,10 @@ class ForcedShooting:
         self.flow.destroy()
 
     # ------------------------------------------------------------------ the map
-    def shift_states(self, x: np.ndarray, j: int) -> np.ndarray:
-        """``(B, n)`` states with pattern blade ``s`` replaced by blade ``s + j`` (the
-        sliders ``(K, N', 2)`` have their blades on the same axis as ``q``)."""
-        B, nq = x.shape[0], 2 * self.N * self.m
-        parts = [shift_blades(x[:, :nq].reshape(B, 2, self.N, self.m), j)]
-        if self.sliders:
-            parts.append(shift_blades(x[:, nq:].reshape(B, self.K, self.N, 2), j))
-        return np.concatenate([p.reshape(B, -1) for p in parts], axis=1)
-
     def shot(self, x: np.ndarray) -> np.ndarray:
         """``S^{-j} phi_tau(x)`` of states ``(B, n)``."""
         end = self.flow.advance(x, self.tau)
-        return self.shift_states(end, -self.shift)
+        return self.flow.shift(end, -self.shift)
 
     def start(self, problem: ForcedWave, X: np.ndarray) -> np.ndarray:
         """``(n,)``: the harmonic balance's state ``X`` at ``t = 0`` on the pattern; under

@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 
-from wheelrom.analysis.periodic.shooting import Orbit, Shooting, sample_orbit
+from wheelrom.analysis.periodic.shooting import Orbit, Shooting
 from wheelrom.forces.reference import ReferenceForces
 
 
@@ -19,8 +19,7 @@ def orbit_quantities(shooting: Shooting, orbit: Orbit, harmonics: int, lam: floa
     shifted in time). ``harmonics``: ``H`` of blade 0's harmonics ``c_h`` (``(H + 1, m)``
     complex, by the DFT of the samples). Energies per cycle by the rectangle rule on the
     uniform samples (spectral for a periodic integrand)."""
-    samples = shooting.samples(orbit) if hasattr(shooting, "samples") else \
-        sample_orbit(shooting, orbit)  # the slider shot's carry the sliders  # fmt: skip
+    samples = shooting.samples(orbit)  # the elastic law's slider shot carries the sliders
     model, params = shooting.model, shooting.flow.params
     states = np.ascontiguousarray(samples.states)
     S, N, m = states.shape[0], shooting.N, shooting.m

@@ -149,6 +149,10 @@ class Shooting:
         orbit.wall_s = time.perf_counter() - t0
         return orbit
 
+    def samples(self, orbit: Orbit) -> OrbitSamples:
+        """One period of ``orbit`` at every step (:func:`sample_orbit`)."""
+        return sample_orbit(self, orbit)
+
     def multipliers_at(self, x0: np.ndarray, period: float) -> tuple[np.ndarray, np.ndarray]:
         """``(mu, nd)`` of the pattern map's Jacobian at ``x0`` ``(2, N', m)``, ``period``
         [s] without a Newton solve: an orbit of another step is a fixed point of this step's

@@ -28,7 +28,7 @@ import time
 
 import numpy as np
 
-from wheelrom.analysis.periodic.flow import WheelFlow, pattern_model, shift_blades
+from wheelrom.analysis.periodic.flow import WheelFlow, pattern_model
 from wheelrom.analysis.periodic.hopf import tip_measure
 from wheelrom.analysis.periodic.newton import newton_least_squares
 from wheelrom.analysis.periodic.shooting import Orbit, OrbitSamples
@@ -75,19 +75,9 @@ class SliderShooting:
         self.flow.destroy()
 
     # ------------------------------------------------------------------ the map
-    def shift_states(self, x: np.ndarray, j: int) -> np.ndarray:
-        """``(B, n)`` states with pattern blade ``s`` replaced by blade ``s + j`` (the sliders
-        ``(K, N', 2)`` have their blades on the same axis as ``q``)."""
-        B = x.shape[0]
-        parts = [shift_blades(x[:, : self.nq].reshape(B, 2, self.N, self.m), j)]
-        if self.sliders:
-            parts.append(shift_blades(x[:, self.nq :].reshape(B, self.K, self.N, 2), j))
-        return np.concatenate([p.reshape(B, -1) for p in parts], axis=1)
-
     def shot(self, x: np.ndarray, period: float, steps: int) -> np.ndarray:
         """``S^{-j} phi_tau(x)`` of states ``(B, n)`` in ``steps`` whole steps."""
-        return self.shift_states(self.flow.advance(x, self.fraction * period, steps),
-                                 -self.shift)  # fmt: skip
+        return self.flow.shift(self.flow.advance(x, self.fraction * period, steps), -self.shift)
 
     def unit_mode(self, vector: np.ndarray) -> np.ndarray:
         """``(N', 2 m)`` complex: the wave's mode ``vector`` ``(2 m,)`` (``q, q'`` of blade 0;
