@@ -68,8 +68,10 @@ def settings_of(cfg: Config, waves=None) -> Settings:
     ``limit_cycle.waves``."""
     lc = cfg.limit_cycle
     branch = BranchSettings(lam_max=lc.mu_max, amplitude_max=lc.amplitude_max, steps=lc.steps)
-    # the elastic law: Hill's method would read the hysteresis's local tangent only
-    floquet = "off" if cfg.contacts.law == "elastic" and lc.floquet == "auto" else lc.floquet
+    # the elastic law's balance: Hill's method would read the hysteresis's local tangent only
+    # (its exact orbit's multipliers are the pattern map's: exact.elastic_stability)
+    floquet = "off" if cfg.contacts.law == "elastic" and lc.floquet == "auto" \
+        and lc.method != "shooting" else lc.floquet  # fmt: skip
     return Settings(harmonics=lc.harmonics, samples=lc.samples,
                     waves=tuple(lc.waves if waves is None else waves), floquet=floquet,
                     seeds=tuple(lc.seeds), branch=branch, method=lc.method,
@@ -123,6 +125,7 @@ class WaveBranch:
         stable = [c for c in self.cycles if c.stable]
         c = min(stable or self.cycles, key=lambda c: c.tip_amplitude)
         lead = "settles at" if c.stable else "limit cycle at"
+        elastic = getattr(c.orbit, "sliders", None) is not None  # the elastic law's orbit
         words = [f"{lead} {c.tip_amplitude * 1e6:.3g} um tip, {c.frequency_hz:.4g} Hz"]
         if c.shot_missed:  # the number is the harmonic balance's, not the exact orbit's
             words[0] += f" by {c.source}"
@@ -140,7 +143,7 @@ class WaveBranch:
             words.append("stability not decided (SLEPc converged no multiplier of the whole "
                          "wheel within its restarts: -limitcycle_floquet_eps_max_it)")
         elif c.stable is None:
-            how = "the monodromy" if c.multipliers is not None else \
+            how = "the monodromy" if c.multipliers is not None or elastic else \
                 "Hill's method on a cycle with contacts opening"  # fmt: skip
             words.append(f"stability uncertain ({how}: the phase-shift multiplier is off 1 by "
                          f"{c.stability.trivial:.1e}, the largest is {c.stability.multiplier:.4g})")
@@ -150,7 +153,8 @@ class WaveBranch:
             if c.multipliers is not None or inside:
                 mu = c.multipliers
                 if mu is None:
-                    whole = "the whole wheel's not computed (limit_cycle.whole_wheel)"
+                    whole = "the whole wheel's not computed (" + \
+                        ("the elastic law" if elastic else "limit_cycle.whole_wheel") + ")"
                 elif mu.worst >= 0:
                     whole = (f"the whole wheel's largest {mu.largest:.3g} per period, ND "
                              f"{mu.nd[mu.worst]} at time.step")  # fmt: skip
@@ -163,7 +167,7 @@ class WaveBranch:
                 if inside:
                     step = c.refined[-1][0]
                     words.append(f"unstable inside its own symmetry (ND {st.worst_family}: "
-                                 f"multiplier {st.multiplier:.3g} per period at a "
+                                 f"multiplier {st.multiplier:.5g} per period at a "
                                  f"{step * 1e6:.2g} us step; {whole}; "
                                  f"{alone})")  # fmt: skip
                 else:
@@ -250,7 +254,8 @@ class WaveAnalysis:
         elif self.params.law.elastic and st.method == "shooting":  # no balance: it stalls
             say = self.progress and (lambda tip: self.progress(wave, 1.0, tip))
             marched_cycle(self.model, self.cfg, self.angles, branch, self.q_eq,
-                          (self.B0[wave], self.B1[wave]), st.harmonics, say)
+                          (self.B0[wave], self.B1[wave]), st.harmonics, say,
+                          None if floquet_kind(st) == "off" else st.refine)  # fmt: skip
         else:  # lam_c = 0: unstable without self-excitation, no Hopf branch; seeds still
             self._branches(branch, wave, lam_c)
         branch.wall_s = time.perf_counter() - t0

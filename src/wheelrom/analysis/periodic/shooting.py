@@ -86,6 +86,13 @@ class Orbit:
         """``(2, N, m)``: every blade's state at ``t = 0``."""
         return self.state[:, np.arange(blades) % self.pattern]
 
+    def flat(self) -> np.ndarray:
+        """``(2 N' m [+ 2 K N'],)``: the pattern's flat state at ``t = 0`` as the flow takes
+        it (:meth:`~.flow.WheelFlow.advance`): ``q``, ``q'``, then the sliders when carried."""
+        if self.sliders is None:
+            return self.state.ravel()
+        return np.concatenate([self.state.ravel(), self.sliders.ravel()])
+
 
 class Shooting:
     """Shooting for the orbits of wave ``wave`` of one case at factor ``lam`` on the

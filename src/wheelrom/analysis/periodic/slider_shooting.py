@@ -17,8 +17,10 @@ pattern blade, then the sliders ``(K, N', 2)`` [m]): ``S^{-j} phi_tau(x) = x`` w
 Poincare section through the start. A contact that sticks the whole period leaves its slider
 free (any stuck position repeats with its static offset): such directions are neutral
 (``mu = 1``) and make the Jacobian singular, so the Newton step is the least-squares one
-(as the forced shot's). No multipliers: differenced across the stick-slip switches of the
-fixed-step map they are not trusted (theory.md).
+(as the forced shot's). The multipliers (:meth:`SliderShooting.multipliers`) leave those
+sliders out: with them the eigenvalue 1 is multiple and its neighbours' differenced values
+are not trusted; without them the map's multipliers converge with the step (at first order:
+a stick-slip switch is a kink the fixed step meets anywhere; theory.md).
 """
 
 from __future__ import annotations
@@ -28,7 +30,7 @@ import time
 
 import numpy as np
 
-from wheelrom.analysis.periodic.flow import WheelFlow, pattern_model
+from wheelrom.analysis.periodic.flow import WheelFlow, pattern_model, pattern_nd
 from wheelrom.analysis.periodic.hopf import tip_measure
 from wheelrom.analysis.periodic.newton import newton_least_squares
 from wheelrom.analysis.periodic.shooting import Orbit, OrbitSamples
@@ -297,14 +299,54 @@ class SliderShooting:
         orbit.wall_s = time.perf_counter() - t0
         return orbit
 
+    # ------------------------------------------------------------------ stability
+    def locked(self, orbit: Orbit) -> np.ndarray:
+        """``(n,)`` bool: the unknowns of the sliders that do not move over ``orbit``'s period
+        (a contact stuck all of it keeps its slider exactly where it is). Each is a neutral
+        direction of the map (its offset selects another orbit of the family: a multiplier
+        exactly 1), left out of :meth:`multipliers`."""
+        mask = np.zeros(self.n, bool)
+        if self.sliders:
+            path = self.samples(orbit).sliders  # (S, K, N', 2)
+            still = np.all(path == path[:1], axis=(0, 3))  # (K, N')
+            mask[self.nq :] = np.repeat(still.ravel(), 2)
+        return mask
+
+    def multipliers(self, orbit: Orbit, tip_amplitude: float) -> dict:
+        """The multipliers ``mu = nu^{N'}`` of the pattern map's Jacobian at ``orbit`` in its
+        own steps (central differences, :meth:`jacobian`; ``tip_amplitude`` [m] the sliders'
+        unit) without the :meth:`locked` sliders: ``values`` (complex, largest modulus
+        first), ``nd`` of their eigenvectors on the whole wheel, ``vectors`` ``(n, E)`` those
+        of the pattern map in the state's units (0 at the locked unknowns), ``trivial`` the
+        index of the phase shift's (the eigenvector most aligned with the flow), ``neutral``
+        the locked unknowns left out (each a multiplier exactly 1)."""
+        x = orbit.flat()
+        steps = orbit.steps_per_period // self.shots
+        scale = self._scale(x, orbit.period, tip_amplitude)
+        locked = self.locked(orbit)
+        keep = np.flatnonzero(~locked)
+        G = self.jacobian(x, orbit.period, steps, scale)[np.ix_(keep, keep)]
+        along = (self.flow.advance(x[None], self.fraction * orbit.period / steps, 1)[0] - x)
+        along = along[keep] / scale[keep]
+        nu, vectors = np.linalg.eig(G)
+        values = nu**self.shots
+        order = np.argsort(-np.abs(values))
+        values, vectors = values[order], vectors[:, order]
+        alignment = np.abs(vectors.conj().T @ along) / np.maximum(
+            np.linalg.norm(vectors, axis=0) * np.linalg.norm(along), 1e-300)
+        full = np.zeros((self.n, values.size), complex)  # in the state's units
+        full[keep] = vectors * scale[keep, None]
+        q = full[: self.nq // 2].T.reshape(-1, self.N, self.m)
+        nd = pattern_nd(q, self.full_model.blades // self.N, self.full_model.blades)
+        return {"values": values, "nd": nd, "trivial": int(np.argmax(alignment)),
+                "neutral": int(locked.sum()), "vectors": full}
+
     def samples(self, orbit: Orbit) -> OrbitSamples:
         """One period of ``orbit`` at every step of its shots (``q, q'`` and the sliders each
         step starts from)."""
         n_tau = orbit.steps_per_period // self.shots
         h = self.fraction * orbit.period / n_tau
-        x = np.concatenate([orbit.state.ravel(), orbit.sliders.ravel()]) \
-            if orbit.sliders is not None else orbit.state.ravel()  # fmt: skip
-        path = [x]
+        path = [orbit.flat()]
         for _ in range(orbit.steps_per_period - 1):
             path.append(self.flow.advance(path[-1][None], h, 1)[0])
         path = np.array(path)
