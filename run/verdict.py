@@ -54,7 +54,10 @@ def _cycle(path, i):
                                          for k, kind in enumerate(kinds))
             if "refined_multiplier" in c:
                 step, value, nd = c["refined_multiplier"][j][-1]
-                text += f"; in symmetry |mu| {value:.3g} (ND {int(nd)}) at {step * 1e6:.2g} us"
+                text += f"; in symmetry |mu| {value:.5g} (ND {int(nd)}) at {step * 1e6:.2g} us"
+                if "stable" in c:  # the cycle's verdict (-1: not trusted)
+                    text += " (" + {1: "stable", 0: "unstable"}.get(int(c["stable"][j]),
+                                                                    "uncertain") + ")"
             if "multiplier_modulus" in c and np.isfinite(c["multiplier_modulus"][j]).any():
                 k = int(np.nanargmax(c["multiplier_modulus"][j]))
                 text += (f"; whole wheel {c['multiplier_modulus'][j][k]:.2f} "

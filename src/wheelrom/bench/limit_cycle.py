@@ -18,7 +18,9 @@ Floquet analysis of every Bloch family at the cycle.
 - under the elastic law instead: ``elastic_orbit_s``, the exact orbit of the fastest wave
   marched and shot with the sliders in the state, equilibrium included (issue #44: <= 20 s
   on one core), ``elastic_orbit``: its wave, pattern, Newton iterations, residual, tip
-  amplitude and frequency.
+  amplitude and frequency; ``elastic_multipliers_s``: its multipliers inside its symmetry
+  at ``limit_cycle.refine`` halvings of the step, the orbit shot again at each,
+  ``elastic_multipliers``: the steps, the largest non-trivial modulus at each, the verdict.
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ import time
 import numpy as np
 
 from wheelrom.analysis.periodic.cycle import describe
+from wheelrom.analysis.periodic.exact import elastic_stability
 from wheelrom.analysis.periodic.floquet import floquet
 from wheelrom.analysis.periodic.harmonic_balance import WaveBalance
 from wheelrom.analysis.periodic.hopf import hopf_point, wave_blocks, wave_mode
@@ -39,6 +42,7 @@ from wheelrom.analysis.periodic.limit_cycle import (
     periodic_solution,
     settings_of,
 )
+from wheelrom.analysis.periodic.slider_shooting import SliderShooting
 from wheelrom.analysis.stability import linearise
 from wheelrom.config import Config
 from wheelrom.results.layout import angles_of, case_angles
@@ -134,9 +138,12 @@ def _exact(model, cfg, case, wave, balance, point, settings, hb_tip, say) -> dic
 
 def _elastic_orbit(model, cfg, case, settings, say) -> dict:
     """The elastic law's exact orbit of the fastest wave (``wheelrom limit-cycle --nd
-    fastest`` of that case: the march and the shot), timed (issue #44: <= 20 s)."""
+    fastest`` of that case: the march and the shot), timed (issue #44: <= 20 s), then its
+    multipliers inside its symmetry at ``limit_cycle.refine`` halvings of the step, timed
+    apart (``elastic_multipliers_s``)."""
     t0 = time.perf_counter()
-    res = case_limit_cycles(model, cfg, dataclasses.replace(settings, waves=(FASTEST,)), case)
+    orbit_only = dataclasses.replace(settings, waves=(FASTEST,), floquet="off")
+    res = case_limit_cycles(model, cfg, orbit_only, case)
     wall = time.perf_counter() - t0
     cycles = [c for b in res.branches for c in b.cycles]
     if not cycles:
@@ -146,7 +153,21 @@ def _elastic_orbit(model, cfg, case, settings, say) -> dict:
     say(f"elastic exact orbit: shroud {case.get('shroud', math.nan):g} deg, wave "
         f"{branch.wave}: {wall:.2f} s ({c.orbit.iterations} Newton iterations, residual "
         f"{c.orbit.residual:.1e}), {c.tip_amplitude * 1e6:.4g} um, {c.frequency_hz:.5g} Hz")
+    t0 = time.perf_counter()
+    shooting = SliderShooting(model, cfg, branch.wave, case, 1.0)
+    try:
+        elastic_stability(model, cfg, case, c, shooting, settings.refine)
+    finally:
+        shooting.destroy()
+    stability = time.perf_counter() - t0
+    say(f"its multipliers inside its symmetry at {len(c.refined)} steps: {stability:.2f} s, "
+        f"largest {c.stability.multiplier:.5g} at {c.refined[-1][0] * 1e6:.2g} us "
+        f"({'uncertain' if c.stable is None else 'stable' if c.stable else 'unstable'})")
     return {"limit_cycle_s_per_case": None, "elastic_orbit_s": wall,
+            "elastic_multipliers_s": stability,
+            "elastic_multipliers": {"steps_s": [r[0] for r in c.refined],
+                                    "largest": [r[1] for r in c.refined],
+                                    "stable": c.stable},
             "elastic_orbit": {"converged": True, "angles_deg": case, "wave": branch.wave,
                               "pattern_blades": c.orbit.pattern,
                               "iterations": c.orbit.iterations,
