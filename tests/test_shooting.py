@@ -279,3 +279,43 @@ def test_a_whole_wheel_that_converged_nothing_says_how_far_it_got():
     assert "unstable inside its own symmetry (ND 33: multiplier 1.11" in text, text
     assert "converged at time.step in 140 linearised periods (its phase-shift multiplier " \
            "off 1 by 0.35)" in text, text  # fmt: skip
+
+
+def test_a_missed_shot_is_retried_from_the_cycle_balanced_with_more_harmonics(
+        small_model, monkeypatch):  # fmt: skip
+    """:func:`~wheelrom.analysis.periodic.exact.finer_balance` (the start of a second shot
+    when the first misses: on the paper wheel at 75 deg the H = 11 cycle's missed, its H = 21
+    balance's converged) against the continuation itself at the finer H: the small wheel's
+    70 deg ND 6 cycle at ``lam = 1``, balanced with H = 5 and solved again with H = 7 by
+    Newton at fixed intensity, is the H = 7 continuation's cycle (frequency to 1e-9, every
+    harmonic's modulus to 1e-9 of the largest; measured 1e-12), with the default samples
+    per harmonic kept (8 (H + 1): with 66 instead of 64 samples the cycle moved by 3e-3)."""
+    from wheelrom.analysis.periodic import exact
+    from wheelrom.analysis.periodic.limit_cycle import settings_of
+    from wheelrom.analysis.stability import linearise
+
+    angles = {"tieboss": 45.0, "shroud": 70.0}
+
+    def cycle(harmonics):
+        cfg = config.load(SMALL, [f"limit_cycle.harmonics={harmonics}", "limit_cycle.steps=4",
+                                  "limit_cycle.seeds=[1e-4]", 'limit_cycle.floquet="off"',
+                                  'limit_cycle.method="hb"'])  # fmt: skip
+        res = case_limit_cycles(small_model, cfg, settings_of(cfg, [WAVE]), angles)
+        (branch,) = res.branches
+        (c,) = branch.cycles
+        return cfg, c
+
+    cfg, coarse = cycle(5)
+    _, fine = cycle(7)
+    params = linearise(small_model, cfg, angles)[0]  # the nozzle off, as the cycles'
+    balance = WaveBalance(small_model, params, cfg.wheel.damping_beta, WAVE, 5, 48)
+    X = balance.packed(coarse.harmonics)
+    monkeypatch.setattr(exact, "FINER_HARMONICS", 7)
+    result = exact.finer_balance(balance, X, 2 * math.pi * coarse.frequency_hz, 1.0)
+    assert result is not None
+    finer, X7, omega = result
+    assert finer.H == 7 and finer.nt == 64
+    assert omega / (2 * math.pi) == pytest.approx(fine.frequency_hz, rel=1e-9)
+    c7 = np.abs(finer.complex_harmonics(X7))
+    assert np.abs(c7 - np.abs(fine.harmonics)).max() <= 1e-9 * np.abs(fine.harmonics).max()
+    assert abs(coarse.frequency_hz / fine.frequency_hz - 1) > 1e-5  # the two H differ
