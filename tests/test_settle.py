@@ -208,7 +208,7 @@ def test_the_preload_start_seeds_the_growing_mode_itself(small_model, small_cfg)
     res = analyse(small_model, cfg, angles)
     i = res.critical()
     rate, k = res.growth_rate[i], res.nodal_diameter[i]
-    u0, frequency, words, _ = _start(small_model, cfg, angles, None)
+    u0, frequency, words, _, _ = _start(small_model, cfg, angles, None)
     assert frequency == pytest.approx(491.0, rel=0.01) and rate == pytest.approx(7.0, rel=0.02)
     assert "seeded at 1e-12 m" in words
     N, m = small_model.blades, small_model.modes

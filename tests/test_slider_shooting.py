@@ -186,7 +186,7 @@ def test_the_whole_wheel_settles_on_the_elastic_orbit(elastic_orbit):
     cfg, model, angles, res = elastic_orbit
     cycle = res.branches[0].cycles[0]
     cfg = cfg.replace(**{"settle.start": "preload"})
-    u0, frequency, words, _ = _start(model, cfg, angles, None)
+    u0, frequency, words, _, _ = _start(model, cfg, angles, None)
     assert "half the stuck mode's slip onset" in words
     out = settle_case(model, cfg, angles, u0, frequency,
                       Settings(window_periods=20, min_time=1.0, max_time=2.0))  # fmt: skip
@@ -208,8 +208,8 @@ def test_settle_from_the_elastic_orbit_carries_its_sliders_and_stays_on_it(elast
 
     cfg, model, angles, res = elastic_orbit
     cycle = res.branches[0].cycles[0]
-    u0, frequency, words, amplitude = _start(model, cfg, angles, None)
-    assert words.startswith("the exact orbit of wave 6")
+    u0, frequency, words, amplitude, hold = _start(model, cfg, angles, None)
+    assert words.startswith("the exact orbit of wave 6") and hold == 0.0  # none computed
     n = 2 * model.size
     tiled = cycle.orbit.sliders[:, np.arange(model.blades) % 2]
     assert u0.size == n + 4 + tiled.size and np.array_equal(u0[n + 4 :], tiled.ravel())
@@ -217,3 +217,43 @@ def test_settle_from_the_elastic_orbit_carries_its_sliders_and_stays_on_it(elast
                       Settings(window_periods=20, min_time=0.3, max_time=1.0))  # fmt: skip
     assert int(np.argmax(out.nd_energy)) == 6
     assert out.amplitude.max() == pytest.approx(amplitude, rel=2e-3)
+
+
+def test_a_start_on_an_unstable_orbit_is_not_called_settled_before_it_can_leave(
+        elastic_orbit, tmp_path):  # fmt: skip
+    """A settle started on an orbit whose file holds a multiplier above 1 is not called
+    settled before a 1e-3 perturbation could have grown to the orbit's size at that rate
+    (``ln(1e3) / (ln|mu| f)``): its first windows are stationary only because the departure
+    has not grown yet (the paper wheel at 75 deg: "settled" at 1 s on a 1.014-per-period
+    orbit it left at 1.5 s). The small wheel's orbit is stable (0.99765): from its file the
+    case settles at 0.3-0.4 s (its ``min_time``); with the multiplier set to 1.0178 in a
+    copy of the file, not before the 0.8 s that rate needs."""
+    import math
+    import shutil
+
+    import h5py
+
+    from wheelrom.results.limit_cycles import write_limit_cycles
+    from wheelrom.studies.settle import _settle_one, _start
+
+    cfg, model, angles, res = elastic_orbit
+    path = tmp_path / "lc.h5"
+    with h5py.File(path, "w") as f:
+        write_limit_cycles(f, cfg, model, [res])
+    keys = {"settle.min_time": 0.3, "settle.max_time": 1.2, "settle.start": "cycle"}
+    case = cfg.replace(**keys)
+    frequency = res.branches[0].cycles[0].frequency_hz
+    assert _start(model, case, angles, str(path))[4] == 0.0
+    stable = _settle_one(model, case, angles, str(path), "stable", None)
+    assert stable.settled and stable.time < 0.5
+    unstable = tmp_path / "unstable.h5"
+    shutil.copy(path, unstable)
+    multiplier = 1.0178
+    with h5py.File(unstable, "r+") as f:
+        c = f["limit_cycle/case_0/wave_6/cycles"]
+        c["refined_multiplier"][0, -1, 1] = multiplier
+    _, _, words, _, hold = _start(model, case, angles, str(unstable))
+    assert hold == pytest.approx(math.log(1e3) / (math.log(multiplier) * frequency), rel=1e-9)
+    assert 0.75 < hold < 0.85 and "not called settled before 0.8 s" in words, words
+    held = _settle_one(model, case, angles, str(unstable), "held", None)
+    assert held.settled and held.time >= hold

@@ -115,18 +115,44 @@ def _cycle_from_file(path: str, angles: dict, blades: int):
                         sliders = c["orbit_sliders"][j][:, every] if "orbit_sliders" in c \
                             else None  # fmt: skip
                         return (state[:, every], 1.0 / c["orbit_period"][j],
-                                c["tip_amplitude"][j], sliders)  # fmt: skip
+                                c["tip_amplitude"][j], sliders, _largest_multiplier(c, j))
             for w in waves:  # no exact orbit: the harmonic balance's cycle
                 c = w["cycles"]
                 hz = float(c["frequency_hz"][0])
                 q, v = wave_state(c["harmonics"][0], int(w.attrs["wave"]), blades,
                                   2 * math.pi * hz)  # fmt: skip
-                return np.stack([q, v]), hz, c["tip_amplitude"][0], None
+                return np.stack([q, v]), hz, c["tip_amplitude"][0], None, math.nan
     return None
 
 
+def _largest_multiplier(c, j: int) -> float:
+    """The largest multiplier modulus a limit-cycle file holds for cycle ``j`` of its
+    ``cycles`` group ``c`` (the verdict's, the in-symmetry one at the finest step, the whole
+    wheel's); NaN when none."""
+    values = [c[name][j] for name in ("floquet_multiplier",) if name in c]
+    if "refined_multiplier" in c:
+        values.append(c["refined_multiplier"][j][-1][1])
+    if "multiplier_modulus" in c:
+        values.extend(np.ravel(c["multiplier_modulus"][j]))
+    values = [float(v) for v in values if np.isfinite(v)]
+    return max(values) if values else math.nan
+
+
+def unstable_hold(multiplier: float, frequency_hz: float, perturbation: float) -> float:
+    """The time [s] a perturbation of relative size ``perturbation`` needs to grow to the
+    orbit's own size at ``multiplier`` per period of ``frequency_hz`` (0 when the multiplier
+    is not above 1 or not known): before it, the windows of a start on an unstable orbit are
+    stationary only because the departure has not grown yet (the paper wheel at 75 deg,
+    1.0141 per period at 139.5 Hz: "settled" after 1 s on the orbit, left it at 1.5 s)."""
+    if not (multiplier > 1.0 and perturbation > 0.0):
+        return 0.0
+    return math.log(1.0 / perturbation) / (math.log(multiplier) * frequency_hz)
+
+
 def _start(model, cfg: Config, angles: dict, cycles_file: str | None, comm=None):
-    """``(u0, frequency [Hz], words, cycle tip amplitude [m] or nan)`` of one case's start,
+    """``(u0, frequency [Hz], words, cycle tip amplitude [m] or nan, hold [s])`` of one case's
+    start (``hold``: on an orbit the file says is unstable, the time before which the case
+    is not called settled, :func:`unstable_hold`; else 0),
     the perturbation added: ``u0`` the modal ``(q, q')`` ``(2 N m,)``, and under the elastic
     law from the preloaded equilibrium the whole state with its sliders at rest at the
     equilibrium (``(2 N m + 4 + 2 K N,)``: the seed is then a solution of the stuck
@@ -153,13 +179,16 @@ def _start(model, cfg: Config, angles: dict, cycles_file: str | None, comm=None)
                     sliders = c.orbit.sliders
                     if sliders is not None:  # the elastic law's, every blade
                         sliders = sliders[:, np.arange(N) % sliders.shape[1]]
-                    found = (c.orbit.wheel_state(N), c.frequency_hz, c.tip_amplitude, sliders)
+                    found = (c.orbit.wheel_state(N), c.frequency_hz, c.tip_amplitude, sliders,
+                             math.nan)  # fmt: skip
                     words = f"the exact orbit of wave {branch.wave}"
+    hold = 0.0
     if found is not None:
-        state, frequency, amplitude, sliders = found
+        state, frequency, amplitude, sliders, multiplier = found
         u0 = state.reshape(2, -1)
         q0 = u0[0].reshape(N, -1)
         seed = amplitude * st.perturbation
+        hold = unstable_hold(multiplier, frequency, st.perturbation)
     else:  # the preloaded equilibrium, the unstable waves' growing modes seeded
         from wheelrom.analysis.periodic.hopf import unstable_seed, wave_blocks
         from wheelrom.analysis.stability import linearise
@@ -193,8 +222,11 @@ def _start(model, cfg: Config, angles: dict, cycles_file: str | None, comm=None)
                 np.ascontiguousarray(q0))  # fmt: skip
             words += " (its sliders at rest there: the cycle file holds none)"
         u0 = np.concatenate([u0, np.zeros(4), np.ravel(sliders)])
-    return (u0, frequency,
-            f"{words}, every ND perturbed at {seed:.3g} m (seed {st.seed})", float(amplitude))
+    words = f"{words}, every ND perturbed at {seed:.3g} m (seed {st.seed})"
+    if hold > 0:
+        words += (f"; not called settled before {hold:.2g} s (its multiplier {multiplier:.5g} "
+                  "per period grows that perturbation to the orbit's size by then)")
+    return u0, frequency, words, float(amplitude), hold
 
 
 def _below_slip_onset(model, cfg, angles, q, B0, B1, size: float) -> tuple[float, str]:
@@ -373,7 +405,7 @@ def run_settle(cfg: Config, out: str | None, comm=None, log=print, resume: bool 
 def _settle_one(model, cfg: Config, angles: dict, cycles_file, label, progress) -> Settled:
     t0 = time.perf_counter()
     try:
-        u0, frequency, words, amplitude = _start(model, cfg, angles, cycles_file)
+        u0, frequency, words, amplitude, hold = _start(model, cfg, angles, cycles_file)
     except Exception as exc:  # the case is named failed, the others go on
         why = str(exc) if isinstance(exc, InputError) else f"{type(exc).__name__}: {exc}"
         return Settled(False, 0.0, status=f"failed: no start ({why})")
@@ -385,8 +417,11 @@ def _settle_one(model, cfg: Config, angles: dict, cycles_file, label, progress) 
             progress(f"{label}: {t:.3g} s, largest blade {w.amplitude.max() * 1e6:.3g} um, "
                      f"{change}")
 
-    result = settle_case(model, cfg, angles, u0, frequency, settings_of(cfg),
-                         cfg.settle.nozzle, say)  # fmt: skip
+    settings = settings_of(cfg)
+    if hold > settings.min_time:  # the departure from an unstable orbit first has to grow
+        settings = dataclasses.replace(settings, min_time=min(hold, settings.max_time))
+    result = settle_case(model, cfg, angles, u0, frequency, settings, cfg.settle.nozzle,
+                         say)  # fmt: skip
     result.start, result.start_amplitude = words, amplitude
     result.wall_s = time.perf_counter() - t0
     return result
