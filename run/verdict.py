@@ -52,12 +52,16 @@ def _cycle(path, i):
                 shares = c["fractions"][j]
                 text += "; " + ", ".join(f"{kind} slips {100 * shares[k][2]:.0f} %"
                                          for k, kind in enumerate(kinds))
-            if "refined_multiplier" in c:
-                step, value, nd = c["refined_multiplier"][j][-1]
+            rows = c["refined_multiplier"][j] if "refined_multiplier" in c else []
+            rows = [r for r in rows if np.isfinite(r[1])]  # (NaN rows pad shorter cycles)
+            if rows:
+                step, value, nd = rows[-1]
                 text += f"; in symmetry |mu| {value:.5g} (ND {int(nd)}) at {step * 1e6:.2g} us"
-                if "stable" in c:  # the cycle's verdict (-1: not trusted)
-                    text += " (" + {1: "stable", 0: "unstable"}.get(int(c["stable"][j]),
-                                                                    "uncertain") + ")"
+                # the cycle's verdict; -1: not decided (under the elastic law a modulus
+                # below 1 there is stability inside the symmetry only)
+                undecided = "whole wheel not decided" if value <= 1 else "uncertain"
+                text += " (" + {1: "stable", 0: "unstable"}.get(int(c["stable"][j]),
+                                                                undecided) + ")"
             if "multiplier_modulus" in c and np.isfinite(c["multiplier_modulus"][j]).any():
                 k = int(np.nanargmax(c["multiplier_modulus"][j]))
                 text += (f"; whole wheel {c['multiplier_modulus'][j][k]:.2f} "

@@ -126,16 +126,13 @@ def _cycle_from_file(path: str, angles: dict, blades: int):
 
 
 def _largest_multiplier(c, j: int) -> float:
-    """The largest multiplier modulus a limit-cycle file holds for cycle ``j`` of its
-    ``cycles`` group ``c`` (the verdict's, the in-symmetry one at the finest step, the whole
-    wheel's); NaN when none."""
-    values = [c[name][j] for name in ("floquet_multiplier",) if name in c]
-    if "refined_multiplier" in c:
-        values.append(c["refined_multiplier"][j][-1][1])
-    if "multiplier_modulus" in c:
-        values.extend(np.ravel(c["multiplier_modulus"][j]))
-    values = [float(v) for v in values if np.isfinite(v)]
-    return max(values) if values else math.nan
+    """The largest non-trivial multiplier modulus that made cycle ``j`` of a limit-cycle
+    file's ``cycles`` group ``c`` unstable (``floquet_multiplier`` where ``stable`` is 0: the
+    in-symmetry one at the finest step or the whole wheel's); NaN for a cycle stable,
+    uncertain or not examined (no hold: a neutral phase shift's 1 is no instability)."""
+    if "stable" not in c or "floquet_multiplier" not in c or int(c["stable"][j]) != 0:
+        return math.nan
+    return float(c["floquet_multiplier"][j])
 
 
 def unstable_hold(multiplier: float, frequency_hz: float, perturbation: float) -> float:

@@ -133,9 +133,15 @@ def finer_balance(balance, X: np.ndarray, omega: float, lam: float, comm=None):
         fixed = np.zeros(corrector.n)
         fixed[-1] = 1.0  # lam . z = lam: the intensity held
         point = corrector.solve(z0, fixed, lam)
+    except petsc().Error:  # a failure inside the solve: no retry, as a diverged Newton
+        point = None
     finally:
         corrector.destroy()
-    if point is None:
+    # the same cycle, not the trivial X = 0 nor another frequency: within a factor 2 of its
+    # vibration and 10 % of its frequency
+    vibration = float(np.abs(X[1:]).max())
+    if point is None or not 0.5 * vibration <= float(np.abs(point.X[1:]).max()) <= \
+            2 * vibration or abs(point.omega / omega - 1.0) > 0.1:  # fmt: skip
         return None
     return fine, point.X, point.omega
 
@@ -249,7 +255,11 @@ def marched_cycle(model, cfg, angles, branch, q_eq: np.ndarray, blocks, harmonic
         if refine is None:
             cycle.floquet_skipped = "limit_cycle.floquet = 'off'"
         else:
-            elastic_stability(model, cfg, angles, cycle, shooting, refine)
+            try:
+                elastic_stability(model, cfg, angles, cycle, shooting, refine)
+            except (ValueError, RuntimeError, petsc().Error) as exc:  # the orbit stands
+                cycle.stability, cycle.refined = None, []
+                cycle.floquet_skipped = f"its multipliers failed: {type(exc).__name__}: {exc}"
         branch.end = f"{how}, then shot ({orbit.iterations} Newton iterations)"
         branch.cycles.append(cycle)
     except (ValueError, RuntimeError, petsc().Error) as exc:  # a step of the flow failed
@@ -289,7 +299,7 @@ def elastic_stability(model, cfg, angles, cycle: Cycle, shooting: SliderShooting
         finally:
             finer.destroy()
     cycle.refined = [(lv["step"], lv["largest"], lv["worst_nd"]) for lv in levels]
-    cycle.stability = _elastic_verdict(levels, orbit.period)
+    cycle.stability = _elastic_verdict(levels, orbit.period, orbit.pattern == model.blades)
 
 
 def _level(shooting: SliderShooting, orbit: Orbit, tip: float) -> dict:
@@ -305,20 +315,34 @@ def _level(shooting: SliderShooting, orbit: Orbit, tip: float) -> dict:
             "error": float(abs(values[trivial] - 1.0))}  # fmt: skip
 
 
-def _elastic_verdict(levels: list[dict], period: float) -> FloquetResult:
-    """The verdict of the finest level: stable at or below 1, unstable above; trusted when
-    the largest non-trivial modulus stands off 1 by at least twice its change over the last
-    halving of the step, and the phase shift's multiplier is 1 to :data:`~.floquet.TRUSTED`
-    or to half that distance (the whole wheel's rule, :func:`monodromy_stability`); else
-    reported uncertain. The phase shift's error is the larger: the phase moves every
-    stick-slip switch against the fixed steps at once (measured 4e-5 to 1.3e-3 over the
-    paper wheel's halvings, where the largest non-trivial one changed by 1e-5 to 4e-4)."""
+def _elastic_verdict(levels: list[dict], period: float, whole: bool) -> FloquetResult:
+    """The verdict of the finest level, trusted when the largest non-trivial modulus stands
+    off 1 by at least twice its change over the last halving of the step, and the phase
+    shift's multiplier is 1 to :data:`~.floquet.TRUSTED` or to half that distance (the whole
+    wheel's rule, :func:`monodromy_stability`; the phase shift's error is the larger: the
+    phase moves every stick-slip switch against the fixed steps at once, measured 4e-5 to
+    1.3e-3 over the paper wheel's halvings where the largest non-trivial one changed by 1e-5
+    to 4e-4): above 1, unstable (inside the symmetry proves it for the wheel); at or below
+    1, stable when the pattern is the whole wheel (``whole``), else stable inside its
+    symmetry only, the other NDs not checked (reported, ``Cycle.stable`` None: ``settle``
+    decides); untrusted: uncertain, with the reason."""
     last = levels[-1]
-    largest = last["largest"]
+    largest, error, nd = last["largest"], last["error"], last["worst_nd"]
     change = abs(largest - levels[-2]["largest"]) if len(levels) > 1 else math.inf
     margin = 0.5 * abs(largest - 1.0)
-    return FloquetResult(
-        np.array([last["worst_nd"]]), np.array([math.log(max(largest, 1e-300)) / period]),
-        largest, last["error"], largest <= 1.0,
-        by="monodromy inside the cycle's symmetry at the finest step (elastic law): ND",
-        trust=max(TRUSTED, margin) if change <= margin else -1.0)  # fmt: skip
+    trusted = change <= margin and error <= max(TRUSTED, margin)
+    growth = np.array([math.log(max(largest, 1e-300)) / period])
+    at = f"largest {largest:.5g} per period, ND {nd}, at a {last['step'] * 1e6:.2g} us step"
+    if trusted and (largest > 1.0 or whole):
+        by = "monodromy inside the cycle's symmetry at the finest step (elastic law): ND"
+        return FloquetResult(np.array([nd]), growth, largest, error, largest <= 1.0, by=by,
+                             trust=math.inf)  # fmt: skip
+    if trusted:
+        by = (f"stable inside its own symmetry ({at}); the whole wheel's not computed under "
+              "the elastic law: settle decides")  # fmt: skip
+    else:
+        why = f"changing by {change:.1e} over the last halving" if change > margin else \
+            f"the phase-shift multiplier off 1 by {error:.1e}"  # fmt: skip
+        by = f"stability uncertain inside its own symmetry ({at}; {why})"
+    return FloquetResult(np.array([nd]), growth, largest, error, largest <= 1.0, by=by,
+                         trust=-1.0)  # fmt: skip

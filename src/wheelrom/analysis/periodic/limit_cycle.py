@@ -142,8 +142,10 @@ class WaveBranch:
         elif c.stable is None and c.multipliers is not None and not len(c.multipliers.values):
             words.append("stability not decided (SLEPc converged no multiplier of the whole "
                          "wheel within its restarts: -limitcycle_floquet_eps_max_it)")
+        elif c.stable is None and elastic:  # in words: stable in symmetry only, or uncertain
+            words.append(c.stability.by)
         elif c.stable is None:
-            how = "the monodromy" if c.multipliers is not None or elastic else \
+            how = "the monodromy" if c.multipliers is not None else \
                 "Hill's method on a cycle with contacts opening"  # fmt: skip
             words.append(f"stability uncertain ({how}: the phase-shift multiplier is off 1 by "
                          f"{c.stability.trivial:.1e}, the largest is {c.stability.multiplier:.4g})")
