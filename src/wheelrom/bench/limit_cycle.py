@@ -162,12 +162,13 @@ def _elastic_orbit(model, cfg, case, settings, say) -> dict:
     stability = time.perf_counter() - t0
     say(f"its multipliers inside its symmetry at {len(c.refined)} steps: {stability:.2f} s, "
         f"largest {c.stability.multiplier:.5g} at {c.refined[-1][0] * 1e6:.2g} us "
-        f"({'uncertain' if c.stable is None else 'stable' if c.stable else 'unstable'})")
+        f"({c.stability.by if c.stable is None else 'stable' if c.stable else 'unstable'})")
     return {"limit_cycle_s_per_case": None, "elastic_orbit_s": wall,
             "elastic_multipliers_s": stability,
             "elastic_multipliers": {"steps_s": [r[0] for r in c.refined],
                                     "largest": [r[1] for r in c.refined],
-                                    "stable": c.stable},
+                                    "stable": c.stable,
+                                    "stable_inside_symmetry": bool(c.stability.stable)},
             "elastic_orbit": {"converged": True, "angles_deg": case, "wave": branch.wave,
                               "pattern_blades": c.orbit.pattern,
                               "iterations": c.orbit.iterations,
