@@ -31,6 +31,9 @@ STEP_HALVINGS = 2
 #: at 65-90 deg are 3-8 % off their orbits where the shroud opens; 21 halves that)
 FINER_HARMONICS = 21
 FINER_PREFIX = "limitcycle_finer_"  # the options prefix of that balance's SNES
+#: its Newton iterations at most (the paper's 75 deg converged in 4; a failing one at 70 deg
+#: ran 53 s to the continuation's cap)
+FINER_ITERATIONS = 10
 
 
 def exact_cycle(model, cfg, angles, branch, balance, X: np.ndarray, omega: float,
@@ -132,7 +135,7 @@ def finer_balance(balance, X: np.ndarray, omega: float, lam: float, comm=None):
         z0 = corrector.pack(X2, omega, lam)
         fixed = np.zeros(corrector.n)
         fixed[-1] = 1.0  # lam . z = lam: the intensity held
-        point = corrector.solve(z0, fixed, lam)
+        point = corrector.solve(z0, fixed, lam, iterations=FINER_ITERATIONS)
     except petsc().Error:  # a failure inside the solve: no retry, as a diverged Newton
         point = None
     finally:
