@@ -257,6 +257,31 @@ def test_a_shot_that_lands_on_another_orbit_says_so():
     assert "exact orbit (harmonic balance 21.6 um" in same and "another orbit" not in same
 
 
+def test_a_verdict_names_the_other_cycles_at_its_intensity():
+    """Two cycles of one wave at the configured intensity (the paper's 70 deg: the exact
+    16.6 um orbit, and a 20.6 um harmonic-balance cycle whose shot missed): the verdict
+    reports the smaller and names the other with its source; one cycle alone, no such
+    words."""
+    from wheelrom.analysis.periodic.cycle import Cycle
+    from wheelrom.analysis.periodic.limit_cycle import WaveBranch
+
+    def cycle(tip_um, hz, **kw):
+        return Cycle(1.0, hz, np.zeros((2, 1), complex), tip_um * 1e-6, np.zeros(1),
+                     np.zeros((1, 2)), np.zeros((1, 3)), 1.0, np.zeros(1), 0.0, 0.0, 0.0,
+                     0.0, 0.0, **kw)  # fmt: skip
+
+    exact = cycle(16.6, 136.08, method="shooting", hb_tip_amplitude=22.3e-6,
+                  hb_frequency_hz=135.35)  # fmt: skip
+    missed = cycle(20.6, 135.23, method="hb", shooting_residual=0.0054)
+    text = WaveBranch(33, 33, 1, 0.8, 137.0, cycles=[exact, missed],
+                      kinds=("shroud",)).verdict()  # fmt: skip
+    assert text.startswith("limit cycle at 16.6 um tip"), text
+    assert text.endswith("1 more cycle at this intensity (20.6 um, 135.2 Hz, harmonic balance "
+                         "(the shot did not converge: residual 0.0054))"), text  # fmt: skip
+    alone = WaveBranch(33, 33, 1, 0.8, 137.0, cycles=[exact], kinds=("shroud",)).verdict()
+    assert "more cycle" not in alone
+
+
 def test_a_whole_wheel_that_converged_nothing_says_how_far_it_got():
     """An in-symmetry proof of instability beside a whole-wheel monodromy that converged no
     multiplier: the verdict says how many linearised periods SLEPc integrated and how far the

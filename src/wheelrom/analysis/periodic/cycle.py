@@ -137,3 +137,16 @@ def describe(balance: WaveBalance, fine: WaveBalance, X: np.ndarray, omega: floa
         energy_residual_fine=_balance_error(work_in, friction, damping),
         damping_ratio=out / (2 * math.pi * kinetic) if kinetic > 0 else math.nan,
         residual=residual)  # fmt: skip
+
+
+def coexisting(cycles: list, chosen) -> str:
+    """The cycles at the configured intensity besides ``chosen``, in words ("" when none):
+    two orbits of one wave can coexist (the paper wheel's 70 deg: the exact 16.6 um orbit
+    beside a 20.6 um cycle whose shot missed); the verdict names the one it reports."""
+    others = [c for c in cycles if c is not chosen]
+    if not others:
+        return ""
+    listed = "; ".join(f"{c.tip_amplitude * 1e6:.3g} um, {c.frequency_hz:.4g} Hz, {c.source}"
+                       for c in sorted(others, key=lambda c: c.tip_amplitude))  # fmt: skip
+    return f"{len(others)} more cycle{'s' if len(others) > 1 else ''} at this intensity " \
+        f"({listed})"  # fmt: skip

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from wheelrom.analysis.periodic.continuation import BranchSettings, Corrector, Point, trace
-from wheelrom.analysis.periodic.cycle import UNRESOLVED, Cycle, describe
+from wheelrom.analysis.periodic.cycle import UNRESOLVED, Cycle, coexisting, describe
 from wheelrom.analysis.periodic.cycle_transient import transient_stability
 from wheelrom.analysis.periodic.exact import exact_cycle, marched_cycle, monodromy_stability
 from wheelrom.analysis.periodic.floquet import floquet
@@ -188,7 +188,8 @@ class WaveBranch:
             else:
                 words.append(f"exact orbit (harmonic balance {c.hb_tip_amplitude * 1e6:.3g} "
                              f"um, {c.hb_frequency_hz:.4g} Hz)")  # fmt: skip
-        return ", ".join(words)
+        more = coexisting(self.cycles, c)
+        return ", ".join(words + ([more] if more else []))
 
 
 @dataclass
