@@ -14,6 +14,10 @@ from wheelrom.analysis.periodic.floquet import FloquetResult
 from wheelrom.analysis.periodic.harmonic_balance import WaveBalance
 
 UNRESOLVED = 0.05  # energy balance residual above which a cycle is called poorly resolved
+#: relative tip-amplitude difference between a shot orbit and its harmonic-balance start
+#: above which they are called different orbits: the balance's truncation bias on the paper's
+#: lift-off cycles is 2-8.5 % at H = 11 (docs/results.md), the 70 deg shot lands 26 % below
+OTHER_ORBIT = 0.15
 
 
 def cycle_source(method: str | None, missed: bool = False,
@@ -150,3 +154,18 @@ def coexisting(cycles: list, chosen) -> str:
                        for c in sorted(others, key=lambda c: c.tip_amplitude))  # fmt: skip
     return f"{len(others)} more cycle{'s' if len(others) > 1 else ''} at this intensity " \
         f"({listed})"  # fmt: skip
+
+
+def orbit_words(c) -> str:
+    """An exact orbit against the harmonic-balance cycle it was shot from, in words ("" for
+    a balance's cycle or an orbit shot from none): the same cycle, or another orbit when
+    their tip amplitudes are more than :data:`OTHER_ORBIT` apart."""
+    if c.method != "shooting" or not math.isfinite(c.hb_tip_amplitude):
+        return ""
+    apart = abs(c.tip_amplitude / c.hb_tip_amplitude - 1.0)
+    if apart > OTHER_ORBIT:
+        return (f"exact orbit, not the harmonic balance's cycle it was shot from "
+                f"({c.hb_tip_amplitude * 1e6:.3g} um, {c.hb_frequency_hz:.4g} Hz: "
+                f"{100 * apart:.0f} % apart, beyond the balance's truncation; another orbit)")
+    return (f"exact orbit (harmonic balance {c.hb_tip_amplitude * 1e6:.3g} um, "
+            f"{c.hb_frequency_hz:.4g} Hz)")  # fmt: skip

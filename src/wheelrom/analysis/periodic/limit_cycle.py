@@ -18,7 +18,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from wheelrom.analysis.periodic.continuation import BranchSettings, Corrector, Point, trace
-from wheelrom.analysis.periodic.cycle import UNRESOLVED, Cycle, coexisting, describe
+from wheelrom.analysis.periodic.cycle import (
+    UNRESOLVED,
+    Cycle,
+    coexisting,
+    describe,
+    orbit_words,
+)
 from wheelrom.analysis.periodic.cycle_transient import transient_stability
 from wheelrom.analysis.periodic.exact import exact_cycle, marched_cycle, monodromy_stability
 from wheelrom.analysis.periodic.floquet import floquet
@@ -34,10 +40,6 @@ FASTEST = -1  # in Settings.waves: the wave growing fastest at the configured in
 START_AMPLITUDE = 1e-9  # [m] tip amplitude of the first cycle next to the Hopf point
 FINE_SAMPLES = 256  # time samples per period of the reported quantities
 SEED_HARMONICS = 3  # harmonics of the first Newton solve of a seed that fails with H
-#: relative tip-amplitude difference between a shot orbit and its harmonic-balance start
-#: above which they are called different orbits: the balance's truncation bias on the paper's
-#: lift-off cycles is 2-8.5 % at H = 11 (docs/results.md), the 70 deg shot lands 26 % below
-OTHER_ORBIT = 0.15
 
 
 @dataclass(frozen=True)
@@ -178,18 +180,8 @@ class WaveBranch:
                 words.append(f"unstable ({st.by} {st.worst_family} grows at "
                              f"{st.growth.max():.3g} /s; the flutter does not settle on this "
                              "wave alone)")  # fmt: skip
-        if c.method == "shooting" and math.isfinite(c.hb_tip_amplitude):
-            apart = abs(c.tip_amplitude / c.hb_tip_amplitude - 1.0)
-            if apart > OTHER_ORBIT:
-                words.append(f"exact orbit, not the harmonic balance's cycle it was shot from "
-                             f"({c.hb_tip_amplitude * 1e6:.3g} um, {c.hb_frequency_hz:.4g} Hz: "
-                             f"{100 * apart:.0f} % apart, beyond the balance's truncation; "
-                             "another orbit)")  # fmt: skip
-            else:
-                words.append(f"exact orbit (harmonic balance {c.hb_tip_amplitude * 1e6:.3g} "
-                             f"um, {c.hb_frequency_hz:.4g} Hz)")  # fmt: skip
-        more = coexisting(self.cycles, c)
-        return ", ".join(words + ([more] if more else []))
+        words += [orbit_words(c), coexisting(self.cycles, c)]
+        return ", ".join(w for w in words if w)
 
 
 @dataclass
