@@ -57,9 +57,11 @@ def _cycle(path, i):
             if rows:
                 step, value, nd = rows[-1]
                 text += f"; in symmetry |mu| {value:.5g} (ND {int(nd)}) at {step * 1e6:.2g} us"
-                # the cycle's verdict; -1: not decided (under the elastic law a modulus
-                # below 1 there is stability inside the symmetry only)
-                undecided = "whole wheel not decided" if value <= 1 else "uncertain"
+                # the cycle's verdict; -1: not decided (under the elastic law: stable inside
+                # the orbit's symmetry, the other NDs not checked, or uncertain there)
+                by = c["floquet_by"][j].decode() if "floquet_by" in c else ""
+                undecided = "stable in symmetry, whole wheel not decided" \
+                    if by.startswith("stable inside") else "uncertain"  # fmt: skip
                 text += " (" + {1: "stable", 0: "unstable"}.get(int(c["stable"][j]),
                                                                 undecided) + ")"
             if "multiplier_modulus" in c and np.isfinite(c["multiplier_modulus"][j]).any():

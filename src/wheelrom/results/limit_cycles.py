@@ -95,6 +95,10 @@ def _write_cycles(g, cycles) -> None:
     # 1 stable, 0 unstable, -1 not computed
     g["stable"] = np.array([-1 if c.stable is None else int(c.stable) for c in cycles],
                            dtype=np.int8)  # fmt: skip
+    # what decided it, in words (under the elastic law also why a -1: stable inside the
+    # orbit's symmetry only, or uncertain there)
+    g["floquet_by"] = np.array([(c.stability.by if c.stability is not None else "").encode()
+                                for c in cycles])  # fmt: skip
 
 
 def _write_orbits(g, cycles) -> None:
