@@ -204,17 +204,22 @@ def _instability_proof(cycle: Cycle) -> FloquetResult | None:
         trust=math.inf)  # fmt: skip
 
 
+def finer_steps(cfg, orbit: Orbit, refine: int):
+    """``cfg`` at each of the ``refine`` halvings of ``time.step`` that is finer than the
+    step ``orbit`` was shot at (a halving already, when its shot needed one)."""
+    own = orbit.period / orbit.steps_per_period
+    for r in range(1, refine + 1):
+        step = float(cfg.time.step) / 2**r
+        if step < 0.99 * own:
+            yield cfg.replace(**{"time.step": step})
+
+
 def _refine(model, cfg, angles, cycle: Cycle, refine: int, comm=None) -> None:
     """The dominant in-symmetry multiplier at ``refine`` halvings of the step
     (``cycle.refined``), each from the pattern map's Jacobian at the orbit (no Newton solve:
     :meth:`~wheelrom.analysis.periodic.shooting.Shooting.multipliers_at`)."""
     orbit = cycle.orbit
-    step = float(cfg.time.step)
-    own = orbit.period / orbit.steps_per_period  # the orbit's step (a halving when needed)
-    for r in range(1, refine + 1):
-        if step / 2**r >= 0.99 * own:
-            continue
-        finer = cfg.replace(**{"time.step": step / 2**r})
+    for finer in finer_steps(cfg, orbit, refine):
         shooting = Shooting(model, finer, orbit.wave, angles, cycle.lam, comm)
         try:
             mu, nd = shooting.multipliers_at(orbit.state, orbit.period)
@@ -287,13 +292,8 @@ def elastic_stability(model, cfg, angles, cycle: Cycle, shooting: SliderShooting
     orbit, tip = cycle.orbit, cycle.tip_amplitude
     levels = [_level(shooting, orbit, tip)]
     orbit.symmetric_multipliers, orbit.symmetric_nd = levels[0]["values"], levels[0]["nd"]
-    own = orbit.period / orbit.steps_per_period
-    for r in range(1, refine + 1):
-        step = float(cfg.time.step) / 2**r
-        if step >= 0.99 * own:
-            continue
-        finer = SliderShooting(model, cfg.replace(**{"time.step": step}), orbit.wave, angles,
-                               1.0)  # fmt: skip
+    for step_cfg in finer_steps(cfg, orbit, refine):
+        finer = SliderShooting(model, step_cfg, orbit.wave, angles, 1.0)
         try:
             again = finer.solve(orbit.flat(), orbit.period, tip)
             if not again.converged:

@@ -98,6 +98,21 @@ def pattern_nd(q: np.ndarray, g: int, blades: int) -> np.ndarray:
     return np.minimum(k % blades, (-k) % blades)
 
 
+def pattern_spectrum(G: np.ndarray, scale: np.ndarray, shots: int, pattern: int,
+                     blades: int, modes: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(mu, vectors, nd)``: the multipliers ``mu = nu^shots`` of a pattern map's Jacobian
+    ``G`` ``(n, n)`` in scaled units ``scale`` ``(n,)`` (``G^shots`` is the monodromy on the
+    pattern), largest modulus first; its eigenvectors ``(n, E)`` in the state's units, in
+    that order; the NDs on the wheel of ``blades`` of their ``q`` parts (the first
+    ``pattern * modes`` rows: :func:`pattern_nd`)."""
+    nu, vectors = np.linalg.eig(G)
+    mu = nu**shots
+    order = np.argsort(-np.abs(mu))
+    vectors = (vectors * scale[:, None])[:, order]
+    q = vectors[: pattern * modes].T.reshape(-1, pattern, modes)
+    return mu[order], vectors, pattern_nd(q, blades // pattern, blades)
+
+
 def shift_blades(states: np.ndarray, j: int) -> np.ndarray:
     """``(..., 2, N, m)`` states with blade ``s`` replaced by blade ``s + j``."""
     return np.roll(states, -j, axis=-2)

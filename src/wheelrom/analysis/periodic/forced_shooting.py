@@ -40,7 +40,7 @@ from wheelrom.analysis.periodic.flow import (
     WheelFlow,
     pattern_blades,
     pattern_model,
-    pattern_nd,
+    pattern_spectrum,
 )
 from wheelrom.analysis.periodic.forced_wave import ForcedWave
 from wheelrom.analysis.periodic.monodromy import label_vectors
@@ -239,15 +239,10 @@ class ForcedShooting:
         return orbit
 
     def _multipliers(self, G: np.ndarray, scale: np.ndarray):
-        """``(mu, nd)`` of the pattern map's Jacobian ``G`` (scaled), largest first; the ND
-        of a vector from the DFT of its ``q`` over the pattern's blades (index times ``g``)."""
-        nu, vectors = np.linalg.eig(G)
-        mu = nu**self.shots
-        order = np.argsort(-np.abs(mu))
-        vectors = (vectors * scale[:, None])[:, order]
-        nq = self.N * self.m
-        return mu[order], pattern_nd(vectors[:nq].T.reshape(-1, self.N, self.m),
-                                     self.blades // self.N, self.blades)  # fmt: skip
+        """``(mu, nd)`` of the pattern map's Jacobian ``G`` (scaled), largest first
+        (:func:`~.flow.pattern_spectrum`)."""
+        mu, _, nd = pattern_spectrum(G, scale, self.shots, self.N, self.blades, self.m)
+        return mu, nd
 
     def tip_amplitude(self, x: np.ndarray) -> float:
         """0-peak tip amplitude [m] about the mean, at every step of one shot of every

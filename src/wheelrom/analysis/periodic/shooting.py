@@ -30,7 +30,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from wheelrom.analysis.periodic.flow import WheelFlow, pattern_model, pattern_nd, shift_blades
+from wheelrom.analysis.periodic.flow import (
+    WheelFlow,
+    pattern_model,
+    pattern_nd,
+    pattern_spectrum,
+    shift_blades,
+)
 from wheelrom.config import Config
 from wheelrom.rom.model import ReducedModel
 from wheelrom.runtime.environment import petsc
@@ -173,13 +179,9 @@ class Shooting:
     def _pattern_multipliers(self, G: np.ndarray, scale: np.ndarray):
         """``(mu, nd)``: the multipliers ``nu^{N'}`` of the pattern map's Jacobian ``G``
         ``(n, n)`` (scaled units ``scale``) and the NDs of their eigenvectors."""
-        n = self.n
-        nu, vectors = np.linalg.eig(G)
-        mu = nu ** round(1 / self.fraction)  # G^{N'} is the monodromy on the pattern
-        order = np.argsort(-np.abs(mu))
-        vectors = (vectors * scale.ravel()[:, None])[:, order]
-        nd = self._nd_of(vectors[: n // 2].T.reshape(-1, self.N, self.m))
-        return mu[order], nd
+        mu, _, nd = pattern_spectrum(G, np.ravel(scale), round(1 / self.fraction), self.N,
+                                     self.full_model.blades, self.m)  # fmt: skip
+        return mu, nd
 
     def _nd_of(self, q: np.ndarray) -> np.ndarray:
         """NDs on the whole wheel of pattern vectors ``q`` ``(E, N', m)``."""

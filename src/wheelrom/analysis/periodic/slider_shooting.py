@@ -30,7 +30,7 @@ import time
 
 import numpy as np
 
-from wheelrom.analysis.periodic.flow import WheelFlow, pattern_model, pattern_nd
+from wheelrom.analysis.periodic.flow import WheelFlow, pattern_model, pattern_spectrum
 from wheelrom.analysis.periodic.hopf import tip_measure
 from wheelrom.analysis.periodic.newton import newton_least_squares
 from wheelrom.analysis.periodic.shooting import Orbit, OrbitSamples
@@ -328,16 +328,14 @@ class SliderShooting:
         G = self.jacobian(x, orbit.period, steps, scale)[np.ix_(keep, keep)]
         along = (self.flow.advance(x[None], self.fraction * orbit.period / steps, 1)[0] - x)
         along = along[keep] / scale[keep]
-        nu, vectors = np.linalg.eig(G)
-        values = nu**self.shots
-        order = np.argsort(-np.abs(values))
-        values, vectors = values[order], vectors[:, order]
-        alignment = np.abs(vectors.conj().T @ along) / np.maximum(
-            np.linalg.norm(vectors, axis=0) * np.linalg.norm(along), 1e-300)
+        # the locked unknowns are sliders, after q and q': keep's first N' m rows are q
+        values, vectors, nd = pattern_spectrum(G, scale[keep], self.shots, self.N,
+                                               self.full_model.blades, self.m)  # fmt: skip
+        scaled = vectors / scale[keep, None]
+        alignment = np.abs(scaled.conj().T @ along) / np.maximum(
+            np.linalg.norm(scaled, axis=0) * np.linalg.norm(along), 1e-300)
         full = np.zeros((self.n, values.size), complex)  # in the state's units
-        full[keep] = vectors * scale[keep, None]
-        q = full[: self.nq // 2].T.reshape(-1, self.N, self.m)
-        nd = pattern_nd(q, self.full_model.blades // self.N, self.full_model.blades)
+        full[keep] = vectors
         return {"values": values, "nd": nd, "trivial": int(np.argmax(alignment)),
                 "neutral": int(locked.sum()), "vectors": full}
 
