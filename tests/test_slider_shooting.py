@@ -95,11 +95,13 @@ def test_the_elastic_orbits_multipliers_are_the_transients_decay(elastic_orbit):
     cfg, model, angles, res = elastic_orbit
     cycle = res.branches[0].cycles[0]
     orbit = cycle.orbit
-    # stable inside the 2-blade pattern (NDs 0, 6); the other NDs are not checked: not
-    # called stable for the wheel (Cycle.stable None), said in words
-    assert cycle.stable is None and cycle.stability.stable
-    assert cycle.stability.by.startswith("stable inside its own symmetry (largest 0.9976")
-    assert "stable inside its own symmetry" in res.branches[0].verdict()
+    # stable inside the 2-blade pattern (NDs 0, 6) and for the whole wheel (every ND by
+    # Bloch waves, the next test), trusted at the two finest steps
+    assert cycle.stable is True
+    assert cycle.stability.by.startswith("monodromy of the whole wheel by Bloch waves")
+    assert res.branches[0].verdict().startswith("settles at")
+    mu = cycle.multipliers
+    assert mu.by == "Bloch waves" and mu.nd[mu.worst] == 6 and mu.largest < 0.999
     assert len(cycle.refined) == 5 and {nd for _, _, nd in cycle.refined} == {6}
     moduli = [mu for _, mu, _ in cycle.refined]
     assert max(moduli) - min(moduli) <= 1e-4 and max(moduli) < 0.999
@@ -128,6 +130,78 @@ def test_the_elastic_orbits_multipliers_are_the_transients_decay(elastic_orbit):
         shooting.destroy()
     rate = (distance[-1] / distance[9]) ** (1 / 30)
     assert rate == pytest.approx(values[worst].real, abs=1e-4)
+
+
+def test_the_whole_wheels_multipliers_by_bloch_waves_are_its_monodromys(elastic_orbit):
+    """The block-circulant identity: every multiplier of the whole 12-blade wheel about the
+    ND 6 orbit by Bloch waves (its 6 copies of the 2-blade pattern, the responses to pattern 0
+    moved alone; :func:`~wheelrom.analysis.periodic.bloch.bloch_multipliers`) is an
+    eigenvalue of the wheel's monodromy differenced over every unknown of every blade, and
+    back (to 1e-9; measured 7e-15: the same differences, rearranged); the Bloch phase 0 is
+    the pattern's own map (its largest non-trivial, 0.99764, to 1e-4: a period against N'
+    shots). The tie-boss's sliders are locked in every copy (12 x 2 left out of 2 x 12 x
+    (12 + 4)). Independent truth, the transient: the whole wheel started on the orbit plus
+    1e-6 of the eigenvector of the largest multiplier off the pattern's symmetry (ND 5,
+    0.99732) returns at that rate per period (to 1e-4; measured 2e-6)."""
+    from wheelrom.analysis.periodic.bloch import DIFFERENCE, bloch_multipliers, pattern_indices
+    from wheelrom.analysis.periodic.flow import WheelFlow
+    from wheelrom.analysis.periodic.slider_shooting import SliderShooting
+
+    cfg, model, angles, res = elastic_orbit
+    cycle = res.branches[0].cycles[0]
+    orbit = cycle.orbit
+    shooting = SliderShooting(model, cfg, orbit.wave, angles, 1.0)
+    try:
+        scale = shooting._scale(orbit.flat(), orbit.period, cycle.tip_amplitude)
+        keep = np.flatnonzero(~shooting.locked(orbit))
+        inside = shooting.multipliers(orbit, cycle.tip_amplitude)
+    finally:
+        shooting.destroy()
+    bloch = bloch_multipliers(model, cfg, orbit, scale, keep, angles)
+    N, m, pattern = model.blades, model.modes, orbit.pattern
+    copies, kinds = N // pattern, orbit.sliders.shape[0]
+    assert keep.size == 2 * pattern * m + 2 * pattern and bloch.values.size == copies * keep.size
+    where = np.concatenate([pattern_indices(N, m, pattern, kinds, p)[keep]
+                            for p in range(copies)])  # fmt: skip
+    unit = np.tile(scale[keep], copies)
+    state = np.concatenate([orbit.wheel_state(N).ravel(),
+                            orbit.sliders[:, np.arange(N) % pattern].ravel()])  # fmt: skip
+    probes = np.repeat(state[None], 2 * where.size, axis=0)
+    rows = np.arange(where.size)
+    probes[2 * rows, where] += DIFFERENCE * unit
+    probes[2 * rows + 1, where] -= DIFFERENCE * unit
+    flow = WheelFlow(model, cfg, angles, 1.0)
+    try:
+        ends = flow.advance(probes, orbit.period, orbit.steps_per_period)
+    finally:
+        flow.destroy()
+    monodromy = ((ends[0::2] - ends[1::2])[:, where] / (2 * DIFFERENCE) / unit).T
+    dense, vectors = np.linalg.eig(monodromy)
+    distance = np.abs(bloch.values[:, None] - dense[None, :])
+    assert distance.min(axis=1).max() < 1e-9 and distance.min(axis=0).max() < 1e-9
+    values = inside["values"]
+    rest = np.delete(np.arange(values.size), inside["trivial"])
+    assert abs(bloch.values[bloch.worst]) == pytest.approx(abs(values[rest]).max(), abs=1e-4)
+    assert bloch.nd[bloch.worst] == 6 and abs(bloch.values[bloch.trivial] - 1.0) < 1e-3
+    other = next(i for i in range(bloch.values.size) if bloch.nd[i] not in (0, 6))
+    assert bloch.nd[other] == 5
+    v = vectors[:, np.argmin(np.abs(dense - bloch.values[other]))].real * unit
+    x = state.copy()
+    x[where] += 1e-6 * v / np.linalg.norm(v / unit)
+    flow = WheelFlow(model, cfg, angles, 1.0)
+    try:
+        h = orbit.period / orbit.steps_per_period
+        along = (flow.advance(state[None], h, 1)[0] - state)[where] / unit
+        along /= np.linalg.norm(along)
+        distance = []
+        for _ in range(40):
+            x = flow.advance(x[None], orbit.period, orbit.steps_per_period)[0]
+            d = (x - state)[where] / unit
+            distance.append(np.linalg.norm(d - (along @ d) * along))
+    finally:
+        flow.destroy()
+    rate = (distance[-1] / distance[9]) ** (1 / 30)
+    assert rate == pytest.approx(abs(bloch.values[other]), abs=1e-4)
 
 
 @pytest.mark.parametrize("shroud, preload", [(SHROUD, None), (90.0, 1.0)])

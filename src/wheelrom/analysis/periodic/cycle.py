@@ -169,3 +169,21 @@ def orbit_words(c) -> str:
                 f"{100 * apart:.0f} % apart, beyond the balance's truncation; another orbit)")
     return (f"exact orbit (harmonic balance {c.hb_tip_amplitude * 1e6:.3g} um, "
             f"{c.hb_frequency_hz:.4g} Hz)")  # fmt: skip
+
+
+def whole_wheel_words(c) -> str:
+    """What the whole wheel's multipliers of cycle ``c`` say beside an instability inside its
+    symmetry: not computed, the largest and its ND at the step they were computed at
+    (``time.step`` for SLEPc's monodromy, the finest refined step for the Bloch waves'), or
+    how far SLEPc got."""
+    mu = c.multipliers
+    if mu is None:
+        return "the whole wheel's not computed (limit_cycle.whole_wheel)"
+    if mu.worst >= 0:
+        at = "time.step" if mu.by == "monodromy" else \
+            f"a {c.refined[-1][0] * 1e6:.2g} us step (Bloch waves)"  # fmt: skip
+        return (f"the whole wheel's largest {mu.largest:.3g} per period, ND "
+                f"{mu.nd[mu.worst]} at {at}")  # fmt: skip
+    # how far it got: the periods integrated and the one check it has
+    return (f"no multiplier of the whole wheel converged at time.step in {mu.matvecs} "
+            f"linearised periods (its phase-shift multiplier off 1 by {mu.trivial_error:.2g})")

@@ -11,6 +11,7 @@ import math
 
 import numpy as np
 
+from wheelrom.analysis.periodic.bloch import bloch_multipliers
 from wheelrom.analysis.periodic.continuation import Corrector
 from wheelrom.analysis.periodic.cycle import Cycle
 from wheelrom.analysis.periodic.floquet import TRUSTED, FloquetResult
@@ -231,15 +232,16 @@ def _refine(model, cfg, angles, cycle: Cycle, refine: int, comm=None) -> None:
 
 
 def marched_cycle(model, cfg, angles, branch, q_eq: np.ndarray, blocks, harmonics: int,
-                  progress=None, refine: int | None = None) -> None:  # fmt: skip
+                  progress=None, refine: int | None = None, whole_wheel: str = "always",
+                  count: int = 10) -> None:  # fmt: skip
     """The elastic law's exact orbit of ``branch``'s wave at the configured intensity
     (:mod:`.slider_shooting`): its growing mode at ``lam = 1`` (``blocks``: the wave's ND
     blocks ``(B0, B1)``) seeded at half its slip onset on the wave's pattern wheel with the
     sliders at rest at the equilibrium ``q_eq`` ``(N, m)``, marched until its energy settles,
     then shot (``progress(tip_amplitude)`` [m] after every chunk of the march); appended to
     ``branch.cycles`` when Newton converges, said in ``branch.end`` either way; its stability
-    inside its own symmetry at ``refine`` halvings of the step (:func:`elastic_stability`;
-    None: not computed)."""
+    inside its own symmetry at ``refine`` halvings of the step and the whole wheel's
+    (:func:`elastic_stability`, ``whole_wheel``, ``count``; ``refine`` None: not computed)."""
     lam_c = branch.critical_lam
     branch.hopf_hz = float(wave_mode(blocks[0], blocks[1], lam_c if lam_c > 0 else 1.0)[1].imag
                            / (2 * math.pi))  # fmt: skip
@@ -264,7 +266,8 @@ def marched_cycle(model, cfg, angles, branch, q_eq: np.ndarray, blocks, harmonic
             cycle.floquet_skipped = "limit_cycle.floquet = 'off'"
         else:
             try:
-                elastic_stability(model, cfg, angles, cycle, shooting, refine)
+                elastic_stability(model, cfg, angles, cycle, shooting, refine, whole_wheel,
+                                  count)
             except (ValueError, RuntimeError, petsc().Error) as exc:  # the orbit stands
                 cycle.stability, cycle.refined = None, []
                 cycle.floquet_skipped = f"its multipliers failed: {type(exc).__name__}: {exc}"
@@ -277,7 +280,8 @@ def marched_cycle(model, cfg, angles, branch, q_eq: np.ndarray, blocks, harmonic
 
 
 def elastic_stability(model, cfg, angles, cycle: Cycle, shooting: SliderShooting,
-                      refine: int) -> None:  # fmt: skip
+                      refine: int, whole_wheel: str = "always", count: int = 10) -> None:
+    # fmt: skip
     """The elastic orbit's multipliers inside its own symmetry (the pattern map's,
     :meth:`~.slider_shooting.SliderShooting.multipliers`: the sliders of contacts stuck all
     period left out, each a multiplier exactly 1) at its own step (``shooting``'s) and at the
@@ -288,9 +292,13 @@ def elastic_stability(model, cfg, angles, cycle: Cycle, shooting: SliderShooting
     1.0101 at its 5.9 us step, confirmed by the growth of a perturbation in the transient,
     1.0001-1.0005 from 5 us down to 0.16 us). ``cycle.refined``: ``(step [s], |mu|, ND)`` of
     the largest non-trivial one per step; ``cycle.stability`` from the finest
-    (:func:`_elastic_verdict`)."""
+    (:func:`_elastic_verdict`). Then every multiplier of the whole wheel by Bloch waves
+    (:func:`~.bloch.bloch_multipliers`) at the two finest steps (``cycle.multipliers``: the
+    ``count`` largest of the finest), and the verdict from them by the same rule, unless the
+    pattern is the whole wheel or ``whole_wheel = 'undecided'`` and the symmetry's already
+    proves the orbit unstable."""
     orbit, tip = cycle.orbit, cycle.tip_amplitude
-    levels = [_level(shooting, orbit, tip)]
+    levels = [_level(shooting, orbit, tip, cfg)]
     orbit.symmetric_multipliers, orbit.symmetric_nd = levels[0]["values"], levels[0]["nd"]
     for step_cfg in finer_steps(cfg, orbit, refine):
         finer = SliderShooting(model, step_cfg, orbit.wave, angles, 1.0)
@@ -298,27 +306,49 @@ def elastic_stability(model, cfg, angles, cycle: Cycle, shooting: SliderShooting
             again = finer.solve(orbit.flat(), orbit.period, tip)
             if not again.converged:
                 break
-            levels.append(_level(finer, again, tip))
+            levels.append(_level(finer, again, tip, step_cfg))
         finally:
             finer.destroy()
     cycle.refined = [(lv["step"], lv["largest"], lv["worst_nd"]) for lv in levels]
-    cycle.stability = _elastic_verdict(levels, orbit.period, orbit.pattern == model.blades)
+    whole = orbit.pattern == model.blades
+    cycle.stability = _elastic_verdict(levels, orbit.period, whole)
+    proved = cycle.stability.trusted and not cycle.stability.stable
+    if whole or (proved and whole_wheel == "undecided"):
+        return
+    wheel = []
+    for lv in levels[-2:]:
+        mu = bloch_multipliers(model, lv["cfg"], lv["orbit"], lv["scale"], lv["keep"], angles)
+        worst = mu.worst
+        wheel.append({"step": lv["step"], "largest": mu.largest, "error": mu.trivial_error,
+                      "worst_nd": int(mu.nd[worst]) if worst >= 0 else -1})  # fmt: skip
+    cycle.multipliers = mu.top(count)
+    verdict = _elastic_verdict(wheel, orbit.period, True, wheel=True)
+    if not proved or verdict.trusted and not verdict.stable:  # the wheel's adds its ND
+        if not verdict.trusted and cycle.stability.trusted:  # say what the symmetry's says
+            verdict.by += f"; {cycle.stability.by.split(';')[0]}"
+        cycle.stability = verdict
 
 
-def _level(shooting: SliderShooting, orbit: Orbit, tip: float) -> dict:
+def _level(shooting: SliderShooting, orbit: Orbit, tip: float, cfg) -> dict:
     """The pattern map's multipliers at ``orbit``'s step, with the largest non-trivial one's
-    modulus (``largest``, 0 when none), its ND and the phase shift's error ``|mu_0 - 1|``."""
+    modulus (``largest``, 0 when none), its ND and the phase shift's error ``|mu_0 - 1|``;
+    the orbit, its configuration, its unknowns' units and those not locked (for the whole
+    wheel's multipliers)."""
     mu = shooting.multipliers(orbit, tip)
+    scale = shooting._scale(orbit.flat(), orbit.period, tip)
+    keep = np.flatnonzero(~shooting.locked(orbit))
     values, trivial = mu["values"], mu["trivial"]
     rest = np.delete(np.arange(values.size), trivial)
     worst = int(rest[np.argmax(np.abs(values[rest]))]) if rest.size else -1
     return {**mu, "step": orbit.period / orbit.steps_per_period,
             "largest": float(abs(values[worst])) if worst >= 0 else 0.0,
             "worst_nd": int(mu["nd"][worst]) if worst >= 0 else -1,
-            "error": float(abs(values[trivial] - 1.0))}  # fmt: skip
+            "error": float(abs(values[trivial] - 1.0)), "orbit": orbit, "cfg": cfg,
+            "scale": scale, "keep": keep}  # fmt: skip
 
 
-def _elastic_verdict(levels: list[dict], period: float, whole: bool) -> FloquetResult:
+def _elastic_verdict(levels: list[dict], period: float, whole: bool,
+                     wheel: bool = False) -> FloquetResult:  # fmt: skip
     """The verdict of the finest level, trusted when the largest non-trivial modulus stands
     off 1 by at least twice its change over the last halving of the step, and the phase
     shift's multiplier is 1 to :data:`~.floquet.TRUSTED` or to half that distance (the whole
@@ -326,9 +356,10 @@ def _elastic_verdict(levels: list[dict], period: float, whole: bool) -> FloquetR
     phase moves every stick-slip switch against the fixed steps at once, measured 4e-5 to
     1.3e-3 over the paper wheel's halvings where the largest non-trivial one changed by 1e-5
     to 4e-4): above 1, unstable (inside the symmetry proves it for the wheel); at or below
-    1, stable when the pattern is the whole wheel (``whole``), else stable inside its
-    symmetry only, the other NDs not checked (reported, ``Cycle.stable`` None: ``settle``
-    decides); untrusted: uncertain, with the reason."""
+    1, stable when the pattern is the whole wheel (``whole``) or the levels are the whole
+    wheel's (``wheel``: every ND, by Bloch waves), else stable inside its symmetry only, the
+    other NDs not checked (reported, ``Cycle.stable`` None: ``settle`` decides); untrusted:
+    uncertain, with the reason."""
     last = levels[-1]
     largest, error, nd = last["largest"], last["error"], last["worst_nd"]
     change = abs(largest - levels[-2]["largest"]) if len(levels) > 1 else math.inf
@@ -336,16 +367,18 @@ def _elastic_verdict(levels: list[dict], period: float, whole: bool) -> FloquetR
     trusted = change <= margin and error <= max(TRUSTED, margin)
     growth = np.array([math.log(max(largest, 1e-300)) / period])
     at = f"largest {largest:.5g} per period, ND {nd}, at a {last['step'] * 1e6:.2g} us step"
+    where = "of the whole wheel by Bloch waves" if wheel else "inside the cycle's symmetry"
     if trusted and (largest > 1.0 or whole):
-        by = "monodromy inside the cycle's symmetry at the finest step (elastic law): ND"
+        by = f"monodromy {where} at the finest step (elastic law): ND"
         return FloquetResult(np.array([nd]), growth, largest, error, largest <= 1.0, by=by,
                              trust=math.inf)  # fmt: skip
     if trusted:
-        by = (f"stable inside its own symmetry ({at}); the whole wheel's not computed under "
-              "the elastic law: settle decides")  # fmt: skip
+        by = (f"stable inside its own symmetry ({at}); the whole wheel's not computed "
+              "(limit_cycle.whole_wheel): settle decides")  # fmt: skip
     else:
         why = f"changing by {change:.1e} over the last halving" if change > margin else \
             f"the phase-shift multiplier off 1 by {error:.1e}"  # fmt: skip
-        by = f"stability uncertain inside its own symmetry ({at}; {why})"
+        where = "for the whole wheel (Bloch waves)" if wheel else "inside its own symmetry"
+        by = f"stability uncertain {where} ({at}; {why})"
     return FloquetResult(np.array([nd]), growth, largest, error, largest <= 1.0, by=by,
                          trust=-1.0)  # fmt: skip

@@ -24,6 +24,7 @@ from wheelrom.analysis.periodic.cycle import (
     coexisting,
     describe,
     orbit_words,
+    whole_wheel_words,
 )
 from wheelrom.analysis.periodic.cycle_transient import transient_stability
 from wheelrom.analysis.periodic.exact import exact_cycle, marched_cycle, monodromy_stability
@@ -155,18 +156,7 @@ class WaveBranch:
             st = c.stability
             inside = st.by.startswith("monodromy inside")  # proved in the cycle's symmetry
             if c.multipliers is not None or inside:
-                mu = c.multipliers
-                if mu is None:
-                    whole = "the whole wheel's not computed (" + \
-                        ("the elastic law" if elastic else "limit_cycle.whole_wheel") + ")"
-                elif mu.worst >= 0:
-                    whole = (f"the whole wheel's largest {mu.largest:.3g} per period, ND "
-                             f"{mu.nd[mu.worst]} at time.step")  # fmt: skip
-                else:
-                    # how far it got: the periods integrated and the one check it has
-                    whole = (f"no multiplier of the whole wheel converged at time.step in "
-                             f"{mu.matvecs} linearised periods (its phase-shift multiplier "
-                             f"off 1 by {mu.trivial_error:.2g})")  # fmt: skip
+                whole = whole_wheel_words(c)
                 alone = "the flutter does not settle on this wave alone"
                 if inside:
                     step = c.refined[-1][0]
@@ -250,7 +240,8 @@ class WaveAnalysis:
             say = self.progress and (lambda tip: self.progress(wave, 1.0, tip))
             marched_cycle(self.model, self.cfg, self.angles, branch, self.q_eq,
                           (self.B0[wave], self.B1[wave]), st.harmonics, say,
-                          None if floquet_kind(st) == "off" else st.refine)  # fmt: skip
+                          None if floquet_kind(st) == "off" else st.refine,
+                          st.whole_wheel, st.multipliers)  # fmt: skip
         else:  # lam_c = 0: unstable without self-excitation, no Hopf branch; seeds still
             self._branches(branch, wave, lam_c)
         branch.wall_s = time.perf_counter() - t0

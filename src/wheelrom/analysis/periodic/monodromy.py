@@ -22,6 +22,7 @@ the openings as the transient does.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
@@ -75,6 +76,16 @@ class Multipliers:
         if self.trivial >= 0:
             keep[self.trivial] = False
         return np.flatnonzero(keep)
+
+    def top(self, count: int) -> Multipliers:
+        """The ``count`` largest (``values`` are sorted); the phase shift's error kept when
+        its multiplier is not among them."""
+        if self.values.size <= count:
+            return self
+        trivial = self.trivial if self.trivial < count else -1
+        return dataclasses.replace(
+            self, values=self.values[:count], nd=self.nd[:count], wave=self.wave[:count],
+            trivial=trivial, alignment=self.alignment[:count], trivial_check=self.trivial_error)
 
     @property
     def largest(self) -> float:

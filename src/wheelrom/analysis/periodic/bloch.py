@@ -1,0 +1,107 @@
+"""Every Floquet multiplier of the whole wheel about a travelling wave's orbit, from its
+pattern by Bloch waves (docs/theory.md, "The whole wheel's multipliers by Bloch waves").
+
+A travelling wave of ``k`` repeats every ``N'`` blades (its pattern, :func:`~.flow.
+pattern_model`), so the orbit of the whole wheel is the pattern's tiled ``L = N / N'`` times
+and the wheel's linearised period map ``M`` commutes with the shift by one pattern: it is
+block-circulant over the patterns, ``M_{p,r} = C_{p-r}``. Its eigenvectors are Bloch waves
+``x_p = e^{i theta p} v`` (``theta = 2 pi j / L``) and its spectrum is the union over ``j``
+of the spectra of the pattern-size matrices::
+
+    M_theta = sum_r e^{-i theta r} C_r,          C_r = d x_r(T) / d x_0(0)
+
+the response of pattern ``r`` after one period to a perturbation of pattern 0 alone. One
+batch of central differences of the whole wheel's flow (each unknown of pattern 0 moved by
+``+-eps`` in its unit) gives every ``C_r`` at once: ``2 n'`` period integrations of the wheel
+for its complete spectrum, every ND, where a Krylov method over the whole wheel needs about as
+many and converges only the outermost (:mod:`.monodromy`). ``M_0`` is the pattern's own
+period map (the multipliers inside the orbit's symmetry, :mod:`.slider_shooting`).
+
+Under the elastic law the sliders of contacts stuck all period are left out (their rows of
+``M`` are unit rows: each a multiplier exactly 1, another orbit of the family), in every
+pattern alike.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from wheelrom.analysis.periodic.flow import WheelFlow
+from wheelrom.analysis.periodic.monodromy import Multipliers, label_vectors
+from wheelrom.analysis.periodic.shooting import Orbit
+from wheelrom.config import Config
+from wheelrom.rom.model import ReducedModel
+
+DIFFERENCE = 1e-6  # central-difference step, in each unknown's unit
+
+
+def pattern_indices(blades: int, modes: int, pattern: int, kinds: int, copy: int) -> np.ndarray:
+    """``(n',)``: where pattern ``copy``'s unknowns sit in the whole wheel's flat state
+    (``q``, ``q'`` ``(2, N, m)`` then the sliders ``(K, N, 2)``), in the pattern's own flat
+    order (:meth:`~.shooting.Orbit.flat`)."""
+    own = copy * pattern + np.arange(pattern)  # the copy's blades
+    q = (np.arange(2)[:, None, None] * blades + own[None, :, None]) * modes \
+        + np.arange(modes)[None, None, :]  # fmt: skip
+    sliders = 2 * blades * modes + (np.arange(kinds)[:, None, None] * blades
+                                    + own[None, :, None]) * 2 + np.arange(2)[None, None, :]
+    return np.concatenate([q.ravel(), sliders.ravel()])
+
+
+def bloch_multipliers(model: ReducedModel, cfg: Config, orbit: Orbit, scale: np.ndarray,
+                      keep: np.ndarray, angles_deg: dict | None = None,
+                      lam: float = 1.0) -> Multipliers:  # fmt: skip
+    """Every multiplier of the whole wheel of ``model`` about ``orbit`` (a pattern's, tiled)
+    in its steps (``orbit.steps_per_period``): ``values`` largest modulus first, ``nd`` and
+    ``wave`` of their whole-wheel eigenvectors, ``trivial`` the phase shift's (the ``theta =
+    0`` eigenvector most aligned with the flow). ``scale`` ``(n',)``: the pattern's unknowns'
+    units; ``keep``: the pattern unknowns that take part (the elastic law's locked sliders
+    left out: each a multiplier exactly 1). ``matvecs``: the wheel's periods integrated."""
+    t0 = time.perf_counter()
+    N, m, pattern = model.blades, model.modes, orbit.pattern
+    copies = N // pattern
+    kinds = 0 if orbit.sliders is None else orbit.sliders.shape[0]
+    where = [pattern_indices(N, m, pattern, kinds, p)[keep] for p in range(copies)]
+    state = orbit.wheel_state(N).ravel()
+    if kinds:
+        state = np.concatenate([state, orbit.sliders[:, np.arange(N) % pattern].ravel()])
+    unit = scale[keep]
+    n = keep.size
+    probes = np.repeat(state[None], 2 * n, axis=0)
+    rows = np.arange(n)
+    probes[2 * rows, where[0]] += DIFFERENCE * unit
+    probes[2 * rows + 1, where[0]] -= DIFFERENCE * unit
+    flow = WheelFlow(model, cfg, angles_deg, lam)
+    try:
+        steps = orbit.steps_per_period
+        ends = flow.advance(probes, orbit.period, steps)
+        h = orbit.period / steps
+        along = (flow.advance(state[None], h, 1)[0] - state)[where[0]] / unit
+    finally:
+        flow.destroy()
+    response = (ends[0::2] - ends[1::2]) / (2 * DIFFERENCE)  # row i: d end / d (x_i / unit_i)
+    # C_r[a, i]: pattern r's unknown a (in its unit) per unit of pattern 0's unknown i
+    C = np.stack([(response[:, where[r]] / unit).T for r in range(copies)])
+    values, nd, wave, alignment = [], [], [], []
+    for j in range(copies):
+        phase = np.exp(2j * math.pi * j * np.arange(copies) / copies)
+        mu, vectors = np.linalg.eig(np.tensordot(phase.conj(), C, axes=1))
+        wheel = np.zeros((mu.size, state.size), complex)  # the Bloch waves in state units
+        for r in range(copies):
+            wheel[:, where[r]] = phase[r] * (vectors * unit[:, None]).T
+        labels = label_vectors(wheel[:, : 2 * N * m], N, m)
+        values.append(mu)
+        nd.append(labels[0])
+        wave.append(labels[1])
+        aligned = np.abs(vectors.conj().T @ along) / np.maximum(
+            np.linalg.norm(vectors, axis=0) * np.linalg.norm(along), 1e-300)
+        alignment.append(aligned if j == 0 else np.zeros(mu.size))
+    values, nd, wave = np.concatenate(values), np.concatenate(nd), np.concatenate(wave)
+    alignment = np.concatenate(alignment)
+    order = np.argsort(-np.abs(values), kind="stable")
+    values, nd, wave, alignment = values[order], nd[order], wave[order], alignment[order]
+    return Multipliers(values, nd, wave, int(np.argmax(alignment)), orbit.period, 2 * n,
+                       time.perf_counter() - t0, values.size, by="Bloch waves",
+                       alignment=alignment)  # fmt: skip
