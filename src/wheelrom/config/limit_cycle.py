@@ -36,7 +36,9 @@ class LimitCycleConfig:
                       "cycle's own symmetry at the refined steps does not already prove it "
                       "unstable (the whole wheel's then adds the ND the flutter grows in, at "
                       "time.step, which resolves a cycle whose contacts open to first order "
-                      "only; 15-20 s per paper angle)", choices=("always", "undecided")))
+                      "only; 15-20 s per paper angle; under the elastic law every ND's by "
+                      "Bloch waves at the two finest refined steps, 20-30 s)",
+                      choices=("always", "undecided")))
     refine: int = field(
         default=4,
         metadata=_key("-", "step halvings at which the dominant multiplier inside the "

@@ -83,25 +83,44 @@ def bloch_multipliers(model: ReducedModel, cfg: Config, orbit: Orbit, scale: np.
         flow.destroy()
     response = (ends[0::2] - ends[1::2]) / (2 * DIFFERENCE)  # row i: d end / d (x_i / unit_i)
     # C_r[a, i]: pattern r's unknown a (in its unit) per unit of pattern 0's unknown i
-    C = np.stack([(response[:, where[r]] / unit).T for r in range(copies)])
-    values, nd, wave, alignment = [], [], [], []
-    for j in range(copies):
-        phase = np.exp(2j * math.pi * j * np.arange(copies) / copies)
-        mu, vectors = np.linalg.eig(np.tensordot(phase.conj(), C, axes=1))
-        wheel = np.zeros((mu.size, state.size), complex)  # the Bloch waves in state units
-        for r in range(copies):
-            wheel[:, where[r]] = phase[r] * (vectors * unit[:, None]).T
-        labels = label_vectors(wheel[:, : 2 * N * m], N, m)
-        values.append(mu)
-        nd.append(labels[0])
-        wave.append(labels[1])
-        aligned = np.abs(vectors.conj().T @ along) / np.maximum(
-            np.linalg.norm(vectors, axis=0) * np.linalg.norm(along), 1e-300)
-        alignment.append(aligned if j == 0 else np.zeros(mu.size))
-    values, nd, wave = np.concatenate(values), np.concatenate(nd), np.concatenate(wave)
-    alignment = np.concatenate(alignment)
+    C = [(response[:, where[r]] / unit).T for r in range(copies)]
+    units = np.zeros(state.size)
+    units[np.concatenate(where)] = np.tile(unit, copies)
+    values, nd, wave, first = block_circulant_spectrum(C, where, units, N, m)
+    alignment = np.abs(first.conj().T @ along) / np.maximum(
+        np.linalg.norm(first, axis=0) * np.linalg.norm(along), 1e-300)  # fmt: skip
+    alignment = np.concatenate([alignment, np.zeros(values.size - alignment.size)])
     order = np.argsort(-np.abs(values), kind="stable")
     values, nd, wave, alignment = values[order], nd[order], wave[order], alignment[order]
     return Multipliers(values, nd, wave, int(np.argmax(alignment)), orbit.period, 2 * n,
                        time.perf_counter() - t0, values.size, by="Bloch waves",
                        alignment=alignment)  # fmt: skip
+
+
+def block_circulant_spectrum(C: list, blocks: list, units: np.ndarray, blades: int,
+                             modes: int, power: int = 1, shift: int = 0):  # fmt: skip
+    """The eigenvalues of a map block-circulant over ``g = len(C)`` blocks of the whole
+    wheel's state, from ``C[r]`` ``(n', n')``: block ``r``'s response to block 0 (each in
+    its units ``units[blocks[r]]``; ``blocks[r]`` its flat indices in the state of size
+    ``units.size``). Per Bloch block ``B_p = sum_r C_{-r} w^{r p}`` (``w = e^{2 pi i / g}``:
+    the perturbations that change by ``w^p`` from one block to the next) its eigenvalues
+    ``nu``, reported as ``w^{p shift} nu^power`` (a map over ``tau`` that shifts the blades
+    by ``shift`` and ``power`` of which make a period; 1, 0: the period map itself). Returns
+    ``(values, nd, wave, first)``: per Bloch block in order, the NDs and wave indices of the
+    whole-wheel eigenvectors, and ``p = 0``'s eigenvectors ``(n', n')`` in the block's units
+    (the pattern's own: the phase shift's is among them)."""
+    g = len(C)
+    values, nd, wave = [], [], []
+    first = None
+    for p in range(g):
+        w = np.exp(2j * math.pi * p / g)
+        nu, vectors = np.linalg.eig(sum(C[(-r) % g] * w**r for r in range(g)))
+        whole = np.zeros((nu.size, units.size), complex)  # the Bloch waves in state units
+        for r in range(g):
+            whole[:, blocks[r]] = (w**r * vectors * units[blocks[r], None]).T
+        labels = label_vectors(whole, blades, modes)
+        values.append(w ** (p * shift) * nu**power)
+        nd.append(labels[0])
+        wave.append(labels[1])
+        first = vectors if p == 0 else first
+    return np.concatenate(values), np.concatenate(nd), np.concatenate(wave), first

@@ -182,7 +182,9 @@ def whole_wheel_words(c) -> str:
     if mu.worst >= 0:
         at = "time.step" if mu.by == "monodromy" else \
             f"a {c.refined[-1][0] * 1e6:.2g} us step (Bloch waves)"  # fmt: skip
-        return (f"the whole wheel's largest {mu.largest:.3g} per period, ND "
+        # the Bloch waves find the slow ones too (1.0003 would read 1 at three digits)
+        digits = ".3g" if mu.by == "monodromy" else ".5g"
+        return (f"the whole wheel's largest {mu.largest:{digits}} per period, ND "
                 f"{mu.nd[mu.worst]} at {at}")  # fmt: skip
     # how far it got: the periods integrated and the one check it has
     return (f"no multiplier of the whole wheel converged at time.step in {mu.matvecs} "

@@ -35,6 +35,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from wheelrom.analysis.periodic.bloch import block_circulant_spectrum
 from wheelrom.analysis.periodic.flow import (
     Nozzle,
     WheelFlow,
@@ -43,7 +44,6 @@ from wheelrom.analysis.periodic.flow import (
     pattern_spectrum,
 )
 from wheelrom.analysis.periodic.forced_wave import ForcedWave
-from wheelrom.analysis.periodic.monodromy import label_vectors
 from wheelrom.analysis.periodic.newton import newton_least_squares
 from wheelrom.config import Config
 from wheelrom.rom.model import ReducedModel
@@ -348,17 +348,8 @@ def wheel_multipliers(model: ReducedModel, cfg: Config, problem: ForcedWave,
     finally:
         whole.destroy()
     C = [columns[block(r)] for r in range(g)]  # C[r]: super-block r's response to block 0
-    values, nds = [], []
-    for p in range(g):
-        w = np.exp(2j * math.pi * p / g)
-        B = sum(C[(-r) % g] * w**r for r in range(g))
-        nu, vectors = np.linalg.eig(B)
-        full = np.zeros((whole.n, nu.size), complex)
-        for r in range(g):
-            full[block(r)] = w**r * vectors
-        values.append(w**(p * whole.shift) * nu**P)
-        nds.append(label_vectors((full * scale[:, None]).T, N, m)[0])
-    values, nds = np.concatenate(values), np.concatenate(nds)
+    values, nds, _, _ = block_circulant_spectrum(C, [block(r) for r in range(g)], scale, N, m,
+                                                 P, whole.shift)  # fmt: skip
     order = np.argsort(-np.abs(values))
     orbit.wheel_multipliers, orbit.wheel_nodal_diameters = values[order], nds[order]
 
