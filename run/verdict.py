@@ -57,17 +57,18 @@ def _cycle(path, i):
             if rows:
                 step, value, nd = rows[-1]
                 text += f"; in symmetry |mu| {value:.5g} (ND {int(nd)}) at {step * 1e6:.2g} us"
-                # the cycle's verdict; -1: not decided (under the elastic law: stable inside
-                # the orbit's symmetry, the other NDs not checked, or uncertain there)
+            if "multiplier_modulus" in c and np.isfinite(c["multiplier_modulus"][j]).any():
+                k = int(np.nanargmax(c["multiplier_modulus"][j]))
+                text += (f"; whole wheel {c['multiplier_modulus'][j][k]:.4g} "
+                         f"(ND {c['multiplier_nd'][j][k]})")
+            if rows:
+                # the cycle's verdict; -1: not decided (stable inside the orbit's symmetry
+                # with the whole wheel's not computed, or uncertain)
                 by = c["floquet_by"][j].decode() if "floquet_by" in c else ""
                 undecided = "stable in symmetry, whole wheel not decided" \
                     if by.startswith("stable inside") else "uncertain"  # fmt: skip
                 text += " (" + {1: "stable", 0: "unstable"}.get(int(c["stable"][j]),
                                                                 undecided) + ")"
-            if "multiplier_modulus" in c and np.isfinite(c["multiplier_modulus"][j]).any():
-                k = int(np.nanargmax(c["multiplier_modulus"][j]))
-                text += (f"; whole wheel {c['multiplier_modulus'][j][k]:.2f} "
-                         f"(ND {c['multiplier_nd'][j][k]})")
             return text
     return "-"
 

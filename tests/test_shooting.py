@@ -142,6 +142,33 @@ def test_reversed_van_der_pol_cycle_unstable_by_the_whole_wheel_monodromy(vdp, s
     assert mu.trivial_error < 1e-6
 
 
+def test_every_nd_by_bloch_waves_is_slepcs_whole_wheel_monodromy(vdp, small_model):
+    """A second implementation of the whole wheel's multipliers (the default for a pattern
+    orbit, :func:`~wheelrom.analysis.periodic.bloch.bloch_multipliers`: the responses to
+    pattern 0's differences assembled into every Bloch block, eigenvalues of each) against
+    SLEPc's Krylov-Schur on the whole wheel's linearised period, on the reversed Van der Pol
+    orbit: the same largest (ND 6, to 1e-5; measured 3e-6: half-period shots squared against
+    whole periods), the phase shift's 1 to 1e-6, and every ND of
+    the wheel present (the 12-blade wheel's 0..6)."""
+    from wheelrom.analysis.periodic.bloch import bloch_multipliers, orbit_scale
+    from wheelrom.runtime.environment import petsc
+
+    point, balance, shooting, orbit, cfg = vdp[-1.0]
+    options = petsc().Options()
+    options.setValue("limitcycle_floquet_eps_max_it", "100")
+    try:
+        slepc = floquet_multipliers(small_model, cfg, orbit, orbit.steps_per_period, None,
+                                    -1.0, 3)  # fmt: skip
+    finally:
+        options.delValue("limitcycle_floquet_eps_max_it")
+    keep = np.arange(orbit.state.size)
+    bloch = bloch_multipliers(small_model, cfg, orbit, orbit_scale(orbit), keep, None, -1.0)
+    assert bloch.values.size == 2 * small_model.blades * small_model.modes
+    assert abs(bloch.values[bloch.worst]) == pytest.approx(slepc.largest, rel=1e-5)
+    assert bloch.nd[bloch.worst] == 6 and bloch.trivial_error < 1e-6
+    assert set(bloch.nd) == set(range(small_model.blades // 2 + 1))
+
+
 @pytest.fixture(scope="module")
 def impact_cycle(small_model):
     """The small wheel's ND 6 cycle at shroud 60 deg (contacts open ~half the period), from a

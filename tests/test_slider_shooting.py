@@ -135,11 +135,15 @@ def test_the_elastic_orbits_multipliers_are_the_transients_decay(elastic_orbit):
 def test_the_whole_wheels_multipliers_by_bloch_waves_are_its_monodromys(elastic_orbit):
     """The block-circulant identity: every multiplier of the whole 12-blade wheel about the
     ND 6 orbit by Bloch waves (its 6 copies of the 2-blade pattern, the responses to pattern 0
-    moved alone; :func:`~wheelrom.analysis.periodic.bloch.bloch_multipliers`) is an
-    eigenvalue of the wheel's monodromy differenced over every unknown of every blade, and
-    back (to 1e-9; measured 7e-15: the same differences, rearranged); the Bloch phase 0 is
-    the pattern's own map (its largest non-trivial, 0.99764, to 1e-4: a period against N'
-    shots). The tie-boss's sliders are locked in every copy (12 x 2 left out of 2 x 12 x
+    moved alone through the shot's map ``F = S^{-j} phi_{T/2}``;
+    :func:`~wheelrom.analysis.periodic.bloch.bloch_multipliers`) is an eigenvalue of
+    ``S^{j N'} J_F^{N'}``, ``J_F`` differenced over every unknown of every blade, and back
+    (to 1e-9; measured 1e-14: the same differences, rearranged; a wrong index map, Bloch
+    sign or phase ``w^{p j}`` fails it, and the phase did, with ``w^{p^2 j}``, on blocks 2
+    and 5), and of the wheel's monodromy differenced over whole periods (to 1e-3; measured
+    4e-4: the differences across the stick-slip kinks, the phase shift's 1.0004 the
+    largest); the Bloch phase 0 is the pattern's own map (its largest non-trivial, 0.99764,
+    to 1e-4). The tie-boss's sliders are locked in every copy (12 x 2 left out of 2 x 12 x
     (12 + 4)). Independent truth, the transient: the whole wheel started on the orbit plus
     1e-6 of the eigenvector of the largest multiplier off the pattern's symmetry (ND 5,
     0.99732) returns at that rate per period (to 1e-4; measured 2e-6)."""
@@ -170,15 +174,24 @@ def test_the_whole_wheels_multipliers_by_bloch_waves_are_its_monodromys(elastic_
     rows = np.arange(where.size)
     probes[2 * rows, where] += DIFFERENCE * unit
     probes[2 * rows + 1, where] -= DIFFERENCE * unit
+    shots, n = round(1 / orbit.fraction), keep.size
     flow = WheelFlow(model, cfg, angles, 1.0)
     try:
+        short = flow.shift(flow.advance(probes, orbit.fraction * orbit.period,
+                                        orbit.steps_per_period // shots), -orbit.shift)
         ends = flow.advance(probes, orbit.period, orbit.steps_per_period)
     finally:
         flow.destroy()
+    J = ((short[0::2] - short[1::2])[:, where] / (2 * DIFFERENCE) / unit).T
+    # S^{j N'}: copy r of the pattern replaced by copy r + j
+    shift = (np.arange(copies * n).reshape(copies, n) + orbit.shift * n) % (copies * n)
+    by_shots = np.linalg.eigvals(np.linalg.matrix_power(J, shots)[shift.ravel()])
     monodromy = ((ends[0::2] - ends[1::2])[:, where] / (2 * DIFFERENCE) / unit).T
     dense, vectors = np.linalg.eig(monodromy)
-    distance = np.abs(bloch.values[:, None] - dense[None, :])
-    assert distance.min(axis=1).max() < 1e-9 and distance.min(axis=0).max() < 1e-9
+    for other, tolerance in ((by_shots, 1e-9), (dense, 1e-3)):
+        distance = np.abs(bloch.values[:, None] - other[None, :])
+        assert distance.min(axis=1).max() < tolerance
+        assert distance.min(axis=0).max() < tolerance
     values = inside["values"]
     rest = np.delete(np.arange(values.size), inside["trivial"])
     assert abs(bloch.values[bloch.worst]) == pytest.approx(abs(values[rest]).max(), abs=1e-4)

@@ -12,10 +12,16 @@ of the spectra of the pattern-size matrices::
 
 the response of pattern ``r`` after one period to a perturbation of pattern 0 alone. One
 batch of central differences of the whole wheel's flow (each unknown of pattern 0 moved by
-``+-eps`` in its unit) gives every ``C_r`` at once: ``2 n'`` period integrations of the wheel
-for its complete spectrum, every ND, where a Krylov method over the whole wheel needs about as
-many and converges only the outermost (:mod:`.monodromy`). ``M_0`` is the pattern's own
-period map (the multipliers inside the orbit's symmetry, :mod:`.slider_shooting`).
+``+-eps`` in its unit) gives every ``C_r`` at once: ``2 n'`` integrations of the wheel for
+its complete spectrum, every ND, where a Krylov method over the whole wheel needs about as
+many periods and converges only the outermost (:mod:`.monodromy`). ``M_0`` is the pattern's
+own period map (the multipliers inside the orbit's symmetry, :mod:`.slider_shooting`).
+
+The integrations are the shot's map ``F = S^{-j} phi_tau`` (``tau = g T / N``: ``1 / N'``
+of the period; ``S^{-j}`` the shift back by the ``j`` blades the wave moved), which commutes
+with the shift by a pattern too: its Bloch blocks' eigenvalues ``nu`` give the period's
+``mu = w^{p j} nu^{N'}`` (``F^{N'} = S^{-j N'} phi_T``, ``S^{N'} = w^p`` on block ``p``), at
+``1 / N'`` of the cost (half, for the paper's ND 33).
 
 Under the elastic law the sliders of contacts stuck all period are left out (their rows of
 ``M`` are unit rows: each a multiplier exactly 1, another orbit of the family), in every
@@ -51,14 +57,16 @@ def pattern_indices(blades: int, modes: int, pattern: int, kinds: int, copy: int
 
 
 def bloch_multipliers(model: ReducedModel, cfg: Config, orbit: Orbit, scale: np.ndarray,
-                      keep: np.ndarray, angles_deg: dict | None = None,
-                      lam: float = 1.0) -> Multipliers:  # fmt: skip
+                      keep: np.ndarray, angles_deg: dict | None = None, lam: float = 1.0,
+                      steps: int = 0) -> Multipliers:  # fmt: skip
     """Every multiplier of the whole wheel of ``model`` about ``orbit`` (a pattern's, tiled)
-    in its steps (``orbit.steps_per_period``): ``values`` largest modulus first, ``nd`` and
+    in ``steps`` steps a period (0: ``orbit.steps_per_period``): ``values`` largest modulus
+    first, ``nd`` and
     ``wave`` of their whole-wheel eigenvectors, ``trivial`` the phase shift's (the ``theta =
     0`` eigenvector most aligned with the flow). ``scale`` ``(n',)``: the pattern's unknowns'
     units; ``keep``: the pattern unknowns that take part (the elastic law's locked sliders
-    left out: each a multiplier exactly 1). ``matvecs``: the wheel's periods integrated."""
+    left out: each a multiplier exactly 1). ``matvecs``: the whole wheel's shots over
+    ``tau`` integrated."""
     t0 = time.perf_counter()
     N, m, pattern = model.blades, model.modes, orbit.pattern
     copies = N // pattern
@@ -73,11 +81,14 @@ def bloch_multipliers(model: ReducedModel, cfg: Config, orbit: Orbit, scale: np.
     rows = np.arange(n)
     probes[2 * rows, where[0]] += DIFFERENCE * unit
     probes[2 * rows + 1, where[0]] -= DIFFERENCE * unit
+    # the short map F = S^{-j} phi_tau of the shot (tau = g T / N, N' of them a period)
+    shots = round(1 / orbit.fraction)
+    tau = orbit.fraction * orbit.period
+    short = max(1, round((steps or orbit.steps_per_period) / shots))
     flow = WheelFlow(model, cfg, angles_deg, lam)
     try:
-        steps = orbit.steps_per_period
-        ends = flow.advance(probes, orbit.period, steps)
-        h = orbit.period / steps
+        ends = flow.shift(flow.advance(probes, tau, short), -orbit.shift)
+        h = tau / short
         along = (flow.advance(state[None], h, 1)[0] - state)[where[0]] / unit
     finally:
         flow.destroy()
@@ -86,7 +97,8 @@ def bloch_multipliers(model: ReducedModel, cfg: Config, orbit: Orbit, scale: np.
     C = [(response[:, where[r]] / unit).T for r in range(copies)]
     units = np.zeros(state.size)
     units[np.concatenate(where)] = np.tile(unit, copies)
-    values, nd, wave, first = block_circulant_spectrum(C, where, units, N, m)
+    values, nd, wave, first = block_circulant_spectrum(C, where, units, N, m, shots,
+                                                       orbit.shift)  # fmt: skip
     alignment = np.abs(first.conj().T @ along) / np.maximum(
         np.linalg.norm(first, axis=0) * np.linalg.norm(along), 1e-300)  # fmt: skip
     alignment = np.concatenate([alignment, np.zeros(values.size - alignment.size)])
@@ -94,7 +106,16 @@ def bloch_multipliers(model: ReducedModel, cfg: Config, orbit: Orbit, scale: np.
     values, nd, wave, alignment = values[order], nd[order], wave[order], alignment[order]
     return Multipliers(values, nd, wave, int(np.argmax(alignment)), orbit.period, 2 * n,
                        time.perf_counter() - t0, values.size, by="Bloch waves",
-                       alignment=alignment)  # fmt: skip
+                       alignment=alignment, step=h)  # fmt: skip
+
+
+def orbit_scale(orbit: Orbit) -> np.ndarray:
+    """``(2 N' m,)``: the units of the paper law's pattern state (``a``, the largest modal
+    velocity over ``omega``, for ``q``; ``omega a`` for ``q'``), as the monodromy's."""
+    omega = 2 * math.pi / orbit.period
+    a = max(float(np.abs(orbit.state[1]).max()) / omega, 1e-300)
+    half = orbit.state[0].size
+    return np.concatenate([np.full(half, a), np.full(half, omega * a)])
 
 
 def block_circulant_spectrum(C: list, blocks: list, units: np.ndarray, blades: int,
@@ -119,7 +140,7 @@ def block_circulant_spectrum(C: list, blocks: list, units: np.ndarray, blades: i
         for r in range(g):
             whole[:, blocks[r]] = (w**r * vectors * units[blocks[r], None]).T
         labels = label_vectors(whole, blades, modes)
-        values.append(w ** (p * shift) * nu**power)
+        values.append(w**shift * nu**power)  # w = e^{2 pi i p / g}: w^shift is the w^{p j} above
         nd.append(labels[0])
         wave.append(labels[1])
         first = vectors if p == 0 else first

@@ -181,7 +181,7 @@ def whole_wheel_words(c) -> str:
         return "the whole wheel's not computed (limit_cycle.whole_wheel)"
     if mu.worst >= 0:
         at = "time.step" if mu.by == "monodromy" else \
-            f"a {c.refined[-1][0] * 1e6:.2g} us step (Bloch waves)"  # fmt: skip
+            f"a {mu.step * 1e6:.2g} us step (Bloch waves)"  # fmt: skip
         # the Bloch waves find the slow ones too (1.0003 would read 1 at three digits)
         digits = ".3g" if mu.by == "monodromy" else ".5g"
         return (f"the whole wheel's largest {mu.largest:{digits}} per period, ND "

@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from wheelrom.analysis.periodic.bloch import bloch_multipliers
+from wheelrom.analysis.periodic.bloch import bloch_multipliers, orbit_scale
 from wheelrom.analysis.periodic.continuation import Corrector
 from wheelrom.analysis.periodic.cycle import Cycle
 from wheelrom.analysis.periodic.floquet import TRUSTED, FloquetResult
@@ -155,10 +155,12 @@ def monodromy_stability(model, cfg, angles, cycle: Cycle, count: int, refine: in
     """Floquet multipliers of the exact orbit ``cycle.orbit``: the dominant one inside the
     cycle's symmetry at the step and ``refine`` halvings of it (``cycle.refined``: ``(step
     [s], |mu|, ND)``; on the pattern wheel, cheap), and the ``count`` largest of the whole
-    wheel's monodromy at the configured step (``cycle.multipliers``, and ``cycle.stability``
-    from them) unless ``whole_wheel = 'undecided'`` and the first already proves the cycle
-    unstable. The scheme steps over the contacts' lift-off kinks, so the multipliers of a
-    cycle whose contacts open converge at first order in the step."""
+    wheel's at the configured step (``cycle.multipliers``, and ``cycle.stability`` from
+    them: every ND's by Bloch waves, :func:`~.bloch.bloch_multipliers`, when the orbit's
+    pattern is smaller than the wheel, else SLEPc's on the monodromy) unless ``whole_wheel
+    = 'undecided'`` and the first already proves the cycle unstable. The scheme steps over
+    the contacts' lift-off kinks, so the multipliers of a cycle whose contacts open converge
+    at first order in the step."""
     orbit = cycle.orbit
     if orbit.symmetric_multipliers.size:
         cycle.refined.append((orbit.period / orbit.steps_per_period,
@@ -173,8 +175,13 @@ def monodromy_stability(model, cfg, angles, cycle: Cycle, count: int, refine: in
     # the integration error of the coarser map's orbit): 4x the cost at a quarter step
     steps = max(orbit.steps_per_period, 1)
     coarse = max(1, math.ceil(orbit.period / float(cfg.time.step) * (1 - 1e-12)))
-    mu = floquet_multipliers(model, cfg, orbit, min(steps, coarse), angles, cycle.lam, count,
-                             comm)  # fmt: skip
+    if orbit.pattern < model.blades:  # every ND's, by Bloch waves over the pattern's copies
+        keep = np.arange(orbit.state.size)
+        mu = bloch_multipliers(model, cfg, orbit, orbit_scale(orbit), keep, angles, cycle.lam,
+                               min(steps, coarse)).top(count)  # fmt: skip
+    else:  # the pattern is the wheel: the outermost by SLEPc (2 N m differences otherwise)
+        mu = floquet_multipliers(model, cfg, orbit, min(steps, coarse), angles, cycle.lam,
+                                 count, comm)  # fmt: skip
     cycle.multipliers = mu
     rest = mu.nontrivial()
     # the error of the one multiplier known exactly (the phase shift's, 1) measures the

@@ -62,6 +62,7 @@ class Multipliers:
     by: str = "monodromy"
     alignment: np.ndarray = field(default_factory=lambda: np.zeros(0))
     trivial_check: float = math.nan  # |M f - f| for the unit flow direction f (scaled)
+    step: float = math.nan  # the time step they were computed at [s]
 
     @property
     def trivial_error(self) -> float:
