@@ -14,13 +14,17 @@ Floquet analysis of every Bloch family at the cycle.
   frequency difference;
 - ``monodromy_s``: the ``limit_cycle.multipliers`` largest Floquet multipliers of the whole
   wheel's monodromy (SLEPc; issue #38: 10 in <= 15 s), ``monodromy``: their count converged,
-  linearised periods, the largest and its ND;
+  linearised periods, the largest and its ND; ``bloch_s``: every ND's by Bloch waves, the
+  default for an orbit whose pattern is smaller than the wheel (``bloch``: their count, the
+  wheel's shots, the largest and its ND);
 - under the elastic law instead: ``elastic_orbit_s``, the exact orbit of the fastest wave
   marched and shot with the sliders in the state, equilibrium included (issue #44: <= 20 s
   on one core), ``elastic_orbit``: its wave, pattern, Newton iterations, residual, tip
   amplitude and frequency; ``elastic_multipliers_s``: its multipliers inside its symmetry
   at ``limit_cycle.refine`` halvings of the step, the orbit shot again at each,
-  ``elastic_multipliers``: the steps, the largest non-trivial modulus at each, the verdict.
+  ``elastic_multipliers``: the steps, the largest non-trivial modulus at each, the verdict;
+  ``elastic_wheel_multipliers_s``: the whole wheel's, every ND by Bloch waves at the two
+  finest steps (``wheel_largest``, ``wheel_nd``).
 """
 
 from __future__ import annotations
@@ -31,6 +35,7 @@ import time
 
 import numpy as np
 
+from wheelrom.analysis.periodic.bloch import bloch_multipliers, orbit_scale
 from wheelrom.analysis.periodic.cycle import describe
 from wheelrom.analysis.periodic.exact import elastic_stability
 from wheelrom.analysis.periodic.floquet import floquet
@@ -122,6 +127,13 @@ def _exact(model, cfg, case, wave, balance, point, settings, hb_tip, say) -> dic
         f"{orbit.residual:.1e}), {exact['tip_amplitude'] * 1e6:.4g} um, "
         f"{exact['frequency_hz']:.5g} Hz; {len(mu.values)} multipliers in {monodromy_s:.1f} s "
         f"({mu.matvecs} linearised periods), largest {mu.largest:.4g}")  # fmt: skip
+    bloch = bloch_multipliers(model, cfg, orbit, orbit_scale(orbit),
+                              np.arange(orbit.state.size), case) if orbit.pattern < model.blades \
+        else None  # fmt: skip
+    if bloch is not None:
+        say(f"every ND's by Bloch waves (the default for this orbit): {bloch.wall_s:.1f} s "
+            f"({bloch.matvecs} shots of the wheel), largest {bloch.largest:.4g} "
+            f"(ND {bloch.nd[bloch.worst]})")
     return {
         "shooting_s": shooting_s,
         "shooting": {"converged": True, "iterations": orbit.iterations,
@@ -133,6 +145,11 @@ def _exact(model, cfg, case, wave, balance, point, settings, hb_tip, say) -> dic
         "monodromy": {"requested": settings.multipliers, "converged": int(len(mu.values)),
                       "linearised_periods": mu.matvecs, "largest": mu.largest,
                       "largest_nd": int(mu.nd[mu.worst]) if mu.worst >= 0 else None},
+        "bloch_s": bloch.wall_s if bloch is not None else None,
+        "bloch": None if bloch is None else {"multipliers": int(bloch.values.size),
+                                             "shots": bloch.matvecs,
+                                             "largest": bloch.largest,
+                                             "largest_nd": int(bloch.nd[bloch.worst])},
     }  # fmt: skip
 
 
@@ -159,16 +176,25 @@ def _elastic_orbit(model, cfg, case, settings, say) -> dict:
         elastic_stability(model, cfg, case, c, shooting, settings.refine)
     finally:
         shooting.destroy()
-    stability = time.perf_counter() - t0
+    mu = c.multipliers  # the whole wheel's, every ND by Bloch waves (None: not computed)
+    whole = mu.wall_s if mu is not None else 0.0
+    stability = time.perf_counter() - t0 - whole
     say(f"its multipliers inside its symmetry at {len(c.refined)} steps: {stability:.2f} s, "
-        f"largest {c.stability.multiplier:.5g} at {c.refined[-1][0] * 1e6:.2g} us "
-        f"({c.stability.by if c.stable is None else 'stable' if c.stable else 'unstable'})")
+        f"largest {c.refined[-1][1]:.5g} at {c.refined[-1][0] * 1e6:.2g} us")
+    if mu is not None:
+        say(f"the whole wheel's, every ND by Bloch waves at the two finest steps: {whole:.2f} "
+            f"s, largest {mu.largest:.5g} (ND {mu.nd[mu.worst]}) at {mu.step * 1e6:.2g} us "
+            f"({c.stability.by if c.stable is None else 'stable' if c.stable else 'unstable'})")
     return {"limit_cycle_s_per_case": None, "elastic_orbit_s": wall,
             "elastic_multipliers_s": stability,
+            "elastic_wheel_multipliers_s": whole if mu is not None else None,
             "elastic_multipliers": {"steps_s": [r[0] for r in c.refined],
                                     "largest": [r[1] for r in c.refined],
                                     "stable": c.stable,
-                                    "stable_inside_symmetry": bool(c.stability.stable)},
+                                    "stable_inside_symmetry": bool(c.refined[-1][1] <= 1.0),
+                                    "wheel_largest": mu.largest if mu is not None else None,
+                                    "wheel_nd": int(mu.nd[mu.worst]) if mu is not None
+                                    else None},
             "elastic_orbit": {"converged": True, "angles_deg": case, "wave": branch.wave,
                               "pattern_blades": c.orbit.pattern,
                               "iterations": c.orbit.iterations,

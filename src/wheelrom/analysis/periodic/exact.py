@@ -322,13 +322,13 @@ def elastic_stability(model, cfg, angles, cycle: Cycle, shooting: SliderShooting
     proved = cycle.stability.trusted and not cycle.stability.stable
     if whole or (proved and whole_wheel == "undecided"):
         return
-    wheel = []
+    wheel, wall = [], 0.0
     for lv in levels[-2:]:
         mu = bloch_multipliers(model, lv["cfg"], lv["orbit"], lv["scale"], lv["keep"], angles)
-        worst = mu.worst
+        worst, wall = mu.worst, wall + mu.wall_s
         wheel.append({"step": lv["step"], "largest": mu.largest, "error": mu.trivial_error,
                       "worst_nd": int(mu.nd[worst]) if worst >= 0 else -1})  # fmt: skip
-    cycle.multipliers = mu.top(count)
+    cycle.multipliers = dataclasses.replace(mu.top(count), wall_s=wall)  # both steps' time
     verdict = _elastic_verdict(wheel, orbit.period, True, wheel=True)
     if not proved or verdict.trusted and not verdict.stable:  # the wheel's adds its ND
         if not verdict.trusted and cycle.stability.trusted:  # say what the symmetry's says
