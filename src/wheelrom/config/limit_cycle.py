@@ -27,8 +27,9 @@ class LimitCycleConfig:
                       "docs/results.md)", choices=("shooting", "hb")))
     multipliers: int = field(
         default=10,
-        metadata=_key("-", "Floquet multipliers of largest modulus computed from the whole "
-                      "wheel's monodromy (floquet = 'monodromy')", min=1, max=200))
+        metadata=_key("-", "Floquet multipliers of largest modulus of the whole wheel "
+                      "reported (floquet = 'monodromy'; SLEPc computes that many, Bloch waves "
+                      "every one)", min=1, max=200))
     whole_wheel: str = field(
         default="always",
         metadata=_key("-", "the whole wheel's monodromy multipliers (floquet = 'monodromy'): "
@@ -36,8 +37,9 @@ class LimitCycleConfig:
                       "cycle's own symmetry at the refined steps does not already prove it "
                       "unstable (the whole wheel's then adds the ND the flutter grows in, at "
                       "time.step, which resolves a cycle whose contacts open to first order "
-                      "only; 15-20 s per paper angle; under the elastic law every ND's by "
-                      "Bloch waves at the two finest refined steps, 20-30 s)",
+                      "only; every ND's by Bloch waves for an orbit whose pattern is smaller "
+                      "than the wheel, 6 s per paper angle, else SLEPc's, 15-20 s; under the "
+                      "elastic law at the two finest refined steps, 15-60 s)",
                       choices=("always", "undecided")))
     refine: int = field(
         default=4,
@@ -70,7 +72,8 @@ class LimitCycleConfig:
         default="auto",
         metadata=_key("-", "stability of the cycles: 'auto' ('monodromy' for shooting, "
                       "'cycles' for 'hb'), 'monodromy' (Floquet multipliers of the whole "
-                      "wheel's monodromy by SLEPc: the exact orbit's), 'cycles' (Floquet by "
+                      "wheel about the exact orbit: every ND's by Bloch waves, or SLEPc's on "
+                      "the monodromy where the orbit's pattern is the wheel), 'cycles' (Floquet by "
                       "Hill's method, every "
                       "Bloch family, at the cycles of the configured intensity), 'all' (also "
                       "the wave's own family at every branch point: the branch drawn "
