@@ -349,3 +349,31 @@ def test_a_start_on_an_unstable_orbit_is_not_called_settled_before_it_can_leave(
     assert 0.75 < hold < 0.85 and "not called settled before 0.8 s" in words, words
     held = _settle_one(model, case, angles, str(unstable), "held", None)
     assert held.settled and held.time >= hold
+
+
+def test_a_failed_whole_wheel_keeps_the_symmetrys_verdict(elastic_orbit, monkeypatch):
+    """The whole wheel's multipliers failing (a diverging perturbed flow, say) neither loses
+    the orbit's multipliers inside its symmetry nor calls it stable for the wheel: the verdict
+    stays "stable inside its own symmetry", undecided, with why the rest is missing."""
+    import dataclasses
+
+    from wheelrom.analysis.periodic import exact
+    from wheelrom.analysis.periodic.slider_shooting import SliderShooting
+
+    cfg, model, angles, res = elastic_orbit
+    cycle = dataclasses.replace(res.branches[0].cycles[0], stability=None, refined=[],
+                                multipliers=None)  # fmt: skip
+
+    def failing(*_, **__):
+        raise RuntimeError("the flow took 3 of 408 steps")
+
+    monkeypatch.setattr(exact, "bloch_multipliers", failing)
+    shooting = SliderShooting(model, cfg, cycle.orbit.wave, angles, 1.0)
+    try:
+        exact.elastic_stability(model, cfg, angles, cycle, shooting, 1)
+    finally:
+        shooting.destroy()
+    assert cycle.stable is None and cycle.multipliers is None and len(cycle.refined) == 2
+    assert cycle.stability.by.startswith("stable inside its own symmetry (largest 0.9976")
+    assert cycle.stability.by.endswith("the whole wheel's failed (RuntimeError: the flow took "
+                                       "3 of 408 steps): settle decides")  # fmt: skip

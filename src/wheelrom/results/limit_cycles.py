@@ -144,6 +144,9 @@ def _write_orbits(g, cycles) -> None:
         g["multiplier_trivial_error"] = np.array([m.trivial_error if m else np.nan
                                                   for m in mus])  # fmt: skip
         g["multiplier_matvecs"] = np.array([m.matvecs if m else -1 for m in mus], np.int64)
+        # SLEPc's ("monodromy", at time.step) or every ND's ("Bloch waves", at their step [s])
+        g["multiplier_method"] = np.array([(m.by if m else "").encode() for m in mus])
+        g["multiplier_step"] = np.array([m.step if m else np.nan for m in mus])
     refined = [c.refined for c in cycles]
     if any(refined):
         R = max(len(r) for r in refined)

@@ -58,10 +58,10 @@ def pattern_indices(blades: int, modes: int, pattern: int, kinds: int, copy: int
 
 def bloch_multipliers(model: ReducedModel, cfg: Config, orbit: Orbit, scale: np.ndarray,
                       keep: np.ndarray, angles_deg: dict | None = None, lam: float = 1.0,
-                      steps: int = 0) -> Multipliers:  # fmt: skip
+                      coarse: bool = False) -> Multipliers:  # fmt: skip
     """Every multiplier of the whole wheel of ``model`` about ``orbit`` (a pattern's, tiled)
-    in ``steps`` steps a period (0: ``orbit.steps_per_period``): ``values`` largest modulus
-    first, ``nd`` and
+    in the orbit's steps (``coarse``: at ``cfg``'s ``time.step`` when that is coarser, the
+    flow's step check included): ``values`` largest modulus first, ``nd`` and
     ``wave`` of their whole-wheel eigenvectors, ``trivial`` the phase shift's (the ``theta =
     0`` eigenvector most aligned with the flow). ``scale`` ``(n',)``: the pattern's unknowns'
     units; ``keep``: the pattern unknowns that take part (the elastic law's locked sliders
@@ -84,9 +84,11 @@ def bloch_multipliers(model: ReducedModel, cfg: Config, orbit: Orbit, scale: np.
     # the short map F = S^{-j} phi_tau of the shot (tau = g T / N, N' of them a period)
     shots = round(1 / orbit.fraction)
     tau = orbit.fraction * orbit.period
-    short = max(1, round((steps or orbit.steps_per_period) / shots))
+    short = orbit.steps_per_period // shots  # the orbit's own steps a shot
     flow = WheelFlow(model, cfg, angles_deg, lam)
     try:
+        if coarse:
+            short = min(short, flow.steps_for(tau)[0])
         ends = flow.shift(flow.advance(probes, tau, short), -orbit.shift)
         h = tau / short
         along = (flow.advance(state[None], h, 1)[0] - state)[where[0]] / unit

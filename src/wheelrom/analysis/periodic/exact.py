@@ -178,11 +178,11 @@ def monodromy_stability(model, cfg, angles, cycle: Cycle, count: int, refine: in
     if orbit.pattern < model.blades:  # every ND's, by Bloch waves over the pattern's copies
         keep = np.arange(orbit.state.size)
         mu = bloch_multipliers(model, cfg, orbit, orbit_scale(orbit), keep, angles, cycle.lam,
-                               min(steps, coarse)).top(count)  # fmt: skip
+                               coarse=coarse < steps)  # fmt: skip
     else:  # the pattern is the wheel: the outermost by SLEPc (2 N m differences otherwise)
         mu = floquet_multipliers(model, cfg, orbit, min(steps, coarse), angles, cycle.lam,
                                  count, comm)  # fmt: skip
-    cycle.multipliers = mu
+    cycle.multipliers = mu.top(count)  # the verdict from all of them
     rest = mu.nontrivial()
     # the error of the one multiplier known exactly (the phase shift's, 1) measures the
     # finite-difference monodromy's: the verdict holds while the largest is farther from 1
@@ -322,17 +322,26 @@ def elastic_stability(model, cfg, angles, cycle: Cycle, shooting: SliderShooting
     proved = cycle.stability.trusted and not cycle.stability.stable
     if whole or (proved and whole_wheel == "undecided"):
         return
+    inside = cycle.stability
     wheel, wall = [], 0.0
-    for lv in levels[-2:]:
-        mu = bloch_multipliers(model, lv["cfg"], lv["orbit"], lv["scale"], lv["keep"], angles)
-        worst, wall = mu.worst, wall + mu.wall_s
-        wheel.append({"step": lv["step"], "largest": mu.largest, "error": mu.trivial_error,
-                      "worst_nd": int(mu.nd[worst]) if worst >= 0 else -1})  # fmt: skip
+    try:
+        for lv in levels[-2:]:
+            mu = bloch_multipliers(model, lv["cfg"], lv["orbit"], lv["scale"], lv["keep"],
+                                   angles)  # fmt: skip
+            worst, wall = mu.worst, wall + mu.wall_s
+            wheel.append({"step": lv["step"], "largest": mu.largest, "error": mu.trivial_error,
+                          "worst_nd": int(mu.nd[worst]) if worst >= 0 else -1})  # fmt: skip
+    except (ValueError, RuntimeError, np.linalg.LinAlgError, petsc().Error) as exc:
+        # the symmetry's verdict stands, with why the wheel's is missing
+        cycle.stability = dataclasses.replace(inside, by=f"{inside.by}; the whole wheel's "
+                                              f"failed ({type(exc).__name__}: {exc}): settle "
+                                              "decides")  # fmt: skip
+        return
     cycle.multipliers = dataclasses.replace(mu.top(count), wall_s=wall)  # both steps' time
     verdict = _elastic_verdict(wheel, orbit.period, True, wheel=True)
     if not proved or verdict.trusted and not verdict.stable:  # the wheel's adds its ND
-        if not verdict.trusted and cycle.stability.trusted:  # say what the symmetry's says
-            verdict.by += f"; {cycle.stability.by.split(';')[0]}"
+        if not verdict.trusted and inside.by.startswith("stable inside"):  # say it too
+            verdict = dataclasses.replace(verdict, by=f"{verdict.by}; {inside.by}")
         cycle.stability = verdict
 
 
@@ -364,9 +373,9 @@ def _elastic_verdict(levels: list[dict], period: float, whole: bool,
     1.3e-3 over the paper wheel's halvings where the largest non-trivial one changed by 1e-5
     to 4e-4): above 1, unstable (inside the symmetry proves it for the wheel); at or below
     1, stable when the pattern is the whole wheel (``whole``) or the levels are the whole
-    wheel's (``wheel``: every ND, by Bloch waves), else stable inside its symmetry only, the
-    other NDs not checked (reported, ``Cycle.stable`` None: ``settle`` decides); untrusted:
-    uncertain, with the reason."""
+    wheel's (``wheel``: every ND, by Bloch waves), else stable inside its symmetry only
+    (``Cycle.stable`` None until the whole wheel's decide); untrusted: uncertain, with the
+    reason."""
     last = levels[-1]
     largest, error, nd = last["largest"], last["error"], last["worst_nd"]
     change = abs(largest - levels[-2]["largest"]) if len(levels) > 1 else math.inf
@@ -374,14 +383,14 @@ def _elastic_verdict(levels: list[dict], period: float, whole: bool,
     trusted = change <= margin and error <= max(TRUSTED, margin)
     growth = np.array([math.log(max(largest, 1e-300)) / period])
     at = f"largest {largest:.5g} per period, ND {nd}, at a {last['step'] * 1e6:.2g} us step"
-    where = "of the whole wheel by Bloch waves" if wheel else "inside the cycle's symmetry"
+    where = "of the whole wheel by Bloch waves" if wheel else \
+        "of the whole wheel (the orbit's pattern)" if whole else "inside the cycle's symmetry"
     if trusted and (largest > 1.0 or whole):
         by = f"monodromy {where} at the finest step (elastic law): ND"
         return FloquetResult(np.array([nd]), growth, largest, error, largest <= 1.0, by=by,
                              trust=math.inf)  # fmt: skip
-    if trusted:
-        by = (f"stable inside its own symmetry ({at}); the whole wheel's not computed "
-              "(limit_cycle.whole_wheel): settle decides")  # fmt: skip
+    if trusted:  # the whole wheel's decide (elastic_stability)
+        by = f"stable inside its own symmetry ({at})"
     else:
         why = f"changing by {change:.1e} over the last halving" if change > margin else \
             f"the phase-shift multiplier off 1 by {error:.1e}"  # fmt: skip
