@@ -150,7 +150,8 @@ def test_every_nd_by_bloch_waves_is_slepcs_whole_wheel_monodromy(vdp, small_mode
     orbit: the same largest (ND 6, to 1e-5; measured 3e-6: half-period shots squared against
     whole periods), the phase shift's 1 to 1e-6, and every ND of
     the wheel present (the 12-blade wheel's 0..6)."""
-    from wheelrom.analysis.periodic.bloch import bloch_multipliers, orbit_scale
+    from wheelrom.analysis.periodic.bloch import bloch_multipliers
+    from wheelrom.analysis.periodic.shooting import vibration_units
     from wheelrom.runtime.environment import petsc
 
     point, balance, shooting, orbit, cfg = vdp[-1.0]
@@ -162,7 +163,8 @@ def test_every_nd_by_bloch_waves_is_slepcs_whole_wheel_monodromy(vdp, small_mode
     finally:
         options.delValue("limitcycle_floquet_eps_max_it")
     keep = np.arange(orbit.state.size)
-    bloch = bloch_multipliers(small_model, cfg, orbit, orbit_scale(orbit), keep, None, -1.0)
+    units = vibration_units(orbit.state, orbit.period).ravel()
+    bloch = bloch_multipliers(small_model, cfg, orbit, units, keep, None, -1.0)
     assert bloch.values.size == 2 * small_model.blades * small_model.modes
     assert abs(bloch.values[bloch.worst]) == pytest.approx(slepc.largest, rel=1e-5)
     assert bloch.nd[bloch.worst] == 6 and bloch.trivial_error < 1e-6

@@ -168,8 +168,7 @@ def test_the_whole_wheels_multipliers_by_bloch_waves_are_its_monodromys(elastic_
     where = np.concatenate([pattern_indices(N, m, pattern, kinds, p)[keep]
                             for p in range(copies)])  # fmt: skip
     unit = np.tile(scale[keep], copies)
-    state = np.concatenate([orbit.wheel_state(N).ravel(),
-                            orbit.sliders[:, np.arange(N) % pattern].ravel()])  # fmt: skip
+    state = np.concatenate([orbit.wheel_state(N).ravel(), orbit.wheel_sliders(N).ravel()])
     probes = np.repeat(state[None], 2 * where.size, axis=0)
     rows = np.arange(where.size)
     probes[2 * rows, where] += DIFFERENCE * unit

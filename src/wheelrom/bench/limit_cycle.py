@@ -35,7 +35,7 @@ import time
 
 import numpy as np
 
-from wheelrom.analysis.periodic.bloch import bloch_multipliers, orbit_scale
+from wheelrom.analysis.periodic.bloch import bloch_multipliers
 from wheelrom.analysis.periodic.cycle import describe
 from wheelrom.analysis.periodic.exact import elastic_stability
 from wheelrom.analysis.periodic.floquet import floquet
@@ -47,6 +47,7 @@ from wheelrom.analysis.periodic.limit_cycle import (
     periodic_solution,
     settings_of,
 )
+from wheelrom.analysis.periodic.shooting import vibration_units
 from wheelrom.analysis.periodic.slider_shooting import SliderShooting
 from wheelrom.analysis.stability import linearise
 from wheelrom.config import Config
@@ -127,9 +128,9 @@ def _exact(model, cfg, case, wave, balance, point, settings, hb_tip, say) -> dic
         f"{orbit.residual:.1e}), {exact['tip_amplitude'] * 1e6:.4g} um, "
         f"{exact['frequency_hz']:.5g} Hz; {len(mu.values)} multipliers in {monodromy_s:.1f} s "
         f"({mu.matvecs} linearised periods), largest {mu.largest:.4g}")  # fmt: skip
-    bloch = bloch_multipliers(model, cfg, orbit, orbit_scale(orbit),
-                              np.arange(orbit.state.size), case) if orbit.pattern < model.blades \
-        else None  # fmt: skip
+    units = vibration_units(orbit.state, orbit.period).ravel()
+    bloch = bloch_multipliers(model, cfg, orbit, units, np.arange(orbit.state.size), case) \
+        if orbit.pattern < model.blades else None  # fmt: skip
     if bloch is not None:
         say(f"every ND's by Bloch waves (the default for this orbit): {bloch.wall_s:.1f} s "
             f"({bloch.matvecs} shots of the wheel), largest {bloch.largest:.4g} "

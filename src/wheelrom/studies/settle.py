@@ -173,11 +173,8 @@ def _start(model, cfg: Config, angles: dict, cycles_file: str | None, comm=None)
         for branch in res.branches:
             for c in branch.cycles:
                 if found is None and c.orbit is not None:
-                    sliders = c.orbit.sliders
-                    if sliders is not None:  # the elastic law's, every blade
-                        sliders = sliders[:, np.arange(N) % sliders.shape[1]]
-                    found = (c.orbit.wheel_state(N), c.frequency_hz, c.tip_amplitude, sliders,
-                             math.nan)  # fmt: skip
+                    found = (c.orbit.wheel_state(N), c.frequency_hz, c.tip_amplitude,
+                             c.orbit.wheel_sliders(N), math.nan)  # fmt: skip
                     words = f"the exact orbit of wave {branch.wave}"
     hold = 0.0
     if found is not None:

@@ -74,7 +74,7 @@ def bloch_multipliers(model: ReducedModel, cfg: Config, orbit: Orbit, scale: np.
     where = [pattern_indices(N, m, pattern, kinds, p)[keep] for p in range(copies)]
     state = orbit.wheel_state(N).ravel()
     if kinds:
-        state = np.concatenate([state, orbit.sliders[:, np.arange(N) % pattern].ravel()])
+        state = np.concatenate([state, orbit.wheel_sliders(N).ravel()])
     unit = scale[keep]
     n = keep.size
     probes = np.repeat(state[None], 2 * n, axis=0)
@@ -109,15 +109,6 @@ def bloch_multipliers(model: ReducedModel, cfg: Config, orbit: Orbit, scale: np.
     return Multipliers(values, nd, wave, int(np.argmax(alignment)), orbit.period, 2 * n,
                        time.perf_counter() - t0, values.size, by="Bloch waves",
                        alignment=alignment, step=h)  # fmt: skip
-
-
-def orbit_scale(orbit: Orbit) -> np.ndarray:
-    """``(2 N' m,)``: the units of the paper law's pattern state (``a``, the largest modal
-    velocity over ``omega``, for ``q``; ``omega a`` for ``q'``), as the monodromy's."""
-    omega = 2 * math.pi / orbit.period
-    a = max(float(np.abs(orbit.state[1]).max()) / omega, 1e-300)
-    half = orbit.state[0].size
-    return np.concatenate([np.full(half, a), np.full(half, omega * a)])
 
 
 def block_circulant_spectrum(C: list, blocks: list, units: np.ndarray, blades: int,

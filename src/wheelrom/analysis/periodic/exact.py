@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from wheelrom.analysis.periodic.bloch import bloch_multipliers, orbit_scale
+from wheelrom.analysis.periodic.bloch import bloch_multipliers
 from wheelrom.analysis.periodic.continuation import Corrector
 from wheelrom.analysis.periodic.cycle import Cycle
 from wheelrom.analysis.periodic.floquet import TRUSTED, FloquetResult
@@ -19,7 +19,7 @@ from wheelrom.analysis.periodic.harmonic_balance import WaveBalance
 from wheelrom.analysis.periodic.hopf import wave_mode
 from wheelrom.analysis.periodic.monodromy import floquet_multipliers
 from wheelrom.analysis.periodic.report import orbit_quantities
-from wheelrom.analysis.periodic.shooting import Orbit, Shooting
+from wheelrom.analysis.periodic.shooting import Orbit, Shooting, vibration_units
 from wheelrom.analysis.periodic.slider_shooting import SEED, SEED_FRACTION, SliderShooting
 from wheelrom.runtime.environment import petsc
 
@@ -177,7 +177,8 @@ def monodromy_stability(model, cfg, angles, cycle: Cycle, count: int, refine: in
     coarse = max(1, math.ceil(orbit.period / float(cfg.time.step) * (1 - 1e-12)))
     if orbit.pattern < model.blades:  # every ND's, by Bloch waves over the pattern's copies
         keep = np.arange(orbit.state.size)
-        mu = bloch_multipliers(model, cfg, orbit, orbit_scale(orbit), keep, angles, cycle.lam,
+        units = vibration_units(orbit.state, orbit.period).ravel()
+        mu = bloch_multipliers(model, cfg, orbit, units, keep, angles, cycle.lam,
                                coarse=coarse < steps)  # fmt: skip
     else:  # the pattern is the wheel: the outermost by SLEPc (2 N m differences otherwise)
         mu = floquet_multipliers(model, cfg, orbit, min(steps, coarse), angles, cycle.lam,
@@ -348,19 +349,16 @@ def elastic_stability(model, cfg, angles, cycle: Cycle, shooting: SliderShooting
 def _level(shooting: SliderShooting, orbit: Orbit, tip: float, cfg) -> dict:
     """The pattern map's multipliers at ``orbit``'s step, with the largest non-trivial one's
     modulus (``largest``, 0 when none), its ND and the phase shift's error ``|mu_0 - 1|``;
-    the orbit, its configuration, its unknowns' units and those not locked (for the whole
-    wheel's multipliers)."""
+    the orbit and its configuration (with the multipliers' ``scale`` and ``keep``: the whole
+    wheel's are taken from them)."""
     mu = shooting.multipliers(orbit, tip)
-    scale = shooting._scale(orbit.flat(), orbit.period, tip)
-    keep = np.flatnonzero(~shooting.locked(orbit))
     values, trivial = mu["values"], mu["trivial"]
     rest = np.delete(np.arange(values.size), trivial)
     worst = int(rest[np.argmax(np.abs(values[rest]))]) if rest.size else -1
     return {**mu, "step": orbit.period / orbit.steps_per_period,
             "largest": float(abs(values[worst])) if worst >= 0 else 0.0,
             "worst_nd": int(mu["nd"][worst]) if worst >= 0 else -1,
-            "error": float(abs(values[trivial] - 1.0)), "orbit": orbit, "cfg": cfg,
-            "scale": scale, "keep": keep}  # fmt: skip
+            "error": float(abs(values[trivial] - 1.0)), "orbit": orbit, "cfg": cfg}  # fmt: skip
 
 
 def _elastic_verdict(levels: list[dict], period: float, whole: bool,

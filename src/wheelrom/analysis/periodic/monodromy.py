@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from wheelrom.analysis.periodic.flow import WheelFlow
-from wheelrom.analysis.periodic.shooting import Orbit
+from wheelrom.analysis.periodic.shooting import Orbit, vibration_units
 from wheelrom.config import Config
 from wheelrom.rom.model import ReducedModel, nodal_diameter
 from wheelrom.runtime.environment import petsc, slepc
@@ -188,10 +188,7 @@ def floquet_multipliers(model: ReducedModel, cfg: Config, orbit: Orbit, steps: i
     t0 = time.perf_counter()
     N, m = model.blades, model.modes
     x_star = orbit.wheel_state(N)
-    omega = 2 * math.pi / orbit.period
-    a = max(float(np.abs(x_star[1]).max()) / omega, 1e-300)
-    scale = np.empty_like(x_star)
-    scale[0], scale[1] = a, omega * a
+    scale = vibration_units(x_star, orbit.period)
     flow = WheelFlow(model, cfg, angles_deg, lam)
     n = 2 * N * m
     try:

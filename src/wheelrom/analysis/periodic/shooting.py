@@ -33,7 +33,6 @@ import numpy as np
 from wheelrom.analysis.periodic.flow import (
     WheelFlow,
     pattern_model,
-    pattern_nd,
     pattern_spectrum,
     shift_blades,
 )
@@ -52,6 +51,17 @@ TOLERANCE = 1e-10  # scaled residual (relative to the vibration) at which Newton
 #: cycle on a 40 um static deflection)
 ROUNDOFF = 1e-12
 DIFFERENCE = 1e-6  # finite-difference step, relative to the vibration amplitude
+
+
+def vibration_units(state: np.ndarray, period: float) -> np.ndarray:
+    """``state``'s shape ``(2, ...)``: the units of a periodic state's unknowns, ``a`` for
+    ``q`` and ``omega a`` for ``q'``, ``a`` the largest modal velocity over ``omega`` (the
+    vibration, not the preload; ``period`` [s])."""
+    omega = 2 * math.pi / period
+    a = max(float(np.abs(state[1]).max()) / omega, 1e-300)
+    units = np.empty_like(state, dtype=float)
+    units[0], units[1] = a, omega * a
+    return units
 
 
 @dataclass
@@ -92,6 +102,12 @@ class Orbit:
         """``(2, N, m)``: every blade's state at ``t = 0``."""
         return self.state[:, np.arange(blades) % self.pattern]
 
+    def wheel_sliders(self, blades: int) -> np.ndarray | None:
+        """``(K, N, 2)``: every blade's sliders at ``t = 0`` (None: the paper law)."""
+        if self.sliders is None:
+            return None
+        return self.sliders[:, np.arange(blades) % self.pattern]
+
     def flat(self) -> np.ndarray:
         """``(2 N' m [+ 2 K N'],)``: the pattern's flat state at ``t = 0`` as the flow takes
         it (:meth:`~.flow.WheelFlow.advance`): ``q``, ``q'``, then the sliders when carried."""
@@ -128,15 +144,6 @@ class Shooting:
         """``S^{-j} phi_tau(x)`` of states ``(B, 2, N', m)``."""
         end = self.flow.advance(states, self.fraction * period)
         return shift_blades(end, -self.shift)
-
-    def _scales(self, x0: np.ndarray, period: float) -> np.ndarray:
-        """``(2, N', m)`` units of the unknowns: ``a`` for ``q``, ``omega a`` for ``q'``,
-        ``a`` the largest modal velocity over ``omega`` (the vibration, not the preload)."""
-        omega = 2 * math.pi / period
-        a = max(float(np.abs(x0[1]).max()) / omega, 1e-300)
-        scale = np.empty_like(x0)
-        scale[0], scale[1] = a, omega * a
-        return scale
 
     def solve(self, x0: np.ndarray, period: float) -> Orbit:
         """Newton (SNES, prefix ``limitcycle_shooting_``) from ``x0`` ``(2, N', m)`` and
@@ -183,10 +190,6 @@ class Shooting:
                                      self.full_model.blades, self.m)  # fmt: skip
         return mu, nd
 
-    def _nd_of(self, q: np.ndarray) -> np.ndarray:
-        """NDs on the whole wheel of pattern vectors ``q`` ``(E, N', m)``."""
-        return pattern_nd(q, self.full_model.blades // self.N, self.full_model.blades)
-
 
 @dataclass
 class OrbitSamples:
@@ -219,10 +222,7 @@ class _ShotSystem:
     def __init__(self, shooting: Shooting, x0: np.ndarray, period: float):
         self.s = shooting
         self.n = shooting.n
-        omega = 2 * math.pi / period
-        a = max(float(np.abs(x0[1]).max()) / omega, 1e-300)
-        self.scale = np.empty_like(x0)
-        self.scale[0], self.scale[1] = a, omega * a
+        self.scale = vibration_units(x0, period)
         self.T_ref = period
         self.z_start = (x0 / self.scale).ravel()
         normal = (shooting.flow.vector_field(x0) / self.scale).ravel() * period

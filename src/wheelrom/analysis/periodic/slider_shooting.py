@@ -33,7 +33,7 @@ import numpy as np
 from wheelrom.analysis.periodic.flow import WheelFlow, pattern_model, pattern_spectrum
 from wheelrom.analysis.periodic.hopf import tip_measure
 from wheelrom.analysis.periodic.newton import newton_least_squares
-from wheelrom.analysis.periodic.shooting import Orbit, OrbitSamples
+from wheelrom.analysis.periodic.shooting import Orbit, OrbitSamples, vibration_units
 from wheelrom.config import Config
 from wheelrom.rom.model import ReducedModel
 
@@ -241,11 +241,8 @@ class SliderShooting:
     def _scale(self, x: np.ndarray, period: float, tip_amplitude: float) -> np.ndarray:
         """Units of the unknowns: ``a`` (the largest modal velocity over ``w``) for ``q``,
         ``w a`` for ``q'``, the tip amplitude [m] for the sliders."""
-        omega = 2 * math.pi / period
-        half = self.nq // 2
-        a = max(float(np.abs(x[half : self.nq]).max()) / omega, 1e-300)
-        scale = np.full(self.n, a)
-        scale[half : self.nq] = omega * a
+        scale = np.empty(self.n)
+        scale[: self.nq] = vibration_units(x[: self.nq].reshape(2, -1), period).ravel()
         scale[self.nq :] = max(tip_amplitude, 1e-300)
         return scale
 
@@ -319,7 +316,8 @@ class SliderShooting:
         first), ``nd`` of their eigenvectors on the whole wheel, ``vectors`` ``(n, E)`` those
         of the pattern map in the state's units (0 at the locked unknowns), ``trivial`` the
         index of the phase shift's (the eigenvector most aligned with the flow), ``neutral``
-        the locked unknowns left out (each a multiplier exactly 1)."""
+        the locked unknowns left out (each a multiplier exactly 1), ``scale`` ``(n,)`` the
+        unknowns' units and ``keep`` the indices of those not locked."""
         x = orbit.flat()
         steps = orbit.steps_per_period // self.shots
         scale = self._scale(x, orbit.period, tip_amplitude)
@@ -337,7 +335,7 @@ class SliderShooting:
         full = np.zeros((self.n, values.size), complex)  # in the state's units
         full[keep] = vectors
         return {"values": values, "nd": nd, "trivial": int(np.argmax(alignment)),
-                "neutral": int(locked.sum()), "vectors": full}
+                "neutral": int(locked.sum()), "vectors": full, "scale": scale, "keep": keep}
 
     def samples(self, orbit: Orbit) -> OrbitSamples:
         """One period of ``orbit`` at every step of its shots (``q, q'`` and the sliders each
