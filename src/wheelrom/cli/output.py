@@ -386,7 +386,8 @@ def abort_the_job() -> None:
 
     from mpi4py import MPI
 
-    sys.stderr.write(f"rank {world_rank()}: ")
-    traceback.print_exc()
+    # one write: a prefix written apart reached mpirun as its own chunk, and the abort's
+    # banner could land between it and the traceback (seen once in the test under load)
+    sys.stderr.write(f"rank {world_rank()}: {traceback.format_exc()}")
     sys.stderr.flush()
     MPI.COMM_WORLD.Abort(1)
