@@ -147,7 +147,7 @@ def test_the_whole_wheels_multipliers_by_bloch_waves_are_its_monodromys(elastic_
     (12 + 4)). Independent truth, the transient: the whole wheel started on the orbit plus
     1e-6 of the eigenvector of the largest multiplier off the pattern's symmetry (ND 5,
     0.99732) returns at that rate per period (to 1e-4; measured 2e-6)."""
-    from wheelrom.analysis.periodic.bloch import DIFFERENCE, bloch_multipliers, pattern_indices
+    from wheelrom.analysis.periodic.bloch import DIFFERENCE, blade_indices, bloch_multipliers
     from wheelrom.analysis.periodic.flow import WheelFlow
     from wheelrom.analysis.periodic.slider_shooting import SliderShooting
 
@@ -165,7 +165,7 @@ def test_the_whole_wheels_multipliers_by_bloch_waves_are_its_monodromys(elastic_
     N, m, pattern = model.blades, model.modes, orbit.pattern
     copies, kinds = N // pattern, orbit.sliders.shape[0]
     assert keep.size == 2 * pattern * m + 2 * pattern and bloch.values.size == copies * keep.size
-    where = np.concatenate([pattern_indices(N, m, pattern, kinds, p)[keep]
+    where = np.concatenate([blade_indices(p * pattern + np.arange(pattern), N, m, kinds)[keep]
                             for p in range(copies)])  # fmt: skip
     unit = np.tile(scale[keep], copies)
     state = np.concatenate([orbit.wheel_state(N).ravel(), orbit.wheel_sliders(N).ravel()])

@@ -44,16 +44,17 @@ from wheelrom.rom.model import ReducedModel
 DIFFERENCE = 1e-6  # central-difference step, in each unknown's unit
 
 
-def pattern_indices(blades: int, modes: int, pattern: int, kinds: int, copy: int) -> np.ndarray:
-    """``(n',)``: where pattern ``copy``'s unknowns sit in the whole wheel's flat state
-    (``q``, ``q'`` ``(2, N, m)`` then the sliders ``(K, N, 2)``), in the pattern's own flat
-    order (:meth:`~.shooting.Orbit.flat`)."""
-    own = copy * pattern + np.arange(pattern)  # the copy's blades
-    q = (np.arange(2)[:, None, None] * blades + own[None, :, None]) * modes \
-        + np.arange(modes)[None, None, :]  # fmt: skip
-    sliders = 2 * blades * modes + (np.arange(kinds)[:, None, None] * blades
-                                    + own[None, :, None]) * 2 + np.arange(2)[None, None, :]
-    return np.concatenate([q.ravel(), sliders.ravel()])
+def blade_indices(blades: np.ndarray, count: int, m: int, sliders: int) -> np.ndarray:
+    """Flat indices of blades ``blades`` (in that order) in a state of ``count`` blades:
+    their ``q`` (``(count, m)``), then ``q'``, then, with ``sliders`` contact kinds, their
+    sliders (``(K, count, 2)``): a pattern's own flat order (:meth:`~.shooting.Orbit.flat`)
+    when ``blades`` are one copy of it."""
+    q = (blades[:, None] * m + np.arange(m)).ravel()
+    parts = [q, count * m + q]
+    if sliders:
+        parts.append((2 * count * m + np.arange(sliders)[:, None, None] * 2 * count
+                      + 2 * blades[None, :, None] + np.arange(2)).ravel())  # fmt: skip
+    return np.concatenate(parts)
 
 
 def bloch_multipliers(model: ReducedModel, cfg: Config, orbit: Orbit, scale: np.ndarray,
@@ -71,7 +72,8 @@ def bloch_multipliers(model: ReducedModel, cfg: Config, orbit: Orbit, scale: np.
     N, m, pattern = model.blades, model.modes, orbit.pattern
     copies = N // pattern
     kinds = 0 if orbit.sliders is None else orbit.sliders.shape[0]
-    where = [pattern_indices(N, m, pattern, kinds, p)[keep] for p in range(copies)]
+    where = [blade_indices(p * pattern + np.arange(pattern), N, m, kinds)[keep]
+             for p in range(copies)]  # fmt: skip
     state = orbit.wheel_state(N).ravel()
     if kinds:
         state = np.concatenate([state, orbit.wheel_sliders(N).ravel()])

@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from wheelrom.analysis.periodic.bloch import block_circulant_spectrum
+from wheelrom.analysis.periodic.bloch import blade_indices, block_circulant_spectrum
 from wheelrom.analysis.periodic.flow import (
     Nozzle,
     WheelFlow,
@@ -338,10 +338,10 @@ def wheel_multipliers(model: ReducedModel, cfg: Config, problem: ForcedWave,
         g = N // P
 
         def block(r: int) -> np.ndarray:  # flat indices of super-block r's blades
-            return _blade_indices(np.arange(r * P, (r + 1) * P), N, m, K)
+            return blade_indices(np.arange(r * P, (r + 1) * P), N, m, K)
 
         # blade s of the wheel is the orbit's blade s mod its blade count
-        x_full = orbit.state[_blade_indices(np.arange(N) % orbit.pattern, orbit.pattern,
+        x_full = orbit.state[blade_indices(np.arange(N) % orbit.pattern, orbit.pattern,
                                             m, K)]  # fmt: skip
         scale = whole._scale(x_full, orbit.tip_amplitude)
         columns = whole.jacobian(x_full, scale, block(0))  # (n, 2 N' m (+ sliders))
@@ -352,15 +352,3 @@ def wheel_multipliers(model: ReducedModel, cfg: Config, problem: ForcedWave,
                                                  P, whole.shift)  # fmt: skip
     order = np.argsort(-np.abs(values))
     orbit.wheel_multipliers, orbit.wheel_nodal_diameters = values[order], nds[order]
-
-
-def _blade_indices(blades: np.ndarray, count: int, m: int, sliders: int) -> np.ndarray:
-    """Flat indices of blades ``blades`` (in that order) in a state of ``count`` blades:
-    their ``q`` (``(count, m)``), then ``q'``, then, with ``sliders`` contact kinds, their
-    sliders (``(K, count, 2)``)."""
-    q = (blades[:, None] * m + np.arange(m)).ravel()
-    parts = [q, count * m + q]
-    if sliders:
-        parts.append((2 * count * m + np.arange(sliders)[:, None, None] * 2 * count
-                      + 2 * blades[None, :, None] + np.arange(2)).ravel())  # fmt: skip
-    return np.concatenate(parts)
