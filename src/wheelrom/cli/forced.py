@@ -10,7 +10,7 @@ import math
 import numpy as np
 
 from wheelrom.cli.args import comm_self, force, json_out, load_config, locked
-from wheelrom.cli.output import log, print_json
+from wheelrom.cli.output import log, print_json, world_rank
 from wheelrom.config import CONTACT_KINDS
 from wheelrom.results.layout import FORCED_FORMAT as FORMAT
 from wheelrom.runtime.errors import InputError
@@ -136,6 +136,8 @@ def cmd_forced(args: argparse.Namespace) -> int:
     if args.nonlinear:
         out["nonlinear"], curve = _nonlinear(model, cfg, response.grid, angles,
                                              args.harmonics, say, args.exact)  # fmt: skip
+    if world_rank() != 0:  # under mpirun every rank holds the result: rank 0 tells it
+        return 0
     if args.out:
         _write(args.out, cfg, model, response, tuned, out, angles, curve)
     if args.json:
@@ -185,23 +187,31 @@ def _nonlinear(model, cfg, grid: np.ndarray, angles: dict | None, harmonics: int
     """``(plain data, ForcedCurve)``: the nonlinear curve over the coarse grid (tip
     amplitude per frequency, Newton's verdict, the peak with its contacts' open / stick /
     slip shares; ``exact``: the peak's exact state by shooting, ``"all"``: every solved
-    frequency's too)."""
-    from wheelrom.studies.forced_nonlinear import exact_peak, forced_inputs, nonlinear_forced
+    frequency's too). Under mpirun the grid's frequencies are shared in segments and the
+    exact states dealt over the ranks; rank 0 traces the curve and holds the whole result."""
+    from wheelrom.studies.forced_nonlinear import forced_inputs, nonlinear_forced
+    from wheelrom.studies.stability import world_if_parallel
 
+    world = world_if_parallel()
+    rank = 0 if world is None else world.rank
     outside = _no_resonance(model, cfg, grid, angles)
     if outside:
         say(outside)
+    ranks = f" over {world.size} ranks" if world is not None else ""
     say(f"the nonlinear response (harmonic balance, H = {harmonics}, "
-        f"contacts.law = '{cfg.contacts.law}') at {grid.size} frequencies")  # fmt: skip
+        f"contacts.law = '{cfg.contacts.law}') at {grid.size} frequencies{ranks}")  # fmt: skip
     inputs = forced_inputs(model, cfg, angles, comm_self())  # the grid's and the trace's
-    curve = nonlinear_forced(model, cfg, grid, angles, harmonics, comm_self(), inputs=inputs)
+    curve = nonlinear_forced(model, cfg, grid, angles, harmonics, comm_self(), inputs=inputs,
+                             ranks=world)  # fmt: skip
     amplitude = [float(a) if ok else None
                  for a, ok in zip(curve.tip_amplitude, curve.converged, strict=True)]
     out = {"law": cfg.contacts.law, "harmonics": harmonics, "tip_amplitude_m": amplitude,
            "converged": curve.converged.tolist(), "wall_s": curve.wall_s}  # fmt: skip
+    if world is not None:
+        out["resolved_seams_hz"] = [w / (2 * math.pi) for w in curve.resolved_seams]
     if outside:
         out["no_resonance"] = outside
-    if cfg.forced.continuation == "arclength":
+    if cfg.forced.continuation == "arclength" and rank == 0:
         say("the curve traced by arclength over the same range")
         out["traced"] = _traced(model, cfg, curve, grid, inputs)
     if curve.converged.any():
@@ -211,17 +221,33 @@ def _nonlinear(model, cfg, grid: np.ndarray, angles: dict | None, harmonics: int
         out["peak_shares"] = {kind: dict(zip(("open", "stick", "slip"),
                                              map(float, curve.fractions[i, k]), strict=True))
                               for k, kind in enumerate(curve.kinds)}  # fmt: skip
-        states = {}
-        for j in (np.flatnonzero(curve.converged) if exact == "all" else [i] if exact else []):
-            say(f"the exact state at {curve.frequency[j] / (2 * math.pi):.4f} Hz by shooting")
-            states[j] = _exact(exact_peak(model, cfg, curve.harmonics[j],
-                                          float(curve.frequency[j]), harmonics, inputs,
-                                          angles, whole_wheel=True))  # fmt: skip
+        states = _exact_states(model, cfg, curve, inputs, angles, harmonics, exact, world, say)
         if states:
             out["exact"] = states[i]
         if exact == "all":
             out["exact_curve"] = [states.get(j) for j in range(curve.frequency.size)]
     return out, curve
+
+
+def _exact_states(model, cfg, curve, inputs: tuple, angles: dict | None, harmonics: int,
+                  exact: str | None, world, say) -> dict:  # fmt: skip
+    """``{grid index: plain data of the exact state}`` at the peak (``exact``) or at every
+    solved frequency (``"all"``), dealt over the ranks of ``world`` (None: this process
+    alone) in turn and gathered on every rank."""
+    from wheelrom.studies.forced_nonlinear import exact_peak
+
+    wanted = (np.flatnonzero(curve.converged) if exact == "all" else [curve.peak] if exact
+              else [])  # fmt: skip
+    size, rank = (1, 0) if world is None else (world.size, world.rank)
+    states = {}
+    for j in wanted[rank::size]:
+        say(f"the exact state at {curve.frequency[j] / (2 * math.pi):.4f} Hz by shooting")
+        states[int(j)] = _exact(exact_peak(model, cfg, curve.harmonics[j],
+                                           float(curve.frequency[j]), harmonics, inputs,
+                                           angles, whole_wheel=True))  # fmt: skip
+    if world is not None and len(wanted):
+        states = {j: s for part in world.allgather(states) for j, s in part.items()}
+    return states
 
 
 def _exact(orbit) -> dict:

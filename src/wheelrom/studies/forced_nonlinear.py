@@ -16,6 +16,7 @@ import numpy as np
 from wheelrom.analysis.forced import operators
 from wheelrom.analysis.forced_peak import resonance
 from wheelrom.analysis.periodic.forced_branch import traced_curve
+from wheelrom.analysis.periodic.forced_segments import segment_count, segmented_curve
 from wheelrom.analysis.periodic.forced_shooting import ForcedOrbit, exact_forced
 from wheelrom.analysis.periodic.forced_wave import ForcedCurve, ForcedWave, forced_curve
 from wheelrom.analysis.stability import linearise
@@ -24,6 +25,7 @@ from wheelrom.forces.parameters import force_parameters
 from wheelrom.results import layout as results
 from wheelrom.rom.model import ReducedModel
 from wheelrom.runtime.errors import InputError
+from wheelrom.studies.queue import CaseQueue
 
 #: the automatic band's margin beyond the slipping and the stuck resonance (a share of each)
 BAND_MARGIN = 0.03
@@ -31,13 +33,23 @@ BAND_MARGIN = 0.03
 
 def nonlinear_forced(model: ReducedModel, cfg: Config, frequencies: np.ndarray,
                      angles_deg: dict | None = None, harmonics: int = 5, comm=None,
-                     progress=None, refine: bool = False,
-                     inputs: tuple | None = None) -> ForcedCurve:  # fmt: skip
+                     progress=None, refine: bool = False, inputs: tuple | None = None,
+                     ranks=None) -> ForcedCurve:  # fmt: skip
     """The steady response at every excitation frequency of ``frequencies`` [rad/s] (in
     that order) of the tuned ``model`` under ``cfg`` (its contact law, the Van der Pol force
     as configured), contact angles ``angles_deg`` as :func:`linearise`; ``refine``: also the
-    peak off the grid; ``inputs``: the case's :func:`forced_inputs` when already known."""
+    peak off the grid; ``inputs``: the case's :func:`forced_inputs` when already known;
+    ``ranks``: an mpi4py communicator whose ranks share the frequencies in segments
+    (:mod:`~wheelrom.analysis.periodic.forced_segments`; every rank gets the whole curve)."""
     params, q = inputs or forced_inputs(model, cfg, angles_deg, comm)
+    if ranks is not None and ranks.size > 1:  # segments taken as ranks become free
+        count = segment_count(np.size(frequencies), ranks.size)
+        queue = CaseQueue(count, ranks)
+        curve = segmented_curve(model, params, cfg.wheel.damping_beta, frequencies, q, ranks,
+                                harmonics=harmonics, progress=progress, refine=refine,
+                                segments=count, taken=queue)  # fmt: skip
+        queue.free()  # every rank met again in the segments' gather (a failure aborts the job)
+        return curve
     return forced_curve(model, params, cfg.wheel.damping_beta, frequencies, q,
                         harmonics=harmonics, progress=progress, refine=refine)  # fmt: skip
 

@@ -91,6 +91,9 @@ class ForcedCurve:
     #: the forced wave's family and family 0; NaN: not computed), :func:`.forced_branch.
     #: forced_growth`
     growth: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    #: over MPI ranks (:mod:`.forced_segments`): the seams [rad/s] whose next segment was
+    #: solved again in order (its rank's first state was another steady state)
+    resolved_seams: list = field(default_factory=list)
 
     @property
     def peak(self) -> int:
@@ -123,7 +126,7 @@ class ForcedWave:
         samples = samples or 8 * (harmonics + 1)
         self.wave = params.stator_vanes % model.blades
         self.balance = WaveBalance(model, params, beta, self.wave, harmonics, samples)
-        self.lam = lam
+        self.lam, self.harmonics = lam, harmonics
         self.force = np.zeros((2 * harmonics + 1, model.modes))
         self.force[1] = params.nozzle_force * np.asarray(params.excitation, dtype=float)
 
@@ -247,35 +250,54 @@ def forced_curve(model: ReducedModel, params: ForceParameters, beta: float,
     order given (natural continuation: each Newton solve starts from the last solution, the
     first from the preloaded ``equilibrium`` ``(N, m)`` at rest). ``progress(i, omega,
     amplitude)`` after each frequency; ``refine``: also the peak off the grid
-    (:func:`refine_peak`, ``curve.refined``)."""
+    (:func:`refine_peak`, ``curve.refined``). Over MPI ranks: :func:`.forced_segments.
+    segmented_curve`."""
     t0 = time.perf_counter()
     problem = ForcedWave(model, params, beta, harmonics, samples, lam)
-    w_all = np.atleast_1d(np.asarray(frequencies, dtype=float))
-    F = w_all.size
-    K = len(params.contacts.kinds)
-    out = ForcedCurve(w_all, np.full((F, 2 * harmonics + 1, model.modes), np.nan),
-                      np.full(F, np.nan), np.zeros(F, bool), np.zeros(F, int),
-                      np.full((F, K, 3), np.nan), problem.wave,
-                      int(nodal_diameter(problem.wave, model.blades)),
-                      kinds=params.contacts.kinds)  # fmt: skip
-    X = np.zeros((2 * harmonics + 1, model.modes))
-    X[0] = equilibrium[0]
-    last = None  # the last frequency solved
-    for i, w in enumerate(w_all):
-        X_new, ok, iterations = stepped_solve(problem, X, last, float(w))
-        out.converged[i], out.iterations[i] = ok, iterations
-        if ok:
-            X, last = X_new, float(w)
-            out.harmonics[i] = X
-            out.tip_amplitude[i] = problem.tip_amplitude(X, float(w))
-            if K:
-                out.fractions[i] = problem.fractions(X, float(w))
-        if progress is not None:
-            progress(i, float(w), out.tip_amplitude[i])
+    out = empty_curve(problem, model, params, frequencies)
+    continue_over(problem, out, range(out.frequency.size), at_rest(problem, equilibrium),
+                  None, progress)  # fmt: skip
     if refine:
         out.refined = refine_peak(problem, out)
     out.wall_s = time.perf_counter() - t0
     return out
+
+
+def empty_curve(problem: ForcedWave, model: ReducedModel, params: ForceParameters,
+                frequencies) -> ForcedCurve:  # fmt: skip
+    """A :class:`ForcedCurve` over ``frequencies`` [rad/s] with nothing solved yet."""
+    w_all = np.atleast_1d(np.asarray(frequencies, dtype=float))
+    F, K, H = w_all.size, len(params.contacts.kinds), problem.harmonics
+    return ForcedCurve(w_all, np.full((F, 2 * H + 1, model.modes), np.nan), np.full(F, np.nan),
+                       np.zeros(F, bool), np.zeros(F, int), np.full((F, K, 3), np.nan),
+                       problem.wave, int(nodal_diameter(problem.wave, model.blades)),
+                       kinds=params.contacts.kinds)  # fmt: skip
+
+
+def at_rest(problem: ForcedWave, equilibrium: np.ndarray) -> np.ndarray:
+    """``(2H + 1, m)``: the preloaded ``equilibrium`` ``(N, m)``, no motion."""
+    X = np.zeros((2 * problem.harmonics + 1, equilibrium.shape[1]))
+    X[0] = equilibrium[0]
+    return X
+
+
+def continue_over(problem: ForcedWave, curve: ForcedCurve, indices, X: np.ndarray,
+                  last: float | None, progress=None) -> None:  # fmt: skip
+    """Solve ``curve``'s frequencies at ``indices`` in that order into ``curve``, each from
+    the last solution, the first from ``X`` ``(2H + 1, m)`` solved at ``last`` [rad/s]
+    (None: a start at rest)."""
+    for i in indices:
+        w = float(curve.frequency[i])
+        X_new, ok, iterations = stepped_solve(problem, X, last, w)
+        curve.converged[i], curve.iterations[i] = ok, iterations
+        if ok:
+            X, last = X_new, w
+            curve.harmonics[i] = X
+            curve.tip_amplitude[i] = problem.tip_amplitude(X, w)
+            if curve.fractions.shape[1]:
+                curve.fractions[i] = problem.fractions(X, w)
+        if progress is not None:
+            progress(i, w, curve.tip_amplitude[i])
 
 
 def stepped_solve(problem: ForcedWave, X: np.ndarray, w_from: float | None, w_to: float,

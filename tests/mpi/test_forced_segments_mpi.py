@@ -1,0 +1,74 @@
+"""``forced-response --nonlinear``'s grid under ``mpirun -n 2`` (the frequencies shared in
+segments, :mod:`wheelrom.analysis.periodic.forced_segments`) equals one process's: the small
+wheel under the paper law through its ND 2 resonance, every frequency and the refined peak,
+on every rank (each rank also computes one process's curve)."""
+
+from wheelrom.runtime.environment import bootstrap, petsc
+
+bootstrap()  # one BLAS thread per rank, before numpy loads
+
+import math  # noqa: E402
+import os  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from wheelrom import config  # noqa: E402
+from wheelrom.rom.build import build_model  # noqa: E402
+from wheelrom.studies.forced_nonlinear import forced_inputs, nonlinear_forced  # noqa: E402
+
+SMALL = os.path.join(os.path.dirname(os.path.dirname(__file__)), "data", "small.toml")
+
+
+def test_two_ranks_give_the_curve_of_one():
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD
+    assert comm.size == 2
+    cfg = config.load(SMALL)
+    model = build_model(cfg, petsc().COMM_SELF)
+    inputs = forced_inputs(model, cfg, None, petsc().COMM_SELF)
+    grid = 2 * math.pi * np.linspace(250.0, 259.0, 12)
+    parallel = nonlinear_forced(model, cfg, grid, harmonics=3, comm=petsc().COMM_SELF,
+                                refine=True, inputs=inputs, ranks=comm)  # fmt: skip
+    serial = nonlinear_forced(model, cfg, grid, harmonics=3, comm=petsc().COMM_SELF,
+                              refine=True, inputs=inputs)  # fmt: skip
+    assert serial.converged.all() and parallel.resolved_seams == []
+    np.testing.assert_array_equal(parallel.converged, serial.converged)
+    np.testing.assert_allclose(parallel.tip_amplitude, serial.tip_amplitude, rtol=1e-8)
+    assert abs(parallel.refined.tip_amplitude / serial.refined.tip_amplitude - 1) < 1e-8
+    assert abs(parallel.refined.frequency / serial.refined.frequency - 1) < 1e-8
+
+
+def test_the_command_over_two_ranks_tells_its_curve_once(tmp_path_factory, capsys):
+    """``mpirun -n 2 wheelrom forced-response --nonlinear --json --out``: rank 0 prints one
+    JSON document and writes the file, rank 1 prints nothing; the curve is one process's.
+    (At H = 1 Newton from rest fails at the seams of the three segments, 251.8 and 255.4
+    Hz, where continuation succeeds: the segments after them are solved again in order, and
+    said.)"""
+    import json
+
+    import h5py
+    from mpi4py import MPI
+
+    from wheelrom.cli import main as cli
+
+    comm = MPI.COMM_WORLD
+    out = comm.bcast(str(tmp_path_factory.mktemp("fr") / "f.h5") if comm.rank == 0 else None)
+    argv = ["forced-response", SMALL, "--nonlinear", "--harmonics", "1", "--frequencies",
+            "250:259:6", "--json", "--out", out]  # fmt: skip
+    assert cli.main(argv) == 0
+    printed = capsys.readouterr().out
+    if comm.rank == 1:
+        assert printed == ""
+        return
+    nonlinear = json.loads(printed)["nonlinear"]
+    assert all(nonlinear["converged"])
+    assert set(np.round(nonlinear["resolved_seams_hz"], 6)) <= {251.8, 255.4}  # the seams
+    cfg = config.load(SMALL)
+    model = build_model(cfg, petsc().COMM_SELF)
+    serial = nonlinear_forced(model, cfg, 2 * math.pi * np.linspace(250.0, 259.0, 6),
+                              harmonics=1, comm=petsc().COMM_SELF)  # fmt: skip
+    np.testing.assert_allclose(nonlinear["tip_amplitude_m"], serial.tip_amplitude, rtol=1e-8)
+    with h5py.File(out) as f:
+        np.testing.assert_array_equal(f["nonlinear/tip_amplitude"][:],
+                                      nonlinear["tip_amplitude_m"])  # fmt: skip
