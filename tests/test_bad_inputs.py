@@ -154,11 +154,12 @@ def full_disk(tmp_path, monkeypatch):
     return out, spare
 
 
-@pytest.mark.parametrize("command", ["stability", "modes"])
+@pytest.mark.parametrize("command", ["stability", "modes", "forced-response"])
 def test_full_disk_keeps_the_results_elsewhere(command, full_disk, capsys):
     out, spare = full_disk
     path = out / f"{command}.h5"
-    assert cli.main([command, SMALL, "--out", str(path), "--json"]) == 1
+    extra = ["--frequencies", "250:259:3"] if command == "forced-response" else []
+    assert cli.main([command, SMALL, "--out", str(path), "--json", *extra]) == 1
     captured = capsys.readouterr()
     json.loads(captured.out)  # the numbers are printed
     assert "Traceback" not in captured.err
@@ -169,8 +170,8 @@ def test_full_disk_keeps_the_results_elsewhere(command, full_disk, capsys):
         f"wheelrom: {path}: the disk is full (errno 28, ENOSPC: No space left on device; "
         f"{lines[0].split('; ')[1].split(' free')[0]} free in '{out}'); the results are kept "
         f"in {spare / kept} (move it there once space is freed); the "
-        f"{'summary' if command == 'stability' else 'frequencies'} is printed above"
-        .replace("frequencies is", "frequencies are"))  # fmt: skip
+        + {"stability": "summary is", "modes": "frequencies are",
+           "forced-response": "response is"}[command] + " printed above")  # fmt: skip
     assert not os.listdir(out)  # no half file, no temporary
     with h5py.File(spare / kept, "r") as f:  # the whole results file
         assert f.attrs["config"]

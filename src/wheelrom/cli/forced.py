@@ -14,7 +14,7 @@ from wheelrom.cli.output import log, print_json, world_rank
 from wheelrom.config import CONTACT_KINDS
 from wheelrom.results.layout import FORCED_FORMAT as FORMAT
 from wheelrom.runtime.errors import InputError
-from wheelrom.runtime.outputs import check_output, replacing
+from wheelrom.runtime.outputs import agree, check_output, save_hdf5
 
 #: the most frequencies ``--frequencies`` / ``--speeds`` may ask for (as forced.points)
 MAX_FREQUENCIES = 100_000
@@ -136,14 +136,19 @@ def cmd_forced(args: argparse.Namespace) -> int:
     if args.nonlinear:
         out["nonlinear"], curve = _nonlinear(model, cfg, response.grid, angles,
                                              args.harmonics, say, args.exact)  # fmt: skip
-    if world_rank() != 0:  # under mpirun every rank holds the result: rank 0 tells it
-        return 0
-    if args.out:
-        _write(args.out, cfg, model, response, tuned, out, angles, curve)
-    if args.json:
-        print_json(out)
-    else:
-        _print(out)
+    failure = None
+    if world_rank() == 0:  # under mpirun every rank holds the result: rank 0 tells it
+        if args.json:
+            print_json(out)
+        else:
+            _print(out)
+        if args.out:  # after the numbers are printed: a full disk still leaves them
+            failure = save_hdf5(args.out, lambda f: _fill(f, cfg, model, response, tuned, out,
+                                                          angles, curve),
+                                "the response is printed above")  # fmt: skip
+    from wheelrom.studies.stability import world_if_parallel
+
+    agree(world_if_parallel(), failure)  # every rank stops together
     return 0
 
 
@@ -318,48 +323,46 @@ def _no_resonance(model, cfg, grid: np.ndarray, angles: dict | None) -> str:
             "response computed here is off resonance (its largest value at an edge)")
 
 
-def _write(path: str, cfg, model, response, tuned, out: dict, angles: dict | None,
-           curve=None) -> None:  # fmt: skip
-    """The response as HDF5 (docs/output.md, format ``wheelrom-forced-1``): ``frequency_hz``
-    ``(F,)`` (the coarse grid), ``blade_amplitude`` and ``tuned_blade_amplitude`` ``(F, N)``
-    [m] on it, ``peak_blade_amplitude`` and ``tuned_peak_blade_amplitude`` ``(N,)`` [m] at the
-    refined peaks, ``mistuning`` ``(N,)``; attributes: the configuration and its source, the
-    wheelrom version, the scalars of ``out``, the model size, the contact angles (JSON) and
-    the KSP settings (``solver``, JSON: :func:`wheelrom.analysis.forced.ksp_settings`);
-    with ``--nonlinear`` the group ``/nonlinear`` (``curve``: :func:`_write_nonlinear`)."""
+def _fill(f, cfg, model, response, tuned, out: dict, angles: dict | None,
+          curve=None) -> None:  # fmt: skip
+    """The response into the open HDF5 file ``f`` (docs/output.md, format
+    ``wheelrom-forced-1``): ``frequency_hz`` ``(F,)`` (the coarse grid), ``blade_amplitude``
+    and ``tuned_blade_amplitude`` ``(F, N)`` [m] on it, ``peak_blade_amplitude`` and
+    ``tuned_peak_blade_amplitude`` ``(N,)`` [m] at the refined peaks, ``mistuning``
+    ``(N,)``; attributes: the configuration and its source, the wheelrom version, the
+    scalars of ``out``, the model size, the contact angles (JSON) and the KSP settings
+    (``solver``, JSON: :func:`wheelrom.analysis.forced.ksp_settings`); with ``--nonlinear``
+    the group ``/nonlinear`` (``curve``: :func:`_write_nonlinear`)."""
     import json
-
-    import h5py
 
     from wheelrom import __version__
     from wheelrom import config as config_mod
     from wheelrom.results.file_checksums import write_file_checksums
 
-    with replacing(path) as partial, h5py.File(partial, "w") as f:
-        f.attrs["format"] = FORMAT
-        f.attrs["config"] = config_mod.to_toml(cfg)
-        f.attrs["config_source"] = cfg.source
-        f.attrs["wheelrom_version"] = __version__
-        for key in ("stator_vanes", "nodal_diameter", "contacts", "mistuned",
-                    "amplification_factor", "solve_s_per_frequency", "band_hz",
-                    "peak_amplitude_m", "peak_frequency_hz", "tuned_peak_amplitude_m",
-                    "tuned_peak_frequency_hz", "peak_speed_hz", "tuned_peak_speed_hz",
-                    "solves"):  # fmt: skip
-            f.attrs[key] = out[key]
-        f.attrs["blades"], f.attrs["modes"] = model.blades, model.modes
-        f.attrs["contact_angles_deg"] = json.dumps(_contact_angles(cfg, angles) if out["contacts"]
-                                                   else {})  # fmt: skip
-        f.attrs["solver"] = json.dumps(response.solver)
-        f["frequency_hz"] = np.asarray(out["frequency_hz"])
-        f["blade_amplitude"] = response.grid_blade_amplitude
-        f["tuned_blade_amplitude"] = tuned.grid_blade_amplitude
-        f["peak_blade_amplitude"] = response.blade_amplitude
-        f["tuned_peak_blade_amplitude"] = tuned.blade_amplitude
-        mistuning = model.mistuning if model.mistuning is not None else np.zeros(model.blades)
-        f["mistuning"] = mistuning
-        if curve is not None:
-            _write_nonlinear(f.create_group("nonlinear"), out["nonlinear"], curve)
-        write_file_checksums(f)
+    f.attrs["format"] = FORMAT
+    f.attrs["config"] = config_mod.to_toml(cfg)
+    f.attrs["config_source"] = cfg.source
+    f.attrs["wheelrom_version"] = __version__
+    for key in ("stator_vanes", "nodal_diameter", "contacts", "mistuned",
+                "amplification_factor", "solve_s_per_frequency", "band_hz",
+                "peak_amplitude_m", "peak_frequency_hz", "tuned_peak_amplitude_m",
+                "tuned_peak_frequency_hz", "peak_speed_hz", "tuned_peak_speed_hz",
+                "solves"):  # fmt: skip
+        f.attrs[key] = out[key]
+    f.attrs["blades"], f.attrs["modes"] = model.blades, model.modes
+    f.attrs["contact_angles_deg"] = json.dumps(_contact_angles(cfg, angles) if out["contacts"]
+                                               else {})  # fmt: skip
+    f.attrs["solver"] = json.dumps(response.solver)
+    f["frequency_hz"] = np.asarray(out["frequency_hz"])
+    f["blade_amplitude"] = response.grid_blade_amplitude
+    f["tuned_blade_amplitude"] = tuned.grid_blade_amplitude
+    f["peak_blade_amplitude"] = response.blade_amplitude
+    f["tuned_peak_blade_amplitude"] = tuned.blade_amplitude
+    mistuning = model.mistuning if model.mistuning is not None else np.zeros(model.blades)
+    f["mistuning"] = mistuning
+    if curve is not None:
+        _write_nonlinear(f.create_group("nonlinear"), out["nonlinear"], curve)
+    write_file_checksums(f)
 
 
 def _write_nonlinear(g, out: dict, curve) -> None:

@@ -34,9 +34,11 @@ from wheelrom.rom.model import ReducedModel
 SEAM_TOLERANCE = 1e-5
 #: segments a rank solves on average, taken from a shared queue as ranks become free: the
 #: cost of a frequency varies along the band (the paper wheel's 200-point elastic curve
-#: spends 20 of its 51 s in the first eighth, at the slipping resonance), so one contiguous
-#: segment a rank gave 59 s on 2 ranks; each segment costs one solve more (its start at rest)
-SEGMENTS_PER_RANK = 8
+#: spends 40 % of its time in the first eighth, at the slipping resonance), and each segment
+#: costs one solve from rest more and starts without the secant predictor. Measured on 2
+#: ranks against one process's 8.1 s (paper law) and 38.3 s (elastic law): 8 segments a
+#: rank 5.5 / 30.3 s, 4 a rank 4.7 / 25.5 s, 2 a rank 4.8 / 22.1 s
+SEGMENTS_PER_RANK = 2
 
 
 def segmented_curve(model: ReducedModel, params: ForceParameters, beta: float, frequencies,
@@ -58,18 +60,23 @@ def segmented_curve(model: ReducedModel, params: ForceParameters, beta: float, f
         curve = empty_curve(problem, model, params, w_all)
         continue_over(problem, curve, range(w_all.size), at_rest(problem, equilibrium), None,
                       progress)  # fmt: skip
+        if refine:
+            curve.refined = refine_peak(problem, curve)
     else:
-        count = segments or segment_count(w_all.size, ranks)
+        count = min(segments or segment_count(w_all.size, ranks), w_all.size // 2)
         bounds = segment_bounds(w_all.size, count)
         taken = range(comm.rank, count, ranks) if taken is None else taken
         mine = {r: solve_segment(problem, model, params, w_all, equilibrium, bounds, r,
                                  progress)  # fmt: skip
                 for r in taken}
-        pieces = {r: piece for part in comm.allgather(mine) for r, piece in part.items()}
-        curve = stitch(problem, model, params, w_all, equilibrium, bounds,
-                       [pieces[r] for r in range(count)])  # fmt: skip
-    if refine:
-        curve.refined = refine_peak(problem, curve)
+        parts, curve = comm.gather(mine, root=0), None
+        if comm.rank == 0:  # one rank decides the seams and the peak, every rank holds them
+            pieces = {r: piece for part in parts for r, piece in part.items()}
+            curve = stitch(problem, model, params, w_all, equilibrium, bounds,
+                           [pieces[r] for r in range(count)])  # fmt: skip
+            if refine:
+                curve.refined = refine_peak(problem, curve)
+        curve = comm.bcast(curve, root=0)
     curve.wall_s = time.perf_counter() - t0
     return curve
 
@@ -80,9 +87,9 @@ def segment_count(frequencies: int, ranks: int) -> int:
     return max(ranks, min(ranks * SEGMENTS_PER_RANK, frequencies // 2))
 
 
-def segment_bounds(count: int, ranks: int) -> np.ndarray:
-    """``(ranks + 1,)``: segment ``r`` is the frequencies ``bounds[r]:bounds[r + 1]``."""
-    return np.array([count * r // ranks for r in range(ranks + 1)])
+def segment_bounds(frequencies: int, segments: int) -> np.ndarray:
+    """``(segments + 1,)``: segment ``r`` is the frequencies ``bounds[r]:bounds[r + 1]``."""
+    return np.array([frequencies * r // segments for r in range(segments + 1)])
 
 
 def solve_segment(problem: ForcedWave, model: ReducedModel, params: ForceParameters,
@@ -93,8 +100,9 @@ def solve_segment(problem: ForcedWave, model: ReducedModel, params: ForceParamet
     first = bounds[rank] - 1 if rank > 0 else 0
     piece = empty_curve(problem, model, params, frequencies[first : bounds[rank + 1]])
 
-    def told(i, w, amplitude):  # the grid's index
-        progress(first + i, w, amplitude)
+    def told(i, w, amplitude):  # the grid's index; the seam's point is the segment before's
+        if first + i >= bounds[rank]:
+            progress(first + i, w, amplitude)
 
     continue_over(problem, piece, range(piece.frequency.size), at_rest(problem, equilibrium),
                   None, told if progress is not None else None)  # fmt: skip
@@ -106,7 +114,8 @@ def stitch(problem: ForcedWave, model: ReducedModel, params: ForceParameters,
            pieces: list[ForcedCurve]) -> ForcedCurve:  # fmt: skip
     """The whole curve from every rank's :func:`solve_segment`, in order: a segment whose
     first state is not the previous segment's last (:func:`same_state`) is solved again
-    from the last solution before it (the equilibrium at rest if none)."""
+    from the last solution before it (the equilibrium at rest if none), with the one
+    process's secant predictor through the two last solutions."""
     curve = empty_curve(problem, model, params, frequencies)
     for r, piece in enumerate(pieces):
         lo, hi = int(bounds[r]), int(bounds[r + 1])
@@ -116,12 +125,13 @@ def stitch(problem: ForcedWave, model: ReducedModel, params: ForceParameters,
                 getattr(curve, name)[lo:hi] = getattr(piece, name)[skip:]
             continue
         curve.resolved_seams.append(float(frequencies[lo - 1]))
-        done = np.flatnonzero(curve.converged[:lo])
+        done = np.flatnonzero(curve.converged[:lo])  # the one process's last two solutions
+        X, last, before = at_rest(problem, equilibrium), None, None
         if done.size:
             X, last = curve.harmonics[done[-1]], float(frequencies[done[-1]])
-        else:
-            X, last = at_rest(problem, equilibrium), None
-        continue_over(problem, curve, range(lo, hi), X, last)
+        if done.size > 1:
+            before = (curve.harmonics[done[-2]], float(frequencies[done[-2]]))
+        continue_over(problem, curve, range(lo, hi), X, last, before=before)
     return curve
 
 
