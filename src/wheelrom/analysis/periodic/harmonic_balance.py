@@ -380,6 +380,10 @@ class WaveBalance:
         dRdlam = self._lambda_column(X, omega, lam)
         return R, dRdX, dRdw, dRdlam
 
+    def linear_jacobian(self, X: np.ndarray, omega: float, lam: float) -> np.ndarray:
+        """``(n, n)`` the linear part's ``dR/dX`` (:meth:`_linear_derivatives`), flat."""
+        return self._linear_derivatives(X, omega, lam)[0].reshape(self.size, self.size)
+
     def _linear_derivatives(self, X: np.ndarray, omega: float, lam: float):
         """``(dR/dX, dR/domega)`` of the linear part ``Z_h c_h``: ``(2H+1, m, 2H+1, m)`` (the
         real blocks of ``Z_h``) and ``(2H+1, m)`` (analytically)."""
