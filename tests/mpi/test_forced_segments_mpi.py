@@ -11,6 +11,7 @@ import math  # noqa: E402
 import os  # noqa: E402
 
 import numpy as np  # noqa: E402
+import pytest  # noqa: E402
 
 from wheelrom import config  # noqa: E402
 from wheelrom.rom.build import build_model  # noqa: E402
@@ -72,3 +73,31 @@ def test_the_command_over_two_ranks_tells_its_curve_once(tmp_path_factory, capsy
     with h5py.File(out) as f:
         np.testing.assert_array_equal(f["nonlinear/tip_amplitude"][:],
                                       nonlinear["tip_amplitude_m"])  # fmt: skip
+
+
+def test_the_exact_states_dealt_over_two_ranks(capsys):
+    """``--exact all`` under ``mpirun -n 2``: the five solved frequencies' shots dealt over
+    the ranks and gathered in grid order give one process's verdicts
+    (tests/test_forced_shooting.py: unstable at 123-129 Hz, stable at 132 and 135 Hz; the
+    peak's state is the 123 Hz row, its largest multiplier in ND 3)."""
+    import json
+
+    from mpi4py import MPI
+
+    from wheelrom.cli import main as cli
+
+    argv = ["forced-response", SMALL, "--nonlinear", "--exact", "all", "--frequencies",
+            "120:135:6", "--harmonics", "11", "--set", 'flutter.model="off"', "--set",
+            "excitation.force=10", "--json"]  # fmt: skip
+    assert cli.main(argv) == 0
+    printed = capsys.readouterr().out
+    if MPI.COMM_WORLD.rank == 1:
+        assert printed == ""
+        return
+    nl = json.loads(printed)["nonlinear"]
+    rows = nl["exact_curve"]
+    assert len(rows) == 6 and rows[0] is None  # 120 Hz: the balance has no solution
+    assert [r["stable"] for r in rows[1:]] == [False, False, False, True, True]
+    assert [r["frequency_hz"] for r in rows[1:]] == pytest.approx([123.0, 126.0, 129.0,
+                                                                   132.0, 135.0])
+    assert rows[1] == nl["exact"] and rows[1]["wheel_multiplier_nd"][0] == 3
