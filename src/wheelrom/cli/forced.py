@@ -10,7 +10,7 @@ import math
 import numpy as np
 
 from wheelrom.cli.args import comm_self, force, json_out, load_config, locked
-from wheelrom.cli.output import log, print_json, world_rank
+from wheelrom.cli.output import log, print_json
 from wheelrom.config import CONTACT_KINDS
 from wheelrom.results.layout import FORCED_FORMAT as FORMAT
 from wheelrom.runtime.errors import InputError
@@ -105,6 +105,7 @@ def cmd_forced(args: argparse.Namespace) -> int:
     prefixes forced_ (KSP) and forced_preload_ (SNES)."""
     from wheelrom.analysis.forced_peak import peak_response, tuned_reference
     from wheelrom.rom.build import build_model, quiet
+    from wheelrom.studies.stability import world_if_parallel
 
     cfg = load_config(args)
     if args.harmonics is None:
@@ -132,12 +133,12 @@ def cmd_forced(args: argparse.Namespace) -> int:
         response = peak_response(model, cfg, tuned.band_hz, contacts, angles, comm_self(),
                                  points=points)  # fmt: skip
     out = summary(response, tuned, cfg, model, contacts)
-    curve = None
+    curve, world = None, world_if_parallel()
     if args.nonlinear:
         out["nonlinear"], curve = _nonlinear(model, cfg, response.grid, angles,
-                                             args.harmonics, say, args.exact)  # fmt: skip
+                                             args.harmonics, say, args.exact, world)  # fmt: skip
     failure = None
-    if world_rank() == 0:  # under mpirun every rank holds the result: rank 0 tells it
+    if world is None or world.rank == 0:  # every rank holds the result: rank 0 tells it
         if args.json:
             print_json(out)
         else:
@@ -146,9 +147,7 @@ def cmd_forced(args: argparse.Namespace) -> int:
             failure = save_hdf5(args.out, lambda f: _fill(f, cfg, model, response, tuned, out,
                                                           angles, curve),
                                 "the response is printed above")  # fmt: skip
-    from wheelrom.studies.stability import world_if_parallel
-
-    agree(world_if_parallel(), failure)  # every rank stops together
+    agree(world, failure)  # every rank stops together
     return 0
 
 
@@ -188,16 +187,14 @@ def summary(response, tuned, cfg, model, contacts: bool) -> dict:
 
 
 def _nonlinear(model, cfg, grid: np.ndarray, angles: dict | None, harmonics: int,
-               say, exact: str | None = None):  # fmt: skip
+               say, exact: str | None = None, world=None):  # fmt: skip
     """``(plain data, ForcedCurve)``: the nonlinear curve over the coarse grid (tip
     amplitude per frequency, Newton's verdict, the peak with its contacts' open / stick /
     slip shares; ``exact``: the peak's exact state by shooting, ``"all"``: every solved
-    frequency's too). Under mpirun the grid's frequencies are shared in segments and the
-    exact states dealt over the ranks; rank 0 traces the curve and holds the whole result."""
+    frequency's too). Under mpirun (``world``: mpi4py's COMM_WORLD) the grid's frequencies are
+    shared in segments and the exact states dealt over the ranks; rank 0 traces the curve."""
     from wheelrom.studies.forced_nonlinear import forced_inputs, nonlinear_forced
-    from wheelrom.studies.stability import world_if_parallel
 
-    world = world_if_parallel()
     rank = 0 if world is None else world.rank
     outside = _no_resonance(model, cfg, grid, angles)
     if outside:

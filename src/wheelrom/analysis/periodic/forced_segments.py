@@ -23,6 +23,7 @@ from wheelrom.analysis.periodic.forced_wave import (
     at_rest,
     continue_over,
     empty_curve,
+    forced_curve,
     refine_peak,
 )
 from wheelrom.forces.parameters import ForceParameters
@@ -53,31 +54,26 @@ def segmented_curve(model: ReducedModel, params: ForceParameters, beta: float, f
     :class:`~wheelrom.studies.queue.CaseQueue`; None: dealt in turn). Every rank returns the
     whole curve; ``curve.resolved_seams`` the seams solved again in order. One rank, or
     fewer than two frequencies a rank: the one process's loop."""
-    t0 = time.perf_counter()
-    problem = ForcedWave(model, params, beta, harmonics, samples, lam)
     w_all = np.atleast_1d(np.asarray(frequencies, dtype=float))
     ranks = 1 if comm is None else comm.size
     if ranks == 1 or w_all.size < 2 * ranks:
-        curve = empty_curve(problem, model, params, w_all)
-        continue_over(problem, curve, range(w_all.size), at_rest(problem, equilibrium), None,
-                      progress)  # fmt: skip
+        return forced_curve(model, params, beta, w_all, equilibrium, harmonics, samples, lam,
+                            progress, refine)  # fmt: skip
+    t0 = time.perf_counter()
+    problem = ForcedWave(model, params, beta, harmonics, samples, lam)
+    count = min(segments or segment_count(w_all.size, ranks), w_all.size // 2)
+    bounds = segment_bounds(w_all.size, count)
+    taken = range(comm.rank, count, ranks) if taken is None else taken
+    mine = {r: solve_segment(problem, model, params, w_all, equilibrium, bounds, r, progress)
+            for r in taken}
+    parts, curve = comm.gather(mine, root=0), None
+    if comm.rank == 0:  # one rank decides the seams and the peak, every rank holds them
+        pieces = {r: piece for part in parts for r, piece in part.items()}
+        curve = stitch(problem, model, params, w_all, equilibrium, bounds,
+                       [pieces[r] for r in range(count)])  # fmt: skip
         if refine:
             curve.refined = refine_peak(problem, curve)
-    else:
-        count = min(segments or segment_count(w_all.size, ranks), w_all.size // 2)
-        bounds = segment_bounds(w_all.size, count)
-        taken = range(comm.rank, count, ranks) if taken is None else taken
-        mine = {r: solve_segment(problem, model, params, w_all, equilibrium, bounds, r,
-                                 progress)  # fmt: skip
-                for r in taken}
-        parts, curve = comm.gather(mine, root=0), None
-        if comm.rank == 0:  # one rank decides the seams and the peak, every rank holds them
-            pieces = {r: piece for part in parts for r, piece in part.items()}
-            curve = stitch(problem, model, params, w_all, equilibrium, bounds,
-                           [pieces[r] for r in range(count)])  # fmt: skip
-            if refine:
-                curve.refined = refine_peak(problem, curve)
-        curve = comm.bcast(curve, root=0)
+    curve = comm.bcast(curve, root=0)
     curve.wall_s = time.perf_counter() - t0
     return curve
 

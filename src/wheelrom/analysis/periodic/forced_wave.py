@@ -182,7 +182,7 @@ class ForcedWave:
                     return X, False, it  # growing: leave it to Newton
                 J, R = self._jacobian(X, omega)
                 fresh = True
-            last = float(np.abs(R).max())
+            last = size
             X = X - np.linalg.solve(J, R.ravel()).reshape(X.shape)
         return X, False, CHORD_ITERATIONS
 
