@@ -47,10 +47,13 @@ MARCH_PERIODS = 3
 #: tangential motion walks towards its shakedown loop over hundreds of periods (measured on
 #: the small wheel's stuck resonance, shroud slipping 56 % of the period: the harmonic
 #: forces after 3 periods 8.5e-5 of the harmonics' terms off the periodic loop's, 1.7e-6
-#: after 100, 1e-8 once converged), above Newton's tolerance (1e-7). The tolerance lies three
-#: decades below the Jacobian's differencing step (:data:`FD_DISPLACEMENT`)
+#: after 100, 1e-8 once converged), above Newton's tolerance (1e-7); the walk is
+#: extrapolated (:func:`wheelrom.forces.reference._extrapolated`: 20 periods there instead
+#: of 269). The tolerance lies four decades below the Jacobian's differencing step
+#: (:data:`FD_DISPLACEMENT`): a loop that grazes the Coulomb limit is approached so slowly
+#: that a period's move of 1e-13 m left the march 1e-10 m from it (the paper wheel at 1.6 kN)
 MARCH_MAX_PERIODS = 2000
-MARCH_TOLERANCE = 1e-13
+MARCH_TOLERANCE = 1e-14
 #: condition number of a blade's physical-input rows above which the force Jacobian is
 #: differenced over the modal coordinates instead (:func:`force_inputs`)
 MAX_INPUT_CONDITION = 1e8
