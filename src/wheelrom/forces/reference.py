@@ -194,13 +194,14 @@ def _kernel_samples(q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p
         last_ratio = -1.0
         for period in range(max(max_periods, 1)):
             if period >= periods > 0:  # the last period's loop closed: its forces stand
-                if np.abs(slider - sliders[start]).max() <= tolerance:
+                move[...] = slider - sliders[start]
+                if np.abs(move).max() <= tolerance:
                     break
+                if max_periods > periods:
+                    last_ratio = _extrapolated(slider, move, last_move, last_ratio)
             elif period >= max(periods, 1):
                 break
             drift[1] = max(drift[1], period + 1.0)
-            if max_periods > periods > 0 and period > 0:
-                last_ratio = _extrapolated(slider, sliders[start], move, last_move, last_ratio)
             for i in range(start, start + block):
                 if periods > 0:
                     sliders[i] = slider  # the slider this sample sees: the last one's return
@@ -223,11 +224,11 @@ RATIO_RANGE = (0.3, 0.9999)
 
 
 @_kernel_cache.njit(fastmath=False)
-def _extrapolated(slider, began, move, last_move, last_ratio):
+def _extrapolated(slider, move, last_move, last_ratio):
     """Accelerate the march's walk to its shakedown loop; returns the ratio for the next call.
 
-    ``slider`` (moved in place) is the sliders' state at the end of a period that began at
-    ``began``; ``last_move`` the previous period's move (zeros: none, updated) and
+    ``slider`` (moved in place) is the sliders' state at the end of a period, ``move`` that
+    period's move, ``last_move`` the previous period's (zeros: none; updated) and
     ``last_ratio`` the ratio of the two moves before (-1: none).
 
     A contact in partial slip walks towards its loop: the distance left shrinks as
@@ -243,7 +244,6 @@ def _extrapolated(slider, began, move, last_move, last_ratio):
     next share (an estimate of ``p`` overshot and cycled). The march then goes on from there
     and its own test decides that the loop is closed: the extrapolation moves where the march
     is, never what counts as converged."""
-    move[...] = slider - began
     size = np.sqrt(np.sum(move * move))
     last_size = np.sqrt(np.sum(last_move * last_move))
     ratio = -1.0  # none measured
