@@ -189,13 +189,12 @@ def _kernel_samples(q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p
     move, last_move = np.empty_like(slider), np.empty_like(slider)
     for start in range(0, q.shape[0], block):
         if periods > 0:
-            slider[...] = sliders[start]
+            _copy(slider, sliders[start])
         last_move[...] = 0.0
         last_ratio = -1.0
         for period in range(max(max_periods, 1)):
             if period >= periods > 0:  # the last period's loop closed: its forces stand
-                move[...] = slider - sliders[start]
-                if np.abs(move).max() <= tolerance:
+                if _moved(move, slider, sliders[start]) <= tolerance:
                     break
                 if max_periods > periods:
                     last_ratio = _extrapolated(slider, move, last_move, last_ratio)
@@ -204,16 +203,38 @@ def _kernel_samples(q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p
             drift[1] = max(drift[1], period + 1.0)
             for i in range(start, start + block):
                 if periods > 0:
-                    sliders[i] = slider  # the slider this sample sees: the last one's return
+                    _copy(sliders[i], slider)  # what this sample sees: the last one's return
                 _sample(i, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p_aero,
                         aero_a, aero_b, law, R, XA, XB, A_pt, B_pt, arm, T, kc, preload, kt,
                         sliders[min(i, sliders.shape[0] - 1)], slider_next, normal, slip, gap,
                         state, rel_u, rel_v, fric, y_vdp, power, work, normal_out, power_out,
                         state_out)  # fmt: skip
                 if periods > 0:
-                    slider[...] = slider_next
+                    _copy(slider, slider_next)
         if periods > 0:
-            drift[0] = max(drift[0], np.abs(slider - sliders[start]).max())
+            drift[0] = max(drift[0], _moved(move, slider, sliders[start]))
+
+
+@_kernel_cache.njit(fastmath=False)
+def _copy(target, source):
+    """``target[...] = source`` for ``(K, N, 2)`` sliders (loops: see :func:`_extrapolated`)."""
+    for k in range(target.shape[0]):
+        for n in range(target.shape[1]):
+            for j in range(target.shape[2]):
+                target[k, n, j] = source[k, n, j]
+
+
+@_kernel_cache.njit(fastmath=False)
+def _moved(move, slider, start):
+    """``move = slider - start`` (``(K, N, 2)`` sliders [m]); returns its largest entry's
+    magnitude [m] (loops: see :func:`_extrapolated`)."""
+    largest = 0.0
+    for k in range(move.shape[0]):
+        for n in range(move.shape[1]):
+            for j in range(move.shape[2]):
+                move[k, n, j] = slider[k, n, j] - start[k, n, j]
+                largest = max(largest, abs(move[k, n, j]))
+    return largest
 
 
 #: the walk's period-to-period ratio is extrapolated once two successive ratios agree to this
@@ -244,20 +265,28 @@ def _extrapolated(slider, move, last_move, last_ratio):
     next share (an estimate of ``p`` overshot and cycled). The march then goes on from there
     and its own test decides that the loop is closed: the extrapolation moves where the march
     is, never what counts as converged."""
-    size = np.sqrt(np.sum(move * move))
-    last_size = np.sqrt(np.sum(last_move * last_move))
+    # loops, not array expressions: numba compiles a broadcast's shape-error message with
+    # every array expression (seconds of compile time for a few lines)
+    size, last_size, dot = 0.0, 0.0, 0.0
+    for k in range(move.shape[0]):
+        for n in range(move.shape[1]):
+            for j in range(move.shape[2]):
+                size += move[k, n, j] * move[k, n, j]
+                last_size += last_move[k, n, j] * last_move[k, n, j]
+                dot += move[k, n, j] * last_move[k, n, j]
+    size, last_size = np.sqrt(size), np.sqrt(last_size)
     ratio = -1.0  # none measured
-    if size > 0.0 and last_size > 0.0:
-        dot = np.sum(move * last_move)
-        if dot >= (1.0 - ALIGNED) * size * last_size:
-            ratio = dot / (last_size * last_size)
-    if (last_ratio >= 0.0 and RATIO_RANGE[0] < ratio < RATIO_RANGE[1]
-            and abs(ratio - last_ratio) < RATIO_AGREEMENT * (1.0 - ratio)):
-        slider += move * (ratio / (1.0 - ratio))
-        last_move[...] = 0.0
-        return -1.0
-    last_move[...] = move
-    return ratio
+    if size > 0.0 and last_size > 0.0 and dot >= (1.0 - ALIGNED) * size * last_size:
+        ratio = dot / (last_size * last_size)
+    jump = (last_ratio >= 0.0 and RATIO_RANGE[0] < ratio < RATIO_RANGE[1]
+            and abs(ratio - last_ratio) < RATIO_AGREEMENT * (1.0 - ratio))
+    for k in range(move.shape[0]):
+        for n in range(move.shape[1]):
+            for j in range(move.shape[2]):
+                if jump:
+                    slider[k, n, j] += move[k, n, j] * (ratio / (1.0 - ratio))
+                last_move[k, n, j] = 0.0 if jump else move[k, n, j]
+    return -1.0 if jump else ratio
 
 
 @_kernel_cache.njit(fastmath=False)

@@ -57,3 +57,27 @@ def newton_least_squares(residual: Callable, jacobian: Callable, z: np.ndarray,
                 "no step reduces the residual"  # fmt: skip
             break
     return z, F, size, reason, it
+
+
+#: reduced rank extrapolation every this many periods of a march (the small wheel's 256 Hz
+#: partial slip: 66 periods instead of 1547 with 10, 71 with 5, 64 with 20)
+EXTRAPOLATION_WINDOW = 10
+
+
+def reduced_rank_extrapolation(iterates: np.ndarray) -> np.ndarray:
+    """The fixed point of a map that the ``(k + 2, n)`` successive ``iterates`` (scaled)
+    approach, as reduced rank extrapolation estimates it: ``sum_i g_i x_(i+1)`` with the
+    weights ``g`` (summing to 1) that make ``sum_i g_i (x_(i+1) - x_i)`` smallest.
+
+    Exact for a linear map with ``k`` or fewer modes in the start's error, whatever
+    their multipliers' signs and phases: the march of a forced shot approaches its state
+    along several lightly damped modes of the wheel at once, with multipliers between
+    -0.88 and -0.99 (measured on the small wheel at 256 Hz), where a one-direction Aitken
+    step never applies. Sidi, "Vector extrapolation methods with applications", SIAM 2017,
+    ch. 1."""
+    moves = np.diff(iterates, axis=0)
+    gram = moves @ moves.T
+    # the moves become nearly dependent as the march converges: a rounding-level ridge
+    gram += 1e-14 * np.trace(gram) * np.eye(len(gram))
+    weights = np.linalg.solve(gram, np.ones(len(gram)))
+    return (weights / weights.sum()) @ iterates[1:]
