@@ -17,6 +17,10 @@ KSP (options prefix ``forced_``; defaults ``preonly`` + LU, MUMPS when PETSc has
 
     [[K - w^2 I, -w C], [w C, K - w^2 I]] [Re Q; Im Q] = [Re F; Im F].
 
+Over the rotor speed (``forced.over = "speed"``, :class:`SpeedFollowing`) the stiffness
+follows the speed ``w / n_s`` of each excitation frequency: ``K(w) = K + ((w / n_s)^2 -
+Omega_0^2) S`` and ``C(w)`` gains ``beta_D`` times the same change.
+
 Per frequency the tip amplitude of blade ``s`` is ``sqrt(sum_k |tip_k . Q_s|^2)`` [m]. The
 amplification factor of a mistuned wheel is the peak over the frequency range of its
 largest blade amplitude over the same peak of the tuned wheel.
@@ -88,6 +92,46 @@ def nozzle_amplitude(model: ReducedModel, stator_vanes: int, force: float) -> np
     return force * np.exp(-1j * phase)[:, None] * model.excitation[None, :]
 
 
+@dataclass(frozen=True)
+class SpeedFollowing:
+    """The wheel's stiffness following the rotor speed ``w / n_s`` of the excitation ``w``
+    [rad/s] (``forced.over = "speed"``): ``K(w) = K + shift(w) S``, ``shift(w) = (w /
+    n_s)^2 - Omega_0^2``, the damping ``beta_D`` times the same change. ``S`` ``(N m, N m)``
+    CSR [1/s^2 per (rad/s)^2]: every blade's centrifugal stiffening less spin softening per
+    ``Omega^2`` (:attr:`~wheelrom.rom.model.ReducedModel.speed_stiffness`), ``speed``
+    ``Omega_0`` [rad/s] the model's own, ``engine_order`` ``n_s``."""
+
+    S: sp.csr_matrix
+    beta: float
+    engine_order: int
+    speed: float
+
+    def shift(self, w: float) -> float:
+        """``(w / n_s)^2 - Omega_0^2`` [(rad/s)^2]."""
+        return (w / self.engine_order) ** 2 - self.speed**2
+
+    def crossing_problem(self, K) -> tuple[np.ndarray, np.ndarray]:
+        """``(A, B)`` dense: ``K(w) x = w^2 x`` as ``A x = w^2 B x``, ``A = K - Omega_0^2 S``,
+        ``B = I - S / n_s^2``: its eigenvalues are the Campbell crossings of the engine
+        order with the wheel's modes (``K`` CSR, the model's speed)."""
+        S = self.S.toarray()
+        return (sp.csr_matrix(K).toarray() - self.speed**2 * S,
+                np.eye(S.shape[0]) - S / self.engine_order**2)  # fmt: skip
+
+
+def speed_following(model: ReducedModel, cfg: Config) -> SpeedFollowing | None:
+    """The :class:`SpeedFollowing` of ``forced.over = "speed"`` (None: over the frequency,
+    or a model without prestress, whose stiffness does not depend on the speed). A mistuned
+    blade's block ``A0 + delta_s K_seg`` moves by ``(1 + delta_s)`` times the shift."""
+    if cfg.forced.over != "speed" or model.speed_stiffness is None or model.speed_hz <= 0:
+        return None
+    speed = 2 * math.pi * model.speed_hz
+    per_speed = model.speed_stiffness / speed**2
+    factors = np.ones(model.blades) if model.tuned else 1.0 + model.mistuning
+    S = sp.block_diag([f * per_speed for f in factors], format="csr")
+    return SpeedFollowing(S, cfg.wheel.damping_beta, cfg.wheel.stator_vanes, speed)
+
+
 def operators(model: ReducedModel, cfg: Config, contacts: bool = True,
               angles_deg: dict | None = None, comm=None, prefix: str = PREFIX,
               jacobian=None):  # fmt: skip
@@ -124,7 +168,8 @@ class HarmonicSolver:
     the off-diagonal ones); per frequency only its values change: ``K - w^2 I + w C``.
     """
 
-    def __init__(self, K, C, comm=None, prefix: str = PREFIX):
+    def __init__(self, K, C, comm=None, prefix: str = PREFIX,
+                 speed: SpeedFollowing | None = None):  # fmt: skip
         from wheelrom.segment.petsc import to_petsc
 
         PETSc = petsc()
@@ -135,11 +180,16 @@ class HarmonicSolver:
         block_K = sp.block_diag([K, K], format="csr")
         block_I = sp.block_diag([eye, eye], format="csr")
         block_C = sp.bmat([[None, -C], [C, None]], format="csr")
-        pattern = (abs(block_K) + abs(block_I) + abs(block_C)).tocsr()
+        blocks = [block_K, block_I, block_C]
+        self.speed = speed
+        if speed is not None:  # the stiffness's and the damping's share of the speed's shift
+            blocks += [sp.block_diag([speed.S, speed.S], format="csr"),
+                       speed.beta * sp.bmat([[None, -speed.S], [speed.S, None]], format="csr")]
+        pattern = sum(abs(M) for M in blocks).tocsr()
         pattern.data[:] = 1.0
         pattern.sort_indices()
         self.indptr, self.indices = pattern.indptr, pattern.indices
-        self.values = [self._aligned(M, pattern) for M in (block_K, block_I, block_C)]
+        self.values = [self._aligned(M, pattern) for M in blocks]
         self.A = to_petsc(pattern, self.comm, prefix=prefix)
         self.rows = self.A.getOwnershipRange()
         self.ksp = PETSc.KSP().create(comm=self.comm)
@@ -172,6 +222,8 @@ class HarmonicSolver:
         """``(N m,)`` complex ``Q`` at excitation frequency ``w`` [rad/s]."""
         lo, hi = self.rows
         data = self.values[0] - w**2 * self.values[1] + w * self.values[2]
+        if self.speed is not None:
+            data = data + self.speed.shift(w) * (self.values[3] + w * self.values[4])
         start, stop = self.indptr[lo], self.indptr[hi]
         self.A.setValuesCSR(self.indptr[lo : hi + 1] - start, self.indices[start:stop],
                             data[start:stop])  # fmt: skip
@@ -207,8 +259,8 @@ def forced_response(model: ReducedModel, cfg: Config, frequencies, contacts: boo
                     prefix: str = PREFIX) -> ForcedResponse:  # fmt: skip
     """The steady response of ``model`` to the nozzle of ``cfg`` (``wheel.stator_vanes``,
     ``excitation.force``) at every excitation frequency of ``frequencies`` [rad/s] (KSP,
-    prefix ``prefix``); ``angles_deg``: kind -> contact angle [deg] as
-    :func:`stability.linearise`."""
+    prefix ``prefix``; over the speed when ``forced.over = "speed"``); ``angles_deg``: kind
+    -> contact angle [deg] as :func:`stability.linearise`."""
     t0 = time.perf_counter()
     w_all = np.atleast_1d(np.asarray(frequencies, dtype=float))
     n_s = cfg.wheel.stator_vanes
@@ -216,7 +268,7 @@ def forced_response(model: ReducedModel, cfg: Config, frequencies, contacts: boo
     F = nozzle_amplitude(model, n_s, cfg.excitation.force)
     amplitude = np.empty((w_all.size, model.blades))
     t_solve = time.perf_counter()
-    harmonic = HarmonicSolver(K, C, comm, prefix)
+    harmonic = HarmonicSolver(K, C, comm, prefix, speed_following(model, cfg))
     for i, w in enumerate(w_all):
         amplitude[i] = tip_amplitudes(model, harmonic.solve(F, w))
     harmonic.destroy()

@@ -42,8 +42,10 @@ from scipy.optimize import minimize_scalar
 from wheelrom.analysis.forced import (
     PREFIX,
     HarmonicSolver,
+    SpeedFollowing,
     nozzle_amplitude,
     operators,
+    speed_following,
     tip_amplitudes,
     tuned_copy,
 )
@@ -106,24 +108,46 @@ def half_band(deltas) -> float:
     return max(MIN_HALF_BAND, BAND_PER_DELTA * largest)
 
 
-def resonance(K, model: ReducedModel, stator_vanes: int, family: int = 0) -> float:
+def resonance(K, model: ReducedModel, stator_vanes: int, family: int = 0,
+              speed: SpeedFollowing | None = None) -> float:  # fmt: skip
     """Frequency [rad/s] of mode ``family`` (0: lowest) at the excited ND of a tuned wheel of
     stiffness ``K`` (CSR ``(N m, N m)``, blade-major): the eigenvalues of the ND block
     ``sum_d K_{0,d} e^{i 2 pi k d / N}``, ``k = n_s mod N`` (a ``K`` that is not
-    block-circulant: its dense eigenpairs of that ND)."""
+    block-circulant: its dense eigenpairs of that ND). Over the speed (``speed``): the
+    Campbell crossing of the engine order with that mode (:func:`crossings`)."""
     N, m = model.blades, model.modes
     k = stator_vanes % N
     K = sp.csr_matrix(K)
     shift = np.roll(np.arange(N * m), m)
     if abs(K - K[shift][:, shift]).max() <= 1e-10 * abs(K).max():
         block = nd_block(K[:m].toarray().reshape(m, N, m).transpose(1, 0, 2), k)  # K_{0,d}
-        lam = np.linalg.eigvalsh(0.5 * (block + block.conj().T))
+        block = 0.5 * (block + block.conj().T)
+        if speed is not None:
+            lam = crossings(block, speed.S[:m, :m].toarray(), speed)
+            return math.sqrt(max(lam[min(family, lam.size - 1)], 0.0))
+        lam = np.linalg.eigvalsh(block)
         return math.sqrt(max(lam[family], 0.0))
+    if speed is not None:
+        lam = crossings(*speed.crossing_problem(K), speed, generalised=True)
+        return math.sqrt(max(lam[min(family, lam.size - 1)], 0.0))
     lam, vec = np.linalg.eigh(0.5 * (K + K.T).toarray())
     nd = nodal_diameters_of(vec.T.reshape(-1, N, m))
     mine = lam[nd == nodal_diameter(k, N)]
     single = nodal_diameter(k, N) in (0, N / 2)  # standing: one mode per family, else pairs
     return math.sqrt(max(mine[family if single else 2 * family], 0.0))
+
+
+def crossings(K, S, speed: SpeedFollowing, generalised: bool = False) -> np.ndarray:
+    """Ascending ``w^2`` [(rad/s)^2] of the Campbell crossings: ``K(w) x = w^2 x`` with
+    ``K(w) = K + ((w / n_s)^2 - Omega_0^2) S`` (``K``, ``S`` dense, ``S`` per ``Omega^2``),
+    i.e. ``(K - Omega_0^2 S) x = w^2 (I - S / n_s^2) x``; ``generalised``: ``(K, S)`` are
+    that pair already. The right side is definite unless a mode stiffens faster with the
+    speed than the engine order's line rises (then the general eigensolver)."""
+    A, B = (K, S) if generalised else (K - speed.speed**2 * S,
+                                       np.eye(S.shape[0]) - S / speed.engine_order**2)
+    lam = sl.eigvals(A, B)
+    lam = lam[np.isfinite(lam) & (np.abs(lam.imag) <= 1e-9 * np.abs(lam)) & (lam.real > 0)]
+    return np.sort(lam.real)
 
 
 def band_of(cfg: Config, centre: float, deltas) -> tuple[float, float]:
@@ -137,7 +161,9 @@ def band_of(cfg: Config, centre: float, deltas) -> tuple[float, float]:
 
 
 def modal_candidates(K, C, band: tuple[float, float], model: ReducedModel | None = None,
-                     F: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+                     F: np.ndarray | None = None,
+                     speed: SpeedFollowing | None = None) -> tuple[np.ndarray, np.ndarray]:
+    # fmt: skip
     """``(w_r, zeta_r)`` of the undamped modes of ``K`` inside ``band`` [rad/s]: frequencies
     [rad/s] and modal damping ratios ``phi_r^T C phi_r / (2 w_r)`` (unit ``phi_r``). With
     ``model`` and the force ``F``, only the modes whose own resonant tip amplitude
@@ -148,7 +174,12 @@ def modal_candidates(K, C, band: tuple[float, float], model: ReducedModel | None
         return np.zeros(0), np.zeros(0)
     Kd = K.toarray()
     asymmetry = np.linalg.norm(Kd - Kd.T) / max(np.linalg.norm(Kd), 1e-300)
-    if asymmetry <= SYMMETRY_TOL:
+    if speed is not None:  # the Campbell crossings in the band, each at its own speed
+        A, B = speed.crossing_problem(K)
+        lam, phi = sl.eig(A, B)
+        keep = np.isfinite(lam) & (lam.real > lo**2) & (lam.real <= hi**2)
+        lam, phi = lam[keep].real, phi[:, keep]
+    elif asymmetry <= SYMMETRY_TOL:
         lam, phi = sl.eigh(0.5 * (Kd + Kd.T), subset_by_value=(lo**2, hi**2))
     else:  # friction can make the linearised stiffness non-symmetric
         lam, phi = sl.eig(Kd)
@@ -157,6 +188,11 @@ def modal_candidates(K, C, band: tuple[float, float], model: ReducedModel | None
     w = np.sqrt(lam)
     phi = phi / np.maximum(np.linalg.norm(phi, axis=0), 1e-300)
     zeta = np.real(np.einsum("ir,ir->r", phi.conj(), C @ phi)) / (2 * np.maximum(w, 1e-300))
+    if speed is not None:  # the damping's share of each crossing's own speed, per B-mass
+        moved = np.real(np.einsum("ir,ir->r", phi.conj(), speed.S @ phi))
+        mass = 1.0 - moved / speed.engine_order**2
+        shifts = np.array([speed.shift(x) for x in w])
+        zeta = (zeta + speed.beta * shifts * moved / (2 * np.maximum(w, 1e-300))) / mass
     if model is None or F is None or w.size == 0:
         return w, zeta
     shapes = phi.T.reshape(-1, model.blades, model.modes)  # (R, N, m)
@@ -220,16 +256,17 @@ def _refine(a: _Amplitude, lo: float, hi: float, band: tuple[float, float],
 
 
 def peak_of(model: ReducedModel, F: np.ndarray, K, C, band: tuple[float, float],
-            points: int, use_modes: bool = True, comm=None,
-            prefix: str = PREFIX) -> PeakResponse:  # fmt: skip
+            points: int, use_modes: bool = True, comm=None, prefix: str = PREFIX,
+            speed: SpeedFollowing | None = None) -> PeakResponse:  # fmt: skip
     """The peak of the response to ``F`` ``(N, m)`` of the wheel ``(K, C)`` over ``band``
     [rad/s] (module docstring): ``points`` coarse grid frequencies (0: none), the
-    eigenfrequencies in the band when ``use_modes``."""
+    eigenfrequencies in the band when ``use_modes`` (over the speed, ``speed``: the
+    Campbell crossings, the stiffness following the speed)."""
     t0 = time.perf_counter()
     lo, hi = band
     brackets = []  # (w, lo, hi, narrowest bracket worth a search) of every candidate
     if use_modes:
-        w_r, zeta = modal_candidates(K, C, band, model, F)
+        w_r, zeta = modal_candidates(K, C, band, model, F, speed)
         half = KAPPA * np.maximum(np.abs(zeta), ZETA_FLOOR) * w_r
         brackets += [(w, w - h, w + h, h) for w, h in zip(w_r, half, strict=True)]
     else:
@@ -237,7 +274,7 @@ def peak_of(model: ReducedModel, F: np.ndarray, K, C, band: tuple[float, float],
     # the narrowest resonance in the band (unknown without modes: 1e-6)
     finest = KAPPA * max(np.abs(zeta).min(initial=1e-6), ZETA_FLOOR) * lo
     setup = time.perf_counter() - t0
-    solver = HarmonicSolver(K, C, comm, prefix)
+    solver = HarmonicSolver(K, C, comm, prefix, speed)
     a = _Amplitude(model, solver, F)
     grid = np.zeros(0)
     try:
@@ -282,7 +319,8 @@ def peak_response(model: ReducedModel, cfg: Config, band_hz, contacts: bool = Tr
     F = nozzle_amplitude(model, cfg.wheel.stator_vanes, cfg.excitation.force)
     band = (2 * math.pi * band_hz[0], 2 * math.pi * band_hz[1])
     points = cfg.forced.points if points is None else points
-    found = peak_of(model, F, K, C, band, points, use_modes, comm, prefix)
+    found = peak_of(model, F, K, C, band, points, use_modes, comm, prefix,
+                    speed_following(model, cfg))  # fmt: skip
     found.wall_s = time.perf_counter() - t0
     return found
 
@@ -299,7 +337,8 @@ def tuned_reference(model: ReducedModel, cfg: Config, deltas, contacts: bool = T
     tuned = tuned_copy(model)
     K, C = operators_kc or operators(tuned, cfg, contacts, angles_deg, comm, prefix)
     if band_hz is None:
-        centre = resonance(K, tuned, cfg.wheel.stator_vanes, cfg.forced.family)
+        centre = resonance(K, tuned, cfg.wheel.stator_vanes, cfg.forced.family,
+                           speed_following(tuned, cfg))  # fmt: skip
         band = band_of(cfg, centre, deltas)
         band_hz = (band[0] / (2 * math.pi), band[1] / (2 * math.pi))
     return peak_response(tuned, cfg, band_hz, contacts, angles_deg, comm, prefix, points,

@@ -103,6 +103,7 @@ def cmd_forced(args: argparse.Namespace) -> int:
     independently of any grid, of the configured wheel and of the tuned wheel, and the
     amplification factor (peak over peak); the coarse grid's values as a table. PETSc
     prefixes forced_ (KSP) and forced_preload_ (SNES)."""
+    from wheelrom.analysis.forced import speed_following
     from wheelrom.analysis.forced_peak import peak_response, tuned_reference
     from wheelrom.rom.build import build_model, quiet
     from wheelrom.studies.stability import world_if_parallel
@@ -124,6 +125,11 @@ def cmd_forced(args: argparse.Namespace) -> int:
         check_output(args.out, args.force)
     say = quiet if args.json else log
     model = build_model(cfg, comm_self(), log=say)
+    if cfg.forced.over == "speed":
+        say(f"over the rotor speed (excitation / {cfg.wheel.stator_vanes}): "
+            + ("the stiffness follows it" if speed_following(model, cfg) is not None else
+               "segment.prestress is off (or wheel.speed_hz = 0): the stiffness does not "
+               "depend on the speed, the curve is the frequency's"))  # fmt: skip
     say("the tuned reference (mistuning removed)" if not model.tuned else "the tuned wheel")
     tuned = tuned_reference(model, cfg, [model.mistuning], contacts, angles, comm_self(),
                             band_hz=band, points=points)  # fmt: skip
@@ -160,6 +166,7 @@ def summary(response, tuned, cfg, model, contacts: bool) -> dict:
     tuned_grid = tuned.grid_blade_amplitude.max(axis=1)
     return {
         "stator_vanes": cfg.wheel.stator_vanes,
+        "over": cfg.forced.over,  # "speed": the stiffness followed each frequency's speed
         "nodal_diameter": int(nodal_diameter(cfg.wheel.stator_vanes, model.blades)),
         "contacts": contacts,
         "mistuned": not model.tuned,
@@ -220,6 +227,7 @@ def _nonlinear(model, cfg, grid: np.ndarray, angles: dict | None, harmonics: int
         i = curve.peak
         out["peak_amplitude_m"] = float(curve.tip_amplitude[i])
         out["peak_frequency_hz"] = float(curve.frequency[i] / (2 * math.pi))
+        out["peak_speed_hz"] = out["peak_frequency_hz"] / cfg.wheel.stator_vanes
         out["peak_shares"] = {kind: dict(zip(("open", "stick", "slip"),
                                              map(float, curve.fractions[i, k]), strict=True))
                               for k, kind in enumerate(curve.kinds)}  # fmt: skip
@@ -340,7 +348,7 @@ def _fill(f, cfg, model, response, tuned, out: dict, angles: dict | None,
     f.attrs["config"] = config_mod.to_toml(cfg)
     f.attrs["config_source"] = cfg.source
     f.attrs["wheelrom_version"] = __version__
-    for key in ("stator_vanes", "nodal_diameter", "contacts", "mistuned",
+    for key in ("stator_vanes", "over", "nodal_diameter", "contacts", "mistuned",
                 "amplification_factor", "solve_s_per_frequency", "band_hz",
                 "peak_amplitude_m", "peak_frequency_hz", "tuned_peak_amplitude_m",
                 "tuned_peak_frequency_hz", "peak_speed_hz", "tuned_peak_speed_hz",
@@ -417,7 +425,9 @@ def _print(out: dict) -> None:
     amplification factor."""
     print(f"engine order {out['stator_vanes']} (ND {out['nodal_diameter']}), contacts "
           f"{'linearised' if out['contacts'] else 'off'}, "
-          f"{'mistuned' if out['mistuned'] else 'tuned'} wheel")  # fmt: skip
+          f"{'mistuned' if out['mistuned'] else 'tuned'} wheel"
+          + (", over the rotor speed f / n_s (the stiffness following it)"
+             if out["over"] == "speed" else ""))  # fmt: skip
     print(f"{'f [Hz]':>12s} {'max tip [m]':>12s} {'tuned [m]':>12s} {'ratio':>8s}")
     rows = zip(out["frequency_hz"], out["max_amplitude_m"], out["tuned_max_amplitude_m"],
                strict=True)  # fmt: skip
@@ -458,7 +468,8 @@ def _print_nonlinear(out: dict) -> None:
                            f" %, slip {100 * s['slip']:.0f} %"
                            for kind, s in nl["peak_shares"].items())  # fmt: skip
         print(f"nonlinear peak on the grid: {nl['peak_amplitude_m']:.4e} m at "
-              f"{nl['peak_frequency_hz']:.4f} Hz ({shares})")
+              f"{nl['peak_frequency_hz']:.4f} Hz, rotor speed {nl['peak_speed_hz']:.4f} Hz "
+              f"({shares})")  # fmt: skip
     if "exact" in nl:
         _print_exact(nl["exact"])
     if "traced" in nl:

@@ -94,6 +94,16 @@ class ForcedConfig:
                       "pseudo-arclength continuation over the band)",
                       choices=("grid", "arclength")),  # fmt: skip
     )
+    over: str = field(
+        default="frequency",
+        metadata=_key("-", "what the nonlinear forced response runs over: 'frequency' (the "
+                      "excitation at the configured speed's stiffness) or 'speed' (the rotor "
+                      "speed w / n_s of each excitation frequency w: the stiffness follows "
+                      "it, centrifugal stiffening less spin softening, and the curve is the "
+                      "Campbell crossing itself; needs segment.prestress at wheel.speed_hz > "
+                      "0 to move the stiffness)",
+                      choices=("frequency", "speed")),  # fmt: skip
+    )
     exact: bool = field(
         default=False,
         metadata=_key("-", "the design study's peaks made exact (study --forced-nonlinear): "

@@ -88,7 +88,7 @@ class ForceParameters:
     ``aero_velocity``: ``(N,)`` the table's influence coefficients ``a_j`` [N/m], ``b_j``
     [N s/m] (:mod:`wheelrom.forces.aero`; zeros for the other models); ``law``: the
     tangential contact law (:class:`~wheelrom.forces.contact_law.ContactLaw`, ``friction``
-    its packed record); ``rotation``: ``(3, 3)`` R.
+    its packed record); ``rotation``: ``(3, 3)`` R; ``follows_speed``: below.
     """
 
     blades: int
@@ -107,6 +107,9 @@ class ForceParameters:
     law: ContactLaw
     rotation: np.ndarray
     contacts: ContactParameters
+    #: the forced response over the rotor speed (``forced.over = "speed"``): the stiffness
+    #: follows the speed ``w / n_s`` of the excitation ``w`` (the forces do not read it)
+    follows_speed: bool = False
 
     def __post_init__(self):
         # the compiled kernels index these by mode and blade without bounds checks: a short
@@ -205,6 +208,7 @@ def force_parameters(model: ReducedModel, cfg: Config,
         law=contact_law(cfg),
         rotation=np.ascontiguousarray(model.rotation),
         contacts=_contact_parameters(model, cfg, angles_deg or {}),
+        follows_speed=cfg.forced.over == "speed",
     )
 
 

@@ -49,6 +49,9 @@ class SegmentBuild:
     matrices: SegmentMatrices
     cfg: Config
     info: dict = field(default_factory=dict)  # e.g. the prestress's peak von Mises stress
+    #: ``K_sigma - Omega^2 M_s`` on the free DOFs (scipy CSR) [N/m]: what the prestress added
+    #: to the stiffness (None: no prestress)
+    speed_stiffening: object = None
 
 
 @dataclass
@@ -72,7 +75,9 @@ def build_segment(cfg: Config, comm, log=quiet) -> SegmentBuild:
         omega = 2 * np.pi * cfg.wheel.speed_hz
         ps = prestress(seg, mats, s.young, s.poisson, s.density, omega,
                        cfg.wheel.coupling_stiffness, comm)  # fmt: skip
+        standstill = mats.K
         mats = replace(mats, K=ps.stiffness(mats))
+        stiffening = (mats.K - standstill).tocsr()
         stress = _stress_report(ps, seg.info.get("rim_radius"))
         log(
             f"prestress at {cfg.wheel.speed_hz:g} Hz: static residual {ps.residual:.1e}, "
@@ -80,8 +85,8 @@ def build_segment(cfg: Config, comm, log=quiet) -> SegmentBuild:
             + stress_line(stress) + f" ({ps.solve_s:.1f} s)"
         )
     else:
-        stress = {}
-    return SegmentBuild(seg, mats, cfg, stress)
+        stress, stiffening = {}, None
+    return SegmentBuild(seg, mats, cfg, stress, stiffening)
 
 
 ROOT_CORNER_SPAN = 0.1  # [m] band about the rim where the blade root's corner is singular
@@ -161,6 +166,11 @@ def build(cfg: Config, comm, log=quiet, segment: SegmentBuild | None = None) -> 
     else:
         shapes = eig.vectors
         model = reduce(seg, shapes, np.diag(eig.eigenvalues), cfg, eig.frequencies_hz)
+    if segment.speed_stiffening is not None:  # the speed's share, for model.at_speed
+        basis = shapes[mats.free]
+        stiffening = basis.T @ (segment.speed_stiffening @ basis)
+        model.speed_stiffness = 0.5 * (stiffening + stiffening.T)
+    model.info["speed_hz"] = float(cfg.wheel.speed_hz)
     fe_kinds = [k for k in cfg.contacts.enabled_kinds() if cfg.contact(k).stiffness == "fe"]
     for kind, (angles, values, flex) in contact_stiffness_tables(segment, fe_kinds, comm).items():
         model.contact_stiffness[kind] = np.stack([angles, values], axis=1)

@@ -114,6 +114,8 @@ def load(path: Path) -> ReducedModel | None:
             model = ReducedModel(int(data["blades"]), int(data["modes"]),
                                  *(data[name].copy() for name in ARRAYS), **per_kind,
                                  info=info)  # fmt: skip
+            if "speed_stiffness" in data.files:
+                model.speed_stiffness = data["speed_stiffness"].copy()
     except Exception:  # noqa: BLE001 (missing, truncated: BadZipFile, EOFError; damaged)
         return None
     try:
@@ -127,6 +129,8 @@ def store(path: Path, model: ReducedModel) -> None:
     """Write ``model`` (without its mistuning) to ``path`` whole; a failure to write (a full
     or read-only disk) only costs the next command a build."""
     arrays = {name: np.asarray(getattr(model, name)) for name in ARRAYS}
+    if model.speed_stiffness is not None:
+        arrays["speed_stiffness"] = np.asarray(model.speed_stiffness)
     kinds = {}
     for name in PER_KIND:
         table = getattr(model, name)

@@ -16,7 +16,7 @@ few kilobytes that rank 0 can build and broadcast.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -63,11 +63,38 @@ class ReducedModel:
     # (N,) per-blade modal stiffness deviation delta_s: blade s's diagonal block is
     # A0 + delta_s K_seg (None: a tuned wheel, K_R block-circulant)
     mistuning: np.ndarray | None = None
+    # (m, m) [1/s^2] the prestress's stiffening less the spin softening at the model's speed
+    # info["speed_hz"], in its basis: Xb^T (K_sigma - Omega^2 M_s) Xb (None: no prestress);
+    # both terms scale with Omega^2 (the static solve is linear), so the segment's stiffness at
+    # another speed Omega' is K_seg + ((Omega' / Omega)^2 - 1) speed_stiffness (at_speed)
+    speed_stiffness: np.ndarray | None = None
 
     @property
     def tuned(self) -> bool:
         """Whether every blade is the same (``K_R`` block-circulant)."""
         return self.mistuning is None or not np.any(self.mistuning)
+
+    @property
+    def speed_hz(self) -> float:
+        """The rotor speed [Hz] the stiffness is at (``wheel.speed_hz`` of the build)."""
+        return float(self.info.get("speed_hz", 0.0))
+
+    def speed_shift(self, speed_hz: float) -> np.ndarray:
+        """``(m, m)`` [1/s^2]: what the segment's (and every diagonal block's) stiffness gains
+        at rotor speed ``speed_hz`` [Hz] against the model's own, in the same basis (zeros
+        without prestress)."""
+        if self.speed_stiffness is None or self.speed_hz <= 0:
+            return np.zeros((self.modes, self.modes))
+        return ((speed_hz / self.speed_hz) ** 2 - 1.0) * self.speed_stiffness
+
+    def at_speed(self, speed_hz: float) -> ReducedModel:
+        """This wheel at rotor speed ``speed_hz`` [Hz] in the same basis: ``K_seg`` and ``A0``
+        moved by :meth:`speed_shift` (the coupling springs do not depend on the speed). The
+        basis stays the one of the build's speed: near it (a Campbell crossing's few %) the
+        frequencies match a model built at that speed (tests/test_forced_speed.py)."""
+        shift = self.speed_shift(speed_hz)
+        info = dict(self.info, speed_hz=float(speed_hz))
+        return replace(self, K_seg=self.K_seg + shift, A0=self.A0 + shift, info=info)
 
     def diagonal_block(self, s: int) -> np.ndarray:
         """``(m, m)`` blade ``s``'s diagonal block of ``K_R`` [1/s^2]."""

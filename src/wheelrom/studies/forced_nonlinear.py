@@ -13,7 +13,7 @@ import time
 
 import numpy as np
 
-from wheelrom.analysis.forced import operators
+from wheelrom.analysis.forced import operators, speed_following
 from wheelrom.analysis.forced_peak import resonance
 from wheelrom.analysis.periodic.forced_branch import traced_curve
 from wheelrom.analysis.periodic.forced_segments import segment_count, segmented_curve
@@ -86,7 +86,8 @@ def nonlinear_band(model: ReducedModel, cfg: Config, angles_deg: dict | None = N
     for case in [slipping] + ([cfg] if cfg.contacts.law != "paper" else []):
         J = linearise(model, case, angles_deg, comm)[3]
         K, _ = operators(model, case, True, angles_deg, comm, jacobian=J)
-        found.append(resonance(K, model, cfg.wheel.stator_vanes, cfg.forced.family))
+        found.append(resonance(K, model, cfg.wheel.stator_vanes, cfg.forced.family,
+                               speed_following(model, cfg)))  # fmt: skip
     if cfg.forced.band_hz:
         lo, hi = (2 * math.pi * f for f in cfg.forced.band_hz)
         return (lo, hi), [w for w in found if lo <= w <= hi]

@@ -94,7 +94,7 @@ def hill_matrix(balance: WaveBalance, lin: Linearisation, omega: float, lam: flo
     K = np.zeros((n, m, n, m), dtype=complex)
     for i, h in enumerate(harmonics):
         phase = theta + h * b.phi
-        K[i, :, i, :] = b._wave_stiffness(phase)
+        K[i, :, i, :] = b._wave_stiffness(phase) + b.speed_term(omega)
         if b.table:  # the table's displacement and velocity parts
             A, B = b.table_parts(phase)
             Aq[i, :, i, :] -= lam * A

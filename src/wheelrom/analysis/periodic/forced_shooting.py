@@ -131,6 +131,8 @@ class ForcedShooting:
     def __init__(self, model: ReducedModel, cfg: Config, problem: ForcedWave, omega: float,
                  angles_deg: dict | None = None, whole: bool = False):  # fmt: skip
         params = problem.balance.params
+        if params.follows_speed:  # the stiffness at this excitation's rotor speed
+            model = model.at_speed(omega / (2 * math.pi * params.stator_vanes))
         self.wave = problem.wave
         if whole:  # the wave's map on every blade (its Jacobian holds every ND)
             pattern = model

@@ -152,6 +152,11 @@ class WaveBalance:
         self.tau = 2 * math.pi * np.arange(nt) / nt
         self.h = np.arange(H + 1)
         self.stiffness = np.stack([self._wave_stiffness(h * self.phi) for h in range(H + 1)])
+        # over the rotor speed (forced.over = "speed"): the stiffness follows the speed
+        # w / n_s of the excitation w, [1/s^2 per (rad/s)^2] (None: fixed)
+        self.speed_stiffness = None
+        if params.follows_speed and model.speed_stiffness is not None and model.speed_hz > 0:
+            self.speed_stiffness = model.speed_stiffness / (2 * math.pi * model.speed_hz) ** 2
         self.E = np.stack([self._synthesis(b, False) for b in WINDOW])  # (3, nt, 2H+1)
         self.D = np.stack([self._synthesis(b, True) for b in WINDOW])
         P = np.zeros((2 * H + 1, nt))
@@ -213,14 +218,24 @@ class WaveBalance:
     def _dynamic_stiffness(self, omega: float, lam: float) -> list[np.ndarray]:
         """``Z_h`` ``(m, m)`` complex per harmonic: stiffness, damping, inertia and the
         aerodynamic table's per-harmonic operator (``lam`` times the table)."""
-        Z = []
+        Z, moved = [], self.speed_term(omega)
         for h in range(self.H + 1):
-            Kh = self.stiffness[h]
+            Kh = self.stiffness[h] + moved
             Zh = Kh * (1.0 + 1j * h * omega * self.beta) - (h * omega) ** 2 * np.eye(self.modes)
             if self.table:
                 Zh = Zh + lam * self._table_operator(h * self.phi, h * omega)
             Z.append(Zh)
         return Z
+
+    def speed_term(self, omega: float) -> np.ndarray | float:
+        """``(m, m)`` [1/s^2] what every harmonic's stiffness gains at the excitation
+        ``omega`` [rad/s] when it follows the rotor speed ``omega / n_s`` (0 when fixed):
+        ``((omega / n_s)^2 - Omega_0^2) S``, :meth:`~wheelrom.rom.model.ReducedModel.
+        at_speed` in the balance's terms."""
+        if self.speed_stiffness is None:
+            return 0.0
+        speed = omega / self.params.stator_vanes
+        return (speed**2 - (2 * math.pi * self.model.speed_hz) ** 2) * self.speed_stiffness
 
     def table_parts(self, phase: float) -> tuple[np.ndarray, np.ndarray]:
         """``(A, B)`` ``(m, m)``: minus the aerodynamic table's generalised force per unit
@@ -413,8 +428,12 @@ class WaveBalance:
             rows = slice(2 * h - 1, 2 * h + 1)
             dRdX[rows, :, rows, :] = self._real_block(Z[h]).reshape(2, m, 2, m)
         c = self.complex_harmonics(X)
-        dZ = [self.stiffness[h] * (1j * h * self.beta) - 2 * h * h * omega * np.eye(m)
+        moved = self.speed_term(omega)
+        dZ = [(self.stiffness[h] + moved) * (1j * h * self.beta) - 2 * h * h * omega * np.eye(m)
               + (lam * self._table_derivative(h) if self.table else 0) for h in range(self.H + 1)]
+        if self.speed_stiffness is not None:  # d/domega of the stiffness that follows it
+            dK = 2 * omega / self.params.stator_vanes**2 * self.speed_stiffness
+            dZ = [dZ[h] + dK * (1.0 + 1j * h * omega * self.beta) for h in range(self.H + 1)]
         return dRdX, self.packed(np.stack([dZ[h] @ c[h] for h in range(self.H + 1)]))
 
     def _marched_jacobian(self, X: np.ndarray, omega: float, lam: float):
