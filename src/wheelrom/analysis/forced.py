@@ -132,6 +132,15 @@ def speed_following(model: ReducedModel, cfg: Config) -> SpeedFollowing | None:
     return SpeedFollowing(S, cfg.wheel.damping_beta, cfg.wheel.stator_vanes, speed)
 
 
+def speed_note(model: ReducedModel, cfg: Config) -> str:
+    """What ``forced.over = "speed"`` does with this model, in one line."""
+    if speed_following(model, cfg) is not None:
+        return f"over the rotor speed (excitation / {cfg.wheel.stator_vanes}): the stiffness " \
+            "follows it"  # fmt: skip
+    return "over the rotor speed: segment.prestress is off (or wheel.speed_hz = 0), the " \
+        "stiffness does not depend on the speed: the curve is the frequency's"  # fmt: skip
+
+
 def operators(model: ReducedModel, cfg: Config, contacts: bool = True,
               angles_deg: dict | None = None, comm=None, prefix: str = PREFIX,
               jacobian=None):  # fmt: skip

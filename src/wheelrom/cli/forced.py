@@ -1,6 +1,5 @@
-"""``wheelrom forced-response``: the linear steady response to the nozzle over a frequency
-range (:mod:`wheelrom.analysis.forced`), of the configured wheel (mistuned when
-``[mistuning]`` says so) and of the tuned wheel, with the amplification factor."""
+"""``wheelrom forced-response``: the steady response to the nozzle over a frequency (or speed)
+range, of the configured wheel and the tuned one, with the amplification factor."""
 
 from __future__ import annotations
 
@@ -26,7 +25,8 @@ def args_forced(p: argparse.ArgumentParser) -> None:
                    "of N values in it, instead of forced.band_hz and forced.points")  # fmt: skip
     p.add_argument("--speeds", metavar="A:B:N",
                    help="rotor speeds [Hz] instead: the nozzle frequencies n_s A .. n_s B and a "
-                   "grid of N speeds (prestress stays at wheel.speed_hz)")  # fmt: skip
+                   "grid of N speeds (the stiffness follows them with forced.over = 'speed', "
+                   "else stays at wheel.speed_hz's)")  # fmt: skip
     p.add_argument("--contacts", action=argparse.BooleanOptionalAction, default=None,
                    help="linearise the contacts at the preloaded equilibrium or leave them out "
                    "(K_R and beta_D K_R only); default forced.contacts")  # fmt: skip
@@ -103,7 +103,7 @@ def cmd_forced(args: argparse.Namespace) -> int:
     independently of any grid, of the configured wheel and of the tuned wheel, and the
     amplification factor (peak over peak); the coarse grid's values as a table. PETSc
     prefixes forced_ (KSP) and forced_preload_ (SNES)."""
-    from wheelrom.analysis.forced import speed_following
+    from wheelrom.analysis.forced import speed_note
     from wheelrom.analysis.forced_peak import peak_response, tuned_reference
     from wheelrom.rom.build import build_model, quiet
     from wheelrom.studies.stability import world_if_parallel
@@ -126,10 +126,7 @@ def cmd_forced(args: argparse.Namespace) -> int:
     say = quiet if args.json else log
     model = build_model(cfg, comm_self(), log=say)
     if cfg.forced.over == "speed":
-        say(f"over the rotor speed (excitation / {cfg.wheel.stator_vanes}): "
-            + ("the stiffness follows it" if speed_following(model, cfg) is not None else
-               "segment.prestress is off (or wheel.speed_hz = 0): the stiffness does not "
-               "depend on the speed, the curve is the frequency's"))  # fmt: skip
+        say(speed_note(model, cfg))
     say("the tuned reference (mistuning removed)" if not model.tuned else "the tuned wheel")
     tuned = tuned_reference(model, cfg, [model.mistuning], contacts, angles, comm_self(),
                             band_hz=band, points=points)  # fmt: skip
@@ -287,8 +284,7 @@ def _traced(model, cfg, curve, grid: np.ndarray, inputs: tuple) -> dict:
     order traced, null where a piece ends; the folds; Hill's growth under the paper law)."""
     from wheelrom.studies.forced_nonlinear import trace_after_grid
 
-    band = (float(grid.min()), float(grid.max()))
-    traced = trace_after_grid(model, cfg, curve, band, inputs)
+    traced = trace_after_grid(model, cfg, curve, (float(grid.min()), float(grid.max())), inputs)
 
     def listed(values):
         return [float(v) if ok and np.isfinite(v) else None
@@ -425,9 +421,7 @@ def _print(out: dict) -> None:
     amplification factor."""
     print(f"engine order {out['stator_vanes']} (ND {out['nodal_diameter']}), contacts "
           f"{'linearised' if out['contacts'] else 'off'}, "
-          f"{'mistuned' if out['mistuned'] else 'tuned'} wheel"
-          + (", over the rotor speed f / n_s (the stiffness following it)"
-             if out["over"] == "speed" else ""))  # fmt: skip
+          f"{'mistuned' if out['mistuned'] else 'tuned'} wheel, over the {out['over']}")
     print(f"{'f [Hz]':>12s} {'max tip [m]':>12s} {'tuned [m]':>12s} {'ratio':>8s}")
     rows = zip(out["frequency_hz"], out["max_amplitude_m"], out["tuned_max_amplitude_m"],
                strict=True)  # fmt: skip
@@ -468,8 +462,7 @@ def _print_nonlinear(out: dict) -> None:
                            f" %, slip {100 * s['slip']:.0f} %"
                            for kind, s in nl["peak_shares"].items())  # fmt: skip
         print(f"nonlinear peak on the grid: {nl['peak_amplitude_m']:.4e} m at "
-              f"{nl['peak_frequency_hz']:.4f} Hz, rotor speed {nl['peak_speed_hz']:.4f} Hz "
-              f"({shares})")  # fmt: skip
+              f"{nl['peak_frequency_hz']:.4f} Hz, speed {nl['peak_speed_hz']:.4f} Hz ({shares})")
     if "exact" in nl:
         _print_exact(nl["exact"])
     if "traced" in nl:
