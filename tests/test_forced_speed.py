@@ -111,3 +111,25 @@ def test_the_shot_over_the_speed_is_the_balance(crossing):
     problem = ForcedWave(model, params, cfg.wheel.damping_beta, 3)
     orbit = exact_forced(model, cfg, problem, curve.harmonics[0], w, refine=False)
     assert orbit.converged and abs(orbit.relative_difference) < 1e-5
+
+
+def test_the_command_sweeps_the_speed(tmp_path, capsys):
+    """``forced-response --speeds`` with ``forced.over = "speed"``: the refined peak at the
+    crossing (the rotor speed of the test above), ``over`` in the JSON and the file."""
+    import json
+
+    import h5py
+
+    from wheelrom.cli import main as cli
+
+    path = tmp_path / "f.h5"
+    argv = ["forced-response", SMALL, "--speeds", "69:72:7", "--no-contacts", "--json",
+            "--out", str(path), "--set", 'forced.over="speed"']  # fmt: skip
+    for key in CROSSING:
+        argv += ["--set", key]
+    assert cli.main(argv) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["over"] == "speed"
+    assert out["peak_speed_hz"] == pytest.approx(70.8211, rel=1e-4)  # models built there
+    with h5py.File(path) as f:
+        assert f.attrs["over"] == "speed"
