@@ -202,3 +202,20 @@ def test_a_sweep_angle_listed_twice_is_refused(capsys):
     assert cli_main.main(["config", "check", SMALL, "--set",
                           "sweep.shroud_angles_deg=[50.0, 60.0, 50.0]"]) == 2  # fmt: skip
     assert "sweep.shroud_angles_deg: [50.0] listed more than once" in capsys.readouterr().err
+
+
+def test_a_mode_family_past_a_free_basis_is_refused_before_computing(capsys,
+                                                                     nothing_computed):
+    assert cli.main(["forced-response", SMALL, "--set", "forced.family=6"]) == 2
+    err = capsys.readouterr().err
+    assert "forced.family: 6 is not below wheel.modes_per_segment (6)" in err, err
+
+
+def test_an_attachment_basis_reaches_its_families(capsys):
+    """With attachment vectors the model holds more families than
+    ``wheel.modes_per_segment``: those are accepted, one past the model is refused in one
+    line."""
+    attachment = ["--set", 'wheel.basis="attachment"', "--json", "--frequencies", "1:2:2"]
+    _refused(capsys, ["forced-response", SMALL, "--set", "forced.family=40"] + attachment[:2],
+             "forced.family = 40: the model has", "mode families")  # fmt: skip
+    assert cli.main(["forced-response", SMALL, "--set", "forced.family=7"] + attachment) == 0

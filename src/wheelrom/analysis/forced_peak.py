@@ -52,6 +52,7 @@ from wheelrom.analysis.forced import (
 from wheelrom.analysis.stability import nd_block
 from wheelrom.config import Config
 from wheelrom.rom.model import ReducedModel, nodal_diameter, nodal_diameters_of
+from wheelrom.runtime.errors import InputError
 
 KAPPA = 4.0  # bracket half-width of an eigenfrequency candidate [half-power half-widths]
 REFINE_RATIO = 0.5  # candidates at least this share of the best amplitude are refined
@@ -116,6 +117,9 @@ def resonance(K, model: ReducedModel, stator_vanes: int, family: int = 0,
     block-circulant: its dense eigenpairs of that ND). Over the speed (``speed``): the
     Campbell crossing of the engine order with that mode (:func:`crossings`)."""
     N, m = model.blades, model.modes
+    if family >= m:
+        raise InputError(f"forced.family = {family}: the model has {m} mode families (0.."
+                         f"{m - 1}: wheel.modes_per_segment and its basis's vectors)")
     k = stator_vanes % N
     K = sp.csr_matrix(K)
     shift = np.roll(np.arange(N * m), m)
@@ -127,24 +131,26 @@ def resonance(K, model: ReducedModel, stator_vanes: int, family: int = 0,
             return math.sqrt(max(lam[min(family, lam.size - 1)], 0.0))
         lam = np.linalg.eigvalsh(block)
         return math.sqrt(max(lam[family], 0.0))
-    if speed is not None:
-        lam = crossings(*speed.crossing_problem(K), speed, generalised=True)
-        return math.sqrt(max(lam[min(family, lam.size - 1)], 0.0))
-    lam, vec = np.linalg.eigh(0.5 * (K + K.T).toarray())
+    if speed is not None:  # every ND's crossings, then the excited ND's as below
+        lam, vec = sl.eig(*speed.crossing_problem(K))
+        keep = np.isfinite(lam) & (np.abs(lam.imag) <= 1e-9 * np.abs(lam)) & (lam.real > 0)
+        order = np.argsort(lam[keep].real)
+        lam, vec = lam[keep].real[order], vec[:, keep][:, order]
+    else:
+        lam, vec = np.linalg.eigh(0.5 * (K + K.T).toarray())
     nd = nodal_diameters_of(vec.T.reshape(-1, N, m))
     mine = lam[nd == nodal_diameter(k, N)]
     single = nodal_diameter(k, N) in (0, N / 2)  # standing: one mode per family, else pairs
     return math.sqrt(max(mine[family if single else 2 * family], 0.0))
 
 
-def crossings(K, S, speed: SpeedFollowing, generalised: bool = False) -> np.ndarray:
+def crossings(K, S, speed: SpeedFollowing) -> np.ndarray:
     """Ascending ``w^2`` [(rad/s)^2] of the Campbell crossings: ``K(w) x = w^2 x`` with
     ``K(w) = K + ((w / n_s)^2 - Omega_0^2) S`` (``K``, ``S`` dense, ``S`` per ``Omega^2``),
-    i.e. ``(K - Omega_0^2 S) x = w^2 (I - S / n_s^2) x``; ``generalised``: ``(K, S)`` are
-    that pair already. The right side is definite unless a mode stiffens faster with the
-    speed than the engine order's line rises (then the general eigensolver)."""
-    A, B = (K, S) if generalised else (K - speed.speed**2 * S,
-                                       np.eye(S.shape[0]) - S / speed.engine_order**2)
+    i.e. ``(K - Omega_0^2 S) x = w^2 (I - S / n_s^2) x`` (the right side is definite unless
+    a mode stiffens faster with the speed than the engine order's line rises: the general
+    eigensolver)."""
+    A, B = K - speed.speed**2 * S, np.eye(S.shape[0]) - S / speed.engine_order**2
     lam = sl.eigvals(A, B)
     lam = lam[np.isfinite(lam) & (np.abs(lam.imag) <= 1e-9 * np.abs(lam)) & (lam.real > 0)]
     return np.sort(lam.real)

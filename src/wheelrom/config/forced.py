@@ -184,11 +184,14 @@ def mistuning_problems(cfg: Any, source: str, problems: list[str]) -> None:
 
 def forced_problems(cfg: Any, problems: list[str]) -> None:
     """``forced.band_hz``: empty or ``[lo, hi]`` with ``lo < hi``; ``forced.family`` below
-    the segment modes."""
+    the segment modes of a free-interface basis (a basis with attachment or enrichment
+    vectors holds more families: :func:`~wheelrom.analysis.forced_peak.resonance` checks
+    against the model)."""
     band, fam, m = cfg.forced.band_hz, cfg.forced.family, cfg.wheel.modes_per_segment
     if isinstance(band, tuple) and band and all(is_number(v) for v in band):
         if len(band) != 2 or not band[0] < band[1] or not all(math.isfinite(v) for v in band):
             problems.append(f"forced.band_hz: expected [] (automatic) or [lo, hi] with "
                             f"lo < hi [Hz], got {list(band)}")  # fmt: skip
-    if isinstance(fam, int) and isinstance(m, int) and fam >= m:
+    free = getattr(cfg.wheel, "basis", "free") == "free"
+    if isinstance(fam, int) and isinstance(m, int) and fam >= m and free:
         problems.append(f"forced.family: {fam} is not below wheel.modes_per_segment ({m})")
