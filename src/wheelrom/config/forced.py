@@ -69,7 +69,9 @@ class ForcedConfig:
     family: int = field(
         default=0,
         metadata=_key("-", "mode family (0: lowest) of the excited ND the automatic band is "
-                      "centred on", min=0),  # fmt: skip
+                      "centred on (over the speed: its Campbell crossing with the engine "
+                      "order; up to the model's modes, attachment vectors included)",
+                      min=0),  # fmt: skip
     )
     contacts: bool = field(
         default=True,
