@@ -110,26 +110,27 @@ class SpeedFollowing:
         """``(w / n_s)^2 - Omega_0^2`` [(rad/s)^2]."""
         return (w / self.engine_order) ** 2 - self.speed**2
 
-    def crossing_problem(self, K) -> tuple[np.ndarray, np.ndarray]:
+    def crossing_problem(self, K, S: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """``(A, B)`` dense: ``K(w) x = w^2 x`` as ``A x = w^2 B x``, ``A = K - Omega_0^2 S``,
         ``B = I - S / n_s^2``: its eigenvalues are the Campbell crossings of the engine
-        order with the wheel's modes (``K`` CSR, the model's speed)."""
-        S = self.S.toarray()
-        return (sp.csr_matrix(K).toarray() - self.speed**2 * S,
-                np.eye(S.shape[0]) - S / self.engine_order**2)  # fmt: skip
+        order with the wheel's modes (``K`` at the model's speed; ``S`` dense when given,
+        e.g. one ND block's, else :attr:`S`)."""
+        S = self.S.toarray() if S is None else S
+        K = K.toarray() if sp.issparse(K) else np.asarray(K)
+        return K - self.speed**2 * S, np.eye(S.shape[0]) - S / self.engine_order**2
 
 
 def speed_following(model: ReducedModel, cfg: Config) -> SpeedFollowing | None:
     """The :class:`SpeedFollowing` of ``forced.over = "speed"`` (None: over the frequency,
     or a model without prestress, whose stiffness does not depend on the speed). A mistuned
     blade's block ``A0 + delta_s K_seg`` moves by ``(1 + delta_s)`` times the shift."""
-    if cfg.forced.over != "speed" or model.speed_stiffness is None or model.speed_hz <= 0:
+    per_speed = model.stiffening_per_speed
+    if cfg.forced.over != "speed" or per_speed is None:
         return None
-    speed = 2 * math.pi * model.speed_hz
-    per_speed = model.speed_stiffness / speed**2
     factors = np.ones(model.blades) if model.tuned else 1.0 + model.mistuning
     S = sp.block_diag([f * per_speed for f in factors], format="csr")
-    return SpeedFollowing(S, cfg.wheel.damping_beta, cfg.wheel.stator_vanes, speed)
+    return SpeedFollowing(S, cfg.wheel.damping_beta, cfg.wheel.stator_vanes,
+                          2 * math.pi * model.speed_hz)  # fmt: skip
 
 
 def speed_note(model: ReducedModel, cfg: Config) -> str:

@@ -127,15 +127,12 @@ def resonance(K, model: ReducedModel, stator_vanes: int, family: int = 0,
         block = nd_block(K[:m].toarray().reshape(m, N, m).transpose(1, 0, 2), k)  # K_{0,d}
         block = 0.5 * (block + block.conj().T)
         if speed is not None:
-            lam = crossings(block, speed.S[:m, :m].toarray(), speed)
+            lam = crossings(*speed.crossing_problem(block, speed.S[:m, :m].toarray()))[0]
             return math.sqrt(max(lam[min(family, lam.size - 1)], 0.0))
         lam = np.linalg.eigvalsh(block)
         return math.sqrt(max(lam[family], 0.0))
     if speed is not None:  # every ND's crossings, then the excited ND's as below
-        lam, vec = sl.eig(*speed.crossing_problem(K))
-        keep = np.isfinite(lam) & (np.abs(lam.imag) <= 1e-9 * np.abs(lam)) & (lam.real > 0)
-        order = np.argsort(lam[keep].real)
-        lam, vec = lam[keep].real[order], vec[:, keep][:, order]
+        lam, vec = crossings(*speed.crossing_problem(K))
     else:
         lam, vec = np.linalg.eigh(0.5 * (K + K.T).toarray())
     nd = nodal_diameters_of(vec.T.reshape(-1, N, m))
@@ -144,16 +141,15 @@ def resonance(K, model: ReducedModel, stator_vanes: int, family: int = 0,
     return math.sqrt(max(mine[family if single else 2 * family], 0.0))
 
 
-def crossings(K, S, speed: SpeedFollowing) -> np.ndarray:
-    """Ascending ``w^2`` [(rad/s)^2] of the Campbell crossings: ``K(w) x = w^2 x`` with
-    ``K(w) = K + ((w / n_s)^2 - Omega_0^2) S`` (``K``, ``S`` dense, ``S`` per ``Omega^2``),
-    i.e. ``(K - Omega_0^2 S) x = w^2 (I - S / n_s^2) x`` (the right side is definite unless
-    a mode stiffens faster with the speed than the engine order's line rises: the general
-    eigensolver)."""
-    A, B = K - speed.speed**2 * S, np.eye(S.shape[0]) - S / speed.engine_order**2
-    lam = sl.eigvals(A, B)
-    lam = lam[np.isfinite(lam) & (np.abs(lam.imag) <= 1e-9 * np.abs(lam)) & (lam.real > 0)]
-    return np.sort(lam.real)
+def crossings(A: np.ndarray, B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(w^2, x)``: the Campbell crossings ``A x = w^2 B x`` of
+    :meth:`~wheelrom.analysis.forced.SpeedFollowing.crossing_problem`, real and positive,
+    ascending [(rad/s)^2], with their vectors (the general eigensolver: ``B`` is definite
+    only while no mode stiffens with the speed faster than the engine order's line rises)."""
+    lam, vec = sl.eig(A, B)
+    keep = np.isfinite(lam) & (np.abs(lam.imag) <= 1e-9 * np.abs(lam)) & (lam.real > 0)
+    order = np.argsort(lam[keep].real)
+    return lam[keep].real[order], vec[:, keep][:, order]
 
 
 def band_of(cfg: Config, centre: float, deltas) -> tuple[float, float]:

@@ -79,13 +79,22 @@ class ReducedModel:
         """The rotor speed [Hz] the stiffness is at (``wheel.speed_hz`` of the build)."""
         return float(self.info.get("speed_hz", 0.0))
 
+    @property
+    def stiffening_per_speed(self) -> np.ndarray | None:
+        """``(m, m)`` [1/s^2 per (rad/s)^2]: :attr:`speed_stiffness` per ``Omega^2`` (None
+        without prestress: the stiffness does not depend on the speed)."""
+        if self.speed_stiffness is None or self.speed_hz <= 0:
+            return None
+        return self.speed_stiffness / (2 * math.pi * self.speed_hz) ** 2
+
     def speed_shift(self, speed_hz: float) -> np.ndarray:
         """``(m, m)`` [1/s^2]: what the segment's (and every diagonal block's) stiffness gains
         at rotor speed ``speed_hz`` [Hz] against the model's own, in the same basis (zeros
         without prestress)."""
-        if self.speed_stiffness is None or self.speed_hz <= 0:
+        per_speed = self.stiffening_per_speed
+        if per_speed is None:
             return np.zeros((self.modes, self.modes))
-        return ((speed_hz / self.speed_hz) ** 2 - 1.0) * self.speed_stiffness
+        return (2 * math.pi) ** 2 * (speed_hz**2 - self.speed_hz**2) * per_speed
 
     def at_speed(self, speed_hz: float) -> ReducedModel:
         """This wheel at rotor speed ``speed_hz`` [Hz] in the same basis: ``K_seg`` and ``A0``

@@ -154,9 +154,7 @@ class WaveBalance:
         self.stiffness = np.stack([self._wave_stiffness(h * self.phi) for h in range(H + 1)])
         # over the rotor speed (forced.over = "speed"): the stiffness follows the speed
         # w / n_s of the excitation w, [1/s^2 per (rad/s)^2] (None: fixed)
-        self.speed_stiffness = None
-        if params.follows_speed and model.speed_stiffness is not None and model.speed_hz > 0:
-            self.speed_stiffness = model.speed_stiffness / (2 * math.pi * model.speed_hz) ** 2
+        self.speed_stiffness = model.stiffening_per_speed if params.follows_speed else None
         self.E = np.stack([self._synthesis(b, False) for b in WINDOW])  # (3, nt, 2H+1)
         self.D = np.stack([self._synthesis(b, True) for b in WINDOW])
         P = np.zeros((2 * H + 1, nt))
