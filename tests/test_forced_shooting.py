@@ -100,13 +100,16 @@ def test_the_elastic_law_shoots_with_its_sliders(small_model, small_cfg):
     angles = {"shroud": 50.0}
     params, q = forced_inputs(small_model, cfg, angles)
     w = 2 * math.pi * 250.0
-    curve = forced_curve(small_model, params, cfg.wheel.damping_beta, np.array([w]), q,
+    # up to 250 Hz along the curve: from rest at 250 Hz itself Newton's start is a matter
+    # of luck where the shroud goes into partial slip
+    curve = forced_curve(small_model, params, cfg.wheel.damping_beta,
+                         2 * math.pi * np.array([240.0, 245.0, 250.0]), q,
                          harmonics=5)  # fmt: skip
-    assert curve.converged[0]
-    shares = curve.fractions[0]  # the shroud slips most of the period, the tie-boss sticks
+    assert curve.converged[-1]
+    shares = curve.fractions[-1]  # the shroud slips most of the period, the tie-boss sticks
     assert shares[1, 2] > 0.5 and shares[0, 1] == 1.0
     problem = ForcedWave(small_model, params, cfg.wheel.damping_beta, 5)
-    orbit = exact_forced(small_model, cfg, problem, curve.harmonics[0], w, angles)
+    orbit = exact_forced(small_model, cfg, problem, curve.harmonics[-1], w, angles)
     assert orbit.converged and orbit.state.size == 2 * 6 * small_model.modes + 2 * 2 * 6
     assert abs(orbit.relative_difference) < 0.02  # H = 5 (measured +1.26 %)
     # the stuck tie-boss's sliders: any stuck position repeats, multiplier 1 (neutral)

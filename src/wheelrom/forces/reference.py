@@ -99,7 +99,8 @@ class ReferenceForces:
                          normal_force: np.ndarray, friction_power: np.ndarray,
                          contact_state: np.ndarray, sliders: np.ndarray | None = None,
                          periods: int = 0, block: int = 0, max_periods: int = 0,
-                         tolerance: float = 0.0) -> float:  # fmt: skip
+                         tolerance: float = 0.0,
+                         returned: np.ndarray | None = None) -> float:  # fmt: skip
         """The forces of ``S`` states at once (nozzle at ``t = 0``): ``q``, ``v``
         ``(S, N, m)``; writes ``force`` ``(S, N, m)`` and, of blade pair ``(0, 1)`` of every
         contact kind, ``normal_force`` ``(S, K)`` [N], ``friction_power`` ``(S, K)`` [W] (the
@@ -122,10 +123,13 @@ class ReferenceForces:
         periodic: its forces are those written), its geometric walk to the shakedown loop
         extrapolated (:func:`_extrapolated`); returns the largest such move of the last
         period over the blocks (0 without sliders); ``self.marched_periods``: the most
-        periods a block took."""
+        periods a block took. ``returned`` ``(S, K, N, 2)``: filled with the slider each
+        state returns (its ``slider_next``: the harmonic balance's slider tangents)."""
         p, c = self.params, self.params.contacts
         if sliders is None:  # one slider for every state (the paper law reads none)
             sliders = np.zeros((1, *self.slider.shape))
+        if returned is None:
+            returned = np.zeros((0, *self.slider.shape))
         drift = np.zeros(2)
         _kernel_samples(q, v, force, p.omega, p.stator_vanes, p.nozzle_force, p.excitation,
                         p.nozzle_phase, p.vdp_model, p.vdp_mu, p.vdp_r, p.aero,
@@ -138,7 +142,7 @@ class ReferenceForces:
                         self.normal_gap, self.contact_state, self.relative_displacement,
                         self.relative_velocity, self.friction_force, self.vdp_displacement,
                         self.power, self._work, normal_force, friction_power,
-                        contact_state)  # fmt: skip
+                        contact_state, returned)  # fmt: skip
         self.marched_periods = int(drift[1])
         return float(drift[0])
 
@@ -178,13 +182,14 @@ def _kernel_samples(q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p
                     aero_b, law, R, XA, XB, A_pt, B_pt, arm, T, kc, preload, kt, sliders,
                     periods, max_periods, tolerance, drift, block, slider, slider_next, normal,
                     slip, gap, state, rel_u, rel_v, fric, y_vdp, power, work, normal_out,
-                    power_out, state_out):  # fmt: skip
+                    power_out, state_out, returned):  # fmt: skip
     """:func:`_kernel` at ``t = 0`` for every state ``q[i], v[i]`` (``(S, N, m)``) with the
     slider ``sliders[i]``, or marched (``periods > 0``, :meth:`evaluate_samples`: at least
     ``periods``, up to ``max_periods`` until a period moves no slider by more than
     ``tolerance``; ``drift[0]``: the largest last move, ``drift[1]``: the most periods a
     block took), keeping blade pair 0's normal
-    force, friction power and state per contact kind."""
+    force, friction power and state per contact kind (and, when ``returned`` has a row per
+    state, each state's returned slider)."""
     drift[0], drift[1] = 0.0, 0.0
     move, last_move = np.empty_like(slider), np.empty_like(slider)
     for start in range(0, q.shape[0], block):
@@ -209,6 +214,8 @@ def _kernel_samples(q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p
                         sliders[min(i, sliders.shape[0] - 1)], slider_next, normal, slip, gap,
                         state, rel_u, rel_v, fric, y_vdp, power, work, normal_out, power_out,
                         state_out)  # fmt: skip
+                if returned.shape[0] == q.shape[0]:
+                    _copy(returned[i], slider_next)
                 if periods > 0:
                     _copy(slider, slider_next)
         if periods > 0:

@@ -25,7 +25,6 @@ import time
 
 import numpy as np
 
-from wheelrom.analysis.periodic.harmonic_balance import wave_state
 from wheelrom.analysis.periodic.settle import (
     Classification,
     Settings,
@@ -33,6 +32,7 @@ from wheelrom.analysis.periodic.settle import (
     Window,
     settle_case,
 )
+from wheelrom.analysis.periodic.window import wave_state
 from wheelrom.config import Config, to_toml
 from wheelrom.config.study import expand, short_name
 from wheelrom.runtime.errors import InputError

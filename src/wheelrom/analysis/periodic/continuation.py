@@ -18,7 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wheelrom.analysis.periodic.harmonic_balance import Linearisation, WaveBalance
+from wheelrom.analysis.periodic.harmonic_balance import WaveBalance
+from wheelrom.analysis.periodic.window import Linearisation
 from wheelrom.runtime.environment import petsc
 
 PREFIX = "limitcycle_"

@@ -33,7 +33,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wheelrom.analysis.periodic.harmonic_balance import WINDOW, Linearisation, WaveBalance
+from wheelrom.analysis.periodic.harmonic_balance import WaveBalance
+from wheelrom.analysis.periodic.window import WINDOW, Linearisation
 
 #: growth rate [1/s] up to which an exponent counts as neutral (as the linear verdict)
 TOLERANCE = 1e-6

@@ -31,14 +31,18 @@ import math
 
 import numpy as np
 
-from wheelrom.forces.parameters import AERO_TABLE, VDP_OFF, ForceParameters
+from wheelrom.analysis.periodic.window import (
+    FD_DISPLACEMENT,
+    WINDOW,
+    Linearisation,
+    force_inputs,
+    wave_state,
+    window_parameters,
+)
+from wheelrom.forces.parameters import AERO_TABLE, ForceParameters
 from wheelrom.forces.reference import ReferenceForces
 from wheelrom.rom.model import ReducedModel
 
-WINDOW = (0, 1, -1)  # the window's blades: blade 0, the next, the previous
-#: finite-difference step of the force Jacobian: this physical displacement [m] at the point of
-#: a modal coordinate that moves most (contacts or tip)
-FD_DISPLACEMENT = 1e-10
 #: periods the AFT marches the elastic law's sliders (NLvib and pyHarm march 2-3): the loop
 #: of a contact that slips in the first period is closed in the second
 MARCH_PERIODS = 3
@@ -54,75 +58,15 @@ MARCH_PERIODS = 3
 #: that a period's move of 1e-13 m left the march 1e-10 m from it (the paper wheel at 1.6 kN)
 MARCH_MAX_PERIODS = 2000
 MARCH_TOLERANCE = 1e-14
-#: condition number of a blade's physical-input rows above which the force Jacobian is
-#: differenced over the modal coordinates instead (:func:`force_inputs`)
-MAX_INPUT_CONDITION = 1e8
-
-
-def window_parameters(params: ForceParameters) -> ForceParameters:
-    """``params`` on a three-blade window (blade 0, +1, -1 as blades 0, 1, 2): the cyclic
-    kernel then gives blade 0 exactly the forces it has in the whole wheel (its contacts with
-    both neighbours, the relative Van der Pol force of both differences). The pair (1, 2) of
-    the window is spurious and acts on the neighbours only. The nozzle is off (the autonomous
-    problem) and an aerodynamic table is applied per harmonic instead (it couples every blade)."""
-    N = params.blades
-    pick = np.array([0, 1, N - 1])
-    c = params.contacts
-    contacts = dataclasses.replace(
-        c, frame=np.ascontiguousarray(c.frame[:, pick]),
-        stiffness=np.ascontiguousarray(c.stiffness[:, pick]),
-        angles_deg={k: np.asarray(v)[pick] for k, v in c.angles_deg.items()})  # fmt: skip
-    return dataclasses.replace(
-        params, blades=3, nozzle_force=0.0, nozzle_phase=np.zeros(3),
-        vdp_model=VDP_OFF if params.vdp_model == AERO_TABLE else params.vdp_model,
-        aero_displacement=np.zeros(3), aero_velocity=np.zeros(3), contacts=contacts)  # fmt: skip
-
-
-def wave_state(c: np.ndarray, wave: int, blades: int, omega: float, tau: float = 0.0):
-    """``(q, v)`` ``(N, m)`` of every blade of travelling wave ``wave`` at phase ``tau`` [rad]
-    from blade 0's complex harmonics ``c`` ``(H + 1, m)`` [sqrt(kg) m] (``c_0`` the mean),
-    ``omega`` [rad/s]: blade ``s`` is blade 0 at ``tau + s 2 pi k / N``."""
-    h = np.arange(c.shape[0])
-    phase = tau + np.arange(blades) * 2 * math.pi * (wave % blades) / blades
-    rotor = np.exp(1j * np.outer(phase, h))  # (N, H + 1)
-    return (rotor @ c).real, omega * ((rotor * (1j * h)) @ c).real
-
-
-def force_inputs(params: ForceParameters):
-    """``(blades (n,), rows (n, m), directions (n, m))``: the physical inputs of the force on
-    window blade 0 (rows ``r_i``: ``u_i = r_i . q`` of window blade ``blades[i]``) and modal
-    directions ``d_i`` that move input ``i`` alone (``r_j . d_i = delta_ij`` per blade); None
-    when a blade's rows are dependent (fewer modes than inputs): the modal differencing then.
-
-    Blade 0 feels its contacts with both neighbours (its own points A and B of every kind, the
-    next blade's A, the previous blade's A and B: the arm geometry) and the Van der Pol force
-    of its displacement ``y = aero . q`` and both neighbours'. The window's spurious pair
-    (1, 2) acts on the neighbours only, so the next blade's B is not an input."""
-    c = params.contacts
-    A = [np.asarray(a) for a in c.shape_A]  # (3, m) per kind
-    B = [np.asarray(b) for b in c.shape_B]
-    y = np.asarray(params.aero)[None]
-    per_blade = [np.vstack(A + B + [y]), np.vstack(A + [y]), np.vstack(A + B + [y])]
-    blades, rows, directions = [], [], []
-    for w, R in enumerate(per_blade):
-        # nearly dependent rows would need huge modal directions, whose round-off the
-        # differences amplify by the condition number: the modal differencing then
-        if R.shape[0] > R.shape[1] or np.linalg.cond(R) > MAX_INPUT_CONDITION:
-            return None
-        blades += [w] * R.shape[0]
-        rows.append(R)
-        directions.append(np.linalg.pinv(R).T)  # (r, m): R @ directions.T = I
-    return np.array(blades), np.vstack(rows), np.vstack(directions)
-
-
-@dataclasses.dataclass
-class Linearisation:
-    """Force derivatives of blade 0 at the time samples: ``dq``, ``dv`` ``(3, n_t, m, m)``
-    d(force on blade 0)/d(q or q' of window blade w); ``force`` ``(n_t, m)``."""
-
-    force: np.ndarray
-    dq: np.ndarray
-    dv: np.ndarray
+#: differencing step of a held slider [m] (:meth:`WaveBalance._slider_derivatives`): a slip
+#: step's return shrinks the slider's motion across its direction by ``mu F_n / |trial|``,
+#: which a step of ``k_t dw`` beyond a grazed limit moves off 1 by ``k_t dw / (mu F_n)``
+#: (1.7e-5 for 1e-10 m on the paper wheel's 3.2 kN shroud): far below :data:`NEUTRAL` at
+#: this step, whose differences still carry 1e-8 of the slider's magnitude
+SLIDER_STEP = 1e-13
+#: a hysteresis loop's period map leaves its sliders unchanged along an eigenvector whose
+#: eigenvalue lies within this of 1 (:func:`loop_tangent`)
+NEUTRAL = 1e-6
 
 
 class WaveBalance:
@@ -148,6 +92,13 @@ class WaveBalance:
         # the elastic law's hysteresis: the AFT marches the sliders through the samples
         self.elastic = params.law.elastic
         self.sliders = None  # (n_t, K, 3, 2) the sliders of the last march's samples
+        self.returned = None  # (S, K, 3, 2) the sliders the last held evaluation returned
+        self._held = None  # ... and those it held
+        self._shaken = None  # (contacts,) of the loop: left their start on the way to it
+        # the sliders of blade 0's contacts (pairs 0 and 2 of the window; pair 1 acts on the
+        # neighbours only), flat in (K, 3, 2): a contact's two components side by side
+        self.loop = np.array([(k * 3 + pair) * 2 + j for k in range(len(self.kinds))
+                              for pair in (0, 2) for j in (0, 1)])  # fmt: skip
         H, nt = harmonics, samples
         self.tau = 2 * math.pi * np.arange(nt) / nt
         self.h = np.arange(H + 1)
@@ -274,21 +225,26 @@ class WaveBalance:
         v = omega * np.einsum("wjh,hm->jwm", self.D, X)
         return np.ascontiguousarray(q), np.ascontiguousarray(v)
 
-    def _evaluate(self, q: np.ndarray, v: np.ndarray, lam: float):
+    def _evaluate(self, q: np.ndarray, v: np.ndarray, lam: float,
+                  held: np.ndarray | None = None):  # fmt: skip
         """Forces on blade 0 ``(S, m)`` and pair-0 contact records of ``S`` window states.
 
         Elastic law: the states are periods of samples (``S / n_t`` of them, or one of ``S``)
         and the sliders are marched through each
         (:data:`MARCH_PERIODS` periods from rest at the period's mean state: a converged
         loop once every contact has slipped; a contact that never slips acts as its stuck
-        spring about the mean, the stuck linearisation's limit), kept in ``self.sliders``."""
+        spring about the mean, the stuck linearisation's limit), kept in ``self.sliders``;
+        or, with ``held`` ``(S, K, 3, 2)`` [m], each state reads its own slider, unmarched,
+        and the slider it returns is kept in ``self.returned``."""
         S, K = q.shape[0], len(self.kinds)
         self.forces.params = self._at(lam)
         force = np.empty((S, 3, self.modes))
         normal, power = np.empty((S, K)), np.empty((S, K))
         state = np.empty((S, K), dtype=np.int8)
-        periods, block, sliders = 0, 0, None
-        if self.elastic:  # S / n_t periods of samples, each marched
+        periods, block, sliders, self.returned = 0, 0, None, None
+        if held is not None:
+            sliders, self.returned, self._held = held, np.empty_like(held), held
+        elif self.elastic:  # S / n_t periods of samples, each marched
             block = self.nt if S % self.nt == 0 else S
             sliders = np.empty((S, *self.forces.slider.shape))
             for start in range(0, S, block):
@@ -297,7 +253,7 @@ class WaveBalance:
             periods = MARCH_PERIODS
         self.march_drift = self.forces.evaluate_samples(
             q, v, force, normal, power, state, sliders, periods, block,
-            MARCH_MAX_PERIODS if periods else 0, MARCH_TOLERANCE)
+            MARCH_MAX_PERIODS if periods else 0, MARCH_TOLERANCE, self.returned)
         if periods:
             self.sliders = sliders
         return force[:, 0], normal, power, state
@@ -331,13 +287,15 @@ class WaveBalance:
             return self._linearise_physical(q, v, omega, lam)
         return self._linearise_modal(q, v, omega, lam)
 
-    def _linearise_physical(self, q, v, omega: float, lam: float) -> Linearisation:
+    def _linearise_physical(self, q, v, omega: float, lam: float,
+                            held: np.ndarray | None = None) -> Linearisation:  # fmt: skip
         """Central differences of the force on blade 0 along each physical input ``u_i =
         r_i . q_w`` (a contact point's displacement component, the Van der Pol ``y``), moved
         alone by ``FD_DISPLACEMENT`` through the modal direction ``d_i`` with ``r_j . d_i =
         delta_ij``; the chain rule ``d f / d q_w = sum_i (d f / d u_i) r_i`` gives the modal
         derivatives. The force depends on ``q`` through these inputs only, so this is the
-        modal differencing's result on 2 x 33 inputs instead of 6 m (132: half the cost)."""
+        modal differencing's result on 2 x 33 inputs instead of 6 m (132: half the cost).
+        ``held``: the elastic law's sliders per sample (:meth:`_held_derivatives`)."""
         m, nt = self.modes, self.nt
         blades, rows, directions = self.inputs
         n_in = len(blades)
@@ -350,18 +308,24 @@ class WaveBalance:
                 delta = steps[kind] * directions[i]
                 target[k, :, blades[i]] += delta
                 target[k + 1, :, blades[i]] -= delta
-        f = self._evaluate(Q.reshape(-1, 3, m), V.reshape(-1, 3, m), lam)[0]
+        f = self._evaluate(Q.reshape(-1, 3, m), V.reshape(-1, 3, m), lam,
+                           self._tiled(held, 4 * n_in + 1))[0]  # fmt: skip
         f = f.reshape(4 * n_in + 1, nt, m)
-        d = (f[1::2] - f[2::2]).reshape(2, n_in, nt, m) / (2 * steps[:, None, None, None])
-        dq, dv = np.zeros((2, 3, nt, m, m))
-        for w in range(3):
-            own = blades == w
-            dq[w] = np.einsum("itj,il->tjl", d[0, own], rows[own])
-            dv[w] = np.einsum("itj,il->tjl", d[1, own], rows[own])
-        return Linearisation(f[0], dq, dv)
+        same = self._same_branch(4 * n_in + 1)
+        by_input = np.repeat(steps, n_in)[:, None, None]
 
-    def _linearise_modal(self, q, v, omega: float, lam: float) -> Linearisation:
-        """Central differences over the window's ``6 m`` modal inputs."""
+        def chain(f, kind):  # (nt, out) per window blade
+            d = self._differences(f, by_input, same).reshape(2, n_in, nt, -1)[kind]
+            return np.stack([np.einsum("itj,il->tjl", d[blades == w], rows[blades == w])
+                             for w in range(3)])  # fmt: skip
+
+        dslider = None if held is None else chain(self._returned(4 * n_in + 1), 0)
+        return Linearisation(f[0], chain(f, 0), chain(f, 1), dslider)
+
+    def _linearise_modal(self, q, v, omega: float, lam: float,
+                         held: np.ndarray | None = None) -> Linearisation:  # fmt: skip
+        """Central differences over the window's ``6 m`` modal inputs (``held``: as
+        :meth:`_linearise_physical`)."""
         m, nt = self.modes, self.nt
         n_in = 6 * m  # (q, v) x 3 blades x m
         steps = np.concatenate([self.fd_step, self.fd_step * max(omega, 1.0)])
@@ -374,27 +338,76 @@ class WaveBalance:
             step = steps[kind * m + j]
             target[1 + 2 * i, :, w, j] += step
             target[2 + 2 * i, :, w, j] -= step
-        f = self._evaluate(Q.reshape(-1, 3, m), V.reshape(-1, 3, m), lam)[0]
+        f = self._evaluate(Q.reshape(-1, 3, m), V.reshape(-1, 3, m), lam,
+                           self._tiled(held, 2 * n_in + 1))[0]  # fmt: skip
         f = f.reshape(2 * n_in + 1, nt, m)
-        d = (f[1::2] - f[2::2]) / (2 * np.repeat(steps.reshape(2, 1, m), 3, axis=1)
-                                   .reshape(n_in)[:, None, None])  # fmt: skip
-        d = d.reshape(2, 3, m, nt, m).transpose(0, 1, 3, 4, 2)  # (kind, w, j, out, in)
-        return Linearisation(f[0], d[0], d[1])
+        same = self._same_branch(2 * n_in + 1)
+        by_input = np.repeat(steps.reshape(2, 1, m), 3, axis=1).reshape(n_in)[:, None, None]
+
+        def derivative(f):  # (kind, w, nt, out, m)
+            d = self._differences(f, by_input, same)
+            return d.reshape(2, 3, m, nt, -1).transpose(0, 1, 3, 4, 2)
+
+        d = derivative(f)
+        dslider = None if held is None else derivative(self._returned(2 * n_in + 1))[0]
+        return Linearisation(f[0], d[0], d[1], dslider)
+
+    def _tiled(self, held: np.ndarray | None, copies: int) -> np.ndarray | None:
+        """``held`` ``(n_t, K, 3, 2)`` sliders for ``copies`` periods of samples."""
+        return None if held is None else np.tile(held, (copies, 1, 1, 1))
+
+    def _same_branch(self, copies: int) -> np.ndarray | None:
+        """``(copies, n_t)``: whether every contact of blade 0 sticks (or not) in each state
+        of the last held evaluation as in its first copy's (None: no sliders held)."""
+        if self.returned is None:
+            return None
+        stuck = (self._returned(copies) == self._held.reshape(copies, self.nt, -1)[:, :,
+                 self.loop]).reshape(copies, self.nt, -1, 2).all(axis=3)  # fmt: skip
+        branch = stuck[0].copy()  # (n_t, contacts)
+        # a contact the march shook down onto the Coulomb limit (it slipped on its way to
+        # the loop and sticks in it) grazes the limit where a perturbation slips it: its
+        # slider is held there by the limit, the slip branch's
+        branch[:, self._shaken] &= stuck[:, :, self._shaken].all(axis=0)
+        return (stuck == branch).all(axis=2)
+
+    @staticmethod
+    def _differences(f: np.ndarray, step: np.ndarray, same: np.ndarray | None) -> np.ndarray:
+        """``(k, n_t, ...)`` differences of ``f`` ``(1 + 2 k, n_t, ...)`` (the base, then
+        each of ``k`` perturbations by ``+step`` and ``-step``, ``step`` ``(k, 1, 1)``):
+        central, but one-sided where only one side sticks and slips as the base does
+        (``same``, :meth:`_same_branch`): the Coulomb limit is a kink of the elastic law,
+        and a central difference across it averages its two branches (a contact that
+        grazes the limit then looks half-stuck, and the loop around it goes wrong)."""
+        plus, minus, base = f[1::2], f[2::2], f[0]
+        d = (plus - minus) / (2 * step)
+        if same is not None:
+            forward, backward = same[1::2] & ~same[2::2], same[2::2] & ~same[1::2]
+            d[forward] = ((plus - base) / step)[forward]
+            d[backward] = ((base - minus) / step)[backward]
+        return d
+
+    def _returned(self, copies: int) -> np.ndarray:
+        """``(copies, n_t, s)`` the loop's slider components the last held evaluation
+        returned."""
+        return self.returned.reshape(copies, self.nt, -1)[:, :, self.loop]
 
     def jacobian(self, X: np.ndarray, omega: float, lam: float, lin: Linearisation | None = None):
         """``(R, dR/dX, dR/domega, dR/dlam)``: packed residual ``(2H+1, m)``, its derivative
         ``(2H+1, m, 2H+1, m)`` and the two parameter columns ``(2H+1, m)``."""
-        if self.elastic:  # the forces' part differenced through the march
-            return self._marched_jacobian(X, omega, lam)
+        held = None
+        if self.elastic:  # the sliders' part through the closed loop (:meth:`_loop_jacobian`)
+            lin, held, loop = self._loop_jacobian(X, omega, lam)
         lin = lin or self.linearise(X, omega, lam)
         R = self.linear_term(X, omega, lam) - self.P @ lin.force
         dRdX, dRdw = self._linear_derivatives(X, omega, lam)
         dRdX -= self._projected(lin.dq, "E")
         dRdX -= omega * self._projected(lin.dv, "D")
+        if held is not None:
+            dRdX -= loop
         # d/domega of the forces through the velocities
         DX = np.einsum("wjh,hm->wjm", self.D, X)
         dRdw -= self.P @ np.einsum("wjil,wjl->ji", lin.dv, DX)
-        dRdlam = self._lambda_column(X, omega, lam)
+        dRdlam = self._lambda_column(X, omega, lam, held)
         return R, dRdX, dRdw, dRdlam
 
     def _projected(self, derivative: np.ndarray, synthesis: str) -> np.ndarray:
@@ -434,42 +447,121 @@ class WaveBalance:
             dZ = [dZ[h] + dK * (1.0 + 1j * h * omega * self.beta) for h in range(self.H + 1)]
         return dRdX, self.packed(np.stack([dZ[h] @ c[h] for h in range(self.H + 1)]))
 
-    def _marched_jacobian(self, X: np.ndarray, omega: float, lam: float):
-        """:meth:`jacobian` of the elastic law: the hysteresis makes a sample's force depend
-        on the motion before it (the sliders), so the force part is differenced through the
-        whole march, every unknown and ``omega`` at once (one compiled call over ``(2H+1) m +
-        1`` perturbed periods), forward differences of the physical step ``FD_DISPLACEMENT``."""
-        n, m = 2 * self.H + 1, self.modes
-        steps = np.tile(self.fd_step, n)  # (n m,) per unknown: its mode's step
-        Xs = np.broadcast_to(X, (n * m + 2, n, m)).copy()
-        Xs.reshape(n * m + 2, n * m)[1 : n * m + 1] += np.diag(steps)
-        d_omega = 1e-7 * omega
-        omegas = np.full(n * m + 2, omega)
-        omegas[-1] += d_omega
-        q = np.einsum("wjh,khm->kjwm", self.E, Xs)
-        v = omegas[:, None, None, None] * np.einsum("wjh,khm->kjwm", self.D, Xs)
-        nt = self.nt
-        f = self._evaluate(q.reshape(-1, 3, m), v.reshape(-1, 3, m), lam)[0]
-        fh = np.einsum("pj,kjm->kpm", self.P, f.reshape(n * m + 2, nt, m))  # (k, n, m)
-        base = fh[0]
-        R = self.linear_term(X, omega, lam) - base
-        dRdX, dRdw = self._linear_derivatives(X, omega, lam)
-        dforce = (fh[1 : n * m + 1] - base) / steps[:, None, None]  # (n m, n, m): d f / d X_k
-        dRdX -= dforce.transpose(1, 2, 0).reshape(n, m, n, m)
-        dRdw -= (fh[-1] - base) / d_omega
-        return R, dRdX, dRdw, self._lambda_column(X, omega, lam)
+    def _loop_jacobian(self, X: np.ndarray, omega: float, lam: float):
+        """The elastic law's Jacobian: ``(lin, held, loop)``, the sample-local derivatives
+        with each sample's slider held (``lin``), those sliders ``(n_t, K, 3, 2)`` [m] and
+        the hysteresis' part of ``dR/dX`` ``(2H+1, m, 2H+1, m)``.
+
+        A sample's force depends on the motion before it through the sliders: with ``w_i``
+        the slider sample ``i`` uses in the march's converged loop, ``f_i = f(q_i, v_i,
+        w_i)`` and ``w_(i+1) = g(q_i, w_i)``. Both are differenced at each sample with the
+        others held (the physical inputs as under the paper law, and each slider component
+        of blade 0's contacts), and the tangent ``dw_i / dX`` is carried around the period
+        and closed per contact (:func:`loop_tangent`): one march and about 150 periods of
+        unmarched samples instead of a march for each of the ``(2H+1) m`` unknowns."""
+        n, m, nt = 2 * self.H + 1, self.modes, self.nt
+        q, v = self.samples(X, omega)
+        self._evaluate(q, v, lam)  # the march: its loop's sliders
+        held = self.sliders.copy()
+        start = self.forces.sliders_at_rest(np.ascontiguousarray(q.mean(axis=0)))
+        # contacts that left their start on the way to the loop (the rest never slipped)
+        self._shaken = (held.reshape(nt, -1)[:, self.loop] != start.ravel()[self.loop]).any(
+            axis=0).reshape(-1, 2).any(axis=1)  # fmt: skip
+        differenced = self._linearise_physical if self.inputs is not None else \
+            self._linearise_modal  # fmt: skip
+        lin = differenced(q, v, omega, lam, held)
+        force_w, return_w = self._slider_derivatives(q, v, lam, held)
+        through_q = np.einsum("wih,wisl->ishl", self.E, lin.dslider).reshape(nt, -1, n * m)
+        dw = loop_tangent(return_w, through_q, ~self._shaken,
+                          lambda: self._start_derivative(q))  # (n_t, s, n m)
+        loop = np.einsum("pi,ijs,isk->pjk", self.P, force_w, dw, optimize=True)
+        return lin, held, loop.reshape(n, m, n, m)
+
+    def _slider_derivatives(self, q: np.ndarray, v: np.ndarray, lam: float,
+                            held: np.ndarray):  # fmt: skip
+        """``(d f_i / d w_i, d w_(i+1) / d w_i)`` ``(n_t, m, s)``, ``(n_t, s, s)``: central
+        differences in each of the loop's ``s`` slider components, held at every sample."""
+        nt, m, s = self.nt, self.modes, len(self.loop)
+        copies = 2 * s + 1  # the base, then + and - of each component
+        Q = np.broadcast_to(q, (copies, *q.shape)).reshape(-1, 3, m).copy()
+        V = np.broadcast_to(v, (copies, *v.shape)).reshape(-1, 3, m).copy()
+        sliders = self._tiled(held, copies).reshape(copies, nt, -1)
+        for c, index in enumerate(self.loop):
+            sliders[1 + 2 * c, :, index] += SLIDER_STEP
+            sliders[2 + 2 * c, :, index] -= SLIDER_STEP
+        f = self._evaluate(Q, V, lam, sliders.reshape(copies * nt, *held.shape[1:]))[0]
+        same, step = self._same_branch(copies), np.full((s, 1, 1), SLIDER_STEP)
+        d_force = self._differences(f.reshape(copies, nt, m), step, same)
+        d_return = self._differences(self._returned(copies), step, same)
+        return d_force.transpose(1, 2, 0), d_return.transpose(1, 2, 0)
+
+    def _start_derivative(self, q: np.ndarray) -> np.ndarray:
+        """``(s, (2H+1) m)`` d(the march's start, the sliders at rest at the period's mean
+        motion)/dX: a contact that sticks throughout keeps it (central differences)."""
+        mean = q.mean(axis=0)  # (3, m): every window blade's c_0
+        d = np.empty((3, self.modes, len(self.loop)))
+        for w in range(3):
+            for j in range(self.modes):
+                step = self.fd_step[j]
+                ends = []
+                for sign in (1.0, -1.0):
+                    moved = mean.copy()
+                    moved[w, j] += sign * step
+                    ends.append(self.forces.sliders_at_rest(moved).ravel()[self.loop])
+                d[w, j] = (ends[0] - ends[1]) / (2 * step)
+        return np.einsum("wjs,wh->shj", d, self.E.mean(axis=1)).reshape(len(self.loop), -1)
 
     def _table_derivative(self, h: int) -> np.ndarray:
         """d(table operator of harmonic ``h``)/d omega."""
         return 1j * h * self.table_parts(h * self.phi)[1]
 
-    def _lambda_column(self, X: np.ndarray, omega: float, lam: float) -> np.ndarray:
-        """dR/dlam: the self-excitation is linear in ``lam`` (Van der Pol force and table)."""
+    def _lambda_column(self, X: np.ndarray, omega: float, lam: float,
+                       held: np.ndarray | None = None) -> np.ndarray:  # fmt: skip
+        """dR/dlam: the self-excitation is linear in ``lam`` (Van der Pol force and table;
+        ``held``: the elastic law's loop, which does not depend on ``lam``)."""
         if self.table:
             c = self.complex_harmonics(X)
             ops = [self._table_operator(h * self.phi, h * omega) for h in range(self.H + 1)]
             return self.packed(np.stack([ops[h] @ c[h] for h in range(self.H + 1)]))
         q, v = self.samples(X, omega)
-        f1 = self._evaluate(q, v, 1.0)[0]
-        f0 = self._evaluate(q, v, 0.0)[0]
+        f1 = self._evaluate(q, v, 1.0, held)[0]
+        f0 = self._evaluate(q, v, 0.0, held)[0]
         return -(self.P @ (f1 - f0))
+
+
+def loop_tangent(return_w: np.ndarray, through_q: np.ndarray, stuck: np.ndarray,
+                 start) -> np.ndarray:  # fmt: skip
+    """``dw_i / dX`` ``(n_t, s, n)``: the tangent of the sliders the samples use around a
+    closed hysteresis loop, from ``w_(i+1) = g(q_i, w_i)``'s derivatives ``return_w``
+    ``(n_t, s, s)`` (d/dw_i) and ``through_q`` ``(n_t, s, n)`` (d/dX through ``q_i``).
+
+    Around the period ``dw_n = Phi dw_0 + Gamma``; contacts (pairs of components) are
+    independent, so ``Phi`` is 2 x 2 blocks. Along an eigenvector of ``Phi`` whose
+    eigenvalue has shrunk (a slip returns the slider onto the Coulomb limit, an opening to
+    the motion) the loop is the sliders' fixed point, ``(1 - lambda)^-1`` times
+    ``Gamma``'s part; along one that the period leaves unchanged (``lambda`` within
+    :data:`NEUTRAL` of 1: a contact that sticks throughout, ``stuck``, both; one that slips
+    back and forth along one line, across it) the march keeps where it started, the
+    sliders at rest at the mean motion, whose derivative ``start()`` gives ``(s, n)``."""
+    nt, s, n = through_q.shape
+    M, N = np.eye(s), np.zeros((s, n))
+    Ms, Ns = np.empty((nt, s, s)), np.empty((nt, s, n))
+    for i in range(nt):
+        Ms[i], Ns[i] = M, N
+        M, N = return_w[i] @ M, return_w[i] @ N + through_q[i]
+    first, kept = np.empty((s, n)), None
+    for c, held in enumerate(stuck):
+        rows = slice(2 * c, 2 * c + 2)
+        values, vectors = np.linalg.eig(np.eye(2) if held else M[rows, rows])
+        neutral = np.abs(1.0 - values) < NEUTRAL
+        if neutral.any() and kept is None:
+            kept = start()
+        parts = np.linalg.solve(vectors, N[rows] if not neutral.all() else np.zeros((2, n)))
+        parts[~neutral] /= (1.0 - values[~neutral])[:, None]
+        if neutral.any():
+            parts[neutral] = np.linalg.solve(vectors, kept[rows])[neutral]
+        first[rows] = (vectors @ parts).real
+    dw = np.einsum("ist,tk->isk", Ms, first) + Ns
+    for c in np.flatnonzero(stuck):  # its slider never moves (a graze's differences would)
+        dw[:, 2 * c : 2 * c + 2] = kept[2 * c : 2 * c + 2]
+    return dw
