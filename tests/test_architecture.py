@@ -141,7 +141,7 @@ def test_a_folder_is_a_stage():
 #: settle in one room; ``analysis`` itself keeps the linear analyses
 PERIODIC = {"harmonic_balance", "continuation", "floquet", "hopf", "cycle_transient",
             "limit_cycle", "shooting", "monodromy", "settle", "flow", "exact", "forced_wave",
-            "forced_branch", "forced_shooting"}
+            "forced_branch", "forced_shooting", "window", "hysteresis"}
 LINEAR = {"jacobian", "stability", "margin", "forced", "forced_peak"}
 
 

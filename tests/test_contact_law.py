@@ -368,7 +368,7 @@ def test_the_loop_tangent_closes_a_linear_slider_map():
     has one loop (the start forgotten), one that the period leaves unchanged (every ``A_i``
     the identity, no ``B_i``) keeps its start, and one that contracts across a line but
     not along it (a slip back and forth along one direction) keeps its start along it."""
-    from wheelrom.analysis.periodic.harmonic_balance import loop_tangent
+    from wheelrom.analysis.periodic.hysteresis import loop_tangent
 
     rng = np.random.default_rng(3)
     nt, n = 12, 5
