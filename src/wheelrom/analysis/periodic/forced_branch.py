@@ -107,7 +107,7 @@ class ArclengthCorrector:
 
     def function(self, z: np.ndarray) -> tuple[np.ndarray, bool]:
         """``(F, converged)`` of :meth:`system` without the Jacobian (the forces at the
-        samples only: ~1/50 of a marched Jacobian's cost)."""
+        samples only: a fraction of a Jacobian's cost)."""
         X, omega = self.unpack(z)
         R = self.problem.residual(X, omega)
         ok = bool(np.all(np.isfinite(R))) and self.problem._converged(R, X, omega)

@@ -198,8 +198,9 @@ class ForcedWave:
     def _carried(self, X: np.ndarray, omega: float) -> np.ndarray | None:
         """The chord matrix at ``omega`` [rad/s] from the last Jacobian's forces' part and
         this frequency's linear part (exact): the forces' part changes little from one grid
-        frequency to the next, and under the elastic law a Jacobian costs ``(2H+1) m + 2``
-        marched periods against one for a residual. None before any Jacobian."""
+        frequency to the next, and under the elastic law a Jacobian costs a march and ~150
+        periods of unmarched samples against a march for a residual. None before any
+        Jacobian."""
         if self._force_jacobian is None:
             return None
         return self.balance.linear_jacobian(X, omega, self.lam) - self._force_jacobian
@@ -236,12 +237,15 @@ class ForcedWave:
     def _converged(self, R: np.ndarray, X: np.ndarray, omega: float) -> bool:
         """The mean's equations against their own terms (the preload's static forces), the
         harmonics' against theirs or the nozzle force: a small force's response is not
-        lost in the rounding of the static terms."""
+        lost in the rounding of the static terms; under the elastic law none below the
+        march's force noise (:attr:`~.harmonic_balance.WaveBalance.force_noise`)."""
         terms = np.abs(self.balance.linear_term(X, omega, self.lam))
         floor = TOLERANCE * float(np.abs(self.force).max())
         static = max(ROUNDOFF_STATIC * float(terms[0].max()), floor, 1e-300)
         moving = max(ROUNDOFF_MOVING * float(terms[1:].max()), floor, static)
-        return bool(np.abs(R[0]).max() <= static and np.abs(R[1:]).max() <= moving)
+        noise = self.balance.force_noise
+        return bool(np.all(np.abs(R[0]) <= np.maximum(static, noise))
+                    and np.all(np.abs(R[1:]) <= np.maximum(moving, noise)))  # fmt: skip
 
     def tip_amplitude(self, X: np.ndarray, omega: float) -> float:
         """0-peak tip amplitude [m] of the motion about its mean (a time grid of at least
