@@ -38,7 +38,9 @@ class HysteresisLoop:
 
     def _same_branch(self, copies: int) -> np.ndarray | None:
         """``(copies, n_t)``: whether every contact of blade 0 sticks (or not) in each state
-        of the last held evaluation as in its first copy's (None: no sliders held)."""
+        of the last held evaluation as on its branch (None: no sliders held): the first
+        copy's (the base), but the slip branch where a contact shaken down onto the
+        Coulomb limit grazes it (:meth:`_loop_jacobian`'s ``_shaken``)."""
         if self.returned is None:
             return None
         stuck = (self._returned(copies) == self._held.reshape(copies, self.nt, -1)[:, :,
