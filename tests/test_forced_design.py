@@ -117,6 +117,7 @@ def test_the_study_stores_the_design_curve(small_model, small_cfg, tmp_path):
     assert (np.diff(peaks) < 0).all() and design["optimum"] == 2
     with h5py.File(out) as f:
         g = f["forced_nonlinear"]
+        assert g.attrs["law"] == "paper"  # every case's (a study varying it: "per case")
         assert [s.decode().partition(" ")[0] for s in g["status"][()]] == ["done"] * 3
         one = design_point(small_model, cfg.replace(**{"contacts.shroud.normal_preload":
                                                        3000.0}))  # fmt: skip

@@ -82,7 +82,8 @@ def create(f, cfg: Config, study: Study, models: list, model_of: list[int], stab
     if forced_nonlinear is not None:
         group = f.create_group("forced_nonlinear")
         group.attrs["harmonics"] = cfg.forced.harmonics
-        group.attrs["law"] = "per case" if "contacts.law" in study.names else cfg.contacts.law
+        laws = {c.contacts.law for c in study.configs} or {cfg.contacts.law}
+        group.attrs["law"] = laws.pop() if len(laws) == 1 else "per case"
         for name, data in forced_nonlinear.items():
             group.create_dataset(name, data=data)
     if mode == "stability":  # complete: nothing is written into it later
