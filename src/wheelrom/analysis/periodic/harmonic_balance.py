@@ -112,17 +112,16 @@ class WaveBalance(HysteresisLoop):
             P[2 * h] = -2.0 / nt * np.sin(h * self.tau)
         self.P = P
         self._projectors = {}  # P (x) E and P (x) D for the Jacobian (:meth:`_projected`)
-        moving = np.vstack([model.tip] + [np.asarray(a) for a in model.contact_A.values()]
-                           + [np.asarray(b) for b in model.contact_B.values()])  # fmt: skip
-        reach = np.abs(moving).max(axis=0)  # (m,) largest displacement per modal coordinate
+        points = np.abs(np.vstack([np.asarray(a) for a in model.contact_A.values()]
+                                  + [np.asarray(b) for b in model.contact_B.values()]))  # fmt: skip
+        reach = np.maximum(np.abs(model.tip).max(axis=0), points.max(axis=0))  # (m,) [m/unit]
         self.fd_step = FD_DISPLACEMENT / np.maximum(reach, 1e-30)
         # the elastic law's force noise per modal coordinate: where the march leaves a
         # slider along the directions its loop does not fix is known to its tolerance
         self.force_noise = np.zeros(self.modes)
         if self.elastic:
             self.force_noise = (NOISE_FACTOR * MARCH_TOLERANCE
-                                * float(np.max(params.contacts.tangential))
-                                * np.abs(moving[len(model.tip):]).max(axis=0))  # fmt: skip
+                                * float(np.max(params.contacts.tangential)) * points.max(axis=0))
         self.inputs = force_inputs(params)
         self.table = params.vdp_model == AERO_TABLE
 
@@ -299,7 +298,7 @@ class WaveBalance(HysteresisLoop):
         delta_ij``; the chain rule ``d f / d q_w = sum_i (d f / d u_i) r_i`` gives the modal
         derivatives. The force depends on ``q`` through these inputs only, so this is the
         modal differencing's result on 2 x 33 inputs instead of 6 m (132: half the cost).
-        ``held``: the elastic law's sliders per sample (:meth:`_held_derivatives`)."""
+        ``held``: the elastic law's sliders per sample (:meth:`_loop_jacobian`)."""
         m, nt = self.modes, self.nt
         blades, rows, directions = self.inputs
         n_in = len(blades)

@@ -165,7 +165,7 @@ def loop_tangent(return_w: np.ndarray, through_q: np.ndarray, stuck: np.ndarray,
         neutral = np.abs(1.0 - values) < NEUTRAL
         if neutral.any() and kept is None:
             kept = start()
-        parts = np.linalg.solve(vectors, N[rows] if not neutral.all() else np.zeros((2, n)))
+        parts = np.linalg.solve(vectors, N[rows])
         parts[~neutral] /= (1.0 - values[~neutral])[:, None]
         if neutral.any():
             parts[neutral] = np.linalg.solve(vectors, kept[rows])[neutral]
