@@ -88,7 +88,8 @@ def test_a_study_of_any_key_is_its_cases_run_alone(tmp_path, capsys):
     that preload gives (bitwise), and the file says which key varied."""
     keys = ["--set", "contacts.shroud.angle_deg=80.0", "--set", "limit_cycle.steps=4",
             "--set", "limit_cycle.seeds=[1e-4]", "--set", "limit_cycle.harmonics=3",
-            "--set", 'limit_cycle.floquet="off"', "--nd", "6"]  # fmt: skip
+            "--set", 'limit_cycle.floquet="off"', "--set", 'limit_cycle.method="hb"',
+            "--nd", "6"]  # fmt: skip
     grid = 'study.grid={"contacts.shroud.normal_preload" = [200.0, 400.0]}'
     out = tmp_path / "study.h5"
     assert cli.main(["limit-cycle", SMALL, *keys, "--set", grid, "--out", str(out)]) == 0
