@@ -97,7 +97,9 @@ def test_the_command_sets_the_friction_limited_peak_beside_the_linear_one(capsys
 
 def test_the_curve_is_written_and_read_back(tmp_path, capsys):
     """``--out`` keeps the nonlinear curve in ``/nonlinear`` (covered by the file's
-    checksums), ``info`` names it."""
+    checksums), ``info`` names it. (180-190 Hz: between the slipping and the stuck resonance,
+    the contacts slip and open there; 0.5 s of balance against 25 s in the stuck peak's
+    partial slip, which other tests solve.)"""
     import h5py
 
     from conftest import SMALL
@@ -105,7 +107,7 @@ def test_the_curve_is_written_and_read_back(tmp_path, capsys):
 
     path = tmp_path / "f.h5"
     argv = ["forced-response", SMALL, "--set", "contacts.law=elastic", "--nonlinear",
-            "--frequencies", "252:259:4", "--harmonics", "3", "--out", str(path)]  # fmt: skip
+            "--frequencies", "180:190:4", "--harmonics", "3", "--out", str(path)]  # fmt: skip
     assert cli.main(argv) == 0
     with h5py.File(path, "r") as f:
         g = f["nonlinear"]
