@@ -104,13 +104,12 @@ def one_mode_ring(blades: int, w0: float, coupling: float, contact_angle_deg: fl
     return model, contacts
 
 
-#: the suite's longest tests (60-30 s each on a 2-core machine, most of them compiling every
-#: kernel afresh or shooting elastic states): started first, so that pytest-xdist's two
-#: workers share out the short ones at the end and finish together (started where they fall
-#: in the file order, one worker ran alone for about a minute at the end)
-SLOW_FIRST = ("test_bounds.py", "test_startup.py", "test_forced_branch.py",
-              "test_forced_shooting.py", "test_limit_cycle_cli.py", "test_forced_wave.py",
-              "test_slider_shooting.py", "test_tools.py")  # fmt: skip
+#: the suite's longest tests (90-20 s each on a 2-core machine: compiling every kernel
+#: afresh, shooting elastic states, killing MPI ranks): started first, so that pytest-xdist's
+#: two workers share out the short ones at the end and finish together (started where they
+#: fall in the file order, one worker ran alone for about a minute at the end)
+SLOW_FIRST = ("test_bounds.py", "test_forced_branch.py", "test_slider_shooting.py",
+              "test_forced_shooting.py", "test_settle_faults.py", "test_tools.py")  # fmt: skip
 
 
 def pytest_collection_modifyitems(config, items):

@@ -1,13 +1,16 @@
-"""Nothing compiled reads past an array's end (the CI failure of 2026-11-26: a test model of
-6 modes with 3-mode aero and excitation arrays, read past their end by the force kernel,
-gave NaN on the CI machine and finite garbage on the developers').
+"""The compiled kernels in fresh processes: they are cached on disk (a second process loads
+them), and nothing compiled reads past an array's end (the CI failure of 2026-11-26: a test
+model of 6 modes with 3-mode aero and excitation arrays, read past their end by the force
+kernel, gave NaN on the CI machine and finite garbage on the developers').
 
-numba compiles without bounds checks; a fresh process with ``NUMBA_BOUNDSCHECK=1`` (and its
-own kernel cache, so that no checked kernel reaches the real cache) runs every compiled
-consumer of the force parameters on the small wheel under both contact laws: the reference
-forces, the harmonic balance's AFT and its marched Jacobian, and a transient (the compiled
-right-hand side through PETSc's C callbacks). An index out of bounds raises ``IndexError``
-there; a control first proves the checks are on (a shortened array is caught).
+numba compiles without bounds checks; processes with ``NUMBA_BOUNDSCHECK=1`` and their own
+kernel cache (so that no checked kernel reaches the real cache) first probe the start-up
+(cold: compiles; warm: loads), then run every compiled consumer of the force parameters on the
+small wheel under both contact laws: the reference forces, the harmonic balance's AFT and its
+marched Jacobian, and a transient (the compiled right-hand side through PETSc's C callbacks).
+An index out of bounds raises ``IndexError`` there; a control first proves the checks are on
+(a shortened array is caught). One test, one compilation: the two were each the suite's
+longest (72 and 58 s of compiling the same kernels).
 """
 
 import os
@@ -15,6 +18,8 @@ import subprocess
 import sys
 
 from conftest import SMALL
+from wheelrom.runtime import kernel_cache as _kernel_cache
+from wheelrom.transient import startup
 
 SCRIPT = r"""
 import math
@@ -57,9 +62,24 @@ for law in ("paper", "elastic"):
 """
 
 
-def test_no_kernel_reads_past_an_array(tmp_path):
-    env = dict(os.environ, NUMBA_BOUNDSCHECK="1", NUMBA_CACHE_DIR=str(tmp_path / "kernels"),
-               WHEELROM_MODEL_CACHE="off")  # fmt: skip
+def test_kernels_load_in_a_second_process_and_read_no_array_past_its_end(
+        small_model, small_cfg, tmp_path, monkeypatch):  # fmt: skip
+    cache = tmp_path / "kernels"
+    monkeypatch.setenv("NUMBA_BOUNDSCHECK", "1")  # the processes': numba here is configured
+    # start-up: a cold process compiles (and says so once), a second one loads every kernel
+    probe = startup.measure(small_model, small_cfg, cache_dir=str(cache))
+    cold, warm = probe["cold"], probe["warm"]
+    assert cold["status"] == warm["status"] == "done"
+    assert cold["kernel_cache"]["misses"] > 0 and cold["compile_s"] > 0
+    assert cold["messages"] == [_kernel_cache.COMPILING_MESSAGE]  # once per process
+    # rhs, monitor, reference forces, the exponential step
+    assert warm["kernel_cache"] == {"hits": 4, "misses": 0}
+    assert warm["messages"] == []
+    for proc in (cold, warm):  # nothing compiled or loaded once the run's clock started
+        assert proc["compiled_in_run"] == 0 and proc["run_compile_s"] == 0.0
+        assert proc["startup_s"] > 0
+    # every consumer of the force parameters, checked (the run's kernels from that cache)
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(cache), WHEELROM_MODEL_CACHE="off")
     done = subprocess.run([sys.executable, "-c", SCRIPT, SMALL], capture_output=True,
                           text=True, env=env, timeout=600)  # fmt: skip
     assert done.returncode == 0, done.stderr[-3000:]

@@ -80,16 +80,18 @@ def _spawn(path: str, cache_dir: str) -> dict:
     return out
 
 
-def measure(model, cfg) -> dict:
+def measure(model, cfg, cache_dir: str | None = None) -> dict:
     """Start-up of a fresh process on ``model`` and ``cfg`` (one step), cold (an empty kernel
     cache: it compiles) then warm (the same cache again: it loads), each in its own process:
     ``{"cold": {...}, "warm": {...}}``, the figures of :func:`_first_step` and ``startup_s``
-    [s] (spawn to the end of the first step)."""
+    [s] (spawn to the end of the first step). ``cache_dir``: an empty directory for that
+    cache, kept afterwards (None: a temporary one, removed). The processes inherit this one's
+    environment (``NUMBA_BOUNDSCHECK``, say)."""
     with tempfile.TemporaryDirectory(prefix="wheelrom-startup-") as tmp:
         path = os.path.join(tmp, "case.pickle")
         with open(path, "wb") as f:
             pickle.dump((model, cfg), f)
-        cache = os.path.join(tmp, "kernel-cache")
+        cache = cache_dir or os.path.join(tmp, "kernel-cache")
         return {"cold": _spawn(path, cache), "warm": _spawn(path, cache)}
 
 
