@@ -64,18 +64,22 @@ def lift_off_ring():
     return model, params
 
 
+RING_K = np.full((3, 3), -COUPLING) + np.eye(3) * (W0**2 + 3 * COUPLING)  # [1/s^2]
+RING_PHASE = 2 * math.pi * (1 - 1 / N3) * np.arange(3)  # the nozzle's phase per blade
+
+
 def ring_motion(t, state, omega):
     """The ring's equations of motion written out (scipy's right-hand side): ``state`` =
     (y_0..2, y'_0..2)."""
     y, v = state[:3], state[3:]
-    K = np.full((3, 3), -COUPLING) + np.eye(3) * (W0**2 + 3 * COUPLING)
-    f = NOZZLE * np.cos(omega * t - 2 * math.pi * (1 - 1 / N3) * np.arange(3))
-    for s in range(3):
-        gap = y[(s + 1) % 3] - y[s]
-        normal = max(0.0, PRELOAD - CONTACT * gap)  # pushes blade s + 1 on, blade s back
-        f[(s + 1) % 3] += normal
-        f[s] -= normal
-    return np.r_[v, -K @ y - BETA * (K @ v) + f]
+    f = NOZZLE * np.cos(omega * t - RING_PHASE)
+    y0, y1, y2 = y.tolist()
+    # the contact between blade s and s + 1 pushes blade s + 1 on and blade s back
+    n01 = max(0.0, PRELOAD - CONTACT * (y1 - y0))
+    n12 = max(0.0, PRELOAD - CONTACT * (y2 - y1))
+    n20 = max(0.0, PRELOAD - CONTACT * (y0 - y2))
+    f += (n20 - n01, n01 - n12, n12 - n20)
+    return np.concatenate((v, f - RING_K @ (y + BETA * v)))
 
 
 def steady_amplitude(X, omega, periods=60):
