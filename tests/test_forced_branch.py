@@ -299,15 +299,16 @@ def test_a_curve_whose_start_fails_is_traced_from_the_other_end(monkeypatch):
     assert W_OPEN < f_upper < f_lower < W_CLOSED
 
 
-STEP = 5e-5  # [s] the stepped sweep's time step
+STEP = 5e-5  # [s] the stepped sweep's largest time step
 
 
 def _stepped_sweep(model, params, omegas, periods: int = 100) -> np.ndarray:
     """Blade 0's 0-peak amplitude [m] over the last period at each frequency of ``omegas``
     [rad/s] in turn: the tool's transient (the compiled kernel's forced flow of the whole
-    ring, exponential scheme at 50 us: 160 steps a period; the amplitudes and jumps below are
-    those at 20 us to 4 digits), ``periods`` periods a frequency, each started from the last
-    one's end state with the force's phase continuous (a stepped sine sweep)."""
+    ring, exponential scheme at a whole multiple of 64 steps a period of at most ``STEP``:
+    192 steps of 40-49 us here; the amplitudes and jumps below are those at 448 steps to 4
+    digits), ``periods`` periods a frequency, each started from the last one's end state with
+    the force's phase continuous (a stepped sine sweep)."""
     from conftest import SMALL
     from wheelrom import config
     from wheelrom.analysis.periodic.flow import Nozzle, WheelFlow

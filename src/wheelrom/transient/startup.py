@@ -84,8 +84,8 @@ def measure(model, cfg, cache_dir: str | None = None) -> dict:
     """Start-up of a fresh process on ``model`` and ``cfg`` (one step), cold (an empty kernel
     cache: it compiles) then warm (the same cache again: it loads), each in its own process:
     ``{"cold": {...}, "warm": {...}}``, the figures of :func:`_first_step` and ``startup_s``
-    [s] (spawn to the end of the first step). ``cache_dir``: an empty directory for that
-    cache, kept afterwards (None: a temporary one, removed). The processes inherit this one's
+    [s] (spawn to the end of the first step). ``cache_dir``: a new or empty directory for
+    that cache, kept afterwards (None: a temporary one, removed). The processes inherit this one's
     environment (``NUMBA_BOUNDSCHECK``, say)."""
     with tempfile.TemporaryDirectory(prefix="wheelrom-startup-") as tmp:
         path = os.path.join(tmp, "case.pickle")
