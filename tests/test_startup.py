@@ -14,7 +14,8 @@ PACKAGE = os.path.dirname(os.path.dirname(_kernel_cache.__file__))
 # wheelrom modules a kernel module may import for its Python side only (no compiled code)
 # (and the runtime stage's face, a docstring only, which `from wheelrom.runtime import` loads)
 PYTHON_SIDE = {"wheelrom.runtime.environment", "wheelrom.runtime.kernel_cache",
-               "wheelrom.forces.parameters", "wheelrom.runtime"}
+               "wheelrom.forces.parameters", "wheelrom.runtime",
+               "wheelrom.transient.stuck_shift"}  # numpy: the basis of the context
 
 
 def test_compile_time_is_reported_apart_from_wall_time(small_model, small_cfg):

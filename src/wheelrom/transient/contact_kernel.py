@@ -32,6 +32,8 @@ from wheelrom.transient.layout import (
     I_NORMAL,
     I_PRELOAD,
     I_R,
+    I_SHIFTK,
+    I_SHIFTP,
     I_STATE,
     I_T,
     I_UA,
@@ -270,3 +272,61 @@ def slide_core(u, ctx):
                     w[col] = w_new[col]
                     moved = 1
     return moved
+
+
+@_kernel_cache.njit(fastmath={"contract"}, error_model="numpy")
+def shift_forces(ctx, kind, K, N, B, beta):
+    """``+S w`` of contact ``kind`` back onto its forces of every column (``A0_diag`` holds
+    ``A0 + S``, :mod:`wheelrom.transient.stuck_shift`), ``w = q + beta_D q'`` of the blade's
+    own points (``UA``, ``UB``, ``VA``, ``VB`` as :func:`contacts` left them for this kind):
+    the isotropic spring ``k`` on its arm end ``c = a + (L/l0) Pi (b - a)`` and on its point
+    ``a`` (as the next arm's partner), ``F_A += k (P_A^T c + a)``, ``F_B += k P_B^T c`` [N];
+    ``q'^T S q'`` per column added to ``shift_power`` [1/s^2 (m/s)^2 per unit modal mass]
+    (the damping power's correction; the caller zeroes it)."""
+    NB = N * B
+    W = (N + 1) * B
+    UA = get(ctx, I_UA, 3 * W).reshape((3, W))
+    UB = get(ctx, I_UB, 3 * NB).reshape((3, NB))
+    VA = get(ctx, I_VA, 3 * W).reshape((3, W))
+    VB = get(ctx, I_VB, 3 * NB).reshape((3, NB))
+    FA = get(ctx, I_FA, K * 3 * NB).reshape((K, 3, NB))
+    FB = get(ctx, I_FB, K * 3 * NB).reshape((K, 3, NB))
+    Apt = get(ctx, I_AP, K * 3).reshape((K, 3))
+    Bpt = get(ctx, I_BP, K * 3).reshape((K, 3))
+    arm = get(ctx, I_ARM, K)
+    power = get(ctx, I_SHIFTP, NB)
+    k = get(ctx, I_SHIFTK, K)[kind]
+    if k != 0.0:
+        d0x = Bpt[kind, 0] - Apt[kind, 0]
+        d0y = Bpt[kind, 1] - Apt[kind, 1]
+        d0z = Bpt[kind, 2] - Apt[kind, 2]
+        l0 = math.sqrt(d0x * d0x + d0y * d0y + d0z * d0z)
+        ex, ey, ez = d0x / l0, d0y / l0, d0z / l0
+        s = arm[kind] / l0
+        fa, fb = FA[kind], FB[kind]
+        for col in range(NB):
+            ax = UA[0, col] + beta * VA[0, col]
+            ay = UA[1, col] + beta * VA[1, col]
+            az = UA[2, col] + beta * VA[2, col]
+            dx = UB[0, col] + beta * VB[0, col] - ax
+            dy = UB[1, col] + beta * VB[1, col] - ay
+            dz = UB[2, col] + beta * VB[2, col] - az
+            de = ex * dx + ey * dy + ez * dz
+            cx, cy, cz = ax + s * (dx - ex * de), ay + s * (dy - ey * de), az + s * (dz - ez * de)
+            ce = ex * cx + ey * cy + ez * cz
+            px, py, pz = s * (cx - ex * ce), s * (cy - ey * ce), s * (cz - ez * ce)
+            fa[0, col] += k * (cx - px + ax)
+            fa[1, col] += k * (cy - py + ay)
+            fa[2, col] += k * (cz - pz + az)
+            fb[0, col] += k * px
+            fb[1, col] += k * py
+            fb[2, col] += k * pz
+            # the velocities' arm end, for q'^T S q'
+            avx, avy, avz = VA[0, col], VA[1, col], VA[2, col]
+            dvx, dvy, dvz = VB[0, col] - avx, VB[1, col] - avy, VB[2, col] - avz
+            dve = ex * dvx + ey * dvy + ez * dvz
+            cvx = avx + s * (dvx - ex * dve)
+            cvy = avy + s * (dvy - ey * dve)
+            cvz = avz + s * (dvz - ez * dve)
+            power[col] += k * (cvx * cvx + cvy * cvy + cvz * cvz
+                               + avx * avx + avy * avy + avz * avz)  # fmt: skip

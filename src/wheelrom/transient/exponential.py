@@ -29,6 +29,7 @@ from wheelrom.transient.exponential_kernel import (
     etd4_step,
 )
 from wheelrom.transient.layout import H_BETA, H_EXPONENTIAL, H_NSTATE
+from wheelrom.transient.stuck_shift import shift_matrix
 
 SCHEME = "etdrk4"
 # steps refused: f_j h within this relative distance of a whole number of periods of an
@@ -104,9 +105,11 @@ class ExponentialStepper:
         ts.setTime(t + h)
 
 
-def segment_frequencies(model) -> np.ndarray:
-    """The exactly propagated frequencies [Hz]: those of ``A0`` (ascending)."""
-    return np.sqrt(np.maximum(np.linalg.eigvalsh(model.A0), 0.0)) / (2 * math.pi)
+def segment_frequencies(model, shift: np.ndarray | None = None) -> np.ndarray:
+    """The exactly propagated frequencies [Hz]: those of ``A0`` (plus ``shift``, the stuck
+    springs' share under the elastic law, :mod:`.stuck_shift`), ascending."""
+    A = model.A0 if shift is None else model.A0 + shift
+    return np.sqrt(np.maximum(np.linalg.eigvalsh(A), 0.0)) / (2 * math.pi)
 
 
 def _resonant(freqs: np.ndarray, step: float):
@@ -118,15 +121,16 @@ def _resonant(freqs: np.ndarray, step: float):
     return None
 
 
-def safe_step(model, step: float) -> tuple[float, str | None]:
+def safe_step(model, step: float, shift: np.ndarray | None = None) -> tuple[float, str | None]:
     """The largest step ``<= step`` [s] at which no exactly propagated segment mode completes
     (nearly) a whole number of periods, and why it differs (None when ``step`` is safe).
 
     There (``f_j h`` within 7 % of an integer) the explicit contact coupling of that mode is
     not damped by the scheme: a resonance of exponential integrators (measured on the default
     wheel: 16.1-16.5 us, one period of the contact-stiffened 60 kHz vector, blow up; 15.75 and
-    17.25 us are fine). Lowering the step past the band costs at most 7 %."""
-    freqs = segment_frequencies(model)
+    17.25 us are fine). Lowering the step past the band costs at most 7 %. ``shift``: see
+    :func:`segment_frequencies`."""
+    freqs = segment_frequencies(model, shift)
     h = step
     first = _resonant(freqs, h)
     hit = first
@@ -181,22 +185,25 @@ def _force_jacobian(model, params, q: np.ndarray | None = None) -> tuple[np.ndar
     return jacobians[0], jacobians[1]
 
 
-def _nd_explicit(model, jac_q, jac_v, beta: float, k: int, basis=None, delta: float = 0.0):
-    """``(L, N_k)`` ``(2m, 2m)`` in the kernel's basis (``A0`` diagonal): the exactly
+def _nd_explicit(model, jac_q, jac_v, beta: float, k: int, basis=None, delta: float = 0.0,
+                 shift: np.ndarray | None = None):  # fmt: skip
+    """``(L, N_k)`` ``(2m, 2m)`` in the kernel's basis (``A0 + S`` diagonal, ``S = shift``:
+    the stuck springs' share the kernel propagates, :mod:`.stuck_shift`; None: 0): the exactly
     propagated part and the explicit part's Jacobian on ND ``k`` (``q_s = q_0 e^{i s phi_k}``):
     ``N_k = [[0, 0], [F_q - C, F_v - beta_D C]]``, ``C = A1 e^{i phi_k} + A1^T e^{-i phi_k}
-    + delta K_seg`` (``delta``: a uniform mistuning, which the kernel adds explicitly and
-    which keeps the wheel cyclic). ``basis``: ``eigh(A0)`` when the caller has it (one per
-    step size, not one per ND)."""
+    + delta K_seg - S`` (``delta``: a uniform mistuning, which the kernel adds explicitly and
+    which keeps the wheel cyclic). ``basis``: ``eigh(A0 + S)`` when the caller has it (one
+    per step size, not one per ND)."""
     N, m = model.blades, model.modes
-    a, V = np.linalg.eigh(model.A0) if basis is None else basis
+    S = np.zeros((m, m)) if shift is None else shift
+    a, V = np.linalg.eigh(model.A0 + S) if basis is None else basis
     # circulant: d f_0 / d x_d = d f_{-d} / d x_0, the blade-0 column's row -d
     rows = (-np.arange(N)) % N
     phase = np.exp(2j * math.pi * k * np.arange(N) / N)
     F_q = np.einsum("d,dji->ji", phase, jac_q[rows])
     F_v = np.einsum("d,dji->ji", phase, jac_v[rows])
     ph = np.exp(2j * math.pi * k / N)
-    C = model.A1 * ph + model.A1.T * np.conj(ph) + delta * model.K_seg
+    C = model.A1 * ph + model.A1.T * np.conj(ph) + delta * model.K_seg - S
     Z, I = np.zeros((m, m)), np.eye(m)
     explicit = np.block([[Z, Z], [V.T @ (F_q - C) @ V, V.T @ (F_v - beta * C) @ V]])
     linear = np.block([[Z, I], [-np.diag(a), -beta * np.diag(a)]])
@@ -225,16 +232,17 @@ def step_matrix(coef: np.ndarray, explicit: np.ndarray, h: float) -> np.ndarray:
                             + P(C_F3) @ explicit @ C)  # fmt: skip
 
 
-def step_growth(model, jacobian, beta: float, h: float,
-                delta: float = 0.0) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+def step_growth(model, jacobian, beta: float, h: float, delta: float = 0.0,
+                shift: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
     """``(scheme, wheel)`` ``(N // 2 + 1,)`` [1/s] per ND: the largest growth rate of the
     scheme's step ``ln rho(R_k) / h`` and of the linearisation ``max Re eig(L + N_k)``
-    (``delta``: every blade mistuned by it, :func:`_nd_explicit`)."""
-    basis = np.linalg.eigh(model.A0)
+    (``delta``: every blade mistuned by it; ``shift``: the propagated springs,
+    :func:`_nd_explicit`)."""
+    basis = np.linalg.eigh(model.A0 if shift is None else model.A0 + shift)
     coef = coefficients(basis[0], beta, h)
     scheme, wheel = [], []
     for k in range(model.blades // 2 + 1):
-        linear, explicit = _nd_explicit(model, *jacobian, beta, k, basis, delta)
+        linear, explicit = _nd_explicit(model, *jacobian, beta, k, basis, delta, shift)
         rho = np.abs(np.linalg.eigvals(step_matrix(coef, explicit, h))).max()
         scheme.append(math.log(max(rho, 1e-300)) / h)
         wheel.append(np.linalg.eigvals(linear + explicit).real.max())
@@ -244,20 +252,21 @@ def step_growth(model, jacobian, beta: float, h: float,
 _GROWTH_CACHE: dict = {}
 
 
-def _cached_growth(model, jacobian, beta: float, h: float, delta: float = 0.0):
+def _cached_growth(model, jacobian, beta: float, h: float, delta: float = 0.0, shift=None):
     """:func:`step_growth`, kept per model, Jacobian, ``beta``, step and ``delta``: every
     window of a ``settle`` and every batch of a flow asks again (0.2 s a step on the default
     wheel)."""
     import hashlib
 
     digest = hashlib.sha1()
-    for array in (model.A0, model.A1, model.K_seg, *jacobian, np.array([beta, h, delta])):
+    S = np.zeros(0) if shift is None else shift
+    for array in (model.A0, model.A1, model.K_seg, *jacobian, np.array([beta, h, delta]), S):
         digest.update(np.ascontiguousarray(array, dtype=float).tobytes())
     key = digest.hexdigest()
     if key not in _GROWTH_CACHE:
         if len(_GROWTH_CACHE) > 256:
             _GROWTH_CACHE.clear()
-        _GROWTH_CACHE[key] = step_growth(model, jacobian, beta, h, delta)
+        _GROWTH_CACHE[key] = step_growth(model, jacobian, beta, h, delta, shift)
     return _GROWTH_CACHE[key]
 
 
@@ -274,14 +283,23 @@ def stable_step(model, params, beta: float, step: float) -> tuple[float, str | N
     /s, at 10 us +1700 /s, where the linearisation decays; the paper law is stable to 20
     us). Blade 0's column of the tuned wheel; a mistuned wheel's explicit ``delta_s K_seg``
     is checked as the two uniformly mistuned wheels of its extreme ``delta_s`` (each cyclic:
-    the largest explicit stiffness the kernel meets, on every blade at once)."""
-    h, why = safe_step(model, step)
-    jacobian = _force_jacobian(model, params)
+    the largest explicit stiffness the kernel meets, on every blade at once). Under the
+    elastic law the kernel propagates a share ``S`` of the stuck springs exactly
+    (:mod:`.stuck_shift`: stable to 8 us there); an open contact then leaves ``+S``
+    explicit, so the wheel with every contact open (the Van der Pol force alone) is checked
+    as well."""
+    shift = shift_matrix(params)
+    shift = shift if np.any(shift) else None
+    h, why = safe_step(model, step, shift)
+    jacobians = [_force_jacobian(model, params)]
+    if shift is not None:  # every contact open: no contact stiffness, the Van der Pol force
+        jacobians.append((np.zeros_like(jacobians[0][0]), jacobians[0][1]))
     deltas = [0.0] if model.tuned else sorted({float(np.min(model.mistuning)),
                                                float(np.max(model.mistuning))})  # fmt: skip
     first = None
     for _ in range(60):
-        excess, k, scheme, wheel = _worst(model, jacobian, beta, h, deltas)
+        excess, k, scheme, wheel = max(_worst(model, jacobian, beta, h, deltas, shift)
+                                       for jacobian in jacobians)  # fmt: skip
         if excess <= SPURIOUS_GROWTH:
             if first is None:
                 return h, why
@@ -293,17 +311,17 @@ def stable_step(model, params, beta: float, step: float) -> tuple[float, str | N
                        f"{grows:.3g} /s (the wheel: {exact:.3g} /s), {law} explicit: "
                        f"lowered to {h:.4g} s")
         first = first or (k, h, scheme, wheel)
-        h, _ = safe_step(model, STEP_FACTOR * h)
+        h, _ = safe_step(model, STEP_FACTOR * h, shift)
     raise InputError(f"time.step {step:g} s: the exponential scheme found no stable step above "
                      f"{h:.3g} s for this model's explicit contact coupling")
 
 
-def _worst(model, jacobian, beta: float, h: float, deltas: list[float]):
+def _worst(model, jacobian, beta: float, h: float, deltas: list[float], shift=None):
     """``(excess, ND, scheme's rate, wheel's rate)`` [1/s] of the ND whose step grows most
     beyond the wheel's own rate at step ``h`` over the uniform mistunings ``deltas``."""
     worst = (-math.inf, 0, 0.0, 0.0)
     for delta in deltas:
-        scheme, wheel = _cached_growth(model, jacobian, beta, h, delta)
+        scheme, wheel = _cached_growth(model, jacobian, beta, h, delta, shift)
         # a growing wheel's own rate is reproduced to the scheme's accuracy, not exactly
         excess = scheme - np.maximum(wheel, 0.0) * (1 + RELATIVE_GROWTH)
         k = int(np.argmax(excess))

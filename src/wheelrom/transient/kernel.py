@@ -16,7 +16,7 @@ import math
 import numba
 
 from wheelrom.runtime import kernel_cache as _kernel_cache
-from wheelrom.transient.contact_kernel import contacts, slider_rows
+from wheelrom.transient.contact_kernel import contacts, shift_forces, slider_rows
 from wheelrom.transient.layout import (
     H_ACTIVE,
     H_B,
@@ -36,6 +36,7 @@ from wheelrom.transient.layout import (
     H_OVERFLOW,
     H_R,
     H_SAMPLE_DT,
+    H_SHIFT,
     H_SKIP_LINEAR,
     H_STATE_CAP,
     H_STATE_EVERY,
@@ -62,6 +63,7 @@ from wheelrom.transient.layout import (
     I_PAIR,
     I_PEXC,
     I_POWER,
+    I_SHIFTP,
     I_SIN,
     I_SMIN,
     I_SOPEN,
@@ -232,8 +234,15 @@ def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
     for c in range(NB):
         column[c] = 0.0
     sliders = slider_rows(u, ctx, n, K, NB, B)
+    linear = ctx[H_SKIP_LINEAR] == 0.0
+    shifted = linear and ctx[H_SHIFT] != 0.0
+    shift_power = get(ctx, I_SHIFTP, NB)
+    for c in range(NB):
+        shift_power[c] = 0.0
     for kind in range(K):
         contacts(ctx, kind, N, m, K, B, Q, V, column, sliders)
+        if shifted:  # A0_diag is A0 + S: S w back with the forces (transient.stuck_shift)
+            shift_forces(ctx, kind, K, N, B, beta)
     _case_sums(column, power[2], N, B)
     # K_R w row by row (row s = A0 w_s + A1 w_{s+1} + A1^T w_{s-1}; A0 diagonal in the
     # kernel's basis), written straight into f with the forces: the contact forces are
@@ -244,7 +253,6 @@ def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
     # L1). Modes j in pairs: one pass over the columns serves two modes (fewer loads and
     # stores per multiply-add). A mistuned wheel adds delta_s K_seg w_s to row s (and
     # delta_s K_seg v_s to the power row): K_seg is dense in the kernel's basis.
-    linear = ctx[H_SKIP_LINEAR] == 0.0
     exponential = ctx[H_EXPONENTIAL] != 0.0
     B2 = 2 * B
     kw = get(ctx, I_KW, NB)
@@ -323,6 +331,9 @@ def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
             fq[c] = vi[c]
             fv[c] = pe * nozzle[c] + pa * g[c] - (a0_force * wi[c] + kw[c])
             column[c] += vi[c] * (a0 * vi[c] + dv[c])
+    if shifted:  # a0 held q'^T S q' too
+        for c in range(NB):
+            column[c] -= shift_power[c]
     _case_sums(column, power[3], N, B)
     for b in range(B):
         f[2 * n + b] = power[0, b]

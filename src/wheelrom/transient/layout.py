@@ -28,6 +28,7 @@ import numpy as np
 from wheelrom.forces.contact_law import LAW_SIZE
 from wheelrom.forces.parameters import ForceParameters
 from wheelrom.runtime.environment import petsc
+from wheelrom.transient.stuck_shift import shift_matrix, shift_stiffness
 
 H_LEN, H_N, H_M, H_K, H_VDP, H_NS, H_OMEGA, H_FB, H_MU, H_R, H_BETA = range(11)
 H_SLIDERS = 11  # slider coordinates per case: 2 K N under the elastic law, else 0
@@ -40,11 +41,12 @@ H_ACTIVE = 25  # cases still running (a diverged case is frozen)
 H_STATE_EVERY = 26  # record the modal state at every k-th sample (0: never)
 H_STATE_CAP = 27  # state samples one window can hold per case
 H_MISTUNED = 28  # 1: blade s's diagonal block is A0 + delta_s K_seg (a mistuned wheel)
-H_OFFSETS = 29  # offsets of the arrays below start here
+H_SHIFT = 29  # 1: A0_diag holds A0 + S, the force adds S w back (transient.stuck_shift)
+H_OFFSETS = 30  # offsets of the arrays below start here
 
 # arrays in the context, in order; shapes from (N, m, K, B, capacity)
 _ARRAYS = (
-    ("A0_diag", lambda N, m, K, B, c, c2: (m,)),  # the eigenvalues of A0 [1/s^2]
+    ("A0_diag", lambda N, m, K, B, c, c2: (m,)),  # the eigenvalues of A0 (+ S) [1/s^2]
     ("A1", lambda N, m, K, B, c, c2: (m, m)),
     ("A1T", lambda N, m, K, B, c, c2: (m, m)),
     ("p_exc", lambda N, m, K, B, c, c2: (m,)),
@@ -113,6 +115,10 @@ _ARRAYS = (
     # zeros: the sliders the contact loop reads under the paper law (which has none), apart
     # from the returned ones it writes (the loop promises LLVM its arrays do not overlap)
     ("slider_none", lambda N, m, K, B, c, c2: (K, 2, N * B)),
+    # the isotropic spring per kind [N/m] moved into the exact propagator (H_SHIFT;
+    # transient.stuck_shift) and its share of the damping power q'^T S q' per column
+    ("shift_k", lambda N, m, K, B, c, c2: (K,)),
+    ("shift_power", lambda N, m, K, B, c, c2: (N * B,)),
 )
 _INDEX = {name: i for i, (name, _) in enumerate(_ARRAYS)}
 (
@@ -120,7 +126,7 @@ _INDEX = {name: i for i, (name, _) in enumerate(_ARRAYS)}
     I_KC, I_PRELOAD, I_TIP, I_ACTIVE, I_STOP, I_STOPT, I_COUNT, I_VT, I_WT, I_KW, I_DV, I_NOZ,
     I_Y, I_YD, I_PAIR, I_G, I_COL, I_UA, I_UB, I_VA, I_VB, I_FA, I_FB, I_FN, I_NORMAL, I_STATE,
     I_POWER, I_STIME, I_STIP, I_SMIN, I_SOPEN, I_STOTAL, I_XCOUNT, I_XTIME, I_XSTATE, I_KSEG,
-    I_DELTA, I_AEROA, I_AEROB, I_LAW, I_KT, I_WNEXT, I_SSLIP, I_WNONE,
+    I_DELTA, I_AEROA, I_AEROB, I_LAW, I_KT, I_WNEXT, I_SSLIP, I_WNONE, I_SHIFTK, I_SHIFTP,
 ) = range(len(_ARRAYS))  # fmt: skip
 
 STOP_NONFINITE, STOP_AMPLITUDE = 1, 2
@@ -174,10 +180,15 @@ class Context:
         self.array[H_STATE_EVERY] = state_every if state_capacity else 0
         self.array[H_STATE_CAP] = state_capacity
         # the kernel's modal basis: the segment modes rotated to diagonalise A0 (see
-        # :func:`diagonal_basis`); every modal vector and the state are rotated with it
-        self.basis, A0_diag = diagonal_basis(model.A0)
+        # :func:`diagonal_basis`), under the elastic law A0 + S (the stuck springs' share
+        # that the exponential scheme propagates exactly, :mod:`.stuck_shift`); every modal
+        # vector and the state are rotated with it
+        shift = shift_stiffness(first)
+        self.array[H_SHIFT] = 1.0 if np.any(shift) else 0.0
+        self.basis, A0_diag = diagonal_basis(model.A0 + shift_matrix(first, shift))
         for name, value in self._values(cases, model, A0_diag).items():
             self.view(name)[...] = value
+        self.view("shift_k")[...] = shift
 
     def _fill_header(self, first: ForceParameters, model, beta, sample_dt, limit,
                      length) -> None:  # fmt: skip
@@ -322,11 +333,16 @@ def state_size(params: ForceParameters) -> int:
 
 
 def check_batchable(cases: list[ForceParameters]) -> None:
-    """Cases of a batch share everything but the contact frames and stiffnesses."""
+    """Cases of a batch share everything but the contact frames and stiffnesses, and the
+    springs the exponential scheme propagates (:mod:`.stuck_shift`: one basis a batch)."""
     first = cases[0].shared()
+    shift = shift_stiffness(cases[0])
     for f in cases[1:]:
         if not all(np.array_equal(a, b) for a, b in zip(f.shared(), first, strict=True)):
             raise ValueError("cases of one batch may differ only in contact angles and stiffnesses")
+        if not np.array_equal(shift_stiffness(f), shift):
+            raise ValueError("cases of one batch must share their smallest k_t per contact kind "
+                             "(the springs the exponential scheme propagates exactly)")
 
 
 @numba.njit(inline="always")

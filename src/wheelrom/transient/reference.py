@@ -4,7 +4,8 @@ model and a dense ``K_R`` (no PETSc, no compiled kernel), one per ``time.scheme`
 - ``"rk"``: an explicit Runge-Kutta step driven by a Butcher tableau like SciPy's ``RK23``
   (``A``, ``B``, ``C`` arrays, one generic step; Bogacki-Shampine = PETSc's ``3bs``);
 - ``"exponential"``: ETDRK4 (Cox & Matthews 2002) with every blade's segment block
-  ``L = [[0, I], [-A0, -beta_D A0]]`` propagated exactly, written a second time here with
+  ``L = [[0, I], [-A0, -beta_D A0]]`` propagated exactly (under the elastic law ``A0 + S``,
+  the stuck springs' share, :mod:`wheelrom.transient.stuck_shift`), written a second time with
   numpy/scipy only, in the model's own basis: the exponential and the phi functions of the
   whole ``2 m x 2 m`` block from one ``scipy.linalg.expm`` of an augmented matrix (no
   eigen-decomposition of ``A0``, unlike the compiled step); everything else of ``K_R``
@@ -27,6 +28,7 @@ from wheelrom.rom.model import ReducedModel
 from wheelrom.runtime.environment import petsc
 from wheelrom.transient.preload import initial_state
 from wheelrom.transient.problem import WheelProblem
+from wheelrom.transient.stuck_shift import shift_matrix
 
 SCHEMES = ("rk", "exponential")
 
@@ -143,12 +145,15 @@ def etdrk4_step(explicit, t: float, u: np.ndarray, h: float, prop: SegmentPropag
     return state(X, w)
 
 
-def explicit_part(problem: WheelProblem):
+def explicit_part(problem: WheelProblem, propagated: np.ndarray | None = None):
     """``explicit(t, u)`` of :func:`etdrk4_step` for one case of ``problem`` (numpy only):
-    ``q''`` rows ``f(q, q', t) - (K_R - I (x) A0)(q + beta_D q')``, ``W`` rows the powers of
-    :meth:`WheelProblem.rhs_numpy` (the damping power with the whole ``K_R``)."""
+    ``q''`` rows ``f(q, q', t) - (K_R - I (x) A)(q + beta_D q')``, ``W`` rows the powers of
+    :meth:`WheelProblem.rhs_numpy` (the damping power with the whole ``K_R``). ``A``: the
+    propagated segment block ``propagated`` (default ``A0``; under the elastic law ``A0 +
+    S``, :mod:`wheelrom.transient.stuck_shift`)."""
     model, n = problem.model, problem.n
-    K_off = problem.Kd - np.kron(np.eye(model.blades), model.A0)
+    A = model.A0 if propagated is None else propagated
+    K_off = problem.Kd - np.kron(np.eye(model.blades), A)
     forces, beta, Kd = problem.forces[0], problem.beta, problem.Kd
 
     def explicit(t: float, u: np.ndarray) -> np.ndarray:
@@ -188,8 +193,10 @@ def reference_solution(model: ReducedModel, cfg: Config, steps: int, step: float
     else:
         u = problem.start_state(u0)
     if scheme == "exponential":
-        prop = segment_propagators(model.A0, problem.beta, step)
-        explicit = explicit_part(problem)
+        # the block the compiled scheme propagates: A0 and the stuck springs' share
+        propagated = model.A0 + shift_matrix(params)
+        prop = segment_propagators(propagated, problem.beta, step)
+        explicit = explicit_part(problem, propagated)
 
         def advance(t, x):
             return etdrk4_step(explicit, t, x, step, prop, model.blades)

@@ -166,17 +166,21 @@ def _step_groups(model: ReducedModel, cfg: Config, angles: list[dict | None],
                  options: dict | None, prefix: str) -> list[list[int]]:
     """The cases grouped by the step the exponential scheme takes for each alone
     (:func:`~wheelrom.transient.exponential.stable_step` depends on the contact angles under
-    the elastic law): a batch takes one step, and a case's result must not depend on the
-    cases it shares a batch with. One group under the RK scheme."""
-    if cfg.time.scheme != "exponential":
-        return [list(range(len(angles)))]
+    the elastic law) and by the springs the kernel propagates (:mod:`.stuck_shift`: one basis
+    a batch): a batch takes one step, and a case's result must not depend on the cases it
+    shares a batch with."""
+    from wheelrom.forces.parameters import force_parameters
     from wheelrom.transient.exponential import taken_step
+    from wheelrom.transient.stuck_shift import shift_stiffness
     from wheelrom.transient.ts import time_step
 
-    step = time_step(cfg, prefix, options)
-    groups: dict[float, list[int]] = {}
+    exponential = cfg.time.scheme == "exponential"
+    step = time_step(cfg, prefix, options) if exponential else None
+    groups: dict[tuple, list[int]] = {}
     for i, a in enumerate(angles):
-        groups.setdefault(taken_step(model, cfg, step, a), []).append(i)
+        shift = tuple(shift_stiffness(force_parameters(model, cfg, a)))
+        key = (taken_step(model, cfg, step, a) if exponential else None, shift)
+        groups.setdefault(key, []).append(i)
     return list(groups.values())
 
 

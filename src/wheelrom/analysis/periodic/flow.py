@@ -34,6 +34,7 @@ from wheelrom.transient import exponential
 from wheelrom.transient.layout import H_NEXT_SAMPLE
 from wheelrom.transient.problem import WheelProblem
 from wheelrom.transient.run import load_kernels
+from wheelrom.transient.stuck_shift import shift_matrix
 from wheelrom.transient.ts import PREFIX, make_ts
 
 #: most states integrated in one TS (memory: ~ 60 doubles per modal coordinate and state)
@@ -186,7 +187,8 @@ class WheelFlow:
         n = max(1, math.ceil(duration / self.max_step * (1 - 1e-12)))
         if self.cfg.time.scheme == "exponential" and \
                 self.used.get("ts_type", "python") == "python":  # fmt: skip
-            while exponential.safe_step(self.model, duration / n)[1] is not None:
+            shift = shift_matrix(self.params)
+            while exponential.safe_step(self.model, duration / n, shift)[1] is not None:
                 n += 1
         return n, duration / n
 
