@@ -178,7 +178,7 @@ def test_the_step_matrix_is_the_compiled_step(attachment):
     N, m, h = model.blades, model.modes, 1e-5
     q = analyse(model, cfg, {"shroud": 80.0}).equilibrium
     sliders = ReferenceForces(flow.params).sliders_at_rest(q).ravel()
-    shift = shift_matrix(flow.params)  # the stuck springs' share the kernel propagates
+    shift = shift_matrix(model, flow.params)  # the stuck springs' share the kernel propagates
     assert np.abs(shift).max() > 0.01 * np.abs(model.A0).max()
     a, V = np.linalg.eigh(model.A0 + shift)
     jacobian = _force_jacobian(model, flow.params, q)
@@ -227,7 +227,7 @@ def test_a_step_the_stuck_contacts_make_unstable_is_lowered(attachment):
 
     model, cfg, flow = _elastic_flow(attachment, 80.0)
     beta, h = cfg.wheel.damping_beta, 1.5e-5
-    shift = shift_matrix(flow.params)
+    shift = shift_matrix(model, flow.params)
     lowered, why = stable_step(model, flow.params, beta, h)
     assert 1e-5 < lowered < h and "grows ND 0" in why and "stuck springs" in why
     scheme, wheel = step_growth(model, _force_jacobian(model, flow.params), beta, h,

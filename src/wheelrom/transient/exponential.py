@@ -288,7 +288,7 @@ def stable_step(model, params, beta: float, step: float) -> tuple[float, str | N
     (:mod:`.stuck_shift`: stable to 8 us there); an open contact then leaves ``+S``
     explicit, so the wheel with every contact open (the Van der Pol force alone) is checked
     as well."""
-    shift = shift_matrix(params)
+    shift = shift_matrix(model, params)
     shift = shift if np.any(shift) else None
     h, why = safe_step(model, step, shift)
     jacobians = [_force_jacobian(model, params)]

@@ -28,7 +28,7 @@ import numpy as np
 from wheelrom.forces.contact_law import LAW_SIZE
 from wheelrom.forces.parameters import ForceParameters
 from wheelrom.runtime.environment import petsc
-from wheelrom.transient.stuck_shift import shift_matrix, shift_stiffness
+from wheelrom.transient.stuck_shift import shift_stiffness, spring_matrix
 
 H_LEN, H_N, H_M, H_K, H_VDP, H_NS, H_OMEGA, H_FB, H_MU, H_R, H_BETA = range(11)
 H_SLIDERS = 11  # slider coordinates per case: 2 K N under the elastic law, else 0
@@ -165,7 +165,7 @@ class Context:
                  state_capacity: int = 0):  # fmt: skip
         first = cases[0]
         N, m, K, B = first.blades, first.modes, len(first.contacts.kinds), len(cases)
-        check_batchable(cases)
+        check_batchable(cases, model)
         self.N, self.m, self.K, self.B, self.capacity = N, m, K, B, capacity
         state_capacity = state_capacity if state_every > 0 else 0
         self.shapes = [fn(N, m, K, B, capacity, state_capacity) for _, fn in _ARRAYS]
@@ -183,9 +183,9 @@ class Context:
         # :func:`diagonal_basis`), under the elastic law A0 + S (the stuck springs' share
         # that the exponential scheme propagates exactly, :mod:`.stuck_shift`); every modal
         # vector and the state are rotated with it
-        shift = shift_stiffness(first)
+        shift = shift_stiffness(model, first)
         self.array[H_SHIFT] = 1.0 if np.any(shift) else 0.0
-        self.basis, A0_diag = diagonal_basis(model.A0 + shift_matrix(first, shift))
+        self.basis, A0_diag = diagonal_basis(model.A0 + spring_matrix(first, shift))
         for name, value in self._values(cases, model, A0_diag).items():
             self.view(name)[...] = value
         self.view("shift_k")[...] = shift
@@ -332,15 +332,15 @@ def state_size(params: ForceParameters) -> int:
     return 2 * params.blades * params.modes + 4 + params.sliders
 
 
-def check_batchable(cases: list[ForceParameters]) -> None:
+def check_batchable(cases: list[ForceParameters], model) -> None:
     """Cases of a batch share everything but the contact frames and stiffnesses, and the
     springs the exponential scheme propagates (:mod:`.stuck_shift`: one basis a batch)."""
     first = cases[0].shared()
-    shift = shift_stiffness(cases[0])
+    shift = shift_stiffness(model, cases[0])
     for f in cases[1:]:
         if not all(np.array_equal(a, b) for a, b in zip(f.shared(), first, strict=True)):
             raise ValueError("cases of one batch may differ only in contact angles and stiffnesses")
-        if not np.array_equal(shift_stiffness(f), shift):
+        if not np.array_equal(shift_stiffness(model, f), shift):
             raise ValueError("cases of one batch must share their smallest k_t per contact kind "
                              "(the springs the exponential scheme propagates exactly)")
 

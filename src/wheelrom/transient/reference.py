@@ -194,7 +194,7 @@ def reference_solution(model: ReducedModel, cfg: Config, steps: int, step: float
         u = problem.start_state(u0)
     if scheme == "exponential":
         # the block the compiled scheme propagates: A0 and the stuck springs' share
-        propagated = model.A0 + shift_matrix(params)
+        propagated = model.A0 + shift_matrix(model, params)
         prop = segment_propagators(propagated, problem.beta, step)
         explicit = explicit_part(problem, propagated)
 

@@ -178,7 +178,7 @@ def _step_groups(model: ReducedModel, cfg: Config, angles: list[dict | None],
     step = time_step(cfg, prefix, options) if exponential else None
     groups: dict[tuple, list[int]] = {}
     for i, a in enumerate(angles):
-        shift = tuple(shift_stiffness(force_parameters(model, cfg, a)))
+        shift = tuple(shift_stiffness(model, force_parameters(model, cfg, a)))
         key = (taken_step(model, cfg, step, a) if exponential else None, shift)
         groups.setdefault(key, []).append(i)
     return list(groups.values())

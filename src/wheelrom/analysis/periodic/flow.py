@@ -187,7 +187,7 @@ class WheelFlow:
         n = max(1, math.ceil(duration / self.max_step * (1 - 1e-12)))
         if self.cfg.time.scheme == "exponential" and \
                 self.used.get("ts_type", "python") == "python":  # fmt: skip
-            shift = shift_matrix(self.params)
+            shift = shift_matrix(self.model, self.params)
             while exponential.safe_step(self.model, duration / n, shift)[1] is not None:
                 n += 1
         return n, duration / n
