@@ -298,19 +298,23 @@ def stable_step(model, params, beta: float, step: float) -> tuple[float, str | N
                                                float(np.max(model.mistuning))})  # fmt: skip
     first = None
     for _ in range(60):
-        excess, k, scheme, wheel = max(_worst(model, jacobian, beta, h, deltas, shift)
-                                       for jacobian in jacobians)  # fmt: skip
+        # the state that limits: 0 closed and stuck, 1 every contact open
+        excess, k, scheme, wheel, state = max((*_worst(model, jacobian, beta, h, deltas, shift), i)
+                                              for i, jacobian in enumerate(jacobians))  # fmt: skip
         if excess <= SPURIOUS_GROWTH:
             if first is None:
                 return h, why
-            law = "the elastic law's stuck springs" if params.law.elastic else "the contacts"
+            k, at, grows, exact, state = first
+            law = "the contacts"
+            if params.law.elastic:
+                law = ("the elastic law's stuck springs" if state == 0 else
+                       "the propagated springs' share with every contact open")  # fmt: skip
             if not model.tuned:
                 law += " and the mistuning's delta_s K_seg"
-            k, at, grows, exact = first
             return h, (f"time.step {step:g} s: at {at:.3g} s the scheme grows ND {k} at "
                        f"{grows:.3g} /s (the wheel: {exact:.3g} /s), {law} explicit: "
                        f"lowered to {h:.4g} s")
-        first = first or (k, h, scheme, wheel)
+        first = first or (k, h, scheme, wheel, state)
         h, _ = safe_step(model, STEP_FACTOR * h, shift)
     raise InputError(f"time.step {step:g} s: the exponential scheme found no stable step above "
                      f"{h:.3g} s for this model's explicit contact coupling")
