@@ -326,6 +326,26 @@ def test_noop_integrator_steps_and_leaves_the_state_alone(small_model, small_cfg
     ts.destroy()
 
 
+def test_bench_batches_only_the_angles_that_share_the_propagated_springs(small_model, small_cfg):
+    """Under the elastic law with an angle-dependent ``k_c`` (a table) each angle's stuck
+    springs differ, and so does the share the exponential scheme propagates
+    (:mod:`wheelrom.transient.stuck_shift`): ``bench``'s batch figure times the angles that
+    can share one context (the first and those like it) instead of failing."""
+    from wheelrom.bench.transient import _batch_figures
+    from wheelrom.forces.parameters import force_parameters
+    from wheelrom.transient.stuck_shift import shift_stiffness
+
+    cfg = small_cfg.replace(**{"contacts.law": "elastic", "time.scheme": "exponential",
+                               "contacts.shroud.stiffness": [[0.0, 5e7], [90.0, 1e8]],
+                               "sweep.shroud_angles_deg": [0.0, 90.0]})  # fmt: skip
+    shifts = [shift_stiffness(small_model, force_parameters(small_model, cfg, {"shroud": a}))
+              for a in (0.0, 90.0)]  # fmt: skip
+    assert not np.array_equal(*shifts)  # the two angles cannot share a context
+    h = 1e-6
+    figures, problem = _batch_figures(small_model, cfg, 200, h, 3, 0.1 / h, lambda _: None)
+    assert problem.B == 3 and figures["us_per_rhs_in_batch"] > 0
+
+
 def test_batch_gives_each_case_bitwise_its_single_result(small_model, small_cfg):
     """Cases integrated together in one TS (SIMD across cases) equal their runs alone,
     bit for bit, including a case that diverges (frozen, reported, the others go on)."""

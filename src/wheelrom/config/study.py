@@ -330,7 +330,9 @@ def model_data(data: dict) -> dict:
 
 def batch_key(cfg: Config) -> str:
     """Cases with the same key may be integrated in one TS: everything but the contact
-    angles agrees (:func:`wheelrom.transient.layout.check_batchable`)."""
+    angles agrees (:func:`wheelrom.transient.layout.check_batchable`; the transient splits
+    them further where their steps or, under the elastic law with an angle-dependent
+    ``k_c``, their propagated springs differ: ``wheelrom.transient.run._step_groups``)."""
     data = to_dict(cfg)
     for kind in CONTACT_KINDS:
         _drop(data, f"contacts.{kind}.angle_deg")
