@@ -425,7 +425,7 @@ def run(model: ReducedModel, cfg: Config, steps: int = 20000, compare_steps: int
 
     h = time_step(cfg)  # the TS's step (-wheel_ts_dt overrides time.step)
     if cfg.time.scheme == "exponential":  # as the TS moves it: off the resonances, and
-        # within the explicit contact coupling's stability (the elastic law's 5.9 us)
+        # within the explicit contact coupling's stability (the elastic law's 8.1 us)
         h = taken_step(model, cfg, h)
     problem = _problem(model, cfg, [None])
     start = group(next(groups), _startup_figures, model, cfg, say)

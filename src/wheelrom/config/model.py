@@ -134,7 +134,7 @@ class TimeConfig:
         metadata=_key("s", "fixed step: the exponential scheme's is set by the explicit contact "
                       "coupling (10 us gives RK 3bs's growth rates on the default wheel, 12.5 us "
                       "no longer; lowered off a resonance of a stiff segment mode, and to the "
-                      "scheme's stability for the stuck contacts: the elastic law's 5.9 us); "
+                      "scheme's stability for the stuck contacts: the elastic law's 8.1 us); "
                       "RK 3bs is "
                       "stable up to 2 pi f_max step = 1.73 (the default attachment basis reaches "
                       "69 kHz: 3e-6)", gt=0.0),
