@@ -237,8 +237,9 @@ def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
     linear = ctx[H_SKIP_LINEAR] == 0.0
     shifted = linear and ctx[H_SHIFT] != 0.0
     shift_power = get(ctx, I_SHIFTP, NB)
-    for c in range(NB):
-        shift_power[c] = 0.0
+    if shifted:  # shift_forces adds q'^T S q' into it column by column
+        for c in range(NB):
+            shift_power[c] = 0.0
     for kind in range(K):
         contacts(ctx, kind, N, m, K, B, Q, V, column, sliders)
         if shifted:  # A0_diag is A0 + S: S w back with the forces (transient.stuck_shift)

@@ -170,7 +170,7 @@ def _step_groups(model: ReducedModel, cfg: Config, angles: list[dict | None],
     a batch): a batch takes one step, and a case's result must not depend on the cases it
     shares a batch with."""
     from wheelrom.forces.parameters import force_parameters
-    from wheelrom.transient.exponential import taken_step
+    from wheelrom.transient.exponential import stable_step
     from wheelrom.transient.stuck_shift import shift_stiffness
     from wheelrom.transient.ts import time_step
 
@@ -178,9 +178,9 @@ def _step_groups(model: ReducedModel, cfg: Config, angles: list[dict | None],
     step = time_step(cfg, prefix, options) if exponential else None
     groups: dict[tuple, list[int]] = {}
     for i, a in enumerate(angles):
-        shift = tuple(shift_stiffness(model, force_parameters(model, cfg, a)))
-        key = (taken_step(model, cfg, step, a) if exponential else None, shift)
-        groups.setdefault(key, []).append(i)
+        params = force_parameters(model, cfg, a)
+        taken = stable_step(model, params, cfg.wheel.damping_beta, step)[0] if exponential else None
+        groups.setdefault((taken, tuple(shift_stiffness(model, params))), []).append(i)
     return list(groups.values())
 
 
