@@ -231,15 +231,13 @@ def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
             column[c] = 0.0
     _case_sums(column, power[1], N, B)
     # contacts: the arm of blade s (A_s, B_s, end C_s) against A_{s+1}
+    shift_power = get(ctx, I_SHIFTP, NB)  # shift_forces adds q'^T S q' into it
     for c in range(NB):
         column[c] = 0.0
+        shift_power[c] = 0.0
     sliders = slider_rows(u, ctx, n, K, NB, B)
     linear = ctx[H_SKIP_LINEAR] == 0.0
     shifted = linear and ctx[H_SHIFT] != 0.0
-    shift_power = get(ctx, I_SHIFTP, NB)
-    if shifted:  # shift_forces adds q'^T S q' into it column by column
-        for c in range(NB):
-            shift_power[c] = 0.0
     for kind in range(K):
         contacts(ctx, kind, N, m, K, B, Q, V, column, sliders)
         if shifted:  # A0_diag is A0 + S: S w back with the forces (transient.stuck_shift)
