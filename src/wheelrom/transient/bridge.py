@@ -24,6 +24,7 @@ from wheelrom.runtime.environment import petsc
 from wheelrom.transient.contact_kernel import slide_core
 from wheelrom.transient.kernel import rhs_core, sample_core
 from wheelrom.transient.layout import (
+    H_EXPONENTIAL,
     H_LEN,
     H_NSTATE,
     H_OFFSETS,
@@ -129,13 +130,23 @@ def _rhs_callback(ts, t, U, F, ctx_addr):
 
 
 def _monitor_callback(ts, step, t, U, ctx_addr):
-    """``TSMonitor`` (C), after every step: the elastic law's sliders returned onto the
-    Coulomb limit (:func:`slide_core`; when one moved, the TS restarts its next step: an
-    FSAL scheme's last stage saw the old ones), then the output samples through
-    :func:`sample_core`; stops the TS (user reason) when no case is left running."""
+    """``TSMonitor`` (C), after every step: the output samples through :func:`sample_core`
+    (a contact counts as slipping when it slipped in the step that ended: sampled before
+    its slider's return, after which the trial force sits on the Coulomb limit to rounding),
+    then the elastic law's sliders returned onto the Coulomb limit (:func:`slide_core`; when
+    one moved, the TS restarts its next step: an FSAL scheme's last stage saw the old ones;
+    the exponential step returns them in its own first stage); stops the TS (user reason)
+    when no case is left running."""
     ctx, slots = _context_at(ctx_addr)
     slot_u = ctx_addr + 8 * H_SLOT_U
-    if ctx[H_SLIDERS] > 0.0:
+    err = _vec_get_array_read(U, slot_u)
+    if err:
+        return err
+    stop = sample_core(t, _state_at(slots[H_SLOT_U], ctx), ctx)
+    err = _vec_restore_array_read(U, slot_u)
+    if err:
+        return err
+    if ctx[H_SLIDERS] > 0.0 and ctx[H_EXPONENTIAL] == 0.0:
         err = _vec_get_array(U, slot_u)
         if err:
             return err
@@ -147,14 +158,6 @@ def _monitor_callback(ts, step, t, U, ctx_addr):
             err = _ts_restart_step(ts)
             if err:
                 return err
-    err = _vec_get_array_read(U, slot_u)
-    if err:
-        return err
-    u = _state_at(slots[H_SLOT_U], ctx)
-    stop = sample_core(t, u, ctx)
-    err = _vec_restore_array_read(U, slot_u)
-    if err:
-        return err
     if stop:
         return _ts_set_converged_reason(ts, np.int32(ctx[H_USER_REASON]))
     return 0

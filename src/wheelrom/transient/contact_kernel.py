@@ -260,6 +260,21 @@ def slide_core(u, ctx):
     sliders = slider_rows(u, ctx, n, K, NB, B)
     for kind in range(K):
         contacts(ctx, kind, N, m, K, B, Q, V, column, sliders)
+    return take_returned(u, ctx)
+
+
+@_kernel_cache.njit(fastmath={"contract"}, error_model="numpy")
+def take_returned(u, ctx):
+    """The sliders the last contact evaluation of the state ``u`` returned (``slider_next``)
+    into ``u``'s slider rows, for every running case: the return map without evaluating the
+    contacts again (the exponential step takes them from its first stage's evaluation);
+    1 when one moved, 0 when none did or the law has none."""
+    if ctx[H_SLIDERS] <= 0.0:
+        return 0
+    K = int(ctx[H_K])
+    B = int(ctx[H_B])
+    NB = int(ctx[H_N]) * B
+    sliders = slider_rows(u, ctx, int(ctx[H_M]) * NB, K, NB, B)
     returned = get(ctx, I_WNEXT, K * 2 * NB).reshape((K, 2, NB))
     active = get(ctx, I_ACTIVE, B)
     moved = 0

@@ -18,6 +18,7 @@ import numpy as np
 from scipy.linalg import expm
 
 from wheelrom.runtime.errors import InputError
+from wheelrom.transient.contact_kernel import slide_core
 from wheelrom.transient.exponential_kernel import (
     C_F1,
     C_F2,
@@ -103,6 +104,16 @@ class ExponentialStepper:
         with x as u:
             etd4_step(t, h, u, self.context.array, self._coef, self._work)
         ts.setTime(t + h)
+
+
+def end_sliders(u, context) -> None:
+    """The state ``u`` (a Vec, kernel layout) a solve of the exponential scheme left, with
+    the elastic law's sliders returned onto the Coulomb limit: its step returns them in its
+    first stage (:func:`etd4_step`), so the last step's are still the ones it held. Nothing
+    under another scheme (its monitor returned them) or the paper law."""
+    if context.array[H_EXPONENTIAL] != 0.0:
+        with u as state:
+            slide_core(state, context.array)
 
 
 def segment_frequencies(model, shift: np.ndarray | None = None) -> np.ndarray:

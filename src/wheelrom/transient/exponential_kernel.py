@@ -15,7 +15,7 @@ and ``e2 = (0, 1)`` (the explicit part acts on the velocity only):
 from __future__ import annotations
 
 from wheelrom.runtime import kernel_cache as _kernel_cache
-from wheelrom.transient.contact_kernel import slide_core
+from wheelrom.transient.contact_kernel import take_returned
 from wheelrom.transient.kernel import rhs_core
 from wheelrom.transient.layout import H_ACTIVE, H_B, H_M, H_N, H_RHS_CALLS, I_ACTIVE, get
 
@@ -42,7 +42,11 @@ def _propagate(E, j, u, out, NB, n):
 @_kernel_cache.njit(fastmath={"contract"}, error_model="numpy")
 def etd4_step(t, h, u, ctx, coef, work):
     """Advance the kernel state ``u`` (kernel layout, :mod:`.layout`) from ``t`` by ``h``
-    [s] in place; the elastic law's sliders are returned onto the Coulomb limit at its end.
+    [s] in place. The elastic law's sliders are returned onto the Coulomb limit at the
+    step's start, from the first stage's contact evaluation (:func:`take_returned`: the
+    return at the previous step's end without evaluating the contacts twice); the state left
+    carries the sliders the step held, :func:`~wheelrom.transient.exponential.end_sliders`
+    returns them when a solve ends.
     ``coef``: ``(C_ROWS, m)`` for this ``h``; ``work``: ``(6, len(u))`` scratch (the four
     stage derivatives, two stage states). Frozen (diverged) cases keep their state.
     """
@@ -58,6 +62,7 @@ def etd4_step(t, h, u, ctx, coef, work):
     E_half = coef[C_HALF : C_HALF + 4]
     # stage 1: N(u); a = E(h/2) u + h/2 phi1(hL/2) N_u
     rhs_core(t, u, Nu, ctx)
+    take_returned(u, ctx)  # before any stage state copies u's sliders (none: nothing)
     _half_stage(E_half, u, a, Nu, coef, half, u, Nu, half, m, NB, n, size)
     # stage 2: N(a); b = E(h/2) u + h/2 phi1 N_a (b kept in c's scratch until stage 3)
     rhs_core(t + half, a, Na, ctx)
@@ -90,7 +95,6 @@ def etd4_step(t, h, u, ctx, coef, work):
     else:
         for k in range(size):
             u[k] = a[k]
-    slide_core(u, ctx)  # the elastic law's sliders at the step's end (none: nothing)
 
 
 @_kernel_cache.njit(fastmath={"contract"}, error_model="numpy")

@@ -20,7 +20,7 @@ from wheelrom.forces.reference import ReferenceForces
 from wheelrom.rom.model import ReducedModel
 from wheelrom.runtime.environment import petsc
 from wheelrom.runtime.errors import InputError
-from wheelrom.transient import bridge
+from wheelrom.transient import bridge, exponential
 from wheelrom.transient.exponential_kernel import etd4_step
 from wheelrom.transient.kernel import sample_core
 from wheelrom.transient.layout import (
@@ -323,6 +323,7 @@ def _integrate(ts, u, problem, records, window_end, used, compiled, progress) ->
         else:
             ts.setMaxTime(t_end)
         ts.solve(u)
+        exponential.end_sliders(u, problem.context)
         t_now = ts.getTime()
         ua = u.getArray(readonly=True)
         states = problem.context.unpack(ua) if compiled else ua[None, :].copy()

@@ -210,11 +210,13 @@ def _attach_python(ts, f, problem: WheelProblem) -> None:
     context = problem.context
 
     def monitor(ts, step, t, x):
+        # sampled before the sliders' return, as the compiled monitor (bridge)
+        stop = bridge.sample(t, context.pack(x.getArray(readonly=True)), context)
         if problem.sliders:  # the step's end: the elastic law's sliders returned
             with x as u:
                 if problem.slide(u):
                     ts.restartStep()
-        if bridge.sample(t, context.pack(x.getArray(readonly=True)), context):
+        if stop:
             ts.setConvergedReason(PETSc.TS.ConvergedReason.CONVERGED_USER)
 
     ts.setRHSFunction(problem.rhs, f)

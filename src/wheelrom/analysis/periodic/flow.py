@@ -228,6 +228,7 @@ class WheelFlow:
         ts.setMaxTime(start + duration + 0.5 * h)
         ts.setExactFinalTime(PETSc.TS.ExactFinalTime.STEPOVER)
         ts.solve(u)
+        exponential.end_sliders(u, ctx)
         if ts.getStepNumber() != n:
             raise RuntimeError(f"the flow took {ts.getStepNumber()} of {n} steps")
         self.steps_taken += n * B
