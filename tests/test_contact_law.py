@@ -239,6 +239,39 @@ def test_ts_equals_the_serial_reference(small_model, small_cfg, scheme):
     assert np.abs(ours[2 * n + 4 :] - theirs[2 * n + 4 :]).max() < 1e-8 * moved
 
 
+@pytest.mark.parametrize("scheme", ["rk", "exponential"])
+def test_samples_count_the_steps_in_which_a_contact_slipped(small_model, small_cfg, scheme):
+    """Sampled at every step from the preloaded equilibrium with a 10 um seed, the TS's
+    slipping share equals the steps in which the serial reference's slider moved while its
+    contact stayed closed (the return map's own definition of slip). Counted after the
+    return instead, a slipping contact's trial force sits on the Coulomb limit to rounding
+    and reads stuck or slipping at random (before 2026-11-27: a third to a tenth of it)."""
+    from wheelrom.forces.reference import ReferenceForces
+    from wheelrom.transient.reference import reference_solution
+    from wheelrom.transient.run import run_case
+
+    step, steps = 2e-6, 300
+    cfg = small_cfg.replace(**{"contacts.law": "elastic", "time.start": "preload",
+                               "time.perturbation": 1e-5, "time.scheme": scheme,
+                               "time.step": step, "time.end": steps * step,
+                               "time.window": steps * step, "output.sample_rate_hz": 1 / step,
+                               "output.history_rate_hz": 0.0})  # fmt: skip
+    res = run_case(small_model, cfg)
+    _, states, _ = reference_solution(small_model, cfg, steps, step, sample_every=1,
+                                      scheme=scheme)  # fmt: skip
+    N, m, n = small_model.blades, small_model.modes, small_model.size
+    forces = ReferenceForces(force_parameters(small_model, cfg))
+    K = forces.normal_force.shape[0]
+    slipped = np.zeros(K)
+    for before, after in zip(states[:-1], states[1:], strict=True):
+        forces.evaluate(0.0, after[:n].reshape(N, m), after[n : 2 * n].reshape(N, m),
+                        after[2 * n + 4 :].reshape(K, N, 2))  # fmt: skip
+        moved = (before[2 * n + 4 :] != after[2 * n + 4 :]).reshape(K, N, 2).any(axis=2)
+        slipped += (moved & (forces.normal_force > 0.0)).sum(axis=1)
+    truth = slipped / (steps * N)  # the sample at t = 0 (started returned) aside
+    ours = np.array([res.slip_fraction[kind][0] for kind in res.slip_fraction])
+    assert truth.max() > 0.2  # the contacts do slip
+    np.testing.assert_allclose(ours, truth, rtol=0, atol=2.0 / steps)
 @pytest.mark.parametrize(("key", "value", "message"), [
     ("contacts.law", "coulomb", "contacts.law: 'coulomb' is not one of 'paper', 'elastic'"),
     ("contacts.shroud.tangential_stiffness", 0.0,
