@@ -245,7 +245,7 @@ def test_samples_count_the_steps_in_which_a_contact_slipped(small_model, small_c
     slipping share equals the steps in which the serial reference's slider moved while its
     contact stayed closed (the return map's own definition of slip). Counted after the
     return instead, a slipping contact's trial force sits on the Coulomb limit to rounding
-    and reads stuck or slipping at random (before 2026-11-27: a third to a tenth of it)."""
+    and reads stuck or slipping at random (before 2026-11-27: a half to a twentieth of it)."""
     from wheelrom.forces.reference import ReferenceForces
     from wheelrom.transient.reference import reference_solution
     from wheelrom.transient.run import run_case
@@ -272,6 +272,8 @@ def test_samples_count_the_steps_in_which_a_contact_slipped(small_model, small_c
     ours = np.array([res.slip_fraction[kind][0] for kind in res.slip_fraction])
     assert truth.max() > 0.2  # the contacts do slip
     np.testing.assert_allclose(ours, truth, rtol=0, atol=2.0 / steps)
+
+
 @pytest.mark.parametrize(("key", "value", "message"), [
     ("contacts.law", "coulomb", "contacts.law: 'coulomb' is not one of 'paper', 'elastic'"),
     ("contacts.shroud.tangential_stiffness", 0.0,

@@ -29,7 +29,7 @@ from wheelrom.transient.exponential_kernel import (
     C_ROWS,
     etd4_step,
 )
-from wheelrom.transient.layout import H_BETA, H_EXPONENTIAL, H_NSTATE
+from wheelrom.transient.layout import H_BETA, H_EXPONENTIAL, H_NSTATE, H_SLIDERS
 from wheelrom.transient.stuck_shift import shift_matrix
 
 SCHEME = "etdrk4"
@@ -111,7 +111,7 @@ def end_sliders(u, context) -> None:
     the elastic law's sliders returned onto the Coulomb limit: its step returns them in its
     first stage (:func:`etd4_step`), so the last step's are still the ones it held. Nothing
     under another scheme (its monitor returned them) or the paper law."""
-    if context.array[H_EXPONENTIAL] != 0.0:
+    if context.array[H_EXPONENTIAL] != 0.0 and context.array[H_SLIDERS] > 0.0:
         with u as state:
             slide_core(state, context.array)
 

@@ -137,8 +137,8 @@ def _case_sums(column, out, N, B):
 @_kernel_cache.njit(fastmath={"contract"}, error_model="numpy")
 def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
     """``f = (q', q'', W', w')`` for the batch state ``u = (q, q', W, w)`` at ``t`` [s]
-    (kernel layout, :mod:`.layout`; ``w'`` = 0: the elastic law's sliders move only when a
-    step ends, :func:`slide_core`)."""
+    (kernel layout, :mod:`.layout`; ``w'`` = 0: the elastic law's sliders move only between
+    steps, :func:`slide_core`, or from the exponential step's first stage)."""
     N = int(ctx[H_N])
     m = int(ctx[H_M])
     K = int(ctx[H_K])

@@ -21,6 +21,7 @@ from wheelrom.rom.model import ReducedModel
 from wheelrom.runtime.environment import petsc
 from wheelrom.runtime.errors import InputError
 from wheelrom.transient import bridge, exponential
+from wheelrom.transient.contact_kernel import slide_core
 from wheelrom.transient.exponential_kernel import etd4_step
 from wheelrom.transient.kernel import sample_core
 from wheelrom.transient.layout import (
@@ -284,6 +285,7 @@ def load_kernels(case: ForceParameters, rhs_kind: str = "compiled") -> float:
         vector = numba.float64[::1]
         etd4_step.compile((numba.float64, numba.float64, vector, vector,
                            numba.float64[:, ::1], numba.float64[:, ::1]))  # fmt: skip
+        slide_core.compile((vector, vector))  # a solve's end state (exponential.end_sliders)
     elif rhs_kind == "python":
         vector = numba.float64[::1]
         sample_core.compile((numba.float64, vector, vector))
