@@ -117,7 +117,8 @@ def _rhs_callback(ts, t, U, F, ctx_addr):
     if err:
         return err
     err = _vec_get_array(F, slot_f)
-    if err:
+    if err:  # U's array back before the error goes up
+        _vec_restore_array_read(U, slot_u)
         return err
     u = _state_at(slots[H_SLOT_U], ctx)
     f = _state_at(slots[H_SLOT_F], ctx)
