@@ -430,3 +430,24 @@ def test_a_step_beyond_the_schemes_reach_is_refused(small_model, small_cfg):
         run_case(small_model, cfg)
     fine = cfg.replace(**{"time.step": 0.95 * limit})
     assert run_case(small_model, fine).status == "done"
+
+
+def test_bench_times_both_contact_laws_alternately(small_model, small_cfg):
+    """``bench``'s law figures (issue #44's 1.5x): both laws from their preloaded equilibria,
+    each at the step its TS takes (the elastic law's lowered to its stable step, the paper
+    law's the configured one), min and median over the rounds, their ratio."""
+    from wheelrom.bench.laws import law_figures
+    from wheelrom.transient.exponential import taken_step
+
+    cfg = small_cfg.replace(**{"time.scheme": "exponential", "time.step": 1e-5})
+    lines = []
+    figures = law_figures(small_model, cfg, lines.append, rounds=2, end=2e-3)
+    cost, ratio = figures["law_s_per_simulated_s"], figures["elastic_vs_paper"]
+    for law in ("paper", "elastic"):
+        assert 0 < cost[law][0] <= cost[law][1]
+    assert ratio == pytest.approx([cost["elastic"][0] / cost["paper"][0],
+                                   cost["elastic"][1] / cost["paper"][1]])  # fmt: skip
+    elastic = cfg.replace(**{"contacts.law": "elastic"})
+    assert figures["law_steps_s"]["paper"] == taken_step(small_model, cfg, 1e-5)
+    assert figures["law_steps_s"]["elastic"] == taken_step(small_model, elastic, 1e-5)
+    assert len(lines) == 1 and "x /" in lines[0]
