@@ -240,8 +240,9 @@ class WheelFlow:
     def trajectory(self, state: np.ndarray, duration: float, steps: int,
                    stride: int = 1) -> np.ndarray:  # fmt: skip
         """``(steps // stride + 1, 2, N, m)``: ``state`` and every ``stride``-th of ``steps``
-        whole steps over ``duration`` [s] (the same steps as one :meth:`advance`; under the
-        elastic law equal to it to rounding: each piece ends with its sliders returned)."""
+        whole steps over ``duration`` [s] (the same steps as one :meth:`advance`). States
+        without sliders: the paper law's (under the elastic law each piece would start its
+        sliders at zero; :mod:`.slider_shooting` samples its orbits itself)."""
         h = duration / steps
         out = [np.asarray(state, dtype=float)]
         for _ in range(steps // stride):
