@@ -131,25 +131,53 @@ def test_the_elastic_law_settles_from_the_preload_carrying_its_sliders(small_mod
     assert whole.slip_fraction["tieboss"].max() > 0  # the contacts did slip
 
 
+def test_cases_settled_together_are_each_the_case_settled_alone(small_model):
+    """``settle_cases`` integrates its cases in one TS batch (the kernel vectorised across
+    them): each case's windows, amplitudes, tips and verdict are bitwise those it has alone
+    with the same windows, and a case that becomes stationary leaves the batch while the other
+    goes on (its min_time later)."""
+    from wheelrom.analysis.periodic.settle import Settings, settle_case, settle_cases
+
+    cfg = config.load(SMALL, ["excitation.force=0.0"])
+    angles = [{"tieboss": 45.0, "shroud": 50.0}, {"tieboss": 45.0, "shroud": 80.0}]
+    rng = np.random.default_rng(5)
+    u0 = [np.concatenate([rng.normal(size=small_model.size) * 1e-4,
+                          np.zeros(small_model.size)]) for _ in angles]  # fmt: skip
+    frequency = 100.0  # windows of 2 periods: 20 ms
+    settings = [Settings(window_periods=2, tolerance=0.9, consecutive=1, min_time=t, max_time=0.1)
+                for t in (0.02, 0.06)]  # fmt: skip
+    together = settle_cases(small_model, cfg, angles, u0, [frequency] * 2, settings)
+    alone = [settle_case(small_model, cfg, a, u, frequency, st)
+             for a, u, st in zip(angles, u0, settings, strict=True)]  # fmt: skip
+    assert [len(r.windows) for r in together] == [2, 3]  # the first left the batch first
+    for a, b in zip(together, alone, strict=True):
+        assert a.settled and b.settled and a.time == b.time
+        assert a.verdict() == b.verdict()
+        np.testing.assert_array_equal(a.amplitude, b.amplitude)
+        np.testing.assert_array_equal(a.tip, b.tip)
+        np.testing.assert_array_equal(a.fractions, b.fractions)
+    assert not np.array_equal(together[0].amplitude, together[1].amplitude)
+
+
 def test_an_interrupted_run_resumes_keeping_the_finished_case(tmp_path, monkeypatch):
     """Two cases; the second interrupted: the first is kept beside the output and --resume
     finishes the file with it unchanged (bitwise), computing only the second."""
     from wheelrom.cli import main as cli
     from wheelrom.studies import settle as study
 
-    keys = [*VDP[:-1], "sweep.shroud_angles_deg=[50.0, 60.0]"]
+    keys = [*VDP[:-1], "sweep.shroud_angles_deg=[50.0, 60.0]", "settle.batch=1"]
     args = ["settle", SMALL, *sum((["--set", k] for k in keys), []), "--out",
             str(tmp_path / "s.h5")]  # fmt: skip
-    real = study._settle_one
+    real = study._settle_batch
     calls = []
 
     def second_interrupted(*a, **k):
-        calls.append(a[3])
+        calls.extend(a[4])
         if len(calls) == 2:
             raise KeyboardInterrupt
         return real(*a, **k)
 
-    monkeypatch.setattr(study, "_settle_one", second_interrupted)
+    monkeypatch.setattr(study, "_settle_batch", second_interrupted)
     assert cli.main(args) != 0
     kept = os.listdir(tmp_path / ".s.settle")
     assert "case_0.npz" in kept and "case_1.npz" not in kept
@@ -161,7 +189,7 @@ def test_an_interrupted_run_resumes_keeping_the_finished_case(tmp_path, monkeypa
     first = study.load_case(str(tmp_path / ".s.settle"), 0, digest)
     assert first is not None and first.settled
     calls.clear()
-    monkeypatch.setattr(study, "_settle_one", lambda *a, **k: calls.append(a[3]) or real(*a, **k))
+    monkeypatch.setattr(study, "_settle_batch", lambda *a, **k: calls.extend(a[4]) or real(*a, **k))
     assert cli.main([*args, "--resume"]) == 0
     assert len(calls) == 1  # only the second case ran
     with h5py.File(tmp_path / "s.h5", "r") as f:

@@ -243,8 +243,9 @@ def test_ctrl_c_during_settle_names_the_kept_cases_and_the_resume_line(tmp_path,
     computing only the second case."""
     folder = tmp_path / "my runs"
     folder.mkdir()
+    # one case a batch: the first is kept while the second runs
     keys = [*QUICK, "sweep.shroud_angles_deg=[50.0, 60.0]", "settle.min_time=0.2",
-            "settle.max_time=0.2"]  # fmt: skip
+            "settle.max_time=0.2", "settle.batch=1"]  # fmt: skip
     assert cli.main(["config", "show", SMALL, *_sets(keys)]) == 0
     cfg, out = folder / "it's.toml", folder / "it's.h5"
     cfg.write_text(capsys.readouterr().out)
@@ -283,7 +284,7 @@ def test_a_killed_rank_leaves_rank_0_saying_what_is_kept(tmp_path, capsys):
     lock); now it waits in a polled barrier and names what is kept and the resume line."""
     cfg = tmp_path / "c.toml"
     keys = [*QUICK, "sweep.shroud_angles_deg=[50.0, 60.0, 70.0]", "settle.min_time=0.2",
-            "settle.max_time=0.2"]  # fmt: skip
+            "settle.max_time=0.2", "settle.batch=1"]  # fmt: skip
     assert cli.main(["config", "show", SMALL, *_sets(keys)]) == 0
     cfg.write_text(capsys.readouterr().out)
     out = tmp_path / "s.h5"

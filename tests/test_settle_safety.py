@@ -145,8 +145,8 @@ def test_a_damaged_saved_case_is_computed_again(tmp_path, monkeypatch, capsys):
     saved = tmp_path / ".s.settle" / "case_0.npz"
     saved.write_bytes(saved.read_bytes()[: saved.stat().st_size // 2])
     capsys.readouterr()
-    real, calls = study._settle_one, []
-    monkeypatch.setattr(study, "_settle_one", lambda *a, **k: calls.append(a[3]) or real(*a, **k))
+    real, calls = study._settle_batch, []
+    monkeypatch.setattr(study, "_settle_batch", lambda *a, **k: calls.extend(a[4]) or real(*a, **k))
     assert cli.main(_settle("--out", str(out), "--resume")) == 0
     err = capsys.readouterr().err
     assert "Traceback" not in err, err

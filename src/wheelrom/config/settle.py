@@ -52,6 +52,16 @@ class SettleConfig:
         default=5.0,
         metadata=_key("s", "simulated time at most; then 'not settled after X s'", gt=0.0,
                       max=1e4))
+    batch: int = field(
+        default=3,
+        metadata=_key("-", "cases integrated together in one TS (cases of the same wheel and "
+                      "settings, in the order of the study; the kernel vectorises across them: "
+                      "0.56-0.61 of a lone case's time per case at 2-3 cases on the paper "
+                      "wheel, 0.72-0.76 with both cores of a 2-core machine busy). A batch "
+                      "shares its windows: window_periods periods of its cases' lowest start "
+                      "frequency. The batches, not the MPI ranks, "
+                      "decide them: the results do not depend on the number of ranks",
+                      min=1, max=1000))
     nozzle: bool = field(
         default=False,
         metadata=_key("-", "nozzle excitation on (excitation.force; windows a whole number of "

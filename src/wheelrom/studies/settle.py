@@ -30,15 +30,15 @@ from wheelrom.analysis.periodic.settle import (
     Settings,
     Settled,
     Window,
-    settle_case,
+    settle_cases,
 )
 from wheelrom.analysis.periodic.window import wave_state
 from wheelrom.config import Config, to_toml
-from wheelrom.config.study import expand, short_name
+from wheelrom.config.study import batch_key, expand, short_name
 from wheelrom.runtime.errors import InputError
 from wheelrom.runtime.outputs import agree, disk_full, is_disk_full
 from wheelrom.studies.kept_cases import DamagedCase, kept_dir, read_case, write_case
-from wheelrom.studies.plan import shared_models
+from wheelrom.studies.plan import batches, shared_models
 from wheelrom.studies.queue import CaseQueue
 from wheelrom.studies.rounds import wait_for_all
 
@@ -51,6 +51,11 @@ def settings_of(cfg: Config) -> Settings:
 
 def sidecar_dir(out: str) -> str:
     return kept_dir(out, "settle")
+
+
+def angles_of(cfg: Config) -> dict:
+    """A case's contact angles [deg] by kind."""
+    return {k: cfg.contact(k).angle_deg for k in ("tieboss", "shroud")}
 
 
 def config_digest(cfg: Config) -> str:
@@ -362,26 +367,41 @@ def run_settle(cfg: Config, out: str | None, comm=None, log=print, resume: bool 
         raise InputError("settle: the start from a travelling-wave cycle needs a tuned wheel")
     directory = sidecar_dir(out) if out else None
     mine, problem, unsaved = [], None, []
-    queue = CaseQueue(study.size, comm)
+    labels = [f"[{i + 1}/{study.size}] " + ", ".join(
+        f"{short_name(k)} {v:g}" if isinstance(v, float) else f"{short_name(k)} {v}"
+        for k, v in zip(study.names, study.values[i], strict=True)) for i in range(study.size)]
+
+    def keep(i: int, done: Settled) -> None:
+        parameters = dict(zip(study.names, study.values[i], strict=True))
+        mine.append((i, angles_of(study.configs[i]), parameters, done))
+        say(f"{labels[i]}: {done.verdict()} ({done.wall_s:.1f} s)")
+
+    todo = list(range(study.size))
+    if resume and directory and rank == 0:  # one rank reads what is kept: the plan is its
+        for i in range(study.size):         # (another rank could already be saving a case)
+            done = load_case(directory, i, config_digest(study.configs[i]), warn)
+            if done is not None:
+                say(f"{labels[i]}: kept from the interrupted run")
+                keep(i, done)
+                todo.remove(i)
+    if comm is not None:
+        todo = comm.bcast(todo)
+    # batches of the cases left, the same whatever the number of ranks (they decide the
+    # windows), handed to the ranks as they become free
+    plan = batches(todo, [batch_key(c) for c in study.configs], cfg.settle.batch)
+    queue = CaseQueue(len(plan), comm)
     try:
-        for i in queue:
-            case_cfg = study.configs[i]
-            angles = {k: case_cfg.contact(k).angle_deg for k in ("tieboss", "shroud")}
-            label = f"[{i + 1}/{study.size}] " + ", ".join(
-                f"{short_name(k)} {v:g}" if isinstance(v, float) else f"{short_name(k)} {v}"
-                for k, v in zip(study.names, study.values[i], strict=True))
-            digest = config_digest(case_cfg)
-            done = load_case(directory, i, digest, warn) if resume and directory else None
-            if done is None:
-                done = _settle_one(models[model_of[i]], case_cfg, angles, cycles_file, label,
-                                   progress if rank == 0 else None)  # fmt: skip
+        for j in queue:
+            chunk = plan[j]
+            results = _settle_batch(models[model_of[chunk[0]]],
+                                    [study.configs[i] for i in chunk],
+                                    [angles_of(study.configs[i]) for i in chunk], cycles_file,
+                                    [labels[i] for i in chunk],
+                                    progress if rank == 0 else None)  # fmt: skip
+            for i, done in zip(chunk, results, strict=True):
                 if directory:
-                    _save_or_keep(directory, i, digest, done, unsaved)
-            else:
-                say(f"{label}: kept from the interrupted run")
-            mine.append((i, angles, dict(zip(study.names, study.values[i], strict=True)),
-                         done))  # fmt: skip
-            say(f"{label}: {done.verdict()} ({done.wall_s:.1f} s)")
+                    _save_or_keep(directory, i, config_digest(study.configs[i]), done, unsaved)
+                keep(i, done)
     except InputError as exc:  # e.g. a window longer than max_time: told to every rank below
         problem = exc
     if comm is not None:  # polled: a rank waiting for a killed one still takes mpirun's
@@ -397,28 +417,51 @@ def run_settle(cfg: Config, out: str | None, comm=None, log=print, resume: bool 
 
 
 def _settle_one(model, cfg: Config, angles: dict, cycles_file, label, progress) -> Settled:
-    t0 = time.perf_counter()
-    try:
-        u0, frequency, words, amplitude, hold = _start(model, cfg, angles, cycles_file)
-    except Exception as exc:  # the case is named failed, the others go on
-        why = str(exc) if isinstance(exc, InputError) else f"{type(exc).__name__}: {exc}"
-        return Settled(False, 0.0, status=f"failed: no start ({why})")
+    """One case alone (:func:`_settle_batch`)."""
+    return _settle_batch(model, [cfg], [angles], cycles_file, [label], progress)[0]
 
-    def say(t, w):
+
+def _settle_batch(model, cfgs: list[Config], angles: list[dict], cycles_file, labels,
+                  progress) -> list[Settled]:  # fmt: skip
+    """Cases of one batch key (:func:`~wheelrom.config.study.batch_key`: they differ in their
+    contact ``angles`` only): each one's start, then the cases whose start was found
+    integrated together (:func:`~wheelrom.analysis.periodic.settle.settle_cases`); a case
+    without a start is named failed, the others go on."""
+    t0 = time.perf_counter()
+    out: list[Settled | None] = [None] * len(cfgs)
+    starts, settings = {}, {}
+    for b, cfg in enumerate(cfgs):
+        try:
+            starts[b] = _start(model, cfg, angles[b], cycles_file)
+        except Exception as exc:  # the case is named failed, the others go on
+            why = str(exc) if isinstance(exc, InputError) else f"{type(exc).__name__}: {exc}"
+            out[b] = Settled(False, 0.0, status=f"failed: no start ({why})")
+            continue
+        hold, settings[b] = starts[b][4], settings_of(cfg)
+        if hold > settings[b].min_time:  # the departure from an unstable orbit first has to grow
+            settings[b] = dataclasses.replace(settings[b],
+                                              min_time=min(hold, settings[b].max_time))
+    started = list(starts)
+
+    def say(j, t, w):
         if progress:  # the first window has no window before it to change against
             change = (f"window change {max(w.change):.2%}" if math.isfinite(max(w.change))
                       else "first window")  # fmt: skip
-            progress(f"{label}: {t:.3g} s, largest blade {w.amplitude.max() * 1e6:.3g} um, "
-                     f"{change}")
+            progress(f"{labels[started[j]]}: {t:.3g} s, largest blade "
+                     f"{w.amplitude.max() * 1e6:.3g} um, {change}")
 
-    settings = settings_of(cfg)
-    if hold > settings.min_time:  # the departure from an unstable orbit first has to grow
-        settings = dataclasses.replace(settings, min_time=min(hold, settings.max_time))
-    result = settle_case(model, cfg, angles, u0, frequency, settings, cfg.settle.nozzle,
-                         say)  # fmt: skip
-    result.start, result.start_amplitude = words, amplitude
-    result.wall_s = time.perf_counter() - t0
-    return result
+    if started:
+        done = settle_cases(model, cfgs[started[0]], [angles[b] for b in started],
+                            [starts[b][0] for b in started], [starts[b][1] for b in started],
+                            [settings[b] for b in started], cfgs[started[0]].settle.nozzle,
+                            say)  # fmt: skip
+        for b, result in zip(started, done, strict=True):
+            result.start, result.start_amplitude = starts[b][2], starts[b][3]
+            out[b] = result
+    wall = (time.perf_counter() - t0) / len(cfgs)
+    for result in out:
+        result.wall_s = wall
+    return out
 
 
 def summary(angles: dict, parameters: dict, r: Settled) -> dict:

@@ -254,18 +254,21 @@ class Settled:
 SAMPLES_PER_PERIOD = 24  # tip and state samples per period of the start's frequency
 
 
-def window_config(cfg, frequency_hz: float, settings: Settings, nozzle: bool):
+def window_config(cfg, frequency_hz, settings: Settings, nozzle: bool):
     """``(cfg of one window, window length [s])``: whole steps no longer than ``time.step``,
     samples (tips and states) about ``SAMPLES_PER_PERIOD`` per period on whole steps, no
     perturbation (the start carries it); with the nozzle on, a whole number of nozzle periods
-    (a window restarts its time at 0)."""
-    window = settings.window_periods / frequency_hz
+    (a window restarts its time at 0). ``frequency_hz``: the start's [Hz], or a batch's
+    starts' (a sequence): the window is ``window_periods`` periods of the lowest, the samples
+    ``SAMPLES_PER_PERIOD`` per period of the highest."""
+    frequencies = np.atleast_1d(np.asarray(frequency_hz, dtype=float))
+    window = settings.window_periods / float(frequencies.min())
     if nozzle:
         nozzle_period = 1.0 / (cfg.wheel.stator_vanes * cfg.wheel.speed_hz)
         window = max(1, round(window / nozzle_period)) * nozzle_period
     steps = max(1, math.ceil(window / cfg.time.step * (1 - 1e-12)))
     h = window / steps
-    every = max(1, round(1.0 / (SAMPLES_PER_PERIOD * frequency_hz * h)))
+    every = max(1, round(1.0 / (SAMPLES_PER_PERIOD * float(frequencies.max()) * h)))
     rate = 1.0 / (every * h) * (1 + 1e-9)  # a sample at every every-th step, no round-off
     changes_ = {"time.step": h, "time.end": window, "time.window": window,
                 "time.perturbation": 0.0, "time.perturbation_waves": [],
@@ -280,44 +283,67 @@ def settle_case(model, cfg, angles: dict | None, u0: np.ndarray, frequency_hz: f
                 settings: Settings, nozzle: bool = False, progress=None) -> Settled:  # fmt: skip
     """Integrate ``u0`` (``(2 N m,)`` modal ``q, q'``; the elastic law's sliders start at
     rest there and are carried from window to window) window by window until stationary
-    (:func:`stationary`) or ``max_time``; classify the last window."""
+    (:func:`stationary`) or ``max_time``; classify the last window. One case of
+    :func:`settle_cases`; ``progress(t, window)`` after every window."""
+    return settle_cases(model, cfg, [angles], [u0], [frequency_hz], [settings], nozzle,
+                        None if progress is None else (lambda _, t, w: progress(t, w)))[0]
+
+
+def settle_cases(model, cfg, angles: list, u0: list, frequency_hz: list, settings: list,
+                 nozzle: bool = False, progress=None) -> list[Settled]:  # fmt: skip
+    """:func:`settle_case` for several cases at once, in one TS batch
+    (:func:`~wheelrom.transient.run.run_cases`: the kernel vectorises across the cases, each
+    case's arithmetic its own): ``angles``, ``u0``, ``frequency_hz``, ``settings`` one per
+    case (the settings differ at most in ``min_time``). The batch shares its windows
+    (:func:`window_config` of all its frequencies); a case leaves it once stationary or
+    failed, the others go on. ``progress(case, t, window)`` after every window of a case.
+    Each case's ``wall_s`` is its share of the batch's wall time."""
     import time as clock
 
-    from wheelrom.transient.run import run_case
+    from wheelrom.transient.run import run_cases
 
     t0 = clock.perf_counter()
-    run_cfg, length = window_config(cfg, frequency_hz, settings, nozzle)
-    if length > settings.max_time * (1 + 1e-9):  # not one window: "not settled after 0 s"
-        raise InputError(f"settle.max_time = {settings.max_time:g} s is shorter than one "
-                         f"window: settle.window_periods = {settings.window_periods} periods "
-                         f"of the start's {frequency_hz:.4g} Hz last {length:.3g} s")  # fmt: skip
-    out = Settled(False, 0.0)
-    u = np.asarray(u0, dtype=float).copy()
-    res = None
-    while out.time < settings.max_time - 0.5 * length:
-        res = run_case(model, run_cfg, angles, u0=u)
-        if not res.status.startswith("done"):
-            out.status = f"failed at {out.time + res.window_end[-1:].sum():.3g} s: {res.status}"
-            break
-        t = res.sample_time + out.time
-        amplitude, nd_energy = window_statistics(t, res.tip_history)
-        out.time += length
-        w = Window(out.time, amplitude, nd_energy)
-        if out.windows:
-            w.change = changes(out.windows[-1], amplitude, nd_energy)
-        out.windows.append(w)
-        # the whole state on: under the elastic law the sliders carry the contacts' history
-        u = res.final_state
-        if progress:
-            progress(out.time, w)
-        if stationary(out.windows, settings):
-            out.settled = True
-            break
-    out.wall_s = clock.perf_counter() - t0
-    if res is None or out.status != "done":
-        return out
-    _describe_last(out, res, model, run_cfg, angles, settings)
-    return out
+    first = settings[0]
+    run_cfg, length = window_config(cfg, frequency_hz, first, nozzle)
+    if length > first.max_time * (1 + 1e-9):  # not one window: "not settled after 0 s"
+        raise InputError(f"settle.max_time = {first.max_time:g} s is shorter than one "
+                         f"window: settle.window_periods = {first.window_periods} periods "
+                         f"of the start's {min(frequency_hz):.4g} Hz last {length:.3g} s")
+    outs = [Settled(False, 0.0) for _ in angles]
+    states = [np.asarray(u, dtype=float).copy() for u in u0]
+    last: list = [None] * len(angles)
+    running = list(range(len(angles)))
+    while running and outs[running[0]].time < first.max_time - 0.5 * length:
+        done = run_cases(model, run_cfg, [angles[i] for i in running],
+                         u0=[states[i] for i in running])  # fmt: skip
+        still = []
+        for i, res in zip(running, done, strict=True):
+            last[i], out = res, outs[i]
+            if not res.status.startswith("done"):
+                out.status = f"failed at {out.time + res.window_end[-1:].sum():.3g} s: {res.status}"
+                continue
+            amplitude, nd_energy = window_statistics(res.sample_time + out.time, res.tip_history)
+            out.time += length
+            w = Window(out.time, amplitude, nd_energy)
+            if out.windows:
+                w.change = changes(out.windows[-1], amplitude, nd_energy)
+            out.windows.append(w)
+            # the whole state on: under the elastic law the sliders carry the contacts' history
+            states[i] = res.final_state
+            if progress:
+                progress(i, out.time, w)
+            if stationary(out.windows, settings[i]):
+                out.settled = True
+            else:
+                still.append(i)
+        running = still
+    for i, out in enumerate(outs):
+        if last[i] is not None and out.status == "done":
+            _describe_last(out, last[i], model, run_cfg, angles[i], settings[i])
+    wall = clock.perf_counter() - t0
+    for out in outs:
+        out.wall_s = wall / len(outs)
+    return outs
 
 
 def _describe_last(out: Settled, res, model, cfg, angles, settings: Settings) -> None:
