@@ -227,6 +227,58 @@ def test_impact_orbit_multiplier_by_two_computations(impact_cycle, small_model):
     assert cycle.refined[1][1] > 1.0
 
 
+def test_chord_steps_find_the_same_orbit_with_fewer_jacobians(impact_cycle, small_model,
+                                                              monkeypatch):  # fmt: skip
+    """Newton on the shot keeps its last Jacobian while the residual falls at least 4x an
+    iteration (each Jacobian is 2 n shots): from the impact orbit moved by 1e-3 of its
+    vibration it finds the orbit Newton with a Jacobian every iteration finds, to 1e-8, with
+    fewer Jacobians."""
+    from wheelrom.analysis.periodic import shooting as shot
+
+    cfg, angles, cycle = impact_cycle
+    orbit = cycle.orbit
+    rng = np.random.default_rng(2)
+    start = orbit.state * (1 + 1e-3 * rng.standard_normal(orbit.state.shape))
+    built = []
+    real = shot._ShotSystem.jacobian
+    monkeypatch.setattr(shot._ShotSystem, "jacobian",
+                        lambda self, z: built.append(1) or real(self, z))  # fmt: skip
+    found, jacobians = [], []
+    for chord in (shot.CHORD, 0.0):  # 0: a Jacobian every iteration
+        monkeypatch.setattr(shot, "CHORD", chord)
+        built.clear()
+        s = Shooting(small_model, cfg, WAVE, angles, 1.0)
+        try:
+            again = s.solve(start, orbit.period * (1 + 1e-4))
+        finally:
+            s.destroy()
+        assert again.converged and again.residual <= 1e-9
+        found.append(again)
+        jacobians.append(len(built))
+    chord, every = found
+    vibration = np.abs(orbit.state[1]).max()
+    assert np.abs(chord.state[1] - every.state[1]).max() < 1e-8 * vibration
+    assert abs(chord.period - every.period) < 1e-8 * orbit.period
+    assert jacobians[0] < jacobians[1], jacobians
+
+
+def test_full_newton_steps_that_grow_the_residual_tenfold_stop_at_once():
+    """The full-step phase hands over to the backtracking one as soon as the residual is 10x
+    its start's (the paper wheel's 70 deg shots grew it 1e3-1e4 times over the six
+    iterations the stall test needed); a smaller growth goes on."""
+    from wheelrom.analysis.periodic import shooting as shot
+
+    class Tolerances:
+        def getTolerances(self):
+            return 1e-30, 1e-10, 1e-14, 40
+
+    system = object.__new__(shot._ShotSystem)
+    system.floor = 0.0
+    reasons = [system._converged(Tolerances(), i, (0.0, 0.0, norm))
+               for i, norm in enumerate([1.0, 5.0, 9.9, 10.5])]  # fmt: skip
+    assert reasons == [0, 0, 0, -3]
+
+
 def test_a_monodromy_that_converged_nothing_decides_nothing():
     """SLEPc within its restarts found no multiplier: the cycle is not called stable (its
     largest would read 0), and the verdict says what happened."""

@@ -51,6 +51,14 @@ TOLERANCE = 1e-10  # scaled residual (relative to the vibration) at which Newton
 #: cycle on a 40 um static deflection)
 ROUNDOFF = 1e-12
 DIFFERENCE = 1e-6  # finite-difference step, relative to the vibration amplitude
+#: full Newton steps that grow the residual this many times its start's have left Newton's
+#: basin: the backtracking solve takes over at once (the paper wheel's 70 deg shots grew it
+#: 1e3-1e4 times over the six iterations the stall test needed to stop them)
+DIVERGED = 10.0
+#: a Newton iteration keeps the last Jacobian (a chord step) while the residual falls at
+#: least this factor an iteration (each Jacobian is 2 n shots; the orbit's multipliers are
+#: taken from a fresh one at the solution)
+CHORD = 0.25
 
 
 def vibration_units(state: np.ndarray, period: float) -> np.ndarray:
@@ -279,6 +287,8 @@ class _ShotSystem:
             return 2  # SNES_CONVERGED_FNORM_ABS
         if not math.isfinite(norms[2]):
             return -4  # SNES_DIVERGED_FNORM_NAN
+        if norms[2] > DIVERGED * self._history[0]:
+            return -3  # SNES_DIVERGED_LINEAR_SOLVE's slot: full steps off the basin
         # stalled: less than STALL of the residual gone over the last STALL_ITERATIONS
         # (Newton stuck at the kinks of a non-smooth shot: a finer step is the remedy)
         if len(self._history) > STALL_ITERATIONS and \
@@ -301,10 +311,16 @@ class _ShotSystem:
         def function(snes, X, F):
             F.setArray(self.residual(X.getArray(readonly=True).copy())[0])
 
+        built = []
+
         def jacobian(snes, X, J, P):
+            h = self._history
+            if built and len(h) >= 2 and h[-1] <= CHORD * h[-2]:
+                return  # a chord step: P keeps the last Jacobian and its factors
             A = self.jacobian(X.getArray(readonly=True).copy())
             P.setValues(range(n), range(n), A.ravel())
             P.assemble()
+            built.append(len(h))
 
         snes.setFunction(function, r)
         snes.setJacobian(jacobian, J, J)
