@@ -8,6 +8,7 @@ made here with their format attribute (what the checks read), in milliseconds.""
 import os
 
 import h5py
+import numpy as np
 import pytest
 
 from conftest import SMALL, VDP_WHEEL
@@ -156,6 +157,35 @@ def test_a_damaged_saved_case_is_computed_again(tmp_path, monkeypatch, capsys):
     with h5py.File(out, "r") as f:
         assert f.attrs["format"] == "wheelrom-settle-1" and f["settle/verdict"].shape == (1,)
     assert not (tmp_path / ".s.settle").exists()
+
+
+def test_resume_runs_a_batch_kept_in_part_again_whole(tmp_path, monkeypatch, capsys):
+    """A batch's windows depend on its members (``settle.batch``): ``--resume`` reuses a
+    batch only when every case of it was kept, runs one kept in part again whole (its cases
+    alone would take other windows than the uninterrupted run's), and leaves one kept whole."""
+    from wheelrom.studies import settle as study
+
+    out = tmp_path / "s.h5"
+    three = ["--set", "sweep.shroud_angles_deg=[50.0, 60.0, 70.0]", "--set", "settle.batch=2"]
+
+    def interrupted(*_):  # the cases are saved beside the output, the file is not written
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr("wheelrom.results.settle.write_settle", interrupted)
+    assert cli.main(_settle(*three, "--out", str(out))) == 130
+    monkeypatch.undo()
+    folder = tmp_path / ".s.settle"
+    kept = {i: np.load(folder / f"case_{i}.npz")["amplitude"] for i in range(3)}
+    for name in ("case_1.npz", "case_1.json"):  # the second of the first batch (0, 1) lost
+        (folder / name).unlink()
+    real, calls = study._settle_batch, []
+    monkeypatch.setattr(study, "_settle_batch", lambda *a, **k: calls.append(a[4]) or real(*a, **k))
+    assert cli.main(_settle(*three, "--out", str(out), "--resume")) == 0
+    assert len(calls) == 1 and [label[:5] for label in calls[0]] == ["[1/3]", "[2/3]"]
+    assert "[3/3] tieboss.angle_deg 45, shroud.angle_deg 70: kept" in capsys.readouterr().err
+    with h5py.File(out, "r") as f:
+        for i in range(3):
+            np.testing.assert_array_equal(f[f"settle/case_{i}/amplitude"][()], kept[i])
 
 
 # --- --cycles -----------------------------------------------------------------------------

@@ -34,7 +34,8 @@ class SettleConfig:
                       "then stick)", gt=0.0, max=1e-2))
     window_periods: int = field(
         default=20,
-        metadata=_key("-", "periods (of the start's frequency) per stationarity window",
+        metadata=_key("-", "periods (of the start's frequency; of a batch's lowest, "
+                      "settle.batch) per stationarity window",
                       min=2, max=100000))
     tolerance: float = field(
         default=0.005,
@@ -70,7 +71,7 @@ class SettleConfig:
 
 def settle_problems(cfg: Any, problems: list[str]) -> None:
     """Cross-checks of ``[settle]``: what the keys alone show. The window's length is known
-    only with the start's frequency (:func:`wheelrom.analysis.periodic.settle.settle_case`
+    only with the start's frequency (:func:`wheelrom.analysis.periodic.settle.settle_cases`
     checks it against ``max_time`` before integrating)."""
     s = cfg.settle
     if is_number(s.min_time) and is_number(s.max_time) and s.min_time > s.max_time:

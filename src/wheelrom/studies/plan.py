@@ -70,8 +70,8 @@ def balance(costs: Sequence[float], ranks: int) -> list[list[int]]:
 
 
 def batches(items: Sequence[int], keys: Sequence[str], width: int) -> list[list[int]]:
-    """A rank's cases in TS batches: cases with the same batch key together, at most
-    ``width`` per batch (0: no limit), in order of their first case."""
+    """Cases (a rank's, or every case: ``settle``) in TS batches: cases with the same batch
+    key together, at most ``width`` per batch (0: no limit), in order of their first case."""
     _, members = group_by([keys[i] for i in items])
     out = []
     for group in members:

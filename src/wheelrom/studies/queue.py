@@ -1,5 +1,6 @@
-"""Cases handed to the MPI ranks as they become free: a shared counter on rank 0 (an MPI
-one-sided window, ``MPI_Fetch_and_op``) from which every rank takes the next case index.
+"""Cases (or batches of cases: ``settle``) handed to the MPI ranks as they become free: a
+shared counter on rank 0 (an MPI one-sided window, ``MPI_Fetch_and_op``) from which every rank
+takes the next index.
 
 The limit cycles and the settled states of the paper's six unstable angles cost 47 to 209 s
 each, unknown before they are computed; dealt round-robin, one rank finished its three cases

@@ -358,7 +358,9 @@ def load_case(directory: str, index: int, digest: str, warn=None) -> Settled | N
 def run_settle(cfg: Config, out: str | None, comm=None, log=print, resume: bool = False,
                cycles_file: str | None = None, progress=None, warn=print):  # fmt: skip
     """``(model, [(angles, parameters, Settled)])`` of every case on rank 0 (others: the
-    model and ``[]``). ``warn``: a damaged saved case, on whichever rank finds it."""
+    model and ``[]``). ``warn``: a damaged saved case (rank 0 reads them). ``--resume``
+    reuses a batch (``settle.batch``) whose every case was kept, and runs one kept in part
+    again whole: a batch's windows depend on its members."""
     study = expand(cfg)
     rank = comm.rank if comm is not None else 0
     say = log if rank == 0 and log is not None else (lambda *_: None)
@@ -376,19 +378,24 @@ def run_settle(cfg: Config, out: str | None, comm=None, log=print, resume: bool 
         mine.append((i, angles_of(study.configs[i]), parameters, done))
         say(f"{labels[i]}: {done.verdict()} ({done.wall_s:.1f} s)")
 
-    todo = list(range(study.size))
+    # the batches of every case, the same whatever the number of ranks or what an interrupted
+    # run kept (a batch's members decide its windows)
+    plan = batches(list(range(study.size)), [batch_key(c) for c in study.configs],
+                   cfg.settle.batch)  # fmt: skip
+    kept: dict[int, Settled] = {}
     if resume and directory and rank == 0:  # one rank reads what is kept: the plan is its
         for i in range(study.size):         # (another rank could already be saving a case)
             done = load_case(directory, i, config_digest(study.configs[i]), warn)
             if done is not None:
-                say(f"{labels[i]}: kept from the interrupted run")
-                keep(i, done)
-                todo.remove(i)
+                kept[i] = done
+    whole = [b for b in plan if all(i in kept for i in b)]  # a batch kept whole is reused;
+    for i in sorted(i for b in whole for i in b):           # one kept in part runs again
+        say(f"{labels[i]}: kept from the interrupted run")
+        keep(i, kept[i])
+    todo = [b for b in plan if b not in whole]
     if comm is not None:
         todo = comm.bcast(todo)
-    # batches of the cases left, the same whatever the number of ranks (they decide the
-    # windows), handed to the ranks as they become free
-    plan = batches(todo, [batch_key(c) for c in study.configs], cfg.settle.batch)
+    plan = todo  # handed to the ranks as they become free
     queue = CaseQueue(len(plan), comm)
     try:
         for j in queue:

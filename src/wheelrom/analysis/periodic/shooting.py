@@ -288,7 +288,7 @@ class _ShotSystem:
         if not math.isfinite(norms[2]):
             return -4  # SNES_DIVERGED_FNORM_NAN
         if norms[2] > DIVERGED * self._history[0]:
-            return -3  # SNES_DIVERGED_LINEAR_SOLVE's slot: full steps off the basin
+            return -3  # diverged: full steps off the basin (the backtracking phase follows)
         # stalled: less than STALL of the residual gone over the last STALL_ITERATIONS
         # (Newton stuck at the kinks of a non-smooth shot: a finer step is the remedy)
         if len(self._history) > STALL_ITERATIONS and \
@@ -311,11 +311,13 @@ class _ShotSystem:
         def function(snes, X, F):
             F.setArray(self.residual(X.getArray(readonly=True).copy())[0])
 
-        built = []
+        built, chord = [], line_search == "basic"
 
         def jacobian(snes, X, J, P):
             h = self._history
-            if built and len(h) >= 2 and h[-1] <= CHORD * h[-2]:
+            # chord steps with full steps only: under a line search a stale direction can fail
+            # the search and end the last phase where a fresh Jacobian would have gone on
+            if chord and built and len(h) >= 2 and h[-1] <= CHORD * h[-2]:
                 return  # a chord step: P keeps the last Jacobian and its factors
             A = self.jacobian(X.getArray(readonly=True).copy())
             P.setValues(range(n), range(n), A.ravel())
