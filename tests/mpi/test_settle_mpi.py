@@ -1,5 +1,6 @@
-"""``wheelrom settle`` under ``mpirun -n 2`` gives the numbers of one process: the cases are
-dealt to the ranks, each integrated alone on its rank, gathered on rank 0."""
+"""``wheelrom settle`` under ``mpirun -n 2`` gives the numbers of one process: the batches of
+cases (``settle.batch``, planned from the cases alone) are dealt to the ranks, each integrated
+on its rank, gathered on rank 0."""
 
 from wheelrom.runtime.environment import bootstrap, petsc
 
@@ -12,7 +13,7 @@ from wheelrom import config  # noqa: E402
 from wheelrom.studies.settle import run_settle  # noqa: E402
 
 KEYS = [*VDP_WHEEL,
-        "sweep.shroud_angles_deg=[50.0, 60.0]", 'settle.start="preload"',
+        "sweep.shroud_angles_deg=[50.0, 60.0, 70.0]", "settle.batch=2", 'settle.start="preload"',
         "settle.seed_amplitude=5e-6", "settle.min_time=0.4", "settle.max_time=0.4"]  # fmt: skip
 
 
@@ -28,7 +29,7 @@ def test_two_ranks_settle_as_one():
     if comm.rank != 0:
         assert parallel == []
         return
-    assert len(parallel) == len(serial) == 2
+    assert len(parallel) == len(serial) == 3  # a batch of two on one rank, one on the other
     for (_, _, a), (_, _, b) in zip(parallel, serial, strict=True):
         assert a.verdict() == b.verdict() and len(a.windows) == len(b.windows) > 1
         np.testing.assert_array_equal(a.amplitude, b.amplitude)
