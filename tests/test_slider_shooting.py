@@ -325,7 +325,7 @@ def test_a_start_on_an_unstable_orbit_is_not_called_settled_before_it_can_leave(
     import h5py
 
     from wheelrom.results.limit_cycles import write_limit_cycles
-    from wheelrom.studies.settle import _settle_one, _start
+    from wheelrom.studies.settle import _settle_batch, _start
 
     cfg, model, angles, res = elastic_orbit
     path = tmp_path / "lc.h5"
@@ -335,7 +335,7 @@ def test_a_start_on_an_unstable_orbit_is_not_called_settled_before_it_can_leave(
     case = cfg.replace(**keys)
     frequency = res.branches[0].cycles[0].frequency_hz
     assert _start(model, case, angles, str(path))[4] == 0.0
-    stable = _settle_one(model, case, angles, str(path), "stable", None)
+    stable = _settle_batch(model, [case], [angles], str(path), ["stable"], None)[0]
     assert stable.settled and stable.time < 0.5
     unstable = tmp_path / "unstable.h5"
     shutil.copy(path, unstable)
@@ -346,7 +346,7 @@ def test_a_start_on_an_unstable_orbit_is_not_called_settled_before_it_can_leave(
     _, _, words, _, hold = _start(model, case, angles, str(unstable))
     assert hold == pytest.approx(math.log(1e3) / (math.log(multiplier) * frequency), rel=1e-9)
     assert 0.75 < hold < 0.85 and "not called settled before 0.8 s" in words, words
-    held = _settle_one(model, case, angles, str(unstable), "held", None)
+    held = _settle_batch(model, [case], [angles], str(unstable), ["held"], None)[0]
     assert held.settled and held.time >= hold
 
 

@@ -53,7 +53,7 @@ def sidecar_dir(out: str) -> str:
     return kept_dir(out, "settle")
 
 
-def angles_of(cfg: Config) -> dict:
+def contact_angles(cfg: Config) -> dict:
     """A case's contact angles [deg] by kind."""
     return {k: cfg.contact(k).angle_deg for k in ("tieboss", "shroud")}
 
@@ -375,7 +375,7 @@ def run_settle(cfg: Config, out: str | None, comm=None, log=print, resume: bool 
 
     def keep(i: int, done: Settled) -> None:
         parameters = dict(zip(study.names, study.values[i], strict=True))
-        mine.append((i, angles_of(study.configs[i]), parameters, done))
+        mine.append((i, contact_angles(study.configs[i]), parameters, done))
         say(f"{labels[i]}: {done.verdict()} ({done.wall_s:.1f} s)")
 
     # the batches of every case, the same whatever the number of ranks or what an interrupted
@@ -392,17 +392,16 @@ def run_settle(cfg: Config, out: str | None, comm=None, log=print, resume: bool 
     for i in sorted(i for b in whole for i in b):           # one kept in part runs again
         say(f"{labels[i]}: kept from the interrupted run")
         keep(i, kept[i])
-    todo = [b for b in plan if b not in whole]
+    todo = [b for b in plan if b not in whole]  # handed to the ranks as they become free
     if comm is not None:
         todo = comm.bcast(todo)
-    plan = todo  # handed to the ranks as they become free
-    queue = CaseQueue(len(plan), comm)
+    queue = CaseQueue(len(todo), comm)
     try:
         for j in queue:
-            chunk = plan[j]
+            chunk = todo[j]
             results = _settle_batch(models[model_of[chunk[0]]],
                                     [study.configs[i] for i in chunk],
-                                    [angles_of(study.configs[i]) for i in chunk], cycles_file,
+                                    [contact_angles(study.configs[i]) for i in chunk], cycles_file,
                                     [labels[i] for i in chunk],
                                     progress if rank == 0 else None)  # fmt: skip
             for i, done in zip(chunk, results, strict=True):
@@ -421,11 +420,6 @@ def run_settle(cfg: Config, out: str | None, comm=None, log=print, resume: bool 
         ordered = sorted((it for part, _ in gathered for it in part), key=lambda it: it[0])
     agree(comm, problem)  # every rank stops together: none waits for one that stopped
     return models[0], [(a, p, r) for _, a, p, r in ordered], directory
-
-
-def _settle_one(model, cfg: Config, angles: dict, cycles_file, label, progress) -> Settled:
-    """One case alone (:func:`_settle_batch`)."""
-    return _settle_batch(model, [cfg], [angles], cycles_file, [label], progress)[0]
 
 
 def _settle_batch(model, cfgs: list[Config], angles: list[dict], cycles_file, labels,

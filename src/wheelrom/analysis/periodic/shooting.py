@@ -311,18 +311,18 @@ class _ShotSystem:
         def function(snes, X, F):
             F.setArray(self.residual(X.getArray(readonly=True).copy())[0])
 
-        built, chord = [], line_search == "basic"
+        built, chord = [False], line_search == "basic"  # a Jacobian in P; chord steps allowed
 
         def jacobian(snes, X, J, P):
             h = self._history
             # chord steps with full steps only: under a line search a stale direction can fail
             # the search and end the last phase where a fresh Jacobian would have gone on
-            if chord and built and len(h) >= 2 and h[-1] <= CHORD * h[-2]:
+            if chord and built[0] and len(h) >= 2 and h[-1] <= CHORD * h[-2]:
                 return  # a chord step: P keeps the last Jacobian and its factors
             A = self.jacobian(X.getArray(readonly=True).copy())
             P.setValues(range(n), range(n), A.ravel())
             P.assemble()
-            built.append(len(h))
+            built[0] = True
 
         snes.setFunction(function, r)
         snes.setJacobian(jacobian, J, J)
