@@ -12,6 +12,7 @@ against independent truth:
 
 import math
 import os
+import re
 
 import h5py
 import numpy as np
@@ -20,7 +21,7 @@ from scipy.integrate import solve_ivp
 
 from conftest import SMALL, VDP_WHEEL
 from wheelrom import config
-from wheelrom.analysis.periodic.settle import classify
+from wheelrom.analysis.periodic.settle import Settled, Window, classify
 
 VDP = [*VDP_WHEEL, "sweep.shroud_angles_deg=[50.0]"]
 
@@ -94,7 +95,46 @@ def test_a_case_still_growing_is_not_settled(small_model, capsys):
     row = json.loads(capsys.readouterr().out)["cases"][0]
     assert row["settled"] is False and "kind" not in row
     assert row["verdict"].startswith("not settled after 0.3")
-    assert "bounded, the largest blade" in row["verdict"]
+    # two windows: too few for a trend, so the verdict claims neither growing nor bounded
+    assert row["windows"] < 8 and "trend_per_s" not in row
+    assert re.search(r"^not settled after 0\.3\d* s: the largest blade", row["verdict"])
+
+
+def _run_of(tops, blades=3):
+    """A run that did not settle: windows 0.1 s apart whose largest blade is ``tops`` [m]."""
+    windows = [Window(0.1 * (i + 1), np.array([0.5, 1.0, 0.7])[:blades] * top,
+                      np.array([1.0, 0.0])) for i, top in enumerate(tops)]  # fmt: skip
+    return Settled(False, windows[-1].end, windows, amplitude=windows[-1].amplitude,
+                   nd_energy=np.array([0.9, 0.1]))  # fmt: skip
+
+
+def test_the_trend_of_a_run_that_did_not_settle_is_the_least_squares_slope():
+    """The trend of the largest amplitude over the run's second half is numpy's least-squares
+    line (a second implementation: ``polyfit`` with its covariance) relative to the mean; a
+    rise beyond twice its standard error reads "still growing", scatter alone "bounded"."""
+    rng = np.random.default_rng(3)
+    t = 0.1 * np.arange(1, 21)
+    noise = 1e-7 * rng.standard_normal(t.size)
+    rising = _run_of(20e-6 * (1 + 0.08 * t) + noise)  # +8 %/s of 20 um at t = 0
+    rate, error = rising.trend()
+    late = t[10:]
+    tops = 20e-6 * (1 + 0.08 * late) + noise[10:]
+    (slope, _), cov = np.polyfit(late, tops, 1, cov="unscaled")
+    residual = tops - np.polyval([slope, _], late)
+    sigma = math.sqrt(cov[0, 0] * (residual @ residual) / (late.size - 2))
+    assert rate == pytest.approx(slope / tops.mean(), rel=1e-12)
+    assert error == pytest.approx(sigma / tops.mean(), rel=1e-9)
+    assert rate == pytest.approx(0.08 / (1 + 0.08 * late.mean()), rel=0.05)
+    assert ": still growing, the largest blade" in rising.verdict()
+    assert f"(rising {rate:.1%}/s +- {error:.1%})" in rising.verdict()
+    flat = _run_of(20e-6 + 5e-7 * np.array([1, -1] * 10))
+    rate, error = flat.trend()
+    assert abs(rate) < 2 * error
+    assert ": bounded, the largest blade" in flat.verdict()
+    assert "no trend beyond its scatter" in flat.verdict()
+    short = _run_of([20e-6, 21e-6, 22e-6, 23e-6, 24e-6, 25e-6])  # three windows in its half
+    assert short.trend() is None
+    assert short.verdict().startswith("not settled after 0.6 s: the largest blade 23-25 um")
 
 
 def test_the_elastic_law_settles_from_the_preload_carrying_its_sliders(small_model):

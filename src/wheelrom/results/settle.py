@@ -43,6 +43,10 @@ def write_settle(f, cfg: Config, model: ReducedModel, cases: list) -> None:
     g["max_amplitude"] = np.array([r.amplitude.max() if r.amplitude.size else np.nan
                                    for _, _, r in cases])  # fmt: skip
     g["wall_s"] = np.array([r.wall_s for _, _, r in cases])
+    g["trend"] = np.array([r.trend() or (np.nan, np.nan) for _, _, r in cases]).reshape(-1, 2)
+    g["trend"].attrs["columns"] = "rate [1/s], its standard error [1/s]"
+    g["trend"].attrs["meaning"] = "least-squares slope of the largest blade's amplitude over " \
+        "the windows of the run's second half, relative to their mean (NaN: fewer than 4)"
     g["start_amplitude"] = np.array([r.start_amplitude for _, _, r in cases])
     g["start_amplitude"].attrs["meaning"] = "tip amplitude [m] of the single-wave exact orbit " \
         "the case started from (NaN: started from the preloaded equilibrium)"  # fmt: skip

@@ -473,6 +473,9 @@ def summary(angles: dict, parameters: dict, r: Settled) -> dict:
            "verdict": r.verdict(), "settled": r.settled, "simulated_s": r.time,
            "status": r.status, "start": r.start, "wall_s": r.wall_s,
            "windows": len(r.windows)}  # fmt: skip
+    trend = r.trend()
+    if trend is not None and not r.settled:
+        out["trend_per_s"] = {"rate": trend[0], "error": trend[1]}
     if c is not None:
         out.update({
             "kind": c.kind, "decided_by": c.decided_by, "frequency_hz": c.frequency_hz,

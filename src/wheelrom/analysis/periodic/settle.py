@@ -35,6 +35,10 @@ from wheelrom.transient.problem import nd_amplitudes
 
 LINE_SHARE = 0.5  # of the envelope spectrum's power in its largest line: quasi-periodic
 RETURN = 0.01  # relative return distance after one period below which the state is periodic
+#: a motion that did not settle: the trend of its largest amplitude over the run's second half
+#: counts when it exceeds this many standard errors of the slope (about 95 %), from at least
+#: TREND_WINDOWS windows
+TREND_SIGNIFICANCE, TREND_WINDOWS = 2.0, 4
 
 
 @dataclass
@@ -226,6 +230,38 @@ class Settled:
         start = self.windows[len(self.windows) // 2 - 1].end
         return float(top.min()), float(top.max()), self.time - start
 
+    def trend(self) -> tuple[float, float] | None:
+        """``(rate, error)`` [1/s]: the least-squares slope of the largest blade's amplitude
+        against the windows' ends over the windows of :meth:`bounded`, relative to their mean,
+        and its standard error (None with fewer than :data:`TREND_WINDOWS` windows there):
+        whether a motion that did not settle still grows or decays over that span."""
+        half = self.windows[len(self.windows) // 2 :]
+        if len(half) < TREND_WINDOWS:
+            return None
+        t = np.array([w.end for w in half])
+        top = np.array([w.amplitude.max() for w in half])
+        mean = float(top.mean())
+        if not mean > 0:
+            return None
+        x = t - t.mean()
+        slope = float(x @ (top - mean) / (x @ x))
+        scatter = top - mean - slope * x
+        error = math.sqrt(float(scatter @ scatter) / (x.size - 2) / float(x @ x))
+        return slope / mean, error / mean
+
+    def _trend_words(self) -> tuple[str, str]:
+        """``(state, trend)`` in words: 'still growing, ' when :meth:`trend` rises beyond its
+        scatter, 'bounded, ' when it does not, '' when there is none."""
+        trend = self.trend()
+        if trend is None:
+            return "", ""
+        rate, error = trend
+        significant = abs(rate) > TREND_SIGNIFICANCE * error
+        words = "rising" if rate > 0 else "falling"
+        return "still growing, " if significant and rate > 0 else "bounded, ", (
+            f" ({words} {abs(rate):.1%}/s +- {error:.1%})" if significant
+            else f" (no trend beyond its scatter: {rate:+.1%}/s +- {error:.1%})")  # fmt: skip
+
     def verdict(self) -> str:
         if self.status != "done":
             return self.status
@@ -234,9 +270,11 @@ class Settled:
             span = self.bounded()
             if span is not None and self.nd_energy.size:
                 nd = int(np.argmax(self.nd_energy))
-                words += (f": bounded, the largest blade {span[0] * 1e6:.3g}-"
-                          f"{span[1] * 1e6:.3g} um over the last {span[2]:.2g} s, ND {nd} "
-                          f"{self.nd_energy[nd]:.0%} of the energy in the last window")
+                state, trend = self._trend_words()
+                words += (f": {state}the largest blade "
+                          f"{span[0] * 1e6:.3g}-{span[1] * 1e6:.3g} um over the last "
+                          f"{span[2]:.2g} s{trend}, ND {nd} {self.nd_energy[nd]:.0%} of the "
+                          "energy in the last window")  # fmt: skip
             return words
         c, A = self.classification, self.amplitude
         top = int(np.argmax(A))
