@@ -125,15 +125,15 @@ def test_the_trend_of_a_run_that_did_not_settle_is_the_least_squares_slope():
     assert rate == pytest.approx(slope / tops.mean(), rel=1e-12)
     assert error == pytest.approx(sigma / tops.mean(), rel=1e-9)
     assert rate == pytest.approx(0.08 / (1 + 0.08 * late.mean()), rel=0.05)
-    assert ": still growing, the largest blade" in rising.verdict()
+    assert rising.still_growing() and ": still growing, the largest blade" in rising.verdict()
     assert f"(rising {rate:.1%}/s +- {error:.1%})" in rising.verdict()
     flat = _run_of(20e-6 + 5e-7 * np.array([1, -1] * 10))
     rate, error = flat.trend()
     assert abs(rate) < 2 * error
-    assert ": bounded, the largest blade" in flat.verdict()
+    assert not flat.still_growing() and ": bounded, the largest blade" in flat.verdict()
     assert "no trend beyond its scatter" in flat.verdict()
     short = _run_of([20e-6, 21e-6, 22e-6, 23e-6, 24e-6, 25e-6])  # three windows in its half
-    assert short.trend() is None
+    assert short.trend() is None and not short.still_growing()
     assert short.verdict().startswith("not settled after 0.6 s: the largest blade 23-25 um")
 
 
@@ -331,3 +331,28 @@ def test_a_growing_mode_without_tip_motion_is_seeded_by_its_modal_size():
         assert 0.5 * size == pytest.approx(1e-9, rel=1e-4)
         if not reach_used:
             assert np.linalg.norm(q @ tip.T, axis=1).max() <= 1e-9 * (1 + 1e-12)
+
+
+def test_the_settle_file_keeps_the_trend_and_info_reads_it(small_cfg, small_model, tmp_path,
+                                                           capsys):  # fmt: skip
+    """``/settle/trend`` and ``still_growing`` are the cases' own (a rising run, a flat one and
+    one too short for a trend), and ``info --json`` reads them back."""
+    import json
+
+    from wheelrom.cli import main as cli
+    from wheelrom.results.settle import write_settle
+
+    t = 0.1 * np.arange(1, 21)
+    runs = [_run_of(20e-6 * (1 + 0.08 * t)), _run_of(20e-6 + 5e-7 * np.array([1, -1] * 10)),
+            _run_of([20e-6, 21e-6, 22e-6])]  # fmt: skip
+    path = tmp_path / "trend.h5"
+    with h5py.File(path, "w") as f:
+        write_settle(f, small_cfg, small_model, [({"shroud": 50.0}, {}, r) for r in runs])
+    with h5py.File(path) as f:
+        trend, growing = f["settle/trend"][()], f["settle/still_growing"][()]
+    np.testing.assert_allclose(trend[:2], [runs[0].trend(), runs[1].trend()], rtol=1e-15)
+    assert np.all(np.isnan(trend[2])) and list(growing) == [True, False, False]
+    assert cli.main(["info", str(path), "--json"]) == 0
+    cases = json.loads(capsys.readouterr().out)["cases"]
+    assert cases[0]["trend_per_s"]["rate"] == pytest.approx(trend[0, 0], rel=1e-15)
+    assert "still growing" in cases[0]["verdict"] and "bounded" in cases[1]["verdict"]

@@ -82,9 +82,14 @@ def _summary(g, angles, plt, outdir, pdf, written) -> None:
     pick = ~settled & np.isfinite(low)
     ax.vlines(x[pick], low[pick], high[pick], color="C3", lw=3, alpha=0.4,
               label="not settled: range over the second half")  # fmt: skip
+    if "still_growing" in g:  # a range taken while the motion still grows is a lower bound
+        rising = pick & g["still_growing"][()].astype(bool)
+        ax.plot(x[rising], high[rising], linestyle="none", marker=r"$\uparrow$", color="C3", ms=14,
+                label="... still growing at the end (its trend)")  # fmt: skip
     if "start_amplitude" in g:
         ax.plot(x, g["start_amplitude"][()] * 1e6, "d--", color="0.5", ms=5, lw=0.8,
                 label="single-wave exact orbit (the start)")  # fmt: skip
+    ax.margins(y=0.1)  # room for the arrows above the highest range
     ax.set_ylim(bottom=0)
     ax.set_xlabel(label)
     ax.set_ylabel("largest blade's tip amplitude [um]")

@@ -249,6 +249,12 @@ class Settled:
         error = math.sqrt(float(scatter @ scatter) / (x.size - 2) / float(x @ x))
         return slope / mean, error / mean
 
+    def still_growing(self) -> bool:
+        """Whether the case did not settle and its :meth:`trend` rises beyond
+        :data:`TREND_SIGNIFICANCE` standard errors: its range is a lower bound."""
+        trend = None if self.settled else self.trend()
+        return trend is not None and trend[0] > TREND_SIGNIFICANCE * trend[1]
+
     def _trend_words(self) -> tuple[str, str]:
         """``(state, trend)`` in words: 'still growing, ' when :meth:`trend` rises beyond its
         scatter, 'bounded, ' when it does not, '' when there is none."""
@@ -258,7 +264,7 @@ class Settled:
         rate, error = trend
         significant = abs(rate) > TREND_SIGNIFICANCE * error
         words = "rising" if rate > 0 else "falling"
-        return "still growing, " if significant and rate > 0 else "bounded, ", (
+        return "still growing, " if self.still_growing() else "bounded, ", (
             f" ({words} {abs(rate):.1%}/s +- {error:.1%})" if significant
             else f" (no trend beyond its scatter: {rate:+.1%}/s +- {error:.1%})")  # fmt: skip
 
