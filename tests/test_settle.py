@@ -21,7 +21,7 @@ from scipy.integrate import solve_ivp
 
 from conftest import SMALL, VDP_WHEEL
 from wheelrom import config
-from wheelrom.analysis.periodic.settle import Settled, Window, classify
+from wheelrom.analysis.periodic.settle import Classification, Settled, Window, classify
 
 VDP = [*VDP_WHEEL, "sweep.shroud_angles_deg=[50.0]"]
 
@@ -95,7 +95,8 @@ def test_a_case_still_growing_is_not_settled(small_model, capsys):
     row = json.loads(capsys.readouterr().out)["cases"][0]
     assert row["settled"] is False and "kind" not in row
     assert row["verdict"].startswith("not settled after 0.3")
-    # two windows: too few for a trend, so the verdict claims neither growing nor bounded
+    # fewer than 8 windows (two here): too few for a trend, so the verdict claims neither
+    # growing nor bounded
     assert row["windows"] < 8 and "trend_per_s" not in row
     assert re.search(r"^not settled after 0\.3\d* s: the largest blade", row["verdict"])
 
@@ -344,15 +345,19 @@ def test_the_settle_file_keeps_the_trend_and_info_reads_it(small_cfg, small_mode
 
     t = 0.1 * np.arange(1, 21)
     runs = [_run_of(20e-6 * (1 + 0.08 * t)), _run_of(20e-6 + 5e-7 * np.array([1, -1] * 10)),
-            _run_of([20e-6, 21e-6, 22e-6])]  # fmt: skip
+            _run_of([20e-6, 21e-6, 22e-6]), _run_of(20e-6 * (1 + 0.08 * t))]  # fmt: skip
+    runs[3].settled = True  # a settled case has no trend, whatever its windows
+    runs[3].classification = Classification("periodic", 100.0, math.nan, 0.0, 0.0, 0.0, "test")
     path = tmp_path / "trend.h5"
     with h5py.File(path, "w") as f:
         write_settle(f, small_cfg, small_model, [({"shroud": 50.0}, {}, r) for r in runs])
     with h5py.File(path) as f:
         trend, growing = f["settle/trend"][()], f["settle/still_growing"][()]
     np.testing.assert_allclose(trend[:2], [runs[0].trend(), runs[1].trend()], rtol=1e-15)
-    assert np.all(np.isnan(trend[2])) and list(growing) == [True, False, False]
+    assert np.all(np.isnan(trend[2:])) and list(growing) == [True, False, False, False]
+    assert runs[3].trend() is None and "growing" not in runs[3].verdict()
     assert cli.main(["info", str(path), "--json"]) == 0
     cases = json.loads(capsys.readouterr().out)["cases"]
     assert cases[0]["trend_per_s"]["rate"] == pytest.approx(trend[0, 0], rel=1e-15)
+    assert "trend_per_s" not in cases[2] and "trend_per_s" not in cases[3]
     assert "still growing" in cases[0]["verdict"] and "bounded" in cases[1]["verdict"]

@@ -46,7 +46,8 @@ def write_settle(f, cfg: Config, model: ReducedModel, cases: list) -> None:
     g["trend"] = np.array([r.trend() or (np.nan, np.nan) for _, _, r in cases]).reshape(-1, 2)
     g["trend"].attrs["columns"] = "rate [1/s], its standard error [1/s]"
     g["trend"].attrs["meaning"] = "least-squares slope of the largest blade's amplitude over " \
-        "the windows of the run's second half, relative to their mean (NaN: fewer than 4)"
+        "the windows of the run's second half, relative to their mean (NaN: settled, or " \
+        "fewer than 4 windows there)"
     g["still_growing"] = np.array([r.still_growing() for _, _, r in cases], dtype=bool)
     g["start_amplitude"] = np.array([r.start_amplitude for _, _, r in cases])
     g["start_amplitude"].attrs["meaning"] = "tip amplitude [m] of the single-wave exact orbit " \

@@ -474,7 +474,7 @@ def summary(angles: dict, parameters: dict, r: Settled) -> dict:
            "status": r.status, "start": r.start, "wall_s": r.wall_s,
            "windows": len(r.windows)}  # fmt: skip
     trend = r.trend()
-    if trend is not None and not r.settled:
+    if trend is not None:
         out["trend_per_s"] = {"rate": trend[0], "error": trend[1]}
     if c is not None:
         out.update({

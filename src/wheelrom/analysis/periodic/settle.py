@@ -233,10 +233,11 @@ class Settled:
     def trend(self) -> tuple[float, float] | None:
         """``(rate, error)`` [1/s]: the least-squares slope of the largest blade's amplitude
         against the windows' ends over the windows of :meth:`bounded`, relative to their mean,
-        and its standard error (None with fewer than :data:`TREND_WINDOWS` windows there):
-        whether a motion that did not settle still grows or decays over that span."""
+        and its standard error (None when the case settled or with fewer than
+        :data:`TREND_WINDOWS` windows there): whether a motion that did not settle still grows
+        or decays over that span."""
         half = self.windows[len(self.windows) // 2 :]
-        if len(half) < TREND_WINDOWS:
+        if self.settled or len(half) < TREND_WINDOWS:
             return None
         t = np.array([w.end for w in half])
         top = np.array([w.amplitude.max() for w in half])
@@ -244,6 +245,8 @@ class Settled:
         if not mean > 0:
             return None
         x = t - t.mean()
+        if not x @ x > 0:  # (windows end at increasing times: never, but no division by 0)
+            return None
         slope = float(x @ (top - mean) / (x @ x))
         scatter = top - mean - slope * x
         error = math.sqrt(float(scatter @ scatter) / (x.size - 2) / float(x @ x))
@@ -252,7 +255,7 @@ class Settled:
     def still_growing(self) -> bool:
         """Whether the case did not settle and its :meth:`trend` rises beyond
         :data:`TREND_SIGNIFICANCE` standard errors: its range is a lower bound."""
-        trend = None if self.settled else self.trend()
+        trend = self.trend()
         return trend is not None and trend[0] > TREND_SIGNIFICANCE * trend[1]
 
     def _trend_words(self) -> tuple[str, str]:
