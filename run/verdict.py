@@ -81,9 +81,15 @@ def _settled(path, i):
             top = g["window_amplitude"][()].max(axis=1)
             half = top[top.size // 2 :] * 1e6
             nd = int(np.argmax(g["nd_energy"][()]))
-            return (f"not settled in {g.attrs['time']:.3g} s; bounded: largest blade "
-                    f"{half.min():.3g}..{half.max():.3g} um over the second half (ND {nd} "
-                    f"{g['nd_energy'][nd]:.0%})")
+            # the trend over the second half (files before 2026-11-27: none, "bounded")
+            state, trend = "bounded", ""
+            if "still_growing" in f["settle"] and "trend" in f["settle"]:
+                rate = f["settle/trend"][i, 0]
+                state = "still growing" if f["settle/still_growing"][i] else "bounded"
+                trend = f", {rate:+.1%}/s" if np.isfinite(rate) else ""
+            return (f"not settled in {g.attrs['time']:.3g} s; {state}: largest blade "
+                    f"{half.min():.3g}..{half.max():.3g} um over the second half{trend} (ND "
+                    f"{nd} {g['nd_energy'][nd]:.0%})")
         nd = int(np.argmax(g["nd_energy"][()]))
         return (f"{a.max() * 1e6:.2f} um ({g.attrs['kind']}; blades {a.min() * 1e6:.2f}.."
                 f"{a.max() * 1e6:.2f}; ND {nd} {g['nd_energy'][nd]:.0%})")
