@@ -84,9 +84,9 @@ def _settled(path, i):
             # the trend over the second half (files before 2026-11-27: none, "bounded")
             state, trend = "bounded", ""
             if "still_growing" in f["settle"] and "trend" in f["settle"]:
-                rate = f["settle/trend"][i, 0]
+                rate, error = f["settle/trend"][i]
                 state = "still growing" if f["settle/still_growing"][i] else "bounded"
-                trend = f", {rate:+.1%}/s" if np.isfinite(rate) else ""
+                trend = f", trend {rate:+.1%}/s +- {error:.1%}" if np.isfinite(rate) else ""
             return (f"not settled in {g.attrs['time']:.3g} s; {state}: largest blade "
                     f"{half.min():.3g}..{half.max():.3g} um over the second half{trend} (ND "
                     f"{nd} {g['nd_energy'][nd]:.0%})")
