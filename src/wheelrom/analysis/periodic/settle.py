@@ -36,7 +36,8 @@ from wheelrom.transient.problem import nd_amplitudes
 LINE_SHARE = 0.5  # of the envelope spectrum's power in its largest line: quasi-periodic
 RETURN = 0.01  # relative return distance after one period below which the state is periodic
 #: a motion that did not settle: the trend of its largest amplitude over the run's second half
-#: counts when it exceeds this many standard errors of the slope (about 95 %), from at least
+#: counts when it exceeds this many standard errors of the slope (95 % for independent
+#: scatter; the windows of a multi-wave state are correlated, so less), from at least
 #: TREND_WINDOWS windows
 TREND_SIGNIFICANCE, TREND_WINDOWS = 2.0, 4
 
