@@ -226,10 +226,16 @@ class Settled:
         how large a motion that does not settle stays."""
         if len(self.windows) < 2:
             return None
-        half = self.windows[len(self.windows) // 2 :]
-        top = np.array([w.amplitude.max() for w in half])
+        _, top = self._second_half()
         start = self.windows[len(self.windows) // 2 - 1].end
         return float(top.min()), float(top.max()), self.time - start
+
+    def _second_half(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(ends [s], largest blade's amplitude [m])`` of the windows of the run's second
+        half (those :meth:`bounded` and :meth:`trend` read)."""
+        half = self.windows[len(self.windows) // 2 :]
+        return (np.array([w.end for w in half], dtype=float),
+                np.array([w.amplitude.max() for w in half], dtype=float))  # fmt: skip
 
     def trend(self) -> tuple[float, float] | None:
         """``(rate, error)`` [1/s]: the least-squares slope of the largest blade's amplitude
@@ -237,11 +243,9 @@ class Settled:
         and its standard error (None when the case settled or with fewer than
         :data:`TREND_WINDOWS` windows there): whether a motion that did not settle still grows
         or decays over that span."""
-        half = self.windows[len(self.windows) // 2 :]
-        if self.settled or len(half) < TREND_WINDOWS:
+        if self.settled or len(self.windows) - len(self.windows) // 2 < TREND_WINDOWS:
             return None
-        t = np.array([w.end for w in half])
-        top = np.array([w.amplitude.max() for w in half])
+        t, top = self._second_half()
         mean = float(top.mean())
         if not mean > 0:
             return None
@@ -256,8 +260,7 @@ class Settled:
     def still_growing(self) -> bool:
         """Whether the case did not settle and its :meth:`trend` rises beyond
         :data:`TREND_SIGNIFICANCE` standard errors: its range is a lower bound."""
-        trend = self.trend()
-        return trend is not None and trend[0] > TREND_SIGNIFICANCE * trend[1]
+        return _rising(self.trend())
 
     def _trend_words(self) -> tuple[str, str]:
         """``(state, trend)`` in words: 'still growing, ' when :meth:`trend` rises beyond its
@@ -268,7 +271,7 @@ class Settled:
         rate, error = trend
         significant = abs(rate) > TREND_SIGNIFICANCE * error
         words = "rising" if rate > 0 else "falling"
-        return "still growing, " if self.still_growing() else "bounded, ", (
+        return "still growing, " if _rising(trend) else "bounded, ", (
             f" ({words} {abs(rate):.1%}/s +- {error:.1%})" if significant
             else f" (no trend beyond its scatter: {rate:+.1%}/s +- {error:.1%})")  # fmt: skip
 
@@ -297,6 +300,11 @@ class Settled:
             words.append(f"modulated at {c.modulation_hz:.3g} Hz (depth {c.modulation_depth:.0%})")
         words.append(f"after {self.time:.3g} s")
         return ", ".join(words)
+
+
+def _rising(trend: tuple[float, float] | None) -> bool:
+    """Whether a :meth:`Settled.trend` rises beyond :data:`TREND_SIGNIFICANCE` errors."""
+    return trend is not None and trend[0] > TREND_SIGNIFICANCE * trend[1]
 
 
 SAMPLES_PER_PERIOD = 24  # tip and state samples per period of the start's frequency
