@@ -30,7 +30,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 MPI_ENV = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
-           "OMPI_MCA_rmaps_base_oversubscribe": "1", "MPLBACKEND": "Agg"}  # fmt: skip
+           "OMPI_MCA_rmaps_base_oversubscribe": "1", "MPLBACKEND": "Agg"}
 PRELOADS_20 = np.geomspace(25.0, 12800.0, 20)
 
 
@@ -41,7 +41,7 @@ def elastic_20(out: Path) -> Path:
     grid = ", ".join(f"{p:.1f}" for p in PRELOADS_20)
     path = out / "bench-damper-elastic-20.toml"
     path.write_text(head + '[study.grid]\ncontacts.law = ["elastic"]\n'
-                    f"contacts.shroud.normal_preload = [{grid}]\n")  # fmt: skip
+                    f"contacts.shroud.normal_preload = [{grid}]\n")
     return path
 
 
@@ -49,10 +49,10 @@ def timed_study(config: Path, result: Path, harmonics: int) -> dict:
     """One design study under ``mpirun -n 2``, timed; its figures from the HDF5 file."""
     command = ["mpirun", "-n", "2", str(ROOT / ".venv" / "bin" / "wheelrom"), "study",
                str(config), "--stability-only", "--forced-nonlinear", "--set",
-               f"forced.harmonics={harmonics}", "--out", str(result), "--force"]  # fmt: skip
+               f"forced.harmonics={harmonics}", "--out", str(result), "--force"]
     start = time.perf_counter()
     subprocess.run(command, check=True, stdout=subprocess.DEVNULL,
-                   env={**os.environ, **MPI_ENV})  # fmt: skip
+                   env={**os.environ, **MPI_ENV})
     wall = time.perf_counter() - start
     with h5py.File(result, "r") as f:
         g = f["forced_nonlinear"]
@@ -60,7 +60,7 @@ def timed_study(config: Path, result: Path, harmonics: int) -> dict:
         best = int(np.nanargmin(peaks))
         values = f["cases/parameters/values"][...]
         names = [n.decode() if isinstance(n, bytes) else str(n)
-                 for n in f["cases/parameters/names"][...]]  # fmt: skip
+                 for n in f["cases/parameters/names"][...]]
         preload = float(values[best, names.index("contacts.shroud.normal_preload")])
         return {"wall_s": wall, "cases": int(peaks.size),
                 "frequencies_solved": int(g["converged"][...].sum()),
@@ -68,7 +68,7 @@ def timed_study(config: Path, result: Path, harmonics: int) -> dict:
                 "case_wall_s": np.round(g["wall_s"][...], 1).tolist(),
                 "smallest_peak": {"case": best, "preload_n": preload,
                                   "tip_amplitude_m": float(peaks[best]),
-                                  "frequency_hz": float(g["peak_frequency_hz"][best])}}  # fmt: skip
+                                  "frequency_hz": float(g["peak_frequency_hz"][best])}}
 
 
 def main(argv=None) -> int:
@@ -80,13 +80,13 @@ def main(argv=None) -> int:
     out.mkdir(exist_ok=True)
     figures = {"harmonics": args.harmonics}
     for name, config in (("both_laws", ROOT / "run" / "study_damper.toml"),
-                         ("elastic_20", elastic_20(out))):  # fmt: skip
+                         ("elastic_20", elastic_20(out))):
         figures[name] = timed_study(config, out / f"bench-damper-{name}.h5", args.harmonics)
         if not args.json:
             f = figures[name]
             print(f"{name}: {f['cases']} cases in {f['wall_s']:.0f} s under mpirun -n 2, "
                   f"{f['frequencies_solved']} of {f['frequencies']} frequencies solved",
-                  file=sys.stderr)  # fmt: skip
+                  file=sys.stderr)
     print(json.dumps(figures))
     return 0
 

@@ -43,14 +43,14 @@ def flutter(alternate: str, random: str, plt, outdir: str) -> None:
     rangles = np.unique(rangle)
     print()
     print("| random `std` | " + " | ".join(f"{a:g} deg: mean [min, max], stable" for a in rangles)
-          + " |")  # fmt: skip
+          + " |")
     print("|---" * (len(rangles) + 1) + "|")
     for s in np.unique(std):
         cells = []
         for x in rangles:
             g = rgrowth[(std == s) & (rangle == x)]
             cells.append(f"{g.mean():+.3f} [{g.min():+.3f}, {g.max():+.3f}], "
-                         f"{np.sum(g < 0)}/{g.size}")  # fmt: skip
+                         f"{np.sum(g < 0)}/{g.size}")
         print(f"| {s:g} | " + " | ".join(cells) + " |")
     fig, ax = plt.subplots(figsize=(7.5, 4.2))
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
@@ -61,7 +61,7 @@ def flutter(alternate: str, random: str, plt, outdir: str) -> None:
             ax.plot(np.full(g.size, 100 * s), g, "o", ms=4, color=colours[i], alpha=0.6)
         alt = [growth[(amp == a) & (angle == x)][0] for a in np.unique(amp)]
         ax.plot(100 * np.unique(amp), alt, "--", color=colours[i],
-                label=f"shroud {x:g} deg: alternate (line), random (dots)")  # fmt: skip
+                label=f"shroud {x:g} deg: alternate (line), random (dots)")
         if tuned.size:
             ax.axhline(tuned[0], color=colours[i], lw=0.5)
     ax.axhline(0.0, color="k", lw=1)
@@ -69,7 +69,7 @@ def flutter(alternate: str, random: str, plt, outdir: str) -> None:
     _finish(fig, ax, plt, "mistuning strength: alternate amplitude a / random std [%]",
             "largest growth rate [1/s]",
             "Flutter of the mistuned wheel (tie-boss 45 deg, mu = 100 N s/m)",
-            os.path.join(outdir, "mistuning_flutter.png"))  # fmt: skip
+            os.path.join(outdir, "mistuning_flutter.png"))
 
 
 def _finish(fig, ax, plt, xlabel: str, ylabel: str, title: str, path: str) -> None:
@@ -94,7 +94,7 @@ def amplification(path: str, plt, outdir: str) -> None:
     std, contacts = p["mistuning.std"], p["forced.contacts"]
     print()
     print("| `std` | contacts linearised: mean, max, peak [Hz] | contacts off: mean, max, "
-          "peak [Hz] | largest growth rate [1/s] |")  # fmt: skip
+          "peak [Hz] | largest growth rate [1/s] |")
     print("|---|---|---|---|")
     for s in np.unique(std):
         cells = []
@@ -102,7 +102,7 @@ def amplification(path: str, plt, outdir: str) -> None:
             pick = (std == s) & (contacts == c)
             a = factor[pick]
             cells.append(f"{a.mean():.2f}, {a.max():.2f}, {frequency[pick].min():.1f}-"
-                         f"{frequency[pick].max():.1f}")  # fmt: skip
+                         f"{frequency[pick].max():.1f}")
         g = growth[(std == s) & (contacts == 1.0)]
         print(f"| {100 * s:g} % | " + " | ".join(cells) + f" | {g.min():+.3f}..{g.max():+.3f} |")
     fig, ax = plt.subplots(figsize=(7.5, 4.2))
@@ -120,7 +120,7 @@ def amplification(path: str, plt, outdir: str) -> None:
     ax.set_xscale("log")
     _finish(fig, ax, plt, "random mistuning std [%]", "amplification factor (peak / tuned peak)",
             "Forced response to the nozzle (ND 2), 66 blades x 22 vectors",
-            os.path.join(outdir, "mistuning_amplification.png"))  # fmt: skip
+            os.path.join(outdir, "mistuning_amplification.png"))
 
 
 def main() -> None:

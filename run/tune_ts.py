@@ -50,15 +50,15 @@ def settings(step: float) -> list[tuple[str, dict]]:
     fixed-step RK 3bs at 4x..1/4x of ``RK_STEP`` (the larger ones are refused: beyond RK's
     stability), RK4 at 6 us, adaptive RK types."""
     out = [(f"exponential dt={dt:.3g}", {"ts_dt": dt}) for dt in
-           (2 * step, step, step / 2, step / 4)]  # fmt: skip
+           (2 * step, step, step / 2, step / 4)]
     rk = {"ts_type": "rk"}
     out += [(f"3bs dt={dt:.3g}", {**rk, "ts_rk_type": "3bs", "ts_dt": dt}) for dt in
-            (4 * RK_STEP, 2 * RK_STEP, RK_STEP, RK_STEP / 2, RK_STEP / 4)]  # fmt: skip
+            (4 * RK_STEP, 2 * RK_STEP, RK_STEP, RK_STEP / 2, RK_STEP / 4)]
     out.append(("4 dt=6e-06", {**rk, "ts_rk_type": "4", "ts_dt": 6e-6}))
     for kind in ("3bs", "5dp"):
         for rtol in (1e-4, 1e-6, 1e-8):
             opts = {**rk, "ts_rk_type": kind, "ts_adapt_type": "basic", "ts_rtol": rtol,
-                    "ts_atol": rtol * 1e-3, "ts_dt": RK_STEP}  # fmt: skip
+                    "ts_atol": rtol * 1e-3, "ts_dt": RK_STEP}
             out.append((f"{kind} adaptive rtol={rtol:.0e}", opts))
     return out
 
@@ -99,7 +99,7 @@ def main(argv: list[str] | None = None) -> int:
     tips = []
     for dt in (REFERENCE_STEP, REFERENCE_STEP / 2):
         reference = run_case(model, cfg, options={"ts_type": "rk", "ts_rk_type": "5dp",
-                                                  "ts_dt": dt})  # fmt: skip
+                                                  "ts_dt": dt})
         if reference.status != "done":
             print(f"reference run failed: {reference.status}", file=sys.stderr)
             return 1
@@ -129,10 +129,10 @@ def main(argv: list[str] | None = None) -> int:
             "setting": label, "options": res.options, "status": res.status,
             "steps": res.steps, "rhs_evaluations": res.rhs_evaluations, "wall_s": wall,
             "tip_error": error, "energy_balance_error": res.energy_balance_error(),
-        })  # fmt: skip
+        })
         if not args.json:
             print(f"{label:28s} {res.status:6s} steps {res.steps:7d}  wall {wall:7.3f} s  "
-                  f"tip error {error:9.2e}")  # fmt: skip
+                  f"tip error {error:9.2e}")
     if args.json:
         table = {"end_s": cfg.time.end, "reference": f"5dp dt={REFERENCE_STEP / 2}",
                  "reference_error": reference_error, "runs": rows}
@@ -146,7 +146,7 @@ def main(argv: list[str] | None = None) -> int:
 
         fig, ax = plt.subplots(figsize=(6.5, 4.5))
         for family, marker in (("exponential dt", "D"), ("3bs dt", "o"), ("3bs adaptive", "s"),
-                               ("5dp adaptive", "^")):  # fmt: skip
+                               ("5dp adaptive", "^")):
             pts = [(r["wall_s"], r["tip_error"]) for r in rows if r["setting"].startswith(family)]
             if pts:
                 x, y = zip(*pts, strict=True)
@@ -154,7 +154,7 @@ def main(argv: list[str] | None = None) -> int:
         ax.set_xlabel("wall time [s]")
         ax.set_ylabel("relative tip error at t_end [-]")
         ax.set_title(f"work-precision, {model.blades} blades x {model.modes} modes, "
-                     f"{args.end * 1e3:.0f} ms")  # fmt: skip
+                     f"{args.end * 1e3:.0f} ms")
         ax.grid(True, which="both", alpha=0.3)
         ax.legend()
         fig.tight_layout()
@@ -170,7 +170,7 @@ def lyapunov(model, cfg, as_json: bool) -> int:
     step = time_step(rest)
     every = max(1, round(2e-4 / step))  # a tip sample every ~0.2 ms
     rest = rest.replace(**{"output.sample_rate_hz": 1.0 / (every * step),
-                           "output.history_rate_hz": 1.0 / (every * step)})  # fmt: skip
+                           "output.history_rate_hz": 1.0 / (every * step)})
     a = run_case(model, rest)
     b = run_case(model, rest.replace(**{"time.perturbation": 1e-12}))
     t = a.sample_time
@@ -186,7 +186,7 @@ def lyapunov(model, cfg, as_json: bool) -> int:
         sys.stdout.write("\n")
     for r in [] if as_json else rows:
         print(f"{r['from_s'] * 1e3:5.1f}..{r['to_s'] * 1e3:5.1f} ms: finite-time Lyapunov "
-              f"exponent {r['exponent_per_s']:7.1f} /s")  # fmt: skip
+              f"exponent {r['exponent_per_s']:7.1f} /s")
     return 0
 
 

@@ -83,7 +83,7 @@ def parse_dat(text: str, families: int):
 _XI = np.array([[-1, -1, -1], [1, -1, -1], [1, 1, -1], [-1, 1, -1], [-1, -1, 1], [1, -1, 1],
                 [1, 1, 1], [-1, 1, 1], [0, -1, -1], [1, 0, -1], [0, 1, -1], [-1, 0, -1],
                 [0, -1, 1], [1, 0, 1], [0, 1, 1], [-1, 0, 1], [-1, -1, 0], [1, -1, 0],
-                [1, 1, 0], [-1, 1, 0]], float)  # fmt: skip
+                [1, 1, 0], [-1, 1, 0]], float)
 _G = np.sqrt(0.6) * np.array([-1.0, 0.0, 1.0])
 GAUSS27 = np.array([(a, b, c) for c in _G for b in _G for a in _G])
 
@@ -153,7 +153,7 @@ def static_state(seg, cfg, comm=None):
     s, c1 = cfg.segment, cfg.wheel.coupling_stiffness
     mats0 = assemble(seg, s.young, s.poisson, s.density)
     ps = prestress(seg, mats0, s.young, s.poisson, s.density, 2 * np.pi * cfg.wheel.speed_hz,
-                   c1, comm)  # fmt: skip
+                   c1, comm)
     A, _ = phase_stiffness(mats0, spring_parts(seg, mats0, c1), 0.0)
     u = ps.displacement[mats0.free]
     return ps.displacement, mats0.expand(A @ u - mats0.K @ u)
@@ -193,7 +193,7 @@ def main():
             "ccx_hz": ccx.tolist(),
         }
         print(f"{name}: max |ccx/ours - 1| = {np.abs(rel).max():.2e}, "
-              f"pair spread {spread:.1e}", flush=True)  # fmt: skip
+              f"pair spread {spread:.1e}", flush=True)
         if name == "prestressed":
             per_nd = np.abs(rel).max(axis=1)
             k, j = np.unravel_index(np.abs(rel).argmax(), rel.shape)
@@ -213,7 +213,7 @@ def main():
                 "ccx_hz": ccx3.tolist(),
             }
             print(f"initial stress: max |ccx/ours - 1| = {np.abs(rel3).max():.2e}, "
-                  f"pair spread {spread3:.1e}")  # fmt: skip
+                  f"pair spread {spread3:.1e}")
     with open(os.path.join(args.workdir, "results.json"), "w") as f:
         json.dump(res, f, indent=1)
     plot(tables["prestressed"], FIGURE)
@@ -234,7 +234,7 @@ def plot(rel, path):
     ax.set_xlabel("nodal diameter")
     ax.set_ylabel("CalculiX / wheelrom - 1  [%]")
     ax.set_title("Prestressed wheel (coarse, 50 Hz): CalculiX static + perturbation step\n"
-                 "vs wheelrom exact cyclic FE (K + K_sigma - Omega^2 M_s)")  # fmt: skip
+                 "vs wheelrom exact cyclic FE (K + K_sigma - Omega^2 M_s)")
     ax.grid(alpha=0.3)
     ax.legend(ncol=2, fontsize=8)
     fig.tight_layout()

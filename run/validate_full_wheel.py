@@ -32,7 +32,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("config", nargs="?")
     ap.add_argument("--set", dest="overrides", action="append",
-                    default=['segment.preset="coarse"'])  # fmt: skip
+                    default=['segment.preset="coarse"'])
     ap.add_argument("--families", type=int, default=2)
     args = ap.parse_args(argv)
     PETSc = petsc()
@@ -51,11 +51,11 @@ def main(argv=None) -> int:
     wall_b = time.perf_counter() - t0
     cyclic = np.sort(np.concatenate(
         [table[k] if k in (0, N / 2) else np.repeat(table[k], 2) for k in range(N // 2 + 1)]
-    ))[: fam * N]  # fmt: skip
+    ))[: fam * N]
     diff = float(np.abs(assembled / cyclic - 1).max())
     json.dump({"dofs_assembled": int(N * mats.free.size), "modes": fam * N,
                "max_relative_difference": diff, "assembled_wall_s": wall_a,
-               "cyclic_wall_s": wall_b, "ranks": comm.getSize()}, sys.stdout, indent=1)  # fmt: skip
+               "cyclic_wall_s": wall_b, "ranks": comm.getSize()}, sys.stdout, indent=1)
     print()
     return 0 if diff < 1e-6 else 1
 

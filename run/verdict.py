@@ -66,7 +66,7 @@ def _cycle(path, i):
                 # with the whole wheel's not computed, or uncertain)
                 by = c["floquet_by"][j].decode() if "floquet_by" in c else ""
                 undecided = "stable in symmetry, whole wheel not decided" \
-                    if by.startswith("stable inside") else "uncertain"  # fmt: skip
+                    if by.startswith("stable inside") else "uncertain"
                 text += " (" + {1: "stable", 0: "unstable"}.get(int(c["stable"][j]),
                                                                 undecided) + ")"
             return text

@@ -41,10 +41,10 @@ def main() -> None:
             peak_response(dataclasses.replace(model, mistuning=d), cfg, band_hz,
                           contacts=False).amplitude / tuned.amplitude
             for d in deltas
-        ])  # fmt: skip
+        ])
         print(f"N = {N}, m = {model.modes}, std {100 * std:g} %: largest {factors.max():.3f}, "
               f"mean {factors.mean():.3f}, 95 % {np.percentile(factors, 95):.3f}, bound "
-              f"{bound:.3f} ({time.perf_counter() - t0:.0f} s)")  # fmt: skip
+              f"{bound:.3f} ({time.perf_counter() - t0:.0f} s)")
 
 
 if __name__ == "__main__":

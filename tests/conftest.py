@@ -35,7 +35,7 @@ def coarse_cfg():
     # the paper's basis, scheme and step: 10 free-interface modes, RK 3bs at 5 us (the tests'
     # reference sizes)
     return config.load(overrides=['segment.preset="coarse"', 'wheel.basis="free"',
-                                  'time.scheme="rk"', "time.step=5e-6"])  # fmt: skip
+                                  'time.scheme="rk"', "time.step=5e-6"])
 
 
 @pytest.fixture(scope="session")
@@ -93,14 +93,14 @@ def one_mode_ring(blades: int, w0: float, coupling: float, contact_angle_deg: fl
         K_seg=np.array([[w0**2]]), A0=np.array([[w0**2 + 2 * coupling]]),
         A1=np.array([[-coupling]]), rotation=np.eye(3), tip=y.copy(), aero=np.array([1.0]),
         excitation=np.array([excitation]), contact_A={"shroud": y.copy()},
-        contact_B={"shroud": y.copy()}, contact_points={"shroud": points})  # fmt: skip
+        contact_B={"shroud": y.copy()}, contact_points={"shroud": points})
     contacts = ContactParameters(
         kinds=("shroud",), shape_A=y[None].copy(), shape_B=y[None].copy(),
         point_A=points[:1].copy(), point_B=points[1:].copy(), arm_length=np.array([0.0]),
         frame=np.broadcast_to(contact_frame(contact_angle_deg), (1, blades, 3, 3)).copy(),
         stiffness=np.full((1, blades), contact_stiffness), preload=np.array([preload]),
         angles_deg={"shroud": np.full(blades, contact_angle_deg)},
-        tangential=np.zeros((1, blades)))  # fmt: skip
+        tangential=np.zeros((1, blades)))
     return model, contacts
 
 
@@ -109,7 +109,7 @@ def one_mode_ring(blades: int, w0: float, coupling: float, contact_angle_deg: fl
 #: two workers share out the short ones at the end and finish together (started where they
 #: fall in the file order, one worker ran alone for about a minute at the end)
 SLOW_FIRST = ("test_bounds.py", "test_forced_branch.py", "test_slider_shooting.py",
-              "test_forced_shooting.py", "test_settle_faults.py", "test_tools.py")  # fmt: skip
+              "test_forced_shooting.py", "test_settle_faults.py", "test_tools.py")
 
 
 def pytest_collection_modifyitems(config, items):

@@ -33,7 +33,7 @@ def wave_operator(a, b):
 
 def _write(path, header, rows):
     path.write_text(header + "\n" + "\n".join(",".join(repr(float(v)) for v in r)
-                                              for r in rows) + "\n")  # fmt: skip
+                                              for r in rows) + "\n")
     return str(path)
 
 
@@ -55,7 +55,7 @@ def test_influence_coefficients_reproduce_the_table_at_every_nd(tmp_path, kind):
         path = _write(tmp_path / "t.csv", "nd,damping_ratio,frequency_hz", rows)
     else:
         rows = np.column_stack([nd, rng.normal(size=N) * 1e5, 20 + rng.normal(size=N) * 30,
-                                freq])  # fmt: skip
+                                freq])
         path = _write(tmp_path / "t.csv", "nd,aero_stiffness,aero_damping,frequency_hz", rows)
     table = read_aero_table(path, "<test>", N, sign=1)
     omega = 2 * math.pi * freq
@@ -66,7 +66,7 @@ def test_influence_coefficients_reproduce_the_table_at_every_nd(tmp_path, kind):
     np.testing.assert_allclose(A + 1j * omega * B, kappa, rtol=0, atol=1e-12 * abs(kappa).max())
     if kind == "damping_ratio":  # 2 zeta omega / p^2 as the damping per ND
         np.testing.assert_allclose(kappa.imag / omega, 2 * rows[:, 1] * omega / p_mode**2,
-                                   rtol=1e-13)  # fmt: skip
+                                   rtol=1e-13)
     else:
         np.testing.assert_allclose(kappa.real, rows[:, 1], rtol=1e-13)
 
@@ -78,21 +78,21 @@ def test_lag_convention_and_phase_angles_are_the_same_table(tmp_path):
     zeta = 0.01 + 0.004 * np.sin(2 * math.pi * np.arange(N) / N + 0.3)
     nd = np.arange(N)
     lead = read_aero_table(_write(tmp_path / "a.csv", "nd,damping_ratio",
-                                  np.column_stack([nd, zeta])), "<t>", N)  # fmt: skip
+                                  np.column_stack([nd, zeta])), "<t>", N)
     lag = read_aero_table(_write(tmp_path / "b.csv", "nd,damping_ratio",
                                  np.column_stack([(N - nd) % N, zeta])), "<t>", N,
-                          phase="lag")  # fmt: skip
+                          phase="lag")
     signed = read_aero_table(_write(tmp_path / "c.csv", "nd,damping_ratio",
                                     np.column_stack([np.where(nd > N // 2, nd - N, nd), zeta])),
-                             "<t>", N)  # fmt: skip
+                             "<t>", N)
     angles = read_aero_table(_write(tmp_path / "d.csv", "ibpa_deg,damping_ratio",
                                     np.column_stack([360.0 * nd / N - 360.0 * (nd > 6), zeta])),
-                             "<t>", N)  # fmt: skip
+                             "<t>", N)
     for other in (lead, lag, signed, angles):
         np.testing.assert_allclose(other.damping_ratio, zeta, rtol=1e-14)
     symmetric = read_aero_table(_write(tmp_path / "e.csv", "ibpa_deg,damping_ratio",
                                        [[0.0, 0.01], [180.0, 0.03]]), "<t>", N,
-                                directions="symmetric")  # fmt: skip
+                                directions="symmetric")
     expected = 0.01 + 0.02 * np.minimum(nd, N - nd) / (N / 2)
     np.testing.assert_allclose(symmetric.damping_ratio, expected, rtol=1e-14)
 
@@ -117,10 +117,10 @@ def test_growth_rate_of_each_nd_is_the_single_mode_closed_form(one_mode, tmp_pat
     zeta = 0.02 - 0.006 * half  # negative from ND 4 on: some NDs grow
     path = _write(tmp_path / "sym.csv", "nd,damping_ratio", np.column_stack([nd, zeta]))
     tab = config.load(SMALL, ["wheel.modes_per_segment=1", *OFF, 'flutter.model="table"',
-                              f'flutter.table="{path}"'])  # fmt: skip
+                              f'flutter.table="{path}"'])
     res = analyse(model, tab)
     omega = np.sqrt(np.array([model.block_circulant_eigenvalues()[k][0].real
-                              for k in range(N)]))  # fmt: skip
+                              for k in range(N)]))
     beta = cfg.wheel.damping_beta
     for k in range(N // 2 + 1):
         expected = -(beta * omega[k] ** 2 + 2 * zeta[k] * omega[k]) / 2
@@ -153,7 +153,7 @@ def _matched_distance(a, b):
 
 @pytest.mark.parametrize("shroud", [20.0, 80.0])
 def test_table_of_the_linearised_relative_van_der_pol_gives_its_spectrum(
-        small_model, small_cfg, tmp_path, shroud):  # fmt: skip
+        small_model, small_cfg, tmp_path, shroud):
     """At rest the relative Van der Pol force is ``mu (2 - 2 cos sigma_k) y'`` on ND ``k``: a
     table of ``aero_damping = -mu (2 - 2 cos sigma_k)`` gives the same spectrum (contacts on,
     six modes, the equilibrium unchanged up to the LU ordering of a wider pattern)."""
@@ -196,7 +196,7 @@ def test_compiled_rhs_equals_reference_forces_with_a_table(coarse_model, coarse_
     rows = np.column_stack([nd, rng.normal(size=N) * 1e4, 50 + rng.normal(size=N) * 80])
     path = _write(tmp_path / "c.csv", "nd,aero_stiffness,aero_damping", rows)
     cfg = coarse_cfg.replace(**{"flutter.model": "table", "flutter.table": path,
-                                "flutter.table_sign": 1})  # fmt: skip
+                                "flutter.table_sign": 1})
     angles = {"shroud": np.linspace(10.0, 80.0, N), "tieboss": 45.0}
     params = force_parameters(coarse_model, cfg, angles)
     assert np.abs(params.aero_displacement).max() > 0 and np.abs(params.aero_velocity).max() > 0
@@ -223,7 +223,7 @@ def test_transient_from_the_preload_grows_at_the_linear_rate(small_model, tmp_pa
     path = _write(tmp_path / "g.csv", "nd,damping_ratio", np.column_stack([nd, zeta]))
     cfg = _table_cfg(path, "excitation.force=0.0", 'time.start="preload"',
                      "time.perturbation=1e-9", "time.end=0.3", "time.window=0.01",
-                     "output.sample_rate_hz=20000.0")  # fmt: skip
+                     "output.sample_rate_hz=20000.0")
     angles = {"shroud": 50.0}
     linear = analyse(small_model, cfg, angles)
     assert linear.nodal_diameter[linear.critical()] == 3
@@ -247,7 +247,7 @@ BAD = [
     ("nd,damping_ratio\n0.5,0.01\n", "line 2, nd = 0.5 is not an integer"),
     ("nd,aero_damping,frequency_hz\n" + "".join(f"{k},1.0,100\n" for k in range(11))
      + "11,1.0,-5\n", "line 13, frequency_hz = -5 is not positive"),
-]  # fmt: skip
+]
 
 
 @pytest.mark.parametrize(("text", "message"), BAD)

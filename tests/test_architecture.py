@@ -18,7 +18,7 @@ STAGES = (
     ("wheelrom.transient", 5), ("wheelrom.analysis", 6), ("wheelrom.results", 7),
     ("wheelrom.studies", 8), ("wheelrom.bench", 9), ("wheelrom.plots", 10),
     ("wheelrom.cli", 11), ("wheelrom.__main__", 12), ("wheelrom", 0),
-)  # fmt: skip
+)
 # the top level: the package face, the shim of the old environment module and
 # `python -m wheelrom` (the entry point, as the console script), nothing else
 TOP_LEVEL = {"wheelrom", "wheelrom._environment", "wheelrom.__main__"}
@@ -42,7 +42,7 @@ def _modules():
 
 def _stage(module):
     return next(rank for prefix, rank in STAGES if module == prefix or
-                module.startswith(prefix + "."))  # fmt: skip
+                module.startswith(prefix + "."))
 
 
 def _imports(path, module, known):
@@ -102,7 +102,7 @@ def test_every_module_imports_on_its_own():
         "print('ok')\n"
     )
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         timeout=300, env=dict(os.environ, PYTHONPATH=SRC))  # fmt: skip
+                         timeout=300, env=dict(os.environ, PYTHONPATH=SRC))
     assert res.returncode == 0 and res.stdout.strip() == "ok", res.stderr[-2000:]
 
 
@@ -126,7 +126,7 @@ def test_a_folder_is_a_stage():
     the old environment shim), and every stage's face says what it owns and may import."""
     modules = _modules()
     stray = [m for m in modules if m.count(".") < 2 and m not in TOP_LEVEL
-             and m.rpartition(".")[2] not in {p.rpartition(".")[2] for p, _ in STAGES}]  # fmt: skip
+             and m.rpartition(".")[2] not in {p.rpartition(".")[2] for p, _ in STAGES}]
     assert not stray, f"modules outside a stage folder: {stray}"
     for prefix, _ in STAGES:
         path = modules.get(prefix)
@@ -148,8 +148,8 @@ LINEAR = {"jacobian", "stability", "margin", "forced", "forced_peak"}
 def test_periodic_solutions_live_in_one_package():
     modules = _modules()
     analysis = {m.rpartition(".")[2] for m in modules
-                if m.startswith("wheelrom.analysis.") and m.count(".") == 2}  # fmt: skip
+                if m.startswith("wheelrom.analysis.") and m.count(".") == 2}
     periodic = {m.rpartition(".")[2] for m in modules
-                if m.startswith("wheelrom.analysis.periodic.")}  # fmt: skip
+                if m.startswith("wheelrom.analysis.periodic.")}
     assert PERIODIC <= periodic, PERIODIC - periodic
     assert analysis - {"periodic"} <= LINEAR, analysis - {"periodic"} - LINEAR

@@ -51,9 +51,9 @@ def _refused(capsys, argv, *words):
                                                 "'limitcycle_shooting_'"]),
     (["-limitcycle_floquet_eps_type", "nosuch"], ["-limitcycle_floquet_eps_type nosuch",
                                                   "EPS 'limitcycle_floquet_'"]),
-])  # fmt: skip
+])
 def test_bad_limitcycle_option_is_refused_before_computing(option, words, capsys,
-                                                           nothing_computed):  # fmt: skip
+                                                           nothing_computed):
     from wheelrom.runtime.environment import petsc
 
     db = petsc().Options()
@@ -69,7 +69,7 @@ def test_bad_limitcycle_option_is_refused_before_computing(option, words, capsys
 @pytest.mark.parametrize("value, words", [
     ("0", ["time.end", "must be > 0"]),
     ("1e300", ["time.end", "must be <="]),
-])  # fmt: skip
+])
 def test_time_end_out_of_range_is_one_line(value, words, capsys, nothing_computed):
     assert cli.main(["run", SMALL, "--set", f"time.end={value}"]) == 2
     err = capsys.readouterr().err
@@ -104,18 +104,18 @@ def test_a_device_as_mistuning_file_is_refused(capsys, nothing_computed):
 @pytest.mark.parametrize("angle", ["nan", "120", "-30"])
 def test_forced_angle_outside_0_90_is_refused(angle, capsys, nothing_computed):
     _refused(capsys, ["forced-response", SMALL, "--angle", "shroud", angle],
-             f"--angle shroud {angle}", "0..90")  # fmt: skip
+             f"--angle shroud {angle}", "0..90")
 
 
 def test_forced_frequency_count_is_bounded(capsys, nothing_computed):
     _refused(capsys, ["forced-response", SMALL, "--frequencies", "100:120:100000000"],
-             "100000000 frequencies", "at most 100000")  # fmt: skip
+             "100000000 frequencies", "at most 100000")
 
 
 @pytest.mark.parametrize("tokens, words", [
     (["garbage"], ["'garbage' is neither an option"]),
     (["-wheel_ts_dt"], ["-wheel_ts_dt: needs a value"]),
-])  # fmt: skip
+])
 def test_stray_petsc_tokens_are_refused(tokens, words, capsys, nothing_computed):
     from wheelrom.runtime.environment import petsc
 
@@ -171,7 +171,7 @@ def test_full_disk_keeps_the_results_elsewhere(command, full_disk, capsys):
         f"{lines[0].split('; ')[1].split(' free')[0]} free in '{out}'); the results are kept "
         f"in {spare / kept} (move it there once space is freed); the "
         + {"stability": "summary is", "modes": "frequencies are",
-           "forced-response": "response is"}[command] + " printed above")  # fmt: skip
+           "forced-response": "response is"}[command] + " printed above")
     assert not os.listdir(out)  # no half file, no temporary
     with h5py.File(spare / kept, "r") as f:  # the whole results file
         assert f.attrs["config"]
@@ -200,7 +200,7 @@ def test_a_sweep_angle_listed_twice_is_refused(capsys):
     from wheelrom.cli import main as cli_main
 
     assert cli_main.main(["config", "check", SMALL, "--set",
-                          "sweep.shroud_angles_deg=[50.0, 60.0, 50.0]"]) == 2  # fmt: skip
+                          "sweep.shroud_angles_deg=[50.0, 60.0, 50.0]"]) == 2
     assert "sweep.shroud_angles_deg: [50.0] listed more than once" in capsys.readouterr().err
 
 
@@ -217,5 +217,5 @@ def test_an_attachment_basis_reaches_its_families(capsys):
     line."""
     attachment = ["--set", 'wheel.basis="attachment"', "--json", "--frequencies", "1:2:2"]
     _refused(capsys, ["forced-response", SMALL, "--set", "forced.family=40"] + attachment[:2],
-             "forced.family = 40: the model has", "mode families")  # fmt: skip
+             "forced.family = 40: the model has", "mode families")
     assert cli.main(["forced-response", SMALL, "--set", "forced.family=7"] + attachment) == 0

@@ -68,7 +68,7 @@ def test_modes_reports_the_prestress_peak_stress(small_model):
     assert 1e8 < peak < 1e10  # a rotating steel disc at 3000 rpm: hundreds of MPa to GPa
     assert 0.4 <= small_model.info["prestress_peak_radius_m"] <= 2.2  # inside the wheel
     parts = [small_model.info[f"prestress_{name}_peak_pa"]
-             for name in ("disc", "blade", "root_corner")]  # fmt: skip
+             for name in ("disc", "blade", "root_corner")]
     assert max(parts) == peak  # the three regions cover the segment
 
 
@@ -114,7 +114,7 @@ def test_auto_flutter_mode_acts_on_that_mode_only(small_model, small_cfg):
     assert bigger.segment_hz[j] == pytest.approx(small_model.segment_hz[j], rel=1e-8)
     cfg = small_cfg.replace(**{"flutter.mode": "auto", "excitation.force": 0.0,
                                "contacts.tieboss.enabled": False,
-                               "contacts.shroud.enabled": False})  # fmt: skip
+                               "contacts.shroud.enabled": False})
     forces = ReferenceForces(force_parameters(small_model, cfg))
     rng = np.random.default_rng(1)
     N, m = small_model.blades, small_model.modes

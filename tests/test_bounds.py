@@ -63,7 +63,7 @@ for law in ("paper", "elastic"):
 
 
 def test_kernels_load_in_a_second_process_and_read_no_array_past_its_end(
-        small_model, small_cfg, tmp_path, monkeypatch):  # fmt: skip
+        small_model, small_cfg, tmp_path, monkeypatch):
     cache = tmp_path / "kernels"
     monkeypatch.setenv("NUMBA_BOUNDSCHECK", "1")  # the processes': numba here is configured
     # start-up: a cold process compiles (and says so once), a second one loads every kernel
@@ -81,7 +81,7 @@ def test_kernels_load_in_a_second_process_and_read_no_array_past_its_end(
     # every consumer of the force parameters, checked (the run's kernels from that cache)
     env = dict(os.environ, NUMBA_CACHE_DIR=str(cache), WHEELROM_MODEL_CACHE="off")
     done = subprocess.run([sys.executable, "-c", SCRIPT, SMALL], capture_output=True,
-                          text=True, env=env, timeout=600)  # fmt: skip
+                          text=True, env=env, timeout=600)
     assert done.returncode == 0, done.stderr[-3000:]
     assert done.stdout.split("\n")[:3] == ["control: caught", "paper done", "elastic done"], \
-        done.stdout + done.stderr[-3000:]  # fmt: skip
+        done.stdout + done.stderr[-3000:]

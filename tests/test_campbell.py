@@ -11,7 +11,7 @@ def test_campbell_json_and_figure(tmp_path, capsys):
     from wheelrom.cli import main as cli
 
     argv = ["campbell", SMALL, "--set", "wheel.modes_per_segment=3", "--speeds", "0,30,60",
-            "--outdir", str(tmp_path), "--json"]  # fmt: skip
+            "--outdir", str(tmp_path), "--json"]
     assert cli.main(argv) == 0
     out = json.loads(capsys.readouterr().out)
     seg = np.array(out["segment_hz"])

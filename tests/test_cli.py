@@ -45,7 +45,7 @@ def test_compare_takes_the_step_from_the_ts():
 
     res = subprocess.run([sys.executable, "-m", "wheelrom.cli.main", "compare", SMALL, "--steps",
                           "100", "--json", "--", "-wheel_ts_dt", "2.5e-6"],
-                         capture_output=True, text=True, check=True, timeout=300)  # fmt: skip
+                         capture_output=True, text=True, check=True, timeout=300)
     out = json.loads(res.stdout)
     assert out["step_s"] == 2.5e-6 and out["max_relative_difference"] < 1e-9
 
@@ -55,7 +55,7 @@ def test_modes_out_and_vtu(tmp_path, capsys, small_model):
 
     out, vtu = tmp_path / "m.h5", tmp_path / "w.vtu"
     assert cli.main(["modes", SMALL, "--json", "--out", str(out), "--vtu", str(vtu),
-                     "--vtu-nd", "3"]) == 0  # fmt: skip
+                     "--vtu-nd", "3"]) == 0
     printed = json.loads(capsys.readouterr().out)
     table = small_model.frequencies_by_nodal_diameter()
     np.testing.assert_allclose(printed["reduced_hz_by_nd"], table, rtol=1e-12)
@@ -74,7 +74,7 @@ def test_run_out_window_end_is_the_runs(tmp_path, capsys):
     """time.end not a multiple of time.window: the file's window ends are the run's."""
     out = tmp_path / "r.h5"
     argv = ["run", SMALL, "--json", "--set", "time.end=0.0025", "--set", "time.window=0.001",
-            "--out", str(out)]  # fmt: skip
+            "--out", str(out)]
     assert cli.main(argv) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["simulated_s"] == pytest.approx(0.0025, rel=1e-9)
@@ -97,7 +97,7 @@ def test_print_json_is_strict_with_null_fields(capsys):
     print_json({"energy_balance_error": float("nan"), "ok": np.float64(1.5),
                 "table": np.array([[1.0, np.nan], [np.inf, 2.0]]), "peak": np.float32(-np.inf),
                 "min_normal_force": {"tieboss": np.nan, "shroud": 3.0}, "steps": np.int64(7),
-                "cases": [{"wall_s": 1.0}, {"wall_s": np.nan}]})  # fmt: skip
+                "cases": [{"wall_s": 1.0}, {"wall_s": np.nan}]})
     text = capsys.readouterr().out
     out = json.loads(text, parse_constant=no_constants)
     json.dumps(out, allow_nan=False)
@@ -107,7 +107,7 @@ def test_print_json_is_strict_with_null_fields(capsys):
     assert out["cases"] == [{"wall_s": 1.0}, {"wall_s": None}]
     nulls = out["null_fields"]
     assert set(nulls) == {"energy_balance_error", "table", "peak", "min_normal_force.tieboss",
-                          "cases[1].wall_s"}  # fmt: skip
+                          "cases[1].wall_s"}
     assert nulls["energy_balance_error"].startswith("NaN: no energy balance")
     assert nulls["table"].startswith("2 of 4 values NaN/inf")
     assert nulls["peak"] == "infinite (-inf)" and nulls["cases[1].wall_s"] == "not finite (NaN)"
@@ -137,7 +137,7 @@ def test_run_json_with_non_finite_statistics_is_strict_json(capsys, monkeypatch)
     reasons = out["null_fields"]
     assert set(reasons) == {"max_tip_amplitude", "energy_balance_error", "growth_rate",
                             *(f"{key}.{kind}" for key in ("min_normal_force", "open_fraction")
-                              for kind in ("tieboss", "shroud"))}  # fmt: skip
+                              for kind in ("tieboss", "shroud"))}
     assert reasons["max_tip_amplitude"].startswith("NaN: no output sample in the last window")
     assert reasons["energy_balance_error"].startswith("NaN: no energy balance")
 
@@ -153,7 +153,7 @@ def test_plain_output_is_for_people(capsys):
     assert wall[1] == "s" and float(wall[0]) == float(f"{float(wall[0]):.4g}") > 0
     assert lines["max_tip_amplitude"].endswith(" m")
     assert lines["min_normal_force"].startswith("tieboss ") and ", shroud " in lines[
-        "min_normal_force"] and lines["min_normal_force"].endswith(" N")  # fmt: skip
+        "min_normal_force"] and lines["min_normal_force"].endswith(" N")
     assert lines["preload_residual"] == "n/a"
     assert lines["options"] == "ts_type rk, ts_rk_type 3bs, ts_dt 5e-06, ts_adapt_type none"
     assert not any(c in v for v in lines.values() for c in "{}'[]")
@@ -179,4 +179,4 @@ def test_human_values():
     assert [unit_of(k) for k in ("wall_s", "us_per_rhs", "segment_hz", "steps_per_s",
                                  "paper_case_s_in_batch", "machine_gmadd_per_s", "steps",
                                  "fe_stiffness_n_per_m")] == [
-        "s", "us", "Hz", "/s", "s", "Gmadd/s", "", "N/m"]  # fmt: skip
+        "s", "us", "Hz", "/s", "s", "Gmadd/s", "", "N/m"]

@@ -50,7 +50,7 @@ def march(path: np.ndarray, normal: float = NORMAL, k_t: float = K_T, mu: float 
     dissipated = 0.0
     for i, (u_xi, u_zeta) in enumerate(path):
         F_xi, F_zeta, state, w_xi, w_zeta = elastic_friction(u_xi, u_zeta, w[0], w[1], normal,
-                                                             k_t, mu)  # fmt: skip
+                                                             k_t, mu)
         dissipated += math.hypot(F_xi, F_zeta) * math.hypot(w_xi - w[0], w_zeta - w[1])
         w[:] = w_xi, w_zeta
         forces[i] = F_xi, F_zeta
@@ -74,7 +74,7 @@ def test_a_line_gives_the_masing_loop(amplitude, direction_deg):
     exact = masing_dissipation(amplitude, NORMAL, K_T, MU)
     second = slice(samples, 2 * samples + 1)
     loop = -np.sum(np.einsum("ij,ij->i", 0.5 * (forces[second][:-1] + forces[second][1:]),
-                             np.diff(path[second], axis=0)))  # fmt: skip
+                             np.diff(path[second], axis=0)))
     if amplitude <= MU * NORMAL / K_T:
         assert exact == 0.0 and slip == 0.0 and (states == STICK).all()
         assert abs(loop) < 1e-12 * MU * NORMAL * amplitude
@@ -122,7 +122,7 @@ def den_hartog(beta: float, friction_ratio: float) -> float:
 
 
 def oscillator(beta: float, friction_ratio: float, periods: int, k_t: float = 2e5,
-               steps_per_period: int = 6000) -> np.ndarray:  # fmt: skip
+               steps_per_period: int = 6000) -> np.ndarray:
     """``x`` at every step of ``x'' + x = cos(beta t) + F_t`` (unit mass and stiffness, unit
     force amplitude), ``F_t`` the elastic Coulomb force of a contact to the ground (``mu F_n
     = friction_ratio``, stiffness ``k_t``), by Bogacki-Shampine with the slider held within
@@ -210,7 +210,7 @@ def test_kernel_and_reference_read_one_law(elastic_problem):
     kernel_state = problem.context.pack(u)
     assert slide_core(kernel_state, problem.context.array) == 1
     np.testing.assert_allclose(problem.context.unpack(kernel_state)[0], returned, rtol=0,
-                               atol=1e-14)  # fmt: skip (q pass the basis rotation: 1e-15 m)
+                               atol=1e-14)  # q pass the basis rotation: 1e-15 m
 
 
 @pytest.mark.parametrize("scheme", ["rk", "exponential"])
@@ -226,10 +226,10 @@ def test_ts_equals_the_serial_reference(small_model, small_cfg, scheme):
                                "time.step": step, "time.end": steps * step,
                                "time.window": steps * step,
                                "output.sample_rate_hz": 1 / (steps * step),
-                               "output.history_rate_hz": 0.0})  # fmt: skip
+                               "output.history_rate_hz": 0.0})
     res = run_case(small_model, cfg)
     _, states, _ = reference_solution(small_model, cfg, steps, step, sample_every=steps,
-                                      scheme=scheme)  # fmt: skip
+                                      scheme=scheme)
     n = small_model.size
     ours, theirs = res.final_state, states[-1]
     assert ours.size == theirs.size == 2 * n + 4 + 2 * 2 * small_model.blades
@@ -255,17 +255,17 @@ def test_samples_count_the_steps_in_which_a_contact_slipped(small_model, small_c
                                "time.perturbation": 1e-5, "time.scheme": scheme,
                                "time.step": step, "time.end": steps * step,
                                "time.window": steps * step, "output.sample_rate_hz": 1 / step,
-                               "output.history_rate_hz": 0.0})  # fmt: skip
+                               "output.history_rate_hz": 0.0})
     res = run_case(small_model, cfg)
     _, states, _ = reference_solution(small_model, cfg, steps, step, sample_every=1,
-                                      scheme=scheme)  # fmt: skip
+                                      scheme=scheme)
     N, m, n = small_model.blades, small_model.modes, small_model.size
     forces = ReferenceForces(force_parameters(small_model, cfg))
     K = forces.normal_force.shape[0]
     slipped = np.zeros(K)
     for before, after in zip(states[:-1], states[1:], strict=True):
         forces.evaluate(0.0, after[:n].reshape(N, m), after[n : 2 * n].reshape(N, m),
-                        after[2 * n + 4 :].reshape(K, N, 2))  # fmt: skip
+                        after[2 * n + 4 :].reshape(K, N, 2))
         moved = (before[2 * n + 4 :] != after[2 * n + 4 :]).reshape(K, N, 2).any(axis=2)
         slipped += (moved & (forces.normal_force > 0.0)).sum(axis=1)
     truth = slipped / (steps * N)  # the sample at t = 0 (started returned) aside
@@ -281,17 +281,17 @@ def test_samples_count_the_steps_in_which_a_contact_slipped(small_model, small_c
     ("contacts.shroud.tangential_stiffness", "soft",
      "contacts.shroud.tangential_stiffness: expected a number [N/m] or 'mindlin'"),
     ("friction.coulomb", -0.2, "friction.coulomb: must be >= 0.0"),
-])  # fmt: skip
+])
 def test_bad_elastic_keys_are_named(key, value, message):
     with pytest.raises(config.ConfigError) as err:
         config.load(None, ["contacts.law=elastic", f"{key}={value!r}"
-                           if isinstance(value, str) else f"{key}={value}"])  # fmt: skip
+                           if isinstance(value, str) else f"{key}={value}"])
     assert message in str(err.value)
     assert len(err.value.problems) == 1
 
 
 @pytest.mark.parametrize("key", ["contacts.tieboss.tangential_stiffness=1e8",
-                                 "friction.coulomb=0.3"])  # fmt: skip
+                                 "friction.coulomb=0.3"])
 def test_an_elastic_key_under_the_paper_law_is_refused(key):
     with pytest.raises(config.ConfigError) as err:
         config.load(None, [key])
@@ -356,13 +356,13 @@ def force_jacobian_error(balance, X, omega, lam):
             up[row, col] += h
             down[row, col] -= h
             moved = balance.nonlinear_force(up, omega, lam) - balance.nonlinear_force(
-                down, omega, lam)  # fmt: skip
+                down, omega, lam)
             fd[:, :, row, col] = balance.P @ moved / (2 * h)
     force = balance.linear_jacobian(X, omega, lam).reshape(n, m, n, m) - dRdX
     h = 1e-6 * omega
     fd_w = (balance.residual(X, omega + h, lam) - balance.residual(X, omega - h, lam)) / (2 * h)
     return (np.abs(force - fd).max() / np.abs(fd).max(),
-            np.abs(dRdw - fd_w).max() / np.abs(fd_w).max())  # fmt: skip
+            np.abs(dRdw - fd_w).max() / np.abs(fd_w).max())
 
 
 def test_the_loop_jacobian_is_the_residuals_derivative(marching_balance):
@@ -384,11 +384,11 @@ def test_the_loop_jacobian_of_a_forced_partial_slip(small_model, small_cfg):
     start: measured 2.2e-4 and 2.8e-4 (4.3e-3 and 6.6e-3 with the sliders' tangent at the
     start of the period dropped)."""
     cfg = small_cfg.replace(**{"contacts.law": "elastic", "flutter.model": "off",
-                               "excitation.force": 10.0})  # fmt: skip
+                               "excitation.force": 10.0})
     params, q = forced_inputs(small_model, cfg, {"shroud": 50.0})
     curve = forced_curve(small_model, params, cfg.wheel.damping_beta,
                          2 * math.pi * np.array([240.0, 245.0, 250.0, 255.0]), q,
-                         harmonics=3)  # fmt: skip
+                         harmonics=3)
     assert curve.converged.all()
     balance = ForcedWave(small_model, params, cfg.wheel.damping_beta, 3).balance
     for j in (2, 3):
@@ -446,15 +446,15 @@ def test_flutter_grows_at_the_stuck_rate_then_saturates(small_model, small_cfg):
     N, m = small_model.blades, small_model.modes
     lam, vec = np.linalg.eig(nd_block(blade_blocks(res.jacobian, N, m), k))
     mode = np.real(np.outer(np.exp(2j * math.pi * k * np.arange(N) / N),
-                            vec[:, np.argmax(lam.real)]))  # fmt: skip
+                            vec[:, np.argmax(lam.real)]))
     a = 1e-12 / np.abs(mode[:, :m]).max()
     sliders = ReferenceForces(force_parameters(small_model, cfg, angles)).sliders_at_rest(
-        res.equilibrium)  # fmt: skip
+        res.equilibrium)
     u0 = np.concatenate([res.equilibrium.ravel() + a * mode[:, :m].ravel(),
-                         a * mode[:, m:].ravel(), np.zeros(4), sliders.ravel()])  # fmt: skip
+                         a * mode[:, m:].ravel(), np.zeros(4), sliders.ravel()])
     window = 0.075
     out = run_case(small_model, cfg.replace(**{"time.end": 20 * window, "time.window": window}),
-                   angles, u0=u0)  # fmt: skip
+                   angles, u0=u0)
     assert out.status == "done" and rate > 10.0
     flutter = out.nd_spectrum[:, k]
     stuck = np.log(flutter[1:4] / flutter[:3]).mean() / window

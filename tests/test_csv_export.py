@@ -30,7 +30,7 @@ def test_tips_and_windows_read_back_exactly(run_file, tmp_path, capsys):
         column = dict(zip(header, windows.T, strict=True))
         np.testing.assert_array_equal(column["max_tip_amplitude_m"], c["max_tip_amplitude"][0, :W])
         np.testing.assert_array_equal(column["min_normal_force_shroud_N"],
-                                      c["min_normal_force/shroud"][0, :W])  # fmt: skip
+                                      c["min_normal_force/shroud"][0, :W])
         np.testing.assert_array_equal(column["work_friction_J"], c["work"][0, :W, 2])
         np.testing.assert_array_equal(column["nd3_amplitude_m"], c["nd_spectrum"][0, :W, 3])
 

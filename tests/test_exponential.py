@@ -42,7 +42,7 @@ def test_free_decay_of_every_segment_mode_is_the_analytic_oscillator(small_model
         "contacts.tieboss.enabled": False, "contacts.shroud.enabled": False,
         "excitation.force": 0.0, "flutter.model": "off", "wheel.damping_beta": beta,
         "time.step": 2e-5, "time.end": 0.04, "time.window": 0.04,
-    })  # fmt: skip
+    })
     a, P = np.linalg.eigh(model.A0)  # the kernel's basis: z_s = P^T q_s
     rng = np.random.default_rng(3)
     z0 = rng.standard_normal((model.blades, model.modes)) * 1e-4
@@ -68,7 +68,7 @@ def test_free_decay_of_every_segment_mode_is_the_analytic_oscillator(small_model
 
 def _preloaded(cfg, end):
     return cfg.replace(**{"time.start": "preload", "time.perturbation": 1e-6,
-                          "time.end": end, "time.window": end})  # fmt: skip
+                          "time.end": end, "time.window": end})
 
 
 def test_design_order_on_the_attachment_basis(attachment):
@@ -78,7 +78,7 @@ def test_design_order_on_the_attachment_basis(attachment):
     cfg = _preloaded(cfg, 0.0048)
     refs = [_tips(model, run_case(model, cfg.replace(**{"time.scheme": "rk"}),
                                   options={"ts_rk_type": "5dp", "ts_dt": dt}).final_state)
-            for dt in (5e-7, 2.5e-7)]  # fmt: skip
+            for dt in (5e-7, 2.5e-7)]
     tip_ref = refs[1]
     scale = np.abs(tip_ref).max()
     floor = np.abs(refs[0] - tip_ref).max() / scale  # the reference's own error
@@ -110,7 +110,7 @@ def test_batch_results_are_those_of_single_runs(small_model, small_cfg):
     """Each column of the exponential step touches its own case only: a batch of two is
     bitwise the two single runs."""
     cfg = _exponential(small_cfg, **{"time.step": 1e-5, "time.end": 0.001,
-                                     "time.window": 0.0005})  # fmt: skip
+                                     "time.window": 0.0005})
     angles = [{"shroud": 20.0}, {"shroud": 80.0}]
     batch = run_cases(small_model, cfg, angles)
     for a, res in zip(angles, batch, strict=True):
@@ -192,16 +192,16 @@ def test_the_step_matrix_is_the_compiled_step(attachment):
 
         def on_wheel(y, wave=wave):  # (2m,) kernel basis, blade 0 -> (2 N m,), real
             return np.concatenate([(wave * (V @ y[:m])[None]).real.ravel(),
-                                   (wave * (V @ y[m:])[None]).real.ravel()])  # fmt: skip
+                                   (wave * (V @ y[m:])[None]).real.ravel()])
 
         size = 1e-9 / np.abs(model.tip @ V @ x[:m]).max()
         rest = np.concatenate([q.ravel(), np.zeros(N * m)])
         states = np.stack([rest, rest + size * on_wheel(x)])
         moved = flow.advance(np.concatenate([states, np.stack([sliders] * 2)], axis=1), h,
-                             steps=1)[:, : 2 * N * m]  # fmt: skip
+                             steps=1)[:, : 2 * N * m]
         truth = on_wheel(R @ x)
         np.testing.assert_allclose((moved[1] - moved[0]) / size, truth, rtol=0,
-                                   atol=1e-6 * np.abs(truth).max())  # fmt: skip
+                                   atol=1e-6 * np.abs(truth).max())
     flow.destroy()
 
 
@@ -231,14 +231,14 @@ def test_a_step_the_stuck_contacts_make_unstable_is_lowered(attachment):
     lowered, why = stable_step(model, flow.params, beta, h)
     assert 1e-5 < lowered < h and "grows ND 0" in why and "stuck springs" in why
     scheme, wheel = step_growth(model, _force_jacobian(model, flow.params), beta, h,
-                                shift=shift)  # fmt: skip
+                                shift=shift)
     assert scheme[0] > 50.0 and wheel[0] < 0
     q = analyse(model, cfg, {"shroud": 80.0}).equilibrium
     sliders = ReferenceForces(flow.params).sliders_at_rest(q)
     N, m = model.blades, model.modes
     a, V = np.linalg.eigh(model.A0 + shift)
     explicit = _nd_explicit(model, *_force_jacobian(model, flow.params), beta, 0,
-                            shift=shift)[1]  # fmt: skip
+                            shift=shift)[1]
     values, vectors = np.linalg.eig(step_matrix(coefficients(a, beta, h), explicit, h))
     x = vectors[:, np.argmax(np.abs(values))]  # ND 0: the same on every blade
     seed = np.concatenate([np.tile((V @ x[:m]).real, N), np.tile((V @ x[m:]).real, N)])
@@ -260,7 +260,7 @@ def test_a_step_the_stuck_contacts_make_unstable_is_lowered(attachment):
     assert growth(lowered) < SPURIOUS_GROWTH + 1.0
     res = run_case(model, flow.cfg.replace(**{"time.step": h, "time.end": 1e-3,
                                               "time.window": 1e-3}),
-                   {"shroud": 80.0})  # fmt: skip
+                   {"shroud": 80.0})
     assert res.options["ts_dt"] == lowered and "stuck springs" in res.options["ts_dt_lowered"]
 
 
@@ -279,7 +279,7 @@ def test_cases_whose_steps_differ_are_not_batched(small_model, small_cfg, monkey
 
     monkeypatch.setattr(exponential, "stable_step", by_angle)
     cfg = _exponential(small_cfg, **{"time.step": 1e-5, "time.end": 0.001,
-                                     "time.window": 0.0005})  # fmt: skip
+                                     "time.window": 0.0005})
     angles = [{"shroud": 20.0}, {"shroud": 80.0}, {"shroud": 30.0}]
     batch = run_cases(small_model, cfg, angles)
     assert [r.options["ts_dt"] for r in batch] == pytest.approx([1e-5, 8e-6, 1e-5], rel=1e-12)
@@ -333,7 +333,7 @@ def test_a_mistuned_wheel_is_checked_at_its_extreme_mistuning(attachment):
     x = vectors[:, np.argmax(np.abs(values))]  # the growing step mode of ND k on blade 0
     wave = np.exp(2j * np.pi * k * np.arange(N) / N)[:, None]
     seed = np.concatenate([(wave * (V @ x[:m])[None]).real.ravel(),
-                           (wave * (V @ x[m:])[None]).real.ravel()])  # fmt: skip
+                           (wave * (V @ x[m:])[None]).real.ravel()])
     seed *= 1e-15 / np.abs(seed[: N * m].reshape(N, m) @ uniform.tip.T).max()
     start = np.concatenate([q.ravel(), np.zeros(N * m)]) + seed
     flow = WheelFlow(uniform, cfg, angles)

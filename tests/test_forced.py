@@ -85,7 +85,7 @@ def _peak(model, cfg, K, C, F, around: np.ndarray) -> float:
     for w0 in around:
         half = 10 * beta * w0**2 / 2  # zeta w0, zeta = beta w0 / 2
         found = minimize_scalar(minus_amplitude, bounds=(w0 - half, w0 + half),
-                                method="bounded", options={"xatol": 1e-6 * half})  # fmt: skip
+                                method="bounded", options={"xatol": 1e-6 * half})
         best = max(best, -found.fun, -minus_amplitude(w0))
     return best
 
@@ -121,7 +121,7 @@ def test_whitehead_bound(one_mode, capsys):
     bound = (1 + math.sqrt(N)) / 2
     with capsys.disabled():
         print(f"\nWhitehead: max amplification {max(factors):.4f} over {len(factors)} "
-              f"realisations (mean {np.mean(factors):.4f}), bound {bound:.4f}")  # fmt: skip
+              f"realisations (mean {np.mean(factors):.4f}), bound {bound:.4f}")
     assert min(factors) > 0.5 and max(factors) <= bound
 
 
@@ -130,17 +130,17 @@ def test_cli_forced_response(tmp_path, capsys):
 
     out = tmp_path / "forced.h5"
     args = ["forced-response", SMALL, "--frequencies", "380:395:4", "--angle", "shroud", "50",
-            "--set", "mistuning.std=0.02", "--json", "--out", str(out)]  # fmt: skip
+            "--set", "mistuning.std=0.02", "--json", "--out", str(out)]
     assert cli.main(args) == 0
     data = json.loads(capsys.readouterr().out)
     assert data["mistuned"] and data["nodal_diameter"] == 2 and len(data["max_amplitude_m"]) == 4
     assert data["grid_amplification_factor"] == pytest.approx(
-        max(data["max_amplitude_m"]) / max(data["tuned_max_amplitude_m"]), rel=1e-12)  # fmt: skip
+        max(data["max_amplitude_m"]) / max(data["tuned_max_amplitude_m"]), rel=1e-12)
     # the refined peaks: at least every grid value, their ratio the amplification factor
     assert data["peak_amplitude_m"] >= max(data["max_amplitude_m"])
     assert data["tuned_peak_amplitude_m"] >= max(data["tuned_max_amplitude_m"])
     assert data["amplification_factor"] == pytest.approx(
-        data["peak_amplitude_m"] / data["tuned_peak_amplitude_m"], rel=1e-12)  # fmt: skip
+        data["peak_amplitude_m"] / data["tuned_peak_amplitude_m"], rel=1e-12)
     assert 380 <= data["peak_frequency_hz"] <= 395 and data["band_hz"] == [380.0, 395.0]
     with h5py.File(out) as f:
         assert f.attrs["format"] == "wheelrom-forced-1"
@@ -173,7 +173,7 @@ def test_cli_forced_response_over_rotor_speeds(capsys):
     for key in ("peak_amplitude_m", "peak_frequency_hz", "amplification_factor"):
         assert by_speed[key] == pytest.approx(by_frequency[key], rel=1e-9)
     assert by_speed["peak_speed_hz"] == pytest.approx(by_speed["peak_frequency_hz"] / n_s,
-                                                      rel=1e-14)  # fmt: skip
+                                                      rel=1e-14)
     assert cli.main([*common, "--speeds", "1:2:3", "--frequencies", "1:2:3"]) == 2
     assert "exclude each other" in capsys.readouterr().err
     assert cli.main([*common, "--speeds", "2:1:3"]) == 2

@@ -60,7 +60,7 @@ def lift_off_ring():
         vdp_model=VDP_OFF, vdp_mu=0.0, vdp_r=1e-3, aero=np.array([1.0]),
         aero_displacement=np.zeros(N3), aero_velocity=np.zeros(N3),
         law=ContactLaw(PAPER, 0.0, 0.0, 1.0, 1.0, 0.0), rotation=np.eye(3),
-        contacts=contacts)  # fmt: skip
+        contacts=contacts)
     return model, params
 
 
@@ -94,7 +94,7 @@ def steady_amplitude(X, omega, periods=60):
     T = 2 * math.pi / omega
     sol = solve_ivp(ring_motion, (0.0, periods * T), np.r_[y0, v0], args=(omega,),
                     method="DOP853", rtol=1e-10, atol=1e-14, max_step=T / 64,
-                    dense_output=True)  # fmt: skip
+                    dense_output=True)
     y = sol.sol(np.linspace((periods - 5) * T, periods * T, 2000))[0]
     return 0.5 * (y.max() - y.min())
 
@@ -104,7 +104,7 @@ def ring_curve():
     model, params = lift_off_ring()
     curve = traced_curve(model, params, BETA, (0.8 * W_OPEN, 1.2 * W_CLOSED),
                          np.zeros((N3, 1)), harmonics=H, samples=16 * (H + 1), lam=0.0,
-                         x_ref=1e-4, refine=True, stability=True)  # fmt: skip
+                         x_ref=1e-4, refine=True, stability=True)
     return model, params, curve
 
 
@@ -160,7 +160,7 @@ def test_three_states_between_the_folds_against_a_time_integration(ring_curve):
     lower = curve.tip_amplitude < 0.9 * LIFT_OFF
     assert (curve.growth[lower] < 0).all()
     middle_branch = (w > omega) & (w < f_lower) & (curve.tip_amplitude > 1.5 * LIFT_OFF) & \
-        (curve.tip_amplitude < middle)  # fmt: skip
+        (curve.tip_amplitude < middle)
     assert middle_branch.any() and (curve.growth[middle_branch] > 1.0).all()
 
 
@@ -184,7 +184,7 @@ def test_the_design_study_stores_the_traced_curve_and_its_folds(ring_curve):
     np.testing.assert_array_equal(out["frequency_hz"][0, :n], curve.frequency / (2 * math.pi))
     np.testing.assert_array_equal(out["growth"][0, :n], curve.growth)
     assert out["status"][0].decode() == (f"done (traced: {n} points, 2 folds; reached the end "
-                                         "of the range)")  # fmt: skip
+                                         "of the range)")
     assert out["peak_amplitude"][0] == curve.refined.tip_amplitude
 
 
@@ -203,12 +203,12 @@ def test_the_traced_curve_passes_the_grid_solutions(small_model, small_cfg):
     )
 
     cfg = small_cfg.replace(**{"contacts.law": "elastic", "flutter.model": "off",
-                               "forced.points": 9, "forced.harmonics": 3})  # fmt: skip
+                               "forced.points": 9, "forced.harmonics": 3})
     band, resonances = nonlinear_band(small_model, cfg)  # as design_point, the grid shared
     frequencies = np.unique(np.r_[np.linspace(*band, 9), resonances])
     inputs = forced_inputs(small_model, cfg)
     grid = nonlinear_forced(small_model, cfg, frequencies, harmonics=3, refine=True,
-                            inputs=inputs)  # fmt: skip
+                            inputs=inputs)
     curve = trace_after_grid(small_model, cfg, grid, band, inputs)
     assert curve.trace and curve.converged.sum() > 3 * grid.frequency.size
     params = force_parameters(small_model, cfg)
@@ -216,7 +216,7 @@ def test_the_traced_curve_passes_the_grid_solutions(small_model, small_cfg):
     w, ok = curve.frequency, curve.converged
     checked = 0
     for wg, Xg in zip(grid.frequency[grid.converged], grid.harmonics[grid.converged],
-                      strict=True):  # fmt: skip
+                      strict=True):
         a_grid = problem.tip_amplitude(Xg, wg)
         found = []
         for i in np.flatnonzero(ok[:-1] & ok[1:] & ((w[:-1] - wg) * (w[1:] - wg) <= 0)):
@@ -266,7 +266,7 @@ def test_the_growth_of_a_small_forced_state_is_the_linear_analysis(small_model, 
     linear = max(result.eigenvalue[result.nodal_diameter == nd].real.max() for nd in nds)
     _, q, _, _, _ = linearise(small_model, cfg)
     problem = ForcedWave(small_model, force_parameters(small_model, cfg),
-                         cfg.wheel.damping_beta, 2, 24, 1.0)  # fmt: skip
+                         cfg.wheel.damping_beta, 2, 24, 1.0)
     X = np.zeros((5, small_model.modes))
     X[0] = q[0]
     omega = 2 * math.pi * 100.0
@@ -290,9 +290,9 @@ def test_a_curve_whose_start_fails_is_traced_from_the_other_end(monkeypatch):
     monkeypatch.setattr(ForcedWave, "solve", first_fails)
     band = (0.8 * W_OPEN, 1.2 * W_CLOSED)
     curve = traced_curve(model, params, BETA, band, np.zeros((N3, 1)), harmonics=H,
-                         samples=16 * (H + 1), lam=0.0, x_ref=1e-4)  # fmt: skip
+                         samples=16 * (H + 1), lam=0.0, x_ref=1e-4)
     assert curve.trace.startswith(f"Newton fails at {band[0] / (2 * math.pi):.6g} Hz; "
-                                  "reached the end of the range")  # fmt: skip
+                                  "reached the end of the range")
     assert curve.converged.all()
     assert curve.frequency[0] == pytest.approx(band[0]) and curve.frequency[-1] == band[1]
     f_upper, f_lower = curve.folds
@@ -314,11 +314,11 @@ def _stepped_sweep(model, params, omegas, periods: int = 100) -> np.ndarray:
     from wheelrom.analysis.periodic.flow import Nozzle, WheelFlow
 
     cfg = config.load(SMALL, ['time.scheme="exponential"', f"time.step={STEP}",
-                              f"wheel.damping_beta={BETA}"])  # fmt: skip
+                              f"wheel.damping_beta={BETA}"])
     x, phase, out = np.zeros(2 * N3), 0.0, []
     for w in omegas:
         flow = WheelFlow(model, cfg, None, 0.0, nozzle=Nozzle(w, params.nozzle_phase),
-                         params=params)  # fmt: skip
+                         params=params)
         try:
             T = 2 * math.pi / w
             n, t = math.ceil(T / STEP / 64) * 64, phase / w

@@ -77,7 +77,7 @@ def friction_ring(friction_ratio: float, k_t: float = K_T):
         vdp_model=VDP_OFF, vdp_mu=0.0, vdp_r=1e-3, aero=np.array([1.0]),
         aero_displacement=np.zeros(N4), aero_velocity=np.zeros(N4),
         law=ContactLaw(ELASTIC, 0.0, 0.0, 0.0, 1.0, MU), rotation=np.eye(3),
-        contacts=contacts)  # fmt: skip
+        contacts=contacts)
     return model, params
 
 
@@ -127,7 +127,7 @@ def _shot_config(omega: float, beta: float | None = None) -> config.Config:
     damping = [] if beta is None else [f"wheel.damping_beta={beta}"]
     return config.load(SMALL, ['time.scheme="exponential"', f"time.step={period / 100}",
                                "time.window=0.1", "time.end=0.1", "output.history_rate_hz=0.0",
-                               "output.sample_rate_hz=2000.0", *damping])  # fmt: skip
+                               "output.sample_rate_hz=2000.0", *damping])
 
 
 def test_den_hartogs_viscous_solution_is_his_undamped_one_without_damping():

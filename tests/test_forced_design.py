@@ -65,7 +65,7 @@ def test_the_refined_peak_is_the_linear_peak(small_model, small_cfg):
     curve = forced_curve(small_model, force_parameters(small_model, cfg),
                          cfg.wheel.damping_beta, grid, np.zeros((small_model.blades,
                                                                 small_model.modes)),
-                         harmonics=1, refine=True)  # fmt: skip
+                         harmonics=1, refine=True)
     w, a = _linear_peak(small_model, cfg, K, C, grid[0], grid[-1])
     peak = curve.refined
     assert peak.tip_amplitude > 1.5 * curve.tip_amplitude.max()  # the grid alone misses it
@@ -75,7 +75,7 @@ def test_the_refined_peak_is_the_linear_peak(small_model, small_cfg):
 
 @pytest.mark.parametrize("continuation", ["grid", "arclength"])
 def test_a_preload_no_force_overcomes_gives_the_stuck_linear_peak(small_model, small_cfg,
-                                                                   continuation):  # fmt: skip
+                                                                   continuation):
     """Also traced by arclength: the curve through the lightly damped stuck resonance
     (half-power band 1e-4 of its frequency) reaches the band's end without a fold, and its
     peak found on the curve is the linear one."""
@@ -83,7 +83,7 @@ def test_a_preload_no_force_overcomes_gives_the_stuck_linear_peak(small_model, s
                                "excitation.force": 0.01, "forced.points": 5,
                                "forced.harmonics": 1, "forced.continuation": continuation,
                                "contacts.tieboss.normal_preload": 1e4,
-                               "contacts.shroud.normal_preload": 1e4})  # fmt: skip
+                               "contacts.shroud.normal_preload": 1e4})
     point = design_point(small_model, cfg)
     curve, peak = point.curve, point.curve.refined
     assert curve.converged.all() and (peak.fractions[:, 1] == 1.0).all()  # stuck throughout
@@ -107,10 +107,10 @@ def test_the_study_stores_the_design_curve(small_model, small_cfg, tmp_path):
     cfg = small_cfg.replace(**{"flutter.model": "off", "forced.points": 5,
                                "forced.harmonics": 2, "excitation.force": 10.0,
                                "study.grid": {"contacts.shroud.normal_preload":
-                                              [100.0, 3000.0, 30000.0]}})  # fmt: skip
+                                              [100.0, 3000.0, 30000.0]}})
     out = str(tmp_path / "design.h5")
     summary = run_study(cfg, out, MPI.COMM_SELF, mode="stability", log=lambda *_: None,
-                        nonlinear=True)  # fmt: skip
+                        nonlinear=True)
     design = summary["design"]
     peaks = np.array(design["peak_amplitude_m"])
     # the paper law's micro-slip branch: a viscous damper f_s F_n / v_k
@@ -120,12 +120,12 @@ def test_the_study_stores_the_design_curve(small_model, small_cfg, tmp_path):
         assert g.attrs["law"] == "paper"  # every case's (a study varying it: "per case")
         assert [s.decode().partition(" ")[0] for s in g["status"][()]] == ["done"] * 3
         one = design_point(small_model, cfg.replace(**{"contacts.shroud.normal_preload":
-                                                       3000.0}))  # fmt: skip
+                                                       3000.0}))
         assert g["peak_amplitude"][1] == pytest.approx(one.curve.refined.tip_amplitude,
-                                                       rel=1e-12)  # fmt: skip
+                                                       rel=1e-12)
         n = one.curve.frequency.size
         np.testing.assert_allclose(g["tip_amplitude"][1, :n], one.curve.tip_amplitude,
-                                   rtol=1e-12)  # fmt: skip
+                                   rtol=1e-12)
         assert (g["peak_amplitude"][()] >= np.nanmax(g["tip_amplitude"][()], axis=1)).all()
     why = study_layout.resume_problem(out, cfg, "stability", False, False)
     assert "--forced-nonlinear" in why
@@ -134,7 +134,7 @@ def test_the_study_stores_the_design_curve(small_model, small_cfg, tmp_path):
 
 
 def test_a_resumed_study_reads_the_curves_kept_beside_it(small_model, small_cfg, tmp_path,
-                                                          capsys):  # fmt: skip
+                                                          capsys):
     """Each finished curve is kept beside the output as it finishes; a study interrupted
     before its file was written, run again with ``--resume``, reads them (here a kept curve
     whose peak was marked: the file holds the mark) and computes the rest (a damaged one
@@ -148,7 +148,7 @@ def test_a_resumed_study_reads_the_curves_kept_beside_it(small_model, small_cfg,
     cfg = small_cfg.replace(**{"flutter.model": "off", "forced.points": 3,
                                "forced.harmonics": 1, "excitation.force": 10.0,
                                "study.grid": {"contacts.shroud.normal_preload":
-                                              [100.0, 3000.0, 30000.0]}})  # fmt: skip
+                                              [100.0, 3000.0, 30000.0]}})
     out = str(tmp_path / "design.h5")
     folder = design_cases.design_dir(out)
     cases = [cfg.replace(**{"contacts.shroud.normal_preload": p}) for p in (100.0, 3000.0)]
@@ -162,7 +162,7 @@ def test_a_resumed_study_reads_the_curves_kept_beside_it(small_model, small_cfg,
     with open(os.path.join(folder, "case_1.json"), "w") as f:  # damaged: computed again
         f.write('{"digest": "' + config_digest(cases[1]) + '", "wave"')
     summary = run_study(cfg, out, MPI.COMM_SELF, mode="stability", log=lambda *_: None,
-                        nonlinear=True, resume=True)  # fmt: skip
+                        nonlinear=True, resume=True)
     peaks = summary["design"]["peak_amplitude_m"]
     assert peaks[0] == 1.25e-3 and peaks[1] < 1e-3 and peaks[2] < 1e-3
     assert "case_1.json: damaged" in capsys.readouterr().err
@@ -175,7 +175,7 @@ def _plain_march(balance, X, w: float, tolerance: float) -> int:
     q, v = balance.samples(X, w)
     S, K = q.shape[0], len(balance.kinds)
     out = (np.empty((S, 3, balance.modes)), np.empty((S, K)), np.empty((S, K)),
-           np.empty((S, K), np.int8))  # fmt: skip
+           np.empty((S, K), np.int8))
     sliders = np.empty((S, *balance.forces.slider.shape))
     sliders[0] = balance.forces.sliders_at_rest(np.ascontiguousarray(q.mean(axis=0)))
     for period in range(1, 4001):
@@ -197,7 +197,7 @@ def test_the_march_goes_on_until_the_loop_closes(small_model, small_cfg, monkeyp
     the same forces (the comparison above: a march of 4000 periods extrapolates nothing)."""
     cfg = small_cfg.replace(**{"contacts.law": "elastic", "flutter.model": "off",
                                "excitation.force": 10.0,
-                               "contacts.shroud.normal_preload": 3200.0})  # fmt: skip
+                               "contacts.shroud.normal_preload": 3200.0})
     params = force_parameters(small_model, cfg)
     _, q, _, _, _ = linearise(small_model, cfg)
     w = 2 * math.pi * np.array([257.25, 257.0])
@@ -240,13 +240,13 @@ def test_the_peaks_made_exact(small_model, small_cfg, tmp_path, capsys):
                                "forced.harmonics": 5, "excitation.force": 10.0,
                                "forced.exact": True,
                                "study.grid": {"contacts.shroud.normal_preload":
-                                              [3000.0, 30000.0]}})  # fmt: skip
+                                              [3000.0, 30000.0]}})
     out = str(tmp_path / "design.h5")
     summary = run_study(cfg, out, MPI.COMM_SELF, mode="stability", log=lambda *_: None,
-                        nonlinear=True)  # fmt: skip
+                        nonlinear=True)
     design = summary["design"]
     for hb, exact, mu in zip(design["peak_amplitude_m"], design["exact_tip_amplitude_m"],
-                             design["exact_largest_multiplier"], strict=True):  # fmt: skip
+                             design["exact_largest_multiplier"], strict=True):
         assert exact is not None and abs(hb - exact) < 0.01 * exact
         assert 0 < mu < 10
     print_study(summary, out)
@@ -259,7 +259,7 @@ def test_the_peaks_made_exact(small_model, small_cfg, tmp_path, capsys):
     case = cfg.replace(**{"contacts.shroud.normal_preload": 30000.0})
     point = design_point(small_model, case)
     assert point.exact["tip_amplitude"] == pytest.approx(design["exact_tip_amplitude_m"][1],
-                                                         rel=1e-9)  # fmt: skip
+                                                         rel=1e-9)
     folder = design_cases.design_dir(str(tmp_path / "kept.h5"))
     assert design_cases.save_point(folder, 0, config_digest(case), point)
     assert design_cases.load_point(folder, 0, config_digest(case)).exact == point.exact

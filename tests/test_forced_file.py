@@ -33,7 +33,7 @@ def petsc_options():
 
 def _run(capsys, path, *extra) -> dict:
     argv = ["forced-response", SMALL, "--frequencies", "380:395:4", "--json", "--out",
-            str(path), *extra]  # fmt: skip
+            str(path), *extra]
     assert cli.main(argv) == 0
     return json.loads(capsys.readouterr().out)
 
@@ -43,7 +43,7 @@ def forced_file(tmp_path_factory):
     """A mistuned small wheel, contacts linearised (shroud 50 deg), 4 frequencies."""
     path = tmp_path_factory.mktemp("forced") / "forced.h5"
     argv = ["forced-response", SMALL, "--frequencies", "380:395:4", "--angle", "shroud", "50",
-            "--out", str(path), *MISTUNED]  # fmt: skip
+            "--out", str(path), *MISTUNED]
     assert cli.main(argv) == 0
     return path
 
@@ -66,11 +66,11 @@ def test_the_file_records_the_run(forced_file):
     assert (attrs["blades"], attrs["modes"]) == (12, 6) and attrs["mistuned"]
     np.testing.assert_array_equal(delta, blade_mistuning(cfg))
     assert json.loads(attrs["contact_angles_deg"]) == {
-        "tieboss": cfg.contacts.tieboss.angle_deg, "shroud": 50.0}  # fmt: skip
+        "tieboss": cfg.contacts.tieboss.angle_deg, "shroud": 50.0}
     factor = "mumps" if petsc().Sys.hasExternalPackage("mumps") else "petsc"
     assert json.loads(attrs["solver"]) == {"prefix": "forced_", "ksp_type": "preonly",
                                            "pc_type": "lu", "pc_factor_mat_solver_type": factor,
-                                           "options": {}}  # fmt: skip
+                                           "options": {}}
 
 
 def test_the_file_records_the_options_given(tmp_path, capsys, petsc_options):
@@ -100,7 +100,7 @@ def test_recorded_settings_are_those_the_solve_used(small_model, small_cfg, pets
     solver.destroy()
     db = petsc().Options()
     for name, value in (("forced_ksp_type", "gmres"), ("forced_pc_type", "jacobi"),
-                        ("forced_ksp_rtol", "1e-9")):  # fmt: skip
+                        ("forced_ksp_rtol", "1e-9")):
         petsc_options.append(name)
         db.setValue(name, value)
     iterative = forced.HarmonicSolver(K, C)
@@ -110,7 +110,7 @@ def test_recorded_settings_are_those_the_solve_used(small_model, small_cfg, pets
     assert chosen == ("gmres", "jacobi", 1e-9)
     assert "pc_factor_mat_solver_type" not in settings
     assert settings["options"] == {"forced_ksp_rtol": "1e-9", "forced_ksp_type": "gmres",
-                                   "forced_pc_type": "jacobi"}  # fmt: skip
+                                   "forced_pc_type": "jacobi"}
 
 
 def test_info_json_of_a_forced_file(forced_file, capsys):
@@ -124,9 +124,9 @@ def test_info_json_of_a_forced_file(forced_file, capsys):
         delta = f["mistuning"][()]
         amplitude, tuned = f["blade_amplitude"][()], f["tuned_blade_amplitude"][()]
         at_peak = {"peak": f["peak_blade_amplitude"][()],
-                   "tuned_peak": f["tuned_peak_blade_amplitude"][()]}  # fmt: skip
+                   "tuned_peak": f["tuned_peak_blade_amplitude"][()]}
         peak_hz = {"peak": f.attrs["peak_frequency_hz"],
-                   "tuned_peak": f.attrs["tuned_peak_frequency_hz"]}  # fmt: skip
+                   "tuned_peak": f.attrs["tuned_peak_frequency_hz"]}
     assert info["kind"] == "forced" and info["format"] == "wheelrom-forced-1"
     assert info["frequency_hz"] == {"from": 380.0, "to": 395.0, "count": 4}
     assert (info["stator_vanes"], info["nodal_diameter"]) == (10, 2)
@@ -135,10 +135,10 @@ def test_info_json_of_a_forced_file(forced_file, capsys):
     assert info["mistuning"]["max"] == delta.max()
     for key, table in (("peak", amplitude), ("tuned_peak", tuned)):
         assert info[key] == {"amplitude_m": at_peak[key].max(), "frequency_hz": peak_hz[key],
-                             "blade": int(np.argmax(at_peak[key]))}  # fmt: skip
+                             "blade": int(np.argmax(at_peak[key]))}
         assert info[key]["amplitude_m"] >= table.max() and 380 <= peak_hz[key] <= 395
     assert info["amplification_factor"] == pytest.approx(
-        info["peak"]["amplitude_m"] / info["tuned_peak"]["amplitude_m"], rel=1e-12)  # fmt: skip
+        info["peak"]["amplitude_m"] / info["tuned_peak"]["amplitude_m"], rel=1e-12)
     assert info["amplification_factor"] > 1.05  # the mistuned peak is really another one
     assert (info["blades"], info["modes"], info["frequencies"]) == (12, 6, 4)
     assert info["file_bytes"] == os.path.getsize(forced_file)
@@ -155,7 +155,7 @@ def test_info_text_of_a_forced_file(forced_file, capsys):
                  "contacts:      linearised (tieboss 45 deg, shroud 50 deg)",
                  f"peak:          {peak['amplitude_m']:.4e} m at {peak['frequency_hz']:g} Hz",
                  f"amplification: {info['amplification_factor']:.4f}",
-                 "KSP forced_: preonly/lu/"):  # fmt: skip
+                 "KSP forced_: preonly/lu/"):
         assert line in text, line
 
 
@@ -183,11 +183,11 @@ def test_info_of_a_file_written_before_the_records(forced_file, tmp_path, capsys
     shutil.copy(forced_file, path)
     with h5py.File(path, "a") as f:
         for name in ("config_source", "wheelrom_version", "mistuned", "solve_s_per_frequency",
-                     "blades", "modes", "contact_angles_deg", "solver"):  # fmt: skip
+                     "blades", "modes", "contact_angles_deg", "solver"):
             del f.attrs[name]
     old, new = _info(path), _info(forced_file)
     for key in ("frequency_hz", "peak", "tuned_peak", "amplification_factor", "mistuning",
-                "modes", "blades", "contacts", "nodal_diameter"):  # fmt: skip
+                "modes", "blades", "contacts", "nodal_diameter"):
         assert old[key] == new[key], key
     assert old["solver"] is None and old["wheelrom_version"] is None
     assert old["contact_angles_deg"] is None
@@ -202,7 +202,7 @@ def test_a_bad_forced_solver_option_is_one_named_line(capsys, petsc_options):
 
     petsc_options.append("forced_ksp_type")
     argv = ["forced-response", SMALL, "--frequencies", "100:110:3", "--", "-forced_ksp_type",
-            "bogus"]  # fmt: skip
+            "bogus"]
     assert cli.main(argv) == 2
     err = capsys.readouterr().err
     assert "-forced_ksp_type bogus" in err and "KSP 'forced_'" in err and "Traceback" not in err
@@ -232,7 +232,7 @@ def test_plot_replaces_figures_only_with_force(forced_file, tmp_path, capsys):
     assert "forced_response.png" in err and "--force" in err, err
     assert mine.read_bytes() == b"my own figure"
     assert sorted(p.name for p in outdir.iterdir()) == ["forced_localisation.png",
-                                                         "forced_response.png"]  # fmt: skip
+                                                         "forced_response.png"]
     assert cli.main([*argv, "--force"]) == 0
     assert mine.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     victim = tmp_path / "victim.txt"

@@ -28,9 +28,9 @@ def _stitched(frequencies_hz):
     problem = ForcedWave(model, params, BETA, H, 0, 0.0)
     bounds = segments.segment_bounds(w.size, RANKS)
     pieces = [segments.solve_segment(problem, model, params, w, equilibrium, bounds, r)
-              for r in range(RANKS)]  # fmt: skip
+              for r in range(RANKS)]
     return serial, pieces, segments.stitch(problem, model, params, w, equilibrium, bounds,
-                                           pieces), bounds  # fmt: skip
+                                           pieces), bounds
 
 
 def test_a_seam_inside_the_fold_is_solved_again_in_order():

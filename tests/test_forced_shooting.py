@@ -55,10 +55,10 @@ def _states_between_the_folds(ring_curve):  # noqa: F811
 def test_the_exact_states_between_the_folds(ring_curve, small_cfg):  # noqa: F811
     model, problem, omega, states = _states_between_the_folds(ring_curve)
     cfg = small_cfg.replace(**{"wheel.damping_beta": BETA, "time.scheme": "rk",
-                               "time.step": 5e-6})  # fmt: skip
+                               "time.step": 5e-6})
     T = 2 * math.pi / omega
     orbits = sorted((exact_forced(model, cfg, problem, X, omega) for X in states),
-                    key=lambda o: o.tip_amplitude)  # fmt: skip
+                    key=lambda o: o.tip_amplitude)
     low, middle, high = orbits
     assert all(o.converged and o.pattern == 3 for o in orbits)
     assert low.tip_amplitude < LIFT_OFF < middle.tip_amplitude < high.tip_amplitude
@@ -70,20 +70,20 @@ def test_the_exact_states_between_the_folds(ring_curve, small_cfg):  # noqa: F81
         # shot is periodic in RK 3bs's map at 5 us: measured 2e-9 of the vibration)
         y0 = o.state  # (q, q') of blades 0..2: unit modal masses, q = y
         sol = solve_ivp(ring_motion, (0.0, T), y0, args=(omega,), method="DOP853",
-                        rtol=1e-11, atol=1e-15, max_step=T / 256)  # fmt: skip
+                        rtol=1e-11, atol=1e-15, max_step=T / 256)
         vibration = np.abs(y0[:3] - y0[:3].mean()).max()
         assert np.abs(sol.y[:3, -1] - y0[:3]).max() < 1e-6 * vibration
     # below lift-off the ring is linear: its multipliers are exp(lambda T) of the closed
     # ring, ND 0 (the contacts do not move: W0^2, damping beta W0^2) and ND 1 (W0^2 + 3
     # coupling + 3 contact, damping beta (W0^2 + 3 coupling): the contact is undamped)
     closed = {0: (W0**2, BETA * W0**2), 1: (W0**2 + 3 * COUPLING + 3 * 0.2 * W0**2,
-                                            BETA * (W0**2 + 3 * COUPLING))}  # fmt: skip
+                                            BETA * (W0**2 + 3 * COUPLING))}
     for nd, (k, c) in closed.items():
         lam = -c / 2 + 1j * math.sqrt(k - c**2 / 4)
         expected = np.exp(lam * T)
         found = low.multipliers[low.nodal_diameters == nd]
         assert np.abs(found - expected).min() < 1e-6 and \
-            np.abs(found - np.conj(expected)).min() < 1e-6, (nd, found, expected)  # fmt: skip
+            np.abs(found - np.conj(expected)).min() < 1e-6, (nd, found, expected)
     assert low.largest == pytest.approx(math.exp(-BETA * W0**2 * T / 2), rel=1e-7)
     # the middle state: the fold's real multiplier above 1, in the wave's ND; the upper
     # state stable (as Hill's method and the time integration of test_forced_branch)
@@ -96,7 +96,7 @@ def test_the_exact_states_between_the_folds(ring_curve, small_cfg):  # noqa: F81
 
 def test_the_elastic_law_shoots_with_its_sliders(small_model, small_cfg):
     cfg = small_cfg.replace(**{"contacts.law": "elastic", "flutter.model": "off",
-                               "excitation.force": 10.0})  # fmt: skip
+                               "excitation.force": 10.0})
     angles = {"shroud": 50.0}
     params, q = forced_inputs(small_model, cfg, angles)
     w = 2 * math.pi * 250.0
@@ -104,7 +104,7 @@ def test_the_elastic_law_shoots_with_its_sliders(small_model, small_cfg):
     # of luck where the shroud goes into partial slip
     curve = forced_curve(small_model, params, cfg.wheel.damping_beta,
                          2 * math.pi * np.array([240.0, 245.0, 250.0]), q,
-                         harmonics=5)  # fmt: skip
+                         harmonics=5)
     assert curve.converged[-1]
     shares = curve.fractions[-1]  # the shroud slips most of the period, the tie-boss sticks
     assert shares[1, 2] > 0.5 and shares[0, 1] == 1.0
@@ -136,7 +136,7 @@ def test_reduced_rank_extrapolation_is_exact_for_a_linear_map():
 
 
 def test_the_elastic_sliders_are_marched_to_their_loop_before_newton(small_model, small_cfg,
-                                                                      monkeypatch):  # fmt: skip
+                                                                      monkeypatch):
     """Partial slip near the stuck resonance (256 Hz, the configured angles): the sliders
     walk to their shakedown loop with the wheel's own slow decay (1547 periods marched
     plainly, the moves of alternating sign: several modes at once), and the march there lets
@@ -185,7 +185,7 @@ def test_the_command_checks_the_peak_by_shooting(tmp_path, capsys):
     path = tmp_path / "f.h5"
     argv = ["forced-response", SMALL, "--nonlinear", "--exact", "--frequencies", "120:135:6",
             "--harmonics", "11", "--set", 'flutter.model="off"', "--set",
-            "excitation.force=10", "--json", "--out", str(path)]  # fmt: skip
+            "excitation.force=10", "--json", "--out", str(path)]
     assert cli.main(argv) == 0
     nl = json.loads(capsys.readouterr().out)["nonlinear"]
     ex = nl["exact"]
@@ -234,16 +234,16 @@ def test_every_nd_from_the_block_circulant_map(small_model, small_cfg):
     params, q = forced_inputs(small_model, cfg, angles)
     w = 2 * math.pi * 250.0
     curve = forced_curve(small_model, params, cfg.wheel.damping_beta, np.array([w]), q,
-                         harmonics=5)  # fmt: skip
+                         harmonics=5)
     problem = ForcedWave(small_model, params, cfg.wheel.damping_beta, 5)
     orbit = exact_forced(small_model, cfg, problem, curve.harmonics[0], w, angles,
-                         refine=False, whole_wheel=True)  # fmt: skip
+                         refine=False, whole_wheel=True)
     N, m, P = small_model.blades, small_model.modes, orbit.pattern
     assert orbit.converged and P == 6 and orbit.wheel_multipliers.size == 2 * N * m
     assert set(orbit.wheel_nodal_diameters) > set(orbit.nodal_diameters)  # odd NDs too
     blades = np.arange(N) % P
     x = np.concatenate([orbit.state[: P * m].reshape(P, m)[blades].ravel(),
-                        orbit.state[P * m :].reshape(P, m)[blades].ravel()])  # fmt: skip
+                        orbit.state[P * m :].reshape(P, m)[blades].ravel()])
     n = x.size
     a = np.abs(x[N * m :]).max() / w
     scale = np.r_[np.full(N * m, a), np.full(N * m, w * a)]
@@ -252,7 +252,7 @@ def test_every_nd_from_the_block_circulant_map(small_model, small_cfg):
     perturbed[np.arange(n), np.arange(n)] += h
     perturbed[n + np.arange(n), np.arange(n)] -= h
     flow = WheelFlow(small_model, cfg, angles, 1.0, nozzle=Nozzle(w, params.nozzle_phase),
-                     params=params)  # fmt: skip
+                     params=params)
     try:
         end = flow.advance(perturbed, 2 * math.pi / w, orbit.steps_per_period)
     finally:
@@ -262,14 +262,14 @@ def test_every_nd_from_the_block_circulant_map(small_model, small_cfg):
     mu = mu[np.argsort(-np.abs(mu))]
     assert max(np.abs(mu - v).min() for v in orbit.wheel_multipliers) < 1e-4
     np.testing.assert_allclose(np.abs(orbit.wheel_multipliers[:12]), np.abs(mu[:12]),
-                               atol=1e-6)  # fmt: skip
+                               atol=1e-6)
     # the pattern's own multipliers are among them (p = 0; another set of differences)
     assert max(np.abs(orbit.wheel_multipliers - v).min() for v in orbit.multipliers) < 1e-4
     assert abs(orbit.wheel_multipliers[0]) == pytest.approx(orbit.largest, abs=1e-6)
 
 
 def test_a_transient_leaves_an_unstable_state_at_its_largest_multiplier(small_model,
-                                                                        small_cfg):  # fmt: skip
+                                                                        small_cfg):
     """The small wheel's paper-law state at 123 Hz (10 N, H = 11): its largest multiplier in
     every ND, a real one below -1 in ND 3 (outside the ND-2 wave's 6-blade pattern: a period
     doubling), against the whole wheel integrated from the state with a 1e-10 perturbation
@@ -281,22 +281,22 @@ def test_a_transient_leaves_an_unstable_state_at_its_largest_multiplier(small_mo
     params, q = forced_inputs(small_model, cfg)
     w = 2 * math.pi * 123.0
     curve = forced_curve(small_model, params, cfg.wheel.damping_beta,
-                         2 * math.pi * np.linspace(130.0, 123.0, 8), q, harmonics=11)  # fmt: skip
+                         2 * math.pi * np.linspace(130.0, 123.0, 8), q, harmonics=11)
     problem = ForcedWave(small_model, params, cfg.wheel.damping_beta, 11)
     orbit = exact_forced(small_model, cfg, problem, curve.harmonics[-1], w, refine=False,
-                         whole_wheel=True)  # fmt: skip
+                         whole_wheel=True)
     mu = orbit.wheel_multipliers[0]
     assert orbit.converged and not orbit.stable
     assert mu.real < -1.5 and abs(mu.imag) < 1e-9 and orbit.wheel_nodal_diameters[0] == 3
     N, m, P = small_model.blades, small_model.modes, orbit.pattern
     blades = np.arange(N) % P
     x = np.concatenate([orbit.state[: P * m].reshape(P, m)[blades].ravel(),
-                        orbit.state[P * m :].reshape(P, m)[blades].ravel()])  # fmt: skip
+                        orbit.state[P * m :].reshape(P, m)[blades].ravel()])
     a = np.abs(x[N * m :]).max() / w
     scale = np.r_[np.full(N * m, a), np.full(N * m, w * a)]
     y = x + 1e-10 * scale * np.random.default_rng(1).standard_normal(x.size)
     flow = WheelFlow(small_model, cfg, None, 1.0, nozzle=Nozzle(w, params.nozzle_phase),
-                     params=params)  # fmt: skip
+                     params=params)
     deviation = []
     try:
         for _ in range(25):
@@ -317,7 +317,7 @@ def test_a_flow_that_fails_ends_one_shot_not_the_curve(small_model, small_cfg, m
     params, q = forced_inputs(small_model, cfg)
     w = 2 * math.pi * 250.0
     curve = forced_curve(small_model, params, cfg.wheel.damping_beta, np.array([w]), q,
-                         harmonics=3)  # fmt: skip
+                         harmonics=3)
     problem = ForcedWave(small_model, params, cfg.wheel.damping_beta, 3)
 
     def broken(self, x):
@@ -344,11 +344,11 @@ def test_under_an_aerodynamic_table_the_whole_period_is_shot(small_model, tmp_pa
     params, q = forced_inputs(small_model, cfg)
     w = 2 * math.pi * 250.0
     curve = forced_curve(small_model, params, cfg.wheel.damping_beta, np.array([w]), q,
-                         harmonics=3)  # fmt: skip
+                         harmonics=3)
     assert curve.converged[0]
     problem = ForcedWave(small_model, params, cfg.wheel.damping_beta, 3)
     orbit = exact_forced(small_model, cfg, problem, curve.harmonics[0], w, refine=False,
-                         whole_wheel=True)  # fmt: skip
+                         whole_wheel=True)
     assert orbit.converged and orbit.pattern == small_model.blades
     assert abs(orbit.relative_difference) < 1e-4  # a linear state (micro-slip branch)
     # the same multipliers both ways (measured 2.5e-6 apart: two sets of differences; the

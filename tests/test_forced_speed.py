@@ -23,7 +23,7 @@ from wheelrom.studies.forced_nonlinear import forced_inputs
 #: engine order 2 meets the small wheel's first ND 2 family near 70.8 Hz (141.6 Hz), where
 #: the model is built; no contacts: the linear wheel
 CROSSING = ["wheel.stator_vanes=2", "wheel.speed_hz=70.0", 'flutter.model="off"',
-            "contacts.tieboss.enabled=false", "contacts.shroud.enabled=false"]  # fmt: skip
+            "contacts.tieboss.enabled=false", "contacts.shroud.enabled=false"]
 
 
 @pytest.fixture(scope="module")
@@ -34,7 +34,7 @@ def crossing(comm):
 
 @pytest.mark.parametrize("factor", [0.9, 1.1])
 def test_the_wheel_at_another_speed_is_the_wheel_built_there(small_cfg, small_model, comm,
-                                                             factor):  # fmt: skip
+                                                             factor):
     """The stiffening's share in the model's basis (both prestress terms scale with the
     speed squared) moved to 0.9 and 1.1 times the speed: every ND's first three families
     as a model built there (its own prestress, modes and basis) to 1e-3 (measured up to
@@ -64,7 +64,7 @@ def test_the_linear_peak_over_the_speed_is_the_campbell_crossing(crossing, comm)
     crossing_hz = speeds[i] - gap[i] * (speeds[i + 1] - speeds[i]) / (gap[i + 1] - gap[i])
     assert peak.frequency_hz / 2 == pytest.approx(crossing_hz, rel=1e-4)
     fixed = tuned_reference(model, cfg.replace(**{"forced.over": "frequency"}), [None],
-                            contacts=False, comm=comm)  # fmt: skip
+                            contacts=False, comm=comm)
     assert abs(fixed.frequency_hz / 2 / crossing_hz - 1) > 3e-3
 
 
@@ -89,14 +89,14 @@ def test_the_balance_over_the_speed_is_the_whole_wheels_linear_solve(crossing):
     np.testing.assert_allclose(_harmonic_1(curve), Q, rtol=1e-6, atol=1e-6 * np.abs(Q).max())
     # at the build speed's stiffness the peak is elsewhere: 0.9 of the peak apart
     fixed = forced.forced_response(model, cfg.replace(**{"forced.over": "frequency"}), w,
-                                   contacts=False).blade_amplitude[:, 0]  # fmt: skip
+                                   contacts=False).blade_amplitude[:, 0]
     assert np.abs(fixed - curve.tip_amplitude).max() > 0.05 * curve.tip_amplitude.max()
     problem = ForcedWave(model, params, cfg.wheel.damping_beta, 3)
     X, omega = curve.harmonics[2], w[2]
     _, _, dRdw, _ = problem.balance.jacobian(X, omega, 0.0)
     h = 1e-4 * omega
     differences = (problem.balance.residual(X, omega + h, 0.0)
-                   - problem.balance.residual(X, omega - h, 0.0)) / (2 * h)  # fmt: skip
+                   - problem.balance.residual(X, omega - h, 0.0)) / (2 * h)
     assert np.abs(dRdw - differences).max() < 1e-6 * np.abs(differences).max()
 
 
@@ -124,7 +124,7 @@ def test_the_command_sweeps_the_speed(tmp_path, capsys):
 
     path = tmp_path / "f.h5"
     argv = ["forced-response", SMALL, "--speeds", "69:72:7", "--no-contacts", "--json",
-            "--out", str(path), "--set", 'forced.over="speed"']  # fmt: skip
+            "--out", str(path), "--set", 'forced.over="speed"']
     for key in CROSSING:
         argv += ["--set", key]
     assert cli.main(argv) == 0
@@ -152,4 +152,4 @@ def test_the_crossing_of_a_wheel_that_is_not_circulant_is_its_excited_nds(crossi
         general = resonance(sp.csr_matrix(K), model, 2, family, speed)
         assert general == pytest.approx(circulant, rel=1e-6)
     assert resonance(model.sparse_stiffness(), model, 2, 0, speed) / (2 * math.pi) == \
-        pytest.approx(2 * 70.8211, rel=1e-4)  # fmt: skip
+        pytest.approx(2 * 70.8211, rel=1e-4)

@@ -43,7 +43,7 @@ def test_without_contacts_it_is_the_linear_forced_response(small_model, small_cf
     for i, wi in enumerate(w):
         Q = forced.direct_solve(K, C, F.ravel(), wi).reshape(small_model.blades, -1)
         np.testing.assert_allclose(_harmonic_1(curve)[i], Q[0], rtol=1e-6,
-                                   atol=1e-6 * np.abs(Q[0]).max())  # fmt: skip
+                                   atol=1e-6 * np.abs(Q[0]).max())
         # the higher harmonics of a linear wheel are zero
         assert np.abs(curve.harmonics[i, 3:]).max() < 1e-9 * np.abs(Q[0]).max()
 
@@ -55,7 +55,7 @@ def test_without_contacts_it_is_the_linear_forced_response(small_model, small_cf
 @pytest.mark.parametrize("angle", [30.0, 50.0])
 def test_small_forcing_is_the_linearised_response(small_model, small_cfg, angle, law, force):
     cfg = small_cfg.replace(**{"contacts.law": law, "flutter.model": "off",
-                               "excitation.force": force})  # fmt: skip
+                               "excitation.force": force})
     angles = {"shroud": angle}
     _, q, _, J, _ = linearise(small_model, cfg, angles)  # the equilibrium (nozzle off)
     params = force_parameters(small_model, cfg, angles)  # with the nozzle
@@ -68,7 +68,7 @@ def test_small_forcing_is_the_linearised_response(small_model, small_cfg, angle,
     for i, wi in enumerate(w):
         Q = forced.direct_solve(K, C, F.ravel(), wi).reshape(small_model.blades, -1)
         np.testing.assert_allclose(_harmonic_1(curve)[i], Q[0], rtol=1e-6,
-                                   atol=1e-6 * np.abs(Q[0]).max())  # fmt: skip
+                                   atol=1e-6 * np.abs(Q[0]).max())
 
 
 def test_the_command_sets_the_friction_limited_peak_beside_the_linear_one(capsys):
@@ -85,7 +85,7 @@ def test_the_command_sets_the_friction_limited_peak_beside_the_linear_one(capsys
     from wheelrom.cli import main as cli
 
     argv = ["forced-response", SMALL, "--set", "contacts.law=elastic", "--nonlinear",
-            "--frequencies", "252:259:8", "--json"]  # fmt: skip
+            "--frequencies", "252:259:8", "--json"]
     assert cli.main(argv) == 0
     out = json.loads(capsys.readouterr().out)
     nl = out["nonlinear"]
@@ -107,7 +107,7 @@ def test_the_curve_is_written_and_read_back(tmp_path, capsys):
 
     path = tmp_path / "f.h5"
     argv = ["forced-response", SMALL, "--set", "contacts.law=elastic", "--nonlinear",
-            "--frequencies", "180:190:4", "--harmonics", "3", "--out", str(path)]  # fmt: skip
+            "--frequencies", "180:190:4", "--harmonics", "3", "--out", str(path)]
     assert cli.main(argv) == 0
     with h5py.File(path, "r") as f:
         g = f["nonlinear"]
@@ -129,7 +129,7 @@ def test_the_curve_is_written_and_read_back(tmp_path, capsys):
 @pytest.mark.parametrize(("extra", "message"), [
     (["--set", "excitation.force=0.0"], "excitation.force = 0: the nozzle force is off"),
     (["--harmonics", "0"], "--harmonics 0: at least 1"),
-])  # fmt: skip
+])
 def test_the_command_refuses_in_one_line(extra, message, capsys, tmp_path, monkeypatch):
     from conftest import SMALL
     from wheelrom.cli import main as cli
@@ -151,12 +151,12 @@ def test_a_range_without_a_resonance_says_so(capsys):
     from wheelrom.cli import main as cli
 
     args = ["forced-response", SMALL, "--nonlinear", "--harmonics", "1", "--json",
-            "--set", 'contacts.law="elastic"']  # fmt: skip
+            "--set", 'contacts.law="elastic"']
     assert cli.main([*args, "--frequencies", "10:20:3"]) == 0
     out = json.loads(capsys.readouterr().out)
     said = out["nonlinear"]["no_resonance"]
     assert said.startswith("no resonance in 10..20 Hz: the ND 2 family 0 resonates with the "
-                           "contacts slipping 120"), said  # fmt: skip
+                           "contacts slipping 120"), said
     assert "stuck 256" in said and all(out["nonlinear"]["converged"])
     assert cli.main([*args, "--frequencies", "110:130:3"]) == 0
     assert "no_resonance" not in json.loads(capsys.readouterr().out)["nonlinear"]
@@ -177,7 +177,7 @@ def test_the_command_traces_the_curve_on_request(tmp_path, capsys):
     path = tmp_path / "f.h5"
     argv = ["forced-response", SMALL, "--nonlinear", "--frequencies", "110:130:5",
             "--harmonics", "2", "--set", 'forced.continuation="arclength"', "--json",
-            "--out", str(path)]  # fmt: skip
+            "--out", str(path)]
     assert cli.main(argv) == 0
     nl = json.loads(capsys.readouterr().out)["nonlinear"]
     tr = nl["traced"]

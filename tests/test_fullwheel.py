@@ -22,12 +22,12 @@ def test_reduced_model_is_an_upper_bound_of_the_cyclic_fe(small_cfg, small_model
     m = small_model.modes
     progress = []
     fe = references.cyclic_table(seg, mats, small_cfg.wheel.coupling_stiffness, m, SELF,
-                                 log=progress.append)  # fmt: skip
+                                 log=progress.append)
     # one line per ND with the count and the time left (modes --full-wheel on stderr)
     assert len(progress) == 7 and progress[0].startswith("cyclic FE: ND 0 done (")
     assert all(f", {k + 1} of 7, about " in line and line.endswith(" s left")
                or f", {k + 1} of 7, less than 1 s left" in line
-               for k, line in enumerate(progress[:-1]))  # fmt: skip
+               for k, line in enumerate(progress[:-1]))
     assert progress[-1].endswith(", 7 of 7")
     rom = small_model.frequencies_by_nodal_diameter()
     assert fe.shape == rom.shape == (small_cfg.wheel.blades // 2 + 1, m)
@@ -62,13 +62,13 @@ def test_accuracy_table_reports_progress_with_time_left(small_cfg):
 
     progress = []
     table = accuracy_table(small_cfg, SELF, modes=(6,), enriched_modes=6, families=2,
-                           log=progress.append)  # fmt: skip
+                           log=progress.append)
     assert table["reference_hz"].shape == (7, 2)
     assert list(table["bases"]) == ["free m=6", "enriched m=6", "attachment m=6"]
     per_nd = [line for line in progress if line.startswith("cyclic FE: ND ")]
     assert len(per_nd) == 7 and all(" left" in line for line in per_nd[:-1])
     assert any(line.startswith("enriched basis: 4 sector phase solves, ") and " left" in line
-               for line in progress)  # fmt: skip
+               for line in progress)
     # the free basis is the model's: its error is the Ritz error, never negative
     assert table["bases"]["free m=6"]["relative_error"].min() > -1e-7
     # attachment vectors only add directions: never worse than the free basis they extend
@@ -104,7 +104,7 @@ def test_wheel_mode_vtu_has_the_nodal_diameter_and_a_continuous_cut(small_cfg, t
     tip = seg.node_sets["tip"][0]
     local = np.array([
         u[s * n_nodes + tip] @ mesh.rotation_z(2 * np.pi * s / N) for s in range(N)
-    ])  # fmt: skip
+    ])
     spectrum = np.abs(np.fft.fft(local, axis=0)).sum(axis=1)
     assert np.argmax(spectrum[: N // 2 + 1]) == 5
     # the springs are stiff: paired cut-face nodes of neighbouring sectors move together

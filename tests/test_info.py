@@ -18,7 +18,7 @@ from wheelrom.results.info import file_info, resume_hint, study_flags, ts_scheme
 
 END = ["--set", "time.end=0.001"]  # two windows of 0.5 ms: a short sweep
 ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-           OMPI_MCA_rmaps_base_oversubscribe="1")  # fmt: skip
+           OMPI_MCA_rmaps_base_oversubscribe="1")
 
 
 def no_constants(name):
@@ -35,7 +35,7 @@ def sweep_file(tmp_path_factory):
     """The 3-case small sweep (45 deg tie-boss; shroud 20, 50, 80 deg), 2 windows."""
     path = tmp_path_factory.mktemp("info") / "sweep.h5"
     subprocess.run([sys.executable, "-m", "wheelrom.cli.main", "sweep", SMALL, *END, "--out",
-                    str(path)], env=ENV, check=True, capture_output=True, timeout=600)  # fmt: skip
+                    str(path)], env=ENV, check=True, capture_output=True, timeout=600)
     return path
 
 
@@ -49,7 +49,7 @@ def test_info_json_of_a_sweep_lists_its_cases(sweep_file, capsys):
     assert info["config_source"] == source and source.startswith(SMALL)
     assert info["counts"] == {"done": 3, "failed": 0, "pending": 0, "total": 3}
     assert [(c["tieboss_deg"], c["shroud_deg"]) for c in info["cases"]] == [
-        (45.0, 20.0), (45.0, 50.0), (45.0, 80.0)]  # fmt: skip
+        (45.0, 20.0), (45.0, 50.0), (45.0, 80.0)]
     assert [c["status"] for c in info["cases"]] == ["done"] * 3
     assert [c["windows_done"] for c in info["cases"]] == windows_done == [2, 2, 2]
     assert info["windows"] == 2 and info["time_end_s"] == pytest.approx(0.001)
@@ -68,9 +68,9 @@ def test_info_human_output_has_a_header_and_a_line_per_case(sweep_file, capsys):
     assert "12 blades x 6 modes" in out and "end 0.001 s, window 0.0005 s (2 windows)" in out
     assert "3 done, 0 failed, 0 pending" in out
     rows = [line.split() for line in out.splitlines() if line.split()[:1] in (["0"], ["1"],
-                                                                               ["2"])]  # fmt: skip
+                                                                               ["2"])]
     assert [r[:5] for r in rows] == [["0", "45", "20", "done", "2/2"], ["1", "45", "50", "done",
-                                     "2/2"], ["2", "45", "80", "done", "2/2"]]  # fmt: skip
+                                     "2/2"], ["2", "45", "80", "done", "2/2"]]
     assert all(r[-2:] == ["rk/3bs", "dt=5e-06"] for r in rows)
     assert "{" not in out and "None" not in out
 
@@ -157,7 +157,7 @@ def test_a_file_not_made_by_wheelrom_is_one_line_exit_2(kind, tmp_path, capsys):
     lines = captured.err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith(f"wheelrom: {path}: ")
     expected = {"missing": "no such file", "text": "not an HDF5 file",
-                "foreign_hdf5": "not a wheelrom results or model file"}  # fmt: skip
+                "foreign_hdf5": "not a wheelrom results or model file"}
     assert expected[kind] in lines[0]
 
 
@@ -178,10 +178,10 @@ def test_a_directory_is_one_line_naming_it(command, extra, tmp_path, capsys):
 
 def test_ts_scheme_names_the_method_step_and_adaptor():
     assert ts_scheme({"ts_type": "rk", "ts_rk_type": "3bs", "ts_dt": 5e-06,
-                      "ts_adapt_type": "none"}) == "rk/3bs dt=5e-06"  # fmt: skip
+                      "ts_adapt_type": "none"}) == "rk/3bs dt=5e-06"
     assert ts_scheme({"ts_type": "rk", "ts_rk_type": "5dp", "ts_dt": 1e-05,
                       "ts_adapt_type": "basic", "ts_rtol": "1e-6"}) == \
-        "rk/5dp dt=1e-05 adapt=basic rtol=1e-6"  # fmt: skip
+        "rk/5dp dt=1e-05 adapt=basic rtol=1e-6"
     assert ts_scheme({}) == "-"
 
 
@@ -251,7 +251,7 @@ ONE_PIECE = {
                'study.grid={"contacts.shroud.angle_deg" = [20.0, 80.0]}'],
               {"stability/max_growth_rate": (1, "case 1 (stability/max_growth_rate)"),
                "models/0/A0": (0, "models/0/A0")}),
-}  # fmt: skip
+}
 
 
 @pytest.mark.parametrize("kind", ONE_PIECE)

@@ -35,7 +35,7 @@ from wheelrom.forces.reference import ReferenceForces
 
 # --------------------------------------------------------------------------- Van der Pol alone
 VDP_ONLY = ["contacts.tieboss.enabled=false", "contacts.shroud.enabled=false",
-            "wheel.damping_beta=1e-9", "flutter.mu=10.0"]  # fmt: skip
+            "wheel.damping_beta=1e-9", "flutter.mu=10.0"]
 # law -> (wave index k on the 12-blade wheel, factor on mu, factor on r) of the equivalent
 # single Van der Pol oscillator (see VdpTruth)
 LAWS = {"absolute": (0, 1.0, 1.0), "relative": (6, 4.0, 0.5)}
@@ -81,7 +81,7 @@ class VdpTruth:
         rho = r_factor * params.vdp_r
         return cls(amplitude=2 * rho * math.sqrt(eps_eff / (lam * eps)),
                    omega=w * (1 - (eps_eff / w) ** 2 / 16), exponent=-eps_eff, phi=phi,
-                   p_phi=complex(p @ phi))  # fmt: skip
+                   p_phi=complex(p @ phi))
 
 
 @dataclasses.dataclass
@@ -250,7 +250,7 @@ def friction_wheel():
         excitation=np.zeros(1), nozzle_phase=np.zeros(N3), vdp_model=VDP_ABSOLUTE, vdp_mu=MU,
         vdp_r=R, aero=np.array([1.0]), aero_displacement=np.zeros(N3),
         aero_velocity=np.zeros(N3), law=FRICTION, rotation=np.eye(3),
-        contacts=contacts)  # fmt: skip
+        contacts=contacts)
     return model, params
 
 
@@ -297,9 +297,9 @@ def transient():
     a0, w, s = 1.5e-3, wave_frequency(model), np.arange(N3)
     phase = 2 * math.pi * WAVE / N3 * s
     z0 = np.concatenate([a0 * np.cos(phase) + 0.01 * a0 * np.array([1.0, -0.5, 0.2]),
-                         -a0 * w * np.sin(phase)])  # fmt: skip
+                         -a0 * w * np.sin(phase)])
     sol = solve_ivp(rhs, (0.0, T_END), z0, method="DOP853", rtol=1e-8, atol=1e-15,
-                    events=[peak(b) for b in s] + [upward(b) for b in s])  # fmt: skip
+                    events=[peak(b) for b in s] + [upward(b) for b in s])
     assert sol.status == 0
     ups = [sol.t_events[N3 + b] for b in s]
     period = float(np.mean(np.diff(ups[0][-6:])))
@@ -374,7 +374,7 @@ def test_friction_cycle_matches_transient(friction_cycle, transient, H, samples)
     assert transient.frequency == pytest.approx(pt.omega / (2 * math.pi), rel=5e-5)
     expected_lead = 2 * math.pi * WAVE / N3 * np.arange(N3)
     np.testing.assert_allclose(np.angle(np.exp(1j * (transient.lead - expected_lead))), 0.0,
-                               atol=2e-3)  # fmt: skip
+                               atol=2e-3)
     # the whole wheel's state where blade 0 crosses zero upwards
     i = int(np.flatnonzero((y[:-1] < 0) & (y[1:] >= 0))[0])
     t_up = brentq(lambda t: (np.exp(1j * t * h) @ c).real, tau[i], tau[i + 1], xtol=1e-14)
@@ -387,7 +387,7 @@ def kept_exponents(balance, pt, lam) -> np.ndarray:
     """The exponents ``floquet`` keeps, of every family ``p = 0..N-1``."""
     return np.concatenate([exponents(balance, pt.linearisation, pt.omega, lam,
                                      2 * math.pi * p / balance.blades)
-                           for p in range(balance.blades)])  # fmt: skip
+                           for p in range(balance.blades)])
 
 
 @pytest.mark.parametrize("H, samples", FRICTION_GRIDS)

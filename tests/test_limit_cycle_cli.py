@@ -17,7 +17,7 @@ from wheelrom.forces.parameters import force_parameters
 
 KEYS = ["--set", "sweep.shroud_angles_deg=[80.0]", "--set", "limit_cycle.steps=4", "--set",
         "limit_cycle.seeds=[1e-4]", "--set", "limit_cycle.harmonics=5", "--set",
-        'limit_cycle.method="hb"']  # fmt: skip
+        'limit_cycle.method="hb"']
 
 
 @pytest.fixture(scope="module")
@@ -52,7 +52,7 @@ def test_the_stored_harmonics_solve_the_balance(limit_cycle_file, small_model):
 
 def test_json_reports_the_cycle(capsys):
     assert cli.main(["limit-cycle", SMALL, *KEYS, "--set", 'limit_cycle.floquet="off"',
-                     "--nd", "6", "--json"]) == 0  # fmt: skip
+                     "--nd", "6", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     wave = out["cases"][0]["waves"][0]
     assert wave["wave"] == 6 and wave["nodal_diameter"] == 6
@@ -75,7 +75,7 @@ def test_figures_of_a_limit_cycle_file(limit_cycle_file, tmp_path, capsys):
     (["--nd", "a,3"], "--nd: 'a,3' is not a list"),
     (["--set", 'flutter.model="off"'], "limit cycles need self-excitation"),
     (["--set", "limit_cycle.samples=5"], "limit_cycle.samples = 5: at least 2 H + 1"),
-])  # fmt: skip
+])
 def test_bad_input_is_named(args, words, capsys, tmp_path):
     out = tmp_path / "never.h5"
     assert cli.main(["limit-cycle", SMALL, *KEYS, *args, "--out", str(out)]) == 2
@@ -89,7 +89,7 @@ def test_a_study_of_any_key_is_its_cases_run_alone(tmp_path, capsys):
     keys = ["--set", "contacts.shroud.angle_deg=80.0", "--set", "limit_cycle.steps=4",
             "--set", "limit_cycle.seeds=[1e-4]", "--set", "limit_cycle.harmonics=3",
             "--set", 'limit_cycle.floquet="off"', "--set", 'limit_cycle.method="hb"',
-            "--nd", "6"]  # fmt: skip
+            "--nd", "6"]
     grid = 'study.grid={"contacts.shroud.normal_preload" = [200.0, 400.0]}'
     out = tmp_path / "study.h5"
     assert cli.main(["limit-cycle", SMALL, *keys, "--set", grid, "--out", str(out)]) == 0
@@ -116,7 +116,7 @@ def test_a_failed_case_is_named_and_the_others_are_written(tmp_path, capsys):
                        "--set", "limit_cycle.steps=4", "--set", "limit_cycle.seeds=[]",
                        "--set", 'limit_cycle.floquet="off"', "--set",
                        'study.grid={"flutter.mu" = [0.0, 100.0]}', "--nd", "7",
-                       "--out", str(out)])  # fmt: skip
+                       "--out", str(out)])
     assert status == 1
     capsys.readouterr()
     with h5py.File(out) as f:

@@ -26,7 +26,7 @@ def branch(small_model, autonomous):
     """The first points of wave 7's branch from its Hopf point: the tie-boss closed, the shroud
     open all the cycle (a smooth cycle: arm kinematics, micro-slip friction, Van der Pol)."""
     settings = Settings(harmonics=5, waves=(WAVE,), seeds=(), floquet="all",
-                        branch=BranchSettings(steps=3))  # fmt: skip
+                        branch=BranchSettings(steps=3))
     return case_limit_cycles(small_model, autonomous, settings, ANGLES).branches[0]
 
 
@@ -56,7 +56,7 @@ def test_a_transient_started_on_a_cycle_returns_to_it(branch, small_model, auton
     period, steps = 2 * math.pi / omega, 2000
     run_cfg = cfg.replace(**{"time.step": period / steps, "time.end": 2 * period,
                              "time.window": 2 * period, "output.history_rate_hz": 0.0,
-                             "output.sample_rate_hz": steps / period})  # fmt: skip
+                             "output.sample_rate_hz": steps / period})
     res = run_case(small_model, run_cfg, ANGLES, u0=np.concatenate([q.ravel(), v.ravel()]))
     n = q.size
     vibration = np.abs(q - X[0]).max()
@@ -84,7 +84,7 @@ def test_the_transient_check_agrees_with_hill_on_a_smooth_cycle(small_model, sma
 
     cfg = small_cfg.replace(**{"contacts.tieboss.enabled": False, "contacts.shroud.enabled": False,
                                "wheel.damping_beta": 1e-9, "flutter.mu": 10.0,
-                               "excitation.force": 0.0, "time.scheme": "exponential"})  # fmt: skip
+                               "excitation.force": 0.0, "time.scheme": "exponential"})
     params = force_parameters(small_model, cfg)
     balance = WaveBalance(small_model, params, cfg.wheel.damping_beta, 6, 3, 32)
     w2, V = np.linalg.eigh(small_model.nd_stiffness(6))
@@ -109,7 +109,7 @@ def test_the_transient_check_agrees_with_hill_on_a_smooth_cycle(small_model, sma
     point = periodic_solution(balance, X, math.sqrt(w2[0]), 1.0)
     tip = float(np.linalg.norm(np.abs(small_model.tip @ (point.X[1] + 1j * point.X[2]))))
     check = transient_stability(small_model, autonomous_cfg(small_cfg), ANGLES, balance,
-                                point.X, point.omega, 1.0, tip)  # fmt: skip
+                                point.X, point.omega, 1.0, tip)
     assert not check.stable and check.growth.max() > 1.0
     assert check.worst_family not in (0, 6)
 
@@ -130,7 +130,7 @@ def test_the_physical_differencing_equals_the_modal_one(small_model, small_cfg, 
     from wheelrom.rom.build import build_model
 
     free = WaveBalance(small_model, force_parameters(small_model, autonomous_cfg(small_cfg),
-                                                     ANGLES), 5e-8, 6, 1, 8)  # fmt: skip
+                                                     ANGLES), 5e-8, 6, 1, 8)
     assert free.inputs is None
     cfg = autonomous_cfg(small_cfg).replace(**{"wheel.basis": "attachment"})
     model = build_model(cfg, comm)

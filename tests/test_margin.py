@@ -45,7 +45,7 @@ def test_margin_without_contacts_is_first_order_perturbation(small_model, small_
     from wheelrom.config import load
 
     cfg = load(SMALL, ["contacts.tieboss.enabled=false",
-                                  "contacts.shroud.enabled=false"])  # fmt: skip
+                                  "contacts.shroud.enabled=false"])
     params, q, _, J, _ = linearise(small_model, cfg)
     margin = flutter_margin(params, q, J, rtol=1e-7)
     N, m = q.shape

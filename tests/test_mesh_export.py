@@ -102,7 +102,7 @@ def test_calculix_wheel_modes_match_our_cyclic_fe(
     assert shutil.which("ccx"), "CalculiX (ccx) is missing: run/setup installs calculix-ccx"
     env = dict(os.environ, OMP_NUM_THREADS="1")
     run = subprocess.run(["ccx", "-i", "seg_cyclic"], cwd=tmp_path, env=env,
-                         capture_output=True, text=True)  # fmt: skip
+                         capture_output=True, text=True)
     assert run.returncode == 0, run.stdout[-2000:]
     theirs = _calculix_frequencies((tmp_path / "seg_cyclic.dat").read_text(), m)
     assert theirs.shape == ours.shape == (last - first + 1, m)

@@ -72,7 +72,7 @@ def test_zero_mistuning_is_the_tuned_transient_bitwise(small_model, small_cfg):
     angles = [{"shroud": a, "tieboss": 45.0} for a in (20.0, 70.0)]
     zero = dataclasses.replace(small_model, mistuning=np.zeros(small_model.blades))
     for a, b in zip(run_cases(small_model, cfg, angles), run_cases(zero, cfg, angles),
-                    strict=True):  # fmt: skip
+                    strict=True):
         assert np.array_equal(a.tip_history, b.tip_history)
         assert np.array_equal(a.final_state, b.final_state)
     mistuned = _mistuned(small_model)
@@ -121,7 +121,7 @@ def test_mistuned_resonance_equals_the_transient_steady_state(small_cfg, comm, a
     w0 = 2 * math.pi * model.frequencies_by_nodal_diameter()[nodal_diameter(n_s, model.blades), 2]
     found = minimize_scalar(
         lambda w: -forced.tip_amplitudes(model, forced.direct_solve(K, C, F, w)).max(),
-        bounds=(0.98 * w0, 1.02 * w0), method="bounded", options={"xatol": 1e-8 * w0})  # fmt: skip
+        bounds=(0.98 * w0, 1.02 * w0), method="bounded", options={"xatol": 1e-8 * w0})
     w = found.x
     steady = forced.forced_response(model, cfg, [w], contacts=False).blade_amplitude[0]
     if alternate:
@@ -147,7 +147,7 @@ def test_sweep_of_a_mistuned_wheel_runs_and_records_the_pattern(tmp_path):
     from wheelrom.cli import main as cli
 
     quick = ["--set", "time.end=0.002", "--set", "time.window=0.001",
-             "--set", "sweep.shroud_angles_deg=[30.0]"]  # fmt: skip
+             "--set", "sweep.shroud_angles_deg=[30.0]"]
     tips = []
     for name, extra in (("tuned", []), ("mistuned", ["--set", "mistuning.alternate=0.02"])):
         out = tmp_path / f"{name}.h5"

@@ -138,14 +138,14 @@ def vdp_only():
     """The small wheel without contacts: only K_R, beta_D and Van der Pol act (the
     equilibrium is q = 0)."""
     return config.load(SMALL, ["contacts.tieboss.enabled=false", "contacts.shroud.enabled=false",
-                               "flutter.mu=2.0", "flutter.mode=-1"])  # fmt: skip
+                               "flutter.mu=2.0", "flutter.mode=-1"])
 
 
 def _matched(a, b) -> float:
     """Largest distance from an eigenvalue of either set to the nearest of the other,
     relative to the largest magnitude."""
     far = max(np.abs(a[:, None] - b[None]).min(axis=1).max(),
-              np.abs(b[:, None] - a[None]).min(axis=1).max())  # fmt: skip
+              np.abs(b[:, None] - a[None]).min(axis=1).max())
     return far / np.abs(b).max()
 
 
@@ -164,7 +164,7 @@ def two_harmonic_jacobians(model, cfg, a: float):
 
     for k in range(N // 2):
         K = np.block([[nd_stiffness(model, k), a * model.K_seg],
-                      [a * model.K_seg, nd_stiffness(model, k + N // 2)]])  # fmt: skip
+                      [a * model.K_seg, nd_stiffness(model, k + N // 2)]])
         P = scipy.linalg.block_diag(c(k) * np.outer(p, p), c(k + N // 2) * np.outer(p, p))
         yield np.block([[np.zeros((2 * m, 2 * m)), np.eye(2 * m)], [-K, -beta * K + mu * P]])
 
@@ -192,7 +192,7 @@ def _harmonics(h: int, N: int, alternate: bool) -> list[int]:
 @pytest.mark.parametrize("model_name", ["absolute", "relative"])
 @pytest.mark.parametrize("a", [0.0, 0.01])
 def test_alternate_mistuning_couples_nd_k_with_n_half_minus_k(small_model, vdp_only, model_name,
-                                                              a):  # fmt: skip
+                                                              a):
     """Van der Pol on, contacts off, 12 blades: the stability path's spectrum of the
     alternately mistuned wheel is the union of the two-harmonic problems (k, k + N/2), and
     every eigenvector of its assembled Jacobian lies in harmonics {k, N-k, N/2-k, N/2+k}
@@ -200,7 +200,7 @@ def test_alternate_mistuning_couples_nd_k_with_n_half_minus_k(small_model, vdp_o
     content is substantial (measured: up to half the energy)."""
     cfg = vdp_only.replace(**{"flutter.model": model_name})
     model = small_model if a == 0 else _mistuned(small_model, blade_mistuning(
-        cfg.replace(**{"mistuning.alternate": a})))  # fmt: skip
+        cfg.replace(**{"mistuning.alternate": a})))
     N, m = model.blades, model.modes
     assert N % 4 == 0
     res = analyse(model, cfg, keep_jacobian=True)
@@ -283,7 +283,7 @@ def test_vanishing_mistuning_converges_to_the_tuned_cyclic_results(small_model, 
         response = forced.forced_response(model, small_cfg, w, True, angles)
         deviations.append([_nearest(res.eigenvalue, reference), _nearest(rightmost, reference),
                            np.abs(response.blade_amplitude - tuned_response.blade_amplitude)
-                           .max() / peak])  # fmt: skip
+                           .max() / peak])
     deviations = np.array(deviations)  # (eps, [dense, SLEPc, forced])
     largest = np.abs(pattern).max()
     assert (deviations[:, :2] < np.array([1e-4, 1e-6, 1e-8])[:, None] * largest).all()

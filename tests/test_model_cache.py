@@ -21,7 +21,7 @@ def _equal(a: ReducedModel, b: ReducedModel) -> None:
 
 
 def test_a_second_command_reads_the_model_the_first_built(small_cfg, comm, tmp_path,
-                                                          monkeypatch):  # fmt: skip
+                                                          monkeypatch):
     monkeypatch.setenv(cache.ENVIRONMENT, str(tmp_path))
     said = []
     built = build_model(small_cfg, comm, log=said.append)
@@ -30,7 +30,7 @@ def test_a_second_command_reads_the_model_the_first_built(small_cfg, comm, tmp_p
     said.clear()
     # the forces, the contact angles and the mistuning are each case's: the same model
     mistuned = small_cfg.replace(**{"flutter.mu": 50.0, "contacts.shroud.angle_deg": 10.0,
-                                    "mistuning.alternate": 0.01})  # fmt: skip
+                                    "mistuning.alternate": 0.01})
     read = build_model(mistuned, comm, log=said.append)
     assert any("from the cache" in line for line in said), said
     _equal(built, read)

@@ -44,7 +44,7 @@ def _oscillator_peak(model, cfg) -> tuple[float, float]:
     k = float(model.A0[0, 0] + 2 * model.A1[0, 0] * math.cos(phase))  # the ND block, 1 x 1
     force = cfg.excitation.force * abs(model.excitation[0]) * np.linalg.norm(model.tip[:, 0])
     return (force / math.sqrt(beta**2 * k**3 - beta**4 * k**4 / 4),
-            math.sqrt(k - (beta * k) ** 2 / 2))  # fmt: skip
+            math.sqrt(k - (beta * k) ** 2 / 2))
 
 
 def test_peak_of_a_single_dof_oscillator_is_the_closed_form(one_mode):
@@ -79,7 +79,7 @@ def _brute_peak(model, cfg, band) -> float:
         half = 10 * beta * w0**2 / 2
         lo, hi = max(w0 - half, band[0]), min(w0 + half, band[1])
         found = minimize_scalar(minus, bounds=(lo, hi), method="bounded",
-                                options={"xatol": 1e-7 * half})  # fmt: skip
+                                options={"xatol": 1e-7 * half})
         best = max(best, -found.fun, -minus(w0))
     return best
 
@@ -102,7 +102,7 @@ def _study_cfg(tmp_path, overrides=(), seeds: int = SEEDS):
 std = 0.02
 [study.grid]
 mistuning.seed = "0:{seeds - 1}:1"
-"""  # fmt: skip
+"""
     path = tmp_path / "mc.toml"
     path.write_text(text)
     return config.load(path, overrides)
@@ -127,7 +127,7 @@ def monte_carlo(tmp_path_factory, monkeypatch_module):
     monkeypatch_module.setattr(study, "build_model", counted)
     cfg = _study_cfg(tmp, ["flutter.mu=0.0"])  # linearly stable: every factor counts
     summary = study.run_study(cfg, str(tmp / "mc.h5"), MPI.COMM_SELF, mode="stability",
-                              log=lambda *_: None, forced=True)  # fmt: skip
+                              log=lambda *_: None, forced=True)
     return cfg, tmp / "mc.h5", summary, builds
 
 
@@ -169,7 +169,7 @@ def test_case_amplification_equals_a_direct_peak_response(monte_carlo, small_mod
     assert stored["amplification"] == pytest.approx(peak.amplitude / tuned.amplitude, rel=1e-12)
     # the band: the tuned resonance +-2 max |delta| over the 20 realisations
     largest = max(np.abs(blade_mistuning(cfg.replace(**{"mistuning.seed": s}))).max()
-                  for s in range(SEEDS))  # fmt: skip
+                  for s in range(SEEDS))
     assert band[1] / band[0] == pytest.approx((1 + 2 * largest) / (1 - 2 * largest), rel=1e-12)
 
 
@@ -178,7 +178,7 @@ def test_statistics_are_numpys(monte_carlo):
     stats = summary["statistics"]
     with h5py.File(path, "r") as f:
         for name, data in (("amplification", f["forced/amplification"][()]),
-                           ("max_growth_rate", f["stability/max_growth_rate"][()])):  # fmt: skip
+                           ("max_growth_rate", f["stability/max_growth_rate"][()])):
             d = stats[name]
             assert d["count"] == SEEDS
             assert d["mean"] == pytest.approx(np.mean(data), rel=1e-14)
@@ -199,7 +199,7 @@ def test_unstable_realisations_are_left_out_of_the_amplification(tmp_path, capsy
 
     out = tmp_path / "u.h5"
     summary = run_study(_study_cfg(tmp_path, seeds=3), str(out), MPI.COMM_SELF,
-                        mode="stability", log=lambda *_: None, forced=True)  # fmt: skip
+                        mode="stability", log=lambda *_: None, forced=True)
     stats = summary["statistics"]
     with h5py.File(out, "r") as f:
         assert all(v == b"unstable" for v in f["stability/verdict"][()])
@@ -229,7 +229,7 @@ def test_info_and_figures_of_a_monte_carlo_study(monte_carlo, tmp_path, capsys):
 
     with h5py.File(path, "r") as f:  # the study figures draw the factor over the varied keys
         np.testing.assert_array_equal(StudyData(f, str(path)).quantities["amplification"],
-                                      f["forced/amplification"][()])  # fmt: skip
+                                      f["forced/amplification"][()])
     names = {p.rsplit("/", 1)[-1] for p in plot_file(str(path), str(tmp_path))}
     assert {"mc_amplification.png", "mc_growth_rate.png", "mc_localisation.png"} <= names
 
@@ -243,9 +243,9 @@ def test_whitehead_bound_holds_for_one_mode_without_contacts(tmp_path):
 
     cfg = _study_cfg(tmp_path, ['mistuning.distribution="uniform"', "mistuning.std=0.03",
                                 "forced.contacts=false", "wheel.modes_per_segment=1"],
-                     seeds=12)  # fmt: skip
+                     seeds=12)
     summary = run_study(cfg, str(tmp_path / "w.h5"), MPI.COMM_SELF, mode="stability",
-                        log=lambda *_: None, forced=True)  # fmt: skip
+                        log=lambda *_: None, forced=True)
     stats = summary["statistics"]
     assert stats["amplification"]["count"] == 12
     assert 1.0 < stats["amplification"]["max"] <= stats["whitehead_bound"]
@@ -262,7 +262,7 @@ def test_model_key_leaves_the_mistuning_to_the_cases(small_cfg):
 
 def test_uniform_distribution_has_the_standard_deviation(small_cfg):
     cfg = small_cfg.replace(**{"wheel.blades": 20000, "mistuning.std": 0.02,
-                               "mistuning.distribution": "uniform"})  # fmt: skip
+                               "mistuning.distribution": "uniform"})
     delta = blade_mistuning(cfg)
     assert np.abs(delta).max() <= 0.02 * math.sqrt(3)
     assert np.std(delta) == pytest.approx(0.02, rel=0.02)
@@ -278,7 +278,7 @@ def test_pattern_file_relative_to_the_toml(tmp_path, suffix):
         (tmp_path / "blades.csv").write_text("# delta_s\n" + "\n".join(map(repr, values)))
     toml = tmp_path / "w.toml"
     toml.write_text(Path(SMALL).read_text() + f'\n[mistuning]\nfile = "blades{suffix}"\n'
-                    "alternate = 0.01\n")  # fmt: skip
+                    "alternate = 0.01\n")
     cfg = config.load(toml)
     expected = values + 0.01 * np.where(np.arange(12) % 2 == 0, 1, -1)
     assert np.array_equal(blade_mistuning(cfg), expected)
@@ -295,7 +295,7 @@ def test_a_study_reads_its_pattern_file_once_and_an_edited_file_again(tmp_path):
     toml.write_text(Path(SMALL).read_text().split("[sweep]")[0]
                     + '[mistuning]\nfile = "blades.csv"\n'
                     "[study.grid]\nmistuning.alternate = [0.0, 0.01, 0.02]\n"
-                    "contacts.shroud.angle_deg = [20.0, 50.0]\n")  # fmt: skip
+                    "contacts.shroud.angle_deg = [20.0, 50.0]\n")
     forced._read_values.cache_clear()
     study = expand(config.load(toml))
     delta = case_mistuning(study, 12)
@@ -313,7 +313,7 @@ def test_a_study_reads_its_pattern_file_once_and_an_edited_file_again(tmp_path):
     ('distribution = "gauss"', "mistuning.distribution: 'gauss' is not one of 'normal', "
                                "'uniform'"),
     ("pattern = [0.01, 0.02]", "mistuning.pattern: 2 values for 12 blades"),
-])  # fmt: skip
+])
 def test_mistuning_errors_name_the_key_and_the_file(tmp_path, setting, message):
     (tmp_path / "short.csv").write_text(",".join(["0.01"] * 11))
     (tmp_path / "bad.csv").write_text("0.01, 0.02, x")
@@ -329,7 +329,7 @@ def test_mistuning_errors_name_the_key_and_the_file(tmp_path, setting, message):
     ("[100.0]", "forced.band_hz: expected [] (automatic) or [lo, hi] with lo < hi"),
     ("[120.0, 110.0]", "forced.band_hz: expected [] (automatic) or [lo, hi]"),
     ("[-1.0, 110.0]", "forced.band_hz[0]: must be >= 0.0 Hz"),
-])  # fmt: skip
+])
 def test_forced_band_errors(value, message):
     with pytest.raises(ConfigError, match=re.escape(message)):
         config.load(SMALL, [f"forced.band_hz={value}"])
@@ -342,7 +342,7 @@ def test_cli_forced_response_uses_the_forced_section(capsys, one_mode):
 
     args = ["forced-response", SMALL, "--set", "wheel.modes_per_segment=1", "--set",
             "mistuning.alternate=0.01", "--set", "forced.contacts=false", "--set",
-            "forced.points=7", "--json"]  # fmt: skip
+            "forced.points=7", "--json"]
     assert cli.main(args) == 0
     data = json.loads(capsys.readouterr().out)
     model, cfg = one_mode
@@ -355,7 +355,7 @@ def test_cli_forced_response_uses_the_forced_section(capsys, one_mode):
     assert data["tuned_peak_amplitude_m"] == pytest.approx(tuned.amplitude, rel=1e-12)
     peak = peak_response(model, cfg, tuned.band_hz, contacts=False)
     assert data["amplification_factor"] == pytest.approx(peak.amplitude / tuned.amplitude,
-                                                         rel=1e-12)  # fmt: skip
+                                                         rel=1e-12)
 
 
 
@@ -413,7 +413,7 @@ def test_a_blade_that_would_lose_its_stiffness_is_a_named_error():
     from wheelrom.runtime.errors import InputError
 
     cfg = config.load(SMALL, ["mistuning.pattern=[-0.5, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0]",
-                              "mistuning.alternate=-0.45"])  # fmt: skip
+                              "mistuning.alternate=-0.45"])
     with pytest.raises(InputError, match=r"blade\(s\) 0 get delta_s = -0.95"):
         blade_mistuning(cfg)
     ok = blade_mistuning(cfg.replace(**{"mistuning.alternate": -0.3}))

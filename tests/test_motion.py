@@ -19,7 +19,7 @@ from wheelrom.cli import main as cli
 from wheelrom.config import ConfigError
 
 ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-           OMPI_MCA_rmaps_base_oversubscribe="1")  # fmt: skip
+           OMPI_MCA_rmaps_base_oversubscribe="1")
 WHEELROM = [sys.executable, "-m", "wheelrom.cli.main"]
 STATE = ["--set", "output.state_rate_hz=20000"]  # every statistics sample
 
@@ -110,7 +110,7 @@ def case_file(tmp_path_factory):
     statistics sample."""
     path = tmp_path_factory.mktemp("motion") / "case.h5"
     subprocess.run(WHEELROM + ["run", SMALL, *STATE, "--out", str(path)], env=ENV, check=True,
-                   capture_output=True, timeout=600)  # fmt: skip
+                   capture_output=True, timeout=600)
     return str(path)
 
 
@@ -123,7 +123,7 @@ def test_contact_forces_from_the_state_history_are_the_monitors(case_file):
     with h5py.File(case_file, "r") as f:
         ends = f["cases/window_end"][()]
         recorded = {k: (f[f"cases/min_normal_force/{k}"][0], f[f"cases/open_fraction/{k}"][0])
-                    for k in histories}  # fmt: skip
+                    for k in histories}
     assert set(histories) == {"tieboss", "shroud"}
     for kind, h in histories.items():
         window = np.searchsorted(ends + 2.5e-6, h.time)  # a sample at a window's end is its
@@ -151,7 +151,7 @@ def test_contacts_of_a_study_case_use_its_own_model_and_parameters(tmp_path, cap
     study, out = tmp_path / "study.toml", tmp_path / "study.h5"
     study.write_text(STUDY)
     subprocess.run(WHEELROM + ["study", str(study), "--out", str(out)], env=ENV, check=True,
-                   capture_output=True, timeout=600)  # fmt: skip
+                   capture_output=True, timeout=600)
     histories = case_contacts(str(out), 3)
     with h5py.File(out, "r") as f:
         assert f["cases/model"][3] == 1 and f["models/1"].attrs["modes"] == 6
@@ -164,9 +164,9 @@ def test_contacts_of_a_study_case_use_its_own_model_and_parameters(tmp_path, cap
         np.testing.assert_allclose(low, recorded[kind], rtol=0, atol=1e-9 * 400.0)
     assert np.abs(other - recorded["shroud"]).max() > 1e-6  # the groups differ: a real check
     assert cli.main(["contacts", str(out), "--case", "3", "--blade", "0",
-                     "--out", str(tmp_path / "c")]) == 0  # fmt: skip
+                     "--out", str(tmp_path / "c")]) == 0
     assert cli.main(["export", str(out), "--case", "3", "--what", "contact_forces",
-                     "--csv", str(tmp_path / "x")]) == 0  # fmt: skip
+                     "--csv", str(tmp_path / "x")]) == 0
     rows = np.loadtxt(tmp_path / "x_contact_forces.csv", delimiter=",", skiprows=1, ndmin=2)
     np.testing.assert_array_equal(rows[:, 1], histories["tieboss"].normal_force[:, 0])
     assert cli.main(["animate", str(out), "--case", "3", "--out", str(tmp_path / "a")]) == 2
@@ -200,7 +200,7 @@ def test_xdmf_holds_the_models_tip_motion(case_file, tmp_path, capsys):
     for s in range(N):
         angle = 2 * np.pi * s / N
         R = np.array([[np.cos(angle), -np.sin(angle), 0], [np.sin(angle), np.cos(angle), 0],
-                      [0, 0, 1]])  # fmt: skip
+                      [0, 0, 1]])
         expect = R @ (model.tip @ states[-1, 0, s])
         assert np.abs(u[s * P + first[0]] - expect).max() <= 1e-12 * np.abs(expect).max()
         assert np.allclose(points[s * P + first[0]], R @ seg.nodes[tip_node], rtol=0, atol=1e-12)
@@ -224,10 +224,10 @@ def test_contacts_figures_and_csv(case_file, tmp_path, capsys):
 
     prefix = str(tmp_path / "c")
     assert cli.main(["contacts", case_file, "--blade", "0", "5", "--kind", "shroud",
-                     "--window", "0:0.002", "--out", prefix]) == 0  # fmt: skip
+                     "--window", "0:0.002", "--out", prefix]) == 0
     written = capsys.readouterr().out.split()
     assert written == [f"{prefix}_normal_force.png", f"{prefix}_hysteresis_shroud_blade0.png",
-                       f"{prefix}_hysteresis_shroud_blade5.png"]  # fmt: skip
+                       f"{prefix}_hysteresis_shroud_blade5.png"]
     assert all(os.path.getsize(p) > 1000 for p in written)
     assert cli.main(["contacts", case_file, "--out", prefix, "--kind", "shroud"]) == 2
     assert "exists" in capsys.readouterr().err
@@ -237,7 +237,7 @@ def test_contacts_figures_and_csv(case_file, tmp_path, capsys):
     assert np.array_equal(csv[:, 0], h["tieboss"].time)
     assert np.array_equal(csv[:, 1:7], np.column_stack([
         h["tieboss"].normal_force[:, 0], *h["tieboss"].friction_force[:, 0].T,
-        *h["tieboss"].relative_displacement[:, 0].T]))  # fmt: skip
+        *h["tieboss"].relative_displacement[:, 0].T]))
     assert csv.shape[1] == 1 + 2 * 12 * 6
 
 
@@ -249,7 +249,7 @@ def test_contacts_figures_and_csv(case_file, tmp_path, capsys):
     (["contacts", "{f}", "--blade", "12"], "--blade 12: the wheel has blades 0..11"),
     (["contacts", "{f}", "--kind", "rim"], "--kind rim: the case has contacts tieboss, shroud"),
     (["animate", "nosuch.h5"], "nosuch.h5: no such file"),
-])  # fmt: skip
+])
 def test_bad_input_is_one_line(case_file, tmp_path, capsys, argv, message):
     argv = [a.format(f=case_file) for a in argv] + ["--out", str(tmp_path / "o")]
     assert cli.main(argv) == 2
@@ -261,7 +261,7 @@ def test_bad_input_is_one_line(case_file, tmp_path, capsys, argv, message):
 def tips_only(tmp_path_factory):
     path = tmp_path_factory.mktemp("tips") / "tips.h5"
     subprocess.run(WHEELROM + ["run", SMALL, "--out", str(path)], env=ENV, check=True,
-                   capture_output=True, timeout=600)  # fmt: skip
+                   capture_output=True, timeout=600)
     return str(path)
 
 
@@ -276,10 +276,10 @@ def test_without_a_state_history(tips_only, tmp_path, capsys):
     with Image.open(prefix + ".gif") as gif:
         assert gif.n_frames == 2  # the last window's tip history samples at 2 kHz: 1.5, 2 ms
     for argv in (["contacts", tips_only, "--out", prefix],
-                 ["export", tips_only, "--csv", prefix, "--what", "contact_forces"]):  # fmt: skip
+                 ["export", tips_only, "--csv", prefix, "--what", "contact_forces"]):
         assert cli.main(argv) == 2
         assert (f"{tips_only} has no state history: rerun with output.state_rate_hz > 0"
-                in capsys.readouterr().err)  # fmt: skip
+                in capsys.readouterr().err)
 
 
 def test_info_reports_bytes_per_case(case_file, capsys):
@@ -301,7 +301,7 @@ def test_batched_mpi_sweep_records_the_same_states(tmp_path):
     for name, ranks, batch in (("serial", 1, "1"), ("mpi", 2, "2")):
         out = tmp_path / f"{name}.h5"
         cmd = WHEELROM + ["sweep", SMALL, "--set", "output.state_rate_hz=5000", "--out",
-                          str(out), "--batch", batch]  # fmt: skip
+                          str(out), "--batch", batch]
         if ranks > 1:
             cmd = ["mpirun", "-n", str(ranks), *cmd]
         subprocess.run(cmd, env=ENV, check=True, capture_output=True, timeout=600)

@@ -20,13 +20,13 @@ from wheelrom.cli import main as cli
 from wheelrom.runtime.locks import lock_name, output_lock
 
 ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-           OMPI_MCA_rmaps_base_oversubscribe="1", MPLBACKEND="Agg")  # fmt: skip
+           OMPI_MCA_rmaps_base_oversubscribe="1", MPLBACKEND="Agg")
 
 
 def wheelrom(*args, timeout=300):
     """The CLI in a subprocess: another job."""
     return subprocess.run([sys.executable, "-m", "wheelrom.cli.main", *args],
-                          capture_output=True, text=True, timeout=timeout, env=ENV)  # fmt: skip
+                          capture_output=True, text=True, timeout=timeout, env=ENV)
 
 
 def _error_lines(err: str) -> list[str]:
@@ -157,7 +157,7 @@ def test_force_refuses_a_fifo(tmp_path, capsys, nothing_computed):
     assert cli.main(["stability", SMALL, "--out", str(fifo), "--force"]) == 2
     [line] = _error_lines(capsys.readouterr().err)
     assert line == (f"wheelrom: --out {fifo}: is a FIFO (named pipe), not a regular file: it "
-                    "is never replaced, choose another name")  # fmt: skip
+                    "is never replaced, choose another name")
     assert stat.S_ISFIFO(os.lstat(fifo).st_mode)
     assert sorted(os.listdir(tmp_path)) == ["pipe.h5"]
 

@@ -21,7 +21,7 @@ from wheelrom.cli.limit_cycle import print_limit_cycles
 #: the 80 deg case, small and fast: its ND 6 cycle opens both contacts
 AT_80 = ["--set", "sweep.shroud_angles_deg=[80.0]", "--set", "limit_cycle.steps=4", "--set",
          "limit_cycle.seeds=[1e-4]", "--set", "limit_cycle.harmonics=5", "--set",
-         'limit_cycle.floquet="off"']  # fmt: skip
+         'limit_cycle.floquet="off"']
 
 
 def _main(argv: list[str]) -> tuple[int, str]:
@@ -39,7 +39,7 @@ def missed_shot(tmp_path_factory):
     cycle reported is the harmonic balance's. ``(file, the JSON printed)``."""
     path = tmp_path_factory.mktemp("shot") / "lc.h5"
     status, out = _main(["limit-cycle", SMALL, *AT_80, "--set", 'limit_cycle.method="shooting"',
-                         "--nd", "6", "--json", "--out", str(path)])  # fmt: skip
+                         "--nd", "6", "--json", "--out", str(path)])
     assert status == 0
     return path, json.loads(out)
 
@@ -71,7 +71,7 @@ def test_info_says_which_method_gave_the_cycle(missed_shot, capsys):
     title = text.splitlines()[0]
     assert "(exact orbit by shooting;" not in title, title
     assert "exact orbit by shooting for 0 of 1 cycle(s), harmonic balance for 1 whose shot " \
-        "did not converge; H = 5" in title, title  # fmt: skip
+        "did not converge; H = 5" in title, title
     cycle = next(ln.strip() for ln in text.splitlines() if "tip " in ln and " um at " in ln)
     assert cycle.startswith("harmonic balance (the shot did not converge: residual "), cycle
     assert cli.main(["info", str(path), "--json"]) == 0
@@ -85,7 +85,7 @@ def test_a_case_examined_at_a_stable_wave_is_not_called_stable(capsys):
     wave of the linear analysis; at 20 deg, where every wave is stable, it says "stable"."""
     shrouds = "sweep.shroud_angles_deg=[20.0, 80.0]"
     assert cli.main(["limit-cycle", SMALL, *AT_80, "--set", shrouds, "--set",
-                     'limit_cycle.method="hb"', "--nd", "0", "--json"]) == 0  # fmt: skip
+                     'limit_cycle.method="hb"', "--nd", "0", "--json"]) == 0
     stable, flutters = json.loads(capsys.readouterr().out)["cases"]
     assert stable["verdict"] == "stable" and stable["fastest_wave"] is None
     (wave,) = flutters["waves"]
@@ -94,7 +94,7 @@ def test_a_case_examined_at_a_stable_wave_is_not_called_stable(capsys):
     assert not verdict.startswith("stable"), verdict
     assert verdict.startswith("the wave asked (ND 0) is stable at the configured intensity, "
                               "but the case flutters: its fastest wave, ND 6 (wave 6, "
-                              "growing at "), verdict  # fmt: skip
+                              "growing at "), verdict
     fastest = flutters["fastest_wave"]
     assert fastest["wave"] == 6 and fastest["nodal_diameter"] == 6
     assert f"growing at {fastest['growth_rate']:.3g} /s), was not examined" in verdict
@@ -138,7 +138,7 @@ def check_verify(path, flips: dict, tmp_path, capsys) -> None:
         assert status == 1, out
         assert f"CHANGED since written: {named}\n" in out, out
         assert err == f"wheelrom: {bad}: {named} changed since written (checksum mismatch): " \
-            "compute the file again\n"  # fmt: skip
+            "compute the file again\n"
     old = tmp_path / "old.h5"
     shutil.copy(path, old)
     with h5py.File(old, "r+") as f:
@@ -146,13 +146,13 @@ def check_verify(path, flips: dict, tmp_path, capsys) -> None:
     status, out, err = verify(old, capsys)
     assert status == 0
     assert "checksums:     none stored (a file written before wheelrom kept them): nothing " \
-        "was checked" in out  # fmt: skip
+        "was checked" in out
     assert err == f"wheelrom: {old}: no checksums stored (written before wheelrom kept them): " \
-        "nothing was verified\n"  # fmt: skip
+        "nothing was verified\n"
 
 
 def test_info_verify_names_a_changed_value_of_a_limit_cycle_file(missed_shot, tmp_path,
-                                                                  capsys):  # fmt: skip
+                                                                  capsys):
     """A cycle's amplitude, a per-case row, the model: each named with its case."""
     path, _ = missed_shot
     check_verify(path, {
@@ -160,7 +160,7 @@ def test_info_verify_names_a_changed_value_of_a_limit_cycle_file(missed_shot, tm
             (0, "case 0 (limit_cycle/case_0/wave_6/cycles/tip_amplitude)"),
         "limit_cycle/wall_s": (0, "case 0 (limit_cycle/wall_s)"),
         "model/segment_hz": (2, "model/segment_hz"),
-    }, tmp_path, capsys)  # fmt: skip
+    }, tmp_path, capsys)
     changed = tmp_path / "attribute.h5"
     shutil.copy(path, changed)
     with h5py.File(changed, "r+") as f:
@@ -176,7 +176,7 @@ def settle_file(tmp_path_factory):
     keys = [*VDP_WHEEL, "sweep.shroud_angles_deg=[50.0]", 'settle.start="preload"',
             "settle.max_time=0.2", "settle.min_time=0.05", "settle.window_periods=4"]
     status, _ = _main(["settle", SMALL, *sum((["--set", k] for k in keys), []), "--json",
-                       "--out", str(path)])  # fmt: skip
+                       "--out", str(path)])
     assert status == 0
     return path
 
@@ -188,4 +188,4 @@ def test_info_verify_names_a_changed_value_of_a_settle_file(settle_file, tmp_pat
         "settle/case_0/amplitude": (3, "case 0 (settle/case_0/amplitude)"),
         "settle/max_amplitude": (0, "case 0 (settle/max_amplitude)"),
         "settle/case_0/tip": (0, "case 0 (settle/case_0/tip)"),
-    }, tmp_path, capsys)  # fmt: skip
+    }, tmp_path, capsys)

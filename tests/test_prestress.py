@@ -54,7 +54,7 @@ def test_stiffening_is_monotonic_and_off_means_standstill(coarse_cfg):
     hz = [still.segment_hz]
     for speed in (25.0, 50.0):
         model = build_model(base.replace(**{"segment.prestress": True,
-                                            "wheel.speed_hz": speed}), SELF)  # fmt: skip
+                                            "wheel.speed_hz": speed}), SELF)
         hz.append(model.segment_hz)
     hz = np.array(hz)
     assert np.all(np.diff(hz[:, :2], axis=0) > 0)  # blade-dominated modes stiffen with speed

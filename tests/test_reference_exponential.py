@@ -26,7 +26,7 @@ def attachment(small_cfg, comm):
     from wheelrom.rom.build import build_model
 
     cfg = small_cfg.replace(**{"wheel.basis": "attachment", "time.scheme": "exponential",
-                               "time.step": 1e-5})  # fmt: skip
+                               "time.step": 1e-5})
     return build_model(cfg, comm), cfg
 
 
@@ -38,12 +38,12 @@ def test_reference_equals_the_compiled_ts_from_the_preload(attachment):
     model, cfg = attachment
     steps, h = 300, 1e-5
     cfg = cfg.replace(**{"time.start": "preload", "time.perturbation": 1e-6,
-                         "time.end": steps * h, "time.window": steps * h})  # fmt: skip
+                         "time.end": steps * h, "time.window": steps * h})
     res = run_case(model, cfg)
     assert res.status == "done" and res.steps == steps
     assert res.options["ts_scheme"] == "etdrk4" and res.options["ts_dt"] == h
     _, states, _ = reference_solution(model, cfg, steps, h, sample_every=steps,
-                                      scheme="exponential")  # fmt: skip
+                                      scheme="exponential")
     n2 = 2 * model.size
     ref, got = states[-1], res.final_state
     assert np.abs(ref[:n2]).max() > 0 and np.all(np.abs(ref[n2:]) > 0)
@@ -145,7 +145,7 @@ def test_recorded_options_are_those_that_took_effect(small_model, small_cfg):
 
     options = {"ts_rk_type": "5dp", "ts_adapt_type": "basic"}
     exp = small_cfg.replace(**{"time.scheme": "exponential", "time.step": 1e-5,
-                               "time.end": 2e-4, "time.window": 1e-4})  # fmt: skip
+                               "time.end": 2e-4, "time.window": 1e-4})
     res = run_case(small_model, exp, options=options)
     assert res.status == "done" and res.steps == 20  # fixed steps: no adaptor acted
     res = res.options
@@ -168,7 +168,7 @@ def test_compare_under_the_elastic_law_takes_the_stable_step(capsys):
     they agree to 1e-9."""
     args = ["compare", SMALL, "--steps", "100", "--json"]
     for item in [*EXPONENTIAL, "time.step=1.5e-5", "contacts.law=elastic",
-                 'wheel.basis="attachment"']:  # fmt: skip
+                 'wheel.basis="attachment"']:
         args += ["--set", item]
     assert cli.main(args) == 0
     out = json.loads(capsys.readouterr().out)

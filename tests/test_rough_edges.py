@@ -77,7 +77,7 @@ def test_a_text_file_as_mesh_is_one_line(tmp_path, empty_toml, capsys):
     ("study.cases", [], ["column 1", "31-character text"]),
     ("flutter.table", ["--set", 'flutter.model="table"'], ["unknown column", "31-character"]),
     ("mistuning.file", [], ["value 1", "31-character text"]),
-])  # fmt: skip
+])
 def test_a_wrong_file_is_not_echoed(key, extra, words, tmp_path, empty_toml, capsys):
     _write(tmp_path / "secret.txt", SECRET + "\n" + "daemon:x:1:1::/usr/sbin:/bin/false\n")
     assert cli.main(["config", "check", empty_toml, "--set", f'{key}="secret.txt"', *extra]) == 2
@@ -142,7 +142,7 @@ def test_copy_paste_hints_survive_a_shell(tmp_path, capsys):
     (["accuracy", "--families", "0"], ["--families", "at least 1"]),
     (["modes", "--full-wheel", "assembled", "--full-wheel-modes", "0"],
      ["--full-wheel-modes", "at least 1"]),
-])  # fmt: skip
+])
 def test_counts_and_scales_out_of_range_are_refused(argv, words, capsys, monkeypatch):
     def computed(*_):
         raise AssertionError("computed before the refusal")
@@ -160,7 +160,7 @@ def test_python_dash_m_wheelrom_is_the_command():
     import sys
 
     res = subprocess.run([sys.executable, "-m", "wheelrom", "--version"], capture_output=True,
-                         text=True, timeout=120)  # fmt: skip
+                         text=True, timeout=120)
     assert res.returncode == 0 and res.stdout.startswith("wheelrom "), res.stderr[-500:]
 
 
@@ -176,7 +176,7 @@ def test_plot_of_a_file_with_nothing_to_draw_is_refused(tmp_path, capsys):
 
 
 def test_campbell_refuses_to_replace_its_figure_before_computing(tmp_path, capsys,
-                                                                 monkeypatch):  # fmt: skip
+                                                                 monkeypatch):
     def computed(*_, **__):
         raise AssertionError("computed before the refusal")
 
@@ -197,7 +197,7 @@ def test_resume_compares_values_not_the_help_text():
     cfg = config.load(None, ["time.end=0.5"])
     text = config.to_toml(cfg)
     older = "\n".join(line.split("#")[0].rstrip() + ("  # an older help" if "=" in line else "")
-                      for line in text.splitlines())  # fmt: skip
+                      for line in text.splitlines())
     assert older != text and config_changes(older, cfg) is None
     changed = config_changes(older, config.load(None, ["time.end=0.6"]))
     assert changed == "time.end: 0.5 -> 0.6", changed
@@ -233,7 +233,7 @@ def test_compare_refuses_a_run_larger_than_the_memory(capsys, monkeypatch):
 
     monkeypatch.setattr("wheelrom.rom.build.build_model", built)
     monkeypatch.setattr("wheelrom.runtime.environment.available_memory", lambda: 8 * 10**9,
-                        raising=False)  # fmt: skip
+                        raising=False)
     assert cli.main(["compare", SMALL, "--steps", "1000000000"]) == 2
     err = _one_error(capsys)
     assert len(err.splitlines()) == 1, err

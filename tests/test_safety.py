@@ -21,7 +21,7 @@ from wheelrom.results.info import file_info
 
 QUICK = ["--set", "time.end=0.001", "--set", "time.window=0.0005"]
 ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-           OMPI_MCA_rmaps_base_oversubscribe="1", MPLBACKEND="Agg")  # fmt: skip
+           OMPI_MCA_rmaps_base_oversubscribe="1", MPLBACKEND="Agg")
 
 
 def wheelrom(*args, timeout=300, ranks=None, **kw):
@@ -93,7 +93,7 @@ def test_sweep_resume_and_force_together_is_a_usage_error(tmp_path, capsys):
 @pytest.mark.parametrize("command", ["run", "modes", "mesh", "sweep"])
 @pytest.mark.parametrize("where", ["missing", "directory"])
 def test_bad_output_path_fails_at_once_naming_it(command, where, tmp_path, capsys,
-                                                 nothing_computed):  # fmt: skip
+                                                 nothing_computed):
     out = tmp_path / "nowhere" / "x.h5" if where == "missing" else tmp_path
     argv = [command, SMALL, "--out", str(out)] + (QUICK if command in ("run", "sweep") else [])
     assert cli.main(argv) == 2
@@ -109,7 +109,7 @@ def test_read_only_directory_fails_at_once(tmp_path, capsys, monkeypatch, nothin
     folder.mkdir(mode=0o500)
     real_access = os.access
     monkeypatch.setattr(os, "access", lambda path, mode: False if os.fspath(path) == str(folder)
-                        else real_access(path, mode))  # fmt: skip
+                        else real_access(path, mode))
     assert cli.main(["run", SMALL, *QUICK, "--out", str(folder / "r.h5")]) == 2
     err = capsys.readouterr().err
     assert f"directory '{folder}' is not writable" in err and len(err.strip().splitlines()) == 1
@@ -142,7 +142,7 @@ def test_sweep_killed_while_creating_its_file_leaves_nothing_to_trip_over(tmp_pa
     out = tmp_path / "s.h5"
     argv = ["sweep", SMALL, "--out", str(out), *QUICK]
     res = subprocess.run([sys.executable, "-c", KILL_DURING_CREATION, *argv],
-                         capture_output=True, text=True, timeout=300, env=ENV)  # fmt: skip
+                         capture_output=True, text=True, timeout=300, env=ENV)
     assert res.returncode == -signal.SIGKILL
     assert not out.exists()  # the name appears only with a complete layout
     # the killed job's lock is reported stale with the command that removes it, not stolen
@@ -171,7 +171,7 @@ def test_resume_with_other_ts_options_is_refused_naming_them(small_sweep):
         f["cases/status"][2] = b"pending"
     before = os.path.getmtime(small_sweep)
     res = wheelrom("sweep", SMALL, "--out", str(small_sweep), *QUICK, "--resume",
-                   "--", "-wheel_ts_rk_type", "5dp")  # fmt: skip
+                   "--", "-wheel_ts_rk_type", "5dp")
     assert res.returncode == 2
     _one_error_line(res, "ts_rk_type=3bs", "ts_rk_type=5dp", "--force")
     assert os.path.getmtime(small_sweep) == before
@@ -185,7 +185,7 @@ def _interrupt_after_progress(cmd, sig=signal.SIGINT, targets=None):
     """Start ``cmd``, wait for its first progress line, send ``sig`` (to ``targets()`` pids
     when given, else to the process), return (exit status, stderr)."""
     proc = subprocess.Popen(cmd, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True,
-                            env=ENV)  # fmt: skip
+                            env=ENV)
     seen = []
     for line in proc.stderr:
         seen.append(line)
@@ -221,11 +221,11 @@ def test_sigterm_under_mpirun_stops_every_rank_with_one_line(tmp_path):
     """mpirun forwards Ctrl-C to the ranks as SIGTERM: here sent to the ranks directly."""
     out = tmp_path / "s.h5"
     cmd = ["mpirun", "-n", "2", sys.executable, "-m", "wheelrom.cli.main", "sweep", SMALL,
-           "--out", str(out), *LONG]  # fmt: skip
+           "--out", str(out), *LONG]
 
     def ranks():
         found = subprocess.run(["pgrep", "-f", f"wheelrom.cli.main sweep {SMALL} --out {out}"],
-                               capture_output=True, text=True).stdout.split()  # fmt: skip
+                               capture_output=True, text=True).stdout.split()
         return [int(p) for p in found if int(p) != os.getpid()]
 
     status, err = _interrupt_after_progress(cmd, signal.SIGTERM, ranks)
@@ -384,7 +384,7 @@ def test_a_failing_stability_case_under_mpirun_stops_every_rank(tmp_path):
     res = wheelrom("stability", SMALL, "--set", "sweep.shroud_angles_deg=[0.0, 90.0, 20.0]",
                    "--", "-stability_preload_snes_rtol", "0", "-stability_preload_snes_atol",
                    "2e-8", "-stability_preload_snes_max_it", "2", ranks=2,
-                   timeout=120)  # fmt: skip
+                   timeout=120)
     assert res.returncode != 0
     lines = [ln for ln in res.stderr.splitlines() if ln.startswith("wheelrom:")]
     assert len(lines) == 1 and "linear stability failed for 1 case(s)" in lines[0], res.stderr
@@ -399,7 +399,7 @@ def _free(monkeypatch, free_bytes):
 
     usage = collections.namedtuple("usage", "total used free")
     monkeypatch.setattr("wheelrom.runtime.outputs.shutil.disk_usage",
-                        lambda _: usage(10**12, 10**12 - free_bytes, free_bytes))  # fmt: skip
+                        lambda _: usage(10**12, 10**12 - free_bytes, free_bytes))
 
 
 def test_an_output_that_cannot_fit_is_refused_in_one_line(tmp_path, capsys, monkeypatch):
@@ -421,7 +421,7 @@ def test_an_output_that_cannot_fit_is_refused_in_one_line(tmp_path, capsys, monk
     err = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("wheelrom:")]
     assert len(err) == 1 and not os.listdir(tmp_path), err  # before any case: no file
     assert err[0] == (f"wheelrom: --out {out}: needs about {(needed * 1.01 + 2**20) / 1e6:.1f} MB, "
-                      f"the disk holding '{tmp_path}' has 8.0 MB free")  # fmt: skip
+                      f"the disk holding '{tmp_path}' has 8.0 MB free")
     _free(monkeypatch, 500_000)  # below what any output needs: refused before the model
     assert cli.main(["run", SMALL, *QUICK, "--out", str(out)]) == 2
     assert "has 500.0 kB free" in capsys.readouterr().err
@@ -448,7 +448,7 @@ def test_a_disk_that_fills_keeps_the_finished_rounds_and_resumes(tmp_path, capsy
     err = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("wheelrom:")]
     assert err == [f"wheelrom: {out}: the disk is full (errno 28, ENOSPC: No space left on "
                    "device); the cases of every finished round are in the file: free space "
-                   "and rerun with --resume"]  # fmt: skip
+                   "and rerun with --resume"]
     with h5py.File(out, "r") as f:
         assert [s.decode() for s in f["cases/status"][:]] == ["done", "pending", "pending"]
     monkeypatch.setattr(results, "write_case", real_write)  # space freed

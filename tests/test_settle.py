@@ -32,7 +32,7 @@ def _van_der_pol(f_hz: float, e: float, t: np.ndarray) -> np.ndarray:
     w = 2 * math.pi * f_hz
     sol = solve_ivp(lambda _, z: [z[1], e * w * (1 - z[0] ** 2) * z[1] - w * w * z[0]],
                     (0.0, t[-1]), [2.0, 0.0], method="DOP853", t_eval=t, rtol=1e-10,
-                    atol=1e-12)  # fmt: skip
+                    atol=1e-12)
     return sol.y
 
 
@@ -55,12 +55,12 @@ def vdp_settled(tmp_path_factory):
 
     out = tmp_path_factory.mktemp("settle") / "vdp.h5"
     assert cli.main(["settle", SMALL, *sum((["--set", k] for k in VDP), []),
-                     "--out", str(out)]) == 0  # fmt: skip
+                     "--out", str(out)]) == 0
     return out
 
 
 def test_van_der_pol_wheel_settles_periodic_at_the_averaging_amplitude(vdp_settled,
-                                                                       small_model):  # fmt: skip
+                                                                       small_model):
     """Relative law, ND N/2 (every blade's tip the same amplitude): the averaging's Van der
     Pol amplitude ``r sqrt(1 - lam_c)`` of ``y = p . q`` carried to the tip by the ND 6
     mode, to 0.5 %; periodic; stopped at min_time, 1 s, of a 5 s maximum."""
@@ -88,7 +88,7 @@ def test_a_case_still_growing_is_not_settled(small_model, capsys):
     from wheelrom.cli import main as cli
 
     keys = [*VDP, 'settle.start="preload"', "settle.seed_amplitude=1e-9",
-            "settle.max_time=0.3", "settle.min_time=0.1"]  # fmt: skip
+            "settle.max_time=0.3", "settle.min_time=0.1"]
     assert cli.main(["settle", SMALL, *sum((["--set", k] for k in keys), []), "--json"]) == 0
     import json
 
@@ -104,9 +104,9 @@ def test_a_case_still_growing_is_not_settled(small_model, capsys):
 def _run_of(tops, blades=3):
     """A run that did not settle: windows 0.1 s apart whose largest blade is ``tops`` [m]."""
     windows = [Window(0.1 * (i + 1), np.array([0.5, 1.0, 0.7])[:blades] * top,
-                      np.array([1.0, 0.0])) for i, top in enumerate(tops)]  # fmt: skip
+                      np.array([1.0, 0.0])) for i, top in enumerate(tops)]
     return Settled(False, windows[-1].end, windows, amplitude=windows[-1].amplitude,
-                   nd_energy=np.array([0.9, 0.1]))  # fmt: skip
+                   nd_energy=np.array([0.9, 0.1]))
 
 
 def test_the_trend_of_a_run_that_did_not_settle_is_the_least_squares_slope():
@@ -150,7 +150,7 @@ def test_the_elastic_law_settles_from_the_preload_carrying_its_sliders(small_mod
     from wheelrom.transient.run import run_case
 
     cfg = config.load(SMALL, ["contacts.law=elastic", "sweep.shroud_angles_deg=[80.0]",
-                              "excitation.force=0.0"])  # fmt: skip
+                              "excitation.force=0.0"])
     angles = {"shroud": 80.0}
     rng = np.random.default_rng(3)
     u0 = np.concatenate([rng.normal(size=small_model.size) * 3e-4, np.zeros(small_model.size)])
@@ -183,13 +183,13 @@ def test_cases_settled_together_are_each_the_case_settled_alone(small_model):
     angles = [{"tieboss": 45.0, "shroud": 50.0}, {"tieboss": 45.0, "shroud": 80.0}]
     rng = np.random.default_rng(5)
     u0 = [np.concatenate([rng.normal(size=small_model.size) * 1e-4,
-                          np.zeros(small_model.size)]) for _ in angles]  # fmt: skip
+                          np.zeros(small_model.size)]) for _ in angles]
     frequency = 100.0  # windows of 2 periods: 20 ms
     settings = [Settings(window_periods=2, tolerance=0.9, consecutive=1, min_time=t, max_time=0.1)
-                for t in (0.02, 0.06)]  # fmt: skip
+                for t in (0.02, 0.06)]
     together = settle_cases(small_model, cfg, angles, u0, [frequency] * 2, settings)
     alone = [settle_case(small_model, cfg, a, u, frequency, st)
-             for a, u, st in zip(angles, u0, settings, strict=True)]  # fmt: skip
+             for a, u, st in zip(angles, u0, settings, strict=True)]
     assert [len(r.windows) for r in together] == [2, 3]  # the first left the batch first
     for a, b in zip(together, alone, strict=True):
         assert a.settled and b.settled and a.time == b.time
@@ -208,7 +208,7 @@ def test_an_interrupted_run_resumes_keeping_the_finished_case(tmp_path, monkeypa
 
     keys = [*VDP[:-1], "sweep.shroud_angles_deg=[50.0, 60.0]", "settle.batch=1"]
     args = ["settle", SMALL, *sum((["--set", k] for k in keys), []), "--out",
-            str(tmp_path / "s.h5")]  # fmt: skip
+            str(tmp_path / "s.h5")]
     real = study._settle_batch
     calls = []
 
@@ -249,7 +249,7 @@ def test_info_reads_a_settle_file(vdp_settled, capsys):
     assert cli.main(["info", str(vdp_settled), "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["kind"] == "settle" and out["counts"] == {"settled": 1, "not_settled": 0,
-                                                         "total": 1}  # fmt: skip
+                                                         "total": 1}
     case = out["cases"][0]
     with h5py.File(vdp_settled, "r") as f:
         g = f["settle"]
@@ -335,7 +335,7 @@ def test_a_growing_mode_without_tip_motion_is_seeded_by_its_modal_size():
 
 
 def test_the_settle_file_keeps_the_trend_and_info_reads_it(small_cfg, small_model, tmp_path,
-                                                           capsys):  # fmt: skip
+                                                           capsys):
     """``/settle/trend`` and ``still_growing`` are the cases' own (a rising run, a flat one and
     one too short for a trend), and ``info --json`` reads them back."""
     import json
@@ -345,7 +345,7 @@ def test_the_settle_file_keeps_the_trend_and_info_reads_it(small_cfg, small_mode
 
     t = 0.1 * np.arange(1, 21)
     runs = [_run_of(20e-6 * (1 + 0.08 * t)), _run_of(20e-6 + 5e-7 * np.array([1, -1] * 10)),
-            _run_of([20e-6, 21e-6, 22e-6]), _run_of(20e-6 * (1 + 0.08 * t))]  # fmt: skip
+            _run_of([20e-6, 21e-6, 22e-6]), _run_of(20e-6 * (1 + 0.08 * t))]
     runs[3].settled = True  # a settled case has no trend, whatever its windows
     runs[3].classification = Classification("periodic", 100.0, math.nan, 0.0, 0.0, 0.0, "test")
     path = tmp_path / "trend.h5"

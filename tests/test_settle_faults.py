@@ -29,7 +29,7 @@ from wheelrom.cli import main as cli
 
 #: one case, two-period windows, at most 0.05 s simulated
 QUICK = [*VDP_WHEEL, "sweep.shroud_angles_deg=[50.0]", "settle.window_periods=2",
-         "settle.min_time=0.05", "settle.max_time=0.05"]  # fmt: skip
+         "settle.min_time=0.05", "settle.max_time=0.05"]
 
 
 def _sets(keys: list[str]) -> list[str]:
@@ -39,7 +39,7 @@ def _sets(keys: list[str]) -> list[str]:
 def _errors(err: str) -> list[str]:
     """The CLI's error lines (its warnings apart)."""
     return [ln for ln in err.splitlines()
-            if ln.startswith("wheelrom:") and not ln.startswith("wheelrom: warning:")]  # fmt: skip
+            if ln.startswith("wheelrom:") and not ln.startswith("wheelrom: warning:")]
 
 
 # --- 5: no NaN in a progress line, no warning from a figure ---------------------------
@@ -92,7 +92,7 @@ def test_min_time_above_max_time_is_refused_naming_both(capsys):
         assert err.startswith("wheelrom: invalid configuration:\n") and "Traceback" not in err
         (problem,) = err.splitlines()[1:]
         assert problem.endswith(": settle.min_time = 0.5 s is above settle.max_time = 0.3 s: "
-                                "no case could ever be called settled"), problem  # fmt: skip
+                                "no case could ever be called settled"), problem
 
 
 def test_max_time_shorter_than_one_window_is_refused_before_integrating(capsys, monkeypatch):
@@ -109,7 +109,7 @@ def test_max_time_shorter_than_one_window_is_refused_before_integrating(capsys, 
     assert cli.main(["settle", SMALL, *_sets(keys)]) == 2
     (line,) = _errors(capsys.readouterr().err)
     assert line.startswith("wheelrom: settle.max_time = 0.005 s is shorter than one window: "
-                           "settle.window_periods = 2 periods"), line  # fmt: skip
+                           "settle.window_periods = 2 periods"), line
 
 
 # --- 1, 2: a disk that fills keeps what was computed in $TMPDIR -------------------------
@@ -128,7 +128,7 @@ def full_disk(tmp_path, monkeypatch):
 
     def on_the_full_disk(path) -> bool:
         return full[0] and isinstance(path, str | os.PathLike) and \
-            os.path.dirname(os.path.abspath(path)).startswith(str(out))  # fmt: skip
+            os.path.dirname(os.path.abspath(path)).startswith(str(out))
 
     class Filling:
         """An open file whose every write finds the disk full."""
@@ -159,7 +159,7 @@ def full_disk(tmp_path, monkeypatch):
         def __init__(self, name, mode="r", *args, **kwargs):
             if mode != "r" and on_the_full_disk(name):
                 raise OSError(errno.ENOSPC, f"Unable to create file (name = '{name}', errno = "
-                              "28, error message = 'No space left on device')")  # fmt: skip
+                              "28, error message = 'No space left on device')")
             super().__init__(name, mode, *args, **kwargs)
 
     monkeypatch.setattr(builtins, "open", opening)
@@ -170,7 +170,7 @@ def full_disk(tmp_path, monkeypatch):
 
 
 def test_a_disk_that_fills_during_settle_keeps_every_case_and_names_the_paths(
-        full_disk, capsys, monkeypatch):  # fmt: skip
+        full_disk, capsys, monkeypatch):
     """The first case is saved beside the output, then the disk fills: the second case's
     side file fails (it was an exception that lost the computed case, left
     case_1.partial.npz and said "what was written before is kept", naming no path); now it
@@ -198,7 +198,7 @@ def test_a_disk_that_fills_during_settle_keeps_every_case_and_names_the_paths(
                     f"device; {free} free in '{out_dir}'); the results are kept in "
                     f"{spare / kept} (move it there once space is freed); the summary is "
                     f"printed above; case 1 of 2 also stays in {beside} (--resume reuses "
-                    "it)")  # fmt: skip
+                    "it)")
     assert f"wheelrom: warning: {beside / 'case_1.npz'}: the disk is full" in err
     assert os.listdir(out_dir) == [".s.settle"]  # no output, no temporary, no lock
     assert sorted(os.listdir(beside)) == ["case_0.json", "case_0.npz"]  # nothing partial
@@ -224,7 +224,7 @@ def test_run_on_a_full_disk_keeps_its_history_in_tmpdir(full_disk, capsys, monke
     (kept,) = os.listdir(spare)
     assert line.startswith(f"wheelrom: {out}: the disk is full (errno 28, ENOSPC"), line
     assert line.endswith(f"; the results are kept in {spare / kept} (move it there once space "
-                         "is freed); its summary is printed above"), line  # fmt: skip
+                         "is freed); its summary is printed above"), line
     assert not os.listdir(out_dir)  # no file, no temporary, no lock
     with h5py.File(spare / kept, "r") as f:  # the whole run, its history too
         assert f["cases/status"][0] == b"done"
@@ -245,13 +245,13 @@ def test_ctrl_c_during_settle_names_the_kept_cases_and_the_resume_line(tmp_path,
     folder.mkdir()
     # one case a batch: the first is kept while the second runs
     keys = [*QUICK, "sweep.shroud_angles_deg=[50.0, 60.0]", "settle.min_time=0.2",
-            "settle.max_time=0.2", "settle.batch=1"]  # fmt: skip
+            "settle.max_time=0.2", "settle.batch=1"]
     assert cli.main(["config", "show", SMALL, *_sets(keys)]) == 0
     cfg, out = folder / "it's.toml", folder / "it's.h5"
     cfg.write_text(capsys.readouterr().out)
     proc = subprocess.Popen([sys.executable, "-m", "wheelrom", "settle", str(cfg), "--out",
                              str(out)], stderr=subprocess.PIPE, stdout=subprocess.DEVNULL,
-                            text=True, env=dict(os.environ, MPLBACKEND="Agg"))  # fmt: skip
+                            text=True, env=dict(os.environ, MPLBACKEND="Agg"))
     seen = []
     for line in proc.stderr:
         seen.append(line)
@@ -266,7 +266,7 @@ def test_ctrl_c_during_settle_names_the_kept_cases_and_the_resume_line(tmp_path,
     beside = folder / ".it's.settle"
     assert line.startswith(f"wheelrom: interrupted: case 1 of 2 finished and kept in {beside}; "
                            "to compute only the other 1, rerun the settle with --resume: "
-                           "wheelrom settle "), line  # fmt: skip
+                           "wheelrom settle "), line
     assert sorted(os.listdir(beside)) == ["case_0.json", "case_0.npz"]
     words = shlex.split(line[line.index(": wheelrom ") + 2 :])
     assert words == ["wheelrom", "settle", str(cfg), "--out", str(out), "--resume"], line
@@ -284,7 +284,7 @@ def test_a_killed_rank_leaves_rank_0_saying_what_is_kept(tmp_path, capsys):
     lock); now it waits in a polled barrier and names what is kept and the resume line."""
     cfg = tmp_path / "c.toml"
     keys = [*QUICK, "sweep.shroud_angles_deg=[50.0, 60.0, 70.0]", "settle.min_time=0.2",
-            "settle.max_time=0.2", "settle.batch=1"]  # fmt: skip
+            "settle.max_time=0.2", "settle.batch=1"]
     assert cli.main(["config", "show", SMALL, *_sets(keys)]) == 0
     cfg.write_text(capsys.readouterr().out)
     out = tmp_path / "s.h5"
@@ -293,10 +293,10 @@ def test_a_killed_rank_leaves_rank_0_saying_what_is_kept(tmp_path, capsys):
     # (where Python sees no signal) after that second and died without its line; 10 s here
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
                OMPI_MCA_rmaps_base_oversubscribe="1", MPLBACKEND="Agg",
-               OMPI_MCA_odls_base_sigkill_timeout="10")  # fmt: skip
+               OMPI_MCA_odls_base_sigkill_timeout="10")
     command = [sys.executable, "-m", "wheelrom", "settle", str(cfg), "--out", str(out)]
     proc = subprocess.Popen(["mpirun", "-n", "2", *command], stderr=subprocess.PIPE,
-                            stdout=subprocess.DEVNULL, text=True, env=env)  # fmt: skip
+                            stdout=subprocess.DEVNULL, text=True, env=env)
     seen = []
     for line in proc.stderr:
         seen.append(line)
@@ -344,10 +344,10 @@ def test_an_exception_on_one_rank_aborts_the_job(tmp_path):
         "    MPI.COMM_WORLD.barrier()  # waits for rank 1\n"
         "settle.run_settle = run_settle\n"
         "from wheelrom.cli.main import main\n"
-        f"sys.exit(main(['settle', {SMALL!r}]))\n")  # fmt: skip
+        f"sys.exit(main(['settle', {SMALL!r}]))\n")
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-               OMPI_MCA_rmaps_base_oversubscribe="1", MPLBACKEND="Agg")  # fmt: skip
+               OMPI_MCA_rmaps_base_oversubscribe="1", MPLBACKEND="Agg")
     done = subprocess.run(["mpirun", "-n", "2", sys.executable, str(script)], env=env,
-                          capture_output=True, text=True, timeout=120)  # fmt: skip
+                          capture_output=True, text=True, timeout=120)
     assert done.returncode != 0
     assert "rank 1: Traceback" in done.stderr and "rank 1 fails here" in done.stderr

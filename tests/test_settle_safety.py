@@ -17,7 +17,7 @@ from wheelrom.cli import main as cli
 
 #: the Van der Pol wheel, one case, a few ms of simulated time (no window completes)
 SHORT = [*VDP_WHEEL, "sweep.shroud_angles_deg=[50.0]", "settle.max_time=0.02",
-         "settle.min_time=0.01", "settle.window_periods=2"]  # fmt: skip
+         "settle.min_time=0.01", "settle.window_periods=2"]
 #: format and top-level group of each kind of file, and what the refusal calls it
 KINDS = {
     "run": ("wheelrom-sweep-1", "cases", "a sweep or run results file"),
@@ -99,7 +99,7 @@ def test_resume_accepts_a_settle_file(tmp_path):
 
 @pytest.mark.parametrize("resume", [False, True])
 def test_a_link_planted_as_the_side_folder_is_refused_never_followed(resume, tmp_path, capsys,
-                                                                    nothing_computed):  # fmt: skip
+                                                                    nothing_computed):
     """It was written through (the cases landed in its target), then rmtree raised
     "Cannot call rmtree on a symbolic link" after the computation."""
     victim = tmp_path / "victim"
@@ -111,7 +111,7 @@ def test_a_link_planted_as_the_side_folder_is_refused_never_followed(resume, tmp
     assert cli.main(_settle("--out", str(out), *(["--resume"] if resume else []))) == 2
     line = _one_error(capsys)
     assert f"--out {out}: {side}, where its finished cases are kept, is a symbolic link to a " \
-        "directory: a link there is never followed" in line, line  # fmt: skip
+        "directory: a link there is never followed" in line, line
     assert os.path.islink(side) and os.readlink(side) == str(victim)
     assert os.listdir(victim) == ["mine"] and (victim / "mine").read_text() == "not yours"
     assert not out.exists()
@@ -119,7 +119,7 @@ def test_a_link_planted_as_the_side_folder_is_refused_never_followed(resume, tmp
 
 @pytest.mark.parametrize("resume", [False, True])
 def test_a_file_named_as_the_side_folder_is_refused_up_front(resume, tmp_path, capsys,
-                                                             nothing_computed):  # fmt: skip
+                                                             nothing_computed):
     """It raised FileExistsError when the first case was saved: after computing it."""
     side = tmp_path / ".s.settle"
     side.write_text("mine")
@@ -193,9 +193,9 @@ def test_resume_runs_a_batch_kept_in_part_again_whole(tmp_path, monkeypatch, cap
 
 @pytest.mark.parametrize("override, changed", [("wheel.blades=10", "wheel.blades: 10 -> 12"),
                                                ("wheel.modes_per_segment=4",
-                                                "wheel.modes_per_segment: 4 -> 6")])  # fmt: skip
+                                                "wheel.modes_per_segment: 4 -> 6")])
 def test_cycles_of_another_wheel_are_refused_naming_the_key(override, changed, tmp_path, capsys,
-                                                            nothing_computed):  # fmt: skip
+                                                            nothing_computed):
     """Another blade count was wrapped onto this wheel; another mode count was a numpy
     broadcast error."""
     cycles = tmp_path / "lc.h5"
@@ -203,7 +203,7 @@ def test_cycles_of_another_wheel_are_refused_naming_the_key(override, changed, t
     assert cli.main(_settle("--cycles", str(cycles))) == 2
     line = _one_error(capsys)
     assert line.startswith(f"wheelrom: --cycles {cycles}: written for another wheel "
-                           f"({changed})"), line  # fmt: skip
+                           f"({changed})"), line
 
 
 @pytest.mark.parametrize("kind", ["stability", "run", "settle", "text"])
@@ -227,7 +227,7 @@ def test_cycles_of_the_same_wheel_at_another_intensity_are_accepted(tmp_path):
     cycles = tmp_path / "lc.h5"
     _wheelrom_file(cycles, "limit-cycle", ["flutter.mu=5.0", "time.step=5e-6",
                                            "limit_cycle.harmonics=3",
-                                           "contacts.shroud.angle_deg=60.0"])  # fmt: skip
+                                           "contacts.shroud.angle_deg=60.0"])
     cfg = config.load(SMALL, SHORT)
     check_cycles(str(cycles), cfg)
     with pytest.raises(InputError, match="contacts.tieboss.height: 1.6 -> 1.7"):

@@ -31,7 +31,7 @@ from wheelrom.transient.run import run_case
 
 VDP = ["contacts.tieboss.enabled=false", "contacts.shroud.enabled=false",
        "wheel.damping_beta=1e-9", "flutter.mu=10.0", 'flutter.model="relative"',
-       'time.scheme="exponential"', "time.step=1e-5", "excitation.force=0.0"]  # fmt: skip
+       'time.scheme="exponential"', "time.step=1e-5", "excitation.force=0.0"]
 WAVE = 6  # ND N/2 of the 12-blade wheel
 
 
@@ -161,7 +161,7 @@ def test_every_nd_by_bloch_waves_is_slepcs_whole_wheel_monodromy(vdp, small_mode
     options.setValue("limitcycle_floquet_eps_max_it", "100")
     try:
         slepc = floquet_multipliers(small_model, cfg, orbit, orbit.steps_per_period, None,
-                                    -1.0, 3)  # fmt: skip
+                                    -1.0, 3)
     finally:
         options.delValue("limitcycle_floquet_eps_max_it")
     keep = np.arange(orbit.state.size)
@@ -178,10 +178,10 @@ def impact_cycle(small_model):
     """The small wheel's ND 6 cycle at shroud 60 deg (contacts open ~half the period), from a
     1e-3 m seed, polished by shooting, with the whole wheel's multipliers."""
     cfg = config.load(SMALL, ['time.scheme="exponential"', "time.step=1e-5",
-                              "excitation.force=0.0"])  # fmt: skip
+                              "excitation.force=0.0"])
     settings = Settings(harmonics=7, waves=(WAVE,), seeds=(1e-3,), method="shooting",
                         floquet="monodromy", multipliers=6, refine=1,
-                        branch=BranchSettings(steps=2))  # fmt: skip
+                        branch=BranchSettings(steps=2))
     angles = {"tieboss": 45.0, "shroud": 60.0}
     res = case_limit_cycles(small_model, cfg, settings, angles)
     cycles = [c for c in res.branches[0].cycles if c.method == "shooting"]
@@ -199,7 +199,7 @@ def test_impact_orbit_converges_and_the_transient_stays_on_it(impact_cycle, smal
     steps = orbit.steps_per_period
     run_cfg = cfg.replace(**{"time.step": orbit.period / steps, "time.end": 10 * orbit.period,
                              "time.window": 10 * orbit.period, "output.history_rate_hz": 0.0,
-                             "output.sample_rate_hz": 0.5 * steps / orbit.period})  # fmt: skip
+                             "output.sample_rate_hz": 0.5 * steps / orbit.period})
     res = run_case(small_model, run_cfg, angles, u0=state.ravel())
     n = state[0].size
     final = res.final_state[: 2 * n].reshape(state.shape)
@@ -228,7 +228,7 @@ def test_impact_orbit_multiplier_by_two_computations(impact_cycle, small_model):
 
 
 def test_chord_steps_find_the_same_orbit_with_fewer_jacobians(impact_cycle, small_model,
-                                                              monkeypatch):  # fmt: skip
+                                                              monkeypatch):
     """Newton on the shot keeps its last Jacobian while the residual falls at least 4x an
     iteration (each Jacobian is 2 n shots): from the impact orbit moved by 1e-3 of its
     vibration it finds the orbit Newton with a Jacobian every iteration finds, to 1e-8, with
@@ -242,7 +242,7 @@ def test_chord_steps_find_the_same_orbit_with_fewer_jacobians(impact_cycle, smal
     built = []
     real = shot._ShotSystem.jacobian
     monkeypatch.setattr(shot._ShotSystem, "jacobian",
-                        lambda self, z: built.append(1) or real(self, z))  # fmt: skip
+                        lambda self, z: built.append(1) or real(self, z))
     found, jacobians = [], []
     for chord in (shot.CHORD, 0.0):  # 0: a Jacobian every iteration
         monkeypatch.setattr(shot, "CHORD", chord)
@@ -275,7 +275,7 @@ def test_full_newton_steps_that_grow_the_residual_tenfold_stop_at_once():
     system = object.__new__(shot._ShotSystem)
     system.floor = 0.0
     reasons = [system._converged(Tolerances(), i, (0.0, 0.0, norm))
-               for i, norm in enumerate([1.0, 5.0, 9.9, 10.5])]  # fmt: skip
+               for i, norm in enumerate([1.0, 5.0, 9.9, 10.5])]
     assert reasons == [0, 0, 0, -3]
 
 
@@ -293,14 +293,14 @@ def test_a_monodromy_that_converged_nothing_decides_nothing():
                   np.zeros((1, 3)), 1.0, np.zeros(1), 0.0, 0.0, 0.0, 0.0, 0.0,
                   stability=FloquetResult(np.zeros(0, int), np.zeros(0), 0.0, 0.1, True,
                                           by="monodromy: ND", trust=-math.inf),
-                  multipliers=empty, method="shooting")  # fmt: skip
+                  multipliers=empty, method="shooting")
     assert cycle.stable is None and cycle.stability.worst_family == -1
     branch = WaveBranch(6, 6, 1, 0.5, 100.0, cycles=[cycle], kinds=("shroud",))
     assert "stability not decided" in branch.verdict()
 
 
 def test_undecided_skips_the_whole_wheel_where_the_symmetry_proves_it(impact_cycle,
-                                                                      small_model):  # fmt: skip
+                                                                      small_model):
     """``whole_wheel = 'undecided'``: the in-symmetry multipliers above 1 at two steps prove
     the impact orbit unstable, so the whole wheel's monodromy is not computed; the verdict is
     the proof's, the same multiplier as with the whole wheel computed, and says what was
@@ -312,7 +312,7 @@ def test_undecided_skips_the_whole_wheel_where_the_symmetry_proves_it(impact_cyc
     assert full.stability.by.startswith("monodromy inside")
     settings = Settings(harmonics=7, waves=(WAVE,), seeds=(1e-3,), method="shooting",
                         floquet="monodromy", multipliers=6, refine=1, whole_wheel="undecided",
-                        branch=BranchSettings(steps=2))  # fmt: skip
+                        branch=BranchSettings(steps=2))
     res = case_limit_cycles(small_model, cfg, settings, angles)
     (cycle,) = [c for c in res.branches[0].cycles if c.method == "shooting"]
     assert cycle.multipliers is None and cycle.stable is False
@@ -331,7 +331,7 @@ def test_a_shot_that_lands_on_another_orbit_says_so():
         cycle = Cycle(1.0, 136.0, np.zeros((2, 1), complex), tip_um * 1e-6, np.zeros(1),
                       np.zeros((1, 2)), np.zeros((1, 3)), 1.0, np.zeros(1), 0.0, 0.0, 0.0,
                       0.0, 0.0, method="shooting", hb_tip_amplitude=hb_um * 1e-6,
-                      hb_frequency_hz=135.3)  # fmt: skip
+                      hb_frequency_hz=135.3)
         return WaveBranch(33, 33, 1, 0.8, 137.0, cycles=[cycle], kinds=("shroud",)).verdict()
 
     assert "not the harmonic balance's cycle it was shot from (22.3 um" in verdict(16.6, 22.3)
@@ -351,16 +351,16 @@ def test_a_verdict_names_the_other_cycles_at_its_intensity():
     def cycle(tip_um, hz, **kw):
         return Cycle(1.0, hz, np.zeros((2, 1), complex), tip_um * 1e-6, np.zeros(1),
                      np.zeros((1, 2)), np.zeros((1, 3)), 1.0, np.zeros(1), 0.0, 0.0, 0.0,
-                     0.0, 0.0, **kw)  # fmt: skip
+                     0.0, 0.0, **kw)
 
     exact = cycle(16.6, 136.08, method="shooting", hb_tip_amplitude=22.3e-6,
-                  hb_frequency_hz=135.35)  # fmt: skip
+                  hb_frequency_hz=135.35)
     missed = cycle(20.6, 135.23, method="hb", shooting_residual=0.0054)
     text = WaveBranch(33, 33, 1, 0.8, 137.0, cycles=[exact, missed],
-                      kinds=("shroud",)).verdict()  # fmt: skip
+                      kinds=("shroud",)).verdict()
     assert text.startswith("limit cycle at 16.6 um tip"), text
     assert text.endswith("1 more cycle at this intensity (20.6 um, 135.2 Hz, harmonic balance "
-                         "(the shot did not converge: residual 0.0054))"), text  # fmt: skip
+                         "(the shot did not converge: residual 0.0054))"), text
     alone = WaveBranch(33, 33, 1, 0.8, 137.0, cycles=[exact], kinds=("shroud",)).verdict()
     assert "more cycle" not in alone
 
@@ -375,22 +375,22 @@ def test_a_whole_wheel_that_converged_nothing_says_how_far_it_got():
     from wheelrom.analysis.periodic.monodromy import Multipliers
 
     empty = Multipliers(np.zeros(0, complex), np.zeros(0, int), np.zeros(0, int), -1, 0.007,
-                        matvecs=140, trivial_check=0.35)  # fmt: skip
+                        matvecs=140, trivial_check=0.35)
     proof = FloquetResult(np.array([33]), np.array([15.0]), 1.11, 0.35, False,
                           by="monodromy inside the cycle's symmetry at the finest step: ND",
-                          trust=math.inf)  # fmt: skip
+                          trust=math.inf)
     cycle = Cycle(1.0, 143.0, np.zeros((2, 1), complex), 22e-6, np.zeros(1), np.zeros((1, 2)),
                   np.zeros((1, 3)), 1.0, np.zeros(1), 0.0, 0.0, 0.0, 0.0, 0.0,
                   stability=proof, multipliers=empty, method="shooting",
-                  refined=[(6.25e-7, 1.11, 33)])  # fmt: skip
+                  refined=[(6.25e-7, 1.11, 33)])
     text = WaveBranch(33, 33, 1, 0.74, 148.0, cycles=[cycle], kinds=("shroud",)).verdict()
     assert "unstable inside its own symmetry (ND 33: multiplier 1.11" in text, text
     assert "converged at time.step in 140 linearised periods (its phase-shift multiplier " \
-           "off 1 by 0.35)" in text, text  # fmt: skip
+           "off 1 by 0.35)" in text, text
 
 
 def test_a_missed_shot_is_retried_from_the_cycle_balanced_with_more_harmonics(
-        small_model, monkeypatch):  # fmt: skip
+        small_model, monkeypatch):
     """:func:`~wheelrom.analysis.periodic.exact.finer_balance` (the start of a second shot
     when the first misses: on the paper wheel at 75 deg the H = 11 cycle's missed, its H = 21
     balance's converged) against the continuation itself at the finer H: the small wheel's
@@ -407,7 +407,7 @@ def test_a_missed_shot_is_retried_from_the_cycle_balanced_with_more_harmonics(
     def cycle(harmonics):
         cfg = config.load(SMALL, [f"limit_cycle.harmonics={harmonics}", "limit_cycle.steps=4",
                                   "limit_cycle.seeds=[1e-4]", 'limit_cycle.floquet="off"',
-                                  'limit_cycle.method="hb"'])  # fmt: skip
+                                  'limit_cycle.method="hb"'])
         res = case_limit_cycles(small_model, cfg, settings_of(cfg, [WAVE]), angles)
         (branch,) = res.branches
         (c,) = branch.cycles

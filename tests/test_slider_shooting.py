@@ -64,7 +64,7 @@ def test_the_elastic_orbit_is_a_periodic_orbit_of_the_whole_wheel(elastic_orbit)
 
 
 def test_the_elastic_orbit_balances_its_energy_and_the_stuck_contact_dissipates_nothing(
-        elastic_orbit):  # fmt: skip
+        elastic_orbit):
     """Over the period the self-excitation's work equals the friction's and the damping's
     dissipation (to 1e-4; measured 1e-7), all of the friction's in the shroud: the tie-boss
     sticks the whole period and a stuck elastic contact dissipates nothing (to 1e-6 of the
@@ -113,7 +113,7 @@ def test_the_elastic_orbits_multipliers_are_the_transients_decay(elastic_orbit):
         rest = np.delete(np.arange(values.size), mu["trivial"])
         worst = rest[np.argmax(np.abs(values[rest]))]
         assert abs(values[worst].imag) < 1e-12 and values[worst].real == \
-            pytest.approx(moduli[0], abs=1e-12)  # fmt: skip
+            pytest.approx(moduli[0], abs=1e-12)
         x0 = orbit.flat()
         scale = shooting._scale(x0, orbit.period, cycle.tip_amplitude)
         h = orbit.period / orbit.steps_per_period
@@ -166,7 +166,7 @@ def test_the_whole_wheels_multipliers_by_bloch_waves_are_its_monodromys(elastic_
     copies, kinds = N // pattern, orbit.sliders.shape[0]
     assert keep.size == 2 * pattern * m + 2 * pattern and bloch.values.size == copies * keep.size
     where = np.concatenate([blade_indices(p * pattern + np.arange(pattern), N, m, kinds)[keep]
-                            for p in range(copies)])  # fmt: skip
+                            for p in range(copies)])
     unit = np.tile(scale[keep], copies)
     state = np.concatenate([orbit.wheel_state(N).ravel(), orbit.wheel_sliders(N).ravel()])
     probes = np.repeat(state[None], 2 * where.size, axis=0)
@@ -279,7 +279,7 @@ def test_the_whole_wheel_settles_on_the_elastic_orbit(elastic_orbit):
     u0, frequency, words, _, _ = _start(model, cfg, angles, None)
     assert "half the stuck mode's slip onset" in words
     out = settle_case(model, cfg, angles, u0, frequency,
-                      Settings(window_periods=20, min_time=1.0, max_time=2.0))  # fmt: skip
+                      Settings(window_periods=20, min_time=1.0, max_time=2.0))
     assert out.settled and int(np.argmax(out.nd_energy)) == 6
     assert out.amplitude.max() == pytest.approx(cycle.tip_amplitude, rel=0.02)
     assert out.classification.frequency_hz == pytest.approx(cycle.frequency_hz, rel=1e-3)
@@ -304,13 +304,13 @@ def test_settle_from_the_elastic_orbit_carries_its_sliders_and_stays_on_it(elast
     tiled = cycle.orbit.sliders[:, np.arange(model.blades) % 2]
     assert u0.size == n + 4 + tiled.size and np.array_equal(u0[n + 4 :], tiled.ravel())
     out = settle_case(model, cfg, angles, u0, frequency,
-                      Settings(window_periods=20, min_time=0.3, max_time=1.0))  # fmt: skip
+                      Settings(window_periods=20, min_time=0.3, max_time=1.0))
     assert int(np.argmax(out.nd_energy)) == 6
     assert out.amplitude.max() == pytest.approx(amplitude, rel=2e-3)
 
 
 def test_a_start_on_an_unstable_orbit_is_not_called_settled_before_it_can_leave(
-        elastic_orbit, tmp_path):  # fmt: skip
+        elastic_orbit, tmp_path):
     """A settle started on an orbit whose file holds a multiplier above 1 is not called
     settled before a 1e-3 perturbation could have grown to the orbit's size at that rate
     (``ln(1e3) / (ln|mu| f)``): its first windows are stationary only because the departure
@@ -361,7 +361,7 @@ def test_a_failed_whole_wheel_keeps_the_symmetrys_verdict(elastic_orbit, monkeyp
 
     cfg, model, angles, res = elastic_orbit
     cycle = dataclasses.replace(res.branches[0].cycles[0], stability=None, refined=[],
-                                multipliers=None)  # fmt: skip
+                                multipliers=None)
 
     def failing(*_, **__):
         raise RuntimeError("the flow took 3 of 408 steps")
@@ -375,4 +375,4 @@ def test_a_failed_whole_wheel_keeps_the_symmetrys_verdict(elastic_orbit, monkeyp
     assert cycle.stable is None and cycle.multipliers is None and len(cycle.refined) == 2
     assert cycle.stability.by.startswith("stable inside its own symmetry (largest 0.9976")
     assert cycle.stability.by.endswith("the whole wheel's failed (RuntimeError: the flow took "
-                                       "3 of 408 steps): settle decides")  # fmt: skip
+                                       "3 of 408 steps): settle decides")

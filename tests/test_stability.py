@@ -22,7 +22,7 @@ def _matched(a, b) -> float:
     a, b = np.asarray(a), np.asarray(b)
     assert a.shape == b.shape
     far = max(np.abs(a[:, None] - b[None]).min(axis=1).max(),
-              np.abs(b[:, None] - a[None]).min(axis=1).max())  # fmt: skip
+              np.abs(b[:, None] - a[None]).min(axis=1).max())
     return far / np.abs(b).max()
 
 
@@ -30,7 +30,7 @@ def _matched(a, b) -> float:
 def vdp_only():
     """The small wheel without contacts: only K_R, beta_D and Van der Pol act."""
     return config.load(SMALL, ["contacts.tieboss.enabled=false", "contacts.shroud.enabled=false",
-                               "flutter.mu=2.0", "flutter.mode=-1"])  # fmt: skip
+                               "flutter.mu=2.0", "flutter.mode=-1"])
 
 
 @pytest.mark.parametrize("model_name", ["absolute", "relative"])
@@ -49,7 +49,7 @@ def test_van_der_pol_growth_per_nd_is_the_analytic_one(small_model, vdp_only, mo
         Kk = model.A0 + model.A1 * np.exp(1j * phi) + model.A1.T * np.exp(-1j * phi)
         ck = 1.0 if model_name == "absolute" else 2 * (1 - math.cos(phi))
         block = np.block([[np.zeros((m, m)), np.eye(m)],
-                          [-Kk, -beta * Kk + ck * mu * np.outer(p, p)]])  # fmt: skip
+                          [-Kk, -beta * Kk + ck * mu * np.outer(p, p)]])
         expected = np.linalg.eigvals(block)
         ours = res.eigenvalue[res.nodal_diameter == k]
         assert _matched(ours, expected) < 1e-9
@@ -63,7 +63,7 @@ def test_van_der_pol_growth_per_nd_is_the_analytic_one(small_model, vdp_only, mo
 
 @pytest.mark.parametrize("law", ["paper", "elastic"])
 def test_analytic_jacobian_equals_finite_differences_of_the_compiled_rhs(small_model, small_cfg,
-                                                                          law):  # fmt: skip
+                                                                          law):
     """At the preloaded equilibrium with both contact kinds closed (shroud 30 deg); central
     differences with a step on the scale of each state component. Elastic law: the sliders
     held at rest at the equilibrium, so the differences are the stuck wheel's tangent (the
@@ -168,7 +168,7 @@ def test_transient_from_the_equilibrium_grows_at_the_linear_rate(small_model, sm
     # elastic: small enough to stay within the shroud's stick range mu F_n / k_t (0.13 um)
     amplitude = (1e-9 if law == "paper" else 1e-12) / np.abs(q_mode).max()
     u0 = np.concatenate([res.equilibrium.ravel() + amplitude * q_mode,
-                         amplitude * mode[:, m:].ravel()])  # fmt: skip
+                         amplitude * mode[:, m:].ravel()])
     if law == "elastic":  # the whole state: the sliders at rest at the equilibrium (stuck)
         params = force_parameters(small_model, small_cfg, angles)
         sliders = ReferenceForces(params).sliders_at_rest(res.equilibrium)
@@ -228,7 +228,7 @@ def test_window_growth_rates_are_the_exponential_slopes():
 
     t = np.linspace(0.1, 1.0, 10)
     res = CaseResult(window_end=t, max_tip_amplitude=1e-6 * np.exp(3.0 * t),
-                     nd_spectrum=np.outer(np.exp(-2.0 * t), [1.0, 2.0, 3.0]))  # fmt: skip
+                     nd_spectrum=np.outer(np.exp(-2.0 * t), [1.0, 2.0, 3.0]))
     tip, per_nd = res.growth_rates()
     assert tip == pytest.approx(3.0, rel=1e-10)
     np.testing.assert_allclose(per_nd, -2.0, rtol=1e-10)
@@ -292,7 +292,7 @@ def test_info_summarises_a_stability_file(small_model, small_cfg, tmp_path, caps
     assert info["kind"] == "stability" and info["counts"]["total"] == 3
     for row in info["cases"]:
         res = analyse(small_model, small_cfg, {"tieboss": row["tieboss_deg"],
-                                               "shroud": row["shroud_deg"]})  # fmt: skip
+                                               "shroud": row["shroud_deg"]})
         assert row["max_growth_rate"] == res.growth_rate.max()
         assert row["verdict"] == res.verdict()
 
@@ -311,7 +311,7 @@ def test_two_angle_grid_draws_the_2d_map(tmp_path, capsys):
 
     out = tmp_path / "grid.h5"
     argv = ["stability", SMALL, "--out", str(out), "--set", "sweep.tieboss_angles_deg=[30.0, 60.0]",
-            "--set", "sweep.shroud_angles_deg=[20.0, 50.0]"]  # fmt: skip
+            "--set", "sweep.shroud_angles_deg=[20.0, 50.0]"]
     assert cli.main(argv) == 0
     written = plot_file(str(out), str(tmp_path / "fig"))
     assert str(tmp_path / "fig" / "stability_map_2d.png") in written
@@ -346,7 +346,7 @@ def test_mistuning_enters_the_blade_blocks(small_model, small_cfg):
     m = small_model.modes
     K = alternate.sparse_stiffness().toarray()
     np.testing.assert_allclose(K[:m, :m] - K[m : 2 * m, m : 2 * m], 0.04 * small_model.K_seg,
-                               atol=1e-9 * np.abs(K).max())  # fmt: skip
+                               atol=1e-9 * np.abs(K).max())
     res = analyse(alternate, small_cfg, {"shroud": 50.0})
     assert not res.cyclic and res.eigenvalue.size == 2 * small_model.size
     assert cfg.replace(**{"mistuning.seed": 1, "mistuning.std": 0.01}).mistuning.std == 0.01
@@ -363,7 +363,7 @@ def test_contact_gap_descriptor_equals_a_direct_evaluation(small_model, small_cf
     from wheelrom.forces.reference import ReferenceForces
 
     model = dataclasses.replace(small_model, mistuning=alternate * (-1.0) ** np.arange(12)
-                                if alternate else None)  # fmt: skip
+                                if alternate else None)
     angles = {"shroud": 50.0}
     res = analyse(model, small_cfg, angles, keep_jacobian=True)
     i = res.critical()
@@ -373,7 +373,7 @@ def test_contact_gap_descriptor_equals_a_direct_evaluation(small_model, small_cf
     q = x[: N * m].reshape(N, m)
     b = int(np.argmax(np.abs(q).sum(axis=1)))
     forces = ReferenceForces(dataclasses.replace(force_parameters(model, small_cfg, angles),
-                                                 nozzle_force=0.0))  # fmt: skip
+                                                 nozzle_force=0.0))
     still = np.zeros((N, m))
     eps = 1e-9 / np.abs(q).max()
 

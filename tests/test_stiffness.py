@@ -53,7 +53,7 @@ def test_contact_stiffness_composition_in_series(coarse_cfg, coarse_segment):
     # arm makes it softer everywhere the normal has a component along the arm
     k_arm = coarse_cfg.contacts.shroud.arm_axial_stiffness
     along = np.abs(np.stack([np.zeros_like(angles), np.cos(np.radians(angles)),
-                             np.sin(np.radians(angles))], axis=1) @ flex.arm_direction)  # fmt: skip
+                             np.sin(np.radians(angles))], axis=1) @ flex.arm_direction)
     assert np.all(k <= k_arm / np.maximum(along**2, 1e-300) * (1 + 1e-12))
     soft = flex.stiffness(angles, k_arm / 100)
     assert np.all(soft[along > 0.1] < k[along > 0.1])

@@ -17,7 +17,7 @@ from conftest import SMALL
 
 WHEELROM = [sys.executable, "-m", "wheelrom.cli.main"]
 ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-           OMPI_MCA_rmaps_base_oversubscribe="1", MPLBACKEND="Agg")  # fmt: skip
+           OMPI_MCA_rmaps_base_oversubscribe="1", MPLBACKEND="Agg")
 BASE = """[wheel]
 blades = 12
 stator_vanes = 10
@@ -118,7 +118,7 @@ def test_each_model_is_built_once_and_shared(mixed):
         assert [f[f"models/{g}"].attrs["modes"] for g in (0, 1)] == [4, 6]
         names = [n.decode() for n in f["cases/parameters/names"][()]]
         assert names == ["wheel.modes_per_segment", "contacts.shroud.angle_deg",
-                         "friction.static"]  # fmt: skip
+                         "friction.static"]
         assert f["cases/parameters/values"][5].tolist() == [6.0, 20.0, 0.8]
         assert f["cases/selected_by"][()].tolist() == [b"all"] * 8
         # a 4-mode case's stability is padded to the 6-mode size
@@ -130,10 +130,10 @@ def test_stability_of_a_case_equals_the_stability_command(mixed, tmp_path):
     out = tmp_path / "direct.h5"
     wheelrom("stability", SMALL, "--out", out, "--set", "wheel.modes_per_segment=6",
              "--set", "friction.static=0.8", "--set", "sweep.shroud_angles_deg=[20.0]",
-             "--set", "sweep.tieboss_angles_deg=[45.0]")  # fmt: skip
+             "--set", "sweep.tieboss_angles_deg=[45.0]")
     with h5py.File(n1, "r") as study, h5py.File(out, "r") as direct:
         for name in ("growth_rate", "frequency_hz", "nodal_diameter", "normal_force",
-                     "equilibrium", "modal_share"):  # fmt: skip
+                     "equilibrium", "modal_share"):
             ours, theirs = study[f"stability/{name}"][5], direct[f"stability/{name}"][0]
             assert np.array_equal(ours, theirs), name
         assert study["stability/verdict"][5] == direct["stability/verdict"][0]
@@ -170,7 +170,7 @@ def test_screen_runs_exactly_the_boundary_cases_and_the_confirmed(tmp_path):
     assert 0 < edge.sum() < 8  # the map has a boundary and cases away from it
     for i in range(8):
         words = {(True, False): "boundary", (False, True): "user",
-                 (True, True): "boundary+user", (False, False): "none"}  # fmt: skip
+                 (True, True): "boundary+user", (False, False): "none"}
         expected = words[(bool(edge[i]), i == 7)]
         assert chosen[i] == expected, i
         assert status[i] == ("skipped" if expected == "none" else "done"), i
@@ -207,10 +207,10 @@ def test_existing_file_and_other_mode_are_refused(mixed):
     (["--screen", "--confirm", "a"], "--confirm: 'a' is not a case index"),
     (["--set", "study.grid.friction.statik=[1]"],
      "study.grid.friction.statik: unknown key ('statik' is not in friction)"),
-])  # fmt: skip
+])
 def test_bad_arguments_are_one_line(tmp_path, args, message):
     res = wheelrom("study", toml(tmp_path, ANGLES), "--out", tmp_path / "x.h5", *args,
-                   check=False)  # fmt: skip
+                   check=False)
     assert res.returncode == 2
     assert message in res.stderr, res.stderr
     assert not (tmp_path / "x.h5").exists()
@@ -218,7 +218,7 @@ def test_bad_arguments_are_one_line(tmp_path, args, message):
 
 def test_segment_preset_study_builds_two_models(tmp_path):
     text = BASE + '[study.grid]\nsegment.preset = ["coarse", "default"]\n' \
-        'contacts.shroud.angle_deg = [20.0, 80.0]\n'  # fmt: skip
+        'contacts.shroud.angle_deg = [20.0, 80.0]\n'
     out = tmp_path / "preset.h5"
     res = wheelrom("study", toml(tmp_path, text), "--out", out, "--stability-only", "--json")
     summary = json.loads(res.stdout)
@@ -238,9 +238,9 @@ def test_info_and_figures_of_a_stability_map(tmp_path):
     assert info["counts"] == {"done": 0, "failed": 0, "pending": 0, "skipped": 8, "total": 8}
     assert sum(info["verdicts"].values()) == 8
     assert info["cases"][5]["parameters"] == {"contacts.tieboss.angle_deg": "60.0",
-                                              "contacts.shroud.angle_deg": "30"}  # fmt: skip
+                                              "contacts.shroud.angle_deg": "30"}
     assert {"study_growth_rate.png", "study_min_normal_force_shroud.png",
-            "stability_map_2d.png"} <= figures(out, tmp_path / "fig")  # fmt: skip
+            "stability_map_2d.png"} <= figures(out, tmp_path / "fig")
     res = wheelrom("export", out, "--csv", tmp_path / "x", check=False)
     assert res.returncode == 2 and "a --stability-only study: no transient to export" in res.stderr
 
@@ -260,7 +260,7 @@ def test_three_keys_draw_one_map_per_pair(mixed, tmp_path):
     names = {os.path.basename(p) for p in res.stdout.split()}
     for pair in ("0_1", "0_2", "1_2"):
         assert {f"study_growth_rate_{pair}.png", f"study_final_amplitude_{pair}.png",
-                f"study_open_fraction_shroud_{pair}.png"} <= names  # fmt: skip
+                f"study_open_fraction_shroud_{pair}.png"} <= names
     assert "fig10_amplitude.png" not in names  # not an angle sweep
     from wheelrom.plots.study import StudyData, _slice
 
@@ -306,9 +306,9 @@ def test_a_model_that_fails_on_rank_1_stops_every_rank_with_one_line(tmp_path):
     text = BASE + "[study.grid]\ncontacts.shroud.height = [2.18, 3.5]\n"
     out = tmp_path / "bad.h5"
     res = wheelrom("study", toml(tmp_path, text), "--out", out, "--stability-only", ranks=2,
-                   check=False)  # fmt: skip
+                   check=False)
     assert res.returncode != 0
     lines = [line for line in res.stderr.splitlines() if line.startswith("wheelrom:")]
     assert lines == ["wheelrom: model 2 (case 1: shroud.height=3.5): contacts.shroud.height = "
-                     "3.5 m is outside the built-in blade (1.1..2.2 m)"]  # fmt: skip
+                     "3.5 m is outside the built-in blade (1.1..2.2 m)"]
     assert not out.exists()

@@ -93,7 +93,7 @@ def test_sweep_only_config_is_the_angle_grid():
      "study: friction.static varied twice"),
     ("[study.grid]\nfriction.dynamic = [0.3, 0.7]",
      "study case 1 (static.dynamic=0.7): friction.dynamic: must not exceed friction.static"),
-])  # fmt: skip
+])
 def test_named_errors(tmp_path, text, message):
     cfg = study(tmp_path, text + "\n")
     with pytest.raises(ConfigError) as err:
@@ -109,7 +109,7 @@ def test_named_errors(tmp_path, text, message):
     ("friction.nosuch\n0.6\n", "cases.csv column 1 ('friction.nosuch'): unknown key"),
     ("friction.static\n-1\n", "cases.csv row 2 column friction.static: must be >= 0.0, got -1"),
     ("friction.static\n", "study.cases: cases.csv: needs a header of dotted keys and a row"),
-])  # fmt: skip
+])
 def test_csv_named_errors(tmp_path, csv, message):
     cfg = study(tmp_path, '[study]\ncases = "cases.csv"\n', csv)
     with pytest.raises(ConfigError) as err:
@@ -151,7 +151,7 @@ flutter.mu = [50.0, 100.0]
 @pytest.mark.parametrize("key, value", [("contacts.shroud.height", 2.1),
                                         ("wheel.modes_per_segment", 8),
                                         ("wheel.basis", "enriched"),
-                                        ("contacts.shroud.enabled", False)])  # fmt: skip
+                                        ("contacts.shroud.enabled", False)])
 def test_model_keys_see_every_model_input(key, value):
     cfg = config.load()
     assert model_key(cfg) != model_key(cfg.replace(**{key: value}))
@@ -194,7 +194,7 @@ def test_boundary_of_a_synthetic_map():
 
 def test_boundary_is_only_along_axes_and_includes_failures():
     labels = ["stable", "stable", "stable", "failed", "stable", "stable", "stable", "stable",
-              "unstable"]  # fmt: skip
+              "unstable"]
     edge = boundary(labels, (3, 3))
     # (1, 0) failed: it and its axis neighbours (0, 0), (2, 0), (1, 1); (2, 2) unstable: it,
     # (1, 2), (2, 1); the diagonal (0, 2), (0, 1) is not a neighbour of either
@@ -205,7 +205,7 @@ def test_boundary_is_only_along_axes_and_includes_failures():
 def test_selection_names_why():
     labels = ["stable", "stable", "unstable", "unstable"]
     assert selection(labels, (4,), [0, 2], "screen") == ["user", "boundary", "boundary+user",
-                                                          "none"]  # fmt: skip
+                                                          "none"]
     assert selection(labels, (4,), [], "full") == ["all"] * 4
     assert selection(labels, (4,), [], "stability") == ["none"] * 4
 
@@ -232,7 +232,7 @@ def test_sweep_and_stability_refuse_a_study(command):
     refuse_study(config.load(), command)  # no [study]: fine
     cfg = config.load(overrides=['study.grid={"friction.static"=[0.5, 0.7]}'])
     with pytest.raises(InputError, match=f"has a \\[study\\] section, which '{command}' does "
-                       "not run"):  # fmt: skip
+                       "not run"):
         refuse_study(cfg, command)
 
 
@@ -244,7 +244,7 @@ def test_stability_arrays_pad_models_and_record_failures(small_cfg, small_model)
     arrays = stability_arrays([res, "RuntimeError: SNES diverged"])
     E, m = res.eigenvalue.size, small_model.modes
     assert arrays["verdict"].tolist() == [res.verdict().encode(),
-                                          b"failed: RuntimeError: SNES diverged"]  # fmt: skip
+                                          b"failed: RuntimeError: SNES diverged"]
     assert np.array_equal(np.sort(arrays["growth_rate"][0])[::-1], np.sort(res.growth_rate)[::-1])
     assert arrays["max_growth_rate"][0] == res.growth_rate.max()
     assert np.isnan(arrays["growth_rate"][1]).all() and (arrays["nodal_diameter"][1] == -1).all()
@@ -267,7 +267,7 @@ def test_tangential_stiffness_varies_over_numbers_and_mindlin(tmp_path):
     elastic = '[contacts]\nlaw = "elastic"\n[study.grid]\n'
     cfg = study(tmp_path, f'{elastic}{key} = [1.5e7, "mindlin"]\n')
     assert [c.contacts.shroud.tangential_stiffness for c in expand(cfg).configs] == \
-        [1.5e7, "mindlin"]  # fmt: skip
+        [1.5e7, "mindlin"]
     bad = study(tmp_path, f'{elastic}{key} = ["stiff"]\n')
     with pytest.raises(ConfigError, match=rf"study.grid.{key}\[0\]"):
         expand(bad)

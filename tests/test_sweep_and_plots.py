@@ -73,7 +73,7 @@ def test_elastic_law_two_ranks_bitwise_equal_one_rank(tmp_path):
     slips from the start): a sweep on two ranks equals one process, the work and the friction
     (tangential) work are recorded per window, and friction dissipates."""
     law = ["--set", "contacts.law=elastic", "--set", "time.start=preload",
-           "--set", "time.perturbation=1e-5"]  # fmt: skip
+           "--set", "time.perturbation=1e-5"]
     sweep(tmp_path / "n1.h5", *law)
     sweep(tmp_path / "n2.h5", *law, ranks=2)
     a, b = case_data(tmp_path / "n1.h5"), case_data(tmp_path / "n2.h5")
@@ -277,7 +277,7 @@ def test_existing_file_is_refused_once_under_mpirun(serial_run):
     assert res.returncode != 0 and os.path.getmtime(serial_run) == before
     lines = [ln for ln in res.stderr.splitlines() if "exists: pass --resume" in ln]
     assert lines == [f"wheelrom: {serial_run} exists: pass --resume to complete it or --force "
-                     "to overwrite it"], res.stderr  # fmt: skip
+                     "to overwrite it"], res.stderr
 
 
 TIMINGS = ("assembly_s", "eigen_solve_s", "build_s", "prestress_s", "solve_s")
@@ -296,7 +296,7 @@ def every_number(path):
             for key, value in obj.attrs.items():
                 if key == "info":
                     value = {k: v for k, v in json.loads(value).items()
-                             if not k.endswith("_s")}  # fmt: skip
+                             if not k.endswith("_s")}
                 out[f"{name}@{key}"] = value
             if isinstance(obj, h5py.Dataset) and name not in NOT_PHYSICS:
                 out[name] = obj[()]
@@ -310,7 +310,7 @@ def test_any_rank_count_writes_the_same_file_on_the_attachment_basis(tmp_path):
     numbers, model included: the basis depends on neither the BLAS thread count nor the
     eigensolver's signs (docs/theory.md, "Reproducibility")."""
     extra = ["--set", 'wheel.basis="attachment"', "--set", "time.step=2e-6",
-             "--set", "time.end=5e-4"]  # fmt: skip
+             "--set", "time.end=5e-4"]
     # a user's shell: no thread counts set (this test process has them from bootstrap())
     shell = {k: v for k, v in ENV.items() if not k.endswith("_NUM_THREADS")}
     sweep(tmp_path / "n1.h5", *extra, env=shell)
@@ -318,5 +318,5 @@ def test_any_rank_count_writes_the_same_file_on_the_attachment_basis(tmp_path):
     a, b = every_number(tmp_path / "n1.h5"), every_number(tmp_path / "n2.h5")
     assert a.keys() == b.keys() and "model/A1" in a and "model@info" in a
     different = [k for k in a if not np.array_equal(np.asarray(a[k]), np.asarray(b[k]),
-                 equal_nan=np.asarray(a[k]).dtype.kind == "f")]  # fmt: skip
+                 equal_nan=np.asarray(a[k]).dtype.kind == "f")]
     assert not different, different

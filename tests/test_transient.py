@@ -130,7 +130,7 @@ def test_petsc_ts_is_the_tableau_and_third_order(small_model, small_cfg):
         assert res.status == "done" and res.steps == round(0.004 / step)
         steps = res.steps
         _, states, _ = reference_solution(small_model, cfg, steps, step, sample_every=steps,
-                                          u0=u0)  # fmt: skip
+                                          u0=u0)
         n2 = 2 * small_model.size
         ref = states[-1][:n2]
         assert np.abs(res.final_state[:n2] - ref).max() < 1e-10 * np.abs(ref).max()
@@ -160,7 +160,7 @@ def test_preload_start_is_static_equilibrium_in_a_batch(small_model, small_cfg):
     from wheelrom.transient.preload import initial_state
 
     cfg = small_cfg.replace(**{"time.start": "preload", "time.end": 5e-4,
-                               "time.window": 5e-4})  # fmt: skip
+                               "time.window": 5e-4})
     angles = [{"shroud": 20.0}, {"shroud": 80.0}]
     problem = _problem(small_model, cfg, angles)
     starts = []
@@ -276,7 +276,7 @@ def test_compiled_rhs_equals_reference_forces_and_dense_stiffness(coarse_model, 
     np.testing.assert_allclose(got[2 * problem.n :], expected[2 * problem.n :], rtol=1e-10)
     np.testing.assert_array_equal(problem.context.view("contact_state"), forces.contact_state)
     np.testing.assert_allclose(problem.context.view("normal_force"), forces.normal_force,
-                               atol=1e-9)  # fmt: skip
+                               atol=1e-9)
 
 
 def test_compiled_and_python_callbacks_agree(small_model, small_cfg):
@@ -337,9 +337,9 @@ def test_bench_batches_only_the_angles_that_share_the_propagated_springs(small_m
 
     cfg = small_cfg.replace(**{"contacts.law": "elastic", "time.scheme": "exponential",
                                "contacts.shroud.stiffness": [[0.0, 5e7], [90.0, 1e8]],
-                               "sweep.shroud_angles_deg": [0.0, 90.0]})  # fmt: skip
+                               "sweep.shroud_angles_deg": [0.0, 90.0]})
     shifts = [shift_stiffness(small_model, force_parameters(small_model, cfg, {"shroud": a}))
-              for a in (0.0, 90.0)]  # fmt: skip
+              for a in (0.0, 90.0)]
     assert not np.array_equal(*shifts)  # the two angles cannot share a context
     h = 1e-6
     figures, problem = _batch_figures(small_model, cfg, 200, h, 3, 0.1 / h, lambda _: None)
@@ -425,7 +425,7 @@ def test_a_step_beyond_the_schemes_reach_is_refused(small_model, small_cfg):
     limit = math.sqrt(3) / (2 * math.pi * f_max)
     cfg = small_cfg.replace(**{"time.step": 1.05 * limit, "time.end": 40 * limit,
                                "time.window": 40 * limit, "output.sample_rate_hz": 0.5 / limit,
-                               "output.history_rate_hz": 0.5 / limit})  # fmt: skip
+                               "output.history_rate_hz": 0.5 / limit})
     with pytest.raises(InputError, match="time.step .* beyond the stability of RK 3bs"):
         run_case(small_model, cfg)
     fine = cfg.replace(**{"time.step": 0.95 * limit})
@@ -446,7 +446,7 @@ def test_bench_times_both_contact_laws_alternately(small_model, small_cfg):
     for law in ("paper", "elastic"):
         assert 0 < cost[law][0] <= cost[law][1]
     assert ratio == pytest.approx([cost["elastic"][0] / cost["paper"][0],
-                                   cost["elastic"][1] / cost["paper"][1]])  # fmt: skip
+                                   cost["elastic"][1] / cost["paper"][1]])
     elastic = cfg.replace(**{"contacts.law": "elastic"})
     assert figures["law_steps_s"]["paper"] == taken_step(small_model, cfg, 1e-5)
     assert figures["law_steps_s"]["elastic"] == taken_step(small_model, elastic, 1e-5)

@@ -14,7 +14,7 @@ SMALL = os.path.join(HERE, "data", "small.toml")
 
 
 def test_stability_on_a_full_disk_stops_both_ranks_and_keeps_the_file(
-        tmp_path_factory, monkeypatch, capsys):  # fmt: skip
+        tmp_path_factory, monkeypatch, capsys):
     import tempfile
 
     import h5py
@@ -49,7 +49,7 @@ def test_stability_on_a_full_disk_stops_both_ranks_and_keeps_the_file(
     assert len(kept) == 1 and not os.listdir(out_dir)
     if comm.rank == 0:
         assert len(err) == 1 and err[0].startswith(f"wheelrom: {out}: the disk is full "
-                                                   "(errno 28"), err  # fmt: skip
+                                                   "(errno 28"), err
         assert f"the results are kept in {kept[0]}" in err[0], err
         with h5py.File(kept[0], "r") as f:
             assert f.attrs["format"]

@@ -14,7 +14,7 @@ SMALL = os.path.join(HERE, "data", "small.toml")
 
 
 def test_rank_1_out_of_space_stops_both_ranks_with_one_line(tmp_path_factory, monkeypatch,
-                                                            capsys):  # fmt: skip
+                                                            capsys):
     import h5py
     from mpi4py import MPI
 
@@ -35,12 +35,12 @@ def test_rank_1_out_of_space_stops_both_ranks_with_one_line(tmp_path_factory, mo
     monkeypatch.setattr(results, "write_case", write)
     # 4 cases, batch 1: two rounds of one case per rank
     status = cli.main(["sweep", SMALL, "--out", out, "--batch", "1",
-                       "--set", "sweep.shroud_angles_deg=[20.0, 40.0, 60.0, 80.0]"])  # fmt: skip
+                       "--set", "sweep.shroud_angles_deg=[20.0, 40.0, 60.0, 80.0]"])
     err = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("wheelrom:")]
     assert status == 1
     assert err == ([f"wheelrom: {out}: the disk is full (errno 28, ENOSPC: No space left on "
                     "device); the cases of every finished round are in the file: free space "
-                    "and rerun with --resume"] if comm.rank == 0 else [])  # fmt: skip
+                    "and rerun with --resume"] if comm.rank == 0 else [])
     comm.Barrier()
     with h5py.File(out, "r", driver="mpio", comm=comm) as f:
         done = [s.decode() for s in f["cases/status"][:]]

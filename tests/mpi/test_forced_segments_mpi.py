@@ -30,9 +30,9 @@ def test_two_ranks_give_the_curve_of_one():
     inputs = forced_inputs(model, cfg, None, petsc().COMM_SELF)
     grid = 2 * math.pi * np.linspace(250.0, 259.0, 12)
     parallel = nonlinear_forced(model, cfg, grid, harmonics=3, comm=petsc().COMM_SELF,
-                                refine=True, inputs=inputs, ranks=comm)  # fmt: skip
+                                refine=True, inputs=inputs, ranks=comm)
     serial = nonlinear_forced(model, cfg, grid, harmonics=3, comm=petsc().COMM_SELF,
-                              refine=True, inputs=inputs)  # fmt: skip
+                              refine=True, inputs=inputs)
     assert serial.converged.all() and parallel.resolved_seams == []
     np.testing.assert_array_equal(parallel.converged, serial.converged)
     np.testing.assert_allclose(parallel.tip_amplitude, serial.tip_amplitude, rtol=1e-8)
@@ -56,7 +56,7 @@ def test_the_command_over_two_ranks_tells_its_curve_once(tmp_path_factory, capsy
     comm = MPI.COMM_WORLD
     out = comm.bcast(str(tmp_path_factory.mktemp("fr") / "f.h5") if comm.rank == 0 else None)
     argv = ["forced-response", SMALL, "--nonlinear", "--harmonics", "1", "--frequencies",
-            "250:259:6", "--json", "--out", out]  # fmt: skip
+            "250:259:6", "--json", "--out", out]
     assert cli.main(argv) == 0
     printed = capsys.readouterr().out
     if comm.rank == 1:
@@ -68,11 +68,11 @@ def test_the_command_over_two_ranks_tells_its_curve_once(tmp_path_factory, capsy
     cfg = config.load(SMALL)
     model = build_model(cfg, petsc().COMM_SELF)
     serial = nonlinear_forced(model, cfg, 2 * math.pi * np.linspace(250.0, 259.0, 6),
-                              harmonics=1, comm=petsc().COMM_SELF)  # fmt: skip
+                              harmonics=1, comm=petsc().COMM_SELF)
     np.testing.assert_allclose(nonlinear["tip_amplitude_m"], serial.tip_amplitude, rtol=1e-8)
     with h5py.File(out) as f:
         np.testing.assert_array_equal(f["nonlinear/tip_amplitude"][:],
-                                      nonlinear["tip_amplitude_m"])  # fmt: skip
+                                      nonlinear["tip_amplitude_m"])
 
 
 def test_the_exact_states_dealt_over_two_ranks(capsys):
@@ -88,7 +88,7 @@ def test_the_exact_states_dealt_over_two_ranks(capsys):
 
     argv = ["forced-response", SMALL, "--nonlinear", "--exact", "all", "--frequencies",
             "120:135:6", "--harmonics", "11", "--set", 'flutter.model="off"', "--set",
-            "excitation.force=10", "--json"]  # fmt: skip
+            "excitation.force=10", "--json"]
     assert cli.main(argv) == 0
     printed = capsys.readouterr().out
     if MPI.COMM_WORLD.rank == 1:

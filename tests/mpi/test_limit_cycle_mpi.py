@@ -14,7 +14,7 @@ from wheelrom.studies.limit_cycles import run_limit_cycles  # noqa: E402
 
 SMALL = os.path.join(os.path.dirname(os.path.dirname(__file__)), "data", "small.toml")
 KEYS = ["sweep.shroud_angles_deg=[70.0, 80.0]", "limit_cycle.steps=4", "limit_cycle.seeds=[]",
-        'limit_cycle.floquet="off"', "limit_cycle.harmonics=3"]  # fmt: skip
+        'limit_cycle.floquet="off"', "limit_cycle.harmonics=3"]
 
 
 def test_two_ranks_give_the_cycles_of_one():

@@ -22,7 +22,7 @@ def _numbers(path: str) -> dict:
     with h5py.File(path, "r") as f:
         for group in ("forced", "stability", "cases"):
             f[group].visititems(lambda name, obj, g=group: out.__setitem__(f"{g}/{name}", obj[()])
-                                if isinstance(obj, h5py.Dataset) else None)  # fmt: skip
+                                if isinstance(obj, h5py.Dataset) else None)
     return {k: v for k, v in out.items() if k not in TIMING}
 
 
@@ -37,14 +37,14 @@ def test_two_ranks_equal_one_rank(tmp_path_factory):
     # linearly stable (no Van der Pol): the statistics count every realisation
     cfg = config.load(SMALL, ["mistuning.std=0.02", "flutter.mu=0.0",
                               'study.grid={"mistuning.seed"="0:3:1", '
-                              '"mistuning.distribution"=["normal", "uniform"]}'])  # fmt: skip
+                              '"mistuning.distribution"=["normal", "uniform"]}'])
     quiet = lambda *_: None  # noqa: E731
     two = run_study(cfg, os.path.join(tmp, "n2.h5"), comm, mode="stability", log=quiet,
-                    forced=True)  # fmt: skip
+                    forced=True)
     one = None
     if comm.rank == 0:
         one = run_study(cfg, os.path.join(tmp, "n1.h5"), MPI.COMM_SELF, mode="stability",
-                        log=quiet, forced=True)  # fmt: skip
+                        log=quiet, forced=True)
     comm.Barrier()
     if comm.rank:
         return

@@ -16,7 +16,7 @@ from wheelrom.studies.limit_cycles import run_limit_cycles  # noqa: E402
 KEYS = [*VDP_WHEEL,
         "sweep.shroud_angles_deg=[40.0, 50.0, 60.0]", "limit_cycle.steps=4",
         "limit_cycle.seeds=[1e-5]", "limit_cycle.harmonics=3", "limit_cycle.multipliers=2",
-        "limit_cycle.refine=1"]  # fmt: skip
+        "limit_cycle.refine=1"]
 
 
 def test_three_cases_on_two_ranks_finish_with_the_serial_numbers():

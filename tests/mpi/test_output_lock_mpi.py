@@ -30,7 +30,7 @@ def test_a_held_lock_stops_every_rank_then_the_job_runs(tmp_path_factory, monkey
         fd = os.open(lock, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
         fcntl.flock(fd, fcntl.LOCK_EX)
         os.write(fd, json.dumps({"host": socket.gethostname(), "pid": 4242,
-                                 "started": "2024-01-02 03:04:05"}).encode())  # fmt: skip
+                                 "started": "2024-01-02 03:04:05"}).encode())
     comm.Barrier()
 
     def computed(*_):
@@ -45,7 +45,7 @@ def test_a_held_lock_stops_every_rank_then_the_job_runs(tmp_path_factory, monkey
     err = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("wheelrom:")]
     if comm.rank == 0:
         assert len(err) == 2 and all("in use by another wheelrom job (host" in ln
-                                     and "pid 4242" in ln for ln in err), err  # fmt: skip
+                                     and "pid 4242" in ln for ln in err), err
         os.remove(lock)
         os.close(fd)
     else:

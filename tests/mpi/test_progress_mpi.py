@@ -20,7 +20,7 @@ def test_rank_0_says_what_the_other_rank_runs(tmp_path_factory, capsys):
     comm = MPI.COMM_WORLD
     assert comm.size == 2, "tests/mpi must run under mpirun -n 2"
     out = comm.bcast(str(tmp_path_factory.mktemp("progress") / "s.h5") if comm.rank == 0
-                     else None)  # fmt: skip
+                     else None)
     # three angles, one round: two cases on one rank, one on the other
     assert cli.main(["sweep", SMALL, "--out", out, "--set", "time.end=0.001"]) == 0
     err = capsys.readouterr().err
@@ -28,7 +28,7 @@ def test_rank_0_says_what_the_other_rank_runs(tmp_path_factory, capsys):
     if comm.rank == 0:
         assert lines, err
         found = re.search(r"\((\d+) case\(s\) on rank 0, (\d+) more on 1 other rank\(s\) at the "
-                          r"same time\).*largest tip amplitude on rank 0", lines[-1])  # fmt: skip
+                          r"same time\).*largest tip amplitude on rank 0", lines[-1])
         assert found, lines[-1]
         assert int(found[1]) + int(found[2]) == 3 and int(found[2]) >= 1, lines[-1]
     else:

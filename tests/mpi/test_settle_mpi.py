@@ -14,7 +14,7 @@ from wheelrom.studies.settle import run_settle  # noqa: E402
 
 KEYS = [*VDP_WHEEL,
         "sweep.shroud_angles_deg=[50.0, 60.0, 70.0]", "settle.batch=2", 'settle.start="preload"',
-        "settle.seed_amplitude=5e-6", "settle.min_time=0.4", "settle.max_time=0.4"]  # fmt: skip
+        "settle.seed_amplitude=5e-6", "settle.min_time=0.4", "settle.max_time=0.4"]
 
 
 def test_two_ranks_settle_as_one():
@@ -71,9 +71,9 @@ def test_a_stale_case_folder_is_removed_once_under_force(tmp_path_factory, monke
 
     monkeypatch.setattr(shutil, "rmtree", slow_rmtree)
     keys = [*KEYS[:-2], "settle.min_time=0.05", "settle.max_time=0.05",
-            "settle.window_periods=2"]  # fmt: skip
+            "settle.window_periods=2"]
     status = cli.main(["settle", SMALL, *sum((["--set", k] for k in keys), []), "--out", out,
-                       "--force", "--json"])  # fmt: skip
+                       "--force", "--json"])
     assert status == 0
     calls = comm.gather(len(removed))
     if comm.rank == 0:

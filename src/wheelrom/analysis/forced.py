@@ -130,21 +130,21 @@ def speed_following(model: ReducedModel, cfg: Config) -> SpeedFollowing | None:
     factors = np.ones(model.blades) if model.tuned else 1.0 + model.mistuning
     S = sp.block_diag([f * per_speed for f in factors], format="csr")
     return SpeedFollowing(S, cfg.wheel.damping_beta, cfg.wheel.stator_vanes,
-                          2 * math.pi * model.speed_hz)  # fmt: skip
+                          2 * math.pi * model.speed_hz)
 
 
 def speed_note(model: ReducedModel, cfg: Config) -> str:
     """What ``forced.over = "speed"`` does with this model, in one line."""
     if speed_following(model, cfg) is not None:
         return f"over the rotor speed (excitation / {cfg.wheel.stator_vanes}): the stiffness " \
-            "follows it"  # fmt: skip
+            "follows it"
     return "over the rotor speed: segment.prestress is off (or wheel.speed_hz = 0), the " \
-        "stiffness does not depend on the speed: the curve is the frequency's"  # fmt: skip
+        "stiffness does not depend on the speed: the curve is the frequency's"
 
 
 def operators(model: ReducedModel, cfg: Config, contacts: bool = True,
               angles_deg: dict | None = None, comm=None, prefix: str = PREFIX,
-              jacobian=None):  # fmt: skip
+              jacobian=None):
     """``(K, C)`` scipy CSR ``(N m, N m)`` [1/s^2], [1/s]: stiffness and damping of the
     linearised wheel (contacts at the preloaded equilibrium, SNES prefix
     ``<prefix>preload_``; ``jacobian``: the Jacobian there when already computed, as
@@ -156,7 +156,7 @@ def operators(model: ReducedModel, cfg: Config, contacts: bool = True,
     from wheelrom.analysis.stability import linearise
 
     J = jacobian if jacobian is not None else linearise(model, cfg, angles_deg, comm,
-                                                        prefix=prefix)[3]  # fmt: skip
+                                                        prefix=prefix)[3]
     n = model.size
     J = sp.csr_matrix(J)
     return (-J[n:, :n]).tocsr(), (-J[n:, n:]).tocsr()
@@ -179,7 +179,7 @@ class HarmonicSolver:
     """
 
     def __init__(self, K, C, comm=None, prefix: str = PREFIX,
-                 speed: SpeedFollowing | None = None):  # fmt: skip
+                 speed: SpeedFollowing | None = None):
         from wheelrom.segment.petsc import to_petsc
 
         PETSc = petsc()
@@ -236,7 +236,7 @@ class HarmonicSolver:
             data = data + self.speed.shift(w) * (self.values[3] + w * self.values[4])
         start, stop = self.indptr[lo], self.indptr[hi]
         self.A.setValuesCSR(self.indptr[lo : hi + 1] - start, self.indices[start:stop],
-                            data[start:stop])  # fmt: skip
+                            data[start:stop])
         self.A.assemble()
         self.ksp.setOperators(self.A)
         F = np.asarray(F, dtype=complex).ravel()
@@ -246,7 +246,7 @@ class HarmonicSolver:
         reason = self.ksp.getConvergedReason()
         if reason < 0:
             raise RuntimeError(f"{self.ksp.getOptionsPrefix()}ksp: diverged ({reason}) at "
-                               f"w = {w:.6g} rad/s")  # fmt: skip
+                               f"w = {w:.6g} rad/s")
         self.solves += 1
         full = np.concatenate(self.comm.tompi4py().allgather(self.x.getArray().copy()))
         return full[: self.size] + 1j * full[self.size :]
@@ -266,7 +266,7 @@ def tip_amplitudes(model: ReducedModel, Q: np.ndarray) -> np.ndarray:
 
 def forced_response(model: ReducedModel, cfg: Config, frequencies, contacts: bool = True,
                     angles_deg: dict | None = None, comm=None,
-                    prefix: str = PREFIX) -> ForcedResponse:  # fmt: skip
+                    prefix: str = PREFIX) -> ForcedResponse:
     """The steady response of ``model`` to the nozzle of ``cfg`` (``wheel.stator_vanes``,
     ``excitation.force``) at every excitation frequency of ``frequencies`` [rad/s] (KSP,
     prefix ``prefix``; over the speed when ``forced.over = "speed"``); ``angles_deg``: kind

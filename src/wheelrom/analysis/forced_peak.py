@@ -110,7 +110,7 @@ def half_band(deltas) -> float:
 
 
 def resonance(K, model: ReducedModel, stator_vanes: int, family: int = 0,
-              speed: SpeedFollowing | None = None) -> float:  # fmt: skip
+              speed: SpeedFollowing | None = None) -> float:
     """Frequency [rad/s] of mode ``family`` (0: lowest) at the excited ND of a tuned wheel of
     stiffness ``K`` (CSR ``(N m, N m)``, blade-major): the eigenvalues of the ND block
     ``sum_d K_{0,d} e^{i 2 pi k d / N}``, ``k = n_s mod N`` (a ``K`` that is not
@@ -165,7 +165,6 @@ def band_of(cfg: Config, centre: float, deltas) -> tuple[float, float]:
 def modal_candidates(K, C, band: tuple[float, float], model: ReducedModel | None = None,
                      F: np.ndarray | None = None,
                      speed: SpeedFollowing | None = None) -> tuple[np.ndarray, np.ndarray]:
-    # fmt: skip
     """``(w_r, zeta_r)`` of the undamped modes of ``K`` inside ``band`` [rad/s]: frequencies
     [rad/s] and modal damping ratios ``phi_r^T C phi_r / (2 w_r)`` (unit ``phi_r``). With
     ``model`` and the force ``F``, only the modes whose own resonant tip amplitude
@@ -232,7 +231,7 @@ class _Amplitude:
 
 
 def _refine(a: _Amplitude, lo: float, hi: float, band: tuple[float, float],
-            finest: float) -> None:  # fmt: skip
+            finest: float) -> None:
     """Bounded Brent minimisation of ``1 / a^2`` on ``[lo, hi]`` in the scaled variable
     ``x = (w - centre) / half`` (tolerance ``X_TOL`` of the bracket), searched again about an
     optimum on the bracket's edge (up to ``RECENTRE`` times, within ``band``) and, while the
@@ -247,7 +246,7 @@ def _refine(a: _Amplitude, lo: float, hi: float, band: tuple[float, float],
         # parabolic steps converge in a few solves where -a (a Lorentzian) needs many
         found = minimize_scalar(lambda x, c=centre, h=half: a(c + x * h) ** -2.0,
                                 bounds=(-1.0, 1.0), method="bounded",
-                                options={"xatol": X_TOL})  # fmt: skip
+                                options={"xatol": X_TOL})
         x = float(found.x)
         w = centre + x * half
         a(w)
@@ -264,7 +263,7 @@ def _refine(a: _Amplitude, lo: float, hi: float, band: tuple[float, float],
 
 def peak_of(model: ReducedModel, F: np.ndarray, K, C, band: tuple[float, float],
             points: int, use_modes: bool = True, comm=None, prefix: str = PREFIX,
-            speed: SpeedFollowing | None = None) -> PeakResponse:  # fmt: skip
+            speed: SpeedFollowing | None = None) -> PeakResponse:
     """The peak of the response to ``F`` ``(N, m)`` of the wheel ``(K, C)`` over ``band``
     [rad/s] (module docstring): ``points`` coarse grid frequencies (0: none), the
     eigenfrequencies in the band when ``use_modes`` (over the speed, ``speed``: the
@@ -308,7 +307,7 @@ def peak_of(model: ReducedModel, F: np.ndarray, K, C, band: tuple[float, float],
                             solves=solver.solves, candidates=len(brackets), modes=w_r.size,
                             refined=refined, wall_s=time.perf_counter() - t0, setup_s=setup,
                             grid=grid, grid_blade_amplitude=np.array([a.blades(w) for w in grid])
-                            .reshape(grid.size, model.blades), solver=solver.settings)  # fmt: skip
+                            .reshape(grid.size, model.blades), solver=solver.settings)
     finally:
         solver.destroy()
 
@@ -316,7 +315,7 @@ def peak_of(model: ReducedModel, F: np.ndarray, K, C, band: tuple[float, float],
 def peak_response(model: ReducedModel, cfg: Config, band_hz, contacts: bool = True,
                   angles_deg: dict | None = None, comm=None, prefix: str = PREFIX,
                   points: int | None = None, operators_kc=None,
-                  use_modes: bool = True) -> PeakResponse:  # fmt: skip
+                  use_modes: bool = True) -> PeakResponse:
     """The peak of ``model``'s response to the nozzle of ``cfg`` over ``band_hz`` ``(lo, hi)``
     [Hz] (:func:`peak_of`); ``points``: coarse grid (None: ``forced.points``);
     ``operators_kc``: ``(K, C)`` already linearised (else :func:`forced.operators` with
@@ -327,7 +326,7 @@ def peak_response(model: ReducedModel, cfg: Config, band_hz, contacts: bool = Tr
     band = (2 * math.pi * band_hz[0], 2 * math.pi * band_hz[1])
     points = cfg.forced.points if points is None else points
     found = peak_of(model, F, K, C, band, points, use_modes, comm, prefix,
-                    speed_following(model, cfg))  # fmt: skip
+                    speed_following(model, cfg))
     found.wall_s = time.perf_counter() - t0
     return found
 
@@ -335,7 +334,7 @@ def peak_response(model: ReducedModel, cfg: Config, band_hz, contacts: bool = Tr
 def tuned_reference(model: ReducedModel, cfg: Config, deltas, contacts: bool = True,
                     angles_deg: dict | None = None, comm=None, prefix: str = PREFIX,
                     band_hz=None, points: int | None = None,
-                    operators_kc=None) -> PeakResponse:  # fmt: skip
+                    operators_kc=None) -> PeakResponse:
     """The tuned wheel's peak (``model`` with its mistuning removed) over the band of the
     realisations ``deltas`` (``band_hz`` [Hz] when given, else :func:`band_of`:
     ``forced.band_hz``, else automatic about the tuned resonance of ``forced.family`` at the
@@ -345,8 +344,8 @@ def tuned_reference(model: ReducedModel, cfg: Config, deltas, contacts: bool = T
     K, C = operators_kc or operators(tuned, cfg, contacts, angles_deg, comm, prefix)
     if band_hz is None:
         centre = resonance(K, tuned, cfg.wheel.stator_vanes, cfg.forced.family,
-                           speed_following(tuned, cfg))  # fmt: skip
+                           speed_following(tuned, cfg))
         band = band_of(cfg, centre, deltas)
         band_hz = (band[0] / (2 * math.pi), band[1] / (2 * math.pi))
     return peak_response(tuned, cfg, band_hz, contacts, angles_deg, comm, prefix, points,
-                         operators_kc=(K, C))  # fmt: skip
+                         operators_kc=(K, C))

@@ -54,7 +54,7 @@ class ContactLinearisation:
 
 
 def contact_linearisation(params: ForceParameters, q: np.ndarray, c: int,
-                          static: bool = False) -> ContactLinearisation:  # fmt: skip
+                          static: bool = False) -> ContactLinearisation:
     """Linearise contact kind ``c`` of every blade pair at the static state ``q`` ``(N, m)``
     (vectorised over the pairs; formulas in docs/theory.md, "Linear stability"). ``static``:
     the tangent of the static preload problem, where the elastic law's sliders follow the
@@ -93,7 +93,7 @@ def contact_linearisation(params: ForceParameters, q: np.ndarray, c: int,
     eF = np.einsum("ni,ni->n", e, F)[:, None, None]
     FdE = np.einsum("ni,nij->nj", F, de)[:, None, :]
     dFB = -L * ((P @ F[:, :, None]) * d_inv[:, None, :]
-                + (P @ dF - eF * de - e[:, :, None] * FdE) / nd)  # fmt: skip
+                + (P @ dF - eF * de - e[:, :, None] * FdE) / nd)
     stiffness = _transfer(XA, D, R, dF, dFB)
     # micro-slip friction at rest: a linear damper in the tangent plane (the paper law; a
     # stuck elastic contact dissipates nothing)

@@ -99,7 +99,7 @@ def flutter_margin(params, q: np.ndarray, J: sp.spmatrix, rtol: float = 1e-4) ->
     unit = dataclasses.replace(params, vdp_mu=1.0)
     zero = sp.csr_matrix((N * m, N * m))
     J1 = sp.bmat([[zero, zero], [aero_stiffness(unit, N, m), van_der_pol_damping(unit, q)]],
-                 format="csr")  # fmt: skip
+                 format="csr")
     J0 = (sp.csr_matrix(J) - mu * J1).tocsr()
     if not (is_circulant(J0, N, m) and is_circulant(J1, N, m)):
         raise ValueError("the flutter margin needs a cyclic (tuned) wheel")

@@ -94,17 +94,17 @@ class StabilityResult:
         """One line on eigenvalue ``i`` (default: the critical one) for people."""
         i = self.critical() if i is None else i
         parts = [f"ND {self.nodal_diameter[i]}", f"{self.frequency_hz[i]:.1f} Hz",
-                 f"growth {self.growth_rate[i]:+.3g} /s"]  # fmt: skip
+                 f"growth {self.growth_rate[i]:+.3g} /s"]
         for c, kind in enumerate(self.kinds):
             parts.append(f"{kind} gap n/t {self.contact_normal[i, c]:.2g}/"
-                         f"{self.contact_tangential[i, c]:.2g} x tip")  # fmt: skip
+                         f"{self.contact_tangential[i, c]:.2g} x tip")
         j = int(np.argmax(self.modal_share[i]))
         parts.append(f"mostly segment mode {j + 1} ({100 * self.modal_share[i, j]:.0f} %)")
         return ", ".join(parts)
 
 
 def linearise(model: ReducedModel, cfg: Config, angles_deg: dict | None = None, comm=None,
-              prefix: str = PREFIX):  # fmt: skip
+              prefix: str = PREFIX):
     """``(params, q, residual, J, contacts)``: the case's force parameters with the nozzle
     off, its static equilibrium ``q`` ``(N, m)`` (SNES, options prefix ``<prefix>preload_``,
     analytic tangent), the sparse Jacobian there and the contact linearisations."""
@@ -117,7 +117,7 @@ def linearise(model: ReducedModel, cfg: Config, angles_deg: dict | None = None, 
     q, residual = static_equilibrium(
         ReferenceForces(params), K, comm, scale, prefix + "preload_",
         tangent=lambda q: force_derivatives(params, q, stiffness_only=True)[0],
-    )  # fmt: skip
+    )
     q = q.reshape(N, m)
     Fq, Fv, contacts = force_derivatives(params, q)
     return params, q, residual, jacobian(K, cfg.wheel.damping_beta, Fq, Fv), contacts
@@ -125,7 +125,7 @@ def linearise(model: ReducedModel, cfg: Config, angles_deg: dict | None = None, 
 
 def analyse(model: ReducedModel, cfg: Config, angles_deg: dict | None = None, comm=None,
             keep_jacobian: bool = False,
-            linearised: tuple | None = None) -> StabilityResult:  # fmt: skip
+            linearised: tuple | None = None) -> StabilityResult:
     """The linear stability of one case (contact angles ``angles_deg``, kind -> [deg]);
     ``linearised``: what :func:`linearise` returned for it, when already computed."""
     t0 = time.perf_counter()
@@ -161,7 +161,7 @@ def _blade_order(N: int, m: int) -> np.ndarray:
     """State indices blade by blade: ``(q_s, q'_s)`` of blade 0, then blade 1, ..."""
     n = N * m
     return np.concatenate([np.r_[s * m : (s + 1) * m, n + s * m : n + (s + 1) * m]
-                           for s in range(N)])  # fmt: skip
+                           for s in range(N)])
 
 
 def blade_blocks(J, N: int, m: int) -> np.ndarray:
@@ -250,7 +250,7 @@ def _describe_modes(model: ReducedModel, contacts, blade, pair):
 
 
 def rightmost_eigenvalues(J, comm, nev: int = 10, prefix: str = PREFIX,
-                          ncv: int | None = None) -> np.ndarray:  # fmt: skip
+                          ncv: int | None = None) -> np.ndarray:
     """The ``nev`` eigenvalues of largest real part of the assembled real ``J`` (scipy
     sparse, every rank holds it) with SLEPc on ``comm`` (non-Hermitian, Krylov-Schur;
     ``-stability_eps_*`` options apply, ``setFromOptions`` last). Complex ``(nev,)``."""
@@ -287,7 +287,7 @@ OPEN_FLUTTER = 0.2  # contact-open fraction in the last window that makes a limi
 
 
 def classify(linear_rate: float, transient_rate: float, final_amplitude: float,
-             open_fraction: dict) -> str:  # fmt: skip
+             open_fraction: dict) -> str:
     """A case from both analyses: ``"stable"`` (no growing linear mode); ``"flutter, still
     growing"`` (unstable and the transient still grows over its last half at more than a
     quarter of the linear rate: the run was too short to see where it ends); ``"small limit
@@ -303,8 +303,8 @@ def classify(linear_rate: float, transient_rate: float, final_amplitude: float,
         return f"unstable ({linear_rate:.3g} /s; the transient is too short to judge)"
     if transient_rate > STILL_GROWING * linear_rate:
         return (f"flutter, still growing ({transient_rate:.3g} /s at the end, linear "
-                f"{linear_rate:.3g} /s)")  # fmt: skip
+                f"{linear_rate:.3g} /s)")
     opening = ", ".join(f"{k} open {100 * v:.0f} %" for k, v in open_fraction.items())
     kind = "small limit cycle" if max(open_fraction.values(), default=0.0) < OPEN_FLUTTER else (
-        "flutter, limit cycle")  # fmt: skip
+        "flutter, limit cycle")
     return f"{kind} ({final_amplitude * 1e6:.3g} um; {opening})"

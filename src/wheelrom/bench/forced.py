@@ -34,7 +34,7 @@ def forced_figures(model: ReducedModel, cfg: Config, say) -> dict:
     if not model.tuned:
         return {"forced_traced_s": None}
     cfg = cfg.replace(**{"flutter.model": "off",
-                         "excitation.force": cfg.excitation.force or 10.0})  # fmt: skip
+                         "excitation.force": cfg.excitation.force or 10.0})
     band, _ = nonlinear_band(model, cfg)
     params, q = forced_inputs(model, cfg)
     H, beta = cfg.forced.harmonics, cfg.wheel.damping_beta
@@ -43,7 +43,7 @@ def forced_figures(model: ReducedModel, cfg: Config, say) -> dict:
     t1 = time.perf_counter()
     say(f"  {GRID_POINTS} frequencies in {t1 - t0:.1f} s ({int(grid.converged.sum())} solved)")
     traced = traced_curve(model, params, beta, band, q, harmonics=H, refine=True,
-                          jump=(band[1] - band[0]) / JUMPS)  # fmt: skip
+                          jump=(band[1] - band[0]) / JUMPS)
     t2 = time.perf_counter()
     peak = traced.refined
     return {

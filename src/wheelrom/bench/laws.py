@@ -28,16 +28,16 @@ LAWS = ("paper", "elastic")
 
 
 def law_figures(model: ReducedModel, cfg: Config, say, rounds: int = ROUNDS,
-                end: float = END) -> dict:  # fmt: skip
+                end: float = END) -> dict:
     """The figures above (``say``: progress lines; ``rounds`` alternations of runs over
     ``end`` [s] of simulated time)."""
     runs = {}
     for law in LAWS:
         start = cfg.replace(**{"contacts.law": law, "time.start": "preload",
                                "time.perturbation": 1e-9, "time.end": end,
-                               "time.window": end})  # fmt: skip
+                               "time.window": end})
         problem = WheelProblem(model, start, [force_parameters(model, start, None)],
-                               petsc().COMM_SELF)  # fmt: skip
+                               petsc().COMM_SELF)
         try:
             u0 = initial_state(problem)[0][: 2 * model.size]
         finally:
@@ -55,9 +55,9 @@ def law_figures(model: ReducedModel, cfg: Config, say, rounds: int = ROUNDS,
             steps[law] = float(res.options["ts_dt"])
     figures = {law: [min(c), float(np.median(c))] for law, c in cost.items()}
     ratio = [figures["elastic"][0] / figures["paper"][0],
-             figures["elastic"][1] / figures["paper"][1]]  # fmt: skip
+             figures["elastic"][1] / figures["paper"][1]]
     say(f"laws: paper {figures['paper'][0]:.2f} / {figures['paper'][1]:.2f}, elastic "
         f"{figures['elastic'][0]:.2f} / {figures['elastic'][1]:.2f} s per simulated s (min / "
-        f"median of {rounds}): {ratio[0]:.2f}x / {ratio[1]:.2f}x")  # fmt: skip
+        f"median of {rounds}): {ratio[0]:.2f}x / {ratio[1]:.2f}x")
     return {"law_s_per_simulated_s": figures, "elastic_vs_paper": ratio,
             "law_steps_s": steps}

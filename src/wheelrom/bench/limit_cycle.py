@@ -90,7 +90,7 @@ def limit_cycle_figures(model: ReducedModel, cfg: Config, say) -> dict:
     exact = _exact(model, cfg, case, wave, balance, point, settings, hb_tip, say)
     say(f"limit cycle: shroud {case.get('shroud', math.nan):g} deg, wave {wave}: one cycle "
         f"{one:.2f} s ({point.iterations} Newton iterations, {tip * 1e6:.3g} um), branch "
-        f"{branch_s:.1f} s, Floquet {floquet_s:.1f} s")  # fmt: skip
+        f"{branch_s:.1f} s, Floquet {floquet_s:.1f} s")
     return {
         "limit_cycle_s_per_case": one,
         "limit_cycle_branch_s": branch_s,
@@ -99,7 +99,7 @@ def limit_cycle_figures(model: ReducedModel, cfg: Config, say) -> dict:
                              "samples": settings.time_samples, "tip_amplitude_m": tip,
                              "newton_iterations": point.iterations},
         **exact,
-    }  # fmt: skip
+    }
 
 
 def _exact(model, cfg, case, wave, balance, point, settings, hb_tip, say) -> dict:
@@ -122,15 +122,15 @@ def _exact(model, cfg, case, wave, balance, point, settings, hb_tip, say) -> dic
     hb_hz = point.omega / (2 * math.pi)
     t0 = time.perf_counter()
     mu = floquet_multipliers(model, cfg, orbit, orbit.steps_per_period, case, 1.0,
-                             settings.multipliers)  # fmt: skip
+                             settings.multipliers)
     monodromy_s = time.perf_counter() - t0
     say(f"exact orbit: shooting {shooting_s:.2f} s ({orbit.iterations} iterations, residual "
         f"{orbit.residual:.1e}), {exact['tip_amplitude'] * 1e6:.4g} um, "
         f"{exact['frequency_hz']:.5g} Hz; {len(mu.values)} multipliers in {monodromy_s:.1f} s "
-        f"({mu.matvecs} linearised periods), largest {mu.largest:.4g}")  # fmt: skip
+        f"({mu.matvecs} linearised periods), largest {mu.largest:.4g}")
     units = vibration_units(orbit.state, orbit.period).ravel()
     bloch = bloch_multipliers(model, cfg, orbit, units, np.arange(orbit.state.size), case) \
-        if orbit.pattern < model.blades else None  # fmt: skip
+        if orbit.pattern < model.blades else None
     if bloch is not None:
         say(f"every ND's by Bloch waves (the default for this orbit): {bloch.wall_s:.1f} s "
             f"({bloch.matvecs} shots of the wheel), largest {bloch.largest:.4g} "
@@ -151,7 +151,7 @@ def _exact(model, cfg, case, wave, balance, point, settings, hb_tip, say) -> dic
                                              "shots": bloch.matvecs,
                                              "largest": bloch.largest,
                                              "largest_nd": int(bloch.nd[bloch.worst])},
-    }  # fmt: skip
+    }
 
 
 def _elastic_orbit(model, cfg, case, settings, say) -> dict:
@@ -166,7 +166,7 @@ def _elastic_orbit(model, cfg, case, settings, say) -> dict:
     cycles = [c for b in res.branches for c in b.cycles]
     if not cycles:
         return {"limit_cycle_s_per_case": None, "elastic_orbit_s": wall,
-                "elastic_orbit": {"converged": False}}  # fmt: skip
+                "elastic_orbit": {"converged": False}}
     c, branch = cycles[0], res.branches[0]
     say(f"elastic exact orbit: shroud {case.get('shroud', math.nan):g} deg, wave "
         f"{branch.wave}: {wall:.2f} s ({c.orbit.iterations} Newton iterations, residual "
@@ -201,7 +201,7 @@ def _elastic_orbit(model, cfg, case, settings, say) -> dict:
                               "iterations": c.orbit.iterations,
                               "residual": c.orbit.residual,
                               "tip_amplitude_m": c.tip_amplitude,
-                              "frequency_hz": c.frequency_hz}}  # fmt: skip
+                              "frequency_hz": c.frequency_hz}}
 
 
 def _one_cycle(model, cfg, case, settings):
@@ -217,7 +217,7 @@ def _one_cycle(model, cfg, case, settings):
     v = vector[: model.modes]
     v = v / np.linalg.norm(v @ model.tip.T)
     balance = WaveBalance(model, params, cfg.wheel.damping_beta, wave, settings.harmonics,
-                          settings.time_samples)  # fmt: skip
+                          settings.time_samples)
     X = np.zeros((2 * settings.harmonics + 1, model.modes))
     X[0] = q[0]
     for seed in sorted(settings.seeds, key=lambda a: abs(math.log(a / SEED))):

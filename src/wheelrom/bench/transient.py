@@ -85,7 +85,7 @@ def _rhs_loop(count, u, f, ctx):
 
 
 def rhs_microseconds(problem: WheelProblem, calls: int = 20000, linear: bool = True,
-                     state: np.ndarray | None = None) -> float:  # fmt: skip
+                     state: np.ndarray | None = None) -> float:
     """Best-of-3 mean wall time of one compiled RHS evaluation [us] (compiled loop, warm);
     ``linear=False`` leaves out the ``K_R`` product (the force model alone)."""
     loop = _rhs_loop
@@ -159,7 +159,7 @@ def dgemm_gmadd_per_s(rows: int, inner: int, cols: int, calls: int) -> float:
 
 def _problem(model: ReducedModel, cfg: Config, angles: list) -> WheelProblem:
     return WheelProblem(model, cfg, [force_parameters(model, cfg, a) for a in angles],
-                        petsc().COMM_SELF)  # fmt: skip
+                        petsc().COMM_SELF)
 
 
 class _OverBudget(Exception):  # a solve_ivp run of the scipy comparison passed its budget
@@ -167,7 +167,7 @@ class _OverBudget(Exception):  # a solve_ivp run of the scipy comparison passed 
 
 
 def _scipy_run(problem: WheelProblem, t_end: float, rtol: float, t_eval: np.ndarray,
-               budget: float, u0: np.ndarray):  # fmt: skip
+               budget: float, u0: np.ndarray):
     """``(solution, wall)`` from the kernel-layout state ``u0``; the solution is ``None`` when
     the run passed ``budget`` [s]."""
     from scipy.integrate import solve_ivp
@@ -185,14 +185,14 @@ def _scipy_run(problem: WheelProblem, t_end: float, rtol: float, t_eval: np.ndar
     t_end = max(t_end, float(t_eval[-1]))  # the last sample may sit a round-off past t_end
     try:
         sol = solve_ivp(fun, (0.0, t_end), u0, method="RK23", rtol=rtol, atol=rtol * 1e-9,
-                        t_eval=t_eval)  # fmt: skip
+                        t_eval=t_eval)
     except _OverBudget:
         sol = None
     return sol, time.perf_counter() - t0
 
 
 def _timed_single(model: ReducedModel, cfg: Config, problem: WheelProblem, steps: int,
-                  h: float, say):  # fmt: skip
+                  h: float, say):
     """One case: a TS run of ``steps`` steps of ``h`` [s] and the compiled right-hand side
     timed at the state it reached; returns ``(figures, res)`` (``res`` the timed run)."""
     # TS run of `steps` steps (warm-up first: caches and branch predictors warm)
@@ -227,7 +227,7 @@ def _timed_single(model: ReducedModel, cfg: Config, problem: WheelProblem, steps
 
 
 def _batch_figures(model: ReducedModel, cfg: Config, steps: int, h: float, batch: int,
-                   paper_steps: float, say):  # fmt: skip
+                   paper_steps: float, say):
     """The timed run for ``batch`` angle cases in one TS (sweep throughput per case);
     returns ``(figures, batch_problem)``."""
     t_end = steps * h
@@ -242,10 +242,10 @@ def _batch_figures(model: ReducedModel, cfg: Config, steps: int, h: float, batch
     batch_problem = _problem(model, cfg, angles)
     batch_states = np.array([r.final_state for r in batch_res])
     us_rhs_batch = rhs_microseconds(batch_problem, calls=max(2000, 20000 // batch),
-                                    state=batch_states) / batch  # fmt: skip
+                                    state=batch_states) / batch
     batch_steps_per_s = batch * batch_res[0].steps / batch_wall
     say(f"batch of {batch} cases: {batch_wall:.2f} s, {us_rhs_batch:.2f} us per RHS and case, "
-        f"{batch_steps_per_s:.0f} case-steps/s")  # fmt: skip
+        f"{batch_steps_per_s:.0f} case-steps/s")
     figures = {
         "batch": batch,
         "us_per_rhs_in_batch": us_rhs_batch,
@@ -257,7 +257,7 @@ def _batch_figures(model: ReducedModel, cfg: Config, steps: int, h: float, batch
 
 def _floors(model: ReducedModel, cfg: Config, problem: WheelProblem,
             batch_problem: WheelProblem, steps: int, batch: int, single: dict,
-            in_batch: dict, say) -> dict:  # fmt: skip
+            in_batch: dict, say) -> dict:
     """Floors: PETSc's integrator alone [us/step], and the multiply-adds at this core's
     ``dgemm`` rate [1e9/s]; ``single``/``in_batch`` the figures of the timed runs."""
     us_rhs, rhs_per_step = single["us_per_rhs"], single["rhs_per_step"]
@@ -273,7 +273,7 @@ def _floors(model: ReducedModel, cfg: Config, problem: WheelProblem,
     say(f"floors: no-op TS {ts_null:.2f} us per step ({ts_null_batch:.2f} per case in the "
         f"batch); {madds} multiply-adds per RHS; dgemm {peak:.1f} G/s (1024^3), {shape:.1f} "
         f"G/s ({m}x{3 * m})({3 * m}x{model.blades * batch}); paper case >= "
-        f"{paper_steps * bound_us / 1e6:.1f} s")  # fmt: skip
+        f"{paper_steps * bound_us / 1e6:.1f} s")
     return {
         "ts_null_us_per_step": ts_null,
         "ts_null_us_per_case_step_in_batch": ts_null_batch,
@@ -288,17 +288,17 @@ def _floors(model: ReducedModel, cfg: Config, problem: WheelProblem,
 
 
 def _numpy_comparison(model: ReducedModel, cfg: Config, compare_steps: int, h: float, res,
-                      say) -> dict:  # fmt: skip
+                      say) -> dict:
     """Plain-numpy serial reference over ``compare_steps``: its wall per step over ours."""
     _, ref_states, ref_wall = reference_solution(model, cfg, compare_steps, h,
-                                                 sample_every=compare_steps)  # fmt: skip
+                                                 sample_every=compare_steps)
     ratio_numpy = (ref_wall / compare_steps) / (res.wall_s / res.steps)
     say(f"numpy reference: {compare_steps} steps in {ref_wall:.2f} s")
     return {"reference_steps": compare_steps, "ratio_vs_numpy_reference": ratio_numpy}
 
 
 def _scipy_comparison(model: ReducedModel, cfg: Config, problem: WheelProblem,
-                      compare_steps: int, h: float, res, t_end: float, say) -> dict:  # fmt: skip
+                      compare_steps: int, h: float, res, t_end: float, say) -> dict:
     """Accuracy of our fixed step on the tip history over ``compare_steps`` against a 4x finer
     step, and ``solve_ivp`` RK23 at the loosest ``rtol`` as accurate: its wall per simulated
     second over ours (``res`` our timed run of ``t_end`` [s]). Every run starts from the
@@ -308,7 +308,7 @@ def _scipy_comparison(model: ReducedModel, cfg: Config, problem: WheelProblem,
     # the tip history at every statistics sample, as compared before history_rate_hz
     cmp_cfg = cfg.replace(**{"time.end": t_cmp, "time.window": t_cmp,
                              "output.history_rate_hz": cfg.output.sample_rate_hz,
-                             "time.start": "preload", "time.perturbation": 1e-9})  # fmt: skip
+                             "time.start": "preload", "time.perturbation": 1e-9})
     u0 = initial_state(_problem(model, cmp_cfg, [None]))[0]
     ours = run_case(model, cmp_cfg, u0=u0[: 2 * model.size])
     fine = run_case(model, cmp_cfg, options={"ts_dt": h / 4}, u0=u0[: 2 * model.size])
@@ -318,7 +318,7 @@ def _scipy_comparison(model: ReducedModel, cfg: Config, problem: WheelProblem,
     budget = SCIPY_BUDGET * max(ours.wall_s, 1e-3)
     for rtol in [f * 10.0**-e for e in range(2, 10) for f in (1.0, 0.3)][:-1]:
         sol, wall = _scipy_run(problem, t_cmp, rtol, fine.sample_time, budget,
-                               problem.context.pack(u0[None, :]))  # fmt: skip
+                               problem.context.pack(u0[None, :]))
         if sol is None:  # a tighter rtol only costs more: ours is at least this much faster
             bound, sp_wall = rtol, wall
             break
@@ -333,7 +333,7 @@ def _scipy_comparison(model: ReducedModel, cfg: Config, problem: WheelProblem,
     say(f"scipy RK23: rtol {chosen or bound}, error {sp_error:.2e} (ours {our_error:.2e}), "
         f"{sp_wall:.2f} s for {t_cmp * 1e3:.0f} ms"
         + (" (search stopped: over its time budget, so the ratio is a lower bound)"
-           if bound else ""))  # fmt: skip
+           if bound else ""))
     return {
         "tip_error_fixed_step": our_error,
         "scipy_rtol": chosen,
@@ -352,7 +352,7 @@ def _startup_figures(model: ReducedModel, cfg: Config, say) -> dict:
     cold, warm = probe["cold"], probe["warm"]
     say(f"start-up to the first step: cold {cold['startup_s']:.2f} s (compiling "
         f"{cold['compile_s']:.2f} s), warm {warm['startup_s']:.2f} s (loading the kernels "
-        f"{warm['compile_s']:.2f} s)")  # fmt: skip
+        f"{warm['compile_s']:.2f} s)")
     return {
         "startup_s": {"cold": cold["startup_s"], "warm": warm["startup_s"]},
         "startup_compile_s": {"cold": cold["compile_s"], "warm": warm["compile_s"]},
@@ -382,9 +382,9 @@ class _Progress:
             self.timed_work += self.work[name]
         left = sum(self.work[n] for n in self.names[self.names.index(name) + 1 :])
         eta = f", about {left * self.timed_s / self.timed_work:.0f} s left" if (
-            self.timed_work and left) else ""  # fmt: skip
+            self.timed_work and left) else ""
         self.say(f"bench [{self.names.index(name) + 1}/{len(self.names)}] {name}: "
-                 f"{now - self.t_group:.1f} s ({now - self.t0:.0f} s in all{eta})")  # fmt: skip
+                 f"{now - self.t_group:.1f} s ({now - self.t0:.0f} s in all{eta})")
 
 
 def _work(steps: int, compare_steps: int, batch: int) -> dict:
@@ -411,7 +411,7 @@ def _work(steps: int, compare_steps: int, batch: int) -> dict:
 
 
 def run(model: ReducedModel, cfg: Config, steps: int = 20000, compare_steps: int = 2000,
-        log=None, batch: int = 10) -> dict:  # fmt: skip
+        log=None, batch: int = 10) -> dict:
     """Run the workload; returns the figures (see the module docstring). Progress lines with
     the time left go to ``log``."""
     say = log or (lambda m: None)
@@ -431,12 +431,12 @@ def run(model: ReducedModel, cfg: Config, steps: int = 20000, compare_steps: int
     start = group(next(groups), _startup_figures, model, cfg, say)
     single, res = group(next(groups), _timed_single, model, cfg, problem, steps, h, say)
     in_batch, batch_problem = group(next(groups), _batch_figures, model, cfg, steps, h, batch,
-                                    single["paper_case_steps"], say)  # fmt: skip
+                                    single["paper_case_steps"], say)
     floors = group(next(groups), _floors, model, cfg, problem, batch_problem, steps, batch,
-                   single, in_batch, say)  # fmt: skip
+                   single, in_batch, say)
     numpy_cmp = group(next(groups), _numpy_comparison, model, cfg, compare_steps, h, res, say)
     scipy_cmp = group(next(groups), _scipy_comparison, model, cfg, problem, compare_steps, h,
-                      res, steps * h, say)  # fmt: skip
+                      res, steps * h, say)
     stability = group(next(groups), _stability_figures, model, cfg)
     schemes = group(next(groups), _scheme_figures, model, cfg, h, say)
     from wheelrom.bench import forced, laws, limit_cycle
@@ -462,11 +462,11 @@ def _scheme_figures(model: ReducedModel, cfg: Config, h: float, say) -> dict:
     simulated second (the preload solved once, outside the timed runs)."""
     end = 0.02016
     start = cfg.replace(**{"time.start": "preload", "time.perturbation": 1e-9,
-                           "time.end": end, "time.window": end})  # fmt: skip
+                           "time.end": end, "time.window": end})
     u0 = initial_state(_problem(model, start, [None]))[0][: 2 * model.size]
     rk = {"ts_type": "rk", "ts_rk_type": "3bs"}
     reference = run_case(model, start, u0=u0, options={**rk, "ts_rk_type": "5dp",
-                                                       "ts_dt": 7.5e-7})  # fmt: skip
+                                                       "ts_dt": 7.5e-7})
     tip_ref = _tip(model, reference.final_state[None, :])
     scale = float(np.abs(tip_ref).max())
     figures = {}
@@ -479,9 +479,9 @@ def _scheme_figures(model: ReducedModel, cfg: Config, h: float, say) -> dict:
         figures[f"{name}_s_per_simulated_s"] = res.wall_s / end
         figures[f"{name}_energy_balance"] = res.energy_balance_error()
         say(f"{name} ({figures[f'{name}_scheme']}): step {figures[f'{name}_step_s']:.3g} s, tip "
-            f"error {error:.2e}, {res.wall_s / end:.2f} s per simulated s")  # fmt: skip
+            f"error {error:.2e}, {res.wall_s / end:.2f} s per simulated s")
     figures["speedup_vs_rk"] = (figures["rk_s_per_simulated_s"]
-                                / figures["configured_s_per_simulated_s"])  # fmt: skip
+                                / figures["configured_s_per_simulated_s"])
     return figures
 
 

@@ -14,7 +14,7 @@ from wheelrom.runtime.outputs import check_output
 
 #: every file `info` and `plot` read (their help lists them all)
 ANY_FILE = ("sweep, run --out, study, stability --out, limit-cycle --out, settle --out, "
-            "forced-response --out or modes --out")  # fmt: skip
+            "forced-response --out or modes --out")
 
 
 def positive_number(text: str) -> float:
@@ -60,7 +60,7 @@ def args_modes(p):
         "and/or N assembled segment copies (SLEPc on all ranks; coarse preset)",
     )
     p.add_argument("--full-wheel-modes", type=count, default=20,
-                   help="modes of the assembled wheel")  # fmt: skip
+                   help="modes of the assembled wheel")
     p.add_argument("--vtu", help="write a wheel mode on the whole-wheel mesh (.vtu, meshio)")
     p.add_argument("--vtu-nd", type=int, help="nodal diameter of that mode (default 5)")
     p.add_argument("--vtu-family", type=int, help="mode family (default 0 = the lowest)")
@@ -110,23 +110,23 @@ def args_study(p):
     p.add_argument("--out", required=True, help="HDF5 results file (format wheelrom-sweep-2)")
     what = p.add_mutually_exclusive_group()
     what.add_argument("--stability-only", action="store_true",
-                      help="the linear stability of every case only (seconds)")  # fmt: skip
+                      help="the linear stability of every case only (seconds)")
     what.add_argument("--screen", action="store_true",
                       help="stability of every case, then transients of the cases next to a "
-                      "stability boundary and of the --confirm ones")  # fmt: skip
+                      "stability boundary and of the --confirm ones")
     p.add_argument("--confirm", default="", metavar="I,J,...",
                    help="case indices (0-based, as 'wheelrom info' lists them) the screen "
-                   "runs a transient for in any case")  # fmt: skip
+                   "runs a transient for in any case")
     p.add_argument("--forced", action="store_true",
                    help="also the peak linear forced response of every case ([forced]) "
                    "and its amplification factor over the tuned wheel (Monte Carlo "
-                   "mistuning)")  # fmt: skip
+                   "mistuning)")
     p.add_argument("--forced-nonlinear", action="store_true",
                    help="also the nonlinear forced response of every (tuned) case: harmonic "
                    "balance of the nozzle's wave under contacts.law over forced.band_hz (or "
                    "from the slipping to the stuck resonance) on forced.points frequencies, "
                    "H = forced.harmonics, the peak refined: the friction damper's design "
-                   "curve (docs/usage.md)")  # fmt: skip
+                   "curve (docs/usage.md)")
     existing = p.add_mutually_exclusive_group()
     existing.add_argument("--resume", action="store_true",
                           help="complete an existing file: run the transients still pending")
@@ -134,7 +134,7 @@ def args_study(p):
     p.add_argument("--batch", type=int, default=0, metavar="B",
                    help="cases integrated together in one TS per rank (0, default: all of a "
                    "rank's cases that differ only in contact angles, up to 1 GiB of tip "
-                   "histories; results the same for any B)")  # fmt: skip
+                   "histories; results the same for any B)")
 
 
 def study_mode(args: argparse.Namespace) -> str:
@@ -159,7 +159,7 @@ def args_stability(p):
     p.add_argument("--out", help="write the stability of every case to this HDF5 file")
     p.add_argument("--margin", action="store_true",
                    help="also the flutter margin: the smallest Van der Pol mu at which each "
-                   "case becomes unstable (docs/theory.md)")  # fmt: skip
+                   "case becomes unstable (docs/theory.md)")
     force(p)
 
 
@@ -222,21 +222,21 @@ def args_plot(p):
     )
     p.add_argument("--force", action="store_true",
                    help="replace figures of the same name in the folder (default: refused, "
-                   "nothing written)")  # fmt: skip
+                   "nothing written)")
 
 
 def args_export(p):
     p.add_argument("file", help="HDF5 file from sweep, study or run --out")
     p.add_argument("--case", type=int, default=0, help="case index as 'wheelrom info' lists it")
     p.add_argument("--csv", required=True, metavar="PREFIX",
-                   help="writes PREFIX_<table>.csv per table of --what")  # fmt: skip
+                   help="writes PREFIX_<table>.csv per table of --what")
     p.add_argument("--what", choices=("all", "tips", "windows", "contact_forces"),
                    default="all",
                    help="tips: tip displacement of every blade per sample; windows: per-window "
                    "statistics (amplitude, contact forces and opening, energy, works, ND "
                    "amplitudes); contact_forces: normal and friction force and relative "
                    "displacement of every contact per state sample (needs a state history); "
-                   "all (default): tips and windows")  # fmt: skip
+                   "all (default): tips and windows")
     force(p)
 
 
@@ -247,10 +247,10 @@ def args_info(p):
                    help="recompute the stored checksums (reads the whole file): every written "
                    "case's of a sweep, run or study, every dataset's and attribute's of the "
                    "other files; exit 1 naming what changed since it was written (a file "
-                   "without checksums: says so, exit 0)")  # fmt: skip
+                   "without checksums: says so, exit 0)")
     p.add_argument("--all", action="store_true",
                    help=f"list every case (default: a sweep of more than {LONG_LISTING} cases "
-                   "lists the first and last few and the failed ones)")  # fmt: skip
+                   "lists the first and last few and the failed ones)")
 
 
 def load_config(args: argparse.Namespace):
@@ -307,7 +307,7 @@ def add_config_args(p: argparse.ArgumentParser, required: bool = False) -> None:
 def check_vtu_arguments(args: argparse.Namespace, cfg) -> None:
     """``--vtu-nd`` / ``--vtu-family`` ranges, before anything is computed."""
     given = [flag for flag, value in (("--vtu-nd", args.vtu_nd), ("--vtu-family", args.vtu_family))
-             if value is not None]  # fmt: skip
+             if value is not None]
     if not args.vtu:
         if given:
             raise InputError(f"{given[0]} needs --vtu FILE (the file the mode is written to)")
@@ -318,7 +318,7 @@ def check_vtu_arguments(args: argparse.Namespace, cfg) -> None:
     largest = cfg.wheel.blades // 2
     if not 0 <= args.vtu_nd <= largest:
         raise InputError(f"--vtu-nd {args.vtu_nd}: nodal diameters of a {cfg.wheel.blades}-blade "
-                         f"wheel are 0..{largest}")  # fmt: skip
+                         f"wheel are 0..{largest}")
     if args.vtu_family < 0:
         raise InputError(f"--vtu-family {args.vtu_family}: families count from 0 (the lowest)")
 

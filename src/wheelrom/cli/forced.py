@@ -22,18 +22,18 @@ MAX_FREQUENCIES = 100_000
 def args_forced(p: argparse.ArgumentParser) -> None:
     p.add_argument("--frequencies", metavar="A:B:N",
                    help="excitation frequencies [Hz]: the band from A to B and a coarse grid "
-                   "of N values in it, instead of forced.band_hz and forced.points")  # fmt: skip
+                   "of N values in it, instead of forced.band_hz and forced.points")
     p.add_argument("--speeds", metavar="A:B:N",
                    help="rotor speeds [Hz] instead: the nozzle frequencies n_s A .. n_s B and a "
                    "grid of N speeds (the stiffness follows them with forced.over = 'speed', "
-                   "else stays at wheel.speed_hz's)")  # fmt: skip
+                   "else stays at wheel.speed_hz's)")
     p.add_argument("--contacts", action=argparse.BooleanOptionalAction, default=None,
                    help="linearise the contacts at the preloaded equilibrium or leave them out "
-                   "(K_R and beta_D K_R only); default forced.contacts")  # fmt: skip
+                   "(K_R and beta_D K_R only); default forced.contacts")
     p.add_argument("--nonlinear", action="store_true",
                    help="also the nonlinear steady response at every frequency of the grid: "
                    "harmonic balance of the nozzle's travelling wave under contacts.law "
-                   "(tuned wheel; docs/theory.md 'Nonlinear forced response')")  # fmt: skip
+                   "(tuned wheel; docs/theory.md 'Nonlinear forced response')")
     p.add_argument("--harmonics", type=int, default=None,
                    help="harmonics of --nonlinear (default forced.harmonics)")
     p.add_argument("--exact", nargs="?", const="peak", choices=("peak", "all"), default=None,
@@ -41,10 +41,10 @@ def args_forced(p: argparse.ArgumentParser) -> None:
                    "('peak', the default) or at every solved frequency ('all': the curve's "
                    "stable and unstable parts) by shooting on the transient's equations (the "
                    "harmonic balance's error) and its Floquet multipliers in every ND "
-                   "(docs/theory.md)")  # fmt: skip
+                   "(docs/theory.md)")
     p.add_argument("--angle", nargs=2, action="append", default=[], metavar=("KIND", "DEG"),
                    help="contact angle [deg] of a kind (tieboss, shroud) instead of "
-                   "contacts.<kind>.angle_deg (repeatable)")  # fmt: skip
+                   "contacts.<kind>.angle_deg (repeatable)")
     json_out(p)
     p.add_argument("--out", help="write the response to this HDF5 file")
     force(p)
@@ -58,14 +58,14 @@ def parse_frequencies(text: str, option: str = "--frequencies") -> np.ndarray:
         a, b, n = float(start), float(stop), int(count)
     except ValueError:
         raise InputError(f"{option} {text}: expected A:B:N (Hz, N an integer), "
-                         "e.g. 300:400:201") from None  # fmt: skip
+                         "e.g. 300:400:201") from None
     if not (math.isfinite(a) and math.isfinite(b) and 0 <= a <= b):
         raise InputError(f"{option} {text}: expected 0 <= A <= B (Hz)")
     if n < 1 or (n > 1 and a == b):
         raise InputError(f"{option} {text}: N must be >= 1 (and 1 when A = B)")
     if n > MAX_FREQUENCIES:
         raise InputError(f"{option} {text}: {n} frequencies (one linear solve each, twice "
-                         f"when mistuned); at most {MAX_FREQUENCIES}")  # fmt: skip
+                         f"when mistuned); at most {MAX_FREQUENCIES}")
     return np.linspace(a, b, n)
 
 
@@ -91,7 +91,7 @@ def parse_angles(pairs: list[list[str]]) -> dict:
             raise InputError(f"--angle {kind} {value}: the angle is a number [deg]") from None
         if not 0.0 <= angle <= 90.0:  # as contacts.<kind>.angle_deg (NaN included)
             raise InputError(f"--angle {kind} {value}: the angle must be within 0..90 deg "
-                             f"(as contacts.{kind}.angle_deg)")  # fmt: skip
+                             f"(as contacts.{kind}.angle_deg)")
         out[kind] = angle
     return out
 
@@ -129,17 +129,17 @@ def cmd_forced(args: argparse.Namespace) -> int:
         say(speed_note(model, cfg))
     say("the tuned reference (mistuning removed)" if not model.tuned else "the tuned wheel")
     tuned = tuned_reference(model, cfg, [model.mistuning], contacts, angles, comm_self(),
-                            band_hz=band, points=points)  # fmt: skip
+                            band_hz=band, points=points)
     response = tuned
     if not model.tuned:
         say("the mistuned wheel")
         response = peak_response(model, cfg, tuned.band_hz, contacts, angles, comm_self(),
-                                 points=points)  # fmt: skip
+                                 points=points)
     out = summary(response, tuned, cfg, model, contacts)
     curve, world = None, world_if_parallel()
     if args.nonlinear:
         out["nonlinear"], curve = _nonlinear(model, cfg, response.grid, angles,
-                                             args.harmonics, say, args.exact, world)  # fmt: skip
+                                             args.harmonics, say, args.exact, world)
     failure = None
     if world is None or world.rank == 0:  # every rank holds the result: rank 0 tells it
         if args.json:
@@ -149,7 +149,7 @@ def cmd_forced(args: argparse.Namespace) -> int:
         if args.out:  # after the numbers are printed: a full disk still leaves them
             failure = save_hdf5(args.out, lambda f: _fill(f, cfg, model, response, tuned, out,
                                                           angles, curve),
-                                "the response is printed above")  # fmt: skip
+                                "the response is printed above")
     agree(world, failure)  # every rank stops together
     return 0
 
@@ -191,7 +191,7 @@ def summary(response, tuned, cfg, model, contacts: bool) -> dict:
 
 
 def _nonlinear(model, cfg, grid: np.ndarray, angles: dict | None, harmonics: int,
-               say, exact: str | None = None, world=None):  # fmt: skip
+               say, exact: str | None = None, world=None):
     """``(plain data, ForcedCurve)``: the nonlinear curve over the coarse grid (tip
     amplitude per frequency, Newton's verdict, the peak with its contacts' open / stick /
     slip shares; ``exact``: the peak's exact state by shooting, ``"all"``: every solved
@@ -205,14 +205,14 @@ def _nonlinear(model, cfg, grid: np.ndarray, angles: dict | None, harmonics: int
         say(outside)
     ranks = f" over {world.size} ranks" if world is not None else ""
     say(f"the nonlinear response (harmonic balance, H = {harmonics}, "
-        f"contacts.law = '{cfg.contacts.law}') at {grid.size} frequencies{ranks}")  # fmt: skip
+        f"contacts.law = '{cfg.contacts.law}') at {grid.size} frequencies{ranks}")
     inputs = forced_inputs(model, cfg, angles, comm_self())  # the grid's and the trace's
     curve = nonlinear_forced(model, cfg, grid, angles, harmonics, comm_self(), inputs=inputs,
-                             ranks=world)  # fmt: skip
+                             ranks=world)
     amplitude = [float(a) if ok else None
                  for a, ok in zip(curve.tip_amplitude, curve.converged, strict=True)]
     out = {"law": cfg.contacts.law, "harmonics": harmonics, "tip_amplitude_m": amplitude,
-           "converged": curve.converged.tolist(), "wall_s": curve.wall_s}  # fmt: skip
+           "converged": curve.converged.tolist(), "wall_s": curve.wall_s}
     if world is not None:
         out["resolved_seams_hz"] = [w / (2 * math.pi) for w in curve.resolved_seams]
     if outside:
@@ -227,7 +227,7 @@ def _nonlinear(model, cfg, grid: np.ndarray, angles: dict | None, harmonics: int
         out["peak_speed_hz"] = out["peak_frequency_hz"] / cfg.wheel.stator_vanes
         out["peak_shares"] = {kind: dict(zip(("open", "stick", "slip"),
                                              map(float, curve.fractions[i, k]), strict=True))
-                              for k, kind in enumerate(curve.kinds)}  # fmt: skip
+                              for k, kind in enumerate(curve.kinds)}
         states = _exact_states(model, cfg, curve, inputs, angles, harmonics, exact, world, say)
         if states:
             out["exact"] = states[i]
@@ -237,21 +237,21 @@ def _nonlinear(model, cfg, grid: np.ndarray, angles: dict | None, harmonics: int
 
 
 def _exact_states(model, cfg, curve, inputs: tuple, angles: dict | None, harmonics: int,
-                  exact: str | None, world, say) -> dict:  # fmt: skip
+                  exact: str | None, world, say) -> dict:
     """``{grid index: plain data of the exact state}`` at the peak (``exact``) or at every
     solved frequency (``"all"``), dealt over the ranks of ``world`` (None: this process
     alone) in turn and gathered on every rank."""
     from wheelrom.studies.forced_nonlinear import exact_peak
 
     wanted = (np.flatnonzero(curve.converged) if exact == "all" else [curve.peak] if exact
-              else [])  # fmt: skip
+              else [])
     size, rank = (1, 0) if world is None else (world.size, world.rank)
     states = {}
     for j in wanted[rank::size]:
         say(f"the exact state at {curve.frequency[j] / (2 * math.pi):.4f} Hz by shooting")
         states[int(j)] = _exact(exact_peak(model, cfg, curve.harmonics[j],
                                            float(curve.frequency[j]), harmonics, inputs,
-                                           angles, whole_wheel=True))  # fmt: skip
+                                           angles, whole_wheel=True))
     if world is not None and len(wanted):
         states = {j: s for part in world.allgather(states) for j, s in part.items()}
     return states
@@ -262,7 +262,7 @@ def _exact(orbit) -> dict:
     out = {"converged": orbit.converged, "residual": orbit.residual,
            "iterations": orbit.iterations, "reason": orbit.reason, "wall_s": orbit.wall_s,
            "frequency_hz": orbit.frequency / (2 * math.pi), "pattern_blades": orbit.pattern,
-           "hb_tip_amplitude_m": orbit.hb_tip_amplitude}  # fmt: skip
+           "hb_tip_amplitude_m": orbit.hb_tip_amplitude}
     if orbit.converged:
         mu = orbit.multipliers
         out.update(tip_amplitude_m=orbit.tip_amplitude,
@@ -270,12 +270,12 @@ def _exact(orbit) -> dict:
                    largest_multiplier=orbit.largest, stable=orbit.stable,
                    largest_multiplier_at_twice_the_step=orbit.coarse_largest,
                    multipliers_re=mu.real.tolist(), multipliers_im=mu.imag.tolist(),
-                   multiplier_nd=orbit.nodal_diameters.tolist())  # fmt: skip
+                   multiplier_nd=orbit.nodal_diameters.tolist())
     if orbit.wheel_multipliers.size:  # every ND
         mu = orbit.wheel_multipliers
         out.update(wheel_largest_multiplier=float(abs(mu[0])),
                    wheel_multipliers_re=mu.real.tolist(), wheel_multipliers_im=mu.imag.tolist(),
-                   wheel_multiplier_nd=orbit.wheel_nodal_diameters.tolist())  # fmt: skip
+                   wheel_multiplier_nd=orbit.wheel_nodal_diameters.tolist())
     return out
 
 
@@ -288,12 +288,12 @@ def _traced(model, cfg, curve, grid: np.ndarray, inputs: tuple) -> dict:
 
     def listed(values):
         return [float(v) if ok and np.isfinite(v) else None
-                for v, ok in zip(values, traced.converged, strict=True)]  # fmt: skip
+                for v, ok in zip(values, traced.converged, strict=True)]
 
     out = {"frequency_hz": listed(traced.frequency / (2 * math.pi)),
            "tip_amplitude_m": listed(traced.tip_amplitude), "growth_per_s": listed(traced.growth),
            "folds_hz": (traced.folds / (2 * math.pi)).tolist(), "end": traced.trace,
-           "wall_s": traced.wall_s}  # fmt: skip
+           "wall_s": traced.wall_s}
     if traced.refined is not None:
         out["peak_amplitude_m"] = traced.refined.tip_amplitude
         out["peak_frequency_hz"] = traced.refined.frequency / (2 * math.pi)
@@ -317,7 +317,7 @@ def _no_resonance(model, cfg, grid: np.ndarray, angles: dict | None) -> str:
         return ""
     names = ("slipping", "stuck")
     where = ", ".join(f"{name} {w / (2 * math.pi):.5g} Hz"
-                      for name, w in zip(names, found, strict=False))  # fmt: skip
+                      for name, w in zip(names, found, strict=False))
     nd = int(nodal_diameter(cfg.wheel.stator_vanes, model.blades))
     return (f"no resonance in {lo / (2 * math.pi):.5g}..{hi / (2 * math.pi):.5g} Hz: the ND "
             f"{nd} family {cfg.forced.family} resonates with the contacts {where}; the "
@@ -325,7 +325,7 @@ def _no_resonance(model, cfg, grid: np.ndarray, angles: dict | None) -> str:
 
 
 def _fill(f, cfg, model, response, tuned, out: dict, angles: dict | None,
-          curve=None) -> None:  # fmt: skip
+          curve=None) -> None:
     """The response into the open HDF5 file ``f`` (docs/output.md, format
     ``wheelrom-forced-1``): ``frequency_hz`` ``(F,)`` (the coarse grid), ``blade_amplitude``
     and ``tuned_blade_amplitude`` ``(F, N)`` [m] on it, ``peak_blade_amplitude`` and
@@ -348,11 +348,11 @@ def _fill(f, cfg, model, response, tuned, out: dict, angles: dict | None,
                 "amplification_factor", "solve_s_per_frequency", "band_hz",
                 "peak_amplitude_m", "peak_frequency_hz", "tuned_peak_amplitude_m",
                 "tuned_peak_frequency_hz", "peak_speed_hz", "tuned_peak_speed_hz",
-                "solves"):  # fmt: skip
+                "solves"):
         f.attrs[key] = out[key]
     f.attrs["blades"], f.attrs["modes"] = model.blades, model.modes
     f.attrs["contact_angles_deg"] = json.dumps(_contact_angles(cfg, angles) if out["contacts"]
-                                               else {})  # fmt: skip
+                                               else {})
     f.attrs["solver"] = json.dumps(response.solver)
     f["frequency_hz"] = np.asarray(out["frequency_hz"])
     f["blade_amplitude"] = response.grid_blade_amplitude
@@ -398,7 +398,7 @@ def _write_nonlinear(g, out: dict, curve) -> None:
             e[key] = np.array([r[key] if r and key in r else np.nan for r in rows], dtype=float)
         e["wheel_multiplier_nd"] = np.array([r["wheel_multiplier_nd"][0]
                                              if r and "wheel_multiplier_nd" in r else -1
-                                             for r in rows], dtype="i8")  # fmt: skip
+                                             for r in rows], dtype="i8")
         e["stable"] = np.array([bool(r and r.get("stable")) for r in rows])
         e["converged"] = np.array([bool(r and r["converged"]) for r in rows])
     if "exact" in out:  # --exact
@@ -413,7 +413,7 @@ def _write_nonlinear(g, out: dict, curve) -> None:
 def _contact_angles(cfg, angles: dict | None) -> dict:
     """kind -> contact angle [deg] of every enabled kind: ``--angle`` or the configured one."""
     return {k: float((angles or {}).get(k, getattr(cfg.contacts, k).angle_deg))
-            for k in cfg.contacts.enabled_kinds()}  # fmt: skip
+            for k in cfg.contacts.enabled_kinds()}
 
 
 def _print(out: dict) -> None:
@@ -424,14 +424,14 @@ def _print(out: dict) -> None:
           f"{'mistuned' if out['mistuned'] else 'tuned'} wheel, over the {out['over']}")
     print(f"{'f [Hz]':>12s} {'max tip [m]':>12s} {'tuned [m]':>12s} {'ratio':>8s}")
     rows = zip(out["frequency_hz"], out["max_amplitude_m"], out["tuned_max_amplitude_m"],
-               strict=True)  # fmt: skip
+               strict=True)
     for f, a, t in rows:
         print(f"{f:12.4f} {a:12.4e} {t:12.4e} {a / max(t, 1e-300):8.4f}")
     lo, hi = out["band_hz"]
     print(f"refined peak over {lo:.6g}..{hi:.6g} Hz: max-blade amplitude "
           f"{out['peak_amplitude_m']:.6e} m at {out['peak_frequency_hz']:.6f} Hz, tuned "
           f"{out['tuned_peak_amplitude_m']:.6e} m at {out['tuned_peak_frequency_hz']:.6f} Hz: "
-          f"amplification factor {out['amplification_factor']:.5f}")  # fmt: skip
+          f"amplification factor {out['amplification_factor']:.5f}")
     print(f"rotor speeds of the peaks (engine order {out['stator_vanes']}): "
           f"{out['peak_speed_hz']:.6f} Hz ({60 * out['peak_speed_hz']:.2f} rpm), tuned "
           f"{out['tuned_peak_speed_hz']:.6f} Hz ({60 * out['tuned_peak_speed_hz']:.2f} rpm)")
@@ -443,12 +443,12 @@ def _print_nonlinear(out: dict) -> None:
     """The nonlinear tip amplitude beside the linear one at every frequency, its peak."""
     nl = out["nonlinear"]
     print(f"nonlinear (harmonic balance, H = {nl['harmonics']}, contacts.law = "
-          f"'{nl['law']}', {nl['wall_s']:.1f} s):")  # fmt: skip
+          f"'{nl['law']}', {nl['wall_s']:.1f} s):")
     exact = nl.get("exact_curve") or [None] * len(out["frequency_hz"])
     print(f"{'f [Hz]':>12s} {'linear [m]':>12s} {'nonlinear [m]':>14s}"
           + (f" {'exact [m]':>12s} {'|mu| (ND)':>16s}" if "exact_curve" in nl else ""))
     rows = zip(out["frequency_hz"], out["max_amplitude_m"], nl["tip_amplitude_m"], exact,
-               strict=True)  # fmt: skip
+               strict=True)
     for f, a, b, ex in rows:
         text = f"{b:14.4e}" if b is not None else f"{'no solution':>14s}"
         if ex is not None and ex["converged"]:  # --exact all
@@ -460,7 +460,7 @@ def _print_nonlinear(out: dict) -> None:
     if "peak_amplitude_m" in nl:
         shares = "; ".join(f"{kind} open {100 * s['open']:.0f} %, stick {100 * s['stick']:.0f}"
                            f" %, slip {100 * s['slip']:.0f} %"
-                           for kind, s in nl["peak_shares"].items())  # fmt: skip
+                           for kind, s in nl["peak_shares"].items())
         print(f"nonlinear peak on the grid: {nl['peak_amplitude_m']:.4e} m at "
               f"{nl['peak_frequency_hz']:.4f} Hz, speed {nl['peak_speed_hz']:.4f} Hz ({shares})")
     if "exact" in nl:
@@ -468,24 +468,24 @@ def _print_nonlinear(out: dict) -> None:
     if "traced" in nl:
         tr = nl["traced"]
         folds = ("folds at " + ", ".join(f"{f:.4f}" for f in tr["folds_hz"]) + " Hz"
-                 if tr["folds_hz"] else "no fold")  # fmt: skip
+                 if tr["folds_hz"] else "no fold")
         peak = (f"peak {tr['peak_amplitude_m']:.4e} m at {tr['peak_frequency_hz']:.4f} Hz; "
-                if "peak_amplitude_m" in tr else "")  # fmt: skip
+                if "peak_amplitude_m" in tr else "")
         unstable = sum(g is not None and g > 0 for g in tr["growth_per_s"])
         print(f"traced by arclength: {sum(f is not None for f in tr['frequency_hz'])} points "
               f"in {tr['wall_s']:.1f} s, {peak}{folds}, {unstable} unstable "
-              f"points (Hill); {tr['end']}")  # fmt: skip
+              f"points (Hill); {tr['end']}")
     if "no_resonance" in nl:
         print(nl["no_resonance"])
     print(f"{out['solves']} solves ({out['candidates']} candidates, {out['refined']} refined), "
-          f"{1e3 * out['solve_s_per_frequency']:.3g} ms per solve")  # fmt: skip
+          f"{1e3 * out['solve_s_per_frequency']:.3g} ms per solve")
 
 
 def _print_exact(ex: dict) -> None:
     """The exact state's line: its amplitude against the balance's, its multipliers."""
     if not ex["converged"]:
         print(f"exact state at {ex['frequency_hz']:.4f} Hz: shooting did not converge "
-              f"({ex['reason']}, residual {ex['residual']:.2g})")  # fmt: skip
+              f"({ex['reason']}, residual {ex['residual']:.2g})")
         return
     verdict = "stable" if ex["stable"] else "unstable"
     every = (f"; in every ND |mu| = {ex['wheel_largest_multiplier']:.6f} (ND "
@@ -496,4 +496,4 @@ def _print_exact(ex: dict) -> None:
           f"{100 * ex['hb_relative_difference']:+.3f} %; largest Floquet multiplier "
           f"|mu| = {ex['largest_multiplier']:.6f} (ND {ex['multiplier_nd'][0]}; "
           f"{ex['largest_multiplier_at_twice_the_step']:.6f} at twice the step) within the "
-          f"NDs of its {ex['pattern_blades']}-blade pattern{every}: {verdict}")  # fmt: skip
+          f"NDs of its {ex['pattern_blades']}-blade pattern{every}: {verdict}")

@@ -19,7 +19,7 @@ def args_limit_cycle(p: argparse.ArgumentParser) -> None:
     p.add_argument("--nd", help="travelling waves to analyse, e.g. '33' or '5,33,61' (blade s+1 "
                    "leads by 2 pi k / N; ND k and N-k are the two directions), or 'fastest' "
                    "(the fastest-growing wave of each case); default limit_cycle.waves, else "
-                   "every unstable one")  # fmt: skip
+                   "every unstable one")
     p.add_argument("--force", action="store_true", help="overwrite existing output files")
 
 
@@ -35,7 +35,7 @@ def _waves(text: str | None):
     parts = [t.strip() for t in text.split(",")]
     if not parts or not all(t.isdigit() or t == "-1" for t in parts):
         raise InputError(f"--nd: '{text}' is not a list of wave indices (0, 1, ..., or -1 / "
-                         "'fastest' for the fastest-growing one)")  # fmt: skip
+                         "'fastest' for the fastest-growing one)")
     return tuple(int(t) for t in parts)
 
 
@@ -52,9 +52,9 @@ def cmd_limit_cycle(args: argparse.Namespace) -> int:
 
     cfg = load_config(args)
     waves = _waves(args.nd)
-    if waves and any(k >= cfg.wheel.blades for k in waves):  # fmt: skip
+    if waves and any(k >= cfg.wheel.blades for k in waves):
         raise InputError(f"--nd: waves {list(waves)} must be below wheel.blades = "
-                         f"{cfg.wheel.blades}")  # fmt: skip
+                         f"{cfg.wheel.blades}")
     if args.out:
         check_output(args.out, args.force)
     from wheelrom.results.limit_cycles import write_limit_cycles
@@ -62,7 +62,7 @@ def cmd_limit_cycle(args: argparse.Namespace) -> int:
     comm = world_if_parallel()
     progress = None if args.json else throttled(PROGRESS_EVERY_S)
     model, cases = run_limit_cycles(cfg, comm, log=quiet if args.json else log, waves=waves,
-                                    progress=progress)  # fmt: skip
+                                    progress=progress)
     failure = None
     if cases:  # rank 0: every case
         failure = report_and_save([summary(c) for c in cases], args.json, print_limit_cycles,
@@ -85,9 +85,9 @@ def print_limit_cycles(rows: list[dict]) -> None:
             for c in w["cycles"]:
                 stable = {True: "stable", False: "unstable",
                           None: "stability uncertain" if "floquet" in c else
-                          "stability not computed"}[c["stable"]]  # fmt: skip
+                          "stability not computed"}[c["stable"]]
                 shot = c.get("shooting", {}).get("converged")  # None: shooting not tried
                 how = {None: "", True: " (exact orbit)", False: f" by {c['source']}"}[shot]
                 print(f"        cycle {c['tip_amplitude_m'] * 1e6:.4g} um tip, "
                       f"{c['frequency_hz']:.5g} Hz{how}, {stable}, energy balance "
-                      f"{c['energy_residual']:.1e}")  # fmt: skip
+                      f"{c['energy_residual']:.1e}")

@@ -101,7 +101,7 @@ def cmd_config_check(args: argparse.Namespace) -> int:
 
         seg = load_segment(cfg)
         print(f"{cfg.segment.source}: {seg.nodes.shape[0]} nodes, node sets "
-              + ", ".join(sorted(seg.node_sets)))  # fmt: skip
+              + ", ".join(sorted(seg.node_sets)))
     if not study.legacy:
         print(f"study: {study.size} case(s) of {', '.join(study.names)}")
     print(f"{cfg.source}: OK")
@@ -127,10 +127,10 @@ def cmd_modes(args: argparse.Namespace) -> int:
 
         if args.vtu_family >= model.modes:
             raise InputError(f"--vtu-family {args.vtu_family}: the model has families "
-                             f"0..{model.modes - 1}")  # fmt: skip
+                             f"0..{model.modes - 1}")
         with replacing(args.vtu) as partial:
             f_mode = write_wheel_mode(partial, wheel.segment.mesh, wheel.shapes, model,
-                                      args.vtu_nd, args.vtu_family)  # fmt: skip
+                                      args.vtu_nd, args.vtu_family)
         say(f"wrote {args.vtu}: ND {args.vtu_nd} mode at {f_mode:.2f} Hz on the whole wheel")
     extra = {"wheel_hz": hz, "wheel_nd": nd}
     if args.full_wheel:
@@ -145,7 +145,7 @@ def cmd_modes(args: argparse.Namespace) -> int:
             out["relative_error_by_nd"] = (table / reference - 1).tolist()
         if assembled is not None:
             out["assembled_wheel_hz"] = assembled.tolist()
-        print_json(out)  # fmt: skip
+        print_json(out)
     else:
         print_modes(model, table, reference, assembled)
     if args.out:
@@ -246,7 +246,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
         # the reference's samples (about 200) give the run's largest tip displacement
         _, states, ref_wall = reference_solution(model, cfg, steps, step,
                                                  sample_every=max(1, steps // 200),
-                                                 scheme=scheme)  # fmt: skip
+                                                 scheme=scheme)
         diff, absolute, scale = tip_difference(model, states, res.final_state)
     out = {
         "steps": steps,
@@ -264,7 +264,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
         return fail(f"compare: the PETSc TS did not finish the {steps} steps ({res.status})", 1)
     if not math.isfinite(diff):
         return fail(f"compare: the difference is not finite ({diff}): the integration "
-                    f"diverged at step {step:g} s", 1)  # fmt: skip
+                    f"diverged at step {step:g} s", 1)
     return 0
 
 
@@ -277,7 +277,7 @@ def _compare_config(cfg, steps: int, step: float):
     rate = max(cfg.output.sample_rate_hz, 1.0 / span)
     return cfg.replace(**{"time.end": span, "time.window": span, "output.sample_rate_hz": rate,
                           "output.history_rate_hz": rate, "output.state_rate_hz": 0.0,
-                          "time.start": "preload"})  # fmt: skip
+                          "time.start": "preload"})
 
 
 def _check_compare_memory(cfg, steps: int) -> None:
@@ -303,10 +303,10 @@ def _reference_scheme(settings: dict) -> str:
     if settings.get("ts_scheme") == SCHEME:
         return "exponential"
     if (settings.get("ts_type") == "rk" and settings.get("ts_rk_type") == "3bs"
-            and settings.get("ts_adapt_type") == "none"):  # fmt: skip
+            and settings.get("ts_adapt_type") == "none"):
         return "rk"
     chosen = ", ".join(f"{k} {settings[k]}" for k in ("ts_type", "ts_rk_type", "ts_adapt_type")
-                       if k in settings)  # fmt: skip
+                       if k in settings)
     raise InputError(f"compare: the serial reference integrates time.scheme 'exponential' or "
                      f"RK 3bs at fixed steps, not this TS ({chosen})")
 
@@ -320,7 +320,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     cfg = load_config(args)
     failed = run_sweep(cfg, args.out, MPI.COMM_WORLD, resume=args.resume, force=args.force,
                        log=log, model_comm=args.model_comm,
-                       batch=args.batch)  # fmt: skip
+                       batch=args.batch)
     return 1 if failed else 0
 
 
@@ -340,7 +340,7 @@ def cmd_study(args: argparse.Namespace) -> int:
     summary = run_study(cfg, args.out, MPI.COMM_WORLD, mode=mode, confirm=confirm,
                         resume=args.resume, force=args.force, log=log,
                         batch=args.batch, forced=args.forced,
-                        nonlinear=args.forced_nonlinear)  # fmt: skip
+                        nonlinear=args.forced_nonlinear)
     if world_rank() == 0:
         print_json(summary) if args.json else print_study(summary, args.out)
     return 1 if summary["transients"]["failed"] else 0
@@ -360,7 +360,7 @@ def cmd_stability(args: argparse.Namespace) -> int:
         check_output(args.out, args.force)
     comm = world_if_parallel()
     model, cases = run_stability(cfg, comm, log=quiet if args.json else log,
-                                 margin=args.margin)  # fmt: skip
+                                 margin=args.margin)
     failure = None
     if cases:  # rank 0: every case
         failure = report_and_save([summary(r) for r in cases], args.json, print_stability,
@@ -407,7 +407,7 @@ COMMANDS: dict[
     "contact-stiffness": (cli_tools.cmd_contact_stiffness,
                           "k_c(beta) from the segment FE (static unit loads)",
                           cli_args.json_out),
-}  # fmt: skip
+}
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -439,7 +439,7 @@ def build_parser() -> argparse.ArgumentParser:
         p = sub.add_parser(name, help=help_text, description=func.__doc__)
         if name == "plot":
             p.add_argument("results", help="HDF5 file of any wheelrom command: "
-                           + cli_args.ANY_FILE)  # fmt: skip
+                           + cli_args.ANY_FILE)
         elif name not in ("info", "export", "animate", "contacts"):  # these read a file
             cli_args.add_config_args(p)
         extra(p)
@@ -467,7 +467,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return fail(str(exc))
     except OutputExists as exc:
         again = ("--resume to complete it or --force" if args.command in ("sweep", "study")
-                 else "--force")  # fmt: skip
+                 else "--force")
         return fail(f"{exc.path} exists: pass {again} to overwrite it")
     except InputError as exc:
         return fail(str(exc))
@@ -485,7 +485,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             abort_the_job()
             raise
         return fail(str(disk_full(getattr(exc, "filename", None) or "output", exc,
-                                  "what was written before is kept")), 1)  # fmt: skip
+                                  "what was written before is kept")), 1)
     except Exception:
         abort_the_job()
         raise

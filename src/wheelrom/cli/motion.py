@@ -57,7 +57,7 @@ def _check_outputs(paths: list[str], force: bool, source: str) -> None:
     for path in paths:
         if os.path.exists(path) and os.path.samefile(path, source):
             raise InputError(f"--out: {path} would overwrite the results file {source}; "
-                             "choose another prefix")  # fmt: skip
+                             "choose another prefix")
         check_output(path, force, "--out")
 
 
@@ -84,7 +84,7 @@ def cmd_animate(args: argparse.Namespace) -> int:
             paths = [f"{prefix}.gif"]
             _check_outputs(paths, args.force, args.file)
             log(f"{args.file} has no state history (output.state_rate_hz = 0): the tip ring "
-                "from the tip history only")  # fmt: skip
+                "from the tip history only")
             _animate_tips(f, args, window, paths[0])
     for path in paths:
         print(path)
@@ -109,18 +109,18 @@ def _animate_states(f, args, window, prefix: str) -> None:
     surface = wheel_surface(seg, wheel.shapes)
     t1 = time.perf_counter()
     log(f"model rebuilt and checked against the file's in {t1 - t0:.1f} s; surface "
-        f"{surface.points.shape[0]} points, {surface.quads.shape[0]} faces")  # fmt: skip
+        f"{surface.points.shape[0]} points, {surface.quads.shape[0]} faces")
     write_xdmf(prefix, surface, times, states[:, 0])
     log(f"{prefix}.xdmf: {times.size} time steps in {time.perf_counter() - t1:.1f} s")
     cfg = read_config(f, args.file)
     contacts = contact_histories(model, cfg, angles_of(f["cases/angles_deg"][args.case]),
-                                 times, states)  # fmt: skip
+                                 times, states)
     tips = np.einsum("ksm,am->ksa", states[:, 0], model.tip)
     tip_point = seg.nodes[seg.node_sets["tip"]].mean(axis=0)
     amplitude = float(np.linalg.norm(tips, axis=2).max())
     scale = args.scale or auto_scale(amplitude, float(np.hypot(*tip_point[:2])))
     marks = {kind: (float(np.hypot(*model.contact_points[kind][0][:2])), h.state == 0)
-             for kind, h in contacts.items()}  # fmt: skip
+             for kind, h in contacts.items()}
     with replacing(f"{prefix}.gif") as partial:
         tip_ring_gif(partial, times, tips, tip_point, scale, marks)
     k = int(np.argmax(np.abs(states[:, 0]).max(axis=(1, 2))))
@@ -138,7 +138,7 @@ def _animate_tips(f, args, window, gif: str) -> None:
     rows = _frames(times.size, args.frames)
     times, tips = times[rows], tips[rows]
     points = [g["points"][()] for g in f["model/contacts"].values()] if "model/contacts" in f \
-        else []  # fmt: skip
+        else []
     radius = max((float(np.hypot(*p[:, :2].T).max()) for p in points), default=1.0)
     amplitude = float(np.linalg.norm(tips, axis=2).max())
     scale = args.scale or auto_scale(amplitude, radius)
@@ -166,7 +166,7 @@ def cmd_contacts(args: argparse.Namespace) -> int:
     if args.kind != "all":
         if args.kind not in histories:
             raise InputError(f"--kind {args.kind}: the case has contacts "
-                             f"{', '.join(histories) or 'none'}")  # fmt: skip
+                             f"{', '.join(histories) or 'none'}")
         histories = {args.kind: histories[args.kind]}
     if not histories:
         raise InputError(f"{args.file}: the case has no contacts")
@@ -189,7 +189,7 @@ def args_animate(p: argparse.ArgumentParser) -> None:
     p.add_argument("--scale", type=positive_number, default=None,
                    help="displacement scale of the pictures (default: the largest tip "
                    "displacement drawn as 4 %% of the tip radius); the XDMF holds true "
-                   "displacements [m]")  # fmt: skip
+                   "displacements [m]")
     p.add_argument("--frames", type=int, default=40,
                    help="time steps written, spread evenly over the window (default 40)")
 
@@ -197,16 +197,16 @@ def args_animate(p: argparse.ArgumentParser) -> None:
 def args_contacts(p: argparse.ArgumentParser) -> None:
     _file_case(p)
     p.add_argument("--blade", type=int, nargs="+", default=[0],
-                   help="contacts between blade B and B+1 (default 0)")  # fmt: skip
+                   help="contacts between blade B and B+1 (default 0)")
     p.add_argument("--kind", default="all", help="tieboss, shroud or all (default)")
 
 
 def _file_case(p: argparse.ArgumentParser) -> None:
     p.add_argument("file", help="HDF5 file from sweep, study or run --out with a state "
-                   "history (output.state_rate_hz > 0)")  # fmt: skip
+                   "history (output.state_rate_hz > 0)")
     p.add_argument("--case", type=int, default=0, help="case index as 'wheelrom info' lists it")
     p.add_argument("--window", default=None, metavar="A:B",
-                   help="time window [s] (default: the case's last window)")  # fmt: skip
+                   help="time window [s] (default: the case's last window)")
     p.add_argument("--out", default=None, metavar="PREFIX",
-                   help="output prefix (default: FILE without .h5 + _case<K>)")  # fmt: skip
+                   help="output prefix (default: FILE without .h5 + _case<K>)")
     p.add_argument("--force", action="store_true", help="overwrite existing output files")

@@ -34,7 +34,7 @@ def throttled(every_s: float = 5.0):
 
 
 def report_and_save(rows: list[dict], as_json: bool, printer, out: str | None, fill,
-                    kept: str = "the summary is printed above"):  # fmt: skip
+                    kept: str = "the summary is printed above"):
     """Rank 0 of a per-case command: the rows printed (JSON or ``printer(rows)``) before the
     file is written, so a full disk still leaves the numbers; ``fill(f)`` builds the HDF5
     file ``out`` (None: none). Returns the write's failure for ``agree``."""
@@ -81,7 +81,7 @@ def warn_unused(petsc_args: list[str]) -> None:
         return
     for name in sorted(left):
         print(f"wheelrom: warning: PETSc option -{name} was not used by any solver "
-              "(misspelt? prefixes in docs/usage.md)", file=sys.stderr)  # fmt: skip
+              "(misspelt? prefixes in docs/usage.md)", file=sys.stderr)
 
 
 def print_modes(model, table, reference, assembled) -> None:
@@ -150,7 +150,7 @@ KEY_UNITS = {"max_tip_amplitude": "m", "min_normal_force": "N"}
 #: unit from how a key ends (checked in order)
 SUFFIX_UNITS = (("gmadd_per_s", "Gmadd/s"), ("_per_s", "/s"), ("_n_per_m", "N/m"),
                 ("_m_per_n", "m/N"), ("_hz", "Hz"), ("_deg", "deg"), ("_s", "s"), ("_m", "m"),
-                ("_n", "N"), ("_j", "J"))  # fmt: skip
+                ("_n", "N"), ("_j", "J"))
 
 
 def unit_of(key: str) -> str:
@@ -189,7 +189,7 @@ def human_value(value, unit: str = "", max_items: int = 8) -> str:
         return value
     if isinstance(value, dict):
         return ", ".join(f"{k} {human_value(v, unit_of(str(k)) or unit)}"
-                         for k, v in value.items()) or "-"  # fmt: skip
+                         for k, v in value.items()) or "-"
     if isinstance(value, (list, tuple)):
         if not value:
             return "-"
@@ -214,7 +214,7 @@ NULL_REASONS = {
                     "no output sample in the last window, or a non-finite state (see status)"),
     "energy_balance_error": "no energy balance (energy or work not finite in the last window)",
     "relative_error_by_nd": "no full-wheel reference value",
-}  # fmt: skip
+}
 
 
 def print_json(obj: object) -> None:
@@ -223,7 +223,7 @@ def print_json(obj: object) -> None:
     found: dict = {}
     clean = jsonable(obj, "", found)
     nulls = {path: null_reason(path, seen) for path, seen in found.items()
-             if seen["NaN"] or seen["inf"] or seen["-inf"]}  # fmt: skip
+             if seen["NaN"] or seen["inf"] or seen["-inf"]}
     if nulls and isinstance(clean, dict):
         clean["null_fields"] = nulls
     json.dump(clean, sys.stdout, indent=1, allow_nan=False)
@@ -239,10 +239,10 @@ def jsonable(value, path: str, found: dict):
         value = value.tolist()
     if isinstance(value, dict):
         return {str(k): jsonable(v, f"{path}.{k}" if path else str(k), found)
-                for k, v in value.items()}  # fmt: skip
+                for k, v in value.items()}
     if isinstance(value, (list, tuple)):
         out = [jsonable(v, f"{path}[{i}]" if isinstance(v, dict) else path, found)
-               for i, v in enumerate(value)]  # fmt: skip
+               for i, v in enumerate(value)]
         if path in found:
             found[path]["list"] = True
         return out
@@ -300,16 +300,16 @@ def print_study(summary: dict, path: str) -> None:
     v, t = summary["verdicts"], summary["transients"]
     chosen = ", ".join(f"{k} {n}" for k, n in summary["selected_by"].items())
     print(f"{path}: {summary['cases']} cases of {', '.join(summary['parameters'])} "
-          f"({summary['mode']}, {summary['models']} model(s))")  # fmt: skip
+          f"({summary['mode']}, {summary['models']} model(s))")
     print(f"  linear stability: {v['stable']} stable, {v['unstable']} unstable, "
-          f"{v['failed']} failed")  # fmt: skip
+          f"{v['failed']} failed")
     print(f"  transients:       {t['done']} done, {t['failed']} failed, {t['pending']} "
-          f"pending, {t['skipped']} not run (selected by: {chosen})")  # fmt: skip
+          f"pending, {t['skipped']} not run (selected by: {chosen})")
     print_statistics(summary.get("statistics") or {}, "  ")
     design = summary.get("design")
     if design:
         print(f"  nonlinear forced response (H = {design['harmonics']}), peak tip amplitude "
-              f"per case [{', '.join(summary['parameters'])}]:")  # fmt: skip
+              f"per case [{', '.join(summary['parameters'])}]:")
         for i, (label, a, hz) in enumerate(zip(design["labels"], design["peak_amplitude_m"],
                                                design["peak_frequency_hz"], strict=True)):
             mark = "  <- smallest" if i == design["optimum"] else ""
@@ -319,7 +319,7 @@ def print_study(summary: dict, path: str) -> None:
             if exact is not None:  # forced.exact
                 mu = mu if every is None else every
                 words += (f" (exact {exact * 1e6:.4g} um, largest |mu| {mu:.4f}: "
-                          f"{'stable' if design['exact_stable'][i] else 'unstable'})")  # fmt: skip
+                          f"{'stable' if design['exact_stable'][i] else 'unstable'})")
             print(f"    [{i}] {label}: {words}{mark}")
 
 
@@ -330,13 +330,13 @@ def _margin_words(m: dict) -> str:
         return f"flutter margin: stable for every scanned {scanned} (up to 1024 x)"
     if m["critical_mu"] == 0:
         return (f"flutter margin: none, unstable without self-excitation (growth "
-                f"{m['growth_rate_without_self_excitation']:+.3g} /s)")  # fmt: skip
+                f"{m['growth_rate_without_self_excitation']:+.3g} /s)")
     if table:
         return (f"flutter margin: {m['ratio']:.3g} x (the wheel flutters once the aerodynamic "
                 f"table is {m['critical_mu']:.4g} x as strong: ND {m['nodal_diameter']} at "
-                f"{m['frequency_hz']:.4g} Hz)")  # fmt: skip
+                f"{m['frequency_hz']:.4g} Hz)")
     return (f"flutter margin: {m['ratio']:.3g} x (unstable above mu = {m['critical_mu']:.4g} "
-            f"N s/m, ND {m['nodal_diameter']} at {m['frequency_hz']:.4g} Hz)")  # fmt: skip
+            f"N s/m, ND {m['nodal_diameter']} at {m['frequency_hz']:.4g} Hz)")
 
 
 def number_ranges(values: list[int]) -> str:
@@ -368,7 +368,7 @@ def print_accuracy(table: dict) -> None:
     families = table["reference_hz"].shape[1]
     print("max over nodal diameters of |reduced / FE - 1| [%], by family")
     print(f"{'basis':18s} {'vectors':>7s} "
-          + " ".join(f"{'fam ' + str(j + 1):>9s}" for j in range(families)))  # fmt: skip
+          + " ".join(f"{'fam ' + str(j + 1):>9s}" for j in range(families)))
     for label, row in table["bases"].items():
         err = 100 * np.abs(row["relative_error"]).max(axis=0)
         print(f"{label:18s} {row['vectors']:7d} " + " ".join(f"{x:9.3f}" for x in err))

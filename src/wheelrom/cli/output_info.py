@@ -29,7 +29,7 @@ def print_info(info: dict, show_all: bool = False) -> None:
     elif info["kind"] == "stability":
         n = info["counts"]
         print(f"{info['file']}: linear stability, {n['total']} cases: {n['stable']} stable, "
-              f"{n['unstable']} unstable")  # fmt: skip
+              f"{n['unstable']} unstable")
     elif info["kind"] in PERIODIC_KINDS:
         print(periodic_title(info))
     else:
@@ -40,13 +40,13 @@ def print_info(info: dict, show_all: bool = False) -> None:
     if model:
         where = ", ".join(x for x in (model.get("preset") and f"{model['preset']} segment",
                                       model.get("segment_dofs") and f"{model['segment_dofs']} DOFs")
-                          if x)  # fmt: skip
+                          if x)
         print(f"  model:         {model['blades']} blades x {model['modes']} modes"
-              + (f" ({where})" if where else ""))  # fmt: skip
+              + (f" ({where})" if where else ""))
         print(f"  segment modes: {human_value(model['segment_hz'], 'Hz')}")
         if model.get("nodal_diameters"):
             print(f"  wheel modes:   ND 0..{model['nodal_diameters'] - 1} x {model['modes']} "
-                  "families (frequencies_by_nd)")  # fmt: skip
+                  "families (frequencies_by_nd)")
         for name, what in model.get("extras", {}).items():
             print(f"  also:          {name}: {what}")
     checks = info.get("checksums")
@@ -63,16 +63,16 @@ def print_info(info: dict, show_all: bool = False) -> None:
         for row in info["cases"]:
             print(f"{row['index']:5d} {row['tieboss_deg']:8g} {row['shroud_deg']:7g}  "
                   f"{row['verdict']:9s} {row['max_growth_rate']:+12.4g} {row['nodal_diameter']:3d}"
-                  f"  {row['frequency_hz']:14.1f}")  # fmt: skip
+                  f"  {row['frequency_hz']:14.1f}")
         return
     if info["kind"] != "results":
         return
     window = human_value(info["window_s"], "s")
     print(f"  time:          end {human_value(info['time_end_s'], 's')}, window {window} "
-          f"({info['windows']} windows)")  # fmt: skip
+          f"({info['windows']} windows)")
     c = info["counts"]
     print(f"  cases:         {c['done']} done, {c['failed']} failed, {c['pending']} pending; "
-          f"total wall time {human_value(info['total_wall_s'], 's')} (sum over cases)")  # fmt: skip
+          f"total wall time {human_value(info['total_wall_s'], 's')} (sum over cases)")
     print(f"  storage:       {_storage(info)}")
     _print_cases(info["cases"], info["windows"], show_all)
     if info.get("hint"):
@@ -85,7 +85,7 @@ def changed_text(mismatched: list, most: int = 10) -> str:
     in one piece); the first ``most`` of them."""
     words = [str(m) if isinstance(m, int) else
              f"case {m['case']} ({m['path']})" if m["case"] is not None else m["path"]
-             for m in mismatched[:most]]  # fmt: skip
+             for m in mismatched[:most]]
     more = len(mismatched) - most
     return ", ".join(words) + (f" and {more} more (--json lists them all)" if more > 0 else "")
 
@@ -109,7 +109,7 @@ def _storage(info: dict) -> str:
     """``4.77 MB per case (tip_history 4.75 MB, ...); file 91 MB``: the three largest
     per-case datasets."""
     parts = [f"{name} {_megabytes(n)}"
-             for name, n in list(info["bytes_per_case_by_dataset"].items())[:3]]  # fmt: skip
+             for name, n in list(info["bytes_per_case_by_dataset"].items())[:3]]
     return (f"{_megabytes(info['bytes_per_case'])} per case ({', '.join(parts)}); "
             f"file {_megabytes(info['file_bytes'])}")
 
@@ -136,13 +136,13 @@ def _print_cases(rows: list[dict], windows: int, show_all: bool) -> None:
         ends = [*range(ENDS_SHOWN), *range(len(rows) - ENDS_SHOWN, len(rows))]
         shown = {*ends, *(r["index"] for r in rows if r["status"] == "failed")}
     print(f"{'case':>5s} {'tie-boss':>8s} {'shroud':>7s}  {'status':8s} {'windows':>7s} "
-          f"{'wall [s]':>9s}  TS")  # fmt: skip
+          f"{'wall [s]':>9s}  TS")
     for row in _shown(rows, shown):
         wall = "-" if row["wall_s"] is None else f"{row['wall_s']:.4g}"
         reason = f"  {row['reason']}" if row["reason"] else ""
         print(f"{row['index']:5d} {row['tieboss_deg']:8g} {row['shroud_deg']:7g}  "
               f"{row['status']:8s} {str(row['windows_done']) + '/' + str(windows):>7s} "
-              f"{wall:>9s}  {row['scheme']}{reason}")  # fmt: skip
+              f"{wall:>9s}  {row['scheme']}{reason}")
 
 
 def _print_study_cases(info: dict, show_all: bool) -> None:
@@ -152,7 +152,7 @@ def _print_study_cases(info: dict, show_all: bool) -> None:
     v, c = info["verdicts"], info["counts"]
     print(f"  stability:     {v['stable']} stable, {v['unstable']} unstable, {v['failed']} failed")
     print(f"  transients:    {c['done']} done, {c['failed']} failed, {c['pending']} pending, "
-          f"{c['skipped']} not run")  # fmt: skip
+          f"{c['skipped']} not run")
     print_statistics(info.get("statistics") or {}, "  ")
     rows = info["cases"]
     shown = set(range(len(rows)))
@@ -160,7 +160,7 @@ def _print_study_cases(info: dict, show_all: bool) -> None:
         shown = {*range(ENDS_SHOWN), *range(len(rows) - ENDS_SHOWN, len(rows)),
                  *(r["index"] for r in rows if "failed" in (r["status"], r["verdict"]))}
     print(f"{'case':>5s}  {'verdict':9s} {'growth [1/s]':>12s}  {'selected':13s} {'transient':9s}"
-          f" {'wall [s]':>9s}  parameters")  # fmt: skip
+          f" {'wall [s]':>9s}  parameters")
     for row in _shown(rows, shown):
         growth = "-" if row["max_growth_rate"] is None else f"{row['max_growth_rate']:+.4g}"
         wall = "-" if row["wall_s"] is None else f"{row['wall_s']:.4g}"
@@ -168,6 +168,6 @@ def _print_study_cases(info: dict, show_all: bool) -> None:
         params += f"  amplification {row['amplification']:.4f}" if row.get("amplification") else ""
         why = "  " + (row["reason"] or row["stability_failure"] or "")
         print(f"{row['index']:5d}  {row['verdict']:9s} {growth:>12s}  {row['selected_by']:13s} "
-              f"{row['status']:9s} {wall:>9s}  {params}{why.rstrip()}")  # fmt: skip
+              f"{row['status']:9s} {wall:>9s}  {params}{why.rstrip()}")
     if info.get("hint"):
         print(info["hint"])

@@ -11,7 +11,7 @@ PERIODIC_KINDS = ("limit-cycle", "settle")
 def _angles(row: dict) -> str:
     """``tieboss 45 deg, shroud 65 deg`` (a study's other values as ``key=value``)."""
     values = row["parameters"] or {"contacts.tieboss.angle_deg": row["tieboss_deg"],
-                                   "contacts.shroud.angle_deg": row["shroud_deg"]}  # fmt: skip
+                                   "contacts.shroud.angle_deg": row["shroud_deg"]}
     words = []
     for key, value in values.items():
         kind = key.removeprefix("contacts.").removesuffix(".angle_deg")
@@ -32,11 +32,11 @@ def periodic_title(info: dict) -> str:
                    f"cycle(s), harmonic balance for {missed} whose shot did not converge")
         return (f"{info['file']}: limit cycles, {n['total']} case(s) ({how}; H = "
                 f"{s.get('harmonics')}, {s.get('samples')} samples, time step "
-                f"{s.get('time_step', 0) * 1e6:g} us)")  # fmt: skip
+                f"{s.get('time_step', 0) * 1e6:g} us)")
     return (f"{info['file']}: where the flutter settles, {n['total']} case(s): {n['settled']} "
             f"settled, {n['not_settled']} not (start {s.get('start')}, windows of "
             f"{s.get('window_periods')} periods, tolerance {s.get('tolerance')}, at most "
-            f"{s.get('max_time')} s)")  # fmt: skip
+            f"{s.get('max_time')} s)")
 
 
 def _cycle_line(c: dict) -> str:
@@ -50,7 +50,7 @@ def _cycle_line(c: dict) -> str:
         text += ", stable" if c["stable"] else ", unstable"
     if c["largest_multiplier"] is not None:
         text += (f", largest multiplier {c['largest_multiplier']:.4g} (ND "
-                 f"{c['largest_multiplier_nd']})")  # fmt: skip
+                 f"{c['largest_multiplier_nd']})")
     return text
 
 
@@ -58,14 +58,14 @@ def print_periodic_cases(info: dict) -> None:
     """Per case its angles, wall time and verdict; a limit-cycle case adds per wave the Hopf
     point and the cycles, a settle case the final state's amplitude and time."""
     print(f"  cases:         total wall time {info['total_wall_s']:.1f} s (sum over cases), "
-          f"file {info['file_bytes'] / 1e6:.3g} MB")  # fmt: skip
+          f"file {info['file_bytes'] / 1e6:.3g} MB")
     for row in info["cases"]:
         wall = f"{row['wall_s']:.1f} s" if row["wall_s"] is not None else "-"
         print(f"{row['index']:5d}  {_angles(row)} ({wall}): {row['verdict']}")
         for w in row.get("waves", []):
             where = "forward" if w["direction"] > 0 else "backward"
             hopf = (f"Hopf at {w['hopf_factor']:.4g} x mu, {w['hopf_hz']:.5g} Hz"
-                    if w["hopf_factor"] is not None else "no Hopf point")  # fmt: skip
+                    if w["hopf_factor"] is not None else "no Hopf point")
             print(f"         wave {w['wave']} (ND {w['nodal_diameter']} {where}, {hopf})")
             for c in w["cycles"]:
                 print(f"           {_cycle_line(c)}")
@@ -73,4 +73,4 @@ def print_periodic_cases(info: dict) -> None:
             state = row["kind"] or ("settled" if row["settled"] else "not settled")
             print(f"         {state} at t = {row['time_s']:.3g} s, largest blade tip "
                   f"{row['max_amplitude_m'] * 1e6:.4g} um in the last window (started at "
-                  f"{(row['start_amplitude_m'] or 0) * 1e6:.4g} um)")  # fmt: skip
+                  f"{(row['start_amplitude_m'] or 0) * 1e6:.4g} um)")

@@ -19,9 +19,9 @@ PROGRESS_EVERY_S = 5.0
 def args_settle(p: argparse.ArgumentParser) -> None:
     json_out(p)
     p.add_argument("--out", help="write the settled states to this HDF5 file (finished cases "
-                   "are kept beside it while the job runs: --resume continues)")  # fmt: skip
+                   "are kept beside it while the job runs: --resume continues)")
     p.add_argument("--cycles", help="a limit-cycle file (wheelrom limit-cycle --out) whose "
-                   "exact orbits start the cases (settle.start = 'cycle')")  # fmt: skip
+                   "exact orbits start the cases (settle.start = 'cycle')")
     p.add_argument("--force", action="store_true", help="overwrite an existing --out")
     p.add_argument("--resume", action="store_true",
                    help="keep the cases an interrupted run of the same configuration finished")
@@ -59,7 +59,7 @@ def cmd_settle(args: argparse.Namespace) -> int:
     # an earlier run's cases, not asked for: removed by one rank before any rank keeps a case
     # (two ranks removing it raced, one unlinking what the other had listed)
     if args.out and not args.resume and (comm is None or comm.rank == 0) and \
-            os.path.isdir(sidecar_dir(args.out)):  # fmt: skip
+            os.path.isdir(sidecar_dir(args.out)):
         shutil.rmtree(sidecar_dir(args.out))
     if comm is not None:
         comm.barrier()
@@ -67,7 +67,7 @@ def cmd_settle(args: argparse.Namespace) -> int:
         model, cases, directory = run_settle(
             cfg, args.out, comm, log=quiet if args.json else log, resume=args.resume,
             cycles_file=args.cycles, progress=None if args.json else throttled(PROGRESS_EVERY_S),
-            warn=log)  # fmt: skip
+            warn=log)
     except KeyboardInterrupt:  # Ctrl-C, or mpirun's SIGTERM (a rank killed): say what is kept
         raise _interrupted(args, cfg) from None
     failure = None
@@ -113,7 +113,7 @@ def _interrupted(args: argparse.Namespace, cfg) -> Interrupted:
     kept, total = kept_cases(directory, cfg)
     if not kept:
         return Interrupted(f"interrupted: none of the {total} case(s) had finished; nothing "
-                           "is kept")  # fmt: skip
+                           "is kept")
     failed = sum(status != "done" for status in kept.values())
     failed = f" ({failed} failed: --resume does not rerun them)" if failed else ""
     left = total - len(kept)
@@ -121,7 +121,7 @@ def _interrupted(args: argparse.Namespace, cfg) -> Interrupted:
     flags = f" --cycles {shlex.quote(args.cycles)}" if args.cycles else ""
     return Interrupted(f"interrupted: {_which(kept, total)} finished and kept in {directory}"
                        f"{failed}; {then}, rerun the settle with{flags} --resume"
-                       + resume_line(args.out, cfg.source, "settle", flags))  # fmt: skip
+                       + resume_line(args.out, cfg.source, "settle", flags))
 
 
 def _print_rows(rows: list[dict]) -> None:

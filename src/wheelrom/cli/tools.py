@@ -35,7 +35,7 @@ def cmd_contact_stiffness(args: argparse.Namespace) -> int:
     kinds = [k for k in CONTACT_KINDS if f"{k}_A" in seg.node_sets]
     out = {}
     for kind, (angles, values, flex) in contact_stiffness_tables(segment, kinds,
-                                                                 comm_self()).items():  # fmt: skip
+                                                                 comm_self()).items():
         configured = cfg.contact(kind).stiffness
         out[kind] = {
             "angle_deg": angles.tolist(),
@@ -62,13 +62,13 @@ def cmd_accuracy(args: argparse.Namespace) -> int:
 
     cfg = load_config(args)
     table = accuracy_table(cfg, comm_self(), tuple(args.modes), args.enriched_modes,
-                           args.families, log=quiet if args.json else log)  # fmt: skip
+                           args.families, log=quiet if args.json else log)
     if args.json:
         print_json({
             "reference_hz": table["reference_hz"].tolist(),
             "bases": {k: {"vectors": v["vectors"], "relative_error": v["relative_error"].tolist()}
                       for k, v in table["bases"].items()},
-        })  # fmt: skip
+        })
     else:
         print_accuracy(table)
     return 0
@@ -111,7 +111,7 @@ def cmd_campbell(args: argparse.Namespace) -> int:
     written = plot_campbell(data, args.outdir, pdf=args.pdf, force=args.force)
     if args.json:
         print_json({k: (v.tolist() if hasattr(v, "tolist") else v) for k, v in data.items()}
-                   | {"figures": written})  # fmt: skip
+                   | {"figures": written})
     else:
         print("\n".join(written))
     return 0
@@ -131,7 +131,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     model = build_model(cfg, comm_self(), log=say)
     # the groups' progress goes to stderr even with --json (stdout holds the JSON only)
     out = run(model, cfg, steps=args.steps, compare_steps=args.reference_steps, log=log,
-              batch=args.batch)  # fmt: skip
+              batch=args.batch)
     print_result(out, args.json)
     return 0
 
@@ -148,7 +148,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
     outdir = args.outdir or figures_dir(args.results)
     check_outdir(outdir)
     written = plot_file(args.results, outdir, pdf=args.pdf, nd_angles=args.nd_angles,
-                        force=args.force)  # fmt: skip
+                        force=args.force)
     for path in written:
         print(path)
     return 0
@@ -172,7 +172,7 @@ def cmd_info(args: argparse.Namespace) -> int:
             log(f"wheelrom: {args.file}: case(s) {changed} changed since they were written "
                 "(checksum mismatch): recompute them" if checks.get("scope") != "file" else
                 f"wheelrom: {args.file}: {changed} changed since written (checksum "
-                "mismatch): compute the file again")  # fmt: skip
+                "mismatch): compute the file again")
         return 1
     if checks and not checks["stored"] and not args.json:  # exit 0: an older file is whole
         log(f"wheelrom: {args.file}: no checksums stored (written before wheelrom kept them): "

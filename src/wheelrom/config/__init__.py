@@ -39,4 +39,4 @@ __all__ = [
     "ExcitationConfig", "FlutterConfig", "ForcedConfig", "FrictionConfig", "MistuningConfig",
     "OutputConfig", "SegmentConfig", "StudyConfig", "SweepConfig", "TimeConfig", "WheelConfig",
     "from_dict", "load", "parse_override", "sample_every", "to_dict", "to_toml",
-]  # fmt: skip
+]

@@ -62,32 +62,32 @@ class FlutterConfig:
                       "'table'; docs/theory.md 'Aerodynamic damping table'): a column 'nd' or "
                       "'ibpa_deg', and 'damping_ratio' or 'aero_damping' [N s/m] (with "
                       "optional 'aero_stiffness' [N/m]), optional 'frequency_hz'; relative "
-                      "to the TOML"),  # fmt: skip
+                      "to the TOML"),
     )
     table_phase: str = field(
         default="lead",
         metadata=_key("-", "what the table's ND k / phase angle sigma means: 'lead' (blade "
                       "s+1 leads blade s by sigma = 2 pi k / N, wheelrom's convention) or "
-                      "'lag' (blade s+1 lags by sigma)", choices=("lead", "lag")),  # fmt: skip
+                      "'lag' (blade s+1 lags by sigma)", choices=("lead", "lag")),
     )
     table_directions: str = field(
         default="both",
         metadata=_key("-", "'both': the table covers both travelling directions (ND 0..N-1, "
                       "or -N/2..N/2, or phase angles around the circle); 'symmetric': ND "
                       "0..N/2 (0..180 deg), the same value for both directions",
-                      choices=("both", "symmetric")),  # fmt: skip
+                      choices=("both", "symmetric")),
     )
     table_sign: int = field(
         default=0,
         metadata=_key("-", "sign of the table's damping: 1 positive = stabilising (the flow "
                       "takes energy out), -1 positive = destabilising (aerodynamic work on "
                       "the blade), 0 = 1 after a check that the damping is not negative at "
-                      "most phase angles (the usual sign mistake)", min=-1, max=1),  # fmt: skip
+                      "most phase angles (the usual sign mistake)", min=-1, max=1),
     )
     table_scale: float = field(
         default=1.0,
         metadata=_key("-", "factor on the table's aerodynamic coefficients (the flutter "
-                      "margin is the factor at which the wheel flutters)", min=0.0),  # fmt: skip
+                      "margin is the factor at which the wheel flutters)", min=0.0),
     )
 
 
@@ -110,7 +110,7 @@ class AeroTable:
 
 
 def read_aero_table(name: str, source: str, blades: int, phase: str = "lead",
-                    directions: str = "both", sign: int = 0) -> AeroTable:  # fmt: skip
+                    directions: str = "both", sign: int = 0) -> AeroTable:
     """The table ``name`` (``flutter.table``, relative to the TOML ``source``) for a wheel of
     ``blades``; ``phase``, ``directions``, ``sign``: ``flutter.table_phase``,
     ``table_directions``, ``table_sign``. ``ValueError`` naming the file and the line."""
@@ -142,14 +142,14 @@ def _read_rows(name: str, path: str, stamp) -> tuple[tuple[str, ...], tuple]:
             continue
         if len(words) != len(header):
             raise ValueError(f"{name}: line {number} has {len(words)} values for the "
-                             f"{len(header)} columns {', '.join(header)}")  # fmt: skip
+                             f"{len(header)} columns {', '.join(header)}")
         values = []
         for column, word in zip(header, words, strict=True):
             try:
                 value = float(word)
             except ValueError:
                 raise ValueError(f"{name}: line {number}, {column} = {quoted(word)} is not a "
-                                 "number") from None  # fmt: skip
+                                 "number") from None
             if not math.isfinite(value):
                 raise ValueError(f"{name}: line {number}, {column} = {word} is not finite")
             values.append(value)
@@ -166,20 +166,20 @@ def _check_header(name: str, line: int, header: tuple[str, ...]) -> None:
     for column in header:
         if column not in known:
             raise ValueError(f"{name}: line {line}: unknown column {quoted(column)} (known: "
-                             f"{', '.join(known)})")  # fmt: skip
+                             f"{', '.join(known)})")
     for column in set(header):
         if header.count(column) > 1:
             raise ValueError(f"{name}: line {line}: column {column!r} appears twice")
     phases = [c for c in header if c in PHASE_COLUMNS]
     if len(phases) != 1:
         raise ValueError(f"{name}: line {line}: needs exactly one of the columns 'nd' or "
-                         f"'ibpa_deg', found {phases or 'none'}")  # fmt: skip
+                         f"'ibpa_deg', found {phases or 'none'}")
     if ("damping_ratio" in header) == ("aero_damping" in header):
         raise ValueError(f"{name}: line {line}: needs exactly one of the columns "
-                         "'damping_ratio' or 'aero_damping'")  # fmt: skip
+                         "'damping_ratio' or 'aero_damping'")
     if "aero_stiffness" in header and "aero_damping" not in header:
         raise ValueError(f"{name}: line {line}: 'aero_stiffness' goes with 'aero_damping' "
-                         "(a damping ratio has no stiffness part)")  # fmt: skip
+                         "(a damping ratio has no stiffness part)")
 
 
 def _per_nd(name, header, rows, N, phase, directions, sign) -> AeroTable:
@@ -228,7 +228,7 @@ def _check_values(name, lines, col) -> None:
          "is not below 1 in magnitude (a damping ratio; aerodynamic damping of a blade row is "
          "a few per cent at most)"),
         ("frequency_hz", lambda v: v <= 0.0, "is not positive"),
-    )  # fmt: skip
+    )
     for column, bad, why in checks:
         if column in col:
             wrong = np.flatnonzero(bad(col[column]))
@@ -260,14 +260,14 @@ def _nd_rows(name, lines, nd, N, phase, symmetric) -> np.ndarray:
         if far.size:
             i = far[0]
             raise ValueError(f"{name}: line {lines[i]}, nd = {nd[i]}: a symmetric table "
-                             f"(flutter.table_directions) gives ND 0..{N // 2}")  # fmt: skip
+                             f"(flutter.table_directions) gives ND 0..{N // 2}")
         keys = nd
     else:
         far = np.flatnonzero((nd <= -N) | (nd >= N))
         if far.size:
             i = far[0]
             raise ValueError(f"{name}: line {lines[i]}, nd = {nd[i]} is outside -{N - 1}..{N - 1} "
-                             f"for {N} blades")  # fmt: skip
+                             f"for {N} blades")
         keys = nd % N
         if phase == "lag":
             keys = (-nd) % N
@@ -275,7 +275,7 @@ def _nd_rows(name, lines, nd, N, phase, symmetric) -> np.ndarray:
     if twice:
         i, j = twice
         raise ValueError(f"{name}: lines {lines[i]} and {lines[j]} give the same nodal diameter "
-                         f"(nd = {nd[i]} and {nd[j]} for {N} blades)")  # fmt: skip
+                         f"(nd = {nd[i]} and {nd[j]} for {N} blades)")
     wanted = np.arange(N // 2 + 1) if symmetric else np.arange(N)
     missing = np.setdiff1d(wanted, keys)
     if missing.size:
@@ -284,7 +284,7 @@ def _nd_rows(name, lines, nd, N, phase, symmetric) -> np.ndarray:
         span = f"0..{N // 2}" if symmetric else f"0..{N - 1} (or -{(N - 1) // 2}..{N // 2})"
         raise ValueError(f"{name}: nodal diameter(s) {listed} missing: the table must give "
                          f"every ND {span} of the {N}-blade wheel (or use 'ibpa_deg' to "
-                         "interpolate)")  # fmt: skip
+                         "interpolate)")
     index = np.empty(N, dtype=int)
     where = {int(k): i for i, k in enumerate(keys)}
     for k in range(N):
@@ -299,7 +299,7 @@ def _ibpa_points(name, lines, ibpa, phase, symmetric) -> np.ndarray:
         if far.size:
             i = far[0]
             raise ValueError(f"{name}: line {lines[i]}, ibpa_deg = {ibpa[i]:g}: a symmetric "
-                             "table gives 0..180 deg")  # fmt: skip
+                             "table gives 0..180 deg")
         sigma = ibpa.copy()
     else:
         sigma = np.mod(-ibpa if phase == "lag" else ibpa, 360.0)
@@ -307,7 +307,7 @@ def _ibpa_points(name, lines, ibpa, phase, symmetric) -> np.ndarray:
     if twice:
         i, j = twice
         raise ValueError(f"{name}: lines {lines[i]} and {lines[j]} give the same phase angle "
-                         f"({ibpa[i]:g} and {ibpa[j]:g} deg)")  # fmt: skip
+                         f"({ibpa[i]:g} and {ibpa[j]:g} deg)")
     if sigma.size < 2:
         raise ValueError(f"{name}: one phase angle; interpolation needs at least two")
     return sigma
@@ -338,10 +338,10 @@ def aero_table_problems(cfg: Any, source: str, problems: list[str]) -> None:
         return
     try:
         table = read_aero_table(fl.table, source, blades, fl.table_phase, fl.table_directions,
-                                fl.table_sign)  # fmt: skip
+                                fl.table_sign)
     except ValueError as exc:
         problems.append(f"flutter.table: {exc}")
         return
     if table.damping_ratio is not None and fl.mode == -1:
         problems.append("flutter.mode: a damping-ratio table is of one segment mode's family; "
-                        "use 'auto' or a mode number (or give aero_damping in N s/m)")  # fmt: skip
+                        "use 'auto' or a mode number (or give aero_damping in N s/m)")

@@ -15,7 +15,7 @@ CONTACT_KINDS = ("tieboss", "shroud")
 #: of what overflows the contact laws (1e308 N)
 MAX_NORMAL_PRELOAD = 1e7
 __all__ = ["CONTACT_KINDS", "CONTACT_LAWS", "MAX_NORMAL_PRELOAD", "ContactConfig",
-           "ContactsConfig", "FrictionConfig", "law_problems"]  # fmt: skip
+           "ContactsConfig", "FrictionConfig", "law_problems"]
 
 
 @dataclass(frozen=True)
@@ -73,7 +73,7 @@ class ContactsConfig:
         metadata=_key("-", "'paper' (friction of the slip velocity, Fig. 4: f_s, f_d, decay, "
                       "v_k) or 'elastic' (Coulomb with a tangential stiffness k_t while the "
                       "contact sticks, mu = friction.coulomb when it slips)",
-                      choices=CONTACT_LAWS),  # fmt: skip
+                      choices=CONTACT_LAWS),
     )
     tieboss: ContactConfig = field(default_factory=ContactConfig)
     shroud: ContactConfig = field(default_factory=_shroud_default)
@@ -100,7 +100,7 @@ class FrictionConfig:
         default=0.4,
         metadata=_key("-", "contacts.law = 'elastic' only: Coulomb coefficient mu of the "
                       "slipping contact (Table 1's f_d, the coefficient of sustained sliding)",
-                      min=0.0, max=10.0),  # fmt: skip
+                      min=0.0, max=10.0),
     )
 
 

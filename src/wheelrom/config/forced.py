@@ -32,18 +32,18 @@ class MistuningConfig:
         default=(),
         metadata=_key("-", "per-blade modal stiffness deviation delta_s (Lambda_s = (1 + "
                       "delta_s) Lambda), one per blade; [] = none", min=-0.5, max=0.5,
-                      allow_empty=True),  # fmt: skip
+                      allow_empty=True),
     )
     file: str = field(
         default="",
         metadata=_key("-", "file of delta_s, one per blade, added to the pattern: CSV/text "
                       "(numbers separated by commas, spaces or lines; # comments) or .npy; "
-                      "relative to the TOML; '' = none"),  # fmt: skip
+                      "relative to the TOML; '' = none"),
     )
     alternate: float = field(
         default=0.0,
         metadata=_key("-", "alternate mistuning: +a on even blades, -a on odd ones",
-                      min=-0.5, max=0.5),  # fmt: skip
+                      min=-0.5, max=0.5),
     )
     std: float = field(
         default=0.0,
@@ -53,7 +53,7 @@ class MistuningConfig:
         default="normal",
         metadata=_key("-", "distribution of the random mistuning: 'normal' or 'uniform' "
                       "(on +-sqrt(3) std: the same standard deviation)",
-                      choices=("normal", "uniform")),  # fmt: skip
+                      choices=("normal", "uniform")),
     )
     seed: int = field(default=0, metadata=_key("-", "seed of the random mistuning", min=0))
 
@@ -64,29 +64,29 @@ class ForcedConfig:
         default=(),
         metadata=_key("Hz", "[lo, hi] excitation frequency band of the peak search; [] = "
                       "automatic: the tuned resonance of the excited ND's mode 'family' "
-                      "+-max(1 %, 2 max|delta_s|)", min=0.0, allow_empty=True),  # fmt: skip
+                      "+-max(1 %, 2 max|delta_s|)", min=0.0, allow_empty=True),
     )
     family: int = field(
         default=0,
         metadata=_key("-", "mode family (0: lowest) of the excited ND the automatic band is "
                       "centred on (over the speed: its Campbell crossing with the engine "
                       "order; up to the model's modes, attachment vectors included)",
-                      min=0),  # fmt: skip
+                      min=0),
     )
     contacts: bool = field(
         default=True,
         metadata=_key("-", "contacts linearised at the preloaded equilibrium (false: K_R "
-                      "and beta_D K_R alone)"),  # fmt: skip
+                      "and beta_D K_R alone)"),
     )
     points: int = field(
         default=41,
         metadata=_key("-", "coarse grid over the band whose local maxima are peak candidates "
-                      "besides the eigenfrequencies (0: none)", min=0, max=100_000),  # fmt: skip
+                      "besides the eigenfrequencies (0: none)", min=0, max=100_000),
     )
     harmonics: int = field(
         default=5,
         metadata=_key("-", "harmonics H of the nonlinear forced response (forced-response "
-                      "--nonlinear, study --forced-nonlinear)", min=1, max=64),  # fmt: skip
+                      "--nonlinear, study --forced-nonlinear)", min=1, max=64),
     )
     continuation: str = field(
         default="grid",
@@ -94,7 +94,7 @@ class ForcedConfig:
                       "(Newton per frequency of forced.points, from the last) or "
                       "'arclength' (the grid, then the curve traced through its folds by "
                       "pseudo-arclength continuation over the band)",
-                      choices=("grid", "arclength")),  # fmt: skip
+                      choices=("grid", "arclength")),
     )
     over: str = field(
         default="frequency",
@@ -104,14 +104,14 @@ class ForcedConfig:
                       "it, centrifugal stiffening less spin softening, and the curve is the "
                       "Campbell crossing itself; needs segment.prestress at wheel.speed_hz > "
                       "0 to move the stiffness)",
-                      choices=("frequency", "speed")),  # fmt: skip
+                      choices=("frequency", "speed")),
     )
     exact: bool = field(
         default=False,
         metadata=_key("-", "the design study's peaks made exact (study --forced-nonlinear): "
                       "the state at each case's refined peak by shooting on the transient's "
                       "equations, its amplitude and Floquet multipliers beside the harmonic "
-                      "balance's (a minute or more a case on the paper wheel)"),  # fmt: skip
+                      "balance's (a minute or more a case on the paper wheel)"),
     )
 
 
@@ -129,7 +129,7 @@ def read_mistuning_file(name: str, source: str, blades: int) -> np.ndarray:
     bad = np.flatnonzero(~np.isfinite(values) | (np.abs(values) > MISTUNING_LIMIT))
     if bad.size:
         raise ValueError(f"{name}: blade {bad[0]}'s value {values[bad[0]]!r} is not a finite "
-                         f"number within +-{MISTUNING_LIMIT}")  # fmt: skip
+                         f"number within +-{MISTUNING_LIMIT}")
     return values.copy()
 
 
@@ -157,7 +157,7 @@ def _read_values(name: str, path: str, stamp) -> np.ndarray:
     except (OSError, UnicodeDecodeError) as exc:
         raise ValueError(f"{name}: cannot be read ({exc})") from None
     words = [w for line in text.splitlines() for w in
-             re.split(r"[,;\s]+", line.split("#")[0]) if w]  # fmt: skip
+             re.split(r"[,;\s]+", line.split("#")[0]) if w]
     values = np.empty(len(words))
     for i, word in enumerate(words):
         try:
@@ -176,7 +176,7 @@ def mistuning_problems(cfg: Any, source: str, problems: list[str]) -> None:
     pattern = mt.pattern
     if isinstance(pattern, tuple) and pattern and len(pattern) != blades:
         problems.append(f"mistuning.pattern: {len(pattern)} values for {blades} blades "
-                        "(one per blade)")  # fmt: skip
+                        "(one per blade)")
     if isinstance(mt.file, str) and mt.file:
         try:
             read_mistuning_file(mt.file, source, blades)
@@ -193,7 +193,7 @@ def forced_problems(cfg: Any, problems: list[str]) -> None:
     if isinstance(band, tuple) and band and all(is_number(v) for v in band):
         if len(band) != 2 or not band[0] < band[1] or not all(math.isfinite(v) for v in band):
             problems.append(f"forced.band_hz: expected [] (automatic) or [lo, hi] with "
-                            f"lo < hi [Hz], got {list(band)}")  # fmt: skip
+                            f"lo < hi [Hz], got {list(band)}")
     free = getattr(cfg.wheel, "basis", "free") == "free"
     if isinstance(fam, int) and isinstance(m, int) and fam >= m and free:
         problems.append(f"forced.family: {fam} is not below wheel.modes_per_segment ({m})")

@@ -174,7 +174,7 @@ class TimeConfig:
         default=(),
         metadata=_key("-", "travelling waves k (blade s+1 leads by 2 pi k / N; 0..N-1) the start "
                       "perturbation seeds; [] = every one", min=0, integers=True,
-                      allow_empty=True),  # fmt: skip
+                      allow_empty=True),
     )
 
 
@@ -183,19 +183,19 @@ class OutputConfig:
     sample_rate_hz: float = field(
         default=20000.0,
         metadata=_key("Hz", "sample rate of the window statistics (tip amplitude, contact "
-                      "forces, ND spectrum) and the divergence check", gt=0.0),  # fmt: skip
+                      "forces, ND spectrum) and the divergence check", gt=0.0),
     )
     history_rate_hz: float = field(
         default=2000.0,
         metadata=_key("Hz", "rate of the stored tip history: every k-th statistics sample, "
                       "k = sample_rate_hz / history_rate_hz a whole number (at or above the "
-                      "sample rate: every sample); 0: no tip history", min=0.0),  # fmt: skip
+                      "sample rate: every sample); 0: no tip history", min=0.0),
     )
     state_rate_hz: float = field(
         default=0.0,
         metadata=_key("Hz", "rate of the stored modal state history (q, q' of every blade, "
                       "for 'wheelrom animate' and 'contacts'), same rule; 0: none",
-                      min=0.0),  # fmt: skip
+                      min=0.0),
     )
 
 
@@ -221,7 +221,7 @@ def _history_problems(out: OutputConfig, problems: list[str]) -> None:
             lo, hi = rate / math.ceil(k), rate / math.floor(k)
             problems.append(f"output.{name}: {value:g} Hz is not output.sample_rate_hz "
                             f"({rate:g} Hz) divided by a whole number (the history keeps every "
-                            f"k-th statistics sample); use {lo:g} or {hi:g} Hz")  # fmt: skip
+                            f"k-th statistics sample); use {lo:g} or {hi:g} Hz")
 
 
 def _paper_shroud_angles() -> list[float]:
@@ -243,7 +243,7 @@ class SweepConfig:
 class StudyConfig:  # wheelrom study (docs/usage.md "Design studies"); none: the [sweep] grid
     grid: Mapping[str, Any] = field(default_factory=dict, metadata=_key(  # every combination
         "-", "axes: dotted.key = [values] or 'start:stop:step' (stop included)", study_table=True))
-    zip: Mapping[str, Any] = field(default_factory=dict, metadata=_key(  # fmt: skip
+    zip: Mapping[str, Any] = field(default_factory=dict, metadata=_key(
         "-", "one axis: dotted.key = [values], the lists of equal length", study_table=True))
     cases: str = field(default="", metadata=_key(
         "-", "CSV file of cases, one axis (header: dotted keys; relative to the TOML); '' = none"))
@@ -369,7 +369,7 @@ def _cross_checks(cfg: Config, problems: list[str]) -> None:
         if is_number(rate) and rate * t.step > 1.0:
             problems.append(f"output.sample_rate_hz: {rate} Hz exceeds 1/time.step")
         elif (is_number(rate) and _shortest_window(t.end, t.window) > 0
-              and rate * _shortest_window(t.end, t.window) < 1.0 - 1e-9):  # fmt: skip
+              and rate * _shortest_window(t.end, t.window) < 1.0 - 1e-9):
             shortest = _shortest_window(t.end, t.window)
             problems.append(
                 f"output.sample_rate_hz: {rate} Hz leaves a window of {shortest:.6g} s without "

@@ -44,7 +44,7 @@ MAX_CASES = 100_000
 #: keys that do not change the reduced model (forces and time only; the mistuning is put on
 #: the group's tuned model per case: Monte Carlo realisations share one model)
 FORCE_SECTIONS = ("excitation", "flutter", "friction", "time", "output", "sweep", "study",
-                  "mistuning", "forced", "limit_cycle", "settle")  # fmt: skip
+                  "mistuning", "forced", "limit_cycle", "settle")
 FORCE_WHEEL_KEYS = ("stator_vanes", "damping_beta")
 
 
@@ -69,7 +69,7 @@ class Study:
     def label(self, i: int) -> str:
         """``key=value, ...`` of case ``i`` (short keys: the last two parts)."""
         return ", ".join(f"{short_name(k)}={_text(v)}"
-                         for k, v in zip(self.names, self.values[i], strict=True))  # fmt: skip
+                         for k, v in zip(self.names, self.values[i], strict=True))
 
 
 def short_name(key: str) -> str:
@@ -104,7 +104,7 @@ def expand(cfg: Config) -> Study:
     twice = sorted({k for k in names if names.count(k) > 1})
     if twice:
         problems.append(f"study: {', '.join(twice)} varied twice (grid, zip and cases each "
-                        "name a key once)")  # fmt: skip
+                        "name a key once)")
     _raise(cfg, problems)
     shape = tuple(len(ax[0][1]) for ax in axes)
     if math.prod(shape) > MAX_CASES:
@@ -142,7 +142,7 @@ def case_configs(cfg: Config, names: list[str], values) -> tuple[Config, ...]:
         except ConfigError as exc:
             label = ", ".join(f"{k}={_text(v)}" for k, v in zip(names, row, strict=True))
             problems += [f"study case {i} ({label}): {p.removeprefix(cfg.source + ': ')}"
-                         for p in exc.problems]  # fmt: skip
+                         for p in exc.problems]
     _raise(cfg, problems)
     return tuple(out)
 
@@ -161,7 +161,7 @@ def study_field(key: str) -> tuple[dataclasses.Field | None, str | None]:
     parts = key.split(".")
     for depth, part in enumerate(parts):
         names = [f.name for f in dataclasses.fields(node)
-                 if not (isinstance(node, Config) and f.name == "source")]  # fmt: skip
+                 if not (isinstance(node, Config) and f.name == "source")]
         if part not in names:
             where = ".".join(parts[:depth]) or "the configuration"
             return None, f"unknown key ({quoted(part)} is not in {where})"
@@ -187,7 +187,7 @@ def _variable(key: str, f: dataclasses.Field, default) -> tuple:
     numeric = is_number(default) or isinstance(default, bool) or either
     if not (numeric or (isinstance(default, str) and "choices" in f.metadata)):
         return None, ("is not numeric: a study varies numbers, true/false and named choices, "
-                      "not lists, tables or free text")  # fmt: skip
+                      "not lists, tables or free text")
     return f, None
 
 
@@ -262,7 +262,7 @@ def _csv_axis(cfg: Config, problems: list[str]) -> list[tuple[str, list]]:
         # utf-8-sig: a byte-order mark (Excel's "CSV UTF-8") is not part of the first key
         with open(path, newline="", encoding="utf-8-sig") as fh:
             rows = [(n, r) for n, r in enumerate(csv.reader(fh), start=1)
-                    if any(c.strip() for c in r)]  # fmt: skip
+                    if any(c.strip() for c in r)]
     except (OSError, UnicodeDecodeError) as exc:
         problems.append(f"study.cases: {name}: cannot be read ({exc})")
         return []
@@ -287,7 +287,7 @@ def _csv_axis(cfg: Config, problems: list[str]) -> list[tuple[str, list]]:
                 numeric = is_number(f.default) if f.default is not dataclasses.MISSING else True
                 if numeric and not is_number(value):
                     problems.append(f"{name} row {line} column {key}: {quoted(text)} is not "
-                                    "a number")  # fmt: skip
+                                    "a number")
                 else:
                     convert_field(f"{name} row {line} column {key}", f, value, problems)
             columns[c].append(value)

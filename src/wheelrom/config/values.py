@@ -176,7 +176,7 @@ def _toml_value(v: Any) -> str:
 
 #: keys that name a file, resolved beside the TOML, with the value that names none
 FILE_KEYS = {"segment.source": "builtin", "mistuning.file": "", "study.cases": "",
-             "flutter.table": ""}  # fmt: skip
+             "flutter.table": ""}
 
 
 def to_toml(cfg: Any, comments: bool = True) -> str:
@@ -228,7 +228,7 @@ def suggest(name: str, valid: Sequence[str]) -> str:
     # a name far longer than any key is no misspelling (and difflib indexes every character)
     longest = max(map(len, valid), default=0)
     close = difflib.get_close_matches(name, valid, n=1, cutoff=0.6) \
-        if len(name) <= 2 * longest + 10 else []  # fmt: skip
+        if len(name) <= 2 * longest + 10 else []
     return f" (did you mean '{close[0]}'?)" if close else f" (valid: {', '.join(valid)})"
 
 
@@ -252,7 +252,7 @@ def convert_field(where: str, f: dataclasses.Field, value: Any, problems: list[s
             check_number(where, value, meta, problems)
             return value
         problems.append(f"{where}: expected 'auto' or an integer (-1: all modes), got "
-                        f"{shown(value)}")  # fmt: skip
+                        f"{shown(value)}")
         return value
     if isinstance(default, bool):
         if not isinstance(value, bool):

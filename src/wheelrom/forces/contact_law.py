@@ -60,14 +60,14 @@ class ContactLaw:
     def packed(self) -> np.ndarray:
         """``(LAW_SIZE,)`` the record as compiled code reads it (``L_*`` indices)."""
         return np.array([self.code, self.static, self.dynamic, self.decay,
-                         self.microslip_velocity, self.coulomb], dtype=float)  # fmt: skip
+                         self.microslip_velocity, self.coulomb], dtype=float)
 
 
 def contact_law(cfg) -> ContactLaw:
     """The law of ``cfg`` (``contacts.law`` and ``[friction]``)."""
     fr = cfg.friction
     return ContactLaw(LAW_CODES[cfg.contacts.law], fr.static, fr.dynamic, fr.decay,
-                      fr.microslip_velocity, fr.coulomb)  # fmt: skip
+                      fr.microslip_velocity, fr.coulomb)
 
 
 def mindlin_ratio(poisson: float) -> float:

@@ -24,7 +24,7 @@ from wheelrom.rom.model import ReducedModel
 
 VDP_OFF, VDP_ABSOLUTE, VDP_RELATIVE, AERO_TABLE = 0, 1, 2, 3
 VDP_MODELS = {"off": VDP_OFF, "absolute": VDP_ABSOLUTE, "relative": VDP_RELATIVE,
-              "table": AERO_TABLE}  # fmt: skip
+              "table": AERO_TABLE}
 __all__ = ["OPEN", "SLIP", "STICK", "ContactParameters", "ForceParameters", "force_parameters"]
 
 
@@ -118,14 +118,14 @@ class ForceParameters:
         expected = {"excitation": (m,), "nozzle_phase": (N,), "aero": (m,),
                     "aero_displacement": (N,),
                     "aero_velocity": (N,), "contacts.shape_A": (K, 3, m),
-                    "contacts.shape_B": (K, 3, m)}  # fmt: skip
+                    "contacts.shape_B": (K, 3, m)}
         for name, shape in expected.items():
             owner, _, field = name.rpartition(".")
             value = getattr(self.contacts if owner else self, field)
             if np.shape(value) != shape:
                 raise ValueError(f"force parameters: {name} has shape {np.shape(value)}, "
                                  f"expected {shape} ({m} modes, {N} blades, {K} contact "
-                                 "kinds)")  # fmt: skip
+                                 "kinds)")
 
     @functools.cached_property
     def friction(self) -> np.ndarray:
@@ -162,7 +162,7 @@ class ForceParameters:
                 self.omega, self.nozzle_force, self.vdp_mu, self.vdp_r, self.friction,
                 self.excitation, self.aero, self.aero_displacement, self.aero_velocity,
                 self.nozzle_phase, self.rotation, c.preload,
-                c.arm_length, c.shape_A, c.shape_B, c.point_A, c.point_B)  # fmt: skip
+                c.arm_length, c.shape_A, c.shape_B, c.point_A, c.point_B)
 
 
 def flutter_mode(aero: np.ndarray, tip: np.ndarray) -> int:
@@ -181,7 +181,7 @@ def flutter_mode(aero: np.ndarray, tip: np.ndarray) -> int:
 
 
 def force_parameters(model: ReducedModel, cfg: Config,
-                     angles_deg: dict | None = None) -> ForceParameters:  # fmt: skip
+                     angles_deg: dict | None = None) -> ForceParameters:
     """The force parameters of ``cfg`` on ``model``; ``angles_deg``: kind -> contact angle
     [deg] (a number or one per blade) instead of ``contacts.<kind>.angle_deg``."""
     N, m = model.blades, model.modes
@@ -230,7 +230,7 @@ def table_operator(model: ReducedModel, cfg: Config, aero: np.ndarray) -> AeroOp
     with every mode, the lowest with aero motion sets the reference frequencies)."""
     fl = cfg.flutter
     table = read_aero_table(fl.table, cfg.source, model.blades, fl.table_phase,
-                            fl.table_directions, fl.table_sign)  # fmt: skip
+                            fl.table_directions, fl.table_sign)
     family = int(np.flatnonzero(aero)[0])
     return aero_operator(table, model, family, float(aero[family]))
 
@@ -259,7 +259,7 @@ def _contact_parameters(model: ReducedModel, cfg: Config, angles_deg: dict) -> C
         if elastic:
             tangential = c.tangential_stiffness
             k_t[i] = (mindlin_ratio(cfg.segment.poisson) * k_c[i] if tangential == "mindlin"
-                      else float(tangential))  # fmt: skip
+                      else float(tangential))
     return ContactParameters(
         kinds=tuple(kinds),
         shape_A=np.array([model.contact_A[k] for k in kinds]).reshape(K, 3, m),

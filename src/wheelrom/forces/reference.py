@@ -55,7 +55,7 @@ class ReferenceForces:
         self._work = np.zeros((N, 4))
 
     def evaluate(self, t: float, q: np.ndarray, v: np.ndarray,
-                 slider: np.ndarray | None = None) -> np.ndarray:  # fmt: skip
+                 slider: np.ndarray | None = None) -> np.ndarray:
         """Fill and return ``self.force`` ``(N, m)`` for modal state ``q, v`` ``(N, m)`` at
         time ``t`` [s]; ``slider`` ``(K, N, 2)`` [m]: the elastic law's sliders (None: the
         ones in ``self.slider``)."""
@@ -69,7 +69,7 @@ class ReferenceForces:
                 c.preload, c.tangential, self.slider, self.slider_next, self.normal_force,
                 self.slip_velocity, self.normal_gap, self.contact_state,
                 self.relative_displacement, self.relative_velocity, self.friction_force,
-                self.vdp_displacement, self.power, self._work)  # fmt: skip
+                self.vdp_displacement, self.power, self._work)
         return self.force
 
     def replay(self, times, states):
@@ -84,7 +84,7 @@ class ReferenceForces:
             self.slider[...] = self.sliders_at_rest(np.ascontiguousarray(states[0][0]))
         for i, t in enumerate(times):
             self.evaluate(float(t), np.ascontiguousarray(states[i][0]),
-                          np.ascontiguousarray(states[i][1]))  # fmt: skip
+                          np.ascontiguousarray(states[i][1]))
             yield i
             if elastic:  # the sliders this sample returned, for the next
                 self.slider[...] = self.slider_next
@@ -100,7 +100,7 @@ class ReferenceForces:
                          contact_state: np.ndarray, sliders: np.ndarray | None = None,
                          periods: int = 0, block: int = 0, max_periods: int = 0,
                          tolerance: float = 0.0,
-                         returned: np.ndarray | None = None) -> float:  # fmt: skip
+                         returned: np.ndarray | None = None) -> float:
         """The forces of ``S`` states at once (nozzle at ``t = 0``): ``q``, ``v``
         ``(S, N, m)``; writes ``force`` ``(S, N, m)`` and, of blade pair ``(0, 1)`` of every
         contact kind, ``normal_force`` ``(S, K)`` [N], ``friction_power`` ``(S, K)`` [W] (the
@@ -142,7 +142,7 @@ class ReferenceForces:
                         self.normal_gap, self.contact_state, self.relative_displacement,
                         self.relative_velocity, self.friction_force, self.vdp_displacement,
                         self.power, self._work, normal_force, friction_power,
-                        contact_state, returned)  # fmt: skip
+                        contact_state, returned)
         self.marched_periods = int(drift[1])
         return float(drift[0])
 
@@ -163,15 +163,15 @@ class ReferenceForces:
 @_kernel_cache.njit(fastmath=False)
 def _kernel(t, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p_aero, aero_a,
             aero_b, law, R, XA, XB, A_pt, B_pt, arm, T, kc, preload, kt, slider, slider_next,
-            normal, slip, gap, state, rel_u, rel_v, fric, y_vdp, power, work):  # fmt: skip
+            normal, slip, gap, state, rel_u, rel_v, fric, y_vdp, power, work):
     """The forces of :class:`ReferenceForces` (argument names as in docs/theory.md: ``XA``,
     ``XB`` contact shapes, ``A_pt``, ``B_pt`` undeformed contact points, ``T`` frames)."""
     p_noz, p_vdp = _nozzle_and_van_der_pol(t, q, v, out, omega, n_s, Fb, p_exc, phase,
                                            vdp_model, mu, r, p_aero, aero_a, aero_b, y_vdp,
-                                           work)  # fmt: skip
+                                           work)
     p_fric = _contact_forces(q, v, out, law, R, XA, XB, A_pt, B_pt, arm, T, kc, preload, kt,
                              slider, slider_next, normal, slip, gap, state, rel_u, rel_v,
-                             fric)  # fmt: skip
+                             fric)
     power[0] = p_noz
     power[1] = p_vdp
     power[2] = p_fric
@@ -182,7 +182,7 @@ def _kernel_samples(q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p
                     aero_b, law, R, XA, XB, A_pt, B_pt, arm, T, kc, preload, kt, sliders,
                     periods, max_periods, tolerance, drift, block, slider, slider_next, normal,
                     slip, gap, state, rel_u, rel_v, fric, y_vdp, power, work, normal_out,
-                    power_out, state_out, returned):  # fmt: skip
+                    power_out, state_out, returned):
     """:func:`_kernel` at ``t = 0`` for every state ``q[i], v[i]`` (``(S, N, m)``) with the
     slider ``sliders[i]``, or marched (``periods > 0``, :meth:`evaluate_samples`: at least
     ``periods``, up to ``max_periods`` until a period moves no slider by more than
@@ -213,7 +213,7 @@ def _kernel_samples(q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p
                         aero_a, aero_b, law, R, XA, XB, A_pt, B_pt, arm, T, kc, preload, kt,
                         sliders[min(i, sliders.shape[0] - 1)], slider_next, normal, slip, gap,
                         state, rel_u, rel_v, fric, y_vdp, power, work, normal_out, power_out,
-                        state_out)  # fmt: skip
+                        state_out)
                 if returned.shape[0] == q.shape[0]:
                     _copy(returned[i], slider_next)
                 if periods > 0:
@@ -300,7 +300,7 @@ def _extrapolated(slider, move, last_move, last_ratio):
 def _sample(i, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p_aero, aero_a,
             aero_b, law, R, XA, XB, A_pt, B_pt, arm, T, kc, preload, kt, slider, slider_next,
             normal, slip, gap, state, rel_u, rel_v, fric, y_vdp, power, work, normal_out,
-            power_out, state_out):  # fmt: skip
+            power_out, state_out):
     """State ``i`` of :func:`_kernel_samples`."""
     _kernel(0.0, q[i], v[i], out[i], omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p_aero,
             aero_a, aero_b, law, R, XA, XB, A_pt, B_pt, arm, T, kc, preload, kt, slider,
@@ -313,7 +313,7 @@ def _sample(i, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p_aero
 
 @_kernel_cache.njit(fastmath=False)
 def _nozzle_and_van_der_pol(t, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r,
-                            p_aero, aero_a, aero_b, y_vdp, work):  # fmt: skip
+                            p_aero, aero_a, aero_b, y_vdp, work):
     """Nozzle (eq. 13) and Van der Pol (eqs. 1, 2/14) or aerodynamic-table generalised forces
     written into ``out``; returns their powers [W]."""
     N, m = q.shape
@@ -370,7 +370,7 @@ def _nozzle_and_van_der_pol(t, q, v, out, omega, n_s, Fb, p_exc, phase, vdp_mode
 
 @_kernel_cache.njit(fastmath=False)
 def _contact_forces(q, v, out, law, R, XA, XB, A_pt, B_pt, arm, T, kc, preload, kt, slider,
-                    slider_next, normal, slip, gap, state, rel_u, rel_v, fric):  # fmt: skip
+                    slider_next, normal, slip, gap, state, rel_u, rel_v, fric):
     """Contact forces (eqs. 16-20; the tangential law of the record ``law``:
     :mod:`wheelrom.forces.contact_law`) added to ``out``, contact states and the returned
     sliders left in the arrays; returns the tangential force's power [W]."""
@@ -378,9 +378,9 @@ def _contact_forces(q, v, out, law, R, XA, XB, A_pt, B_pt, arm, T, kc, preload, 
     p_fric = 0.0
     rows = np.empty((16, 3))  # 3-vectors of one contact, as row views
     uA, uB, vA, vB, uN, vN, d, dd = rows[0], rows[1], rows[2], rows[3], rows[4], rows[5], \
-        rows[6], rows[7]  # fmt: skip
+        rows[6], rows[7]
     e, ed, uc, vc, ul, vl, F, FN = rows[8], rows[9], rows[10], rows[11], rows[12], rows[13], \
-        rows[14], rows[15]  # fmt: skip
+        rows[14], rows[15]
     for c in range(XA.shape[0]):
         L = arm[c]
         l0 = 0.0
@@ -422,7 +422,7 @@ def _contact_forces(q, v, out, law, R, XA, XB, A_pt, B_pt, arm, T, kc, preload, 
             slip[c, s] = math.sqrt(vl[0] * vl[0] + vl[2] * vl[2])
             Ft0, Ft2, st, w0, w2 = tangential_force(law, ul[0], ul[2], vl[0], vl[2],
                                                     slider[c, s, 0], slider[c, s, 1], Fn,
-                                                    kt[c, s])  # fmt: skip
+                                                    kt[c, s])
             state[c, s] = st
             slider_next[c, s, 0] = w0
             slider_next[c, s, 1] = w2

@@ -32,7 +32,7 @@ def design_figures(f, path: str, outdir: str, pdf: bool, written: list[str], plt
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(8, 6), sharex=True, layout="constrained")
     others = [a for a in axes if a != first]
     groups = [np.flatnonzero(grid[others[0]] == k) for k in range(shape[others[0]])] \
-        if others else [np.arange(peak.size)]  # fmt: skip
+        if others else [np.arange(peak.size)]
     for rows in groups:
         rows = rows[np.argsort(x[rows])]
         label = None
@@ -69,7 +69,7 @@ def design_figures(f, path: str, outdir: str, pdf: bool, written: list[str], plt
         line, = ax.plot(np.where(ok[c], hz[c], np.nan), np.where(ok[c], tip[c], np.nan) * 1e6,
                         ".-", lw=1.0,
                         label=", ".join(t.decode() if isinstance(t, bytes) else str(t)
-                                        for t in p["text"][c]))  # fmt: skip
+                                        for t in p["text"][c]))
         if np.isfinite(peak[c]):
             ax.plot(peak_hz[c], peak[c] * 1e6, "o", mfc="none", color=line.get_color())
         if "growth" in g:  # a traced curve's unstable points (Hill's method)

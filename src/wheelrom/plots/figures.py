@@ -53,7 +53,7 @@ def plot_file(path: str, outdir: str | None = None, pdf: bool = False,
         if not written:
             raise InputError(f"{path}: nothing to draw (format {f.attrs.get('format')!r}); "
                              "plot draws the files of sweep, run, study, stability, "
-                             "limit-cycle, settle, forced-response and modes")  # fmt: skip
+                             "limit-cycle, settle, forced-response and modes")
     return written
 
 
@@ -122,7 +122,7 @@ def _fig08_frequencies(table: np.ndarray, reference: np.ndarray | None, plt):
     if reference is not None:  # exact cyclic-symmetry FE of the same wheel
         for j in range(min(families, reference.shape[1])):
             axes[0].plot(nd, reference[:, j], "k--", lw=0.8,
-                         label="full-wheel FE" if j == 0 else None)  # fmt: skip
+                         label="full-wheel FE" if j == 0 else None)
     axes[0].set(
         xlabel="nodal diameter [-]",
         ylabel="frequency [Hz]",
@@ -134,7 +134,7 @@ def _fig08_frequencies(table: np.ndarray, reference: np.ndarray | None, plt):
     if reference is not None:
         ref_order = np.sort(reference[:, :families].ravel())
         axes[1].plot(np.arange(1, ref_order.size + 1), ref_order, "k--", lw=0.8,
-                     label="full-wheel FE")  # fmt: skip
+                     label="full-wheel FE")
         axes[1].legend(fontsize=8)
     axes[1].set(
         xlabel="mode order [-]",
@@ -251,7 +251,7 @@ def _fig10_amplitude(d: _Sweep, plt):
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.5), layout="constrained")
     for i in range(len(d.angles)):
         axes[0].semilogy(d.t * 1e3, d.amp[i] * 1e3, "o-", ms=3,
-                         color=cmap(d.norm(d.shroud[i])), lw=1.2)  # fmt: skip
+                         color=cmap(d.norm(d.shroud[i])), lw=1.2)
     sm = plt.cm.ScalarMappable(norm=d.norm, cmap=cmap)
     fig.colorbar(sm, ax=axes[0], label="shroud angle [deg]")
     axes[0].set(
@@ -290,14 +290,14 @@ def _fig11_normal_force(d: _Sweep, plt):
         opened = f[f"cases/open_fraction/{kind}"][()]
         for i in range(len(d.angles)):
             axes[r, 0].plot(d.t * 1e3, fn[i], "o-", ms=3,
-                            color=cmap(d.norm(d.shroud[i])), lw=1.2)  # fmt: skip
+                            color=cmap(d.norm(d.shroud[i])), lw=1.2)
         axes[r, 0].set(
             xlabel="time [ms]",
             ylabel="min normal force [N]",
             title=f"{kind}: minimum normal force (0 = contact open)",
         )
         m2 = axes[r, 1].pcolormesh(d.t_edges_ms(), d.shroud_edges(), opened[d.order],
-                                   shading="flat", vmin=0, vmax=1, cmap="Reds")  # fmt: skip
+                                   shading="flat", vmin=0, vmax=1, cmap="Reds")
         fig.colorbar(m2, ax=axes[r, 1], label="fraction of contacts open [-]")
         axes[r, 1].set(
             xlabel="time [ms]", ylabel="shroud angle [deg]", title=f"{kind}: open contacts"
@@ -329,7 +329,7 @@ def _fig12_nd_spectrum(d: _Sweep, plt, nd_angles=None):
                 )
             picks.append((i, "chosen"))
     fig, axes = plt.subplots(len(picks), 1, figsize=(9, 0.5 + 3.25 * len(picks)), sharex=True,
-                             squeeze=False, layout="constrained")  # fmt: skip
+                             squeeze=False, layout="constrained")
     axes = axes[:, 0]
     vmax = np.nanmax(spec[[i for i, _ in picks]]) * 1e3
     vmin = max(vmax * 1e-4, 1e-12)
@@ -428,7 +428,7 @@ def _campbell(data: dict, outdir: str, pdf: bool, written: list[str], plt) -> No
         label=f"nozzle EO {n_s} (on ND {abs(data['blades'] - n_s)})",
     )
     ax.set(xlabel="rotor speed [rpm]", ylabel="frequency [Hz]", ylim=(0, top),
-           title="Campbell diagram (dotted: free-interface segment modes)")  # fmt: skip
+           title="Campbell diagram (dotted: free-interface segment modes)")
     ax.legend(fontsize=8, loc="upper left")
     ax.grid(alpha=0.3)
     _save(fig, outdir, "campbell", pdf, written)

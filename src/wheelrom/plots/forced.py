@@ -19,14 +19,14 @@ def forced_figures(f, path: str, outdir: str, pdf: bool, written: list[str], plt
     order = np.argsort(hz)
     ax.plot(hz[order], blades[order], color="tab:blue", lw=0.4, alpha=0.35)
     ax.plot(hz[order], blades[order].max(axis=1), color="tab:blue", lw=1.6,
-            label="configured wheel: largest blade (thin: every blade)")  # fmt: skip
+            label="configured wheel: largest blade (thin: every blade)")
     ax.plot(hz[order], tuned[order].max(axis=1), "k--", lw=1.2, label="tuned wheel")
     for key, style, what in (("", "o", "peak"), ("tuned_", "s", "tuned peak")):
         if f"{key}peak_frequency_hz" in attrs:
             ax.plot(attrs[f"{key}peak_frequency_hz"], attrs[f"{key}peak_amplitude_m"], style,
                     mfc="none", color="tab:red",
                     label=f"{what} {attrs[f'{key}peak_amplitude_m']:.3g} m at "
-                    f"{attrs[f'{key}peak_frequency_hz']:.6g} Hz")  # fmt: skip
+                    f"{attrs[f'{key}peak_frequency_hz']:.6g} Hz")
     if "nonlinear" in f:  # the nonlinear steady response on the same grid (--nonlinear)
         g = f["nonlinear"]
         tip, ok = g["tip_amplitude"][()], g["converged"][()]
@@ -34,19 +34,19 @@ def forced_figures(f, path: str, outdir: str, pdf: bool, written: list[str], plt
         law = law.decode() if isinstance(law, bytes) else str(law)
         keep = order[ok[order]]
         ax.plot(hz[keep], tip[keep], "-", marker=".", color="tab:green", lw=1.6,
-                label=f"nonlinear (contacts.law = '{law}', harmonic balance)")  # fmt: skip
+                label=f"nonlinear (contacts.law = '{law}', harmonic balance)")
         if "exact_curve" in g:  # --exact all: the exact states, stable and unstable
             e = g["exact_curve"]
             etip, stable, done = e["tip_amplitude_m"][()], e["stable"][()], e["converged"][()]
             for keep, style, what in ((done & stable, "o", "stable in every ND"),
-                                      (done & ~stable, "x", "unstable")):  # fmt: skip
+                                      (done & ~stable, "x", "unstable")):
                 if keep.any():
                     ax.plot(hz[keep], etip[keep], style, ms=5, mfc="none", color="tab:purple",
                             label=f"exact state (shooting), {what}")
         if "traced" in g:  # forced.continuation = "arclength": the points in order traced
             t = g["traced"]
             thz, ttip, growth = (t[k][()] for k in ("frequency_hz", "tip_amplitude_m",
-                                                    "growth_per_s"))  # fmt: skip
+                                                    "growth_per_s"))
             ax.plot(thz, ttip, "-", color="tab:olive", lw=1.0,
                     label=f"traced by arclength ({thz[np.isfinite(thz)].size} points)")
             grows = np.isfinite(growth) & (growth > 0)
@@ -59,7 +59,7 @@ def forced_figures(f, path: str, outdir: str, pdf: bool, written: list[str], plt
     factor = attrs.get("amplification_factor")
     ax.set_title("Forced response to the nozzle (engine order "
                  f"{attrs.get('stator_vanes', '?')})"
-                 + (f": amplification {factor:.3g}" if factor is not None else ""))  # fmt: skip
+                 + (f": amplification {factor:.3g}" if factor is not None else ""))
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3, which="both")
     save(fig, outdir, "forced_response", pdf, written)

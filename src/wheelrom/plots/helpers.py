@@ -57,24 +57,24 @@ def _move_into_place(drawn: list[str], outdir: str, force: bool) -> list[str]:
     odd = [t for t in present if not stat.S_ISREG(os.lstat(t).st_mode)]
     if odd:
         raise InputError(f"{odd[0]}: exists and is not a regular file (a link, a folder or a "
-                         "device); figures replace only regular files")  # fmt: skip
+                         "device); figures replace only regular files")
     if present and not force:
         names = ", ".join(os.path.basename(t) for t in present[:3])
         more = f" and {len(present) - 3} more" if len(present) > 3 else ""
         raise InputError(f"{outdir}: {names}{more} exist; --force replaces them (or choose "
-                         "another --outdir)")  # fmt: skip
+                         "another --outdir)")
     for source, target in zip(drawn, targets, strict=True):
         os.replace(source, target)
     return targets
 
 
 def localisation_bars(ax, blades: np.ndarray, tuned: np.ndarray, label: str,
-                      tuned_label: str) -> None:  # fmt: skip
+                      tuned_label: str) -> None:
     """Blade tip amplitudes ``(N,)`` [m] as bars, the tuned wheel's ``(N,)`` as a step line."""
     s = np.arange(blades.size)
     ax.bar(s, blades, color="tab:blue", label=label)
     ax.step(np.r_[s - 0.5, s[-1] + 0.5], np.r_[tuned, tuned[-1]], where="post", color="k",
-            label=tuned_label)  # fmt: skip
+            label=tuned_label)
     ax.set_xlabel("blade")
     ax.set_ylabel("tip amplitude at the peak [m]")
     ax.legend(fontsize=8)

@@ -16,7 +16,7 @@ def limit_cycle_figures(f, path: str, outdir: str, pdf: bool, written: list[str]
     for i in range(angles.shape[0]):
         case = g.get(f"case_{i}")
         waves = [case[k] for k in sorted(case, key=_wave_index) if k.startswith("wave_")] \
-            if case is not None else []  # fmt: skip
+            if case is not None else []
         waves = [w for w in waves if "branch" in w]
         if not waves:
             continue
@@ -42,7 +42,7 @@ def _branches(waves, label, plt, outdir, name, pdf, written) -> None:
             sel = segment == s
             line = ax.plot(lam[sel], amp[sel], "-", color=line[0].get_color() if line else None,
                            label=f"wave {w.attrs['wave']} (ND {w.attrs['nodal_diameter']})"
-                           if s == segment[0] else None)  # fmt: skip
+                           if s == segment[0] else None)
         color = line[0].get_color()
         ax.plot(lam[stable == 0], amp[stable == 0], "x", color=color, ms=4)
         ax.plot(lam[stable == 1], amp[stable == 1], "o", color=color, ms=3)
@@ -50,10 +50,10 @@ def _branches(waves, label, plt, outdir, name, pdf, written) -> None:
             c = w["cycles"]
             verdict = c["stable"][()]
             for value, style in ((1, {"marker": "o"}), (0, {"marker": "o", "mfc": "none"}),
-                                 (-1, {"marker": "s", "mfc": "none"})):  # fmt: skip
+                                 (-1, {"marker": "s", "mfc": "none"})):
                 pick = verdict == value
                 ax.plot(c["lam"][()][pick], c["tip_amplitude"][()][pick] * 1e6, ls="none",
-                        color=color, ms=8, **style)  # fmt: skip
+                        color=color, ms=8, **style)
     ax.axvline(1.0, color="0.5", lw=0.8, ls="--")
     ax.set_yscale("log")
     ax.set_xlabel("factor on the self-excitation (1 = configured mu)")
@@ -104,12 +104,12 @@ def _amplitude_over_cases(g, angles, plt, outdir, pdf, written) -> None:
     x, label = varying_key(g, angles)
     ax.plot(x, settle * 1e6, "o-", color="C3", mfc="none", label="unstable or not decided")
     ax.plot(x[stable_found], settle[stable_found] * 1e6, "o", color="C3", ms=8,
-            label="stable")  # fmt: skip
+            label="stable")
     ax.set_ylim(bottom=0)
     ax.set_xlabel(label)
     ax.set_ylabel("limit-cycle tip amplitude, 0-peak [um]")
     ax.set_title("Single-wave limit cycles at the configured intensity\n(where the flutter "
-                 "settles only if stable: wheelrom settle)", fontsize=10)  # fmt: skip
+                 "settles only if stable: wheelrom settle)", fontsize=10)
     ax.legend(fontsize=8)
     save(fig, outdir, "limit_cycle_amplitude", pdf, written)
     plt.close(fig)

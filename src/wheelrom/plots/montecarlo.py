@@ -23,7 +23,7 @@ def montecarlo_figures(f, path: str, outdir: str, pdf: bool, written: list[str],
     for name, fig in (("mc_amplification", _amplification(amplification, bound, plt)),
                       ("mc_growth_rate", _growth(need(f, "stability/max_growth_rate", path),
                                                  plt)),
-                      ("mc_localisation", _localisation(f, path, amplification, plt))):  # fmt: skip
+                      ("mc_localisation", _localisation(f, path, amplification, plt))):
         if fig is not None:
             save(fig, outdir, name, pdf, written)
             plt.close(fig)
@@ -50,7 +50,7 @@ def _amplification(values: np.ndarray, bound: float, plt):
         ax.grid(alpha=0.3)
     hist.legend(fontsize=8)
     fig.suptitle(f"Forced-response amplification over {x.size} realisations: mean "
-                 f"{d['mean']:.3g}, max {d['max']:.3g}")  # fmt: skip
+                 f"{d['mean']:.3g}, max {d['max']:.3g}")
     return fig
 
 
@@ -81,6 +81,6 @@ def _localisation(f, path: str, amplification: np.ndarray, plt):
     tuned = need(f, "forced/tuned_blade_amplitude", path)[c]
     fig, ax = plt.subplots(figsize=(max(7, 0.14 * blades.size), 4.2), layout="constrained")
     localisation_bars(ax, blades, tuned, f"case {c} at {f['forced/peak_frequency_hz'][c]:.6g} Hz",
-                      f"tuned at {f['forced/tuned_peak_frequency_hz'][c]:.6g} Hz")  # fmt: skip
+                      f"tuned at {f['forced/tuned_peak_frequency_hz'][c]:.6g} Hz")
     ax.set_title(f"Worst realisation: amplification {amplification[c]:.3g} (localisation)")
     return fig

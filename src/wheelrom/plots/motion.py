@@ -26,7 +26,7 @@ def auto_scale(amplitude: float, radius: float) -> float:
 
 
 def tip_ring_gif(path: str, times: np.ndarray, tips: np.ndarray, tip_point: np.ndarray,
-                 scale: float, contacts: dict | None = None, fps: int = 10) -> None:  # fmt: skip
+                 scale: float, contacts: dict | None = None, fps: int = 10) -> None:
     """A GIF of the tip ring seen along the machine axis: blade ``s``'s tip at
     ``R_z(2 pi s / N) (tip_point + scale u_s)`` (``tips`` ``(S, N, 3)`` [m] in the sector
     frames), coloured by ``|u_s|`` [mm]; ``contacts``: kind -> ``(radius [m], open (S, N)
@@ -41,7 +41,7 @@ def tip_ring_gif(path: str, times: np.ndarray, tips: np.ndarray, tip_point: np.n
     moved = rest[None] + scale * np.einsum("sab,ksb->ksa", R, tips)
     size_mm = 1e3 * np.linalg.norm(tips, axis=2)
     fig, (ax, unrolled) = plt.subplots(1, 2, figsize=(12, 5.6),
-                                       gridspec_kw={"width_ratios": (1, 1.1)})  # fmt: skip
+                                       gridspec_kw={"width_ratios": (1, 1.1)})
     ax.set_aspect("equal")
     update_unrolled = _unrolled(unrolled, tips, contacts or {})
     lim = 1.12 * radius
@@ -49,10 +49,10 @@ def tip_ring_gif(path: str, times: np.ndarray, tips: np.ndarray, tip_point: np.n
     ax.plot(rest[:, 0], rest[:, 1], color="0.8", lw=0.8, zorder=1)
     norm = plt.Normalize(0.0, max(float(size_mm.max()), 1e-12))
     dots = ax.scatter(moved[0, :, 0], moved[0, :, 1], c=size_mm[0], cmap="viridis", s=28,
-                      norm=norm, zorder=3)  # fmt: skip
+                      norm=norm, zorder=3)
     # the colour bar of a fixed mappable: the animated one would redraw it every frame
     fig.colorbar(plt.cm.ScalarMappable(norm=norm, cmap="viridis"), ax=ax, shrink=0.7,
-                 label="tip displacement |u| [mm]")  # fmt: skip
+                 label="tip displacement |u| [mm]")
     fig.subplots_adjust(left=0.06, right=0.9, wspace=0.35)
     marks = {}
     for i, (kind, (r, _)) in enumerate((contacts or {}).items()):
@@ -60,7 +60,7 @@ def tip_ring_gif(path: str, times: np.ndarray, tips: np.ndarray, tip_point: np.n
         xy = np.column_stack([r * np.cos(angle), r * np.sin(angle)])
         closed = ax.scatter(*xy.T, s=8, color=f"C{i}", label=f"{kind} closed", zorder=2)
         opened = ax.scatter(*xy.T, s=40, marker="x", color="red", zorder=4,
-                            label="open" if i == 0 else None)  # fmt: skip
+                            label="open" if i == 0 else None)
         marks[kind] = (xy, closed, opened)
     if marks:
         ax.legend(loc="lower right", fontsize=8)
@@ -89,7 +89,7 @@ def _unrolled(ax, tips: np.ndarray, contacts: dict):
     blades = np.arange(N)
     top = 1e3 * max(float(np.abs(tips[..., 1:]).max()), 1e-15)
     ax.set(xlim=(-0.5, N - 0.5), ylim=(-1.35 * top, 1.1 * top), xlabel="blade",
-           ylabel="tip displacement [mm]")  # fmt: skip
+           ylabel="tip displacement [mm]")
     tangential, = ax.plot(blades, 1e3 * tips[0, :, 1], "-o", ms=2.5, lw=1, label="y tangential")
     axial, = ax.plot(blades, 1e3 * tips[0, :, 2], "-o", ms=2.5, lw=1, label="z axial")
     rows = {kind: (-1.15 - 0.12 * i) * top for i, kind in enumerate(contacts)}
@@ -110,7 +110,7 @@ def _unrolled(ax, tips: np.ndarray, contacts: dict):
 
 
 def surface_png(path: str, points: np.ndarray, quads: np.ndarray, u: np.ndarray,
-                scale: float, time: float) -> None:  # fmt: skip
+                scale: float, time: float) -> None:
     """A 3D rendering of the wheel surface deformed by ``scale u`` (``u`` ``(P, 3)`` [m]),
     faces coloured by their mean displacement magnitude [mm]."""
     plt = _pyplot()
@@ -127,7 +127,7 @@ def surface_png(path: str, points: np.ndarray, quads: np.ndarray, u: np.ndarray,
     ax.add_collection3d(polys)
     lim = float(np.abs(xyz[:, :2]).max())
     ax.set(xlim=(-lim, lim), ylim=(-lim, lim), zlim=(-0.4 * lim, 0.4 * lim), xlabel="x [m]",
-           ylabel="y [m]", zlabel="z [m]")  # fmt: skip
+           ylabel="y [m]", zlabel="z [m]")
     ax.set_box_aspect((1, 1, 0.4))
     ax.view_init(elev=32, azim=-60)
     mappable = plt.cm.ScalarMappable(cmap=cmap, norm=plt.Normalize(0.0, top))
@@ -142,7 +142,7 @@ def normal_force_png(path: str, histories: dict, blades: list[int]) -> None:
     panel per contact kind (``histories``: kind -> ContactHistory)."""
     plt = _pyplot()
     fig, axes = plt.subplots(len(histories), 1, figsize=(7, 2.6 * len(histories)),
-                             sharex=True, squeeze=False)  # fmt: skip
+                             sharex=True, squeeze=False)
     for ax, (kind, h) in zip(axes[:, 0], histories.items(), strict=True):
         for s in blades:
             ax.plot(1e3 * h.time, h.normal_force[:, s], lw=1, label=f"blades {s}-{s + 1}")
@@ -165,14 +165,14 @@ def hysteresis_png(path: str, h, blade: int) -> None:
     for ax, (c, name) in zip(axes[:2], ((0, "xi"), (1, "zeta")), strict=True):
         rel = 1e6 * h.relative_displacement[:, blade, 2 * c]
         ax.plot(rel, np.where(closed, h.friction_force[:, blade, c], np.nan), lw=1,
-                label="closed")  # fmt: skip
+                label="closed")
         ax.plot(rel, np.where(closed, np.nan, 0.0), color="0.7", lw=0.8, label="open")
         ax.set(xlabel=f"relative displacement {name} [um]", ylabel=f"friction force {name} [N]")
         ax.legend(fontsize=8)
     axes[2].plot(1e3 * h.time, h.normal_force[:, blade], lw=1)
     axes[2].set(xlabel="t [ms]", ylabel="normal force [N]")
     fig.suptitle(f"{h.kind} contact between blades {blade} and {blade + 1} "
-                 f"(open {100 * (1 - closed.mean()):.0f} % of the samples)")  # fmt: skip
+                 f"(open {100 * (1 - closed.mean()):.0f} % of the samples)")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

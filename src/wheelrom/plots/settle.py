@@ -28,12 +28,12 @@ def settle_figures(f, path: str, outdir: str, pdf: bool, written: list[str], plt
 
 def _case(case, label, tolerance, plt, outdir, name, pdf, written) -> None:
     fig, (ax, bx, cx) = plt.subplots(1, 3, figsize=(14, 4.2),
-                                     gridspec_kw={"width_ratios": [2, 1.2, 1.2]})  # fmt: skip
+                                     gridspec_kw={"width_ratios": [2, 1.2, 1.2]})
     end = case["window_end"][()]
     A = case["window_amplitude"][()] * 1e6
     change = case["window_change"][()]
     ax.fill_between(end, A.min(axis=1), A.max(axis=1), color="C0", alpha=0.25,
-                    label="blades: min .. max", step="pre")  # fmt: skip
+                    label="blades: min .. max", step="pre")
     ax.step(end, A.max(axis=1), "C0", where="pre", label="largest blade")
     ax.step(end, A.mean(axis=1), "C0--", where="pre", lw=0.8, label="mean")
     # the first window has nothing before it to change against (its row is NaN): never green
@@ -81,14 +81,14 @@ def _summary(g, angles, plt, outdir, pdf, written) -> None:
             low[i], high[i] = top.min(), top.max()
     pick = ~settled & np.isfinite(low)
     ax.vlines(x[pick], low[pick], high[pick], color="C3", lw=3, alpha=0.4,
-              label="not settled: range over the second half")  # fmt: skip
+              label="not settled: range over the second half")
     if "still_growing" in g:  # a range taken while the motion still grows is a lower bound
         rising = pick & g["still_growing"][()].astype(bool)
         ax.plot(x[rising], high[rising], linestyle="none", marker=r"$\uparrow$", color="C3", ms=14,
-                label="... still growing at the end (its trend)")  # fmt: skip
+                label="... still growing at the end (its trend)")
     if "start_amplitude" in g:
         ax.plot(x, g["start_amplitude"][()] * 1e6, "d--", color="0.5", ms=5, lw=0.8,
-                label="single-wave exact orbit (the start)")  # fmt: skip
+                label="single-wave exact orbit (the start)")
     ax.margins(y=0.1)  # room for the arrows above the highest range
     ax.set_ylim(bottom=0)
     ax.set_xlabel(label)

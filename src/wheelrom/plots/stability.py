@@ -35,7 +35,7 @@ def stability_figures(f, path: str, outdir: str, pdf: bool, written: list[str], 
     order = np.argsort(data["shroud"])
     data = {k: (v[order] if isinstance(v, np.ndarray) else v) for k, v in data.items()}
     figures = [("stability_map", _map), ("root_locus", _root_locus),
-               ("stability_verdict", _verdict)]  # fmt: skip
+               ("stability_verdict", _verdict)]
     if "stability/margin_ratio" in f:  # stability --margin
         for name in ("margin_ratio", "margin_nodal_diameter", "margin_frequency_hz"):
             data[name] = f[f"stability/{name}"][()][rows][order]
@@ -70,7 +70,7 @@ def _map(data, plt):
     mesh = ax.pcolormesh(x, y, rates.T, cmap="RdBu_r", norm=norm)
     if rates.shape[0] > 1 and (rates > 0).any() and (rates < 0).any():
         ax.contour(data["shroud"], np.arange(rates.shape[1]), rates.T, levels=[0.0],
-                   colors="k", linewidths=1.2)  # fmt: skip
+                   colors="k", linewidths=1.2)
     fig.colorbar(mesh, ax=ax, label="largest growth rate [1/s] (> 0: unstable)")
     ax.set_xlabel("shroud angle [deg]")
     ax.set_ylabel("nodal diameter")
@@ -86,7 +86,7 @@ def _root_locus(data, plt):
     top = max(1, data["growth"].shape[1] // 10)  # the fastest tenth of every case's modes
     for c, angle in enumerate(data["shroud"]):
         ax.scatter(data["growth"][c, :top], data["hz"][c, :top], s=10,
-                   color=cm.viridis(norm(angle)))  # fmt: skip
+                   color=cm.viridis(norm(angle)))
     ax.axvline(0.0, color="k", lw=0.8)
     fig.colorbar(cm.ScalarMappable(norm=norm, cmap="viridis"), ax=ax, label="shroud angle [deg]")
     ax.set_xlabel("growth rate [1/s]")
@@ -104,11 +104,11 @@ def _verdict(data, plt):
     ax.plot(data["shroud"], rate, "-", color="0.6")
     unstable = rate > 1e-6
     for mask, colour, label in ((unstable, "tab:red", "unstable"),
-                                (~unstable, "tab:blue", "stable")):  # fmt: skip
+                                (~unstable, "tab:blue", "stable")):
         ax.scatter(data["shroud"][mask], rate[mask], color=colour, label=label, zorder=3)
     for x, y, k, f in zip(data["shroud"], rate, nd, hz, strict=True):
         ax.annotate(f"ND {k}\n{f:.0f} Hz", (x, y), textcoords="offset points", xytext=(0, 6),
-                    ha="center", fontsize=7)  # fmt: skip
+                    ha="center", fontsize=7)
     ax.axhline(0.0, color="k", lw=0.8)
     ax.set_xlabel("shroud angle [deg]")
     ax.set_ylabel("largest growth rate [1/s]")
@@ -132,10 +132,10 @@ def _margin(data, plt):
                                 (~stable, "tab:red", f"unstable at {at}")):
         ax.scatter(data["shroud"][mask], shown[mask], color=colour, label=label, zorder=3)
     for x, y, k, hz in zip(data["shroud"], shown, data["margin_nodal_diameter"],
-                           data["margin_frequency_hz"], strict=True):  # fmt: skip
+                           data["margin_frequency_hz"], strict=True):
         if np.isfinite(hz):
             ax.annotate(f"ND {k}\n{hz:.0f} Hz", (x, y), textcoords="offset points",
-                        xytext=(0, 6), ha="center", fontsize=7)  # fmt: skip
+                        xytext=(0, 6), ha="center", fontsize=7)
     ax.axhline(1.0, color="k", lw=0.8)
     ax.set_yscale("log")
     ax.set_xlabel("shroud angle [deg]")
@@ -144,7 +144,7 @@ def _margin(data, plt):
     else:
         ax.set_ylabel(f"critical mu / configured mu ({data['mu']:g} N s/m)")
     ax.set_title(f"Flutter margin per angle (tie-boss {data['tieboss']:g} deg): the mode that "
-                 "crosses first")  # fmt: skip
+                 "crosses first")
     ax.legend()
     return fig
 
@@ -161,7 +161,7 @@ def _map_2d(angles: np.ndarray, rate: np.ndarray, plt):
     fig, ax = plt.subplots(figsize=(7.5, 6))
     norm = colors.TwoSlopeNorm(vcenter=0.0, vmin=-limit, vmax=limit)
     mesh = ax.pcolormesh(_cell_edges(shroud, 2.5), _cell_edges(tieboss, 2.5), grid,
-                         cmap="RdBu_r", norm=norm)  # fmt: skip
+                         cmap="RdBu_r", norm=norm)
     if (grid > 0).any() and (grid < 0).any():
         ax.contour(shroud, tieboss, grid, levels=[0.0], colors="k", linewidths=1.2)
     fig.colorbar(mesh, ax=ax, label="largest growth rate [1/s] (> 0: unstable)")

@@ -163,12 +163,12 @@ def _map(d: StudyData, a: int, b: int, name: str, values: np.ndarray, plt):
     yy, xx = np.meshgrid(y, x, indexing="ij")
     # white rings with a black halo: visible on dark and light cells alike
     ax.scatter(xx[done > 0], yy[done > 0], s=30, facecolors="none", edgecolors="k",
-               linewidths=2.4, label="transient done")  # fmt: skip
+               linewidths=2.4, label="transient done")
     ax.scatter(xx[done > 0], yy[done > 0], s=30, facecolors="none", edgecolors="w",
-               linewidths=1.0)  # fmt: skip
+               linewidths=1.0)
     if (failed > 0).any():
         ax.scatter(xx[failed > 0], yy[failed > 0], s=28, marker="x", color="k",
-                   label="transient failed")  # fmt: skip
+                   label="transient failed")
     if (done > 0).any() or (failed > 0).any():
         ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2, fontsize=8)
     _axis_labels(ax, d, b, "x")
@@ -205,7 +205,7 @@ def _lines(d: StudyData, a: int, plt):
     """One varied axis: every quantity against it; filled markers: transient done."""
     names = list(d.quantities)
     fig, axes = plt.subplots(len(names), 1, figsize=(8, 2.6 * len(names)), sharex=True,
-                             layout="constrained", squeeze=False)  # fmt: skip
+                             layout="constrained", squeeze=False)
     x = d.coords[a]
     done = np.array([s == "done" for s in d.status])
     for ax, name in zip(axes[:, 0], names, strict=True):

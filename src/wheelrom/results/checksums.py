@@ -27,7 +27,7 @@ def create_checksums(cases, C: int) -> None:
     cases.create_dataset(NAME, (C,), dtype="u4")
     cases[NAME].attrs["meaning"] = ("CRC-32 of the case's row of every other /cases "
                                     "dataset (sorted by path, status excluded); 0: not "
-                                    "written")  # fmt: skip
+                                    "written")
 
 
 def _row_datasets(cases) -> list:
@@ -39,7 +39,7 @@ def _row_datasets(cases) -> list:
 
     def visit(name, obj):
         if isinstance(obj, h5py.Dataset) and obj.shape and obj.shape[0] == C and \
-                name.rsplit("/", 1)[-1] not in EXCLUDED:  # fmt: skip
+                name.rsplit("/", 1)[-1] not in EXCLUDED:
             found.append((name, obj))
 
     cases.visititems(visit)

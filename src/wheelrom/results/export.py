@@ -30,13 +30,13 @@ TABLES = ("tips", "windows")
 
 
 def case_tables(path: str, case: int,
-                what=TABLES) -> dict[str, tuple[list[str], np.ndarray]]:  # fmt: skip
+                what=TABLES) -> dict[str, tuple[list[str], np.ndarray]]:
     """``{table: (header, rows)}`` of the tables ``what`` of case ``case`` (0-based, as
     ``wheelrom info`` lists them) of the results file at ``path``."""
     with open_file(path) as f:
         if f.attrs.get("format") not in (FORMAT, STUDY_FORMAT) or "cases" not in f:
             raise InputError(f"{path}: not a wheelrom results file (format {FORMAT!r} or "
-                             f"{STUDY_FORMAT!r} expected)")  # fmt: skip
+                             f"{STUDY_FORMAT!r} expected)")
         c = f["cases"]
         if "max_tip_amplitude" not in c:
             raise InputError(f"{path}: a --stability-only study: no transient to export")
@@ -64,9 +64,9 @@ def _contact_forces(path: str, case: int) -> tuple[list[str], np.ndarray]:
         for s in range(h.normal_force.shape[1]):
             header += [f"{kind}{s}_normal_N", f"{kind}{s}_friction_xi_N",
                        f"{kind}{s}_friction_zeta_N", f"{kind}{s}_relative_xi_m",
-                       f"{kind}{s}_relative_eta_m", f"{kind}{s}_relative_zeta_m"]  # fmt: skip
+                       f"{kind}{s}_relative_eta_m", f"{kind}{s}_relative_zeta_m"]
             columns += [h.normal_force[:, s], *h.friction_force[:, s].T,
-                        *h.relative_displacement[:, s].T]  # fmt: skip
+                        *h.relative_displacement[:, s].T]
     if not columns:
         raise InputError(f"{path}: case {case} has no contacts")
     return header, np.column_stack(columns)
@@ -75,7 +75,7 @@ def _contact_forces(path: str, case: int) -> tuple[list[str], np.ndarray]:
 def _tips(c, case: int, path: str) -> tuple[list[str], np.ndarray]:
     if "tip_history" not in c:
         raise InputError(f"{path} has no tip history (output.history_rate_hz = 0): export "
-                         "--what windows")  # fmt: skip
+                         "--what windows")
     samples = int(c["samples_done"][case])
     tips = c["tip_history"][case, :samples]  # (S, N, 3)
     header = ["time_s"] + [f"blade{s}_{axis}_m" for s in range(tips.shape[1]) for axis in "xyz"]
@@ -86,7 +86,7 @@ def _tips(c, case: int, path: str) -> tuple[list[str], np.ndarray]:
 def _windows(c, case: int) -> tuple[list[str], np.ndarray]:
     w = int(c["windows_done"][case])
     header, columns = ["window_end_s", "max_tip_amplitude_m"], [
-        c["window_end"][:w], c["max_tip_amplitude"][case, :w]]  # fmt: skip
+        c["window_end"][:w], c["max_tip_amplitude"][case, :w]]
     for kind in sorted(c["min_normal_force"]):
         header += [f"min_normal_force_{kind}_N", f"open_fraction_{kind}"]
         columns += [c[f"min_normal_force/{kind}"][case, :w], c[f"open_fraction/{kind}"][case, :w]]
@@ -116,12 +116,12 @@ def write_tables(tables: dict, prefix: str, what=TABLES) -> list[str]:
         header, rows = tables[name]
         with replacing(path) as partial:
             np.savetxt(partial, rows, delimiter=",", header=",".join(header), comments="",
-                       fmt="%.17g")  # fmt: skip
+                       fmt="%.17g")
     return table_paths(prefix, what)
 
 
 def export_case(path: str, case: int, prefix: str, what: str = "all",
-                force: bool = False) -> list[str]:  # fmt: skip
+                force: bool = False) -> list[str]:
     """``wheelrom export``: the tables ``what`` (``"all"`` = tips and windows, ``"tips"``,
     ``"windows"`` or ``"contact_forces"``) of case ``case`` of ``path`` as
     ``<prefix>_<table>.csv``; the output files are checked (existing ones need ``force``)

@@ -52,7 +52,7 @@ def _entries(f, rows: dict[str, int]) -> list[tuple[str, int, int]]:
 
     objects = [("", f)]
     f.visititems(lambda name, obj: objects.append((name, obj)) if name != GROUP and
-                 not name.startswith(GROUP + "/") else None)  # fmt: skip
+                 not name.startswith(GROUP + "/") else None)
     out = []
     for path, obj in sorted(objects, key=lambda item: item[0]):
         out += [(f"{path}@{name}", -1, _crc(obj.attrs[name])) for name in sorted(obj.attrs)]
@@ -114,6 +114,6 @@ def verify_file(f) -> dict:
             now = None  # chunk whose bytes changed may not inflate)
         if now != int(crc):
             case = int(row) if row >= 0 else (int(m.group(1)) if (m := _CASE.search(path))
-                                              else None)  # fmt: skip
+                                              else None)
             mismatched.append({"path": path, "case": case})
     return {"stored": True, "checked": len(paths), "mismatched": mismatched}

@@ -35,7 +35,7 @@ def create_histories(cases, C: int, grid, N: int, m: int) -> None:
         S = grid.history_max
         cases.create_dataset("sample_time", (C, S), **nan)
         cases.create_dataset("tip_history", (C, S, N, 3), chunks=(1, _chunk(S, 24 * N), N, 3),
-                             **nan)  # fmt: skip
+                             **nan)
         cases["tip_history"].attrs["every"] = grid.history_every
     if grid.state_every:
         S2 = grid.state_max
@@ -43,7 +43,7 @@ def create_histories(cases, C: int, grid, N: int, m: int) -> None:
         cases.create_dataset("states_done", (C,), dtype="i8")
         shape = (C, S2, 2, N, m)
         cases.create_dataset("state_history", shape,
-                             chunks=(1, _chunk(S2, 16 * N * m), 2, N, m), **nan)  # fmt: skip
+                             chunks=(1, _chunk(S2, 16 * N * m), 2, N, m), **nan)
         cases["state_history"].attrs["columns"] = STATE_COLUMNS
         cases["state_history"].attrs["every"] = grid.state_every
 
@@ -79,14 +79,14 @@ def case_bytes(cases) -> dict[str, int]:
 
 
 def state_window(cases, path: str, case: int, window: tuple[float, float] | None = None,
-                 modes: int | None = None):  # fmt: skip
+                 modes: int | None = None):
     """``(times (S,), states (S, 2, N, m))`` of case ``case``'s modal state history within
     ``window`` ``(a, b)`` [s] (None: all of it); ``modes``: the case's mode count ``m`` when
     the file is wider (a study of ``wheel.modes_per_segment``). One line naming the file when
     it has none."""
     if "state_history" not in cases:
         raise InputError(f"{path} has no state history: rerun with output.state_rate_hz > 0 "
-                         "(e.g. --set output.state_rate_hz=2000)")  # fmt: skip
+                         "(e.g. --set output.state_rate_hz=2000)")
     times, states = _history(cases, path, case, window, "state")
     return times, states[..., :modes]
 
@@ -95,7 +95,7 @@ def tip_window(cases, path: str, case: int, window: tuple[float, float] | None =
     """``(times (S,), tips (S, N, 3))`` of case ``case``'s tip history within ``window``."""
     if "tip_history" not in cases:
         raise InputError(f"{path} has no tip history (output.history_rate_hz = 0) and no "
-                         "state history: rerun with output.history_rate_hz > 0")  # fmt: skip
+                         "state history: rerun with output.history_rate_hz > 0")
     return _history(cases, path, case, window, "tip")
 
 
@@ -122,5 +122,5 @@ def _window_rows(t: np.ndarray, window, path: str, what: str) -> tuple[int, int]
     lo, hi = int(np.searchsorted(t, a - 1e-12)), int(np.searchsorted(t, b + 1e-12, "right"))
     if hi <= lo:
         raise InputError(f"--window {a:g}:{b:g}: no {what} sample in it (the case has "
-                         f"samples from {t[0]:.6g} to {t[-1]:.6g} s)")  # fmt: skip
+                         f"samples from {t[0]:.6g} to {t[-1]:.6g} s)")
     return lo, hi

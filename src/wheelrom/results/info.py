@@ -65,7 +65,7 @@ def file_info(path: str, verify: bool = False) -> dict:
     except OSError as exc:
         what = "not an HDF5 file" if "signature" in str(exc) else "cannot be read as HDF5"
         raise InputError(f"{path}: {what}, not a wheelrom results or model file ({exc})") \
-            from None  # fmt: skip
+            from None
     with f:
         info = _info(f, path)
         if verify:
@@ -92,7 +92,7 @@ def _info(f, path: str) -> dict:
     known = ", ".join(repr(k) for k in (FORMAT, STUDY_FORMAT, STABILITY_FORMAT,
                                         FORCED_FORMAT, LIMIT_CYCLE_FORMAT, SETTLE_FORMAT))
     raise InputError(f"{path}: not a wheelrom results or model file ({found}; "
-                     f"expected {known} or a modes --out model)")  # fmt: skip
+                     f"expected {known} or a modes --out model)")
 
 
 def _verify(f, info: dict) -> dict:
@@ -108,7 +108,7 @@ def _verify(f, info: dict) -> dict:
 #: what the file of each format is, in words for a refusal ("a stability file")
 KIND_OF_FORMAT = {FORMAT: "sweep or run results", STUDY_FORMAT: "study",
                   STABILITY_FORMAT: "stability", FORCED_FORMAT: "forced-response",
-                  LIMIT_CYCLE_FORMAT: "limit-cycle", SETTLE_FORMAT: "settle"}  # fmt: skip
+                  LIMIT_CYCLE_FORMAT: "limit-cycle", SETTLE_FORMAT: "settle"}
 
 
 def kind_of(path: str) -> tuple[str | None, str]:
@@ -132,7 +132,7 @@ def kind_of(path: str) -> tuple[str | None, str]:
         if fmt is None and "model" in f and "config" in f.attrs:
             return None, "a model file (modes --out)"
     return fmt, (f"an HDF5 file of format {fmt!r}" if fmt
-                 else "an HDF5 file without a wheelrom format")  # fmt: skip
+                 else "an HDF5 file without a wheelrom format")
 
 
 def verify_cases(cases, rows: list[dict]) -> dict:
@@ -172,7 +172,7 @@ def model_summary(group) -> dict:
     fe_stiffness = [k for k in group.get("contacts", {}) if f"contacts/{k}/stiffness" in group]
     if fe_stiffness:
         extras["contacts/*/stiffness"] = "FE contact stiffness k_c(beta) of " + \
-            ", ".join(fe_stiffness)  # fmt: skip
+            ", ".join(fe_stiffness)
     segment_hz = group["segment_hz"][()] if "segment_hz" in group else np.zeros(0)
     by_nd = group.get("frequencies_by_nd")
     nodal_diameters = int(by_nd.shape[0]) if by_nd is not None else None
@@ -212,7 +212,7 @@ def ts_scheme(options: dict) -> str:
     parts = [scheme] if scheme else []
     if "ts_dt" in rest:
         parts.append(f"dt={rest.pop('ts_dt'):g}" if isinstance(rest["ts_dt"], float)
-                     else f"dt={rest.pop('ts_dt')}")  # fmt: skip
+                     else f"dt={rest.pop('ts_dt')}")
     adapt = rest.pop("ts_adapt_type", "none")
     if adapt != "none":
         parts.append(f"adapt={adapt}")
@@ -258,23 +258,23 @@ def case_rows(cases) -> list[dict]:
             "wall_s": float(wall[i]) if np.isfinite(wall[i]) else None,
             "options": options,
             "scheme": ts_scheme(options) if isinstance(options, dict) else options,
-        })  # fmt: skip
+        })
     return rows
 
 
 def resume_hint(path: str, source: str | None, counts: dict, command: str = "sweep",
-                flags: str = "") -> str | None:  # fmt: skip
+                flags: str = "") -> str | None:
     """What to do about the pending and failed cases of a sweep or study file (None: all
     done): the command that completes it, when the configuration is a plain file (or the
     built-in default). ``counts``: ``pending`` and ``failed`` cases; ``flags``: the options the
     resume must repeat (a study's `` --screen``, `` --forced``). Used by ``info`` and by
     ``sweep``/``study`` when they are interrupted."""
     failed = (f"{counts['failed']} case(s) failed (see their reasons); --resume does not rerun "
-              "them") if counts.get("failed") else None  # fmt: skip
+              "them") if counts.get("failed") else None
     if not counts["pending"]:
         return failed
     what = (f"{counts['pending']} case(s) pending: rerun the {command} with{flags} --resume"
-            + resume_line(path, source, command, flags))  # fmt: skip
+            + resume_line(path, source, command, flags))
     return what + (f"; {failed}" if failed else "")
 
 
@@ -301,7 +301,7 @@ def _results_info(f, path: str) -> dict:
     cases = f["cases"]
     rows = case_rows(cases)
     counts = {state: sum(r["status"] == state for r in rows)
-              for state in ("done", "failed", "pending")}  # fmt: skip
+              for state in ("done", "failed", "pending")}
     counts["total"] = len(rows)
     window_end = cases["window_end"][()]
     configured = _configured_time(f)
@@ -334,11 +334,11 @@ def _stability_info(f, path: str) -> dict:
          "nodal_diameter": int(g["nodal_diameter"][i, 0]),
          "frequency_hz": float(g["frequency_hz"][i, 0])}
         for i, (a, v) in enumerate(zip(g["angles_deg"][()], verdicts, strict=True))
-    ]  # fmt: skip
+    ]
     return {
         **_header(f, path, "stability"),
         "counts": {"stable": verdicts.count("stable"), "unstable": verdicts.count("unstable"),
-                   "total": len(verdicts)},  # fmt: skip
+                   "total": len(verdicts)},
         "cases": cases,
     }
 
@@ -357,27 +357,27 @@ def _study_info(f, path: str) -> dict:
         rows = case_rows(f["cases"])
     else:
         rows = [{"index": i, "status": "skipped", "reason": None, "windows_done": 0,
-                 "wall_s": None, "scheme": "-"} for i in range(len(verdicts))]  # fmt: skip
+                 "wall_s": None, "scheme": "-"} for i in range(len(verdicts))]
     amplification = f["forced/amplification"][()] if "forced" in f else None
     for i, row in enumerate(rows):
         if amplification is not None:
             row["amplification"] = float(amplification[i]) if np.isfinite(amplification[i]) \
-                else None  # fmt: skip
+                else None
         verdict, _, why = verdicts[i].partition(": ")
         row.update(parameters=dict(zip(params["names"], params["text"][i], strict=True)),
                    verdict=verdict, stability_failure=why or None,
                    max_growth_rate=float(growth[i]) if np.isfinite(growth[i]) else None,
-                   selected_by=chosen[i])  # fmt: skip
+                   selected_by=chosen[i])
     header = _header(f, path, "study")
     done = summary(f)
     out = {**header, **{k: done[k] for k in ("mode", "parameters", "models", "verdicts")},
            "shape": list(params["shape"]), "counts": {**done["transients"], "total": len(rows)},
            "selected_by": done["selected_by"], "statistics": done["statistics"],
-           "cases": rows}  # fmt: skip
+           "cases": rows}
     if transient:
         window_end = f["cases/window_end"][()]
         out.update(time_end_s=float(window_end[-1]), windows=int(window_end.size),
-                   window_s=_configured_time(f).get("window"))  # fmt: skip
+                   window_s=_configured_time(f).get("window"))
     flags = study_flags(out["mode"], bool(f.attrs.get("forced", False)),
                         bool(f.attrs.get("forced_nonlinear", False)))
     out["hint"] = resume_hint(path, header["config_source"], out["counts"], "study", flags)
@@ -389,7 +389,7 @@ def _peak(hz: np.ndarray, amplitude: np.ndarray) -> dict:
     [Hz], blade) and how large."""
     i, blade = np.unravel_index(int(np.argmax(amplitude)), amplitude.shape)
     return {"amplitude_m": float(amplitude[i, blade]), "frequency_hz": float(hz[i]),
-            "blade": int(blade)}  # fmt: skip
+            "blade": int(blade)}
 
 
 def _refined_peak(f, which: str) -> dict | None:
@@ -401,7 +401,7 @@ def _refined_peak(f, which: str) -> dict | None:
         return None
     return {"amplitude_m": float(f.attrs[key]),
             "frequency_hz": float(f.attrs[f"{which}peak_frequency_hz"]),
-            "blade": int(np.argmax(f[f"{which}peak_blade_amplitude"][()]))}  # fmt: skip
+            "blade": int(np.argmax(f[f"{which}peak_blade_amplitude"][()]))}
 
 
 def _forced_info(f, path: str) -> dict:
@@ -425,7 +425,7 @@ def _forced_info(f, path: str) -> dict:
         pass
     solver = json.loads(_text(attrs["solver"])) if "solver" in attrs else None
     angles = json.loads(_text(attrs["contact_angles_deg"])) if "contact_angles_deg" in attrs \
-        else None  # fmt: skip
+        else None
     peak, tuned_peak = _refined_peak(f, ""), _refined_peak(f, "tuned_")
     if peak is None:  # a file of an earlier version: the grid's largest values
         peak, tuned_peak = _peak(hz, amplitude), _peak(hz, tuned)
@@ -441,7 +441,7 @@ def _forced_info(f, path: str) -> dict:
         "contact_angles_deg": angles,
         "mistuned": bool(np.any(delta)),
         "mistuning": {"min": float(delta.min()), "max": float(delta.max()),
-                      "std": float(delta.std())},  # fmt: skip
+                      "std": float(delta.std())},
         "peak": peak,
         "tuned_peak": tuned_peak,
         "amplification_factor": number("amplification_factor"),
@@ -464,7 +464,7 @@ def _nonlinear_info(g) -> dict:
             if "peak_amplitude_m" in g.attrs else None,
             "peak_frequency_hz": float(g.attrs["peak_frequency_hz"])
             if "peak_frequency_hz" in g.attrs else None,
-            "exact": _exact_info(g["exact"]) if "exact" in g else None}  # fmt: skip
+            "exact": _exact_info(g["exact"]) if "exact" in g else None}
 
 
 def _exact_info(g) -> dict:
@@ -472,7 +472,7 @@ def _exact_info(g) -> dict:
     balance's difference and the largest multiplier."""
     out = {"converged": bool(g.attrs["converged"])}
     for key in ("frequency_hz", "tip_amplitude_m", "hb_relative_difference",
-                "largest_multiplier"):  # fmt: skip
+                "largest_multiplier"):
         out[key] = float(g.attrs[key]) if key in g.attrs else None
     out["stable"] = bool(g.attrs["stable"]) if "stable" in g.attrs else None
     return out

@@ -24,12 +24,12 @@ def _cases(g) -> list[dict]:
     """Per case: index, the contact angles [deg], the study values and the verdict."""
     angles = g["angles_deg"][()]
     names = [n.strip() for n in _text(g["parameters"].attrs["names"]).split(",")] \
-        if "parameters" in g else []  # fmt: skip
+        if "parameters" in g else []
     values = g["parameters"][()] if names else np.zeros((len(angles), 0))
     return [{"index": i, "tieboss_deg": _number(a[0]), "shroud_deg": _number(a[1]),
              "parameters": {n: _number(v) for n, v in zip(names, values[i], strict=True)},
              "verdict": _text(g["verdict"][i]), "wall_s": _number(g["wall_s"][i])}
-            for i, a in enumerate(angles)]  # fmt: skip
+            for i, a in enumerate(angles)]
 
 
 def _cycles(g) -> list[dict]:
@@ -59,7 +59,7 @@ def _cycles(g) -> list[dict]:
             "largest_multiplier": float(modulus.max()) if modulus.size else None,
             "largest_multiplier_nd": int(g["multiplier_nd"][i][np.argmax(modulus)])
             if modulus.size else None,
-        })  # fmt: skip
+        })
     return rows
 
 
@@ -83,12 +83,12 @@ def limit_cycle_info(f, path: str, header: dict) -> dict:
                 "hopf_factor": _number(w.attrs["critical_lam"]),
                 "hopf_hz": _number(w.attrs["hopf_hz"]), "verdict": _text(w.attrs["verdict"]),
                 "cycles": _cycles(w["cycles"]) if "cycles" in w else [],
-            })  # fmt: skip
+            })
         case["waves"] = waves
     settings = {k: (v.item() if hasattr(v, "item") else _text(v)) for k, v in g.attrs.items()}
     return {**header, "settings": settings, "counts": {"total": len(cases)},
             "total_wall_s": float(np.nansum(g["wall_s"][()])),
-            "file_bytes": os.path.getsize(path), "cases": cases}  # fmt: skip
+            "file_bytes": os.path.getsize(path), "cases": cases}
 
 
 def settle_info(f, path: str, header: dict) -> dict:
@@ -101,7 +101,7 @@ def settle_info(f, path: str, header: dict) -> dict:
         i = case["index"]
         case.update(settled=bool(g["settled"][i]), kind=_text(g["kind"][i]) or None,
                     time_s=_number(g["time"][i]), max_amplitude_m=_number(g["max_amplitude"][i]),
-                    start_amplitude_m=_number(g["start_amplitude"][i]))  # fmt: skip
+                    start_amplitude_m=_number(g["start_amplitude"][i]))
         # (files from before 2026-11-27 lack it; NaN: settled, or too few windows)
         if "trend" in g and np.isfinite(g["trend"][i, 0]):
             case["trend_per_s"] = {"rate": _number(g["trend"][i, 0]),
@@ -112,4 +112,4 @@ def settle_info(f, path: str, header: dict) -> dict:
             "counts": {"settled": settled, "not_settled": len(cases) - settled,
                        "total": len(cases)},
             "total_wall_s": float(np.nansum(g["wall_s"][()])),
-            "file_bytes": os.path.getsize(path), "cases": cases}  # fmt: skip
+            "file_bytes": os.path.getsize(path), "cases": cases}

@@ -42,7 +42,7 @@ def angles_of(row: np.ndarray) -> dict:
 def single_case(cfg: Config) -> Config:
     """``cfg`` with a sweep of one case at its configured contact angles (``run --out``)."""
     return cfg.replace(**{"sweep.tieboss_angles_deg": [cfg.contacts.tieboss.angle_deg],
-                          "sweep.shroud_angles_deg": [cfg.contacts.shroud.angle_deg]})  # fmt: skip
+                          "sweep.shroud_angles_deg": [cfg.contacts.shroud.angle_deg]})
 
 
 def write_model(group, model: ReducedModel) -> None:
@@ -103,7 +103,7 @@ def write_model_file(f, cfg: Config, model: ReducedModel, extra: dict | None = N
 
 
 def create_layout(f, cfg: Config, model: ReducedModel, angles: np.ndarray | None = None,
-                  modes: int | None = None) -> None:  # fmt: skip
+                  modes: int | None = None) -> None:
     """Create every dataset of a sweep of ``cfg`` (collective: all ranks call this
     identically); every case ``pending``. ``angles``: ``(C, 2)`` tie-boss, shroud angle of
     every case [deg] (default: ``cfg``'s sweep grid; a study passes its cases'); ``modes``:
@@ -167,7 +167,7 @@ def layout_bytes(create) -> int:
             total[0] += int(obj.size) * obj.dtype.itemsize
 
     with h5py.File(f"layout-{uuid.uuid4().hex}.h5", "w", driver="core",
-                   backing_store=False) as f:  # fmt: skip
+                   backing_store=False) as f:
         create(f)
         f.visititems(count)
     return total[0]
@@ -231,7 +231,7 @@ def config_changes(stored, cfg: Config, select=None) -> str | None:
     select = select or (lambda data: data)
     try:
         old = flat(select(tomllib.loads(stored.decode() if isinstance(stored, bytes)
-                                        else stored)))  # fmt: skip
+                                        else stored)))
     except (AttributeError, tomllib.TOMLDecodeError):
         return "its configuration attribute is missing or not TOML"
     new = flat(select(tomllib.loads(config_mod.to_toml(cfg))))
@@ -243,7 +243,7 @@ def config_changes(stored, cfg: Config, select=None) -> str | None:
     if not keys:
         return None
     shown = ", ".join(f"{k}: {old.get(k, '(none)')!r} -> {new.get(k, '(none)')!r}"
-                      for k in keys[:3])  # fmt: skip
+                      for k in keys[:3])
     return shown + (f" and {len(keys) - 3} more" if len(keys) > 3 else "")
 
 
@@ -258,7 +258,7 @@ def resume_problem(path: str, cfg: Config) -> str | None:
             changed = config_changes(f.attrs.get("config"), cfg)
             if changed:
                 return (f"{path} was written for a different configuration ({changed}); use "
-                        "--force to start again")  # fmt: skip
+                        "--force to start again")
     except OSError as exc:
         return f"{path} cannot be opened for --resume ({exc}); use --force to start again"
     return None
@@ -279,7 +279,7 @@ def options_problem(path: str, settings: dict) -> str | None:
                 used = json.loads(raw.decode())
             except ValueError:
                 return (f"{path}: case {i + 1}'s recorded TS options are not readable JSON; "
-                        "use --force to start again")  # fmt: skip
+                        "use --force to start again")
             if used:  # {}: a batch that failed before its TS existed records nothing to match
                 recorded.append((i, used))
     wanted = json.loads(json.dumps(settings))  # the same number formats as the file
@@ -311,7 +311,7 @@ def write_stability(f, cfg: Config, model: ReducedModel, cases: list) -> None:
     E = min(len(r.eigenvalue) for r in cases)  # the same for tuned wheels: 2 m (N/2 + 1)
     order = [np.argsort(-r.growth_rate, kind="stable")[:E] for r in cases]  # fastest first
     per_mode = ("nodal_diameter", "growth_rate", "frequency_hz", "damping_ratio",
-                "tip_amplitude", "contact_normal", "contact_tangential", "modal_share")  # fmt: skip
+                "tip_amplitude", "contact_normal", "contact_tangential", "modal_share")
     for name in per_mode:
         g[name] = np.array([getattr(r, name)[o] for r, o in zip(cases, order, strict=True)])
     g["max_growth_rate"] = np.array([r.growth_rate.max() for r in cases])
@@ -344,7 +344,7 @@ def check_readable(path: str) -> None:
         raise InputError(f"{path}: no such file")
     if not os.path.isfile(path):
         raise InputError(f"{path} is not a regular file (a device, a FIFO or a socket), not a "
-                         "wheelrom results file")  # fmt: skip
+                         "wheelrom results file")
 
 
 def open_file(path: str):

@@ -17,7 +17,7 @@ CYCLE_FIELDS = ("lam", "frequency_hz", "tip_amplitude", "tip_harmonics", "normal
                 "fractions", "energy_in", "energy_friction", "energy_damping",
                 "energy_residual", "energy_residual_fine", "damping_ratio", "residual",
                 "harmonics", "shooting_residual", "hb_tip_amplitude",
-                "hb_frequency_hz")  # fmt: skip
+                "hb_frequency_hz")
 
 
 def write_limit_cycles(f, cfg: Config, model: ReducedModel, cases: list) -> None:
@@ -38,7 +38,7 @@ def write_limit_cycles(f, cfg: Config, model: ReducedModel, cases: list) -> None
     g.attrs["time_step"] = cfg.time.step
     g.attrs["kinds"] = ", ".join(next((c.kinds for c in cases if c.kinds), ()))
     g["angles_deg"] = np.array([[c.angles_deg.get(k, np.nan) for k in ("tieboss", "shroud")]
-                                for c in cases])  # fmt: skip
+                                for c in cases])
     g["angles_deg"].attrs["columns"] = "tieboss, shroud"
     names = list(cases[0].parameters) if cases else []
     if names:
@@ -68,7 +68,7 @@ def study_number(value) -> float:
 
 def _write_branch(g, branch) -> None:
     for name in ("wave", "nodal_diameter", "direction", "critical_lam", "hopf_hz", "end",
-                 "note", "wall_s"):  # fmt: skip
+                 "note", "wall_s"):
         g.attrs[name] = getattr(branch, name)
     g.attrs["verdict"] = branch.verdict()
     g["folds"] = np.array(branch.folds, dtype=np.int64)
@@ -80,7 +80,7 @@ def _write_branch(g, branch) -> None:
         c = g.create_group("cycles")
         _write_cycles(c, branch.cycles)
         if all(x.stability is not None for x in branch.cycles) and \
-                len({len(x.stability.families) for x in branch.cycles}) == 1:  # fmt: skip
+                len({len(x.stability.families) for x in branch.cycles}) == 1:
             st = [x.stability for x in branch.cycles]
             c["floquet_families"] = st[0].families
             c["floquet_growth"] = np.array([x.growth for x in st])
@@ -94,11 +94,11 @@ def _write_cycles(g, cycles) -> None:
         g[name] = np.array([getattr(c, name) for c in cycles])
     # 1 stable, 0 unstable, -1 not computed
     g["stable"] = np.array([-1 if c.stable is None else int(c.stable) for c in cycles],
-                           dtype=np.int8)  # fmt: skip
+                           dtype=np.int8)
     # what decided it, in words (under the elastic law also why a -1: stable inside the
     # orbit's symmetry only, or uncertain there)
     g["floquet_by"] = np.array([(c.stability.by if c.stability is not None else "").encode()
-                                for c in cycles])  # fmt: skip
+                                for c in cycles])
 
 
 def _write_orbits(g, cycles) -> None:
@@ -109,23 +109,23 @@ def _write_orbits(g, cycles) -> None:
     if any(o is not None for o in orbits):
         shape = next(o.state.shape for o in orbits if o is not None)
         g["orbit_state"] = np.array([o.state if o is not None and o.state.shape == shape
-                                     else np.full(shape, np.nan) for o in orbits])  # fmt: skip
+                                     else np.full(shape, np.nan) for o in orbits])
         g["orbit_state"].attrs["layout"] = "(cycle, q | q', pattern blade, mode): blade s of " \
-            "the wheel is pattern blade s mod N' at t = 0"  # fmt: skip
+            "the wheel is pattern blade s mod N' at t = 0"
         sliders = [o.sliders if o is not None else None for o in orbits]
         if any(w is not None for w in sliders):  # the elastic law's, at t = 0
             shape = next(w.shape for w in sliders if w is not None)
             g["orbit_sliders"] = np.array([w if w is not None and w.shape == shape
                                            else np.full(shape, np.nan) for w in sliders])
             g["orbit_sliders"].attrs["layout"] = "(cycle, contact kind, pattern blade, " \
-                "xi | zeta) [m]: the elastic law's sliders at t = 0"  # fmt: skip
+                "xi | zeta) [m]: the elastic law's sliders at t = 0"
         g["orbit_period"] = np.array([o.period if o else np.nan for o in orbits])
         g["orbit_shift"] = np.array([o.shift if o else -1 for o in orbits], dtype=np.int64)
         g["orbit_fraction"] = np.array([o.fraction if o else np.nan for o in orbits])
         g["orbit_steps_per_period"] = np.array([o.steps_per_period if o else -1
-                                                for o in orbits], dtype=np.int64)  # fmt: skip
+                                                for o in orbits], dtype=np.int64)
         g["orbit_iterations"] = np.array([o.iterations if o else -1 for o in orbits],
-                                         dtype=np.int64)  # fmt: skip
+                                         dtype=np.int64)
     mus = [c.multipliers for c in cycles]
     if any(m is not None for m in mus):
         E = max(len(m.values) for m in mus if m is not None)
@@ -142,7 +142,7 @@ def _write_orbits(g, cycles) -> None:
         g["multiplier_nd"] = padded(lambda m: m.nd, -1, np.int64)
         g["multiplier_wave"] = padded(lambda m: m.wave, -1, np.int64)
         g["multiplier_trivial_error"] = np.array([m.trivial_error if m else np.nan
-                                                  for m in mus])  # fmt: skip
+                                                  for m in mus])
         g["multiplier_matvecs"] = np.array([m.matvecs if m else -1 for m in mus], np.int64)
         # SLEPc's ("monodromy", at time.step) or every ND's ("Bloch waves", at their step [s])
         g["multiplier_method"] = np.array([(m.by if m else "").encode() for m in mus])
@@ -156,4 +156,4 @@ def _write_orbits(g, cycles) -> None:
                 out[i, : len(r)] = np.array(r, dtype=float)
         g["refined_multiplier"] = out
         g["refined_multiplier"].attrs["columns"] = "step [s], |mu| (dominant inside the " \
-            "cycle's symmetry), ND"  # fmt: skip
+            "cycle's symmetry), ND"

@@ -32,7 +32,7 @@ def open_results(path: str, studies: bool = True):
     if f.attrs.get("format") not in formats or "cases" not in f or "model" not in f:
         f.close()
         raise InputError(f"{path}: not a wheelrom results file (format "
-                         f"{' or '.join(map(repr, formats))} expected)")  # fmt: skip
+                         f"{' or '.join(map(repr, formats))} expected)")
     return f
 
 
@@ -42,7 +42,7 @@ def check_case(f, case: int) -> None:
     total = cases["status"].shape[0]
     if not 0 <= case < total:
         raise InputError(f"--case {case}: the file has {total} case{'s' * (total != 1)} "
-                         f"(0..{total - 1})")  # fmt: skip
+                         f"(0..{total - 1})")
     status = cases["status"][case].decode()
     if status == "pending":
         raise InputError(f"--case {case} is pending: nothing computed yet")
@@ -79,7 +79,7 @@ def read_model(group) -> ReducedModel:
         blades=N, modes=m, segment_hz=hz, K_seg=np.diag((2 * math.pi * hz) ** 2),
         A0=group["A0"][()], A1=group["A1"][()], rotation=rotation_z(2.0 * math.pi / N),
         tip=group["tip"][()], aero=group["aero"][()], excitation=group["excitation"][()],
-    )  # fmt: skip
+    )
     for kind, g in group.get("contacts", {}).items():
         model.contact_A[kind] = g["A_shape"][()]
         model.contact_B[kind] = g["B_shape"][()]
@@ -112,7 +112,7 @@ class ContactHistory:
 
 
 def contact_histories(model: ReducedModel, cfg: Config, angles_deg: dict, times: np.ndarray,
-                      states: np.ndarray) -> dict[str, ContactHistory]:  # fmt: skip
+                      states: np.ndarray) -> dict[str, ContactHistory]:
     """Kind -> :class:`ContactHistory` at the modal states ``states`` ``(S, 2, N, m)``
     (``q``, ``q'``) at ``times`` ``(S,)`` of the case with contact angles ``angles_deg``.
 
@@ -126,11 +126,11 @@ def contact_histories(model: ReducedModel, cfg: Config, angles_deg: dict, times:
     state = np.zeros((S, K, N), dtype=np.int8)
     for i in forces.replay(times, states):
         normal[i], slip[i], state[i] = forces.normal_force, forces.slip_velocity, \
-            forces.contact_state  # fmt: skip
+            forces.contact_state
         friction[i], rel[i] = forces.friction_force, forces.relative_displacement
     return {kind: ContactHistory(kind, np.asarray(times), normal[:, k], friction[:, k],
                                  rel[:, k], slip[:, k], state[:, k])
-            for k, kind in enumerate(kinds)}  # fmt: skip
+            for k, kind in enumerate(kinds)}
 
 
 def case_contacts(path: str, case: int, window: tuple[float, float] | None = None

@@ -25,11 +25,11 @@ def write_settle(f, cfg: Config, model: ReducedModel, cases: list) -> None:
     g = f.create_group("settle")
     s = cfg.settle
     for key in ("window_periods", "tolerance", "consecutive", "min_time", "max_time",
-                "perturbation", "seed", "start", "nozzle"):  # fmt: skip
+                "perturbation", "seed", "start", "nozzle"):
         g.attrs[key] = getattr(s, key)
     g.attrs["time_step"] = cfg.time.step
     g["angles_deg"] = np.array([[a.get(k, np.nan) for k in ("tieboss", "shroud")]
-                                for a, _, _ in cases])  # fmt: skip
+                                for a, _, _ in cases])
     g["angles_deg"].attrs["columns"] = "tieboss, shroud"
     names = list(cases[0][1]) if cases else []
     if names:
@@ -39,9 +39,9 @@ def write_settle(f, cfg: Config, model: ReducedModel, cases: list) -> None:
     g["settled"] = np.array([r.settled for _, _, r in cases])
     g["time"] = np.array([r.time for _, _, r in cases])
     g["kind"] = np.array([(r.classification.kind if r.classification else "").encode()
-                          for _, _, r in cases])  # fmt: skip
+                          for _, _, r in cases])
     g["max_amplitude"] = np.array([r.amplitude.max() if r.amplitude.size else np.nan
-                                   for _, _, r in cases])  # fmt: skip
+                                   for _, _, r in cases])
     g["wall_s"] = np.array([r.wall_s for _, _, r in cases])
     g["trend"] = np.array([r.trend() or (np.nan, np.nan) for _, _, r in cases]).reshape(-1, 2)
     g["trend"].attrs["columns"] = "rate [1/s], its standard error [1/s]"
@@ -51,7 +51,7 @@ def write_settle(f, cfg: Config, model: ReducedModel, cases: list) -> None:
     g["still_growing"] = np.array([r.still_growing() for _, _, r in cases], dtype=bool)
     g["start_amplitude"] = np.array([r.start_amplitude for _, _, r in cases])
     g["start_amplitude"].attrs["meaning"] = "tip amplitude [m] of the single-wave exact orbit " \
-        "the case started from (NaN: started from the preloaded equilibrium)"  # fmt: skip
+        "the case started from (NaN: started from the preloaded equilibrium)"
     for i, (_, _, r) in enumerate(cases):
         _write_case(g.create_group(f"case_{i}"), r)
     write_file_checksums(f, {"settle": len(cases)})
@@ -72,7 +72,7 @@ def _write_case(g, r) -> None:
     g["window_change"].attrs["columns"] = "amplitude, ND energy distribution"
     if r.classification is not None:  # a settled state only
         for key in ("kind", "frequency_hz", "modulation_hz", "modulation_depth", "line_share",
-                    "return_distance", "decided_by"):  # fmt: skip
+                    "return_distance", "decided_by"):
             g.attrs[key] = getattr(r.classification, key)
     if not r.amplitude.size:
         return

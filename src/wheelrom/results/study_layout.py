@@ -28,12 +28,12 @@ TEXT_LEN = 64
 def case_angles(study: Study) -> np.ndarray:
     """``(C, 2)`` the tie-boss and shroud angle [deg] of every case."""
     return np.array([[c.contacts.tieboss.angle_deg, c.contacts.shroud.angle_deg]
-                     for c in study.configs], dtype=float).reshape(-1, 2)  # fmt: skip
+                     for c in study.configs], dtype=float).reshape(-1, 2)
 
 
 def create(f, cfg: Config, study: Study, models: list, model_of: list[int], stability: dict,
            selected_by: list[str], mode: str, mistuning: np.ndarray | None = None,
-           forced: dict | None = None, forced_nonlinear: dict | None = None) -> None:  # fmt: skip
+           forced: dict | None = None, forced_nonlinear: dict | None = None) -> None:
     """The whole file but the transient results: every selected case ``pending``, the
     others ``skipped``. ``stability``: :func:`stability_arrays`; ``models``: one reduced
     model per group (tuned), ``model_of`` ``(C,)`` the group of every case; ``mistuning``
@@ -52,7 +52,7 @@ def create(f, cfg: Config, study: Study, models: list, model_of: list[int], stab
         results.write_model(f.create_group("model"), models[0])
     else:
         results.create_layout(f, cfg, models[0], angles,
-                              modes=max(m.modes for m in models))  # fmt: skip
+                              modes=max(m.modes for m in models))
         cases = f["cases"]
     f.attrs["format"] = FORMAT
     f.attrs["study_mode"] = mode
@@ -60,7 +60,7 @@ def create(f, cfg: Config, study: Study, models: list, model_of: list[int], stab
     status = [b"pending" if s != "none" else b"skipped" for s in selected_by]
     cases["status"][...] = np.array(status, dtype=f"S{results.STATUS_LEN}")
     cases.create_dataset("selected_by", data=np.array([s.encode() for s in selected_by],
-                                                      dtype="S16"))  # fmt: skip
+                                                      dtype="S16"))
     cases.create_dataset("model", data=np.array(model_of, dtype="i8"))
     write_parameters(cases.create_group("parameters"), study)
     for g, model in enumerate(models):
@@ -102,7 +102,7 @@ def write_parameters(g, study: Study) -> None:
     values = np.array([[number(v) for v in row] for row in study.values], dtype=float)
     g.create_dataset("values", data=values.reshape(study.size, len(study.names)))
     text = [[str(v).lower() if isinstance(v, bool) else f"{v!r}" if isinstance(v, float)
-             else str(v) for v in row] for row in study.values]  # fmt: skip
+             else str(v) for v in row] for row in study.values]
     g.create_dataset("text", data=np.array(text, dtype=f"S{TEXT_LEN}").reshape(values.shape))
     g.attrs["shape"] = np.array(study.shape, dtype="i8")
     g.attrs["legacy_sweep"] = study.legacy
@@ -137,7 +137,7 @@ def stability_arrays(cases: list) -> dict[str, np.ndarray]:
         ("tip_amplitude", (C, E)), ("contact_normal", (C, E, K)),
         ("contact_tangential", (C, E, K)), ("modal_share", (C, E, m)),
         ("normal_force", (C, K, N)), ("margin", (C, K, N)), ("equilibrium", (C, N, m)),
-        ("max_growth_rate", (C,)), ("residual", (C,)), ("wall_s", (C,)))}  # fmt: skip
+        ("max_growth_rate", (C,)), ("residual", (C,)), ("wall_s", (C,)))}
     out["nodal_diameter"] = np.full((C, E), -1, dtype="i8")
     out["cyclic"] = np.zeros(C, dtype=bool)
     verdict = []
@@ -156,7 +156,7 @@ def _fill_case(out: dict, c: int, r) -> None:
     e = order.size
     n, mm = r.equilibrium.shape
     for name in ("nodal_diameter", "growth_rate", "frequency_hz", "damping_ratio",
-                 "tip_amplitude"):  # fmt: skip
+                 "tip_amplitude"):
         out[name][c, :e] = getattr(r, name)[order]
     out["modal_share"][c, :e, :mm] = r.modal_share[order]
     out["equilibrium"][c, :n, :mm] = r.equilibrium
@@ -173,7 +173,7 @@ def _fill_case(out: dict, c: int, r) -> None:
 
 
 def resume_problem(path: str, cfg: Config, mode: str, forced: bool = False,
-                   nonlinear: bool = False) -> str | None:  # fmt: skip
+                   nonlinear: bool = False) -> str | None:
     """Why the study file at ``path`` cannot be completed for ``cfg``, ``mode``, ``forced``
     (``--forced``) and ``nonlinear`` (``--forced-nonlinear``)."""
     import h5py
@@ -185,18 +185,18 @@ def resume_problem(path: str, cfg: Config, mode: str, forced: bool = False,
             changed = results.config_changes(f.attrs.get("config"), cfg)
             if changed:
                 return (f"{path} was written for a different configuration ({changed}); use "
-                        "--force to start again")  # fmt: skip
+                        "--force to start again")
             if f.attrs.get("study_mode") != mode:
                 return (f"{path} was written by a {f.attrs.get('study_mode')!r} study, this is "
-                        f"{mode!r}; use --force to start again")  # fmt: skip
+                        f"{mode!r}; use --force to start again")
             if bool(f.attrs.get("forced", False)) != forced:
                 was = "with" if f.attrs.get("forced", False) else "without"
                 return (f"{path} was written {was} --forced; use --force to start again, or "
-                        f"resume {was} it")  # fmt: skip
+                        f"resume {was} it")
             if bool(f.attrs.get("forced_nonlinear", False)) != nonlinear:
                 was = "with" if f.attrs.get("forced_nonlinear", False) else "without"
                 return (f"{path} was written {was} --forced-nonlinear; use --force to start "
-                        f"again, or resume {was} it")  # fmt: skip
+                        f"again, or resume {was} it")
     except OSError as exc:
         return f"{path} cannot be opened for --resume ({exc}); use --force to start again"
     return None
@@ -232,7 +232,7 @@ def design_summary(f) -> dict | None:
     peak = g["peak_amplitude"][()]
     text = f["cases/parameters/text"][()] if "cases/parameters" in f else None
     labels = [", ".join(t.decode() for t in row) for row in text] if text is not None else \
-        [str(i) for i in range(peak.size)]  # fmt: skip
+        [str(i) for i in range(peak.size)]
     done = np.isfinite(peak)
     best = int(np.nanargmin(np.where(done, peak, np.nan))) if done.any() else None
     def listed(name):  # forced.exact's per case, None where not computed (or older files)
@@ -275,7 +275,7 @@ def distribution(values) -> dict:
     x = values[finite]
     return {"count": int(x.size), "mean": float(x.mean()), "std": float(x.std()),
             "p95": float(np.percentile(x, 95)), "max": float(x.max()),
-            "argmax": int(finite[np.argmax(x)])}  # fmt: skip
+            "argmax": int(finite[np.argmax(x)])}
 
 
 def stable_amplification(f) -> tuple[np.ndarray, int]:

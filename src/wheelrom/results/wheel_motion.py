@@ -39,7 +39,7 @@ def rebuild(f, path: str, comm, log=quiet) -> WheelBuild:
         stored = f[f"model/{name}"][()]
         if stored.shape != ours.shape:
             raise InputError(f"{path}: the model rebuilt from the file's configuration has "
-                             f"{name} of shape {ours.shape}, the file {stored.shape}")  # fmt: skip
+                             f"{name} of shape {ours.shape}, the file {stored.shape}")
         scale = max(float(np.abs(stored).max()), np.finfo(float).tiny)
         error = float(np.abs(ours - stored).max()) / scale
         if not error <= TOLERANCE:
@@ -104,11 +104,11 @@ def _xdmf_text(h5_name: str, points: int, quads: int, times) -> str:
 
     def item(dataset, dims, kind="Float"):
         return (f'<DataItem DataType="{kind}" Dimensions="{dims}" Format="HDF" '
-                f'Precision="8">{h5_name}:/{dataset}</DataItem>')  # fmt: skip
+                f'Precision="8">{h5_name}:/{dataset}</DataItem>')
 
     mesh = (f'<Geometry GeometryType="XYZ">{item("points", f"{points} 3")}</Geometry>'
             f'<Topology TopologyType="Quadrilateral" NumberOfElements="{quads}">'
-            f'{item("quads", f"{quads} 4", "Int")}</Topology>')  # fmt: skip
+            f'{item("quads", f"{quads} 4", "Int")}</Topology>')
     steps = "".join(
         f'<Grid Name="step{k}" GridType="Uniform">{mesh}<Time Value="{t!r}"/>'
         f'<Attribute Name="displacement" AttributeType="Vector" Center="Node">'
@@ -118,7 +118,7 @@ def _xdmf_text(h5_name: str, points: int, quads: int, times) -> str:
     return ('<?xml version="1.0"?>\n<Xdmf Version="3.0"><Domain>\n'
             f'<Grid Name="wheel" GridType="Uniform">{mesh}</Grid>\n'
             '<Grid Name="motion" GridType="Collection" CollectionType="Temporal">\n'
-            f'{steps}</Grid></Domain></Xdmf>\n')  # fmt: skip
+            f'{steps}</Grid></Domain></Xdmf>\n')
 
 
 def xdmf_paths(prefix: str) -> list[str]:
@@ -127,7 +127,7 @@ def xdmf_paths(prefix: str) -> list[str]:
 
 
 def write_xdmf(prefix: str, surface: WheelSurface, times: np.ndarray,
-               q: np.ndarray) -> list[str]:  # fmt: skip
+               q: np.ndarray) -> list[str]:
     """``PREFIX.xdmf`` + ``PREFIX.h5``: the wheel surface and its displacement [m] at
     ``times`` ``(S,)`` from the modal displacements ``q`` ``(S, N, m)``. Both are written in
     a hidden directory beside them and moved into place when complete."""
@@ -144,7 +144,7 @@ def write_xdmf(prefix: str, surface: WheelSurface, times: np.ndarray,
                 h5[f"displacement/{k}"] = surface.displacement(q[k])
         with open(names[0], "w") as fh:
             fh.write(_xdmf_text(os.path.basename(paths[1]), surface.points.shape[0],
-                                surface.quads.shape[0], [float(t) for t in times]))  # fmt: skip
+                                surface.quads.shape[0], [float(t) for t in times]))
         for name, path in zip(names[::-1], paths[::-1], strict=True):
             os.replace(name, path)
     finally:

@@ -51,7 +51,7 @@ def accuracy_table(cfg, comm, modes=(10, 20, 40), enriched_modes=10, families=4,
         "(at the cyclic FE's rate per phase)")
     t0 = time.perf_counter()
     X, lam = enriched_basis(seg, mats, c1, eig.vectors[mats.free, :enriched_modes],
-                            ENRICH_FAMILIES, comm, phases)  # fmt: skip
+                            ENRICH_FAMILIES, comm, phases)
     log(f"enriched basis: {X.shape[1]} vectors ({time.perf_counter() - t0:.1f} s)")
     model = reduce(seg, mats.expand(X), np.diag(lam), cfg)
     rom = _families(model, families)
@@ -67,7 +67,7 @@ def accuracy_table(cfg, comm, modes=(10, 20, 40), enriched_modes=10, families=4,
             model = reduce(seg, mats.expand(X), np.diag(lam), cfg)
             rom = _families(model, families)
             bases[f"attachment m={m}"] = {"vectors": int(X.shape[1]),
-                                          "relative_error": rom / reference - 1}  # fmt: skip
+                                          "relative_error": rom / reference - 1}
             log(f"attachment basis m={m} done")
     return {"reference_hz": reference, "bases": bases}
 

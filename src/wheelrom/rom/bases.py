@@ -64,11 +64,11 @@ def ritz_basis(mats, parts: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
 
 
 def enriched_basis(seg, mats, c1: float, free_modes: np.ndarray, per_phase: int, comm,
-                   phases=None):  # fmt: skip
+                   phases=None):
     """Free-interface modes plus the lowest ``per_phase`` exact sector modes at ``phases``
     (:func:`enrichment_vectors`), as segment Ritz vectors (:func:`ritz_basis`).
 
     ``free_modes``: ``(n_free, m)``. Returns ``(vectors (n_free, r), ritz_values (r,))``.
     """
     return ritz_basis(mats, [free_modes, enrichment_vectors(seg, mats, c1, per_phase, comm,
-                                                            phases)])  # fmt: skip
+                                                            phases)])

@@ -74,7 +74,7 @@ def build_segment(cfg: Config, comm, log=quiet) -> SegmentBuild:
     if s.prestress and cfg.wheel.speed_hz > 0:
         omega = 2 * np.pi * cfg.wheel.speed_hz
         ps = prestress(seg, mats, s.young, s.poisson, s.density, omega,
-                       cfg.wheel.coupling_stiffness, comm)  # fmt: skip
+                       cfg.wheel.coupling_stiffness, comm)
         standstill = mats.K
         mats = replace(mats, K=ps.stiffness(mats))
         stiffening = (mats.K - standstill).tocsr()
@@ -99,12 +99,12 @@ def _stress_report(ps, rim_radius: float | None) -> dict:
     meets the rim at a sharp re-entrant edge: there the linear elastic stress is singular and
     its peak grows with mesh refinement (a detail design puts a fillet there)."""
     out = {"prestress_peak_von_mises_pa": ps.peak_von_mises,
-           "prestress_peak_radius_m": ps.peak_radius}  # fmt: skip
+           "prestress_peak_radius_m": ps.peak_radius}
     if rim_radius is not None:
         r = ps.element_radius
         for name, mask in (("disc", r < rim_radius - ROOT_CORNER_SPAN),
                            ("blade", r > rim_radius + ROOT_CORNER_SPAN),
-                           ("root_corner", abs(r - rim_radius) <= ROOT_CORNER_SPAN)):  # fmt: skip
+                           ("root_corner", abs(r - rim_radius) <= ROOT_CORNER_SPAN)):
             if mask.any():
                 out[f"prestress_{name}_peak_pa"], out[f"prestress_{name}_radius_m"] = (
                     ps.peak_where(mask))
@@ -114,12 +114,12 @@ def _stress_report(ps, rim_radius: float | None) -> dict:
 def stress_line(info: dict) -> str:
     """The stress report of ``_stress_report`` in one line [MPa]."""
     parts = [f"peak von Mises stress {info['prestress_peak_von_mises_pa'] / 1e6:.0f} MPa at "
-             f"r = {info['prestress_peak_radius_m']:.2f} m"]  # fmt: skip
+             f"r = {info['prestress_peak_radius_m']:.2f} m"]
     for name, label in (("disc", "disc"), ("blade", "blade"),
-                        ("root_corner", "root corner (singular)")):  # fmt: skip
+                        ("root_corner", "root corner (singular)")):
         if f"prestress_{name}_peak_pa" in info:
             parts.append(f"{label} {info[f'prestress_{name}_peak_pa'] / 1e6:.0f} MPa "
-                         f"(r = {info[f'prestress_{name}_radius_m']:.2f} m)")  # fmt: skip
+                         f"(r = {info[f'prestress_{name}_radius_m']:.2f} m)")
     return "; ".join(parts)
 
 
@@ -151,7 +151,7 @@ def build(cfg: Config, comm, log=quiet, segment: SegmentBuild | None = None) -> 
         if "enriched" in parts:
             phases = enrichment_phases(seg.sectors)
             vectors.append(enrichment_vectors(seg, mats, cfg.wheel.coupling_stiffness,
-                                              ENRICH_FAMILIES, comm, phases))  # fmt: skip
+                                              ENRICH_FAMILIES, comm, phases))
             said.append(f"{ENRICH_FAMILIES} sector modes of ND {', '.join(map(str, phases))}")
         if "attachment" in parts:
             kinds = [k for k in cfg.contacts.enabled_kinds() if f"{k}_A" in seg.node_sets]
@@ -159,7 +159,7 @@ def build(cfg: Config, comm, log=quiet, segment: SegmentBuild | None = None) -> 
             said.append(f"attachment vectors of {', '.join(kinds) or 'no'} contacts")
         X, lam = ritz_basis(mats, vectors)
         log(f"{cfg.wheel.basis} basis: {X.shape[1]} vectors (free modes + "
-            f"{' + '.join(said)}) in {time.perf_counter() - t1:.2f} s")  # fmt: skip
+            f"{' + '.join(said)}) in {time.perf_counter() - t1:.2f} s")
         hz = np.sqrt(np.maximum(lam, 0.0)) / (2 * np.pi)
         shapes = mats.expand(X)
         model = reduce(seg, shapes, np.diag(lam), cfg, hz)
@@ -181,7 +181,7 @@ def build(cfg: Config, comm, log=quiet, segment: SegmentBuild | None = None) -> 
     model.mistuning = blade_mistuning(cfg)
     if model.mistuning is not None:
         log(f"mistuning: delta_s from {model.mistuning.min():+.4f} to {model.mistuning.max():+.4f} "
-            "(blade modal stiffness x (1 + delta_s))")  # fmt: skip
+            "(blade modal stiffness x (1 + delta_s))")
     model.info.update(segment.info)
     model.info.update(
         segment_dofs=seg.n_dofs,

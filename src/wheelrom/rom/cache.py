@@ -74,7 +74,7 @@ def _versions() -> dict:
 
     return {"numpy": np.__version__, "scipy": scipy.__version__, "meshio": meshio.__version__,
             "petsc4py": petsc4py.__version__, "slepc4py": slepc4py.__version__,
-            "skfem": skfem.__version__}  # fmt: skip
+            "skfem": skfem.__version__}
 
 
 def _solver_options() -> dict:
@@ -110,10 +110,10 @@ def load(path: Path) -> ReducedModel | None:
             info = json.loads(str(data["info"]))
             kinds = json.loads(str(data["kinds"]))
             per_kind = {name: {k: data[f"{name}/{k}"].copy() for k in kinds[name]}
-                        for name in PER_KIND}  # fmt: skip
+                        for name in PER_KIND}
             model = ReducedModel(int(data["blades"]), int(data["modes"]),
                                  *(data[name].copy() for name in ARRAYS), **per_kind,
-                                 info=info)  # fmt: skip
+                                 info=info)
             if "speed_stiffness" in data.files:
                 model.speed_stiffness = data["speed_stiffness"].copy()
     except Exception:  # noqa: BLE001 (missing, truncated: BadZipFile, EOFError; damaged)
@@ -144,7 +144,7 @@ def store(path: Path, model: ReducedModel) -> None:
             # the model file's rule for its info (results/layout.py): numpy scalars as floats
             np.savez(f, blades=model.blades, modes=model.modes,
                      info=json.dumps(model.info, default=float),
-                     kinds=json.dumps(kinds), **arrays)  # fmt: skip
+                     kinds=json.dumps(kinds), **arrays)
         os.replace(tmp, path)
         _prune(path.parent)
     except OSError:
@@ -173,7 +173,7 @@ def cached(cfg, build, log) -> ReducedModel:
         model.info["build_s"] = time.perf_counter() - t0  # this command's cost of it
         model.info["model_cache"] = str(path)
         log(f"model read from the cache in {time.perf_counter() - t0:.2f} s "
-            f"({path}; {ENVIRONMENT}=off builds it)")  # fmt: skip
+            f"({path}; {ENVIRONMENT}=off builds it)")
         return model
     model = build()
     store(path, model)

@@ -18,7 +18,7 @@ def campbell(cfg: Config, speeds_hz, comm, log=quiet) -> dict:
     seg_hz, wheel_hz = [], []
     for speed in speeds_hz:
         model = build_model(cfg.replace(**{"wheel.speed_hz": float(speed),
-                                           "segment.prestress": True}), comm)  # fmt: skip
+                                           "segment.prestress": True}), comm)
         seg_hz.append(model.segment_hz)
         wheel_hz.append(model.frequencies_by_nodal_diameter())
         say(f"{speed:7.2f} Hz: segment " + ", ".join(f"{f:.1f}" for f in model.segment_hz[:4]))

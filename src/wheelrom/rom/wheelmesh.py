@@ -56,7 +56,7 @@ def mode_displacement(seg: SegmentMesh, shapes: np.ndarray, q: np.ndarray) -> np
 
 
 def write_wheel_mode(path: str, seg: SegmentMesh, shapes: np.ndarray, model: ReducedModel,
-                     nd: int, family: int = 0) -> float:  # fmt: skip
+                     nd: int, family: int = 0) -> float:
     """Write the whole wheel with the mode's displacement as point data (any meshio format,
     e.g. ``.vtu``); returns the mode's frequency [Hz]."""
     import meshio

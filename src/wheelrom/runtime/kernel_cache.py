@@ -72,7 +72,7 @@ def _cache_class():
             stamp = (self._impl.locator.get_source_stamp(), sources_digest())
             self._cache_file = IndexDataCacheFile(cache_path=self._cache_path,
                                                   filename_base=self._impl.filename_base,
-                                                  source_stamp=stamp)  # fmt: skip
+                                                  source_stamp=stamp)
 
         def load_overload(self, sig, target_context):
             found = super().load_overload(sig, target_context)

@@ -52,7 +52,7 @@ def output_lock(path: str | None, comm=None, flag: str = "--out"):
             problem = exc
         except Exception as exc:  # rank 0's surprise must not leave the others waiting
             problem = InputError(f"{flag} {path}: cannot take its lock {lock_name(path)} "
-                                 f"({type(exc).__name__}: {exc})")  # fmt: skip
+                                 f"({type(exc).__name__}: {exc})")
     if comm is not None:
         problem = comm.bcast(problem)
     if problem:
@@ -85,7 +85,7 @@ def _terminate_as_interrupt():
 
 def _holder() -> dict:
     return {"host": socket.gethostname(), "pid": os.getpid(),
-            "started": time.strftime("%Y-%m-%d %H:%M:%S %z")}  # fmt: skip
+            "started": time.strftime("%Y-%m-%d %H:%M:%S %z")}
 
 
 def _acquire(path: str, flag: str) -> tuple[int, str]:
@@ -167,10 +167,10 @@ def _lock_problem(path: str, lock: str, flag: str, tries: int = 5) -> InputError
             fd = os.open(lock, os.O_RDONLY | os.O_NOFOLLOW)
         except FileNotFoundError:  # released meanwhile: the job just ended
             return InputError(f"{flag} {path}: another job was writing it until just now; "
-                              "run again")  # fmt: skip
+                              "run again")
         except OSError:
             return InputError(f"{flag} {path}: its lock {lock} is not a lock file wheelrom "
-                              f"made; if no job writes {path}, remove it: {remove}")  # fmt: skip
+                              f"made; if no job writes {path}, remove it: {remove}")
         try:
             info = _read_holder(fd)
             try:
@@ -190,10 +190,10 @@ def _lock_problem(path: str, lock: str, flag: str, tries: int = 5) -> InputError
     alive = _alive(info)
     if held or (held is None and alive is not False):
         return InputError(f"{flag} {path}: in use by another wheelrom job ({who}); wait for "
-                          f"it to finish or choose another {flag}")  # fmt: skip
+                          f"it to finish or choose another {flag}")
     return InputError(f"{flag} {path}: stale lock {lock} of a job that is no longer running "
                       f"({who}); if no job writes {path}, remove it and run again: "
-                      f"{remove}")  # fmt: skip
+                      f"{remove}")
 
 
 def _read_holder(fd: int) -> dict | None:
@@ -208,7 +208,7 @@ def _describe(info: dict | None) -> str:
     if info is None:
         return "holder unknown"
     return (f"host {info.get('host', '?')}, pid {info.get('pid', '?')}, started "
-            f"{info.get('started', '?')}")  # fmt: skip
+            f"{info.get('started', '?')}")
 
 
 def _alive(info: dict | None) -> bool | None:

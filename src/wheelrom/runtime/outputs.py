@@ -54,7 +54,7 @@ def output_problem(path: str, force: bool = False, flag: str = "--out") -> Input
     what = not_a_regular_file(path)
     if what:  # not even with --force: the rename would put a file where a device was
         return InputError(f"{flag} {path}: is {what}, not a regular file: it is never "
-                          "replaced, choose another name")  # fmt: skip
+                          "replaced, choose another name")
     if os.path.exists(path):
         if not force:
             return OutputExists(path)
@@ -65,7 +65,7 @@ def output_problem(path: str, force: bool = False, flag: str = "--out") -> Input
 
 _KINDS = ((stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISCHR, "a character device"),
           (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"),
-          (stat.S_ISDIR, "a directory"))  # fmt: skip
+          (stat.S_ISDIR, "a directory"))
 
 
 def not_a_regular_file(path: str) -> str | None:
@@ -111,11 +111,11 @@ def check_side_folder(folder: str, out: str, flag: str = "--out") -> None:
     if stat.S_ISLNK(mode):
         what = not_a_regular_file(folder) or "a symbolic link to a regular file"
         raise InputError(f"{where} is {what}: a link there is never followed (nor what it "
-                         "points to deleted); remove the link or choose another name")  # fmt: skip
+                         "points to deleted); remove the link or choose another name")
     if not stat.S_ISDIR(mode):
         what = "a regular file" if stat.S_ISREG(mode) else _kind(mode)
         raise InputError(f"{where} is {what}, not a folder: it is never replaced; move it "
-                         "away or choose another name")  # fmt: skip
+                         "away or choose another name")
     if not os.access(folder, os.W_OK | os.X_OK):
         raise InputError(f"{where} is not writable")
 
@@ -176,11 +176,11 @@ def rename_problem(partial: str, path: str, flag: str = "--out") -> InputError |
     a regular file."""
     if not stat.S_ISREG(os.lstat(partial).st_mode):
         return InputError(f"{flag} {path}: its temporary file {partial} was replaced by "
-                          "something other than a regular file; nothing was written")  # fmt: skip
+                          "something other than a regular file; nothing was written")
     what = not_a_regular_file(path)
     if what:
         return InputError(f"{flag} {path}: is now {what}, not a regular file: it is never "
-                          f"replaced; nothing was written")  # fmt: skip
+                          f"replaced; nothing was written")
     return None
 
 
@@ -239,7 +239,7 @@ def create_collectively(out: str, comm, fill) -> None:
             with contextlib.suppress(FileNotFoundError):
                 os.remove(partial)
             failure = exc if isinstance(exc, InputError) else InputError(
-                f"--out {out}: cannot be renamed into place ({exc})")  # fmt: skip
+                f"--out {out}: cannot be renamed into place ({exc})")
     failure = comm.bcast(failure)
     if failure:
         raise failure
@@ -268,7 +268,7 @@ def space_problem(path: str, needed: int, flag: str = "--out") -> InputError | N
     if free >= want:
         return None
     return InputError(f"{flag} {path}: needs about {size_text(want)}, the disk holding "
-                      f"'{directory}' has {size_text(free)} free")  # fmt: skip
+                      f"'{directory}' has {size_text(free)} free")
 
 
 def check_space(path: str, needed: int, flag: str = "--out") -> None:

@@ -200,10 +200,10 @@ def _section_lines(g: BuiltinGeometry, preset: dict, anchors):
         [-ones, np.full_like(r_rows, -m_line), -row_alpha, zeros, row_alpha,
          np.full_like(r_rows, m_line), ones],
         axis=-1,
-    )  # fmt: skip
+    )
     b_lines = np.stack([-ones, -row_beta, zeros, row_beta, ones], axis=-1)
     return (r_rows, _subdivide(a_lines, preset["sub_chord"]),
-            _subdivide(b_lines, preset["sub_thick"]))  # fmt: skip
+            _subdivide(b_lines, preset["sub_thick"]))
 
 
 def _blade_block(g: BuiltinGeometry, r_rows, a_lines, b_lines, arms) -> np.ndarray:
@@ -247,7 +247,7 @@ def _disc_block(g: BuiltinGeometry, preset: dict, phi: float, a_lines, b_lines) 
     # per radius: side lines from the disc's face (hub: wider) to the root's chord lines
     z_side = np.linspace(-g.width(r_lines) / 2, np.full(r_lines.size, z_root[0]), side + 1, axis=1)
     z_lines = np.concatenate([z_side[:, :-1], np.broadcast_to(z_root, (r_lines.size,
-                              z_root.size)), -z_side[:, :-1][:, ::-1]], axis=1)  # fmt: skip
+                              z_root.size)), -z_side[:, :-1][:, ::-1]], axis=1)
     Ir, It = np.meshgrid(r_lines, th_lines, indexing="ij")
     Ir = np.broadcast_to(Ir[..., None], Ir.shape + (z_lines.shape[1],))
     It = np.broadcast_to(It[..., None], Ir.shape)

@@ -138,4 +138,4 @@ def stiffness_tables(cfg, seg: SegmentMesh, mats: SegmentMatrices, kinds, comm):
         k: (ANGLES_DEG.copy(), flex[k].stiffness(ANGLES_DEG, cfg.contact(k).arm_axial_stiffness),
             flex[k])
         for k in kinds
-    }  # fmt: skip
+    }

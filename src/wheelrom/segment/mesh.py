@@ -28,7 +28,7 @@ REQUIRED_SETS = ("clamped", "left", "right", "excitation", "aero", "tip")
 # VTK / Abaqus order of the 12 edges of a 20-node hexahedron, as pairs of corner positions:
 # the mid-side node of edge e is node 8 + e of the cell
 HEX20_EDGES = ((0, 1), (1, 2), (2, 3), (3, 0), (4, 5), (5, 6), (6, 7), (7, 4),
-               (0, 4), (1, 5), (2, 6), (3, 7))  # fmt: skip
+               (0, 4), (1, 5), (2, 6), (3, 7))
 
 
 def rotation_z(angle: float) -> np.ndarray:

@@ -49,7 +49,7 @@ def spin_softening_mass(seg: SegmentMesh, density: float, arrays=None) -> sp.csr
 
 
 def gauss_stress(seg: SegmentMesh, young: float, poisson: float, u: np.ndarray,
-                 arrays=None) -> np.ndarray:  # fmt: skip
+                 arrays=None) -> np.ndarray:
     """``(nel, nq, 3, 3)`` linear-elastic stress [Pa] of the displacement ``u`` ``(n_dofs,)``
     at the Gauss points."""
     lam = young * poisson / ((1 + poisson) * (1 - 2 * poisson))
@@ -69,7 +69,7 @@ def von_mises(S: np.ndarray) -> np.ndarray:
 
 
 def geometric_stiffness(seg: SegmentMesh, young: float, poisson: float, u: np.ndarray,
-                        arrays=None) -> sp.csr_matrix:  # fmt: skip
+                        arrays=None) -> sp.csr_matrix:
     """``K_sigma`` [N/m] of the stress of the displacement ``u`` ``(n_dofs,)``."""
     _, grads, dx, dofs, _ = arrays or basis_arrays(seg)
     S = gauss_stress(seg, young, poisson, u, arrays)
@@ -106,7 +106,7 @@ class Prestress:
 
 def prestress(seg: SegmentMesh, mats: SegmentMatrices, young: float, poisson: float,
               density: float, omega: float, c1: float, comm,
-              prefix: str = "prestress_") -> Prestress:  # fmt: skip
+              prefix: str = "prestress_") -> Prestress:
     """Centrifugal static solve at ``omega`` [rad/s] and the prestress matrices."""
     t0 = time.perf_counter()
     arrays = basis_arrays(seg)
@@ -126,4 +126,4 @@ def prestress(seg: SegmentMesh, mats: SegmentMatrices, young: float, poisson: fl
     element = int(np.argmax(stress))
     return Prestress(omega, u_full, Ks.tocsr(), Ms.tocsr(), residual, time.perf_counter() - t0,
                      float(stress[element]), float(radius[element]), stress,
-                     radius)  # fmt: skip
+                     radius)

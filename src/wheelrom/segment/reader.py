@@ -53,7 +53,7 @@ def read_segment(cfg: Config) -> SegmentMesh:
         raise InputError(f"segment.source: mesh file '{path}' not found")
     if not os.path.isfile(path):  # a FIFO, a device or a directory: read forever, or never
         raise InputError(f"segment.source: '{path}' is not a regular file (a directory, a "
-                         "device or a FIFO); name a mesh file")  # fmt: skip
+                         "device or a FIFO); name a mesh file")
     said = io.StringIO()
     try:
         with contextlib.redirect_stdout(said), contextlib.redirect_stderr(said):

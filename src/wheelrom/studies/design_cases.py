@@ -22,7 +22,7 @@ from wheelrom.studies.forced_nonlinear import DesignPoint
 from wheelrom.studies.kept_cases import DamagedCase, kept_dir, read_case, write_case
 
 _CURVE = ("frequency", "harmonics", "tip_amplitude", "converged", "iterations", "fractions",
-          "folds", "growth")  # fmt: skip
+          "folds", "growth")
 _PEAK = ("harmonics", "fractions")
 
 
@@ -40,11 +40,11 @@ def save_point(directory: str, index: int, digest: str, point: DesignPoint) -> b
     scalars = {"digest": digest, "wave": c.wave, "nodal_diameter": c.nodal_diameter,
                "wall_s": c.wall_s, "kinds": list(c.kinds), "trace": c.trace,
                "point_wall_s": point.wall_s, "refined": None,
-               "exact": point.exact}  # fmt: skip
+               "exact": point.exact}
     if c.refined is not None:
         r = c.refined
         scalars["refined"] = {"frequency": r.frequency, "tip_amplitude": r.tip_amplitude,
-                              "solves": r.solves}  # fmt: skip
+                              "solves": r.solves}
         arrays.update({f"peak_{k}": np.asarray(getattr(r, k)) for k in _PEAK})
     try:
         write_case(directory, index, scalars, arrays)
@@ -78,17 +78,17 @@ def _point_of(scalars: dict, arrays: dict) -> DesignPoint:
                         nodal_diameter=int(scalars["nodal_diameter"]),
                         wall_s=float(scalars["wall_s"]), kinds=tuple(scalars["kinds"]),
                         folds=arrays["curve_folds"], trace=str(scalars["trace"]),
-                        growth=arrays["curve_growth"])  # fmt: skip
+                        growth=arrays["curve_growth"])
     r = scalars["refined"]
     if r is not None:
         curve.refined = RefinedPeak(float(r["frequency"]), float(r["tip_amplitude"]),
                                     arrays["peak_harmonics"], arrays["peak_fractions"],
-                                    int(r["solves"]))  # fmt: skip
+                                    int(r["solves"]))
     exact = scalars.get("exact")
     if exact is not None:  # JSON has no NaN of its own: json writes and reads it as NaN
         exact = {k: (v if k in ("converged", "nodal_diameter", "wheel_nodal_diameter")
                      else float(v))
-                 for k, v in exact.items()}  # fmt: skip
+                 for k, v in exact.items()}
     return DesignPoint(curve, tuple(float(b) for b in arrays["band"]),
                        float(scalars["point_wall_s"]), exact)
 

@@ -34,7 +34,7 @@ BAND_MARGIN = 0.03
 def nonlinear_forced(model: ReducedModel, cfg: Config, frequencies: np.ndarray,
                      angles_deg: dict | None = None, harmonics: int = 5, comm=None,
                      progress=None, refine: bool = False, inputs: tuple | None = None,
-                     ranks=None) -> ForcedCurve:  # fmt: skip
+                     ranks=None) -> ForcedCurve:
     """The steady response at every excitation frequency of ``frequencies`` [rad/s] (in
     that order) of the tuned ``model`` under ``cfg`` (its contact law, the Van der Pol force
     as configured), contact angles ``angles_deg`` as :func:`linearise`; ``refine``: also the
@@ -47,29 +47,29 @@ def nonlinear_forced(model: ReducedModel, cfg: Config, frequencies: np.ndarray,
         queue = CaseQueue(count, ranks)
         curve = segmented_curve(model, params, cfg.wheel.damping_beta, frequencies, q, ranks,
                                 harmonics=harmonics, progress=progress, refine=refine,
-                                segments=count, taken=queue)  # fmt: skip
+                                segments=count, taken=queue)
         queue.free()  # every rank met again in the segments' gather (a failure aborts the job)
         return curve
     return forced_curve(model, params, cfg.wheel.damping_beta, frequencies, q,
-                        harmonics=harmonics, progress=progress, refine=refine)  # fmt: skip
+                        harmonics=harmonics, progress=progress, refine=refine)
 
 
 def forced_inputs(model: ReducedModel, cfg: Config, angles_deg: dict | None = None,
-                  comm=None) -> tuple:  # fmt: skip
+                  comm=None) -> tuple:
     """``(force parameters, preloaded equilibrium (N, m))`` of a nonlinear forced case (the
     equilibrium with the nozzle off), after the checks of its configuration."""
     if not model.tuned:
         raise InputError("forced-response --nonlinear: the travelling-wave harmonic balance "
-                         "needs a tuned wheel; [mistuning] is set")  # fmt: skip
+                         "needs a tuned wheel; [mistuning] is set")
     if cfg.excitation.force <= 0:
         raise InputError("forced-response --nonlinear: excitation.force = 0: the nozzle "
-                         "force is off, nothing is forced")  # fmt: skip
+                         "force is off, nothing is forced")
     _, q, _, _, _ = linearise(model, cfg, angles_deg, comm)
     return force_parameters(model, cfg, angles_deg), q
 
 
 def nonlinear_band(model: ReducedModel, cfg: Config, angles_deg: dict | None = None,
-                   comm=None) -> tuple[tuple[float, float], list[float]]:  # fmt: skip
+                   comm=None) -> tuple[tuple[float, float], list[float]]:
     """``((lo, hi), resonances)`` [rad/s]: the band, ``forced.band_hz`` when given, else from
     the resonance of ``forced.family`` at the excited ND with the contacts slipping (their
     normal springs at the preloaded equilibrium, no tangential stiffness: the paper law's
@@ -87,7 +87,7 @@ def nonlinear_band(model: ReducedModel, cfg: Config, angles_deg: dict | None = N
         J = linearise(model, case, angles_deg, comm)[3]
         K, _ = operators(model, case, True, angles_deg, comm, jacobian=J)
         found.append(resonance(K, model, cfg.wheel.stator_vanes, cfg.forced.family,
-                               speed_following(model, cfg)))  # fmt: skip
+                               speed_following(model, cfg)))
     if cfg.forced.band_hz:
         lo, hi = (2 * math.pi * f for f in cfg.forced.band_hz)
         return (lo, hi), [w for w in found if lo <= w <= hi]
@@ -107,17 +107,17 @@ class DesignPoint:
 
 
 def design_point(model: ReducedModel, cfg: Config, angles_deg: dict | None = None,
-                 comm=None) -> DesignPoint:  # fmt: skip
+                 comm=None) -> DesignPoint:
     """The nonlinear forced response of one study case over :func:`nonlinear_band` on
     ``forced.points`` frequencies (at least 3) and the band's linear resonances,
     ``forced.harmonics`` harmonics, with its peak refined."""
     t0 = time.perf_counter()
     band, resonances = nonlinear_band(model, cfg, angles_deg, comm)
     grid = np.unique(np.concatenate([np.linspace(*band, max(cfg.forced.points, 3)),
-                                     resonances]))  # fmt: skip
+                                     resonances]))
     inputs = forced_inputs(model, cfg, angles_deg, comm)  # one equilibrium for both
     curve = nonlinear_forced(model, cfg, grid, angles_deg, cfg.forced.harmonics, comm,
-                             refine=True, inputs=inputs)  # fmt: skip
+                             refine=True, inputs=inputs)
     if cfg.forced.continuation == "arclength":
         curve = trace_after_grid(model, cfg, curve, band, inputs)
     exact = None
@@ -125,13 +125,13 @@ def design_point(model: ReducedModel, cfg: Config, angles_deg: dict | None = Non
         r = curve.refined
         exact = exact_summary(exact_peak(model, cfg, r.harmonics, r.frequency,
                                          (curve.harmonics.shape[1] - 1) // 2, inputs,
-                                         angles_deg, whole_wheel=True))  # fmt: skip
+                                         angles_deg, whole_wheel=True))
     return DesignPoint(curve, band, time.perf_counter() - t0, exact)
 
 
 def exact_peak(model: ReducedModel, cfg: Config, X: np.ndarray, omega: float,
                harmonics: int, inputs: tuple, angles_deg: dict | None = None,
-               whole_wheel: bool = False) -> ForcedOrbit:  # fmt: skip
+               whole_wheel: bool = False) -> ForcedOrbit:
     """The exact state by shooting from the balance's state ``X`` ``(2H + 1, m)`` at
     ``omega`` [rad/s] (``inputs``: the case's :func:`forced_inputs`; ``whole_wheel``: its
     multipliers in every ND too)."""
@@ -156,7 +156,7 @@ def exact_summary(orbit: ForcedOrbit) -> dict:
 
 
 def trace_after_grid(model: ReducedModel, cfg: Config, grid: ForcedCurve, band: tuple,
-                     inputs: tuple) -> ForcedCurve:  # fmt: skip
+                     inputs: tuple) -> ForcedCurve:
     """The curve over ``band`` [rad/s] traced by arclength continuation
     (:func:`~wheelrom.analysis.periodic.forced_branch.traced_curve`), its unit of the
     harmonics the largest of the ``grid`` solve; its peak the larger of the two refined
@@ -171,9 +171,9 @@ def trace_after_grid(model: ReducedModel, cfg: Config, grid: ForcedCurve, band: 
     jump = float(spacing.max()) if spacing.size else band[1] - band[0]  # the grid's spacing
     curve = traced_curve(model, params, cfg.wheel.damping_beta, band, q,
                          harmonics=(grid.harmonics.shape[1] - 1) // 2, x_ref=x_ref, refine=True,
-                         jump=jump, stability=True)  # fmt: skip
+                         jump=jump, stability=True)
     if grid.refined is not None and (curve.refined is None or grid.refined.tip_amplitude
-                                      > curve.refined.tip_amplitude):  # fmt: skip
+                                      > curve.refined.tip_amplitude):
         curve.refined = grid.refined
     curve.wall_s += grid.wall_s
     return curve
@@ -195,7 +195,7 @@ def design_arrays(found: list) -> dict[str, np.ndarray]:
         ("exact_largest_multiplier_at_twice_the_step", (C,)),
         ("exact_wheel_largest_multiplier", (C,)),
         ("folds_hz", (C, max((p.curve.folds.size for p in found if not isinstance(p, str)),
-                             default=0))))}  # fmt: skip
+                             default=0))))}
     out["converged"] = np.zeros((C, F), dtype=bool)
     out["nodal_diameter"] = np.full(C, -1, dtype="i8")
     out["exact_multiplier_nd"] = np.full(C, -1, dtype="i8")
@@ -232,7 +232,7 @@ def design_arrays(found: list) -> dict[str, np.ndarray]:
             out["exact_wheel_multiplier_nd"][c] = e.get("wheel_nodal_diameter", -1)
         if curve.trace:  # traced by arclength
             status.append(f"done (traced: {int(curve.converged.sum())} points, "
-                          f"{curve.folds.size} folds; {curve.trace})")  # fmt: skip
+                          f"{curve.folds.size} folds; {curve.trace})")
         else:
             status.append(f"done ({int(curve.converged.sum())} of {n} frequencies converged)")
     out["status"] = np.array([s.encode() for s in status], dtype=f"S{results.STATUS_LEN}")

@@ -24,7 +24,7 @@ from wheelrom.studies.queue import CaseQueue
 
 
 def run_limit_cycles(cfg: Config, comm=None, log=print, waves=None,
-                     progress=None) -> tuple[object, list[CaseLimitCycles]]:  # fmt: skip
+                     progress=None) -> tuple[object, list[CaseLimitCycles]]:
     """``(model, results)`` of every case of ``cfg``'s study (``[study]`` grid, zip or CSV
     cases of any keys, else the ``[sweep]`` angles) in case order on rank 0 of the mpi4py
     ``comm`` (``None``: serial); other ranks get ``(model, [])`` (``model``: the first
@@ -37,9 +37,9 @@ def run_limit_cycles(cfg: Config, comm=None, log=print, waves=None,
     model_of, models = shared_models(study.configs, comm, say)
     if not all(m.tuned for m in models):
         raise InputError("limit-cycle: the travelling-wave harmonic balance needs a tuned "
-                         "wheel; [mistuning] is set")  # fmt: skip
+                         "wheel; [mistuning] is set")
     say(f"{len(models)} model(s) ready in {time.perf_counter() - t0:.1f} s: "
-        f"{models[0].blades} blades x {models[0].modes} modes")  # fmt: skip
+        f"{models[0].blades} blades x {models[0].modes} modes")
     mine, refused_input = [], set()  # the reasons of cases refused as bad input ("": other)
     queue = CaseQueue(study.size, comm)
     for i in queue:
@@ -76,7 +76,7 @@ def run_limit_cycles(cfg: Config, comm=None, log=print, waves=None,
         reasons = set().union(*parts)
         every = all(res.failure for _, res in ordered)
         refused = next(iter(reasons)) if every and len(reasons) == 1 and "" not in reasons \
-            else None  # fmt: skip
+            else None
     refused = comm.bcast(refused) if comm is not None else refused
     if refused:
         raise InputError(f"limit cycles: {refused}")
@@ -94,11 +94,11 @@ def summary(case: CaseLimitCycles) -> dict:
             "hopf_hz": _finite_or_none(b.hopf_hz), "verdict": b.verdict(),
             "branch_points": len(b.points), "branch_end": b.end, "folds": len(b.folds),
             "cycles": [_cycle(c, case.kinds) for c in b.cycles], "wall_s": b.wall_s,
-        })  # fmt: skip
+        })
     fastest = None if case.fastest is None else dict(
         zip(("wave", "nodal_diameter", "growth_rate"), case.fastest, strict=True))
     return {"angles_deg": case.angles_deg, "verdict": case.verdict(), "waves": waves,
-            "fastest_wave": fastest, "wall_s": case.wall_s}  # fmt: skip
+            "fastest_wave": fastest, "wall_s": case.wall_s}
 
 
 def _cycle(c, kinds) -> dict:
@@ -116,7 +116,7 @@ def _cycle(c, kinds) -> dict:
                          "open": float(c.fractions[i, 0]), "micro_slip": float(c.fractions[i, 1]),
                          "slip": float(c.fractions[i, 2])} for i, k in enumerate(kinds)},
         "stable": c.stable, "method": c.method,
-    }  # fmt: skip
+    }
     out["source"] = c.source
     if c.shot_missed:
         out["shooting"] = {"converged": False, "residual": c.shooting_residual}
@@ -133,12 +133,12 @@ def _cycle(c, kinds) -> dict:
                               for v, nd, k in zip(mu.values, mu.nd, mu.wave, strict=True)]
     if c.refined:  # the in-symmetry multiplier's steps (also without the whole wheel's)
         out["refined_multiplier"] = [{"step_s": s, "modulus": v, "nd": nd}
-                                     for s, v, nd in c.refined]  # fmt: skip
+                                     for s, v, nd in c.refined]
     if c.stability is not None:
         out["floquet"] = {"largest_multiplier": c.stability.multiplier,
                           "trivial_multiplier_error": c.stability.trivial,
                           "trusted": c.stability.trusted,
-                          "worst_family": c.stability.worst_family}  # fmt: skip
+                          "worst_family": c.stability.worst_family}
     return out
 
 

@@ -81,7 +81,7 @@ class ForcedCases:
 
 
 def analyse_case(study: Study, models: list, model_of: list[int], i: int,
-                 forced: ForcedCases | None) -> tuple:  # fmt: skip
+                 forced: ForcedCases | None) -> tuple:
     """``(stability, forced)`` of case ``i``: a StabilityResult or the text of its failure,
     and (``forced`` given) ``(peak, reference, wall_s)`` or the text of its failure (else
     None). With contacts both share one equilibrium and Jacobian."""
@@ -112,7 +112,7 @@ def forced_arrays(found: list, study: Study, blades: int) -> dict[str, np.ndarra
         ("amplification", (C,)), ("peak_amplitude", (C,)), ("peak_frequency_hz", (C,)),
         ("blade_amplitude", (C, N)), ("tuned_peak_amplitude", (C,)),
         ("tuned_peak_frequency_hz", (C,)), ("tuned_blade_amplitude", (C, N)),
-        ("band_hz", (C, 2)), ("wall_s", (C,)))}  # fmt: skip
+        ("band_hz", (C, 2)), ("wall_s", (C,)))}
     out["solves"] = np.zeros(C, dtype="i8")
     out["reference"] = np.array(group_by([tuned_key(c) for c in study.configs])[0], dtype="i8")
     status = []

@@ -41,7 +41,7 @@ def boundary(verdicts: Sequence, shape: Sequence[int]) -> np.ndarray:
 
 
 def selection(verdicts: Sequence, shape: Sequence[int], confirm: Sequence[int],
-              mode: str) -> list[str]:  # fmt: skip
+              mode: str) -> list[str]:
     """Why each case gets a transient: ``all`` (mode ``full``), ``boundary``, ``user``,
     ``boundary+user`` (mode ``screen``), ``none`` (not run; every case of mode
     ``stability``)."""
@@ -52,7 +52,7 @@ def selection(verdicts: Sequence, shape: Sequence[int], confirm: Sequence[int],
     asked = np.zeros(C, dtype=bool)
     asked[list(confirm)] = True
     words = {(True, True): "boundary+user", (True, False): "boundary",
-             (False, True): "user", (False, False): "none"}  # fmt: skip
+             (False, True): "user", (False, False): "none"}
     return [words[(bool(e), bool(a))] for e, a in zip(edge, asked, strict=True)]
 
 

@@ -20,7 +20,7 @@ KEPT = "the cases of every finished round are in the file: free space and rerun 
 
 
 def run_rounds(f, plan: list[list[int]], comm, run_batch: Callable, settings: dict,
-               attach: Callable, line: Callable, say, t_end: float) -> bool:  # fmt: skip
+               attach: Callable, line: Callable, say, t_end: float) -> bool:
     """Run this rank's ``plan`` (a list of batches of case indices) in rounds; returns
     whether a stop was requested.
 
@@ -42,7 +42,7 @@ def run_rounds(f, plan: list[list[int]], comm, run_batch: Callable, settings: di
         chunk = chunk if finished else []
         _write(f, comm, [(i, res) for i, res in zip(chunk, finished, strict=True)], attach)
         report = [(i, res.status, res.wall_s, res.batch, res.compile_s, res.classification)
-                  for i, res in zip(chunk, finished, strict=True)]  # fmt: skip
+                  for i, res in zip(chunk, finished, strict=True)]
         gathered = comm.gather(report, root=0)
         if comm.rank == 0:
             for item in sorted(item for part in gathered for item in part):
@@ -100,7 +100,7 @@ def _batch(chunk: list[int], run_batch: Callable, settings: dict, progress) -> l
         return []
     except Exception as exc:
         return [CaseResult(status=f"failed: {type(exc).__name__}: {exc}", options=settings)
-                for _ in chunk]  # fmt: skip
+                for _ in chunk]
 
 
 def wait_for_all(comm, poll: float = 0.005) -> None:
@@ -135,7 +135,7 @@ class Progress:
         what, whose = f"{cases} case(s)", ""
         if ranks > 1:
             what = (f"{cases} case(s) on rank 0, {elsewhere} more on {ranks - 1} other "
-                    "rank(s) at the same time")  # fmt: skip
+                    "rank(s) at the same time")
             whose = " on rank 0"
         last_line = [-math.inf]
 

@@ -82,16 +82,16 @@ def check_cycles(path: str, cfg: Config) -> None:
     fmt, kind = kind_of(path)
     if fmt != LIMIT_CYCLE_FORMAT:
         raise InputError(f"--cycles {path}: is {kind}, not a limit-cycle file (wheelrom "
-                         "limit-cycle --out)")  # fmt: skip
+                         "limit-cycle --out)")
     with h5py.File(path, "r", locking=False) as f:
         if "limit_cycle" not in f:
             raise InputError(f"--cycles {path}: its group /limit_cycle is missing (a limit-cycle "
-                             "file cut short?)")  # fmt: skip
+                             "file cut short?)")
         changed = config_changes(f.attrs.get("config"), cfg, select=model_data)
     if changed:
         raise InputError(f"--cycles {path}: written for another wheel ({changed}): its orbits "
                          "are not this model's; compute the limit cycles of this "
-                         "configuration")  # fmt: skip
+                         "configuration")
 
 
 def _cycle_from_file(path: str, angles: dict, blades: int):
@@ -107,7 +107,7 @@ def _cycle_from_file(path: str, angles: dict, blades: int):
         table = g["angles_deg"][()]
         want = np.array([angles.get("tieboss", np.nan), angles.get("shroud", np.nan)])
         rows = [i for i, row in enumerate(table)
-                if np.allclose(row, want, equal_nan=True, atol=1e-9)]  # fmt: skip
+                if np.allclose(row, want, equal_nan=True, atol=1e-9)]
         for i in rows:
             case = g[f"case_{i}"]
             waves = [case[n] for n in case if n.startswith("wave_") and "cycles" in case[n]]
@@ -118,14 +118,14 @@ def _cycle_from_file(path: str, angles: dict, blades: int):
                         state = c["orbit_state"][j]
                         every = np.arange(blades) % state.shape[1]
                         sliders = c["orbit_sliders"][j][:, every] if "orbit_sliders" in c \
-                            else None  # fmt: skip
+                            else None
                         return (state[:, every], 1.0 / c["orbit_period"][j],
                                 c["tip_amplitude"][j], sliders, _largest_multiplier(c, j))
             for w in waves:  # no exact orbit: the harmonic balance's cycle
                 c = w["cycles"]
                 hz = float(c["frequency_hz"][0])
                 q, v = wave_state(c["harmonics"][0], int(w.attrs["wave"]), blades,
-                                  2 * math.pi * hz)  # fmt: skip
+                                  2 * math.pi * hz)
                 return np.stack([q, v]), hz, c["tip_amplitude"][0], None, math.nan
     return None
 
@@ -173,13 +173,13 @@ def _start(model, cfg: Config, angles: dict, cycles_file: str | None, comm=None)
         words = f"the exact orbit in {os.path.basename(cycles_file)}"
     if st.start == "cycle" and found is None:
         lc = dataclasses.replace(lc_settings(cfg, (-1,)), method="shooting", floquet="off",
-                                 refine=0)  # fmt: skip
+                                 refine=0)
         res = case_limit_cycles(model, cfg, lc, angles, comm)
         for branch in res.branches:
             for c in branch.cycles:
                 if found is None and c.orbit is not None:
                     found = (c.orbit.wheel_state(N), c.frequency_hz, c.tip_amplitude,
-                             c.orbit.wheel_sliders(N), math.nan)  # fmt: skip
+                             c.orbit.wheel_sliders(N), math.nan)
                     words = f"the exact orbit of wave {branch.wave}"
     hold = 0.0
     if found is not None:
@@ -206,7 +206,7 @@ def _start(model, cfg: Config, angles: dict, cycles_file: str | None, comm=None)
         words = (f"the preloaded equilibrium, the growing modes of waves {unstable} seeded at "
                  f"{size:.3g} m{why}")
     every = cfg.replace(**{"time.perturbation": seed, "time.perturbation_waves": [],
-                           "time.seed": st.seed})  # fmt: skip
+                           "time.seed": st.seed})
     u0 = u0.copy()
     u0[0] = (q0 + start_perturbation(model, every)).ravel()
     u0 = u0.ravel()
@@ -218,7 +218,7 @@ def _start(model, cfg: Config, angles: dict, cycles_file: str | None, comm=None)
             sliders = ReferenceForces(params).sliders_at_rest(q)
         elif sliders is None:  # a harmonic-balance cycle holds none: at rest at its start
             sliders = ReferenceForces(force_parameters(model, cfg, angles)).sliders_at_rest(
-                np.ascontiguousarray(q0))  # fmt: skip
+                np.ascontiguousarray(q0))
             words += " (its sliders at rest there: the cycle file holds none)"
         u0 = np.concatenate([u0, np.zeros(4), np.ravel(sliders)])
     words = f"{words}, every ND perturbed at {seed:.3g} m (seed {st.seed})"
@@ -249,7 +249,7 @@ def _below_slip_onset(model, cfg, angles, q, B0, B1, size: float) -> tuple[float
     if not 0 < SEED_FRACTION * onset < size:  # nothing slips below the configured seed
         return size, ""
     return SEED_FRACTION * onset, (f" (half the stuck mode's slip onset, below "
-                                   f"settle.seed_amplitude = {size:g} m)")  # fmt: skip
+                                   f"settle.seed_amplitude = {size:g} m)")
 
 
 # ------------------------------------------------------------------ the output
@@ -264,7 +264,7 @@ def resume_problem(path: str) -> str | None:
     if fmt == FORMAT:
         return None
     return (f"--out {path}: is {kind}, not a settle file: --resume completes only a settle "
-            "file; choose another --out, or --force to replace it")  # fmt: skip
+            "file; choose another --out, or --force to replace it")
 
 
 # ------------------------------------------------------------------ sidecars
@@ -279,18 +279,18 @@ def save_case(directory: str, index: int, digest: str, result: Settled) -> None:
                "start_amplitude": result.start_amplitude,
                "energy_balance": result.energy_balance,
                "classification": dataclasses.asdict(c) if c else None,
-               "changes": [list(w.change) for w in result.windows]}  # fmt: skip
+               "changes": [list(w.change) for w in result.windows]}
     arrays = {"window_end": np.array([w.end for w in result.windows]),
               "window_amplitude": np.array([w.amplitude for w in result.windows]),
               "window_nd_energy": np.array([w.nd_energy for w in result.windows]),
               "amplitude": result.amplitude, "nd_energy": result.nd_energy,
               "fractions": result.fractions, "normal_force_range": result.normal_force_range,
-              "tip_time": result.tip_time, "tip": result.tip}  # fmt: skip
+              "tip_time": result.tip_time, "tip": result.tip}
     write_case(directory, index, scalars, arrays)
 
 
 def _save_or_keep(directory: str, index: int, digest: str, result: Settled,
-                  warned: list) -> None:  # fmt: skip
+                  warned: list) -> None:
     """:func:`save_case`; on a full disk the case stays in memory only, to reach ``--out``
     (or its copy in the temporary directory) with the others at the end, and the first such
     case on this rank says so on stderr (any rank's write may fail: not rank 0's log)."""
@@ -302,7 +302,7 @@ def _save_or_keep(directory: str, index: int, digest: str, result: Settled,
         if not warned:
             where = os.path.join(directory, f"case_{index}.npz")
             print(f"wheelrom: warning: {disk_full(where, exc, KEPT_IN_MEMORY)}",
-                  file=sys.stderr, flush=True)  # fmt: skip
+                  file=sys.stderr, flush=True)
         warned.append(index)
 
 
@@ -345,7 +345,7 @@ def load_case(directory: str, index: int, digest: str, warn=None) -> Settled | N
                            arrays["normal_force_range"], scalars["energy_balance"],
                            arrays["tip_time"], arrays["tip"], scalars["start"],
                            scalars["start_amplitude"], scalars["wall_s"],
-                           scalars["status"])  # fmt: skip
+                           scalars["status"])
         except Exception as exc:
             raise DamagedCase(os.path.join(directory, f"case_{index}.json"), exc) from None
     except DamagedCase as exc:
@@ -356,7 +356,7 @@ def load_case(directory: str, index: int, digest: str, warn=None) -> Settled | N
 
 # ------------------------------------------------------------------ the cases
 def run_settle(cfg: Config, out: str | None, comm=None, log=print, resume: bool = False,
-               cycles_file: str | None = None, progress=None, warn=print):  # fmt: skip
+               cycles_file: str | None = None, progress=None, warn=print):
     """``(model, [(angles, parameters, Settled)])`` of every case on rank 0 (others: the
     model and ``[]``). ``warn``: a damaged saved case (rank 0 reads them). ``--resume``
     reuses a batch (``settle.batch``) whose every case was kept, and runs one kept in part
@@ -381,7 +381,7 @@ def run_settle(cfg: Config, out: str | None, comm=None, log=print, resume: bool 
     # the batches of every case, the same whatever the number of ranks or what an interrupted
     # run kept (a batch's members decide its windows)
     plan = batches(list(range(study.size)), [batch_key(c) for c in study.configs],
-                   cfg.settle.batch)  # fmt: skip
+                   cfg.settle.batch)
     kept: dict[int, Settled] = {}
     if resume and directory and rank == 0:  # one rank reads what is kept: the plan is its
         for i in range(study.size):         # (another rank could already be saving a case)
@@ -403,7 +403,7 @@ def run_settle(cfg: Config, out: str | None, comm=None, log=print, resume: bool 
                                     [study.configs[i] for i in chunk],
                                     [contact_angles(study.configs[i]) for i in chunk], cycles_file,
                                     [labels[i] for i in chunk],
-                                    progress if rank == 0 else None)  # fmt: skip
+                                    progress if rank == 0 else None)
             for i, done in zip(chunk, results, strict=True):
                 if directory:
                     _save_or_keep(directory, i, config_digest(study.configs[i]), done, unsaved)
@@ -423,7 +423,7 @@ def run_settle(cfg: Config, out: str | None, comm=None, log=print, resume: bool 
 
 
 def _settle_batch(model, cfgs: list[Config], angles: list[dict], cycles_file, labels,
-                  progress) -> list[Settled]:  # fmt: skip
+                  progress) -> list[Settled]:
     """Cases of one batch key (:func:`~wheelrom.config.study.batch_key`: they differ in their
     contact ``angles`` only): each one's start, then the cases whose start was found
     integrated together (:func:`~wheelrom.analysis.periodic.settle.settle_cases`); a case
@@ -447,7 +447,7 @@ def _settle_batch(model, cfgs: list[Config], angles: list[dict], cycles_file, la
     def say(j, t, w):
         if progress:  # the first window has no window before it to change against
             change = (f"window change {max(w.change):.2%}" if math.isfinite(max(w.change))
-                      else "first window")  # fmt: skip
+                      else "first window")
             progress(f"{labels[started[j]]}: {t:.3g} s, largest blade "
                      f"{w.amplitude.max() * 1e6:.3g} um, {change}")
 
@@ -455,7 +455,7 @@ def _settle_batch(model, cfgs: list[Config], angles: list[dict], cycles_file, la
         done = settle_cases(model, cfgs[started[0]], [angles[b] for b in started],
                             [starts[b][0] for b in started], [starts[b][1] for b in started],
                             [settings[b] for b in started], cfgs[started[0]].settle.nozzle,
-                            say)  # fmt: skip
+                            say)
         for b, result in zip(started, done, strict=True):
             result.start, result.start_amplitude = starts[b][2], starts[b][3]
             out[b] = result
@@ -472,7 +472,7 @@ def summary(angles: dict, parameters: dict, r: Settled) -> dict:
     out = {"label": label, "angles_deg": angles, "parameters": parameters,
            "verdict": r.verdict(), "settled": r.settled, "simulated_s": r.time,
            "status": r.status, "start": r.start, "wall_s": r.wall_s,
-           "windows": len(r.windows)}  # fmt: skip
+           "windows": len(r.windows)}
     trend = r.trend()
     if trend is not None:
         out["trend_per_s"] = {"rate": trend[0], "error": trend[1]}
@@ -480,7 +480,7 @@ def summary(angles: dict, parameters: dict, r: Settled) -> dict:
         out.update({
             "kind": c.kind, "decided_by": c.decided_by, "frequency_hz": c.frequency_hz,
             "modulation_hz": c.modulation_hz if math.isfinite(c.modulation_hz) else None,
-            "modulation_depth": c.modulation_depth})  # fmt: skip
+            "modulation_depth": c.modulation_depth})
     if r.amplitude.size:
         A = r.amplitude
         out.update({
@@ -492,5 +492,5 @@ def summary(angles: dict, parameters: dict, r: Settled) -> dict:
             "contacts": [{"open": float(f[0]), "micro_slip": float(f[1]), "slip": float(f[2]),
                           "normal_force_min_n": float(n[0]), "normal_force_max_n": float(n[1])}
                          for f, n in zip(r.fractions, r.normal_force_range, strict=True)],
-        })  # fmt: skip
+        })
     return out

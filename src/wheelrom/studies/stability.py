@@ -23,7 +23,7 @@ from wheelrom.runtime.errors import InputError
 
 
 def run_stability(cfg: Config, comm=None, log=print,
-                  margin: bool = False) -> tuple[object, list[StabilityResult]]:  # fmt: skip
+                  margin: bool = False) -> tuple[object, list[StabilityResult]]:
     """``(model, results)`` of every case of ``cfg``'s grid, in case order, on rank 0 of the
     mpi4py ``comm`` (``None``: serial); other ranks get ``(model, [])``. ``margin``: also the
     flutter margin of every case (:mod:`wheelrom.analysis.margin`)."""
@@ -40,11 +40,11 @@ def run_stability(cfg: Config, comm=None, log=print,
     if comm is not None:
         model = comm.bcast(model)
     say(f"model ready in {time.perf_counter() - t0:.1f} s: {model.blades} blades x "
-        f"{model.modes} modes")  # fmt: skip
+        f"{model.modes} modes")
     if margin and not model.tuned:  # every rank has the model: all refuse together
         raise InputError("--margin: the flutter margin needs a tuned wheel (it scans mu over "
                          "the ND blocks); [mistuning] is set, so 'stability' without --margin "
-                         "gives the mistuned growth rates")  # fmt: skip
+                         "gives the mistuned growth rates")
     angles = results.case_angles(cfg)
     mine = []
     for i in range(rank, angles.shape[0], size):
@@ -75,7 +75,7 @@ def refuse_study(cfg: Config, command: str) -> None:
     st = cfg.study
     if st.grid or st.zip or st.cases:
         raise InputError(f"{cfg.source}: has a [study] section, which '{command}' does not run "
-                         "(it runs the [sweep] angles): use 'wheelrom study'")  # fmt: skip
+                         "(it runs the [sweep] angles): use 'wheelrom study'")
 
 
 def _analyse(model, cfg: Config, angles_deg: dict, margin: bool) -> StabilityResult:
@@ -99,9 +99,9 @@ def _margin_text(res: StabilityResult) -> str:
     if not np.isfinite(m.critical_mu):
         return "; margin: stable for every scanned " + ("factor" if m.table else "mu")
     above = (f"{m.critical_mu:.4g} x the aerodynamic table" if m.table else
-             f"mu = {m.critical_mu:.4g} N s/m")  # fmt: skip
+             f"mu = {m.critical_mu:.4g} N s/m")
     return (f"; margin: unstable above {above} ({m.ratio:.3g} x), "
-            f"ND {m.nodal_diameter} at {m.frequency_hz:.4g} Hz")  # fmt: skip
+            f"ND {m.nodal_diameter} at {m.frequency_hz:.4g} Hz")
 
 
 def attach_linear(model, cfg: Config, angles_deg: dict, result) -> None:
@@ -115,18 +115,18 @@ def attach_linear(model, cfg: Config, angles_deg: dict, result) -> None:
         return
     i = res.critical()
     attach_classification(result, float(res.growth_rate[i]), int(res.nodal_diameter[i]),
-                          float(res.frequency_hz[i]))  # fmt: skip
+                          float(res.frequency_hz[i]))
 
 
 def attach_classification(result, growth_rate: float, nodal_diameter: int,
-                          frequency_hz: float) -> None:  # fmt: skip
+                          frequency_hz: float) -> None:
     """Add the case's fastest linear mode (growth rate [1/s], ND, frequency [Hz]: already
     analysed, e.g. a study's ``/stability``) and the classification from both analyses to a
     transient :class:`~wheelrom.transient.problem.CaseResult`."""
     from wheelrom.analysis.stability import classify
 
     result.linear = {"growth_rate": growth_rate, "nodal_diameter": nodal_diameter,
-                     "frequency_hz": frequency_hz}  # fmt: skip
+                     "frequency_hz": frequency_hz}
     if not result.status.startswith("done") or result.window_end.size == 0:
         result.classification = f"linear growth {growth_rate:+.3g} /s; transient failed"
         return
@@ -135,11 +135,11 @@ def attach_classification(result, growth_rate: float, nodal_diameter: int,
     _, per_nd = result.growth_rates()
     first = 0 if nodal_diameter == 0 else 1
     transient_rate = float(np.nanmax(per_nd[first:])) if np.isfinite(per_nd[first:]).any() else (
-        float("nan"))  # fmt: skip
+        float("nan"))
     vibration = float(np.nanmax(result.nd_spectrum[-1][first:]))  # [m], last window
     last_open = {k: float(v[-1]) for k, v in result.open_fraction.items() if v.size}
     result.classification = classify(growth_rate, transient_rate, vibration,
-                                     last_open)  # fmt: skip
+                                     last_open)
 
 
 def _case_label(row) -> str:
@@ -168,13 +168,13 @@ def summary(res: StabilityResult) -> dict:
         "mode": res.describe(i),
         "contact_gap_per_tip": {kind: {"normal": float(res.contact_normal[i, c]),
                                        "tangential": float(res.contact_tangential[i, c])}
-                                for c, kind in enumerate(res.kinds)},  # fmt: skip
+                                for c, kind in enumerate(res.kinds)},
         "min_normal_force_n": {k: float(res.normal_force[c].min())
-                               for c, k in enumerate(res.kinds)},  # fmt: skip
+                               for c, k in enumerate(res.kinds)},
         "min_margin_m": {k: float(res.margin[c].min()) for c, k in enumerate(res.kinds)},
         "unstable_nodal_diameters": sorted({int(k) for k, g in
                                             zip(res.nodal_diameter, res.growth_rate, strict=True)
-                                            if g > 1e-6}),  # fmt: skip
+                                            if g > 1e-6}),
         "wall_s": res.wall_s,
     } | _margin_summary(res.flutter_margin)
 
@@ -186,7 +186,7 @@ def _margin_summary(m) -> dict:
         "critical_mu": _finite_or_none(m.critical_mu), "ratio": _finite_or_none(m.ratio),
         "nodal_diameter": m.nodal_diameter, "frequency_hz": _finite_or_none(m.frequency_hz),
         "growth_rate_without_self_excitation": m.growth_at_zero,
-        "scaled": "aerodynamic table" if m.table else "van der pol mu"}}  # fmt: skip
+        "scaled": "aerodynamic table" if m.table else "van der pol mu"}}
 
 
 def _finite_or_none(x: float):

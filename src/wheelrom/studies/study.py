@@ -60,7 +60,7 @@ HISTORY_BYTES = 1 << 30  # tip histories a rank holds in one batch by default (1
 def run_study(cfg: Config, out: str, comm, mode: str = "full", confirm: tuple = (),
               resume: bool = False, force: bool = False, log=print,
               options: dict | None = None, batch: int = 0,
-              forced: bool = False, nonlinear: bool = False) -> dict:  # fmt: skip
+              forced: bool = False, nonlinear: bool = False) -> dict:
     """Run the study of ``cfg`` into ``out`` (collective over the mpi4py ``comm``); returns
     :func:`wheelrom.results.study_layout.summary` of the file (on every rank).
 
@@ -77,11 +77,11 @@ def run_study(cfg: Config, out: str, comm, mode: str = "full", confirm: tuple = 
     """
     with output_lock(out, comm):
         return _study(cfg, out, comm, mode, confirm, resume, force, log, options, batch,
-                      (forced, nonlinear))  # fmt: skip
+                      (forced, nonlinear))
 
 
 def _study(cfg: Config, out: str, comm, mode: str, confirm: tuple, resume: bool, force: bool,
-           log, options: dict | None, batch: int, extras: tuple) -> dict:  # fmt: skip
+           log, options: dict | None, batch: int, extras: tuple) -> dict:
     forced, nonlinear = extras
     petsc()  # PetscInitialize is collective: every rank before one builds alone
     slepc()
@@ -90,7 +90,7 @@ def _study(cfg: Config, out: str, comm, mode: str, confirm: tuple, resume: bool,
     study = expand(cfg)
     if any(not 0 <= i < study.size for i in confirm):
         raise InputError(f"--confirm: case indices are 0..{study.size - 1}, got "
-                         f"{', '.join(map(str, confirm))}")  # fmt: skip
+                         f"{', '.join(map(str, confirm))}")
     settings = ts_settings(cfg, PREFIX, options)
     if len(json.dumps(settings)) > results.STATUS_LEN:
         raise InputError("too many TS options to record: pass fewer -wheel_ts_* options")
@@ -108,7 +108,7 @@ def _study(cfg: Config, out: str, comm, mode: str, confirm: tuple, resume: bool,
     model_of, members = group_by([model_key(c) for c in study.configs])
     shape = " x ".join(map(str, study.shape))
     say(f"study: {study.size} cases of {', '.join(study.names)} ({shape}), {len(members)} "
-        f"model(s), {comm.size} rank(s)")  # fmt: skip
+        f"model(s), {comm.size} rank(s)")
     fresh = not (resume and os.path.exists(out))
     kept = design_cases.design_dir(out)  # the finished nonlinear curves of this study
     if comm.rank == 0 and nonlinear and not resume:
@@ -120,7 +120,7 @@ def _study(cfg: Config, out: str, comm, mode: str, confirm: tuple, resume: bool,
         t1 = time.perf_counter()
         try:
             stability, peaks, design = _stability(study, models, model_of, comm, say, extras,
-                                                  (kept, resume))  # fmt: skip
+                                                  (kept, resume))
         except KeyboardInterrupt:
             if not nonlinear:
                 raise
@@ -131,7 +131,7 @@ def _study(cfg: Config, out: str, comm, mode: str, confirm: tuple, resume: bool,
         say(f"stability{_extra_words(extras)} of {study.size} cases in {took:.1f} s "
             f"({study.size / took:.3g} cases/s on {comm.size} rank(s); models "
             f"{t1 - t0:.1f} s); {sum(c != 'none' for c in chosen)} case(s) selected for a "
-            "transient")  # fmt: skip
+            "transient")
         extra = {"mistuning": case_mistuning(study, models[0].blades), "forced": peaks,
                  "forced_nonlinear": design}
         _create(out, cfg, study, models, model_of, stability, chosen, mode, comm, extra)
@@ -139,7 +139,7 @@ def _study(cfg: Config, out: str, comm, mode: str, confirm: tuple, resume: bool,
             design_cases.remove(kept)  # every curve is in the file now
     stopped = mode != "stability" and _transients(out, cfg, study, model_of, members, comm,
                                                   batch, options, say, settings,
-                                                  models if fresh else None)  # fmt: skip
+                                                  models if fresh else None)
     wait_for_all(comm)
     import h5py
 
@@ -147,7 +147,7 @@ def _study(cfg: Config, out: str, comm, mode: str, confirm: tuple, resume: bool,
         done = study_file.summary(f)
     if stopped:
         hint = resume_hint(out, cfg.source, done["transients"], "study",
-                           study_flags(mode, forced, nonlinear))  # fmt: skip
+                           study_flags(mode, forced, nonlinear))
         raise Interrupted(f"interrupted: the finished rounds are saved in {out}; {hint}")
     say(f"study finished in {time.perf_counter() - t0:.1f} s")
     return done
@@ -158,13 +158,13 @@ def _check_arguments(mode: str, resume: bool, force: bool, batch: int) -> None:
         raise InputError(f"study mode must be one of {', '.join(study_file.MODES)}, not {mode!r}")
     if resume and force:
         raise InputError("--resume and --force exclude each other (complete the file, or "
-                         "start it again)")  # fmt: skip
+                         "start it again)")
     if batch < 0:
         raise InputError(f"study batch must be >= 0, not {batch}")
 
 
 def _output_problem(out: str, cfg: Config, mode: str, resume: bool, force: bool,
-                    settings: dict | None, extras: tuple) -> InputError | None:  # fmt: skip
+                    settings: dict | None, extras: tuple) -> InputError | None:
     """Why ``out`` must not be written (None: go ahead); ``settings``: the TS settings the
     finished cases must have used (None: not checked, a study of ``time.step``)."""
     problem = output_problem(out, force=resume or force)
@@ -193,17 +193,17 @@ def _models(study: Study, members: list[list[int]], wanted, comm, say) -> list:
     if failures:
         raise InputError("; ".join(failures)[:2000])
     models = [comm.bcast(built.get(g), root=g % comm.size) if g in wanted else None
-              for g in range(len(members))]  # fmt: skip
+              for g in range(len(members))]
     for g, model in enumerate(models):
         if model is not None:
             say(f"model {g + 1}/{len(members)} ({len(members[g])} case(s)): {model.blades} "
                 f"blades x {model.modes} modes, built by rank {g % comm.size} in "
-                f"{model.info['build_s']:.1f} s")  # fmt: skip
+                f"{model.info['build_s']:.1f} s")
     return models
 
 
 def _stability(study: Study, models: list, model_of: list[int], comm, say,
-               extras: tuple = (False, False), kept: tuple = ("", False)) -> tuple:  # fmt: skip
+               extras: tuple = (False, False), kept: tuple = ("", False)) -> tuple:
     """``/stability`` of every case
     (:func:`wheelrom.results.study_layout.stability_arrays`), ``/forced``
     (:func:`wheelrom.studies.mistuning.forced_arrays`) when ``extras[0]`` and
@@ -220,7 +220,7 @@ def _stability(study: Study, models: list, model_of: list[int], comm, say,
     for k, i in enumerate(mine):
         found.append((i, *analyse_case(study, models, model_of, i, peaks),
                       _design_point(study, models, model_of, i, *kept, say)
-                      if nonlinear else None))  # fmt: skip
+                      if nonlinear else None))
         if time.perf_counter() - last > 2.0 or k == len(mine) - 1:
             last = time.perf_counter()
             say(f"  stability{_extra_words(extras)}: {k + 1}/{len(mine)} of rank 0's cases")
@@ -237,7 +237,7 @@ def _stability(study: Study, models: list, model_of: list[int], comm, say,
 
 
 def _design_point(study: Study, models: list, model_of: list[int], i: int, folder: str,
-                  resume: bool, say):  # fmt: skip
+                  resume: bool, say):
     """Case ``i``'s :func:`wheelrom.studies.forced_nonlinear.design_point` (read from
     ``folder`` with ``resume`` when a finished one of the same configuration is there,
     else computed and saved there), or the text of its failure (recorded; never a hang of
@@ -274,7 +274,7 @@ def _labels(stability: dict) -> list[str]:
 
 
 def _create(out, cfg, study, models, model_of, stability, chosen, mode, comm,
-            extra: dict) -> None:  # fmt: skip
+            extra: dict) -> None:
     """The file with its full layout (serially by rank 0 for ``stability``, else
     collectively), under a temporary name renamed into place when complete; ``extra``:
     :func:`wheelrom.results.study_layout.create`'s ``mistuning`` and ``forced``."""
@@ -284,7 +284,7 @@ def _create(out, cfg, study, models, model_of, stability, chosen, mode, comm,
         if comm.rank == 0:  # built in memory: a full disk keeps it in $TMPDIR
             failure = save_hdf5(out, lambda f: study_file.create(
                 f, cfg, study, models, model_of, stability, chosen, mode, **extra),
-                "")  # fmt: skip
+                "")
         wait_for_all(comm)
         failure = comm.bcast(failure)
         if failure:
@@ -295,7 +295,7 @@ def _create(out, cfg, study, models, model_of, stability, chosen, mode, comm,
 
 
 def _transients(out, cfg, study, model_of, members, comm, batch, options, say, settings,
-                models) -> bool:  # fmt: skip
+                models) -> bool:
     """Run the pending cases of the file in rounds (module docstring); returns whether a stop
     was requested."""
     import h5py
@@ -316,9 +316,9 @@ def _transients(out, cfg, study, model_of, members, comm, batch, options, say, s
         # a batch shares its mistuning (batch_key): the first case's model is every case's
         contacts = [study.configs[i].contacts for i in chunk]
         angles = [{"tieboss": c.tieboss.angle_deg, "shroud": c.shroud.angle_deg}
-                  for c in contacts]  # fmt: skip
+                  for c in contacts]
         return run_cases(case_model(models, model_of, study, chunk[0]), study.configs[chunk[0]],
-                         angles, options=options, progress=progress)  # fmt: skip
+                         angles, options=options, progress=progress)
 
     def line(i, st, wall, _width, _compiled, verdict):
         wall_text = f"{wall:.3g} s" if math.isfinite(wall) else "-"
@@ -356,7 +356,7 @@ def _fastest_modes(f) -> list:
     nd = f["stability/nodal_diameter"][:, 0]
     hz = f["stability/frequency_hz"][:, 0]
     return [None if v.startswith(b"failed") else (float(g), int(k), float(h))
-            for v, g, k, h in zip(verdict, growth, nd, hz, strict=True)]  # fmt: skip
+            for v, g, k, h in zip(verdict, growth, nd, hz, strict=True)]
 
 
 def _memory_width(cfg: Config, models: list) -> int:

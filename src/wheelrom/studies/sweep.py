@@ -35,7 +35,7 @@ from wheelrom.transient.ts import PREFIX, ts_settings
 
 def run_sweep(cfg: Config, out: str, comm, resume: bool = False, force: bool = False,
               log=print, options: dict | None = None, model_comm: str = "rank0",
-              batch: int = 0) -> int:  # fmt: skip
+              batch: int = 0) -> int:
     """Run the sweep of ``cfg`` into ``out``; returns the number of failed cases.
 
     Collective over ``comm`` (mpi4py). Progress lines go to ``log`` on rank 0.
@@ -54,7 +54,7 @@ def run_sweep(cfg: Config, out: str, comm, resume: bool = False, force: bool = F
 
 
 def _sweep(cfg: Config, out: str, comm, resume: bool, force: bool, log, options: dict | None,
-           model_comm: str, batch: int) -> int:  # fmt: skip
+           model_comm: str, batch: int) -> int:
     import h5py
 
     # PetscInitialize is collective on COMM_WORLD: every rank initialises before rank 0
@@ -69,13 +69,13 @@ def _sweep(cfg: Config, out: str, comm, resume: bool, force: bool, log, options:
         raise InputError(f"model_comm must be 'rank0' or 'world', not {model_comm!r}")
     if resume and force:
         raise InputError("--resume and --force exclude each other (complete the file, or "
-                         "start it again)")  # fmt: skip
+                         "start it again)")
     # decide what to do with the output file before computing anything
     settings = ts_settings(cfg, PREFIX, options)
     recorded = len(json.dumps(settings))  # /cases/options holds STATUS_LEN bytes per case
     if recorded > results.STATUS_LEN:
         raise InputError(f"too many TS options to record ({recorded} bytes of JSON, at most "
-                         f"{results.STATUS_LEN}): pass fewer -wheel_ts_* options")  # fmt: skip
+                         f"{results.STATUS_LEN}): pass fewer -wheel_ts_* options")
     problem = None
     if comm.rank == 0:
         try:
@@ -89,7 +89,7 @@ def _sweep(cfg: Config, out: str, comm, resume: bool, force: bool, log, options:
     t0 = time.perf_counter()
     model = _shared_model(cfg, comm, model_comm, say)
     say(f"model ready in {time.perf_counter() - t0:.1f} s: {model.blades} blades x "
-        f"{model.modes} modes")  # fmt: skip
+        f"{model.modes} modes")
     # the whole file, or what a resumed one still lacks, checked against the free disk space
     # before any case is integrated
     needed = results.layout_bytes(lambda f: results.create_layout(f, cfg, model))
@@ -104,7 +104,7 @@ def _sweep(cfg: Config, out: str, comm, resume: bool, force: bool, log, options:
     if stopped:
         counts = {"pending": len(status) - done, "failed": failed}
         raise Interrupted(f"interrupted: {done} of {len(status)} cases done and saved in {out}; "
-                          + resume_hint(out, cfg.source, counts))  # fmt: skip
+                          + resume_hint(out, cfg.source, counts))
     say(f"sweep finished in {time.perf_counter() - t0:.1f} s; {failed} case(s) failed")
     return failed
 
@@ -117,7 +117,7 @@ def _create(out: str, cfg: Config, model, comm) -> None:
 
 
 def _output_problem(out: str, cfg: Config, resume: bool, force: bool,
-                    settings: dict) -> InputError | None:  # fmt: skip
+                    settings: dict) -> InputError | None:
     """Why ``out`` must not be written (None: go ahead)."""
     problem = output_problem(out, force=resume or force)
     if problem or not (resume and os.path.exists(out)):
@@ -135,7 +135,7 @@ def _shared_model(cfg: Config, comm, model_comm: str, say):
 
 
 def _run_rounds(f, cfg: Config, model, comm, batch: int, options, say,
-                settings: dict) -> bool:  # fmt: skip
+                settings: dict) -> bool:
     """Deal the pending cases to the ranks and run them in rounds of one batch per rank
     (:func:`wheelrom.studies.rounds.run_rounds`). Returns whether a stop was requested (then
     the unfinished batch stays pending)."""
@@ -162,6 +162,6 @@ def _run_rounds(f, cfg: Config, model, comm, batch: int, options, say,
         share = f"{wall:.3g} s" + ("" if width_used == 1 else f", batch of {width_used}")
         share += f" + {compiled:.2g} s kernels" if compiled > 0.05 else ""
         return (f"[{done[0]}/{C}] tie-boss {tb:g} deg, shroud {sh:g} deg: {status} ({share}); "
-                f"{verdict}")  # fmt: skip
+                f"{verdict}")
 
     return run_rounds(f, plan, comm, run_batch, settings, attach, line, say, cfg.time.end)

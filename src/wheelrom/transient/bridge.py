@@ -34,7 +34,7 @@ from wheelrom.transient.layout import (
     H_SLOT_U,
     H_USER_REASON,
     Context,
-)  # fmt: skip
+)
 
 
 @numba.njit
@@ -101,10 +101,10 @@ _vec_restore_array = types.ExternalFunction("VecRestoreArray", _I32(_I64, _I64))
 _ts_set_converged_reason = types.ExternalFunction("TSSetConvergedReason", _I32(_I64, _I32))
 _ts_restart_step = types.ExternalFunction("TSRestartStep", _I32(_I64))
 _PETSC_SYMBOLS = ("VecGetArrayRead", "VecRestoreArrayRead", "VecGetArray", "VecRestoreArray",
-                  "TSSetConvergedReason", "TSRestartStep")  # fmt: skip
+                  "TSSetConvergedReason", "TSRestartStep")
 _RHS_SIGNATURE = types.int32(types.int64, types.float64, types.int64, types.int64, types.int64)
 _MONITOR_SIGNATURE = types.int32(types.int64, types.int32, types.float64, types.int64,
-                                 types.int64)  # fmt: skip
+                                 types.int64)
 
 
 def _rhs_callback(ts, t, U, F, ctx_addr):

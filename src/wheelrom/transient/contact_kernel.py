@@ -127,13 +127,13 @@ def contacts(ctx, kind, N, m, K, B, Q, V, column, sliders):
     k_t = get(ctx, I_KT, K * NB).reshape((K, NB))
     slider_next = get(ctx, I_WNEXT, K * 2 * NB).reshape((K, 2, NB))
     geometry = (Apt[c, 0], Apt[c, 1], Apt[c, 2], Bpt[c, 0], Bpt[c, 1], Bpt[c, 2],
-                get(ctx, I_ARM, K)[c], get(ctx, I_PRELOAD, K)[c])  # fmt: skip
+                get(ctx, I_ARM, K)[c], get(ctx, I_PRELOAD, K)[c])
     # the next blade's rows as 1-D views (a 2-D view UA[:, B:] would not be contiguous)
     next_a = (UA[0, B:], UA[1, B:], UA[2, B:], VA[0, B:], VA[1, B:], VA[2, B:])
     next_f = (FN[0, B:], FN[1, B:], FN[2, B:])
     _contact_columns(NB, UA, UB, VA, VB, *next_a, T[c], kc[c], R, geometry, law, k_t[c],
                      sliders[c, 0], sliders[c, 1], slider_next[c, 0], slider_next[c, 1],
-                     FA, FB, *next_f, normal[c], state[c], column)  # fmt: skip
+                     FA, FB, *next_f, normal[c], state[c], column)
     # the force on A_{s+1} of the last blade's arm went to the ghost column: blade 0
     for a in range(3):
         fa = FA[a]
@@ -147,7 +147,7 @@ def contacts(ctx, kind, N, m, K, B, Q, V, column, sliders):
 @_kernel_cache.njit(fastmath={"contract"}, error_model="numpy", **NOALIAS)
 def _contact_columns(NB, UA, UB, VA, VB, uax, uay, uaz, vax, vay, vaz, T, kc, R, geometry, law,
                      k_t, w_xi, w_zeta, wn_xi, wn_zeta, FA, FB, fnx, fny, fnz, normal, state,
-                     column):  # fmt: skip
+                     column):
     """The contact law of every column (eqs. 16-20), branch-free so that it vectorises (the
     law's choice is the same for every column: LLVM unswitches it out of the loop).
 
@@ -201,7 +201,7 @@ def _contact_columns(NB, UA, UB, VA, VB, uax, uay, uaz, vax, vay, vaz, T, kc, R,
         v_zeta = t20 * vcx + t21 * vcy + t22 * vcz
         Fn = max(preload - kc[col] * gap, 0.0)  # eq. 19; 0: open
         F_xi, F_zeta, st, w0, w2 = tangential_force(law, u_xi, u_zeta, v_xi, v_zeta, w_xi[col],
-                                                    w_zeta[col], Fn, k_t[col])  # fmt: skip
+                                                    w_zeta[col], Fn, k_t[col])
         wn_xi[col] = w0
         wn_zeta[col] = w2
         column[col] += F_xi * v_xi + F_zeta * v_zeta
@@ -344,4 +344,4 @@ def shift_forces(ctx, kind, K, N, B, beta):
             cvy = avy + s * (dvy - ey * dve)
             cvz = avz + s * (dvz - ez * dve)
             power[col] += k * (cvx * cvx + cvy * cvy + cvz * cvz
-                               + avx * avx + avy * avy + avz * avz)  # fmt: skip
+                               + avx * avx + avy * avy + avz * avz)

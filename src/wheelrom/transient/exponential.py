@@ -197,7 +197,7 @@ def _force_jacobian(model, params, q: np.ndarray | None = None) -> tuple[np.ndar
 
 
 def _nd_explicit(model, jac_q, jac_v, beta: float, k: int, basis=None, delta: float = 0.0,
-                 shift: np.ndarray | None = None):  # fmt: skip
+                 shift: np.ndarray | None = None):
     """``(L, N_k)`` ``(2m, 2m)`` in the kernel's basis (``A0 + S`` diagonal, ``S = shift``:
     the stuck springs' share the kernel propagates, :mod:`.stuck_shift`; None: 0): the exactly
     propagated part and the explicit part's Jacobian on ND ``k`` (``q_s = q_0 e^{i s phi_k}``):
@@ -229,7 +229,7 @@ def step_matrix(coef: np.ndarray, explicit: np.ndarray, h: float) -> np.ndarray:
 
     def E(row):  # exp(tau L), per mode a 2 x 2 block
         return np.block([[np.diag(coef[row]), np.diag(coef[row + 1])],
-                         [np.diag(coef[row + 2]), np.diag(coef[row + 3])]])  # fmt: skip
+                         [np.diag(coef[row + 2]), np.diag(coef[row + 3])]])
 
     def P(row):  # phi(tau L) e2 applied to a force on the velocity rows
         return np.block([[Z, np.diag(coef[row])], [Z, np.diag(coef[row + 1])]])
@@ -240,11 +240,11 @@ def step_matrix(coef: np.ndarray, explicit: np.ndarray, h: float) -> np.ndarray:
     B = E_half + kick @ A
     C = E_half @ A + kick @ (2 * B - I)
     return E(C_FULL) + h * (P(C_F1) @ explicit + 2 * P(C_F2) @ explicit @ (A + B)
-                            + P(C_F3) @ explicit @ C)  # fmt: skip
+                            + P(C_F3) @ explicit @ C)
 
 
 def step_growth(model, jacobian, beta: float, h: float, delta: float = 0.0,
-                shift: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+                shift: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``(scheme, wheel)`` ``(N // 2 + 1,)`` [1/s] per ND: the largest growth rate of the
     scheme's step ``ln rho(R_k) / h`` and of the linearisation ``max Re eig(L + N_k)``
     (``delta``: every blade mistuned by it; ``shift``: the propagated springs,
@@ -306,12 +306,12 @@ def stable_step(model, params, beta: float, step: float) -> tuple[float, str | N
     if shift is not None:  # every contact open: no contact stiffness, the Van der Pol force
         jacobians.append((np.zeros_like(jacobians[0][0]), jacobians[0][1]))
     deltas = [0.0] if model.tuned else sorted({float(np.min(model.mistuning)),
-                                               float(np.max(model.mistuning))})  # fmt: skip
+                                               float(np.max(model.mistuning))})
     first = None
     for _ in range(60):
         # the state that limits: 0 closed and stuck, 1 every contact open
         excess, k, scheme, wheel, state = max((*_worst(model, jacobian, beta, h, deltas, shift), i)
-                                              for i, jacobian in enumerate(jacobians))  # fmt: skip
+                                              for i, jacobian in enumerate(jacobians))
         if excess <= SPURIOUS_GROWTH:
             if first is None:
                 return h, why
@@ -319,7 +319,7 @@ def stable_step(model, params, beta: float, step: float) -> tuple[float, str | N
             law = "the contacts"
             if params.law.elastic:
                 law = ("the elastic law's stuck springs" if state == 0 else
-                       "the propagated springs' share with every contact open")  # fmt: skip
+                       "the propagated springs' share with every contact open")
             if not model.tuned:
                 law += " and the mistuning's delta_s K_seg"
             return h, (f"time.step {step:g} s: at {at:.3g} s the scheme grows ND {k} at "

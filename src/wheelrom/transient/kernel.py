@@ -88,7 +88,7 @@ from wheelrom.transient.layout import (
     STOP_AMPLITUDE,
     STOP_NONFINITE,
     get,
-)  # fmt: skip
+)
 
 
 @numba.njit(inline="always")
@@ -317,7 +317,7 @@ def rhs_core(t, u, f, ctx):  # noqa: PLR0915 - one fused pass is the point
             fb0, fb1, fb2 = FB[kind, 0], FB[kind, 1], FB[kind, 2]
             for c in range(NB):
                 kw[c] -= (xa0 * fa0[c] + xa1 * fa1[c] + xa2 * fa2[c]
-                          + xb0 * fb0[c] + xb1 * fb1[c] + xb2 * fb2[c])  # fmt: skip
+                          + xb0 * fb0[c] + xb1 * fb1[c] + xb2 * fb2[c])
         a0 = A0_diag[i] if linear else 0.0
         a0_force = 0.0 if exponential else a0  # the power keeps a0: it is the whole q'^T K q'
         pe = p_exc[i]

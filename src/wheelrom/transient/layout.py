@@ -127,7 +127,7 @@ _INDEX = {name: i for i, (name, _) in enumerate(_ARRAYS)}
     I_Y, I_YD, I_PAIR, I_G, I_COL, I_UA, I_UB, I_VA, I_VB, I_FA, I_FB, I_FN, I_NORMAL, I_STATE,
     I_POWER, I_STIME, I_STIP, I_SMIN, I_SOPEN, I_STOTAL, I_XCOUNT, I_XTIME, I_XSTATE, I_KSEG,
     I_DELTA, I_AEROA, I_AEROB, I_LAW, I_KT, I_WNEXT, I_SSLIP, I_WNONE, I_SHIFTK, I_SHIFTP,
-) = range(len(_ARRAYS))  # fmt: skip
+) = range(len(_ARRAYS))
 
 STOP_NONFINITE, STOP_AMPLITUDE = 1, 2
 
@@ -162,7 +162,7 @@ class Context:
 
     def __init__(self, cases: list[ForceParameters], model, beta: float, sample_dt: float,
                  limit: float, capacity: int, state_every: int = 0,
-                 state_capacity: int = 0):  # fmt: skip
+                 state_capacity: int = 0):
         first = cases[0]
         N, m, K, B = first.blades, first.modes, len(first.contacts.kinds), len(cases)
         check_batchable(cases, model)
@@ -191,7 +191,7 @@ class Context:
         self.view("shift_k")[...] = shift
 
     def _fill_header(self, first: ForceParameters, model, beta, sample_dt, limit,
-                     length) -> None:  # fmt: skip
+                     length) -> None:
         h = self.array
         N, m, K, B = self.N, self.m, self.K, self.B
         h[H_LEN], h[H_N], h[H_M], h[H_K], h[H_B], h[H_ACTIVE] = length, N, m, K, B, B
@@ -275,7 +275,7 @@ class Context:
         w = s[:, 2 * n : 2 * n + 4].T  # (4, B)
         # sliders: blade-major (c, s, a) per case -> (c, a, s, b)
         sliders = s[:, 2 * n + 4 :].reshape(B, K, N, 2).transpose(1, 3, 2, 0) if self.sliders \
-            else np.zeros(0)  # fmt: skip
+            else np.zeros(0)
         return np.concatenate([q.ravel(), v.ravel(), w.ravel(), np.ravel(sliders)])
 
     def unpack_states(self, z: np.ndarray) -> np.ndarray:
@@ -295,7 +295,7 @@ class Context:
         v = _times(u[n : 2 * n].reshape(m, N, B).transpose(2, 1, 0), PT).reshape(B, N * m)
         w = u[2 * n : 2 * n + 4 * B].reshape(4, B).T
         sliders = u[2 * n + 4 * B :].reshape(K, 2, N, B).transpose(3, 0, 2, 1).reshape(B, -1) \
-            if self.sliders else np.zeros((B, 0))  # fmt: skip
+            if self.sliders else np.zeros((B, 0))
         return np.concatenate([q, v, w, sliders], axis=1)
 
 

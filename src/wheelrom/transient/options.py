@@ -226,7 +226,7 @@ def _check_tokens(args: list[str]) -> None:
             after_option = False  # the option's value
         else:
             raise InputError(f"PETSc options after --: '{token}' is neither an option "
-                             "(-name) nor the value of the option before it")  # fmt: skip
+                             "(-name) nor the value of the option before it")
 
 
 def _is_option(token: str) -> bool:
@@ -237,7 +237,7 @@ def _without_value(args: list[str]) -> list[str]:
     """The option names of ``args`` given without a value (the next token is an option,
     or there is none)."""
     return [token.lstrip("-") for token, nxt in zip(args, [*args[1:], None], strict=True)
-            if _is_option(token) and (nxt is None or _is_option(nxt))]  # fmt: skip
+            if _is_option(token) and (nxt is None or _is_option(nxt))]
 
 
 def _check_values(args: list[str]) -> None:

@@ -11,14 +11,14 @@ from wheelrom.transient.problem import WheelProblem
 
 
 def static_preload(problem: WheelProblem, case: int = 0,
-                   prefix: str = "preload_") -> tuple[np.ndarray, float]:  # fmt: skip
+                   prefix: str = "preload_") -> tuple[np.ndarray, float]:
     """Solve ``K_R q = f(q, 0, t=0)`` for one case; returns ``q`` and ``|residual|``.
 
     Jacobian by finite differences of the residual (dense, ``N m`` unknowns). Options prefix
     ``preload_`` (``-preload_snes_rtol`` ...), ``setFromOptions`` last.
     """
     return static_equilibrium(problem.forces[case], problem.Kd, problem.comm,
-                              problem.cases[case].nozzle_force, prefix)  # fmt: skip
+                              problem.cases[case].nozzle_force, prefix)
 
 
 def _static_residual(forces, K):
@@ -37,7 +37,7 @@ def _static_residual(forces, K):
 
 
 def static_equilibrium(forces, K: np.ndarray, comm, force_scale: float, prefix: str = "preload_",
-                       tangent=None) -> tuple[np.ndarray, float]:  # fmt: skip
+                       tangent=None) -> tuple[np.ndarray, float]:
     """``K q = f(q, 0, t=0)`` for the :class:`~wheelrom.forces.reference.ReferenceForces`
     ``forces`` and ``K`` ``(N m, N m)`` (dense, or scipy sparse when ``tangent`` is given).
     ``tangent(q)``: the analytic ``df/dq`` (sparse, blocks of neighbouring blades only) if

@@ -136,7 +136,7 @@ class CaseResult:
         last = max(2, int(np.ceil(tail * W)))
         t = self.window_end[-last:]
         logs = np.log(np.maximum(np.column_stack([self.max_tip_amplitude[-last:],
-                                                  self.nd_spectrum[-last:]]), 1e-300))  # fmt: skip
+                                                  self.nd_spectrum[-last:]]), 1e-300))
         slopes = np.polyfit(t - t.mean(), logs, 1)[0]
         return float(slopes[0]), slopes[1:]
 
@@ -185,7 +185,7 @@ class WheelProblem:
     """
 
     def __init__(self, model: ReducedModel, cfg: Config, cases: list[ForceParameters], comm,
-                 capacity: int = 4, state_capacity: int = 0):  # fmt: skip
+                 capacity: int = 4, state_capacity: int = 0):
         self.comm = comm
         self.cases = list(cases)
         self.model, self.cfg = model, cfg
@@ -256,7 +256,7 @@ class WheelProblem:
             return False
         n, forces = self.n, self.forces[case]
         forces.evaluate(0.0, u[:n].reshape(self.N, self.m),
-                        u[n : 2 * n].reshape(self.N, self.m), slider)  # fmt: skip
+                        u[n : 2 * n].reshape(self.N, self.m), slider)
         moved = not np.array_equal(forces.slider_next, slider)
         slider[...] = forces.slider_next
         return moved
@@ -279,7 +279,7 @@ class WheelProblem:
         x.setArray(v)
         K.mult(x, Kv)
         force = forces.evaluate(t, q.reshape(self.N, self.m), v.reshape(self.N, self.m),
-                                self.slider_view(ua))  # fmt: skip
+                                self.slider_view(ua))
         Kqa = Kq.getArray(readonly=True)
         Kva = Kv.getArray(readonly=True)
         fa[:n] = v
@@ -294,7 +294,7 @@ class WheelProblem:
         q, v = u[:n], u[n : 2 * n]
         forces = self.forces[case]
         force = forces.evaluate(t, q.reshape(self.N, self.m), v.reshape(self.N, self.m),
-                                self.slider_view(u))  # fmt: skip
+                                self.slider_view(u))
         Kv = self.Kd @ v
         out = np.zeros_like(u)  # the sliders' rate is zero (they move when a step ends)
         out[:n] = v
@@ -310,7 +310,7 @@ class WheelProblem:
         q, v = u[:n], u[n : 2 * n]
         forces = self.forces[case]
         forces.evaluate(0.0, q.reshape(self.N, self.m), v.reshape(self.N, self.m),
-                        self.slider_view(u))  # fmt: skip
+                        self.slider_view(u))
         return 0.5 * float(v @ v) + 0.5 * float(q @ (self.Kd @ q)) + forces.contact_energy()
 
     def destroy(self) -> None:

@@ -109,11 +109,11 @@ def segment_propagators(A0: np.ndarray, beta: float, h: float) -> SegmentPropaga
     E_half, (p1_half, _, _) = _exp_and_phis(A0, beta, 0.5 * h, h)
     return SegmentPropagators(E=E, E_half=E_half, phi1_half=p1_half,
                               f1=p1 - 3.0 * p2 + 4.0 * p3, f2=p2 - 2.0 * p3,
-                              f3=-p2 + 4.0 * p3)  # fmt: skip
+                              f3=-p2 + 4.0 * p3)
 
 
 def etdrk4_step(explicit, t: float, u: np.ndarray, h: float, prop: SegmentPropagators,
-                blades: int) -> np.ndarray:  # fmt: skip
+                blades: int) -> np.ndarray:
     """One ETDRK4 step (Cox & Matthews 2002) of ``u = (q, q', W)`` from ``t`` with step
     ``h``: ``q, q'`` blade-major ``(blades, m)``, every blade's ``(q_s, q'_s)`` propagated by
     ``prop``; ``explicit(t, u)`` returns the rest of the right-hand side (its ``q''`` rows:
@@ -140,7 +140,7 @@ def etdrk4_step(explicit, t: float, u: np.ndarray, h: float, prop: SegmentPropag
     g_c = explicit(t + h, state(C, uw + h * g_b[2 * n :]))
     X = U @ prop.E.T + h * (force(g_u) @ prop.f1.T
                             + 2.0 * (force(g_a) + force(g_b)) @ prop.f2.T
-                            + force(g_c) @ prop.f3.T)  # fmt: skip
+                            + force(g_c) @ prop.f3.T)
     w = uw + (h / 6.0) * (g_u + 2.0 * (g_a + g_b) + g_c)[2 * n :]
     return state(X, w)
 
@@ -160,7 +160,7 @@ def explicit_part(problem: WheelProblem, propagated: np.ndarray | None = None):
         q, v = u[:n], u[n : 2 * n]
         force = forces.evaluate(t, q.reshape(model.blades, model.modes),
                                 v.reshape(model.blades, model.modes),
-                                problem.slider_view(u))  # fmt: skip
+                                problem.slider_view(u))
         out = np.zeros_like(u)  # the sliders' rate: zero within a step
         out[n : 2 * n] = force.ravel() - K_off @ (q + beta * v)
         out[2 * n : 2 * n + 3] = forces.power
@@ -173,7 +173,7 @@ def explicit_part(problem: WheelProblem, propagated: np.ndarray | None = None):
 def reference_solution(model: ReducedModel, cfg: Config, steps: int, step: float,
                        angles_deg: dict | None = None, sample_every: int = 1,
                        tableau: Tableau = BOGACKI_SHAMPINE,
-                       u0: np.ndarray | None = None, scheme: str = "rk"):  # fmt: skip
+                       u0: np.ndarray | None = None, scheme: str = "rk"):
     """``steps`` fixed steps of size ``step`` [s] from ``time.start``'s state (or from the
     modal state ``u0 = (q, q')`` of length ``2 N m``: the elastic law's sliders then start at
     rest there), with ``scheme`` ``"rk"`` (the explicit ``tableau``) or ``"exponential"``

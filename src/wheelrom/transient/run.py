@@ -110,7 +110,7 @@ class Samples:
                            for i, k in enumerate(self.kinds)},
             slip_fraction={k: float(slipping[:, i].sum() / (count * N))
                            for i, k in enumerate(self.kinds)},
-        )  # fmt: skip
+        )
 
     def stop(self) -> tuple[float | None, str | None]:
         """``(time [s], reason)`` when the monitor froze this case, else ``(None, None)``."""
@@ -144,7 +144,7 @@ class _CaseRecord:
 
 def run_case(model: ReducedModel, cfg: Config, angles_deg: dict | None = None,
              options: dict | None = None, progress=None, prefix: str = PREFIX,
-             u0: np.ndarray | None = None, rhs_kind: str = "compiled") -> CaseResult:  # fmt: skip
+             u0: np.ndarray | None = None, rhs_kind: str = "compiled") -> CaseResult:
     """Integrate one case window by window; a divergence stops it and keeps what was done.
 
     ``u0``: optional initial modal state ``(q, q')`` of length ``2 N m`` (else ``time.start``).
@@ -152,7 +152,7 @@ def run_case(model: ReducedModel, cfg: Config, angles_deg: dict | None = None,
     ``progress(window, windows, t, amplitude)`` is called after every window.
     """
     return run_cases(model, cfg, [angles_deg], options, progress, prefix,
-                     None if u0 is None else [u0], rhs_kind)[0]  # fmt: skip
+                     None if u0 is None else [u0], rhs_kind)[0]
 
 
 def adaptive(options: dict | None, prefix: str = PREFIX) -> bool:
@@ -188,7 +188,7 @@ def _step_groups(model: ReducedModel, cfg: Config, angles: list[dict | None],
 def run_cases(model: ReducedModel, cfg: Config, angles: list[dict | None],
               options: dict | None = None, progress=None, prefix: str = PREFIX,
               u0: list[np.ndarray] | None = None,
-              rhs_kind: str = "compiled") -> list[CaseResult]:  # fmt: skip
+              rhs_kind: str = "compiled") -> list[CaseResult]:
     """Integrate a batch of cases (one per entry of ``angles``) in one TS, window by window.
 
     The cases share the model and every setting but their contact angles; with fixed steps
@@ -201,7 +201,7 @@ def run_cases(model: ReducedModel, cfg: Config, angles: list[dict | None],
     if len(angles) > 1 and adaptive(options, prefix):
         return [run_cases(model, cfg, [a], options, progress, prefix,
                           None if u0 is None else [u0[i]], rhs_kind)[0]
-                for i, a in enumerate(angles)]  # fmt: skip
+                for i, a in enumerate(angles)]
     if len(angles) > 1:  # a batch shares its step: cases whose own differ run apart
         groups = _step_groups(model, cfg, angles, options, prefix)
         if len(groups) > 1:
@@ -209,7 +209,7 @@ def run_cases(model: ReducedModel, cfg: Config, angles: list[dict | None],
             for group in groups:
                 done = run_cases(model, cfg, [angles[i] for i in group], options, progress,
                                  prefix, None if u0 is None else [u0[i] for i in group],
-                                 rhs_kind)  # fmt: skip
+                                 rhs_kind)
                 for i, res in zip(group, done, strict=True):
                     out[i] = res
             return out
@@ -218,7 +218,7 @@ def run_cases(model: ReducedModel, cfg: Config, angles: list[dict | None],
     t_wall = time.perf_counter()
     grid = time_grid(cfg)
     problem = WheelProblem(model, cfg, params, petsc().COMM_SELF, grid.sample_capacity,
-                           grid.state_capacity)  # fmt: skip
+                           grid.state_capacity)
     records = [_CaseRecord(problem, b, grid.history_every) for b in range(problem.B)]
     states = _initial_states(problem, records, u0)
     ts, fvec, used = make_ts(problem, cfg, prefix, options, rhs_kind)
@@ -243,7 +243,7 @@ def run_cases(model: ReducedModel, cfg: Config, angles: list[dict | None],
     finals = problem.context.unpack(ua) if compiled else ua[None, :].copy()
     wall = time.perf_counter() - t_wall
     results = [_finish(rec, problem, used, finals[b], wall, compile_s)
-               for b, rec in enumerate(records)]  # fmt: skip
+               for b, rec in enumerate(records)]
     for obj in (ts, fvec, u):
         obj.destroy()
     problem.destroy()
@@ -261,9 +261,9 @@ def run_bytes(cfg: Config, batch: int = 1) -> int:
     K = len(cfg.contacts.enabled_kinds())
     tip, state = 1 + 3 * N, 1 + 2 * N * m  # doubles per sample: its time and the values
     held = 2 * grid.sample_capacity * tip + 2 * grid.history_max * tip + \
-        2 * grid.state_max * state  # fmt: skip
+        2 * grid.state_max * state
     return context_bytes(N, m, K, batch, grid.sample_capacity, grid.state_capacity) + \
-        8 * batch * held  # fmt: skip
+        8 * batch * held
 
 
 _LOADED: set[str] = set()  # right-hand side kinds whose kernels this process has
@@ -284,7 +284,7 @@ def load_kernels(case: ForceParameters, rhs_kind: str = "compiled") -> float:
         bridge.callbacks()
         vector = numba.float64[::1]
         etd4_step.compile((numba.float64, numba.float64, vector, vector,
-                           numba.float64[:, ::1], numba.float64[:, ::1]))  # fmt: skip
+                           numba.float64[:, ::1], numba.float64[:, ::1]))
         slide_core.compile((vector, vector))  # a solve's end state (exponential.end_sliders)
     elif rhs_kind == "python":
         vector = numba.float64[::1]
@@ -336,7 +336,7 @@ def _integrate(ts, u, problem, records, window_end, used, compiled, progress) ->
         running = [rec for rec in records if rec.running]
         if progress and running:
             progress(w + 1, windows, t_now, max(rec.stats[-1].max_tip_amplitude
-                                                for rec in running))  # fmt: skip
+                                                for rec in running))
         if not running:
             break
 
@@ -378,7 +378,7 @@ def _finish(rec: _CaseRecord, problem, used, final_state, wall, compile_s) -> Ca
     states = rec.samples.states
     res.state_time = np.concatenate(rec.samples.state_times) if states else np.zeros(0)
     res.state_history = (np.concatenate(states) if states else
-                         np.zeros(0)).reshape(-1, 2, problem.N, problem.m)  # fmt: skip
+                         np.zeros(0)).reshape(-1, 2, problem.N, problem.m)
     res.steps = rec.steps
     res.rhs_evaluations = int(problem.context.header(H_RHS_CALLS))
     res.final_state = final_state.copy()

@@ -72,7 +72,7 @@ def _spawn(path: str, cache_dir: str) -> dict:
     env["PYTHONPATH"] = os.pathsep.join(p for p in (source, env.get("PYTHONPATH")) if p)
     t0 = time.monotonic()
     done = subprocess.run([sys.executable, "-m", __name__, path], env=env,
-                          capture_output=True, text=True)  # fmt: skip
+                          capture_output=True, text=True)
     if done.returncode != 0:
         raise RuntimeError(f"start-up probe failed: {done.stderr[-2000:]}")
     out = json.loads(done.stdout)

@@ -105,7 +105,7 @@ def _ignore_for_exponential(ts, prefix: str) -> None:
 
     bridge.set_adapt_type(ts, "none")
     names = [k for k in petsc().Options().getAll()
-             if k.startswith(prefix) and k[len(prefix) :].startswith(_NOT_EXPONENTIAL)]  # fmt: skip
+             if k.startswith(prefix) and k[len(prefix) :].startswith(_NOT_EXPONENTIAL)]
     forget_reads(names)
 
 
@@ -153,7 +153,7 @@ def ts_settings(cfg: Config, prefix: str = PREFIX, options: dict | None = None) 
 
 
 def make_ts(problem: WheelProblem, cfg: Config, prefix: str = PREFIX,
-            options: dict | None = None, rhs_kind: str = "compiled"):  # fmt: skip
+            options: dict | None = None, rhs_kind: str = "compiled"):
     """A configured TS (defaults in code, ``setFromOptions`` last): ``(ts, f, used)``.
 
     ``options``: PETSc options (keys without prefix) for this TS only. ``rhs_kind``:
@@ -193,7 +193,7 @@ def make_ts(problem: WheelProblem, cfg: Config, prefix: str = PREFIX,
         distinct = {id(params): params for params in problem.cases}.values()
         step, why = min((exponential.stable_step(problem.model, params, problem.beta,
                                                  ts.getTimeStep())
-                         for params in distinct), key=lambda found: found[0])  # fmt: skip
+                         for params in distinct), key=lambda found: found[0])
         if why:
             ts.setTimeStep(step)
             used["ts_dt"] = step

@@ -53,13 +53,13 @@ def blade_indices(blades: np.ndarray, count: int, m: int, sliders: int) -> np.nd
     parts = [q, count * m + q]
     if sliders:
         parts.append((2 * count * m + np.arange(sliders)[:, None, None] * 2 * count
-                      + 2 * blades[None, :, None] + np.arange(2)).ravel())  # fmt: skip
+                      + 2 * blades[None, :, None] + np.arange(2)).ravel())
     return np.concatenate(parts)
 
 
 def bloch_multipliers(model: ReducedModel, cfg: Config, orbit: Orbit, scale: np.ndarray,
                       keep: np.ndarray, angles_deg: dict | None = None, lam: float = 1.0,
-                      coarse: bool = False) -> Multipliers:  # fmt: skip
+                      coarse: bool = False) -> Multipliers:
     """Every multiplier of the whole wheel of ``model`` about ``orbit`` (a pattern's, tiled)
     in the orbit's steps (``coarse``: at ``cfg``'s ``time.step`` when that is coarser, the
     flow's step check included): ``values`` largest modulus first, ``nd`` and
@@ -73,7 +73,7 @@ def bloch_multipliers(model: ReducedModel, cfg: Config, orbit: Orbit, scale: np.
     copies = N // pattern
     kinds = 0 if orbit.sliders is None else orbit.sliders.shape[0]
     where = [blade_indices(p * pattern + np.arange(pattern), N, m, kinds)[keep]
-             for p in range(copies)]  # fmt: skip
+             for p in range(copies)]
     state = orbit.wheel_state(N).ravel()
     if kinds:
         state = np.concatenate([state, orbit.wheel_sliders(N).ravel()])
@@ -102,19 +102,19 @@ def bloch_multipliers(model: ReducedModel, cfg: Config, orbit: Orbit, scale: np.
     units = np.zeros(state.size)
     units[np.concatenate(where)] = np.tile(unit, copies)
     values, nd, wave, first = block_circulant_spectrum(C, where, units, N, m, shots,
-                                                       orbit.shift)  # fmt: skip
+                                                       orbit.shift)
     alignment = np.abs(first.conj().T @ along) / np.maximum(
-        np.linalg.norm(first, axis=0) * np.linalg.norm(along), 1e-300)  # fmt: skip
+        np.linalg.norm(first, axis=0) * np.linalg.norm(along), 1e-300)
     alignment = np.concatenate([alignment, np.zeros(values.size - alignment.size)])
     order = np.argsort(-np.abs(values), kind="stable")
     values, nd, wave, alignment = values[order], nd[order], wave[order], alignment[order]
     return Multipliers(values, nd, wave, int(np.argmax(alignment)), orbit.period, 2 * n,
                        time.perf_counter() - t0, values.size, by="Bloch waves",
-                       alignment=alignment, step=h)  # fmt: skip
+                       alignment=alignment, step=h)
 
 
 def block_circulant_spectrum(C: list, blocks: list, units: np.ndarray, blades: int,
-                             modes: int, power: int = 1, shift: int = 0):  # fmt: skip
+                             modes: int, power: int = 1, shift: int = 0):
     """The eigenvalues of a map block-circulant over ``g = len(C)`` blocks of the whole
     wheel's state, from ``C[r]`` ``(n', n')``: block ``r``'s response to block 0 (each in
     its units ``units[blocks[r]]``; ``blocks[r]`` its flat indices in the state of size

@@ -59,7 +59,7 @@ class Corrector:
     """The scaled extended system of one wave and its SNES."""
 
     def __init__(self, balance: WaveBalance, x_scale: np.ndarray, omega_ref: float,
-                 phase_index: int, comm=None, prefix: str = PREFIX):  # fmt: skip
+                 phase_index: int, comm=None, prefix: str = PREFIX):
         PETSc = petsc()
         self.balance, self.omega_ref = balance, omega_ref
         self.x_scale = np.asarray(x_scale, dtype=float)[:, None]  # (2H + 1, 1)
@@ -171,7 +171,7 @@ class Corrector:
         P.assemble()
 
     def solve(self, z0: np.ndarray, a: np.ndarray, b: float, chord: bool = False,
-              iterations: int = MAX_ITERATIONS) -> Point | None:  # fmt: skip
+              iterations: int = MAX_ITERATIONS) -> Point | None:
         """Newton from ``z0`` on the balance, the phase condition and ``a . z = b`` with a
         fresh Jacobian every iteration; ``chord``: first with the last Jacobian kept while
         the residual falls fast (chord steps: a continuation's small steps), then, if that
@@ -235,7 +235,7 @@ class BranchSettings:
 
 
 def trace(corrector: Corrector, first: Point, direction: np.ndarray, settings: BranchSettings,
-          amplitude, progress=None) -> tuple[list[Point], str]:  # fmt: skip
+          amplitude, progress=None) -> tuple[list[Point], str]:
     """Pseudo-arclength continuation from ``first`` along ``direction`` (scaled); returns the
     points and why the branch ends (in words). ``amplitude(point)`` [m] (tip, 0-peak)."""
     points = [first]
@@ -249,14 +249,14 @@ def trace(corrector: Corrector, first: Point, direction: np.ndarray, settings: B
         point = corrector.solve(predictor, t, float(t @ predictor), chord=True,
                                 iterations=BRANCH_ITERATIONS)
         if point is not None and (np.linalg.norm(point.z - predictor) > ds
-                                  or not corrector.plausible(point)):  # fmt: skip
+                                  or not corrector.plausible(point)):
             point = None  # the corrector jumped (to another branch, or the trivial one)
         if point is None:
             ds /= 2
             failures += 1
             if ds < settings.step_min or failures > RETRIES:
                 return points, ("continuation stalled (Newton fails at the smallest step or "
-                                f"after {RETRIES} halvings of it)")  # fmt: skip
+                                f"after {RETRIES} halvings of it)")
             continue
         failures = 0
         t = corrector.tangent(point.z, t)
@@ -274,4 +274,4 @@ def trace(corrector: Corrector, first: Point, direction: np.ndarray, settings: B
             return points, "the branch turns back below zero self-excitation"
         if a > settings.amplitude_max:
             return points, (f"tip amplitude above {settings.amplitude_max:.3g} m "
-                            "(limit_cycle.amplitude_max)")  # fmt: skip
+                            "(limit_cycle.amplitude_max)")

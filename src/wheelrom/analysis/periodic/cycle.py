@@ -21,7 +21,7 @@ OTHER_ORBIT = 0.15
 
 
 def cycle_source(method: str | None, missed: bool = False,
-                 residual: float | None = None) -> str:  # fmt: skip
+                 residual: float | None = None) -> str:
     """Which method gave a cycle's numbers, in words: the exact orbit, or the harmonic
     balance's cycle (``missed``: a shot from it did not converge, with its ``residual`` when
     the flow got that far)."""
@@ -30,7 +30,7 @@ def cycle_source(method: str | None, missed: bool = False,
     if not missed:
         return "harmonic balance"
     value = f": residual {residual:.2g}" if residual is not None and math.isfinite(residual) \
-        else ""  # fmt: skip
+        else ""
     return f"harmonic balance (the shot did not converge{value})"
 
 
@@ -119,7 +119,7 @@ def _balance_error(work_in: float, friction: np.ndarray, damping: float) -> floa
 
 
 def describe(balance: WaveBalance, fine: WaveBalance, X: np.ndarray, omega: float,
-             lam: float, residual: float) -> Cycle:  # fmt: skip
+             lam: float, residual: float) -> Cycle:
     """The reported quantities of a solved cycle, on ``fine``'s time grid; the energy balance
     also on ``balance``'s (the harmonic balance's own samples)."""
     work_in, friction, damping, (q, _, normal, state) = _energies(fine, X, omega, lam)
@@ -140,7 +140,7 @@ def describe(balance: WaveBalance, fine: WaveBalance, X: np.ndarray, omega: floa
         energy_damping=damping, energy_residual=own,
         energy_residual_fine=_balance_error(work_in, friction, damping),
         damping_ratio=out / (2 * math.pi * kinetic) if kinetic > 0 else math.nan,
-        residual=residual)  # fmt: skip
+        residual=residual)
 
 
 def coexisting(cycles: list, chosen) -> str:
@@ -151,9 +151,9 @@ def coexisting(cycles: list, chosen) -> str:
     if not others:
         return ""
     listed = "; ".join(f"{c.tip_amplitude * 1e6:.3g} um, {c.frequency_hz:.4g} Hz, {c.source}"
-                       for c in sorted(others, key=lambda c: c.tip_amplitude))  # fmt: skip
+                       for c in sorted(others, key=lambda c: c.tip_amplitude))
     return f"{len(others)} more cycle{'s' if len(others) > 1 else ''} at this intensity " \
-        f"({listed})"  # fmt: skip
+        f"({listed})"
 
 
 def orbit_words(c) -> str:
@@ -168,7 +168,7 @@ def orbit_words(c) -> str:
                 f"({c.hb_tip_amplitude * 1e6:.3g} um, {c.hb_frequency_hz:.4g} Hz: "
                 f"{100 * apart:.0f} % apart, beyond the balance's truncation; another orbit)")
     return (f"exact orbit (harmonic balance {c.hb_tip_amplitude * 1e6:.3g} um, "
-            f"{c.hb_frequency_hz:.4g} Hz)")  # fmt: skip
+            f"{c.hb_frequency_hz:.4g} Hz)")
 
 
 def whole_wheel_words(c) -> str:
@@ -181,11 +181,11 @@ def whole_wheel_words(c) -> str:
         return "the whole wheel's not computed (limit_cycle.whole_wheel)"
     if mu.worst >= 0:
         at = "time.step" if mu.by == "monodromy" else \
-            f"a {mu.step * 1e6:.2g} us step (Bloch waves)"  # fmt: skip
+            f"a {mu.step * 1e6:.2g} us step (Bloch waves)"
         # the Bloch waves find the slow ones too (1.0003 would read 1 at three digits)
         digits = ".3g" if mu.by == "monodromy" else ".5g"
         return (f"the whole wheel's largest {mu.largest:{digits}} per period, ND "
-                f"{mu.nd[mu.worst]} at {at}")  # fmt: skip
+                f"{mu.nd[mu.worst]} at {at}")
     # how far it got: the periods integrated and the one check it has
     return (f"no multiplier of the whole wheel converged at time.step in {mu.matvecs} "
             f"linearised periods (its phase-shift multiplier off 1 by {mu.trivial_error:.2g})")

@@ -35,13 +35,13 @@ GROWTH = 0.5
 
 def transient_stability(model: ReducedModel, cfg: Config, angles_deg: dict | None,
                         balance: WaveBalance, X: np.ndarray, omega: float, lam: float,
-                        tip_amplitude: float) -> FloquetResult:  # fmt: skip
+                        tip_amplitude: float) -> FloquetResult:
     """The cycle ``X`` ``(2H + 1, m)``, ``omega`` [rad/s] at factor ``lam`` of wave
     ``balance.wave``, integrated with ``cfg``'s scheme from every blade's state on it plus the
     perturbation; growth [1/s] per ND (the cycle's own NDs: ``-inf``)."""
     N, period = model.blades, 2 * math.pi / omega
     scaled = {"flutter.table_scale": cfg.flutter.table_scale * lam} if \
-        cfg.flutter.model == "table" else {"flutter.mu": cfg.flutter.mu * lam}  # fmt: skip
+        cfg.flutter.model == "table" else {"flutter.mu": cfg.flutter.mu * lam}
     steps = max(1, math.ceil(period / cfg.time.step))  # whole steps per period, <= time.step
     run_cfg = cfg.replace(**scaled, **{
         "excitation.force": 0.0, "time.step": period / steps,
@@ -64,5 +64,5 @@ def transient_stability(model: ReducedModel, cfg: Config, angles_deg: dict | Non
     worst = float(growth.max())
     failed = not res.status.startswith("done")
     return FloquetResult(np.arange(N // 2 + 1), growth, math.exp(worst * period), 0.0,
-                         bool(worst <= GROWTH and not failed), by="transient: ND")  # fmt: skip
+                         bool(worst <= GROWTH and not failed), by="transient: ND")
 

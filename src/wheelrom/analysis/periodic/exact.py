@@ -38,7 +38,7 @@ FINER_ITERATIONS = 10
 
 
 def exact_cycle(model, cfg, angles, branch, balance, X: np.ndarray, omega: float,
-                cycle: Cycle, harmonics: int, comm=None) -> Cycle:  # fmt: skip
+                cycle: Cycle, harmonics: int, comm=None) -> Cycle:
     """The HB cycle ``X`` ``(2H + 1, m)``, ``omega`` [rad/s] (described as ``cycle``) of
     ``branch``'s wave polished into the exact orbit by shooting at ``cycle.lam``, at
     ``time.step`` or, when that does not converge, at up to :data:`STEP_HALVINGS` halvings of
@@ -47,18 +47,18 @@ def exact_cycle(model, cfg, angles, branch, balance, X: np.ndarray, omega: float
     off where contacts open); ``cycle`` itself, its shooting residual set and the failure
     said in ``branch.end``, when none converges."""
     exact, residual = _shoot(model, cfg, angles, branch, balance, X, omega, cycle, harmonics,
-                             comm)  # fmt: skip
+                             comm)
     if exact is not None:
         return exact
     finer = finer_balance(balance, X, omega, cycle.lam, comm)
     if finer is not None:
         fine, X2, omega2 = finer
         exact, again = _shoot(model, cfg, angles, branch, fine, X2, omega2, cycle, harmonics,
-                              comm)  # fmt: skip
+                              comm)
         if exact is not None:
             branch.end += (f"{'; ' if branch.end else ''}the shot from the H = {balance.H} "
                            f"cycle missed (residual {residual:.2g}); from the same cycle "
-                           f"balanced with H = {fine.H} it converged")  # fmt: skip
+                           f"balanced with H = {fine.H} it converged")
             return exact
         residual = min(residual, again)
     cycle.shooting_residual = residual
@@ -70,7 +70,7 @@ def exact_cycle(model, cfg, angles, branch, balance, X: np.ndarray, omega: float
 
 
 def _shoot(model, cfg, angles, branch, balance, X, omega, cycle: Cycle, harmonics: int,
-           comm=None) -> tuple[Cycle | None, float]:  # fmt: skip
+           comm=None) -> tuple[Cycle | None, float]:
     """``(exact cycle or None, the smallest residual)``: the shots of :func:`exact_cycle`
     from the balance's ``X``, ``omega`` at the step and its halvings."""
     q, v = balance.wheel_state(X, omega)
@@ -85,9 +85,9 @@ def _shoot(model, cfg, angles, branch, balance, X, omega, cycle: Cycle, harmonic
                 orbit = shooting.solve(start, period)
             except (ValueError, RuntimeError, petsc().Error) as exc:  # a step of the flow failed
                 orbit = Orbit(branch.wave, math.nan, start, 0, 0.0, math.inf, 0, False,
-                              reason=f"{type(exc).__name__}: {exc}")  # fmt: skip
+                              reason=f"{type(exc).__name__}: {exc}")
             moving = orbit.converged and \
-                np.abs(orbit.state[1]).max() > 1e-3 * np.abs(start[1]).max()  # fmt: skip
+                np.abs(orbit.state[1]).max() > 1e-3 * np.abs(start[1]).max()
             if moving and abs(math.log(orbit.period * omega / (2 * math.pi))) < math.log(2):
                 exact = Cycle(**orbit_quantities(shooting, orbit, harmonics, cycle.lam))
                 exact.hb_tip_amplitude = cycle.tip_amplitude
@@ -145,13 +145,13 @@ def finer_balance(balance, X: np.ndarray, omega: float, lam: float, comm=None):
     # vibration and 10 % of its frequency
     vibration = float(np.abs(X[1:]).max())
     if point is None or not 0.5 * vibration <= float(np.abs(point.X[1:]).max()) <= \
-            2 * vibration or abs(point.omega / omega - 1.0) > 0.1:  # fmt: skip
+            2 * vibration or abs(point.omega / omega - 1.0) > 0.1:
         return None
     return fine, point.X, point.omega
 
 
 def monodromy_stability(model, cfg, angles, cycle: Cycle, count: int, refine: int,
-                        comm=None, whole_wheel: str = "always") -> None:  # fmt: skip
+                        comm=None, whole_wheel: str = "always") -> None:
     """Floquet multipliers of the exact orbit ``cycle.orbit``: the dominant one inside the
     cycle's symmetry at the step and ``refine`` halvings of it (``cycle.refined``: ``(step
     [s], |mu|, ND)``; on the pattern wheel, cheap), and the ``count`` largest of the whole
@@ -165,7 +165,7 @@ def monodromy_stability(model, cfg, angles, cycle: Cycle, count: int, refine: in
     if orbit.symmetric_multipliers.size:
         cycle.refined.append((orbit.period / orbit.steps_per_period,
                               float(abs(orbit.symmetric_multipliers[0])),
-                              int(orbit.symmetric_nd[0])))  # fmt: skip
+                              int(orbit.symmetric_nd[0])))
     _refine(model, cfg, angles, cycle, refine, comm)
     proof = _instability_proof(cycle)
     if proof is not None and whole_wheel == "undecided":
@@ -179,10 +179,10 @@ def monodromy_stability(model, cfg, angles, cycle: Cycle, count: int, refine: in
         keep = np.arange(orbit.state.size)
         units = vibration_units(orbit.state, orbit.period).ravel()
         mu = bloch_multipliers(model, cfg, orbit, units, keep, angles, cycle.lam,
-                               coarse=coarse < steps)  # fmt: skip
+                               coarse=coarse < steps)
     else:  # the pattern is the wheel: the outermost by SLEPc (2 N m differences otherwise)
         mu = floquet_multipliers(model, cfg, orbit, min(steps, coarse), angles, cycle.lam,
-                                 count, comm)  # fmt: skip
+                                 count, comm)
     cycle.multipliers = mu.top(count)  # the verdict from all of them
     rest = mu.nontrivial()
     # the error of the one multiplier known exactly (the phase shift's, 1) measures the
@@ -192,7 +192,7 @@ def monodromy_stability(model, cfg, angles, cycle: Cycle, count: int, refine: in
     trust = max(TRUSTED, 0.5 * abs(mu.largest - 1.0)) if rest.size else -math.inf
     cycle.stability = FloquetResult(
         mu.nd[rest], np.log(np.maximum(np.abs(mu.values[rest]), 1e-300)) / orbit.period,
-        mu.largest, mu.trivial_error, mu.stable, by="monodromy: ND", trust=trust)  # fmt: skip
+        mu.largest, mu.trivial_error, mu.stable, by="monodromy: ND", trust=trust)
     if proof is not None:
         cycle.stability = dataclasses.replace(proof, trivial=mu.trivial_error)
 
@@ -210,7 +210,7 @@ def _instability_proof(cycle: Cycle) -> FloquetResult | None:
     return FloquetResult(
         np.array([nd]), np.array([math.log(b) / cycle.orbit.period]), b, math.nan, False,
         by="monodromy inside the cycle's symmetry at the finest step: ND",
-        trust=math.inf)  # fmt: skip
+        trust=math.inf)
 
 
 def finer_steps(cfg, orbit: Orbit, refine: int):
@@ -236,12 +236,12 @@ def _refine(model, cfg, angles, cycle: Cycle, refine: int, comm=None) -> None:
         finally:
             shooting.destroy()
         cycle.refined.append((orbit.period * orbit.fraction / steps, float(abs(mu[0])),
-                              int(nd[0])))  # fmt: skip
+                              int(nd[0])))
 
 
 def marched_cycle(model, cfg, angles, branch, q_eq: np.ndarray, blocks, harmonics: int,
                   progress=None, refine: int | None = None, whole_wheel: str = "always",
-                  count: int = 10) -> None:  # fmt: skip
+                  count: int = 10) -> None:
     """The elastic law's exact orbit of ``branch``'s wave at the configured intensity
     (:mod:`.slider_shooting`): its growing mode at ``lam = 1`` (``blocks``: the wave's ND
     blocks ``(B0, B1)``) seeded at half its slip onset on the wave's pattern wheel with the
@@ -252,7 +252,7 @@ def marched_cycle(model, cfg, angles, branch, q_eq: np.ndarray, blocks, harmonic
     (:func:`elastic_stability`, ``whole_wheel``, ``count``; ``refine`` None: not computed)."""
     lam_c = branch.critical_lam
     branch.hopf_hz = float(wave_mode(blocks[0], blocks[1], lam_c if lam_c > 0 else 1.0)[1].imag
-                           / (2 * math.pi))  # fmt: skip
+                           / (2 * math.pi))
     _, value, vector = wave_mode(blocks[0], blocks[1], 1.0)
     period = 2 * math.pi / float(value.imag)
     shooting = SliderShooting(model, cfg, branch.wave, angles, 1.0)
@@ -264,10 +264,10 @@ def marched_cycle(model, cfg, angles, branch, q_eq: np.ndarray, blocks, harmonic
         x, period, periods = shooting.march(x, period, progress=say)
         orbit = shooting.solve(x, period, max(shooting.tip_estimate(x, period), 1e-300))
         how = (f"the elastic law: marched {periods} periods on the {shooting.N}-blade pattern "
-               f"from the growing mode at {seed * 1e6:.3g} um")  # fmt: skip
+               f"from the growing mode at {seed * 1e6:.3g} um")
         if not orbit.converged:
             branch.end = f"{how}; the shot from there did not converge ({orbit.reason}, " \
-                f"residual {orbit.residual:.2g})"  # fmt: skip
+                f"residual {orbit.residual:.2g})"
             return
         cycle = Cycle(**orbit_quantities(shooting, orbit, harmonics, 1.0))
         if refine is None:
@@ -289,7 +289,6 @@ def marched_cycle(model, cfg, angles, branch, q_eq: np.ndarray, blocks, harmonic
 
 def elastic_stability(model, cfg, angles, cycle: Cycle, shooting: SliderShooting,
                       refine: int, whole_wheel: str = "always", count: int = 10) -> None:
-    # fmt: skip
     """The elastic orbit's multipliers inside its own symmetry (the pattern map's,
     :meth:`~.slider_shooting.SliderShooting.multipliers`: the sliders of contacts stuck all
     period left out, each a multiplier exactly 1) at its own step (``shooting``'s) and at the
@@ -328,15 +327,15 @@ def elastic_stability(model, cfg, angles, cycle: Cycle, shooting: SliderShooting
     try:
         for lv in levels[-2:]:
             mu = bloch_multipliers(model, lv["cfg"], lv["orbit"], lv["scale"], lv["keep"],
-                                   angles)  # fmt: skip
+                                   angles)
             worst, wall = mu.worst, wall + mu.wall_s
             wheel.append({"step": lv["step"], "largest": mu.largest, "error": mu.trivial_error,
-                          "worst_nd": int(mu.nd[worst]) if worst >= 0 else -1})  # fmt: skip
+                          "worst_nd": int(mu.nd[worst]) if worst >= 0 else -1})
     except (ValueError, RuntimeError, np.linalg.LinAlgError, petsc().Error) as exc:
         # the symmetry's verdict stands, with why the wheel's is missing
         cycle.stability = dataclasses.replace(inside, by=f"{inside.by}; the whole wheel's "
                                               f"failed ({type(exc).__name__}: {exc}): settle "
-                                              "decides")  # fmt: skip
+                                              "decides")
         return
     cycle.multipliers = dataclasses.replace(mu.top(count), wall_s=wall)  # both steps' time
     verdict = _elastic_verdict(wheel, orbit.period, True, wheel=True)
@@ -358,11 +357,11 @@ def _level(shooting: SliderShooting, orbit: Orbit, tip: float, cfg) -> dict:
     return {**mu, "step": orbit.period / orbit.steps_per_period,
             "largest": float(abs(values[worst])) if worst >= 0 else 0.0,
             "worst_nd": int(mu["nd"][worst]) if worst >= 0 else -1,
-            "error": float(abs(values[trivial] - 1.0)), "orbit": orbit, "cfg": cfg}  # fmt: skip
+            "error": float(abs(values[trivial] - 1.0)), "orbit": orbit, "cfg": cfg}
 
 
 def _elastic_verdict(levels: list[dict], period: float, whole: bool,
-                     wheel: bool = False) -> FloquetResult:  # fmt: skip
+                     wheel: bool = False) -> FloquetResult:
     """The verdict of the finest level, trusted when the largest non-trivial modulus stands
     off 1 by at least twice its change over the last halving of the step, and the phase
     shift's multiplier is 1 to :data:`~.floquet.TRUSTED` or to half that distance (the whole
@@ -386,13 +385,13 @@ def _elastic_verdict(levels: list[dict], period: float, whole: bool,
     if trusted and (largest > 1.0 or whole):
         by = f"monodromy {where} at the finest step (elastic law): ND"
         return FloquetResult(np.array([nd]), growth, largest, error, largest <= 1.0, by=by,
-                             trust=math.inf)  # fmt: skip
+                             trust=math.inf)
     if trusted:  # the whole wheel's decide (elastic_stability)
         by = f"stable inside its own symmetry ({at})"
     else:
         why = f"changing by {change:.1e} over the last halving" if change > margin else \
-            f"the phase-shift multiplier off 1 by {error:.1e}"  # fmt: skip
+            f"the phase-shift multiplier off 1 by {error:.1e}"
         where = "for the whole wheel (Bloch waves)" if wheel else "inside its own symmetry"
         by = f"stability uncertain {where} ({at}; {why})"
     return FloquetResult(np.array([nd]), growth, largest, error, largest <= 1.0, by=by,
-                         trust=-1.0)  # fmt: skip
+                         trust=-1.0)

@@ -76,7 +76,7 @@ class FloquetResult:
 
 
 def hill_matrix(balance: WaveBalance, lin: Linearisation, omega: float, lam: float,
-                theta: float) -> np.ndarray:  # fmt: skip
+                theta: float) -> np.ndarray:
     """``(2 m (2H + 1), 2 m (2H + 1))`` complex Hill matrix of Bloch phase ``theta`` [rad]."""
     b, m, H = balance, balance.modes, balance.H
     harmonics = np.arange(-H, H + 1)
@@ -104,11 +104,11 @@ def hill_matrix(balance: WaveBalance, lin: Linearisation, omega: float, lam: flo
     K, Aq, Av = K.reshape(size, size), Aq.reshape(size, size), Av.reshape(size, size)
     Omega = np.diag(np.repeat(harmonics * omega, m)).astype(complex)
     return np.block([[-1j * Omega, np.eye(size)],
-                     [-K + Aq, -1j * Omega - b.beta * K + Av]])  # fmt: skip
+                     [-K + Aq, -1j * Omega - b.beta * K + Av]])
 
 
 def exponents(balance: WaveBalance, lin: Linearisation, omega: float, lam: float,
-              theta: float) -> np.ndarray:  # fmt: skip
+              theta: float) -> np.ndarray:
     """The Floquet exponents [1/s] of Bloch phase ``theta``: the eigenvalues of the Hill
     matrix whose eigenvectors are centred within ``max(1, H / 3)`` slots of harmonic 0 (copies
     of one exponent in neighbouring slots included: they have its real part; the slots near
@@ -123,7 +123,7 @@ def exponents(balance: WaveBalance, lin: Linearisation, omega: float, lam: float
 
 
 def floquet(balance: WaveBalance, lin: Linearisation, omega: float, lam: float,
-            families=None) -> FloquetResult:  # fmt: skip
+            families=None) -> FloquetResult:
     """Floquet analysis of a solved cycle; ``families``: the Bloch families ``p`` to check
     (default: the wave's own, ``p = k``, where its amplitude and phase perturbations live).
     Family ``N - p`` is the complex conjugate of family ``p`` (a real system: the same
@@ -157,4 +157,4 @@ def floquet(balance: WaveBalance, lin: Linearisation, omega: float, lam: float,
     growth = np.array([growth_of[mirror(p)] for p in families])
     worst = float(growth.max())
     return FloquetResult(families, growth, math.exp(worst * period), trivial,
-                         bool(worst <= TOLERANCE))  # fmt: skip
+                         bool(worst <= TOLERANCE))

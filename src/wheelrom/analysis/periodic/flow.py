@@ -44,7 +44,7 @@ MAX_BATCH = 256
 def autonomous(cfg: Config) -> Config:
     """``cfg`` with the nozzle off and no stored histories."""
     return cfg.replace(**{"excitation.force": 0.0, "output.history_rate_hz": 0.0,
-                          "output.state_rate_hz": 0.0})  # fmt: skip
+                          "output.state_rate_hz": 0.0})
 
 
 @dataclass(frozen=True)
@@ -130,10 +130,10 @@ class WheelFlow:
     def __init__(self, model: ReducedModel, cfg: Config, angles_deg: dict | None = None,
                  lam: float = 1.0, prefix: str = PREFIX, options: dict | None = None,
                  nozzle: Nozzle | None = None,
-                 params: ForceParameters | None = None):  # fmt: skip
+                 params: ForceParameters | None = None):
         self.model, self.prefix, self.options = model, prefix, options
         self.cfg = autonomous(cfg) if nozzle is None else \
-            cfg.replace(**{"output.history_rate_hz": 0.0, "output.state_rate_hz": 0.0})  # fmt: skip
+            cfg.replace(**{"output.history_rate_hz": 0.0, "output.state_rate_hz": 0.0})
         # the factor on the intensity (or the table's scale) on the parameters: a reversed
         # self-excitation (lam < 0) is no configuration, but an unstable cycle to test on
         if params is None:
@@ -156,7 +156,7 @@ class WheelFlow:
     def _batch(self, B: int):
         if B not in self._batches:
             problem = WheelProblem(self.model, self.cfg, [self.params] * B,
-                                   petsc().COMM_SELF, capacity=4)  # fmt: skip
+                                   petsc().COMM_SELF, capacity=4)
             ts, f, used = make_ts(problem, self.cfg, self.prefix, self.options)
             self.used = used
             self.max_step = float(used["ts_dt"])
@@ -186,14 +186,14 @@ class WheelFlow:
             raise ValueError(f"a flow over {duration!r} s with a step of {self.max_step!r} s")
         n = max(1, math.ceil(duration / self.max_step * (1 - 1e-12)))
         if self.cfg.time.scheme == "exponential" and \
-                self.used.get("ts_type", "python") == "python":  # fmt: skip
+                self.used.get("ts_type", "python") == "python":
             shift = shift_matrix(self.model, self.params)
             while exponential.safe_step(self.model, duration / n, shift)[1] is not None:
                 n += 1
         return n, duration / n
 
     def advance(self, states: np.ndarray, duration: float, steps: int = 0,
-                start: float = 0.0) -> np.ndarray:  # fmt: skip
+                start: float = 0.0) -> np.ndarray:
         """``phi_duration`` of every state ``(B, 2, N, m)`` -> ``(B, 2, N, m)``, or of flat
         states ``(B, 2 N m + sliders)`` that carry the elastic law's sliders after ``q, q'``
         (blade-major ``(K, N, 2)`` [m], as the transient's state), in ``steps`` whole steps
@@ -206,7 +206,7 @@ class WheelFlow:
         return out
 
     def _advance(self, states: np.ndarray, duration: float, steps: int,
-                 start: float) -> np.ndarray:  # fmt: skip
+                 start: float) -> np.ndarray:
         """End states of ``states`` ``(B, ...)`` from time ``start`` [s]: ``q, q'`` and, when
         given (``2 n + sliders`` per state), the sliders; sliders not given start at 0."""
         PETSc = petsc()
@@ -238,7 +238,7 @@ class WheelFlow:
         return end[:, : flat.shape[1]].reshape(states.shape)
 
     def trajectory(self, state: np.ndarray, duration: float, steps: int,
-                   stride: int = 1) -> np.ndarray:  # fmt: skip
+                   stride: int = 1) -> np.ndarray:
         """``(steps // stride + 1, 2, N, m)``: ``state`` and every ``stride``-th of ``steps``
         whole steps over ``duration`` [s] (the same steps as one :meth:`advance`). States
         without sliders: the paper law's (under the elastic law each piece would start its

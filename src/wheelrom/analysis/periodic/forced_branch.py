@@ -115,7 +115,7 @@ class ArclengthCorrector:
 
     def solve(self, z0: np.ndarray, a: np.ndarray, b: float,
               iterations: int = CORRECTOR_ITERATIONS,
-              J0: np.ndarray | None = None) -> tuple:  # fmt: skip
+              J0: np.ndarray | None = None) -> tuple:
         """Newton from ``z0`` on the balance and ``a . z = b``: ``(z, iterations)`` (``z``
         None when it fails). With the Jacobian ``J0`` (the last point's) first by chord
         steps: ``J0`` serves while the residual falls by :data:`CONTRACTION` an iteration, a
@@ -131,7 +131,7 @@ class ArclengthCorrector:
         return None, total
 
     def _newton(self, z0: np.ndarray, a: np.ndarray, b: float, iterations: int,
-                J: np.ndarray | None) -> tuple:  # fmt: skip
+                J: np.ndarray | None) -> tuple:
         """:meth:`solve`'s iterations: chord steps from ``J``, exact ones when it is None."""
         chord = J is not None
         z = np.array(z0, dtype=float)
@@ -169,7 +169,7 @@ class ArclengthCorrector:
 
 def trace_frequency(problem: ForcedWave, X_start: np.ndarray, omega_start: float,
                     omega_end: float, x_ref: float, progress=None, jump: float = 0.0,
-                    max_points: int = MAX_POINTS) -> Branch:  # fmt: skip
+                    max_points: int = MAX_POINTS) -> Branch:
     """The forced response from the solved point ``X_start`` ``(2H + 1, m)`` at
     ``omega_start`` [rad/s] towards ``omega_end``, by pseudo-arclength continuation, until
     the frequency passes ``omega_end`` (the last point is then the curve at ``omega_end``,
@@ -205,7 +205,7 @@ def trace_frequency(problem: ForcedWave, X_start: np.ndarray, omega_start: float
             X_last, w_last = corrector.unpack(zs[-1])
             target = w_last + sense * min(jump, abs(omega_end - w_last))
             X_new, ok, n = stepped_solve(problem, X_last, w_last, target) \
-                if jump and target != w_last else (X_last, False, 0)  # fmt: skip
+                if jump and target != w_last else (X_last, False, 0)
             if not ok:
                 end = f"stalled at {w_last / (2 * math.pi):.6g} Hz"
                 break
@@ -240,7 +240,7 @@ def trace_frequency(problem: ForcedWave, X_start: np.ndarray, omega_start: float
         ds = min(STEP_MAX, 1.5 * ds) if n <= 5 else (ds / 2 if n > 10 else ds)
     pts = [corrector.unpack(z) for z in zs]
     return Branch(np.array([w for _, w in pts]), np.stack([X for X, _ in pts]),
-                  np.array(its), merged_folds(folds), end, jumps)  # fmt: skip
+                  np.array(its), merged_folds(folds), end, jumps)
 
 
 def merged_folds(folds: list) -> list:
@@ -259,7 +259,7 @@ def merged_folds(folds: list) -> list:
 
 
 def _fold(corrector: ArclengthCorrector, z0: np.ndarray, t0: np.ndarray, z1: np.ndarray,
-          t1: np.ndarray) -> float:  # fmt: skip
+          t1: np.ndarray) -> float:
     """The frequency [rad/s] of the turning point between ``z0`` and ``z1`` (unit tangents
     ``t0``, ``t1`` whose frequency components have opposite signs): the cubic Hermite
     interpolant of the frequency over the chord's length, at its extremum (no solve: within
@@ -275,7 +275,7 @@ def _fold(corrector: ArclengthCorrector, z0: np.ndarray, t0: np.ndarray, z1: np.
     roots = np.roots([a, b, c]) if abs(a) > 1e-300 else np.array([-c / b])
     x = next((float(r.real) for r in roots if abs(r.imag) < 1e-12 and 0 <= r.real <= 1), 0.5)
     nu = ((2 * x**3 - 3 * x**2 + 1) * w0 + (x**3 - 2 * x**2 + x) * d0
-          + (-2 * x**3 + 3 * x**2) * w1 + (x**3 - x**2) * d1)  # fmt: skip
+          + (-2 * x**3 + 3 * x**2) * w1 + (x**3 - x**2) * d1)
     return corrector.omega_ref * nu
 
 
@@ -283,7 +283,7 @@ def traced_curve(model, params, beta: float, band: tuple[float, float],
                  equilibrium: np.ndarray, harmonics: int = 7, samples: int = 0,
                  lam: float = 1.0, x_ref: float = 0.0, progress=None,
                  refine: bool = False, jump: float = 0.0,
-                 stability: bool = False) -> ForcedCurve:  # fmt: skip
+                 stability: bool = False) -> ForcedCurve:
     """The forced response over ``band`` ``(lo, hi)`` [rad/s] by arclength continuation from
     the steady state at ``lo`` (Newton from the preloaded ``equilibrium`` ``(N, m)``); when
     the trace stalls, the rest is traced back from ``hi`` towards where it stalled (the two
@@ -317,7 +317,7 @@ def traced_curve(model, params, beta: float, band: tuple[float, float],
         branch = trace_frequency(problem, X, start, end, x_ref, progress, jump)
         pieces.append((branch, start == hi))
         passed = "".join(f"; passed {a / (2 * math.pi):.6g}..{b / (2 * math.pi):.6g} Hz by "
-                         "Newton in the frequency" for a, b in branch.jumps)  # fmt: skip
+                         "Newton in the frequency" for a, b in branch.jumps)
         ends.append(branch.end + passed)
         folds += [w for w, _ in branch.folds]
     curve = _curve_of(problem, model, params, pieces, "; ".join(ends), folds)
@@ -325,7 +325,7 @@ def traced_curve(model, params, beta: float, band: tuple[float, float],
     if stability and not params.law.elastic:
         for i in np.flatnonzero(curve.converged):
             curve.growth[i] = forced_growth(problem, curve.harmonics[i],
-                                            float(curve.frequency[i]))  # fmt: skip
+                                            float(curve.frequency[i]))
     if refine and pieces:
         curve.refined = refine_on_branch(problem, curve, x_ref)
     curve.wall_s = time.perf_counter() - t0
@@ -356,12 +356,12 @@ def forced_growth(problem: ForcedWave, X: np.ndarray, omega: float) -> float:
 
 
 def _curve_of(problem: ForcedWave, model, params, pieces: list, trace: str,
-              folds: list) -> ForcedCurve:  # fmt: skip
+              folds: list) -> ForcedCurve:
     """The :class:`ForcedCurve` of the traced ``pieces`` (``(branch, traced from hi)``; one
     traced from the band's high end reversed: the curve runs from its low end; a row not
     converged between two that do not meet)."""
     reversed_ = [Branch(b.frequency[::-1], b.harmonics[::-1], b.iterations[::-1]) if back
-                 else b for b, back in pieces]  # fmt: skip
+                 else b for b, back in pieces]
     if len(pieces) == 2:
         first, back = reversed_
         meet = _meet(pieces[0][0], pieces[1][0])
@@ -375,7 +375,7 @@ def _curve_of(problem: ForcedWave, model, params, pieces: list, trace: str,
             rows.append((np.nan, np.full((n, m), np.nan), False, 0))
             continue
         rows += [(w, X, True, it) for w, X, it in
-                 zip(piece.frequency, piece.harmonics, piece.iterations, strict=True)]  # fmt: skip
+                 zip(piece.frequency, piece.harmonics, piece.iterations, strict=True)]
     F = len(rows)
     out = ForcedCurve(np.array([r[0] for r in rows], dtype=float),
                       np.stack([r[1] for r in rows]) if rows else np.zeros((0, n, m)),
@@ -383,7 +383,7 @@ def _curve_of(problem: ForcedWave, model, params, pieces: list, trace: str,
                       np.array([r[3] for r in rows], dtype=int), np.full((F, K, 3), np.nan),
                       problem.wave, int(nodal_diameter(problem.wave, model.blades)),
                       kinds=params.contacts.kinds, folds=np.array(sorted(folds)),
-                      trace=trace)  # fmt: skip
+                      trace=trace)
     for i in np.flatnonzero(out.converged):
         w = float(out.frequency[i])
         out.tip_amplitude[i] = problem.tip_amplitude(out.harmonics[i], w)
@@ -403,7 +403,7 @@ def _meet(first: Branch, second: Branch) -> bool:
 
 
 def refine_on_branch(problem: ForcedWave, curve: ForcedCurve,
-                     x_ref: float) -> RefinedPeak | None:  # fmt: skip
+                     x_ref: float) -> RefinedPeak | None:
     """The largest tip amplitude of a traced curve beside its largest point: golden-section
     search over the chord to each converged neighbour, each trial point the curve's
     intersection with the hyperplane normal to the chord there (a peak on a fold, where the
@@ -424,7 +424,7 @@ def refine_on_branch(problem: ForcedWave, curve: ForcedCurve,
         if 0 <= j < ok.size and ok[j]:
             found, n = _golden_on_chord(problem, corrector, corrector.pack(X0, w0),
                                         corrector.pack(curve.harmonics[j],
-                                                       float(curve.frequency[j])))  # fmt: skip
+                                                       float(curve.frequency[j])))
             solves += n
             best = max(best, found, key=lambda f: f[0])
     A, X, w = best
@@ -432,7 +432,7 @@ def refine_on_branch(problem: ForcedWave, curve: ForcedCurve,
 
 
 def _golden_on_chord(problem: ForcedWave, corrector: ArclengthCorrector, za: np.ndarray,
-                     zb: np.ndarray) -> tuple[tuple, int]:  # fmt: skip
+                     zb: np.ndarray) -> tuple[tuple, int]:
     """``((amplitude, X, omega), solves)``: the largest tip amplitude found by golden-section
     search on the curve between its points ``za`` and ``zb`` (scaled)."""
     chord = zb - za

@@ -46,7 +46,7 @@ SEGMENTS_PER_RANK = 2
 def segmented_curve(model: ReducedModel, params: ForceParameters, beta: float, frequencies,
                     equilibrium: np.ndarray, comm, harmonics: int = 7, samples: int = 0,
                     lam: float = 1.0, progress=None, refine: bool = False, segments: int = 0,
-                    taken=None) -> ForcedCurve:  # fmt: skip
+                    taken=None) -> ForcedCurve:
     """:func:`.forced_wave.forced_curve` with its frequencies cut into ``segments``
     contiguous segments (0: :data:`SEGMENTS_PER_RANK` a rank, at least two frequencies
     each) solved by the ranks of the mpi4py communicator ``comm``: this rank solves the
@@ -58,7 +58,7 @@ def segmented_curve(model: ReducedModel, params: ForceParameters, beta: float, f
     ranks = 1 if comm is None else comm.size
     if ranks == 1 or w_all.size < 2 * ranks:
         return forced_curve(model, params, beta, w_all, equilibrium, harmonics, samples, lam,
-                            progress, refine)  # fmt: skip
+                            progress, refine)
     t0 = time.perf_counter()
     problem = ForcedWave(model, params, beta, harmonics, samples, lam)
     count = min(segments or segment_count(w_all.size, ranks), w_all.size // 2)
@@ -70,7 +70,7 @@ def segmented_curve(model: ReducedModel, params: ForceParameters, beta: float, f
     if comm.rank == 0:  # one rank decides the seams and the peak, every rank holds them
         pieces = {r: piece for part in parts for r, piece in part.items()}
         curve = stitch(problem, model, params, w_all, equilibrium, bounds,
-                       [pieces[r] for r in range(count)])  # fmt: skip
+                       [pieces[r] for r in range(count)])
         if refine:
             curve.refined = refine_peak(problem, curve)
     curve = comm.bcast(curve, root=0)
@@ -91,7 +91,7 @@ def segment_bounds(frequencies: int, segments: int) -> np.ndarray:
 
 def solve_segment(problem: ForcedWave, model: ReducedModel, params: ForceParameters,
                   frequencies: np.ndarray, equilibrium: np.ndarray, bounds: np.ndarray,
-                  rank: int, progress=None) -> ForcedCurve:  # fmt: skip
+                  rank: int, progress=None) -> ForcedCurve:
     """Segment ``rank`` of ``frequencies`` [rad/s] by natural continuation from rest, from
     the previous segment's last frequency on (its first point: the seam's check)."""
     first = bounds[rank] - 1 if rank > 0 else 0
@@ -102,13 +102,13 @@ def solve_segment(problem: ForcedWave, model: ReducedModel, params: ForceParamet
             progress(first + i, w, amplitude)
 
     continue_over(problem, piece, range(piece.frequency.size), at_rest(problem, equilibrium),
-                  None, told if progress is not None else None)  # fmt: skip
+                  None, told if progress is not None else None)
     return piece
 
 
 def stitch(problem: ForcedWave, model: ReducedModel, params: ForceParameters,
            frequencies: np.ndarray, equilibrium: np.ndarray, bounds: np.ndarray,
-           pieces: list[ForcedCurve]) -> ForcedCurve:  # fmt: skip
+           pieces: list[ForcedCurve]) -> ForcedCurve:
     """The whole curve from every rank's :func:`solve_segment`, in order: a segment whose
     first state is not the previous segment's last (:func:`same_state`) is solved again
     from the last solution before it (the equilibrium at rest if none), with the one

@@ -129,7 +129,7 @@ class ForcedShooting:
     factor) on the configured transient scheme and step. :meth:`destroy` frees it."""
 
     def __init__(self, model: ReducedModel, cfg: Config, problem: ForcedWave, omega: float,
-                 angles_deg: dict | None = None, whole: bool = False):  # fmt: skip
+                 angles_deg: dict | None = None, whole: bool = False):
         params = problem.balance.params
         if params.follows_speed:  # the stiffness at this excitation's rotor speed
             model = model.at_speed(omega / (2 * math.pi * params.stator_vanes))
@@ -148,7 +148,7 @@ class ForcedShooting:
         # the balance's own parameters (its nozzle, contacts and law), cut to the pattern
         nozzle = Nozzle(self.omega, np.asarray(params.nozzle_phase)[: self.N])
         self.flow = WheelFlow(pattern, cfg, angles_deg, problem.lam, nozzle=nozzle,
-                              params=params.first_blades(self.N))  # fmt: skip
+                              params=params.first_blades(self.N))
         self.K = len(params.contacts.kinds)
         self.sliders = self.flow.sliders
         self.n = 2 * self.N * self.m + self.sliders
@@ -218,7 +218,7 @@ class ForcedShooting:
         return scale
 
     def jacobian(self, x: np.ndarray, scale: np.ndarray,
-                 columns: np.ndarray | None = None) -> np.ndarray:  # fmt: skip
+                 columns: np.ndarray | None = None) -> np.ndarray:
         """``(n, c)`` columns ``columns`` (default all) of ``d(S^{-j} phi_tau)/dx`` in scaled
         units, central differences (one batch of ``2 c`` shots)."""
         cols = np.arange(self.n) if columns is None else np.asarray(columns)
@@ -242,7 +242,7 @@ class ForcedShooting:
         z, _, size, reason, it = newton_least_squares(
             lambda z: (self.shot((z * scale)[None])[0] - z * scale) / scale,
             lambda z: self.jacobian(z * scale, scale) - np.eye(self.n),
-            x / scale, floor, MAX_ITERATIONS)  # fmt: skip
+            x / scale, floor, MAX_ITERATIONS)
         x = z * scale
         converged = reason.startswith("converged")
         orbit = ForcedOrbit(self.omega, x, self.N, size, it, converged, reason=reason,
@@ -276,7 +276,7 @@ class ForcedShooting:
 
 def exact_forced(model: ReducedModel, cfg: Config, problem: ForcedWave, X: np.ndarray,
                  omega: float, angles_deg: dict | None = None, refine: bool = True,
-                 whole_wheel: bool = False) -> ForcedOrbit:  # fmt: skip
+                 whole_wheel: bool = False) -> ForcedOrbit:
     """The exact forced state at ``omega`` [rad/s] by shooting from the harmonic balance's
     solution ``X`` ``(2H + 1, m)`` of ``problem``, with ``hb_tip_amplitude`` set;
     ``refine``: solved again at half the step from there, the multipliers (and the state)
@@ -289,12 +289,12 @@ def exact_forced(model: ReducedModel, cfg: Config, problem: ForcedWave, X: np.nd
     orbit, failure = _guarded(_shoot, model, cfg, problem, omega, angles_deg, X, None, hb)
     if failure:  # a step of the flow failed: said, and nothing else computed is lost
         return ForcedOrbit(float(omega), np.zeros(0), 0, math.inf, 0, False,
-                           hb_tip_amplitude=hb, reason=failure)  # fmt: skip
+                           hb_tip_amplitude=hb, reason=failure)
     orbit.hb_tip_amplitude = hb
     if refine and orbit.converged:
         finer = cfg.replace(**{"time.step": cfg.time.step / 2})
         fine, failure = _guarded(_shoot, model, finer, problem, omega, angles_deg, None,
-                                 orbit.state, hb)  # fmt: skip
+                                 orbit.state, hb)
         if fine is not None and fine.converged:
             fine.hb_tip_amplitude, fine.coarse_largest = hb, orbit.largest
             fine.wall_s += orbit.wall_s
@@ -326,7 +326,7 @@ def _guarded(function, *args):
     try:
         return function(*args), ""
     except (ValueError, RuntimeError, ArithmeticError, np.linalg.LinAlgError,
-            petsc().Error) as exc:  # fmt: skip
+            petsc().Error) as exc:
         return None, f"{type(exc).__name__}: {exc}"
 
 
@@ -358,13 +358,13 @@ def wheel_multipliers(model: ReducedModel, cfg: Config, problem: ForcedWave,
 
         # blade s of the wheel is the orbit's blade s mod its blade count
         x_full = orbit.state[blade_indices(np.arange(N) % orbit.pattern, orbit.pattern,
-                                            m, K)]  # fmt: skip
+                                            m, K)]
         scale = whole._scale(x_full, orbit.tip_amplitude)
         columns = whole.jacobian(x_full, scale, block(0))  # (n, 2 N' m (+ sliders))
     finally:
         whole.destroy()
     C = [columns[block(r)] for r in range(g)]  # C[r]: super-block r's response to block 0
     values, nds, _, _ = block_circulant_spectrum(C, [block(r) for r in range(g)], scale, N, m,
-                                                 P, whole.shift)  # fmt: skip
+                                                 P, whole.shift)
     order = np.argsort(-np.abs(values))
     orbit.wheel_multipliers, orbit.wheel_nodal_diameters = values[order], nds[order]

@@ -125,7 +125,7 @@ class ForcedWave:
     ``samples`` per period of the AFT (0: ``8 (H + 1)``)."""
 
     def __init__(self, model: ReducedModel, params: ForceParameters, beta: float,
-                 harmonics: int, samples: int = 0, lam: float = 1.0):  # fmt: skip
+                 harmonics: int, samples: int = 0, lam: float = 1.0):
         samples = samples or 8 * (harmonics + 1)
         self.wave = params.stator_vanes % model.blades
         self.balance = WaveBalance(model, params, beta, self.wave, harmonics, samples)
@@ -217,11 +217,11 @@ class ForcedWave:
                 break
             step = np.linalg.solve(J, R.ravel()).reshape(X.shape)
             X = self._backtrack(X, step, float(np.abs(R).max()), omega) if backtrack \
-                else X - step  # fmt: skip
+                else X - step
         return X, False, MAX_ITERATIONS
 
     def _backtrack(self, X: np.ndarray, step: np.ndarray, size: float,
-                   omega: float) -> np.ndarray:  # fmt: skip
+                   omega: float) -> np.ndarray:
         """``X - a step`` with ``a`` halved (down to 1/64) until the residual falls: contacts
         that open, close, stick and slip between the samples make the residual kinked, and
         a full Newton step from the last frequency's solution can land far off."""
@@ -245,14 +245,14 @@ class ForcedWave:
         moving = max(ROUNDOFF_MOVING * float(terms[1:].max()), floor, static)
         noise = self.balance.force_noise
         return bool(np.all(np.abs(R[0]) <= np.maximum(static, noise))
-                    and np.all(np.abs(R[1:]) <= np.maximum(moving, noise)))  # fmt: skip
+                    and np.all(np.abs(R[1:]) <= np.maximum(moving, noise)))
 
     def tip_amplitude(self, X: np.ndarray, omega: float) -> float:
         """0-peak tip amplitude [m] of the motion about its mean (a time grid of at least
         :data:`AMPLITUDE_SAMPLES` per period: the largest sample is within ``1 - cos(pi /
         S)`` = 2e-5 of the peak of a harmonic motion)."""
         tau = np.linspace(0.0, 2 * math.pi, max(4 * self.balance.nt, AMPLITUDE_SAMPLES),
-                          endpoint=False)  # fmt: skip
+                          endpoint=False)
         c = self.balance.complex_harmonics(X)
         h = np.arange(1, c.shape[0])
         q = (np.exp(1j * np.outer(tau, h)) @ c[1:]).real  # (S, m) about the mean
@@ -265,13 +265,13 @@ class ForcedWave:
         q, v = b.samples(X, omega)
         state = b._evaluate(q, v, self.lam)[3]
         return np.array([[np.mean(state[:, k] == s) for s in range(3)]
-                         for k in range(state.shape[1])])  # fmt: skip
+                         for k in range(state.shape[1])])
 
 
 def forced_curve(model: ReducedModel, params: ForceParameters, beta: float,
                  frequencies, equilibrium: np.ndarray, harmonics: int = 7,
                  samples: int = 0, lam: float = 1.0, progress=None,
-                 refine: bool = False) -> ForcedCurve:  # fmt: skip
+                 refine: bool = False) -> ForcedCurve:
     """The steady response at every excitation frequency of ``frequencies`` [rad/s], in the
     order given (natural continuation: each Newton solve starts from the last solution, the
     first from the preloaded ``equilibrium`` ``(N, m)`` at rest). ``progress(i, omega,
@@ -282,7 +282,7 @@ def forced_curve(model: ReducedModel, params: ForceParameters, beta: float,
     problem = ForcedWave(model, params, beta, harmonics, samples, lam)
     out = empty_curve(problem, model, params, frequencies)
     continue_over(problem, out, range(out.frequency.size), at_rest(problem, equilibrium),
-                  None, progress)  # fmt: skip
+                  None, progress)
     if refine:
         out.refined = refine_peak(problem, out)
     out.wall_s = time.perf_counter() - t0
@@ -290,14 +290,14 @@ def forced_curve(model: ReducedModel, params: ForceParameters, beta: float,
 
 
 def empty_curve(problem: ForcedWave, model: ReducedModel, params: ForceParameters,
-                frequencies) -> ForcedCurve:  # fmt: skip
+                frequencies) -> ForcedCurve:
     """A :class:`ForcedCurve` over ``frequencies`` [rad/s] with nothing solved yet."""
     w_all = np.atleast_1d(np.asarray(frequencies, dtype=float))
     F, K, H = w_all.size, len(params.contacts.kinds), problem.harmonics
     return ForcedCurve(w_all, np.full((F, 2 * H + 1, model.modes), np.nan), np.full(F, np.nan),
                        np.zeros(F, bool), np.zeros(F, int), np.full((F, K, 3), np.nan),
                        problem.wave, int(nodal_diameter(problem.wave, model.blades)),
-                       kinds=params.contacts.kinds)  # fmt: skip
+                       kinds=params.contacts.kinds)
 
 
 def at_rest(problem: ForcedWave, equilibrium: np.ndarray) -> np.ndarray:
@@ -329,7 +329,7 @@ def continue_over(problem: ForcedWave, curve: ForcedCurve, indices, X: np.ndarra
 
 
 def predicted_solve(problem: ForcedWave, X: np.ndarray, last: float | None, w: float,
-                    before: tuple | None) -> tuple[np.ndarray, bool, int]:  # fmt: skip
+                    before: tuple | None) -> tuple[np.ndarray, bool, int]:
     """The state at ``w`` [rad/s] after ``X`` at ``last``: Newton from the secant through
     ``before`` ``(X, omega)`` and ``X`` (the last two converged solutions) when the step is
     at most :data:`SECANT_REACH` times theirs, and :func:`stepped_solve` from ``X`` when
@@ -347,7 +347,7 @@ def predicted_solve(problem: ForcedWave, X: np.ndarray, last: float | None, w: f
 
 
 def stepped_solve(problem: ForcedWave, X: np.ndarray, w_from: float | None, w_to: float,
-                  depth: int = SUBSTEPS) -> tuple[np.ndarray, bool, int]:  # fmt: skip
+                  depth: int = SUBSTEPS) -> tuple[np.ndarray, bool, int]:
     """:meth:`ForcedWave.solve` at ``w_to`` from the solution ``X`` at ``w_from`` [rad/s]
     (None: the start); when Newton fails, the step is halved (``depth`` times at most) and
     taken in two: near a sharp resonance the contacts go from sticking to slipping between
@@ -366,7 +366,7 @@ def stepped_solve(problem: ForcedWave, X: np.ndarray, w_from: float | None, w_to
 
 
 def refine_peak(problem: ForcedWave, curve: ForcedCurve,
-                tolerance: float = PEAK_TOLERANCE) -> RefinedPeak | None:  # fmt: skip
+                tolerance: float = PEAK_TOLERANCE) -> RefinedPeak | None:
     """The largest tip amplitude between the grid neighbours of the curve's largest
     converged point, by golden-section search (each frequency solved by Newton from the
     nearest solution found so far) down to ``tolerance`` of the frequency: a peak that does

@@ -73,7 +73,7 @@ class WaveBalance(HysteresisLoop):
     period (at least ``2 H + 1``; ``4 H + 4`` resolves the Jacobian's harmonics for Floquet)."""
 
     def __init__(self, model: ReducedModel, params: ForceParameters, beta: float, wave: int,
-                 harmonics: int, samples: int):  # fmt: skip
+                 harmonics: int, samples: int):
         if not model.tuned:
             raise ValueError("limit cycles need a tuned wheel (mistuning.* is set)")
         if samples < 2 * harmonics + 1:
@@ -95,7 +95,7 @@ class WaveBalance(HysteresisLoop):
         # the sliders of blade 0's contacts (pairs 0 and 2 of the window; pair 1 acts on the
         # neighbours only), flat in (K, 3, 2): a contact's two components side by side
         self.loop = np.array([(k * 3 + pair) * 2 + j for k in range(len(self.kinds))
-                              for pair in (0, 2) for j in (0, 1)])  # fmt: skip
+                              for pair in (0, 2) for j in (0, 1)])
         H, nt = harmonics, samples
         self.tau = 2 * math.pi * np.arange(nt) / nt
         self.h = np.arange(H + 1)
@@ -113,7 +113,7 @@ class WaveBalance(HysteresisLoop):
         self.P = P
         self._projectors = {}  # P (x) E and P (x) D for the Jacobian (:meth:`_projected`)
         points = np.abs(np.vstack([np.asarray(a) for a in model.contact_A.values()]
-                                  + [np.asarray(b) for b in model.contact_B.values()]))  # fmt: skip
+                                  + [np.asarray(b) for b in model.contact_B.values()]))
         reach = np.maximum(np.abs(model.tip).max(axis=0), points.max(axis=0))  # (m,) [m/unit]
         self.fd_step = FD_DISPLACEMENT / np.maximum(reach, 1e-30)
         # the elastic law's force noise per modal coordinate: where the march leaves a
@@ -197,7 +197,7 @@ class WaveBalance(HysteresisLoop):
         z = np.exp(1j * np.arange(self.blades) * phase)
         mu = self.params.vdp_mu
         return (mu * np.sum(self.params.aero_displacement * z) * pp,
-                mu * np.sum(self.params.aero_velocity * z) * pp)  # fmt: skip
+                mu * np.sum(self.params.aero_velocity * z) * pp)
 
     def _table_operator(self, phase: float, frequency: float) -> np.ndarray:
         """``A + i frequency B`` of :meth:`table_parts` (``frequency`` [rad/s])."""
@@ -229,7 +229,7 @@ class WaveBalance(HysteresisLoop):
         return np.ascontiguousarray(q), np.ascontiguousarray(v)
 
     def _evaluate(self, q: np.ndarray, v: np.ndarray, lam: float,
-                  held: np.ndarray | None = None):  # fmt: skip
+                  held: np.ndarray | None = None):
         """Forces on blade 0 ``(S, m)`` and pair-0 contact records of ``S`` window states.
 
         Elastic law: the states are periods of samples (``S / n_t`` of them, or one of ``S``)
@@ -291,7 +291,7 @@ class WaveBalance(HysteresisLoop):
         return self._linearise_modal(q, v, omega, lam)
 
     def _linearise_physical(self, q, v, omega: float, lam: float,
-                            held: np.ndarray | None = None) -> Linearisation:  # fmt: skip
+                            held: np.ndarray | None = None) -> Linearisation:
         """Central differences of the force on blade 0 along each physical input ``u_i =
         r_i . q_w`` (a contact point's displacement component, the Van der Pol ``y``), moved
         alone by ``FD_DISPLACEMENT`` through the modal direction ``d_i`` with ``r_j . d_i =
@@ -312,7 +312,7 @@ class WaveBalance(HysteresisLoop):
                 target[k, :, blades[i]] += delta
                 target[k + 1, :, blades[i]] -= delta
         f = self._evaluate(Q.reshape(-1, 3, m), V.reshape(-1, 3, m), lam,
-                           self._tiled(held, 4 * n_in + 1))[0]  # fmt: skip
+                           self._tiled(held, 4 * n_in + 1))[0]
         f = f.reshape(4 * n_in + 1, nt, m)
         same = self._same_branch(4 * n_in + 1)
         by_input = np.repeat(steps, n_in)[:, None, None]
@@ -320,13 +320,13 @@ class WaveBalance(HysteresisLoop):
         def chain(f, kind):  # (nt, out) per window blade
             d = self._differences(f, by_input, same).reshape(2, n_in, nt, -1)[kind]
             return np.stack([np.einsum("itj,il->tjl", d[blades == w], rows[blades == w])
-                             for w in range(3)])  # fmt: skip
+                             for w in range(3)])
 
         dslider = None if held is None else chain(self._returned(4 * n_in + 1), 0)
         return Linearisation(f[0], chain(f, 0), chain(f, 1), dslider)
 
     def _linearise_modal(self, q, v, omega: float, lam: float,
-                         held: np.ndarray | None = None) -> Linearisation:  # fmt: skip
+                         held: np.ndarray | None = None) -> Linearisation:
         """Central differences over the window's ``6 m`` modal inputs (``held``: as
         :meth:`_linearise_physical`)."""
         m, nt = self.modes, self.nt
@@ -342,7 +342,7 @@ class WaveBalance(HysteresisLoop):
             target[1 + 2 * i, :, w, j] += step
             target[2 + 2 * i, :, w, j] -= step
         f = self._evaluate(Q.reshape(-1, 3, m), V.reshape(-1, 3, m), lam,
-                           self._tiled(held, 2 * n_in + 1))[0]  # fmt: skip
+                           self._tiled(held, 2 * n_in + 1))[0]
         f = f.reshape(2 * n_in + 1, nt, m)
         same = self._same_branch(2 * n_in + 1)
         by_input = np.repeat(steps.reshape(2, 1, m), 3, axis=1).reshape(n_in)[:, None, None]
@@ -416,7 +416,7 @@ class WaveBalance(HysteresisLoop):
         return 1j * h * self.table_parts(h * self.phi)[1]
 
     def _lambda_column(self, X: np.ndarray, omega: float, lam: float,
-                       held: np.ndarray | None = None) -> np.ndarray:  # fmt: skip
+                       held: np.ndarray | None = None) -> np.ndarray:
         """dR/dlam: the self-excitation is linear in ``lam`` (Van der Pol force and table;
         ``held``: the elastic law's loop, which does not depend on ``lam``)."""
         if self.table:

@@ -24,13 +24,13 @@ def wave_blocks(model: ReducedModel, params: ForceParameters, q: np.ndarray, J):
     N, m = q.shape
     zero = sp.csr_matrix((N * m, N * m))
     J1 = sp.bmat([[zero, zero], [aero_stiffness(params, N, m), van_der_pol_damping(params, q)]],
-                 format="csr")  # fmt: skip
+                 format="csr")
     J0 = (sp.csr_matrix(J) - J1).tocsr()
     if not (is_circulant(J0, N, m) and is_circulant(J1, N, m)):
         raise ValueError("limit cycles need a cyclic (tuned) wheel")
     r0, r1 = blade_blocks(J0, N, m), blade_blocks(J1, N, m)
     return (np.stack([nd_block(r0, k) for k in range(N)]),
-            np.stack([nd_block(r1, k) for k in range(N)]))  # fmt: skip
+            np.stack([nd_block(r1, k) for k in range(N)]))
 
 
 def wave_mode(B0, B1, lam):
@@ -95,7 +95,7 @@ def unstable_seed(model: ReducedModel, B0, B1, amplitude: float, seed: int):
         state += wave[:, None] * (vector / tip_measure(tip, vector[:m], reach))[None, :]
     q = state[:, :m]
     scale = amplitude / tip_measure(np.linalg.norm(q @ model.tip.T, axis=1).max(), np.abs(q),
-                                    reach)  # fmt: skip
+                                    reach)
     state = (state * scale).real
     return waves, state[:, :m], state[:, m:], modes[int(np.argmax(growth))][1]
 

@@ -44,7 +44,7 @@ class HysteresisLoop:
         if self.returned is None:
             return None
         stuck = (self._returned(copies) == self._held.reshape(copies, self.nt, -1)[:, :,
-                 self.loop]).reshape(copies, self.nt, -1, 2).all(axis=3)  # fmt: skip
+                 self.loop]).reshape(copies, self.nt, -1, 2).all(axis=3)
         branch = stuck[0].copy()  # (n_t, contacts)
         # a contact the march shook down onto the Coulomb limit (it slipped on its way to
         # the loop and sticks in it) grazes the limit where a perturbation slips it: its
@@ -92,9 +92,9 @@ class HysteresisLoop:
         start = self.forces.sliders_at_rest(np.ascontiguousarray(q.mean(axis=0)))
         # contacts that left their start on the way to the loop (the rest never slipped)
         self._shaken = (held.reshape(nt, -1)[:, self.loop] != start.ravel()[self.loop]).any(
-            axis=0).reshape(-1, 2).any(axis=1)  # fmt: skip
+            axis=0).reshape(-1, 2).any(axis=1)
         differenced = self._linearise_physical if self.inputs is not None else \
-            self._linearise_modal  # fmt: skip
+            self._linearise_modal
         lin = differenced(q, v, omega, lam, held)
         force_w, return_w = self._slider_derivatives(q, v, lam, held)
         through_q = np.einsum("wih,wisl->ishl", self.E, lin.dslider).reshape(nt, -1, n * m)
@@ -104,7 +104,7 @@ class HysteresisLoop:
         return lin, held, loop.reshape(n, m, n, m)
 
     def _slider_derivatives(self, q: np.ndarray, v: np.ndarray, lam: float,
-                            held: np.ndarray):  # fmt: skip
+                            held: np.ndarray):
         """``(d f_i / d w_i, d w_(i+1) / d w_i)`` ``(n_t, m, s)``, ``(n_t, s, s)``: central
         differences in each of the loop's ``s`` slider components, held at every sample."""
         nt, m, s = self.nt, self.modes, len(self.loop)
@@ -139,7 +139,7 @@ class HysteresisLoop:
 
 
 def loop_tangent(return_w: np.ndarray, through_q: np.ndarray, stuck: np.ndarray,
-                 start) -> np.ndarray:  # fmt: skip
+                 start) -> np.ndarray:
     """``dw_i / dX`` ``(n_t, s, n)``: the tangent of the sliders the samples use around a
     closed hysteresis loop, from ``w_(i+1) = g(q_i, w_i)``'s derivatives ``return_w``
     ``(n_t, s, s)`` (d/dw_i) and ``through_q`` ``(n_t, s, n)`` (d/dX through ``q_i``).

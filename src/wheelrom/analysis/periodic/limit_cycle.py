@@ -74,12 +74,12 @@ def settings_of(cfg: Config, waves=None) -> Settings:
     # the elastic law's balance: Hill's method would read the hysteresis's local tangent only
     # (its exact orbit's multipliers are the pattern map's: exact.elastic_stability)
     floquet = "off" if cfg.contacts.law == "elastic" and lc.floquet == "auto" \
-        and lc.method != "shooting" else lc.floquet  # fmt: skip
+        and lc.method != "shooting" else lc.floquet
     return Settings(harmonics=lc.harmonics, samples=lc.samples,
                     waves=tuple(lc.waves if waves is None else waves), floquet=floquet,
                     seeds=tuple(lc.seeds), branch=branch, method=lc.method,
                     multipliers=lc.multipliers, refine=lc.refine,
-                    whole_wheel=lc.whole_wheel)  # fmt: skip
+                    whole_wheel=lc.whole_wheel)
 
 
 def floquet_kind(settings: Settings) -> str:
@@ -135,7 +135,7 @@ class WaveBranch:
         for k, kind in enumerate(self.kinds):
             open_, _, slip = c.fractions[k]
             words.append(f"{kind} open {100 * open_:.0f} %"
-                         + (f", slipping {100 * slip:.0f} %" if slip > 0 else ""))  # fmt: skip
+                         + (f", slipping {100 * slip:.0f} %" if slip > 0 else ""))
         if c.energy_residual > UNRESOLVED:
             words.append(f"poorly resolved (energy balance off by {c.energy_residual:.2g}: "
                          "more limit_cycle.harmonics and samples)")
@@ -149,7 +149,7 @@ class WaveBranch:
             words.append(c.stability.by)
         elif c.stable is None:
             how = "the monodromy" if c.multipliers is not None else \
-                "Hill's method on a cycle with contacts opening"  # fmt: skip
+                "Hill's method on a cycle with contacts opening"
             words.append(f"stability uncertain ({how}: the phase-shift multiplier is off 1 by "
                          f"{c.stability.trivial:.1e}, the largest is {c.stability.multiplier:.4g})")
         elif not c.stable:
@@ -163,13 +163,13 @@ class WaveBranch:
                     words.append(f"unstable inside its own symmetry (ND {st.worst_family}: "
                                  f"multiplier {st.multiplier:.5g} per period at a "
                                  f"{step * 1e6:.2g} us step; {whole}; "
-                                 f"{alone})")  # fmt: skip
+                                 f"{alone})")
                 else:
                     words.append(f"unstable (monodromy: {whole}; {alone})")
             else:
                 words.append(f"unstable ({st.by} {st.worst_family} grows at "
                              f"{st.growth.max():.3g} /s; the flutter does not settle on this "
-                             "wave alone)")  # fmt: skip
+                             "wave alone)")
         words += [orbit_words(c), coexisting(self.cycles, c)]
         return ", ".join(w for w in words if w)
 
@@ -204,11 +204,11 @@ class CaseLimitCycles:
             return (f"the wave{'' if one else 's'} asked (ND {asked}) {'is' if one else 'are'} "
                     f"stable at the configured intensity{at}, but the case flutters: its "
                     f"fastest wave, ND {nd} (wave {k}, growing at {rate:.3g} /s), was not "
-                    "examined")  # fmt: skip
+                    "examined")
         if not flutter:
             return f"stable at the configured intensity{at}" if hopf else "stable"
         worst = max(flutter, key=lambda b: max((c.tip_amplitude for c in b.cycles),
-                                               default=math.inf))  # fmt: skip
+                                               default=math.inf))
         return f"flutters (ND {worst.nodal_diameter}): {worst.verdict()}"
 
 
@@ -220,7 +220,7 @@ class WaveAnalysis:
 
     def __init__(self, model, params, beta, q_eq, blocks, settings: Settings, comm=None,
                  progress=None, cfg: Config | None = None,
-                 angles: dict | None = None):  # fmt: skip
+                 angles: dict | None = None):
         self.model, self.params, self.beta, self.q_eq = model, params, beta, q_eq
         self.B0, self.B1 = blocks
         self.settings, self.comm, self.progress = settings, comm, progress
@@ -241,7 +241,7 @@ class WaveAnalysis:
             marched_cycle(self.model, self.cfg, self.angles, branch, self.q_eq,
                           (self.B0[wave], self.B1[wave]), st.harmonics, say,
                           None if floquet_kind(st) == "off" else st.refine,
-                          st.whole_wheel, st.multipliers)  # fmt: skip
+                          st.whole_wheel, st.multipliers)
         else:  # lam_c = 0: unstable without self-excitation, no Hopf branch; seeds still
             self._branches(branch, wave, lam_c)
         branch.wall_s = time.perf_counter() - t0
@@ -257,9 +257,9 @@ class WaveAnalysis:
         j = int(np.argmax(np.abs(v)))
         v = v * np.exp(-1j * np.angle(v[j]))
         balance = WaveBalance(self.model, self.params, self.beta, wave, st.harmonics,
-                              st.time_samples)  # fmt: skip
+                              st.time_samples)
         fine = WaveBalance(self.model, self.params, self.beta, wave, st.harmonics,
-                           max(FINE_SAMPLES, st.time_samples))  # fmt: skip
+                           max(FINE_SAMPLES, st.time_samples))
         x_scale = np.full(2 * st.harmonics + 1, 1e-6 * float(np.abs(v).max()))  # 1 ~ 1 um
         x_scale[0] = max(float(np.abs(self.q_eq[0]).max()), x_scale[1])  # static deflection
         corrector = Corrector(balance, x_scale, omega_c, 2 * m + j, self.comm)
@@ -270,14 +270,14 @@ class WaveAnalysis:
             segments = []
             first = None if lam_c == 0 else corrector.solve(
                 self._guess(corrector, v, START_AMPLITUDE, omega_c, lam_c), amplitude_axis,
-                START_AMPLITUDE / x_scale[1] * v[j].real)  # fmt: skip
+                START_AMPLITUDE / x_scale[1] * v[j].real)
             if lam_c == 0:
                 branch.end = "no Hopf point: unstable without self-excitation"
             elif first is None:
                 branch.end = "Newton failed next to the Hopf point"
             else:
                 points, branch.end = trace(corrector, first, amplitude_axis, st.branch,
-                                           self._amplitude, say)  # fmt: skip
+                                           self._amplitude, say)
                 segments.append(points)
             lam_axis = np.zeros(balance.size + 2)
             lam_axis[-1] = 1.0
@@ -285,7 +285,7 @@ class WaveAnalysis:
                 seed = self._seed(corrector, v, amplitude, omega_c, j)
                 if seed is None or not corrector.plausible(seed) or \
                         self._amplitude(seed) < 10 * START_AMPLITUDE or \
-                        self._known(self._amplitude(seed), segments):  # fmt: skip
+                        self._known(self._amplitude(seed), segments):
                     continue
                 half = dataclasses.replace(st.branch, steps=max(2, st.branch.steps // 10))
                 for direction in (lam_axis, -lam_axis):
@@ -312,7 +312,7 @@ class WaveAnalysis:
         return False
 
     def _seed(self, corrector: Corrector, v, amplitude: float, omega: float,
-              j: int) -> Point | None:  # fmt: skip
+              j: int) -> Point | None:
         """The cycle at ``lam = 1`` by Newton from the linear mode at ``amplitude`` [m]; when
         that fails with many harmonics, first with :data:`SEED_HARMONICS` and then from that
         solution (a single-harmonic guess is far from a cycle whose contacts open)."""
@@ -323,7 +323,7 @@ class WaveAnalysis:
         if seed is not None or b.H <= SEED_HARMONICS:
             return seed
         low = WaveBalance(self.model, self.params, self.beta, b.wave, SEED_HARMONICS,
-                          8 * (SEED_HARMONICS + 1))  # fmt: skip
+                          8 * (SEED_HARMONICS + 1))
         X = np.zeros((2 * SEED_HARMONICS + 1, b.modes))
         X[0], X[1], X[2] = self.q_eq[0], amplitude * v.real, amplitude * v.imag
         first = periodic_solution(low, X, omega, 1.0, self.comm)
@@ -364,12 +364,12 @@ class WaveAnalysis:
             dlam = np.diff(lam)
             offset = len(branch.points)
             branch.folds += [offset + i for i in range(1, len(points) - 1)
-                             if dlam[i - 1] * dlam[i] < 0]  # fmt: skip
+                             if dlam[i - 1] * dlam[i] < 0]
             for p in points:
                 cycle = describe(balance, fine, p.X, p.omega, p.lam, self._residual(balance, p))
                 if st.floquet == "all":
                     cycle.stability = floquet(balance, corrector.linearisation(p), p.omega,
-                                              p.lam)  # fmt: skip
+                                              p.lam)
                 branch.points.append(cycle)
                 branch.segments.append(number)
             for i in crossings(lam):
@@ -380,34 +380,34 @@ class WaveAnalysis:
                     guess = (1 - w) * points[i].z + w * points[i + 1].z
                     p = corrector.solve(guess, e, 1.0)
                     if p is not None and np.linalg.norm(p.z - guess) > np.linalg.norm(
-                            points[i + 1].z - points[i].z):  # fmt: skip
+                            points[i + 1].z - points[i].z):
                         p = None  # landed on another branch
                 if p is not None and corrector.plausible(p) and \
                         self._amplitude(p) > 10 * START_AMPLITUDE and not any(
                         abs(self._amplitude(p) - self._amplitude(f)) <= 1e-6 * self._amplitude(f)
-                        for f in found):  # fmt: skip
+                        for f in found):
                     found.append(p)
         kind = floquet_kind(st)
         for p in sorted(found, key=self._amplitude):
             cycle = describe(balance, fine, p.X, p.omega, p.lam, self._residual(balance, p))
             if st.method == "shooting":
                 cycle = exact_cycle(self.model, self.cfg, self.angles, branch, balance, p.X,
-                                    p.omega, cycle, st.harmonics, self.comm)  # fmt: skip
+                                    p.omega, cycle, st.harmonics, self.comm)
             if kind == "monodromy" and cycle.orbit is not None:
                 monodromy_stability(self.model, self.cfg, self.angles, cycle, st.multipliers,
-                                    st.refine, self.comm, st.whole_wheel)  # fmt: skip
+                                    st.refine, self.comm, st.whole_wheel)
             elif st.floquet == "transient":
                 cycle.stability = transient_stability(self.model, self.cfg, self.angles,
                                                       balance, p.X, p.omega, p.lam,
-                                                      cycle.tip_amplitude)  # fmt: skip
+                                                      cycle.tip_amplitude)
             elif kind == "monodromy" and cycle.fractions[:, 0].max() > 0:
                 # the shot missed a cycle whose contacts open: Hill's method does not converge
                 # on it (docs/theory.md), 60 s on the paper's wheel to say "uncertain"
                 cycle.floquet_skipped = "Hill's method does not converge on a cycle whose " \
-                    "contacts open; limit_cycle.floquet = 'transient' decides it"  # fmt: skip
+                    "contacts open; limit_cycle.floquet = 'transient' decides it"
             elif kind != "off":  # Hill's method (also a "monodromy" cycle shooting missed)
                 cycle.stability = floquet(balance, corrector.linearisation(p), p.omega, p.lam,
-                                          range(self.model.blades))  # fmt: skip
+                                          range(self.model.blades))
             branch.cycles.append(cycle)
 
     @staticmethod
@@ -424,7 +424,7 @@ def crossings(lam: np.ndarray) -> np.ndarray:
 
 
 def periodic_solution(balance: WaveBalance, X: np.ndarray, omega: float, lam: float = 1.0,
-                      comm=None) -> Point | None:  # fmt: skip
+                      comm=None) -> Point | None:
     """Newton (SNES, prefix ``limitcycle_``) at the fixed factor ``lam`` from the guess
     ``X`` ``(2H + 1, m)``, ``omega`` [rad/s]: the cycle, or ``None`` when Newton fails. The
     phase is fixed on the largest component of ``c_1`` of the guess."""
@@ -449,7 +449,7 @@ def periodic_solution(balance: WaveBalance, X: np.ndarray, omega: float, lam: fl
 
 def case_limit_cycles(model: ReducedModel, cfg: Config, settings: Settings,
                       angles_deg: dict | None = None, comm=None,
-                      progress=None) -> CaseLimitCycles:  # fmt: skip
+                      progress=None) -> CaseLimitCycles:
     """The limit cycles of one case (contact angles ``angles_deg``) at every wave of
     ``settings.waves`` or, by default, every wave whose linearisation grows at ``lam = 1``.
     ``progress(wave, lam, tip_amplitude)`` is called at every branch point."""
@@ -462,7 +462,7 @@ def case_limit_cycles(model: ReducedModel, cfg: Config, settings: Settings,
         raise InputError("limit cycles need self-excitation (flutter.model)")
     blocks = wave_blocks(model, params, q, J)
     growth = np.array([wave_mode(blocks[0][k], blocks[1][k], 1.0)[0]
-                       for k in range(model.blades)])  # fmt: skip
+                       for k in range(model.blades)])
     waves = [k for k in settings.waves if k != FASTEST]
     if FASTEST in settings.waves and growth.max() > GROWTH_TOLERANCE:
         waves.append(int(np.argmax(growth)))
@@ -470,12 +470,12 @@ def case_limit_cycles(model: ReducedModel, cfg: Config, settings: Settings,
         waves = [int(k) for k in np.flatnonzero(growth > GROWTH_TOLERANCE)]
     waves = sorted(set(waves))
     analysis = WaveAnalysis(model, params, cfg.wheel.damping_beta, q, blocks, settings, comm,
-                            progress, cfg, angles_deg)  # fmt: skip
+                            progress, cfg, angles_deg)
     branches = [analysis.run(k) for k in waves]
     k = int(np.argmax(growth))
     fastest = (k, int(nodal_diameter(k, model.blades)), float(growth[k])) \
-        if growth[k] > GROWTH_TOLERANCE else None  # fmt: skip
+        if growth[k] > GROWTH_TOLERANCE else None
     return CaseLimitCycles(
         angles_deg={k: float(np.atleast_1d(v)[0]) for k, v in params.contacts.angles_deg.items()},
         kinds=params.contacts.kinds, equilibrium=q, branches=branches,
-        wall_s=time.perf_counter() - t0, fastest=fastest)  # fmt: skip
+        wall_s=time.perf_counter() - t0, fastest=fastest)

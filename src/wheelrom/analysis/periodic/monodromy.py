@@ -125,7 +125,7 @@ class LinearisedPeriod:
     (``q, q'`` and the elastic law's sliders when the flow carries them)."""
 
     def __init__(self, flow: WheelFlow, x_star: np.ndarray, period: float, steps: int,
-                 scale: np.ndarray):  # fmt: skip
+                 scale: np.ndarray):
         self.flow, self.x, self.period, self.steps = flow, x_star.ravel(), period, steps
         self.scale = scale.ravel()
         self.count = 0
@@ -181,7 +181,7 @@ def largest_eigenpairs(shell: LinearisedPeriod, n: int, count: int):
 
 def floquet_multipliers(model: ReducedModel, cfg: Config, orbit: Orbit, steps: int,
                         angles_deg: dict | None = None, lam: float = 1.0, count: int = 10,
-                        comm=None, progress=None) -> Multipliers:  # fmt: skip
+                        comm=None, progress=None) -> Multipliers:
     """The ``count`` multipliers of largest modulus of ``orbit`` on the whole wheel of
     ``model`` (``steps``: TS steps per period, those of the shooting)."""
     PETSc = petsc()
@@ -217,4 +217,4 @@ def floquet_multipliers(model: ReducedModel, cfg: Config, orbit: Orbit, steps: i
         trivial = int(near[np.argmax(align[near])])
     return Multipliers(values, nd, wave, trivial, orbit.period, shell.count,
                        time.perf_counter() - t0, count, alignment=align,
-                       trivial_check=trivial_error)  # fmt: skip
+                       trivial_check=trivial_error)

@@ -25,7 +25,7 @@ HALVINGS = 7  # of a step whose residual's 2-norm does not fall
 
 
 def newton_least_squares(residual: Callable, jacobian: Callable, z: np.ndarray,
-                         floor: float, max_iterations: int):  # fmt: skip
+                         floor: float, max_iterations: int):
     """``(z, F, size, reason, iterations)``: Newton on ``residual(z)`` (scaled, ``(r,)``)
     from ``z`` with ``jacobian(z)`` ``(r, len(z))``, each step the least-squares one halved
     until the residual's 2-norm falls (the direction descends in it, not necessarily in the
@@ -54,7 +54,7 @@ def newton_least_squares(residual: Callable, jacobian: Callable, z: np.ndarray,
             a *= 0.5
         if not stepped:  # stagnated: at the rounding floor of a long shot, or stuck
             reason = "converged at the rounding floor" if size <= STAGNATION else \
-                "no step reduces the residual"  # fmt: skip
+                "no step reduces the residual"
             break
     return z, F, size, reason, it
 

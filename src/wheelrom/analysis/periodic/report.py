@@ -31,12 +31,12 @@ def orbit_quantities(shooting: Shooting, orbit: Orbit, harmonics: int, lam: floa
     # sample's slider the last one's return (as the flow's steps return them)
     sliders = None if samples.sliders is None else np.ascontiguousarray(samples.sliders)
     ReferenceForces(params).evaluate_samples(q, v, force, normal, power, state, sliders,
-                                             periods=0 if sliders is None else 1)  # fmt: skip
+                                             periods=0 if sliders is None else 1)
     force0 = np.zeros((S, N, m))
     quiet = dataclasses.replace(params, vdp_mu=0.0)
     ReferenceForces(quiet).evaluate_samples(q, v, force0, np.zeros((S, K)), np.zeros((S, K)),
                                             np.zeros((S, K), np.int8), sliders,
-                                            periods=0 if sliders is None else 1)  # fmt: skip
+                                            periods=0 if sliders is None else 1)
     period = orbit.period
     omega = 2 * math.pi / period
     work_in = float(np.mean(np.sum((force - force0)[:, 0] * v[:, 0], axis=1))) * period
@@ -66,4 +66,4 @@ def orbit_quantities(shooting: Shooting, orbit: Orbit, harmonics: int, lam: floa
         energy_residual=balance, energy_residual_fine=balance,
         damping_ratio=out / (2 * math.pi * kinetic) if kinetic > 0 else math.nan,
         residual=orbit.residual, method="shooting", shooting_residual=orbit.residual,
-        orbit=orbit)  # fmt: skip
+        orbit=orbit)

@@ -80,7 +80,7 @@ def changes(previous: Window, amplitude: np.ndarray, nd_energy: np.ndarray) -> t
     """``(amplitude change, ND distribution change)`` of a window against ``previous``."""
     scale = max(float(previous.amplitude.max()), 1e-300)
     return (float(np.abs(amplitude - previous.amplitude).max() / scale),
-            float(0.5 * np.abs(nd_energy - previous.nd_energy).sum()))  # fmt: skip
+            float(0.5 * np.abs(nd_energy - previous.nd_energy).sum()))
 
 
 def stationary(windows: list[Window], settings: Settings) -> bool:
@@ -167,7 +167,7 @@ def return_distance(time: np.ndarray, states: np.ndarray, period: float) -> tupl
 
 
 def classify(time: np.ndarray, y: np.ndarray, states: np.ndarray | None = None,
-             tolerance: float = 0.005) -> Classification:  # fmt: skip
+             tolerance: float = 0.005) -> Classification:
     """The :class:`Classification` of a signal ``y`` ``(S,)`` at uniform ``time`` (the tip
     of the largest blade over the settled window; ``states`` ``(S, n)``: the whole state at
     the same samples, for the return test)."""
@@ -175,14 +175,14 @@ def classify(time: np.ndarray, y: np.ndarray, states: np.ndarray | None = None,
     t_env, peaks = envelope(time, y)
     if peaks.size < 8:
         return Classification("chaotic", frequency, math.nan, math.nan, 0.0, math.inf,
-                              f"fewer than 8 periods in the window ({peaks.size})")  # fmt: skip
+                              f"fewer than 8 periods in the window ({peaks.size})")
     depth = float((peaks.max() - peaks.min()) / peaks.mean())
     distance, period = return_distance(time, states if states is not None else y[:, None],
-                                       1.0 / frequency)  # fmt: skip
+                                       1.0 / frequency)
     if depth <= 2 * tolerance and distance <= RETURN:
         return Classification("periodic", 1.0 / period, math.nan, depth, 1.0, distance,
                               f"flat envelope (peak-to-peak {depth:.2%} of its mean) and the "
-                              f"state returns after one period to {distance:.1e}")  # fmt: skip
+                              f"state returns after one period to {distance:.1e}")
     # the envelope resampled uniformly (one sample per period) and its spectrum
     grid = np.linspace(t_env[0], t_env[-1], t_env.size)
     e = np.interp(grid, t_env, peaks)
@@ -193,10 +193,10 @@ def classify(time: np.ndarray, y: np.ndarray, states: np.ndarray | None = None,
     if share >= LINE_SHARE:
         return Classification("quasi-periodic", frequency, modulation, depth, share, distance,
                               f"the envelope's spectrum has one line holding {share:.0%} of "
-                              f"its power at {modulation:.4g} Hz")  # fmt: skip
+                              f"its power at {modulation:.4g} Hz")
     return Classification("chaotic", frequency, modulation, depth, share, distance,
                           f"the envelope's spectrum is broad (its largest line holds "
-                          f"{share:.0%} of the power, below {LINE_SHARE:.0%})")  # fmt: skip
+                          f"{share:.0%} of the power, below {LINE_SHARE:.0%})")
 
 
 @dataclass
@@ -235,7 +235,7 @@ class Settled:
         half (those :meth:`bounded` and :meth:`trend` read)."""
         half = self.windows[len(self.windows) // 2 :]
         return (np.array([w.end for w in half], dtype=float),
-                np.array([w.amplitude.max() for w in half], dtype=float))  # fmt: skip
+                np.array([w.amplitude.max() for w in half], dtype=float))
 
     def trend(self) -> tuple[float, float] | None:
         """``(rate, error)`` [1/s]: the least-squares slope of the largest blade's amplitude
@@ -273,7 +273,7 @@ class Settled:
         words = "rising" if rate > 0 else "falling"
         return "still growing, " if _rising(trend) else "bounded, ", (
             f" ({words} {abs(rate):.1%}/s +- {error:.1%})" if significant
-            else f" (no trend beyond its scatter: {rate:+.1%}/s +- {error:.1%})")  # fmt: skip
+            else f" (no trend beyond its scatter: {rate:+.1%}/s +- {error:.1%})")
 
     def verdict(self) -> str:
         if self.status != "done":
@@ -287,7 +287,7 @@ class Settled:
                 words += (f": {state}the largest blade "
                           f"{span[0] * 1e6:.3g}-{span[1] * 1e6:.3g} um over the last "
                           f"{span[2]:.2g} s{trend}, ND {nd} {self.nd_energy[nd]:.0%} of the "
-                          "energy in the last window")  # fmt: skip
+                          "energy in the last window")
             return words
         c, A = self.classification, self.amplitude
         top = int(np.argmax(A))
@@ -295,7 +295,7 @@ class Settled:
         words = [f"settles {c.kind} at {A.max() * 1e6:.3g} um tip (blade {top}; mean "
                  f"{A.mean() * 1e6:.3g}, min {A.min() * 1e6:.3g} um at blade "
                  f"{int(np.argmin(A))}), {c.frequency_hz:.4g} Hz, ND {nd} "
-                 f"{self.nd_energy[nd]:.0%} of the energy"]  # fmt: skip
+                 f"{self.nd_energy[nd]:.0%} of the energy"]
         if c.kind != "periodic" and math.isfinite(c.modulation_hz):
             words.append(f"modulated at {c.modulation_hz:.3g} Hz (depth {c.modulation_depth:.0%})")
         words.append(f"after {self.time:.3g} s")
@@ -329,14 +329,14 @@ def window_config(cfg, frequency_hz, settings: Settings, nozzle: bool):
     changes_ = {"time.step": h, "time.end": window, "time.window": window,
                 "time.perturbation": 0.0, "time.perturbation_waves": [],
                 "output.sample_rate_hz": rate, "output.history_rate_hz": rate,
-                "output.state_rate_hz": rate}  # fmt: skip
+                "output.state_rate_hz": rate}
     if not nozzle:
         changes_["excitation.force"] = 0.0
     return cfg.replace(**changes_), window
 
 
 def settle_case(model, cfg, angles: dict | None, u0: np.ndarray, frequency_hz: float,
-                settings: Settings, nozzle: bool = False, progress=None) -> Settled:  # fmt: skip
+                settings: Settings, nozzle: bool = False, progress=None) -> Settled:
     """Integrate ``u0`` (``(2 N m,)`` modal ``q, q'``; the elastic law's sliders start at
     rest there and are carried from window to window) window by window until stationary
     (:func:`stationary`) or ``max_time``; classify the last window. One case of
@@ -346,7 +346,7 @@ def settle_case(model, cfg, angles: dict | None, u0: np.ndarray, frequency_hz: f
 
 
 def settle_cases(model, cfg, angles: list, u0: list, frequency_hz: list, settings: list,
-                 nozzle: bool = False, progress=None) -> list[Settled]:  # fmt: skip
+                 nozzle: bool = False, progress=None) -> list[Settled]:
     """:func:`settle_case` for several cases at once, in one TS batch
     (:func:`~wheelrom.transient.run.run_cases`: the kernel vectorises across the cases, each
     case's arithmetic its own): ``angles``, ``u0``, ``frequency_hz``, ``settings`` one per
@@ -371,7 +371,7 @@ def settle_cases(model, cfg, angles: list, u0: list, frequency_hz: list, setting
     running = list(range(len(angles)))
     while running and outs[running[0]].time < first.max_time - 0.5 * length:
         done = run_cases(model, run_cfg, [angles[i] for i in running],
-                         u0=[states[i] for i in running])  # fmt: skip
+                         u0=[states[i] for i in running])
         still = []
         for i, res in zip(running, done, strict=True):
             last[i], out = res, outs[i]
@@ -416,7 +416,7 @@ def _describe_last(out: Settled, res, model, cfg, angles, settings: Settings) ->
     S = min(states.shape[0], out.tip.shape[0])
     if out.settled:  # a state still changing is not classified as a result
         out.classification = classify(out.tip_time[:S], out.tip[:S, top, 1], states[:S],
-                                      settings.tolerance)  # fmt: skip
+                                      settings.tolerance)
     forces = ReferenceForces(force_parameters(model, cfg, angles))
     K = len(forces.params.contacts.kinds)
     counts = np.zeros((K, 3))

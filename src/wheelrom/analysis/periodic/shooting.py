@@ -130,7 +130,7 @@ class Shooting:
 
     def __init__(self, model: ReducedModel, cfg: Config, wave: int,
                  angles_deg: dict | None = None, lam: float = 1.0, comm=None,
-                 options: dict | None = None):  # fmt: skip
+                 options: dict | None = None):
         if cfg.contacts.law == "elastic":  # this shot's state would drop the sliders
             raise InputError("this shot does not carry the elastic contact law's sliders: "
                              "under contacts.law = 'elastic' the exact orbit is marched and "
@@ -169,7 +169,7 @@ class Shooting:
                       float(np.abs(F[: self.n]).max()), int(iterations),
                       bool(reason > 0 and np.all(np.isfinite(F))),
                       steps_per_period=self.flow.steps_for(self.fraction * T)[0]
-                      * round(1 / self.fraction), reason=str(reason))  # fmt: skip
+                      * round(1 / self.fraction), reason=str(reason))
         if orbit.converged:  # the multipliers from the Jacobian at the solution itself
             G = system.jacobian(z)[: self.n, : self.n] + np.eye(self.n)
             orbit.symmetric_multipliers, orbit.symmetric_nd = self._pattern_multipliers(
@@ -195,7 +195,7 @@ class Shooting:
         """``(mu, nd)``: the multipliers ``nu^{N'}`` of the pattern map's Jacobian ``G``
         ``(n, n)`` (scaled units ``scale``) and the NDs of their eigenvectors."""
         mu, _, nd = pattern_spectrum(G, np.ravel(scale), round(1 / self.fraction), self.N,
-                                     self.full_model.blades, self.m)  # fmt: skip
+                                     self.full_model.blades, self.m)
         return mu, nd
 
 
@@ -292,12 +292,12 @@ class _ShotSystem:
         # stalled: less than STALL of the residual gone over the last STALL_ITERATIONS
         # (Newton stuck at the kinks of a non-smooth shot: a finer step is the remedy)
         if len(self._history) > STALL_ITERATIONS and \
-                norms[2] > (1 - STALL) * self._history[-1 - STALL_ITERATIONS]:  # fmt: skip
+                norms[2] > (1 - STALL) * self._history[-1 - STALL_ITERATIONS]:
             return -5
         return -5 if iteration >= max_it else 0
 
     def newton(self, line_search: str = "basic",
-               max_it: int = MAX_ITERATIONS) -> tuple[np.ndarray, int, int]:  # fmt: skip
+               max_it: int = MAX_ITERATIONS) -> tuple[np.ndarray, int, int]:
         """``(z, SNES converged reason, iterations)`` from the start (``line_search``: the
         default when ``-limitcycle_shooting_snes_linesearch_type`` is not given)."""
         PETSc = petsc()
@@ -341,7 +341,7 @@ class _ShotSystem:
         try:
             snes.solve(None, X)
             return (X.getArray(readonly=True).copy(), int(snes.getConvergedReason()),
-                    int(snes.getIterationNumber()))  # fmt: skip
+                    int(snes.getIterationNumber()))
         finally:
             for obj in (snes, J, r, X):
                 obj.destroy()

@@ -60,7 +60,7 @@ class SliderShooting:
 
     def __init__(self, model: ReducedModel, cfg: Config, wave: int,
                  angles_deg: dict | None = None, lam: float = 1.0,
-                 options: dict | None = None):  # fmt: skip
+                 options: dict | None = None):
         self.full_model, self.wave = model, int(wave)
         pattern, g, j = pattern_model(model, wave, cfg.flutter.model != "table")
         self.model, self.g, self.shift = pattern, g, j
@@ -135,19 +135,19 @@ class SliderShooting:
         tangential = d[:, :, ::2]
         # the largest |Re(c e^{i theta})| over the phase of a complex 2-vector c
         reach = np.sqrt(0.5 * (np.sum(np.abs(tangential) ** 2, axis=2)
-                               + np.abs(np.sum(tangential**2, axis=2))))  # fmt: skip
+                               + np.abs(np.sum(tangential**2, axis=2))))
         c = self.flow.params.contacts
         k_c = c.stiffness[:, : self.N]
         closed = normal > 0.0
         stick = self.flow.params.law.coulomb * normal / np.maximum(c.tangential[:, : self.N],
-                                                                   1e-300)  # fmt: skip
+                                                                   1e-300)
         # a closed contact opens when its normal motion reaches F_n / k_c; an open one (its
         # preload taken by the static load) closes when it moves through its gap
         # u_eta - F_N0 / k_c (F_n = max(0, F_N0 - k_c u_eta)): neither slips nor sticks before
         normal_reach = np.where(closed, normal / k_c, base[:, :, 1] - c.preload[:, None] / k_c)
         with np.errstate(divide="ignore"):
             limits = np.concatenate([(stick / reach)[closed],
-                                     (normal_reach / np.abs(d[:, :, 1])).ravel()])  # fmt: skip
+                                     (normal_reach / np.abs(d[:, :, 1])).ravel()])
         return float(limits.min(initial=math.inf))
 
     def energy(self, x: np.ndarray) -> float:
@@ -171,7 +171,7 @@ class SliderShooting:
             tangential = 0.5 * float(np.sum(np.sum(forces.friction_force**2, axis=2) / k_t))
         flat = q.ravel()
         return 0.5 * float(v.ravel() @ v.ravel() + flat @ (self._stiffness @ flat)) + \
-            forces.contact_energy() + tangential  # fmt: skip
+            forces.contact_energy() + tangential
 
     def tip_estimate(self, x: np.ndarray, period: float) -> float:
         """Blade 0's tip amplitude [m] at state ``x`` as a harmonic oscillator's of
@@ -184,7 +184,7 @@ class SliderShooting:
         return float(np.sqrt(np.sum((tip @ q) ** 2) + np.sum((tip @ v) ** 2) / omega**2))
 
     def march(self, x: np.ndarray, period: float, tolerance: float = MARCH_TOLERANCE,
-              progress=None):  # fmt: skip
+              progress=None):
         """``(x, period, periods)``: the state after marching ``x`` in chunks of
         :data:`MARCH_PERIODS` periods until its :meth:`energy` changes by less than
         ``tolerance`` from one chunk's end to the next (at most :data:`MARCH_CHUNKS`), the
@@ -207,7 +207,7 @@ class SliderShooting:
         return x, period, chunks * MARCH_PERIODS
 
     def measure_period(self, x: np.ndarray, period: float,
-                       j: int) -> tuple[np.ndarray, float]:  # fmt: skip
+                       j: int) -> tuple[np.ndarray, float]:
         """``(x', T)``: the period [s] between the next two upward crossings of blade 0's
         modal displacement ``j`` through its equilibrium value (interpolated between steps)
         within three estimated periods ``period`` of ``x``, and the state ``x'`` at the step
@@ -226,7 +226,7 @@ class SliderShooting:
         return state, period  # not two crossings: the estimate stands
 
     def jacobian(self, x: np.ndarray, period: float, steps: int,
-                 scale: np.ndarray) -> np.ndarray:  # fmt: skip
+                 scale: np.ndarray) -> np.ndarray:
         """``(n, n)`` ``d(S^{-j} phi_tau)/dx`` in scaled units, central differences (one
         batch of ``2 n`` shots)."""
         n = self.n
@@ -292,7 +292,7 @@ class SliderShooting:
         orbit = Orbit(self.wave, T, q_v, self.shift, self.fraction, size, it, converged,
                       steps_per_period=steps * self.shots, reason=reason,
                       sliders=x[self.nq :].reshape(self.K, self.N, 2) if self.sliders
-                      else None)  # fmt: skip
+                      else None)
         orbit.wall_s = time.perf_counter() - t0
         return orbit
 
@@ -328,7 +328,7 @@ class SliderShooting:
         along = along[keep] / scale[keep]
         # the locked unknowns are sliders, after q and q': keep's first N' m rows are q
         values, vectors, nd = pattern_spectrum(G, scale[keep], self.shots, self.N,
-                                               self.full_model.blades, self.m)  # fmt: skip
+                                               self.full_model.blades, self.m)
         scaled = vectors / scale[keep, None]
         alignment = np.abs(scaled.conj().T @ along) / np.maximum(
             np.linalg.norm(scaled, axis=0) * np.linalg.norm(along), 1e-300)

@@ -36,11 +36,11 @@ def window_parameters(params: ForceParameters) -> ForceParameters:
     contacts = dataclasses.replace(
         c, frame=np.ascontiguousarray(c.frame[:, pick]),
         stiffness=np.ascontiguousarray(c.stiffness[:, pick]),
-        angles_deg={k: np.asarray(v)[pick] for k, v in c.angles_deg.items()})  # fmt: skip
+        angles_deg={k: np.asarray(v)[pick] for k, v in c.angles_deg.items()})
     return dataclasses.replace(
         params, blades=3, nozzle_force=0.0, nozzle_phase=np.zeros(3),
         vdp_model=VDP_OFF if params.vdp_model == AERO_TABLE else params.vdp_model,
-        aero_displacement=np.zeros(3), aero_velocity=np.zeros(3), contacts=contacts)  # fmt: skip
+        aero_displacement=np.zeros(3), aero_velocity=np.zeros(3), contacts=contacts)
 
 
 def wave_state(c: np.ndarray, wave: int, blades: int, omega: float, tau: float = 0.0):
