@@ -78,17 +78,22 @@ def _settled(path, i):
         g = f[f"settle/case_{i}"]
         a = g["amplitude"][()]
         if not g.attrs["settled"]:
+            nd = int(np.argmax(g["nd_energy"][()]))
+            if "band" in f["settle"]:  # the range and trend over the last bounded_span
+                low, high, span = f["settle/band"][i]
+                rate, error = f["settle/trend"][i, :2]
+                bounded = bool(f["settle/bounded"][i])
+                state = ("bounded" if bounded else "still growing"
+                         if f["settle/still_growing"][i] else "not bounded")
+                trend = f", trend {rate:+.1%}/s +- {error:.1%}" if np.isfinite(rate) else ""
+                when = f"{state} from {g.attrs['time'] - span:.3g} s"
+                return (f"{when}: largest blade {low * 1e6:.3g}..{high * 1e6:.3g} um over "
+                        f"{g.attrs['time'] - span:.3g}-{g.attrs['time']:.3g} s{trend} (ND {nd} "
+                        f"{g['nd_energy'][nd]:.0%})")
             top = g["window_amplitude"][()].max(axis=1)
             half = top[top.size // 2 :] * 1e6
-            nd = int(np.argmax(g["nd_energy"][()]))
-            # the trend over the second half (files before 2026-11-27: none, "bounded")
-            state, trend = "bounded", ""
-            if "still_growing" in f["settle"] and "trend" in f["settle"]:
-                rate, error = f["settle/trend"][i]
-                state = "still growing" if f["settle/still_growing"][i] else "bounded"
-                trend = f", trend {rate:+.1%}/s +- {error:.1%}" if np.isfinite(rate) else ""
-            return (f"not settled in {g.attrs['time']:.3g} s; {state}: largest blade "
-                    f"{half.min():.3g}..{half.max():.3g} um over the second half{trend} (ND "
+            return (f"not settled in {g.attrs['time']:.3g} s: largest blade "
+                    f"{half.min():.3g}..{half.max():.3g} um over the second half (ND "
                     f"{nd} {g['nd_energy'][nd]:.0%})")
         nd = int(np.argmax(g["nd_energy"][()]))
         return (f"{a.max() * 1e6:.2f} um ({g.attrs['kind']}; blades {a.min() * 1e6:.2f}.."

@@ -34,9 +34,10 @@ def periodic_title(info: dict) -> str:
                 f"{s.get('harmonics')}, {s.get('samples')} samples, time step "
                 f"{s.get('time_step', 0) * 1e6:g} us)")
     return (f"{info['file']}: where the flutter settles, {n['total']} case(s): {n['settled']} "
-            f"settled, {n['not_settled']} not (start {s.get('start')}, windows of "
-            f"{s.get('window_periods')} periods, tolerance {s.get('tolerance')}, at most "
-            f"{s.get('max_time')} s)")
+            f"settled, {n['not_settled']} not ({n.get('bounded', 0)} of them bounded; start "
+            f"{s.get('start')}, windows of {s.get('window_periods')} periods, tolerance "
+            f"{s.get('tolerance')}, bounded within {s.get('bounded_drift', '-')} over "
+            f"{s.get('bounded_span', '-')} s, at most {s.get('max_time')} s)")
 
 
 def _cycle_line(c: dict) -> str:
@@ -70,7 +71,8 @@ def print_periodic_cases(info: dict) -> None:
             for c in w["cycles"]:
                 print(f"           {_cycle_line(c)}")
         if info["kind"] == "settle" and row["max_amplitude_m"] is not None:
-            state = row["kind"] or ("settled" if row["settled"] else "not settled")
+            state = row["kind"] or ("settled" if row["settled"] else
+                                    "bounded" if row.get("bounded") else "not settled")
             print(f"         {state} at t = {row['time_s']:.3g} s, largest blade tip "
                   f"{row['max_amplitude_m'] * 1e6:.4g} um in the last window (started at "
                   f"{(row['start_amplitude_m'] or 0) * 1e6:.4g} um)")

@@ -50,9 +50,21 @@ class SettleConfig:
                       "to show (a weakly unstable cycle perturbed at 1e-3 looks stationary "
                       "for its first windows)", min=0.0, max=1e4))
     max_time: float = field(
-        default=5.0,
-        metadata=_key("s", "simulated time at most; then 'not settled after X s'", gt=0.0,
-                      max=1e4))
+        default=20.0,
+        metadata=_key("s", "simulated time at most; then 'not settled after X s "
+                      "(settle.max_time)' with the range and trend over the last bounded_span",
+                      gt=0.0, max=1e4))
+    bounded_span: float = field(
+        default=3.0,
+        metadata=_key("s", "a motion that does not become stationary is bounded, and its run "
+                      "ends, once the trend of its largest amplitude over the last "
+                      "bounded_span (all after min_time) keeps it within bounded_drift at "
+                      "about 95 % (the error adjusted for the windows' correlation)",
+                      gt=0.0, max=1e4))
+    bounded_drift: float = field(
+        default=0.05,
+        metadata=_key("-", "largest drift of the amplitude over bounded_span, relative, that "
+                      "still counts as bounded", gt=0.0, max=1.0))
     batch: int = field(
         default=3,
         metadata=_key("-", "cases integrated together in one TS (cases of the same wheel and "

@@ -72,16 +72,23 @@ def _summary(g, angles, plt, outdir, pdf, written) -> None:
     for kind, marker in (("periodic", "o"), ("quasi-periodic", "s"), ("chaotic", "^")):
         pick = settled & np.array([k == kind for k in kinds])
         ax.plot(x[pick], amp[pick], marker, color="C0", ms=7, label=f"settled, {kind}")
-    ax.plot(x[~settled], amp[~settled], "x", color="C3", ms=8, label="not settled (last window)")
     low, high = np.full(x.size, np.nan), np.full(x.size, np.nan)
-    for i in range(x.size):  # how large an unsettled motion stays: the run's second half
-        windows = g[f"case_{i}"].get("window_amplitude")
-        if windows is not None and windows.shape[0] >= 2:
-            top = windows[()].max(axis=1)[windows.shape[0] // 2 :] * 1e6
-            low[i], high[i] = top.min(), top.max()
+    if "band" in g:  # the range over the last bounded_span, the trend's
+        low, high = g["band"][:, 0] * 1e6, g["band"][:, 1] * 1e6
+    else:  # older files: the run's second half
+        for i in range(x.size):
+            windows = g[f"case_{i}"].get("window_amplitude")
+            if windows is not None and windows.shape[0] >= 2:
+                top = windows[()].max(axis=1)[windows.shape[0] // 2 :] * 1e6
+                low[i], high[i] = top.min(), top.max()
+    bounded = g["bounded"][()].astype(bool) if "bounded" in g else np.zeros(x.size, bool)
     pick = ~settled & np.isfinite(low)
-    ax.vlines(x[pick], low[pick], high[pick], color="C3", lw=3, alpha=0.4,
-              label="not settled: range over the second half")
+    ax.vlines(x[pick & bounded], low[pick & bounded], high[pick & bounded], color="C2", lw=3,
+              alpha=0.5, label="bounded: range over the last span")
+    ax.plot(x[~settled], amp[~settled], "x", color="C3", ms=8, label="not settled (last window)")
+    rest = pick & ~bounded
+    ax.vlines(x[rest], low[rest], high[rest], color="C3", lw=3, alpha=0.4,
+              label="not bounded at settle.max_time: range over the last span")
     if "still_growing" in g:  # a range taken while the motion still grows is a lower bound
         rising = pick & g["still_growing"][()].astype(bool)
         ax.plot(x[rising], high[rising], linestyle="none", marker=r"$\uparrow$", color="C3", ms=14,

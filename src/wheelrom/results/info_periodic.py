@@ -102,14 +102,20 @@ def settle_info(f, path: str, header: dict) -> dict:
         case.update(settled=bool(g["settled"][i]), kind=_text(g["kind"][i]) or None,
                     time_s=_number(g["time"][i]), max_amplitude_m=_number(g["max_amplitude"][i]),
                     start_amplitude_m=_number(g["start_amplitude"][i]))
-        # (files from before 2026-11-27 lack it; NaN: settled, or too few windows)
+        # (older files lack them; NaN: settled, or too few windows)
+        case["bounded"] = bool(g["bounded"][i]) if "bounded" in g else False
         if "trend" in g and np.isfinite(g["trend"][i, 0]):
             case["trend_per_s"] = {"rate": _number(g["trend"][i, 0]),
                                    "error": _number(g["trend"][i, 1])}
+            if g["trend"].shape[1] > 2:
+                case["trend_per_s"]["correlation"] = _number(g["trend"][i, 2])
+        if "band" in g and np.isfinite(g["band"][i, 0]):
+            case["band_m"] = {"low": _number(g["band"][i, 0]), "high": _number(g["band"][i, 1]),
+                              "over_s": _number(g["band"][i, 2])}
     settled = sum(c["settled"] for c in cases)
     settings = {k: (v.item() if hasattr(v, "item") else _text(v)) for k, v in g.attrs.items()}
     return {**header, "settings": settings,
             "counts": {"settled": settled, "not_settled": len(cases) - settled,
-                       "total": len(cases)},
+                       "bounded": sum(c["bounded"] for c in cases), "total": len(cases)},
             "total_wall_s": float(np.nansum(g["wall_s"][()])),
             "file_bytes": os.path.getsize(path), "cases": cases}

@@ -25,7 +25,7 @@ def write_settle(f, cfg: Config, model: ReducedModel, cases: list) -> None:
     g = f.create_group("settle")
     s = cfg.settle
     for key in ("window_periods", "tolerance", "consecutive", "min_time", "max_time",
-                "perturbation", "seed", "start", "nozzle"):
+                "bounded_span", "bounded_drift", "perturbation", "seed", "start", "nozzle"):
         g.attrs[key] = getattr(s, key)
     g.attrs["time_step"] = cfg.time.step
     g["angles_deg"] = np.array([[a.get(k, np.nan) for k in ("tieboss", "shroud")]
@@ -43,11 +43,22 @@ def write_settle(f, cfg: Config, model: ReducedModel, cases: list) -> None:
     g["max_amplitude"] = np.array([r.amplitude.max() if r.amplitude.size else np.nan
                                    for _, _, r in cases])
     g["wall_s"] = np.array([r.wall_s for _, _, r in cases])
-    g["trend"] = np.array([r.trend() or (np.nan, np.nan) for _, _, r in cases]).reshape(-1, 2)
-    g["trend"].attrs["columns"] = "rate [1/s], its standard error [1/s]"
+    trends = [r.trend() for _, _, r in cases]
+    g["trend"] = np.array([(t.rate, t.error, t.correlation) if t else (np.nan,) * 3
+                           for t in trends]).reshape(-1, 3)
+    g["trend"].attrs["columns"] = ("rate [1/s], its standard error [1/s] (adjusted for the "
+                                   "windows' correlation), the residuals' lag-1 correlation")
     g["trend"].attrs["meaning"] = "least-squares slope of the largest blade's amplitude over " \
-        "the windows of the run's second half, relative to their mean (NaN: settled, or " \
-        "fewer than 4 windows there)"
+        "the windows of the last bounded_span, relative to their mean (NaN: settled, or " \
+        "fewer than 8 windows there)"
+    g["bounded"] = np.array([r.bounded for _, _, r in cases], dtype=bool)
+    g["bounded"].attrs["meaning"] = "not stationary, but its trend kept it within " \
+        "bounded_drift over bounded_span: the run ended there"
+    bands = [None if r.settled else r.band() for _, _, r in cases]
+    g["band"] = np.array([b if b else (np.nan,) * 3 for b in bands]).reshape(-1, 3)
+    g["band"].attrs["columns"] = "low [m], high [m], over [s]"
+    g["band"].attrs["meaning"] = "range of the largest blade's window amplitude over the last " \
+        "bounded_span of a case that did not settle (NaN: settled)"
     g["still_growing"] = np.array([r.still_growing() for _, _, r in cases], dtype=bool)
     g["start_amplitude"] = np.array([r.start_amplitude for _, _, r in cases])
     g["start_amplitude"].attrs["meaning"] = "tip amplitude [m] of the single-wave exact orbit " \
@@ -63,6 +74,7 @@ def _write_case(g, r) -> None:
     g.attrs["start"] = r.start
     g.attrs["start_amplitude"] = r.start_amplitude
     g.attrs["settled"] = r.settled
+    g.attrs["bounded"] = r.bounded
     g.attrs["time"] = r.time
     g.attrs["energy_balance"] = r.energy_balance
     g["window_end"] = np.array([w.end for w in r.windows])

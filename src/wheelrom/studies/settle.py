@@ -46,7 +46,8 @@ from wheelrom.studies.rounds import wait_for_all
 def settings_of(cfg: Config) -> Settings:
     s = cfg.settle
     return Settings(window_periods=s.window_periods, tolerance=s.tolerance,
-                    consecutive=s.consecutive, min_time=s.min_time, max_time=s.max_time)
+                    consecutive=s.consecutive, min_time=s.min_time, max_time=s.max_time,
+                    bounded_span=s.bounded_span, bounded_drift=s.bounded_drift)
 
 
 def sidecar_dir(out: str) -> str:
@@ -470,12 +471,17 @@ def summary(angles: dict, parameters: dict, r: Settled) -> dict:
     c = r.classification
     label = ", ".join(f"{k} {v:g} deg" for k, v in angles.items())
     out = {"label": label, "angles_deg": angles, "parameters": parameters,
-           "verdict": r.verdict(), "settled": r.settled, "simulated_s": r.time,
+           "verdict": r.verdict(), "settled": r.settled, "bounded": r.bounded,
+           "simulated_s": r.time,
            "status": r.status, "start": r.start, "wall_s": r.wall_s,
            "windows": len(r.windows)}
     trend = r.trend()
     if trend is not None:
-        out["trend_per_s"] = {"rate": trend[0], "error": trend[1]}
+        out["trend_per_s"] = {"rate": trend.rate, "error": trend.error,
+                              "correlation": trend.correlation, "windows": trend.windows}
+    band = None if r.settled else r.band()
+    if band is not None:
+        out["band_m"] = {"low": band[0], "high": band[1], "over_s": band[2]}
     if c is not None:
         out.update({
             "kind": c.kind, "decided_by": c.decided_by, "frequency_hz": c.frequency_hz,
