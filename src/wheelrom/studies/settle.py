@@ -195,7 +195,7 @@ def _start(model, cfg: Config, angles: dict, cycles_file: str | None, comm=None)
         params, q, _, J, _ = linearise(model, cfg, angles, comm)
         B0, B1 = wave_blocks(model, params, q, J)
         size, why = st.seed_amplitude, ""
-        if cfg.contacts.law == "elastic":
+        if cfg.contacts.elastic:
             size, why = _below_slip_onset(model, cfg, angles, q, B0, B1, size)
         unstable, dq, dv, fastest = unstable_seed(model, B0, B1, size, st.seed)
         frequency = float(fastest.imag) / (2 * math.pi)
@@ -210,7 +210,7 @@ def _start(model, cfg: Config, angles: dict, cycles_file: str | None, comm=None)
     u0 = u0.copy()
     u0[0] = (q0 + start_perturbation(model, every)).ravel()
     u0 = u0.ravel()
-    if cfg.contacts.law == "elastic":  # the whole state: q, q', 4 work integrals, sliders
+    if cfg.contacts.elastic:  # the whole state: q, q', 4 work integrals, sliders
         from wheelrom.forces.parameters import force_parameters
         from wheelrom.forces.reference import ReferenceForces
 

@@ -73,7 +73,7 @@ def settings_of(cfg: Config, waves=None) -> Settings:
     branch = BranchSettings(lam_max=lc.mu_max, amplitude_max=lc.amplitude_max, steps=lc.steps)
     # the elastic law's balance: Hill's method would read the hysteresis's local tangent only
     # (its exact orbit's multipliers are the pattern map's: exact.elastic_stability)
-    floquet = "off" if cfg.contacts.law == "elastic" and lc.floquet == "auto" \
+    floquet = "off" if cfg.contacts.elastic and lc.floquet == "auto" \
         and lc.method != "shooting" else lc.floquet
     return Settings(harmonics=lc.harmonics, samples=lc.samples,
                     waves=tuple(lc.waves if waves is None else waves), floquet=floquet,
