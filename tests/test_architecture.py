@@ -136,6 +136,24 @@ def test_a_folder_is_a_stage():
         assert "May import" in doc, f"{prefix}: its face does not say what it may import"
 
 
+
+def test_every_package_face_names_its_modules():
+    """A package's face (its ``__init__.py`` docstring) names each of its modules and
+    subpackages (``:mod:`.name``` or a dotted path ending in it): where a newcomer starts."""
+    unnamed = []
+    for init in sorted(Path(PACKAGE).rglob("__init__.py")):
+        doc = ast.get_docstring(ast.parse(init.read_text())) or ""
+        for child in sorted(init.parent.iterdir()):
+            if child.suffix == ".py" and child.name != "__init__.py":
+                name = child.stem
+            elif (child / "__init__.py").is_file():
+                name = child.name
+            else:
+                continue
+            if f".{name}`" not in doc:
+                unnamed.append(str(child.relative_to(SRC)))
+    assert not unnamed, f"modules their package's face does not name: {unnamed}"
+
 #: every periodic-solution method lives in ``analysis.periodic`` (issue #46): a newcomer finds
 #: the harmonic balance, continuation, Hopf points, Floquet (Hill and monodromy), shooting and
 #: settle in one room; ``analysis`` itself keeps the linear analyses
