@@ -102,7 +102,7 @@ def settle_info(f, path: str, header: dict) -> dict:
         case.update(settled=bool(g["settled"][i]), kind=_text(g["kind"][i]) or None,
                     time_s=_number(g["time"][i]), max_amplitude_m=_number(g["max_amplitude"][i]),
                     start_amplitude_m=_number(g["start_amplitude"][i]))
-        # (files from before 2026-11-27 lack it; NaN: settled, or too few windows)
+        # (files of an earlier version lack it; NaN: settled, or too few windows)
         if "trend" in g and np.isfinite(g["trend"][i, 0]):
             case["trend_per_s"] = {"rate": _number(g["trend"][i, 0]),
                                    "error": _number(g["trend"][i, 1])}
