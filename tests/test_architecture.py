@@ -106,9 +106,18 @@ def test_every_module_imports_on_its_own():
     assert res.returncode == 0 and res.stdout.strip() == "ok", res.stderr[-2000:]
 
 
+#: lines a module stays under. Modules are split by concept (one thing a newcomer looks for,
+#: named by its package's face), reviewed when a change lands, not to fit a number: a cap
+#: close to the modules' sizes forced splits by line count (a mixin holding half of a class,
+#: one function parked in an unrelated module). This one only flags a module that has grown
+#: into several concepts, to be split along them.
+MODULE_LINES = 800
+
+
 def test_modules_and_functions_stay_small():
-    """Modules under 500 lines, functions under 80 (the fused compiled kernels excepted)."""
-    limit, too_long = 500, []
+    """Modules under :data:`MODULE_LINES` lines, functions under 80 (the fused compiled
+    kernels excepted)."""
+    limit, too_long = MODULE_LINES, []
     for module, path in _modules().items():
         text = Path(path).read_text()
         if text.count("\n") >= limit:
