@@ -98,11 +98,15 @@ def parse_angles(pairs: list[list[str]]) -> dict:
 
 @locked("--out")
 def cmd_forced(args: argparse.Namespace) -> int:
-    """Linear forced response to the nozzle at engine order wheel.stator_vanes: the peak of
+    """Forced response to the nozzle at engine order wheel.stator_vanes. Linear: the peak of
     the largest blade tip amplitude over the band of [forced] (or --frequencies), refined
     independently of any grid, of the configured wheel and of the tuned wheel, and the
-    amplification factor (peak over peak); the coarse grid's values as a table. PETSc
-    prefixes forced_ (KSP) and forced_preload_ (SNES)."""
+    amplification factor (peak over peak); the coarse grid's values as a table. With
+    --nonlinear also the tuned wheel's steady response with friction at every grid frequency,
+    by harmonic balance of the nozzle's travelling wave under contacts.law (traced through
+    its folds by arclength with forced.continuation = 'arclength'); with --exact its exact
+    state by shooting and the state's Floquet multipliers. PETSc prefixes forced_ (KSP) and
+    forced_preload_ (SNES)."""
     from wheelrom.analysis.forced import speed_note
     from wheelrom.analysis.forced_peak import peak_response, tuned_reference
     from wheelrom.rom.build import build_model, quiet

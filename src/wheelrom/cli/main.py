@@ -379,16 +379,17 @@ COMMANDS: dict[
     "sweep": (cmd_sweep, "contact-angle sweep under mpirun, parallel HDF5",
               cli_args.args_sweep),
     "study": (cmd_study, "design study (grid, zip or CSV cases) under mpirun: stability map, "
-              "screened transients", cli_args.args_study),
+              "screened transients, forced responses", cli_args.args_study),
     "plot": (cli_tools.cmd_plot, "figures from a results file", cli_args.args_plot),
     "info": (cli_tools.cmd_info, "summary of a results or model file", cli_args.args_info),
-    "export": (cli_tools.cmd_export, "one case as CSV (tip histories, window statistics)",
-               cli_args.args_export),
+    "export": (cli_tools.cmd_export, "one case as CSV (tip histories, window statistics, "
+               "contact forces)", cli_args.args_export),
     "animate": (cli_motion.cmd_animate, "one case's wheel in motion: XDMF, GIF, PNG",
                 cli_motion.args_animate),
     "contacts": (cli_motion.cmd_contacts, "one case's contact forces and friction hysteresis",
                  cli_motion.args_contacts),
-    "bench": (cli_tools.cmd_bench, "speed of the transient hot path (one core)",
+    "bench": (cli_tools.cmd_bench, "speed and accuracy figures on this machine (one core): "
+              "transient, contact laws, limit cycle, nonlinear forced response",
               cli_args.args_bench),
     "campbell": (cli_tools.cmd_campbell, "frequencies versus rotor speed (prestressed)",
                  cli_args.args_campbell),
@@ -397,13 +398,16 @@ COMMANDS: dict[
                  cli_args.args_accuracy),
     "stability": (cmd_stability, "linear stability per nodal diameter of every case",
                   cli_args.args_stability),
-    "limit-cycle": (cli_limit_cycle.cmd_limit_cycle, "limit cycles per travelling wave by "
-                    "harmonic balance: how far the flutter grows",
-                    cli_limit_cycle.args_limit_cycle),
+    "limit-cycle": (cli_limit_cycle.cmd_limit_cycle, "how far the flutter grows: per "
+                    "travelling wave the exact periodic orbit by shooting (from the harmonic "
+                    "balance's cycle; marched under the elastic law) and its Floquet "
+                    "stability", cli_limit_cycle.args_limit_cycle),
     "settle": (cli_settle.cmd_settle, "where the flutter settles: the wheel integrated from the "
-               "unstable cycle until stationary, classified", cli_settle.args_settle),
-    "forced-response": (cli_forced.cmd_forced, "linear forced response to the nozzle, "
-                        "tuned and mistuned (amplification factor)", cli_forced.args_forced),
+               "fastest wave's exact orbit (or the seeded equilibrium) until stationary, "
+               "classified", cli_settle.args_settle),
+    "forced-response": (cli_forced.cmd_forced, "forced response to the nozzle: linear, tuned "
+                        "and mistuned (amplification factor); --nonlinear: with friction, by "
+                        "harmonic balance", cli_forced.args_forced),
     "contact-stiffness": (cli_tools.cmd_contact_stiffness,
                           "k_c(beta) from the segment FE (static unit loads)",
                           cli_args.json_out),

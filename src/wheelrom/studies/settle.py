@@ -1,8 +1,9 @@
 """Where the flutter settles, over the cases (``wheelrom settle``): every case of the
-``[study]`` or of the sweep's angles, dealt round-robin to the MPI ranks; per case the start
-(the fastest wave's exact orbit, from a limit-cycle file or computed here, or the preloaded
-equilibrium with the unstable waves seeded), every ND perturbed, then the wheel integrated
-until stationary (:mod:`wheelrom.analysis.periodic.settle`).
+``[study]`` or of the sweep's angles, in batches (``settle.batch``) handed to the MPI ranks as
+they become free (:mod:`.queue`); per case the start (the fastest wave's exact orbit, from a
+limit-cycle file or computed here, or the preloaded equilibrium with the unstable waves
+seeded), every ND perturbed, then the wheel integrated until stationary
+(:mod:`wheelrom.analysis.periodic.settle`).
 
 Nothing computed is lost: each finished case is saved at once by the rank that computed it in
 a folder beside the output (``.name.settle/case_<i>.npz``, plain arrays, no pickles, and a

@@ -2,7 +2,10 @@
 is (the factor ``lam_c`` on the self-excitation at which it crosses), the branch of periodic
 solutions from there by pseudo-arclength continuation in ``lam`` (the amplitude-dependent
 frequency and damping of the wave's nonlinear mode), the cycles at the configured intensity
-(``lam = 1``) and their Floquet stability (docs/theory.md, "Limit cycles").
+(``lam = 1``), each made exact by shooting (``limit_cycle.method = "shooting"``:
+:func:`~.exact.exact_cycle`; under the elastic law the orbit is marched and shot without a
+balance, :func:`~.exact.marched_cycle`), and their Floquet stability (docs/theory.md,
+"Limit cycles").
 
 The autonomous problem: nozzle off, tuned wheel, around the case's preloaded equilibrium
 (:func:`wheelrom.analysis.stability.linearise`).
