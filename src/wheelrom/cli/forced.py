@@ -107,7 +107,6 @@ def cmd_forced(args: argparse.Namespace) -> int:
     its folds by arclength with forced.continuation = 'arclength'); with --exact its exact
     state by shooting and the state's Floquet multipliers. PETSc prefixes forced_ (KSP) and
     forced_preload_ (SNES)."""
-    from wheelrom.analysis.forced import speed_note
     from wheelrom.analysis.forced_peak import peak_response, tuned_reference
     from wheelrom.rom.build import build_model, quiet
     from wheelrom.studies.stability import world_if_parallel
@@ -130,7 +129,7 @@ def cmd_forced(args: argparse.Namespace) -> int:
     say = quiet if args.json else log
     model = build_model(cfg, comm_self(), log=say)
     if cfg.forced.over == "speed":
-        say(speed_note(model, cfg))
+        say(_speed_note(model, cfg))
     say("the tuned reference (mistuning removed)" if not model.tuned else "the tuned wheel")
     tuned = tuned_reference(model, cfg, [model.mistuning], contacts, angles, comm_self(),
                             band_hz=band, points=points)
@@ -156,6 +155,17 @@ def cmd_forced(args: argparse.Namespace) -> int:
                                 "the response is printed above")
     agree(world, failure)  # every rank stops together
     return 0
+
+
+def _speed_note(model, cfg) -> str:
+    """What ``forced.over = "speed"`` does with this model, in one line."""
+    from wheelrom.analysis.forced import speed_following
+
+    if speed_following(model, cfg) is not None:
+        return (f"over the rotor speed (excitation / {cfg.wheel.stator_vanes}): the stiffness "
+                "follows it")
+    return ("over the rotor speed: segment.prestress is off (or wheel.speed_hz = 0), the "
+            "stiffness does not depend on the speed: the curve is the frequency's")
 
 
 def summary(response, tuned, cfg, model, contacts: bool) -> dict:
