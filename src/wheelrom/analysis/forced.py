@@ -133,15 +133,6 @@ def speed_following(model: ReducedModel, cfg: Config) -> SpeedFollowing | None:
                           2 * math.pi * model.speed_hz)
 
 
-def speed_note(model: ReducedModel, cfg: Config) -> str:
-    """What ``forced.over = "speed"`` does with this model, in one line."""
-    if speed_following(model, cfg) is not None:
-        return f"over the rotor speed (excitation / {cfg.wheel.stator_vanes}): the stiffness " \
-            "follows it"
-    return "over the rotor speed: segment.prestress is off (or wheel.speed_hz = 0), the " \
-        "stiffness does not depend on the speed: the curve is the frequency's"
-
-
 def operators(model: ReducedModel, cfg: Config, contacts: bool = True,
               angles_deg: dict | None = None, comm=None, prefix: str = PREFIX,
               jacobian=None):

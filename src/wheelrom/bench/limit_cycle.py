@@ -70,7 +70,7 @@ def limit_cycle_figures(model: ReducedModel, cfg: Config, say) -> dict:
         return {"limit_cycle_s_per_case": None}
     case = angles_of(angles[int(np.argmax(growth))])
     settings = settings_of(cfg)
-    if cfg.contacts.law == "elastic":  # no balance branch: the marched and shot orbit
+    if cfg.contacts.elastic:  # no balance branch: the marched and shot orbit
         return _elastic_orbit(model, cfg, case, settings, say)
     t0 = time.perf_counter()
     point, balance, wave = _one_cycle(model, cfg, case, settings)

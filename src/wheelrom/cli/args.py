@@ -129,7 +129,9 @@ def args_study(p):
                    "curve (docs/usage.md)")
     existing = p.add_mutually_exclusive_group()
     existing.add_argument("--resume", action="store_true",
-                          help="complete an existing file: run the transients still pending")
+                          help="complete an existing file: run the transients still pending "
+                          "(with --forced-nonlinear also reuse the design curves kept beside "
+                          "it)")
     existing.add_argument("--force", action="store_true", help="overwrite an existing file")
     p.add_argument("--batch", type=int, default=0, metavar="B",
                    help="cases integrated together in one TS per rank (0, default: all of a "

@@ -98,12 +98,15 @@ def parse_angles(pairs: list[list[str]]) -> dict:
 
 @locked("--out")
 def cmd_forced(args: argparse.Namespace) -> int:
-    """Linear forced response to the nozzle at engine order wheel.stator_vanes: the peak of
+    """Forced response to the nozzle at engine order wheel.stator_vanes. Linear: the peak of
     the largest blade tip amplitude over the band of [forced] (or --frequencies), refined
     independently of any grid, of the configured wheel and of the tuned wheel, and the
-    amplification factor (peak over peak); the coarse grid's values as a table. PETSc
-    prefixes forced_ (KSP) and forced_preload_ (SNES)."""
-    from wheelrom.analysis.forced import speed_note
+    amplification factor (peak over peak); the coarse grid's values as a table. With
+    --nonlinear also the tuned wheel's steady response with friction at every grid frequency,
+    by harmonic balance of the nozzle's travelling wave under contacts.law (traced through
+    its folds by arclength with forced.continuation = 'arclength'); with --exact its exact
+    state by shooting and the state's Floquet multipliers. PETSc prefixes forced_ (KSP) and
+    forced_preload_ (SNES)."""
     from wheelrom.analysis.forced_peak import peak_response, tuned_reference
     from wheelrom.rom.build import build_model, quiet
     from wheelrom.studies.stability import world_if_parallel
@@ -126,7 +129,7 @@ def cmd_forced(args: argparse.Namespace) -> int:
     say = quiet if args.json else log
     model = build_model(cfg, comm_self(), log=say)
     if cfg.forced.over == "speed":
-        say(speed_note(model, cfg))
+        say(_speed_note(model, cfg))
     say("the tuned reference (mistuning removed)" if not model.tuned else "the tuned wheel")
     tuned = tuned_reference(model, cfg, [model.mistuning], contacts, angles, comm_self(),
                             band_hz=band, points=points)
@@ -152,6 +155,17 @@ def cmd_forced(args: argparse.Namespace) -> int:
                                 "the response is printed above")
     agree(world, failure)  # every rank stops together
     return 0
+
+
+def _speed_note(model, cfg) -> str:
+    """What ``forced.over = "speed"`` does with this model, in one line."""
+    from wheelrom.analysis.forced import speed_following
+
+    if speed_following(model, cfg) is not None:
+        return (f"over the rotor speed (excitation / {cfg.wheel.stator_vanes}): the stiffness "
+                "follows it")
+    return ("over the rotor speed: segment.prestress is off (or wheel.speed_hz = 0), the "
+            "stiffness does not depend on the speed: the curve is the frequency's")
 
 
 def summary(response, tuned, cfg, model, contacts: bool) -> dict:

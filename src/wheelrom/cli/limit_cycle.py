@@ -41,11 +41,16 @@ def _waves(text: str | None):
 
 @locked("--out")
 def cmd_limit_cycle(args: argparse.Namespace) -> int:
-    """Friction-held limit cycles per travelling wave by harmonic balance (nozzle off, tuned
-    wheel): the Hopf point of every unstable wave, the branch of periodic solutions from
-    there in the self-excitation's intensity, the cycles at the configured intensity (tip
-    amplitude, frequency, contact states, energy per cycle) and their Floquet stability.
-    Under mpirun the cases are spread over the ranks."""
+    """How far the flutter grows: the friction-held limit cycles per travelling wave (nozzle
+    off, tuned wheel). The harmonic balance finds them: the Hopf point of every unstable
+    wave, the branch of periodic solutions from there in the self-excitation's intensity and
+    the cycles at the configured intensity. Each such cycle is then made exact by shooting on
+    the transient's own equations and steps, and its stability is the whole wheel's Floquet
+    multipliers (limit_cycle.method = 'shooting', the default; 'hb': the balance's cycles
+    alone, Floquet by Hill's method). Under contacts.law = 'elastic' the exact orbit is
+    marched on the wave's pattern wheel and shot with the sliders in the state, without a
+    balance. Per cycle: tip amplitude, frequency, contact states, energy per cycle,
+    stability. Under mpirun the cases go to the ranks as they become free."""
     from wheelrom.rom.build import quiet
     from wheelrom.studies.limit_cycles import run_limit_cycles, summary
     from wheelrom.studies.stability import world_if_parallel

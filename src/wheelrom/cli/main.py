@@ -30,7 +30,6 @@ from wheelrom.cli import tools as cli_tools  # noqa: E402
 from wheelrom.cli.args import comm_self, load_config, locked  # noqa: E402
 from wheelrom.cli.output import (  # noqa: E402
     EXIT_INTERRUPTED,
-    abort_the_job,
     fail,
     log,
     print_json,
@@ -379,16 +378,17 @@ COMMANDS: dict[
     "sweep": (cmd_sweep, "contact-angle sweep under mpirun, parallel HDF5",
               cli_args.args_sweep),
     "study": (cmd_study, "design study (grid, zip or CSV cases) under mpirun: stability map, "
-              "screened transients", cli_args.args_study),
+              "screened transients, forced responses", cli_args.args_study),
     "plot": (cli_tools.cmd_plot, "figures from a results file", cli_args.args_plot),
     "info": (cli_tools.cmd_info, "summary of a results or model file", cli_args.args_info),
-    "export": (cli_tools.cmd_export, "one case as CSV (tip histories, window statistics)",
-               cli_args.args_export),
+    "export": (cli_tools.cmd_export, "one case as CSV (tip histories, window statistics, "
+               "contact forces)", cli_args.args_export),
     "animate": (cli_motion.cmd_animate, "one case's wheel in motion: XDMF, GIF, PNG",
                 cli_motion.args_animate),
     "contacts": (cli_motion.cmd_contacts, "one case's contact forces and friction hysteresis",
                  cli_motion.args_contacts),
-    "bench": (cli_tools.cmd_bench, "speed of the transient hot path (one core)",
+    "bench": (cli_tools.cmd_bench, "speed and accuracy figures on this machine (one core): "
+              "transient, contact laws, limit cycle, nonlinear forced response",
               cli_args.args_bench),
     "campbell": (cli_tools.cmd_campbell, "frequencies versus rotor speed (prestressed)",
                  cli_args.args_campbell),
@@ -397,13 +397,16 @@ COMMANDS: dict[
                  cli_args.args_accuracy),
     "stability": (cmd_stability, "linear stability per nodal diameter of every case",
                   cli_args.args_stability),
-    "limit-cycle": (cli_limit_cycle.cmd_limit_cycle, "limit cycles per travelling wave by "
-                    "harmonic balance: how far the flutter grows",
-                    cli_limit_cycle.args_limit_cycle),
+    "limit-cycle": (cli_limit_cycle.cmd_limit_cycle, "how far the flutter grows: per "
+                    "travelling wave the exact periodic orbit by shooting (from the harmonic "
+                    "balance's cycle; marched under the elastic law) and its Floquet "
+                    "stability", cli_limit_cycle.args_limit_cycle),
     "settle": (cli_settle.cmd_settle, "where the flutter settles: the wheel integrated from the "
-               "unstable cycle until stationary, classified", cli_settle.args_settle),
-    "forced-response": (cli_forced.cmd_forced, "linear forced response to the nozzle, "
-                        "tuned and mistuned (amplification factor)", cli_forced.args_forced),
+               "fastest wave's exact orbit (or the seeded equilibrium) until stationary, "
+               "classified", cli_settle.args_settle),
+    "forced-response": (cli_forced.cmd_forced, "forced response to the nozzle: linear, tuned "
+                        "and mistuned (amplification factor); --nonlinear: with friction, by "
+                        "harmonic balance", cli_forced.args_forced),
     "contact-stiffness": (cli_tools.cmd_contact_stiffness,
                           "k_c(beta) from the segment FE (static unit loads)",
                           cli_args.json_out),
@@ -445,6 +448,26 @@ def build_parser() -> argparse.ArgumentParser:
         extra(p)
         p.set_defaults(func=func)
     return parser
+
+
+def abort_the_job() -> None:
+    """Print this rank's traceback and abort every rank, when more than one runs and MPI is
+    up (nothing in a serial run: the exception then ends the process as usual). Without it
+    the other ranks wait for this one in their next collective for ever (a settle whose rank
+    1 failed kept rank 0 computing alone for 40 minutes)."""
+    size = os.environ.get("OMPI_COMM_WORLD_SIZE", os.environ.get("PMI_SIZE", "1"))
+    if int(size) <= 1 or "mpi4py.MPI" not in sys.modules or "pytest" in sys.modules:
+        return  # (under pytest the failing test reports it; an abort would end the session)
+    import traceback
+
+    from mpi4py import MPI
+
+    # one write: a prefix written apart reached mpirun as its own chunk, and the abort's
+    # banner could land between it and the traceback (seen once in the test under load)
+    sys.stderr.write(f"rank {world_rank()}: {traceback.format_exc()}")
+    sys.stderr.flush()
+    MPI.COMM_WORLD.Abort(1)
+
 
 
 def main(argv: Sequence[str] | None = None) -> int:

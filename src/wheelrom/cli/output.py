@@ -373,21 +373,3 @@ def print_accuracy(table: dict) -> None:
         err = 100 * np.abs(row["relative_error"]).max(axis=0)
         print(f"{label:18s} {row['vectors']:7d} " + " ".join(f"{x:9.3f}" for x in err))
 
-
-def abort_the_job() -> None:
-    """Print this rank's traceback and abort every rank, when more than one runs and MPI is
-    up (nothing in a serial run: the exception then ends the process as usual). Without it
-    the other ranks wait for this one in their next collective for ever (a settle whose rank
-    1 failed kept rank 0 computing alone for 40 minutes)."""
-    size = os.environ.get("OMPI_COMM_WORLD_SIZE", os.environ.get("PMI_SIZE", "1"))
-    if int(size) <= 1 or "mpi4py.MPI" not in sys.modules or "pytest" in sys.modules:
-        return  # (under pytest the failing test reports it; an abort would end the session)
-    import traceback
-
-    from mpi4py import MPI
-
-    # one write: a prefix written apart reached mpirun as its own chunk, and the abort's
-    # banner could land between it and the traceback (seen once in the test under load)
-    sys.stderr.write(f"rank {world_rank()}: {traceback.format_exc()}")
-    sys.stderr.flush()
-    MPI.COMM_WORLD.Abort(1)

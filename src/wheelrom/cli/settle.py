@@ -29,10 +29,13 @@ def args_settle(p: argparse.ArgumentParser) -> None:
 
 @locked("--out")
 def cmd_settle(args: argparse.Namespace) -> int:
-    """Where the flutter settles: per case the wheel integrated from the fastest wave's orbit
-    (every ND perturbed) until stationary, the settled state classified (periodic,
-    quasi-periodic, chaotic), its amplitude over the blades, ND content, contacts. Under
-    mpirun the cases are spread over the ranks."""
+    """Where the flutter settles: per case the wheel integrated from the fastest wave's exact
+    orbit (settle.start = 'cycle', from --cycles or computed here; 'preload': the preloaded
+    equilibrium with the unstable waves seeded), every ND perturbed, until stationary; the
+    settled state classified (periodic, quasi-periodic, chaotic), its amplitude over the
+    blades, ND content, contacts; a case not settled by settle.max_time is 'still growing' or
+    'bounded' by its amplitude's trend. Cases are integrated in batches (settle.batch); under
+    mpirun the batches go to the ranks as they become free."""
     from wheelrom.rom.build import quiet
     from wheelrom.studies.settle import (
         check_cycles,

@@ -118,7 +118,10 @@ def cmd_campbell(args: argparse.Namespace) -> int:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
-    """Speed of the transient hot path on this machine (one core): RHS, TS steps, ratios."""
+    """Speed and accuracy figures on this machine (one core): the transient's hot path (RHS,
+    TS steps, batches, the machine's floors, ratios against numpy and scipy), the schemes'
+    accuracy, the elastic law's cost against the paper law's, one limit cycle with its exact
+    orbit and multipliers, and the nonlinear forced response's curve."""
     from wheelrom.bench.transient import run
     from wheelrom.rom.build import build_model, quiet
 
@@ -181,7 +184,8 @@ def cmd_info(args: argparse.Namespace) -> int:
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    """One case of a results file as CSV: tip histories and per-window statistics."""
+    """One case of a results file as CSV: tip histories, per-window statistics and, from a
+    modal state history, contact forces."""
     from wheelrom.results.export import export_case
 
     print("\n".join(export_case(args.file, args.case, args.csv, args.what, args.force)))

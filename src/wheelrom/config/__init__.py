@@ -1,7 +1,9 @@
 """Stage 1, configuration: one TOML file mapped onto frozen dataclasses, defaults = the paper's
 Table 1 (:mod:`.model`: the schema, ``load``, the cross-checks), the field converter and file
-resolver (:mod:`.values`), the ``[forced]`` and ``[mistuning]`` sections (:mod:`.forced`), the
-``[flutter]`` section and its aerodynamic damping table (:mod:`.aero`), and the cases of a
+resolver (:mod:`.values`), the ``[contacts]`` and ``[friction]`` sections with the contact law
+(:mod:`.contacts`), the ``[forced]`` and ``[mistuning]`` sections (:mod:`.forced`), the
+``[flutter]`` section and its aerodynamic damping table (:mod:`.aero`), the ``[limit_cycle]``
+(:mod:`.limit_cycle`) and ``[settle]`` (:mod:`.settle`) sections, and the cases of a
 ``[study]`` (:mod:`.study`).
 
 May import: :mod:`wheelrom.runtime`. This face re-exports the schema, so

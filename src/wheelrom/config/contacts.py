@@ -78,6 +78,13 @@ class ContactsConfig:
     tieboss: ContactConfig = field(default_factory=ContactConfig)
     shroud: ContactConfig = field(default_factory=_shroud_default)
 
+    @property
+    def elastic(self) -> bool:
+        """Whether the contacts follow the elastic Coulomb law (else the paper's): the one
+        test of the law (the force parameters' :attr:`~wheelrom.forces.contact_law.
+        ContactLaw.elastic` is this, carried into the compiled record)."""
+        return self.law == "elastic"
+
     def enabled_kinds(self) -> list[str]:
         return [k for k in CONTACT_KINDS if getattr(self, k).enabled]
 
@@ -106,7 +113,7 @@ class FrictionConfig:
 
 def law_problems(cfg, problems: list[str]) -> None:
     """Keys of the elastic law set under the paper law: they would be silently unused."""
-    if cfg.contacts.law != "paper":
+    if cfg.contacts.elastic:
         return
     # a value that is wrong by itself is reported by its own key already
     unused = [f"contacts.{kind}.tangential_stiffness" for kind in CONTACT_KINDS

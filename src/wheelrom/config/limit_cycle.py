@@ -1,5 +1,6 @@
-"""The ``[limit_cycle]`` section: harmonic balance of the travelling waves' limit cycles
-(``wheelrom limit-cycle``; docs/theory.md "Limit cycles", docs/usage.md)."""
+"""The ``[limit_cycle]`` section: the travelling waves' limit cycles (``wheelrom
+limit-cycle``): the harmonic balance and its continuation that find them, the exact orbit by
+shooting and its Floquet stability (docs/theory.md "Limit cycles", docs/usage.md)."""
 
 from __future__ import annotations
 

@@ -29,7 +29,6 @@ import numpy as np
 from wheelrom.forces.fastmath import fexp
 
 PAPER, ELASTIC = 0, 1
-LAW_CODES = {"paper": PAPER, "elastic": ELASTIC}
 OPEN, STICK, SLIP = 0, 1, 2  # contact states (paper law: STICK is the micro-slip branch)
 
 #: the packed record compiled code reads: law code, f_s, f_d, decay [s/m], v_k [m/s], mu
@@ -66,7 +65,7 @@ class ContactLaw:
 def contact_law(cfg) -> ContactLaw:
     """The law of ``cfg`` (``contacts.law`` and ``[friction]``)."""
     fr = cfg.friction
-    return ContactLaw(LAW_CODES[cfg.contacts.law], fr.static, fr.dynamic, fr.decay,
+    return ContactLaw(ELASTIC if cfg.contacts.elastic else PAPER, fr.static, fr.dynamic, fr.decay,
                       fr.microslip_velocity, fr.coulomb)
 
 

@@ -242,7 +242,7 @@ def _contact_parameters(model: ReducedModel, cfg: Config, angles_deg: dict) -> C
     frame = np.zeros((K, N, 3, 3))
     k_c = np.zeros((K, N))
     k_t = np.zeros((K, N))
-    elastic = cfg.contacts.law == "elastic"
+    elastic = cfg.contacts.elastic
     angles = {}
     for i, kind in enumerate(kinds):
         c = cfg.contact(kind)

@@ -1,8 +1,8 @@
 """Reduced models kept on disk between commands: the same wheel is not built twice.
 
-``./run/paper`` runs eight commands on the same wheel; each built it afresh (segment FE,
-prestress, SLEPc modes, attachment vectors: 6.8 s on the default wheel), 55 s of the job.
-A model is stored once built and read back by the next command whose model is the same.
+``./run/paper`` runs eight commands on the same wheel; building it in each (segment FE,
+prestress, SLEPc modes, attachment vectors: 6.8 s on the default wheel) would cost 55 s of the
+job. A model is stored once built and read back by the next command whose model is the same.
 
 **What "the same" means**, the cache key (SHA-256) over: the configuration's keys the model
 depends on (:func:`wheelrom.config.study.model_key`: not the forces, the contact angles,

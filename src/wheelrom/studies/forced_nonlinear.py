@@ -83,7 +83,7 @@ def nonlinear_band(model: ReducedModel, cfg: Config, angles_deg: dict | None = N
     # is a damper there); replaced as data, the elastic keys are not validated again
     slipping = dataclasses.replace(cfg, contacts=dataclasses.replace(cfg.contacts, law="paper"))
     found = []
-    for case in [slipping] + ([cfg] if cfg.contacts.law != "paper" else []):
+    for case in [slipping] + ([cfg] if cfg.contacts.elastic else []):
         J = linearise(model, case, angles_deg, comm)[3]
         K, _ = operators(model, case, True, angles_deg, comm, jacobian=J)
         found.append(resonance(K, model, cfg.wheel.stator_vanes, cfg.forced.family,

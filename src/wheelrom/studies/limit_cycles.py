@@ -1,9 +1,10 @@
 """Limit cycles over the cases (``wheelrom limit-cycle``): every case of the ``[study]``
 (any keys: a grid, zipped lists or CSV cases, so a sweep of a preload, a friction coefficient
 or an angle gives the limit-cycle amplitude against it) or of the sweep's contact angles,
-every travelling wave unstable at its preloaded equilibrium (or the waves asked for), by
-harmonic balance and continuation (:mod:`wheelrom.analysis.periodic.limit_cycle`); cases dealt
-round-robin to the MPI ranks and gathered on rank 0, which writes the file.
+every travelling wave unstable at its preloaded equilibrium (or the waves asked for): the
+harmonic balance and its continuation, the exact orbit by shooting
+(:mod:`wheelrom.analysis.periodic.limit_cycle`); cases handed to the MPI ranks as they become
+free (:mod:`.queue`) and gathered on rank 0, which writes the file.
 
 The models (one per group of cases that share one) are built on rank 0 and broadcast, so the
 results do not depend on the number of ranks (test: ``mpirun -n 2`` against one process).

@@ -3,8 +3,8 @@ shared counter on rank 0 (an MPI one-sided window, ``MPI_Fetch_and_op``) from wh
 takes the next index.
 
 The limit cycles and the settled states of the paper's six unstable angles cost 47 to 209 s
-each, unknown before they are computed; dealt round-robin, one rank finished its three cases
-110 s before the other (``./run/paper``, 2026-11-26). Taken from the counter, a rank that
+each, unknown before they are computed; dealt round-robin, one rank of ``./run/paper``
+finished its three cases 110 s before the other. Taken from the counter, a rank that
 finishes early takes the next case. The results do not depend on which rank computes a case
 (the model is broadcast, the seeds belong to the case), only the order of the progress lines.
 """

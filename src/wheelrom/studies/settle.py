@@ -1,8 +1,9 @@
 """Where the flutter settles, over the cases (``wheelrom settle``): every case of the
-``[study]`` or of the sweep's angles, dealt round-robin to the MPI ranks; per case the start
-(the fastest wave's exact orbit, from a limit-cycle file or computed here, or the preloaded
-equilibrium with the unstable waves seeded), every ND perturbed, then the wheel integrated
-until stationary (:mod:`wheelrom.analysis.periodic.settle`).
+``[study]`` or of the sweep's angles, in batches (``settle.batch``) handed to the MPI ranks as
+they become free (:mod:`.queue`); per case the start (the fastest wave's exact orbit, from a
+limit-cycle file or computed here, or the preloaded equilibrium with the unstable waves
+seeded), every ND perturbed, then the wheel integrated until stationary
+(:mod:`wheelrom.analysis.periodic.settle`).
 
 Nothing computed is lost: each finished case is saved at once by the rank that computed it in
 a folder beside the output (``.name.settle/case_<i>.npz``, plain arrays, no pickles, and a
@@ -196,7 +197,7 @@ def _start(model, cfg: Config, angles: dict, cycles_file: str | None, comm=None)
         params, q, _, J, _ = linearise(model, cfg, angles, comm)
         B0, B1 = wave_blocks(model, params, q, J)
         size, why = st.seed_amplitude, ""
-        if cfg.contacts.law == "elastic":
+        if cfg.contacts.elastic:
             size, why = _below_slip_onset(model, cfg, angles, q, B0, B1, size)
         unstable, dq, dv, fastest = unstable_seed(model, B0, B1, size, st.seed)
         frequency = float(fastest.imag) / (2 * math.pi)
@@ -211,7 +212,7 @@ def _start(model, cfg: Config, angles: dict, cycles_file: str | None, comm=None)
     u0 = u0.copy()
     u0[0] = (q0 + start_perturbation(model, every)).ravel()
     u0 = u0.ravel()
-    if cfg.contacts.law == "elastic":  # the whole state: q, q', 4 work integrals, sliders
+    if cfg.contacts.elastic:  # the whole state: q, q', 4 work integrals, sliders
         from wheelrom.forces.parameters import force_parameters
         from wheelrom.forces.reference import ReferenceForces
 

@@ -151,11 +151,11 @@ def start_perturbation(model, cfg) -> np.ndarray:
     ``time.perturbation_waves`` restricts the sum to the listed ``k`` (a seed of one travelling
     wave, e.g. to follow it to its limit cycle).
 
-    Why not random modal coordinates (the rule before issue #31): a standard normal on every
-    Ritz vector puts most of the seed into the stiff attachment vectors of a converged basis,
-    and which motion it is depends on the basis (re-signing the vectors changed the paper's
-    90 deg transient from +1.64 to +2.19 /s). The lowest mode of each ND is what flutters and
-    what every basis resolves."""
+    Why not random modal coordinates: a standard normal on every Ritz vector puts most of the
+    seed into the stiff attachment vectors of a converged basis, and which motion it is
+    depends on the basis (re-signing the vectors changed the paper's 90 deg transient from
+    +1.64 to +2.19 /s). The lowest mode of each ND is what flutters and what every basis
+    resolves."""
     N, m = model.blades, model.modes
     amplitude = cfg.time.perturbation
     if amplitude <= 0.0:

@@ -7,8 +7,16 @@
   (:mod:`.continuation`), the Hopf points where a branch is born (:mod:`.hopf`), Hill's
   Floquet exponents (:mod:`.floquet`), the stability of a cycle by a transient started on it
   (:mod:`.cycle_transient`) and the driver over the waves of a case (:mod:`.limit_cycle`);
-  the nonlinear forced response to the nozzle (:mod:`.forced_wave`);
+  the nonlinear forced response to the nozzle (:mod:`.forced_wave`), traced through its
+  folds by continuation in the frequency (:mod:`.forced_branch`), its frequency grid dealt to
+  the MPI ranks in segments (:mod:`.forced_segments`);
 - by time integration: the wheel's flow on its own TS (:mod:`.flow`), the exact periodic orbit
-  by shooting (:mod:`.shooting`, :mod:`.exact`), its Floquet multipliers from the monodromy
-  (:mod:`.monodromy`) and where a flutter transient settles (:mod:`.settle`).
+  by shooting (:mod:`.shooting`, a balance's cycle made exact by :mod:`.exact`; under the
+  elastic law with the sliders in the state, :mod:`.slider_shooting`), the least-squares
+  Newton of the shots whose Jacobian can be singular (:mod:`.newton`), the orbit's Floquet
+  multipliers from the monodromy (:mod:`.monodromy`) and the whole wheel's from the wave's
+  pattern by Bloch waves (:mod:`.bloch`), the forced response's exact state at the known
+  period (:mod:`.forced_shooting`) and where a flutter transient settles (:mod:`.settle`);
+- what a periodic solution reports, whichever method found it (:mod:`.cycle`; an exact
+  orbit's from its samples, :mod:`.report`).
 """

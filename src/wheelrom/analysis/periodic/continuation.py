@@ -27,8 +27,8 @@ MAX_ITERATIONS = 30  # Newton iterations of one corrector solve
 #: Newton iterations of one branch point: a predictor within the step converges in a few (the
 #: step grows below 5 and shrinks above 10); one that has not by then is on its way off the
 #: branch, or at a grazing point whose slow iterations cost more than the seeds at lam = 1
-#: that reach the cycles beyond it (measured on the paper's wheel: 70 deg 69 s with 12, 105 s
-#: with 30; 80 deg's branch passes its grazing point with 30, stops there with 12: 33 / 37 s)
+#: that reach the cycles beyond it (the paper wheel's 70 deg branch: 69 s with 12, 105 s
+#: with 30)
 BRANCH_ITERATIONS = 12
 #: halvings of a failed branch step before the branch is said to stall: a grazing point
 #: (a contact starting to touch or lift off within the cycle) either yields within a few or

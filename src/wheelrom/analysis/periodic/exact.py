@@ -296,7 +296,7 @@ def elastic_stability(model, cfg, angles, cycle: Cycle, shooting: SliderShooting
     (a fixed point of that step's map, so that the phase shift's multiplier measures the
     differences' error). The fixed step meets the stick-slip kinks anywhere: the multipliers
     converge at first order and not monotonically (the paper wheel at 70 deg: a pair of
-    1.0101 at its 5.9 us step of then, confirmed by the growth of a perturbation in the transient,
+    1.0101 at a 5.9 us step, confirmed by the growth of a perturbation in the transient,
     1.0001-1.0005 from 5 us down to 0.16 us). ``cycle.refined``: ``(step [s], |mu|, ND)`` of
     the largest non-trivial one per step; ``cycle.stability`` from the finest
     (:func:`_elastic_verdict`). Then every multiplier of the whole wheel by Bloch waves

@@ -37,9 +37,8 @@ SEAM_TOLERANCE = 1e-5
 #: cost of a frequency varies along the band (the paper wheel's 200-point elastic curve
 #: spends 40 % of its time in the first eighth, at the slipping resonance), and each segment
 #: costs one solve from rest more and starts without the secant predictor or a carried chord
-#: matrix. Measured on 2 ranks (before the carried matrix) against one process's 8.1 s
-#: (paper law) and 38.3 s (elastic law): 8 segments a rank 5.5 / 30.3 s, 4 a rank 4.7 /
-#: 25.5 s, 2 a rank 4.8 / 22.1 s
+#: matrix: of 2, 4 and 8 segments a rank, 2 were the fastest on 2 ranks under the elastic law
+#: (the paper wheel's 200-point curve in 22 s against 30 s with 8; docs/history.md)
 SEGMENTS_PER_RANK = 2
 
 

@@ -1,4 +1,4 @@
-"""The nonlinear forced response of the tuned wheel to the nozzle (issue #45, first part): the
+"""The nonlinear forced response of the tuned wheel to the nozzle (issue #45): the
 steady periodic state at the excitation frequency, by harmonic balance on one blade with the
 travelling-wave condition, under either contact law (docs/theory.md, "Nonlinear forced
 response").
@@ -159,10 +159,8 @@ class ForcedWave:
         iteration (a fresh one where it does not): the forces' Jacobian costs ~35 residuals
         (the paper law's physical inputs), and a grid's next frequency starts close. The
         first matrix is the last solve's forces' part beside this frequency's linear part
-        (:meth:`_carried`; measured on the paper wheel's 200-point curves: 7.3 -> 6.3 s under
-        the paper law, 36 -> 27 s under the elastic law; a Broyden update of the kept matrix
-        along each step as well: 6.1 and 30 s, not kept). At most :data:`CHORD_ITERATIONS`;
-        ``(X, converged, iterations)``."""
+        (:meth:`_carried`: the paper wheel's 200-point elastic curve in 27 s instead of 36).
+        At most :data:`CHORD_ITERATIONS`; ``(X, converged, iterations)``."""
         b = self.balance
         X = np.array(X0, dtype=float)
         J, last, fresh = self._carried(X, omega), math.inf, False

@@ -31,7 +31,7 @@ import math
 
 import numpy as np
 
-from wheelrom.analysis.periodic.hysteresis import HysteresisLoop
+from wheelrom.analysis.periodic.hysteresis import HysteresisLoop, differences, tiled
 from wheelrom.analysis.periodic.window import (
     FD_DISPLACEMENT,
     WINDOW,
@@ -66,11 +66,13 @@ MARCH_TOLERANCE = 1e-14
 NOISE_FACTOR = 4.0
 
 
-class WaveBalance(HysteresisLoop):
+class WaveBalance:
     """The harmonic-balance residual and Jacobian of travelling wave ``wave`` (index ``k``,
     ``0 <= k < N``) of a tuned wheel about its configuration ``params`` (force parameters with
     the Van der Pol intensity at ``lam = 1``), ``harmonics`` ``H``, ``samples`` ``n_t`` per
-    period (at least ``2 H + 1``; ``4 H + 4`` resolves the Jacobian's harmonics for Floquet)."""
+    period (at least ``2 H + 1``; ``4 H + 4`` resolves the Jacobian's harmonics for Floquet).
+    Under the elastic law its :attr:`hysteresis` (:class:`~wheelrom.analysis.periodic.
+    hysteresis.HysteresisLoop`) gives the Jacobian's part through the sliders' loop."""
 
     def __init__(self, model: ReducedModel, params: ForceParameters, beta: float, wave: int,
                  harmonics: int, samples: int):
@@ -89,13 +91,6 @@ class WaveBalance(HysteresisLoop):
         # the elastic law's hysteresis: the AFT marches the sliders through the samples
         self.elastic = params.law.elastic
         self.sliders = None  # (n_t, K, 3, 2) the sliders of the last march's samples
-        self.returned = None  # (S, K, 3, 2) the sliders the last held evaluation returned
-        self._held = None  # ... and those it held
-        self._shaken = None  # (contacts,) of the loop: left their start on the way to it
-        # the sliders of blade 0's contacts (pairs 0 and 2 of the window; pair 1 acts on the
-        # neighbours only), flat in (K, 3, 2): a contact's two components side by side
-        self.loop = np.array([(k * 3 + pair) * 2 + j for k in range(len(self.kinds))
-                              for pair in (0, 2) for j in (0, 1)])
         H, nt = harmonics, samples
         self.tau = 2 * math.pi * np.arange(nt) / nt
         self.h = np.arange(H + 1)
@@ -116,6 +111,12 @@ class WaveBalance(HysteresisLoop):
                                   + [np.asarray(b) for b in model.contact_B.values()]))
         reach = np.maximum(np.abs(model.tip).max(axis=0), points.max(axis=0))  # (m,) [m/unit]
         self.fd_step = FD_DISPLACEMENT / np.maximum(reach, 1e-30)
+        # the record of the evaluations with held sliders (none under the paper law) and
+        # the Jacobian's part through the elastic law's loop
+        self.hysteresis = HysteresisLoop(len(self.kinds), nt, self.E, self.P, self.fd_step,
+                                         self.forces.sliders_at_rest,
+                                         lambda q, v, lam, held: self._evaluate(q, v, lam,
+                                                                                held)[0])
         # the elastic law's force noise per modal coordinate: where the march leaves a
         # slider along the directions its loop does not fix is known to its tolerance
         self.force_noise = np.zeros(self.modes)
@@ -238,15 +239,16 @@ class WaveBalance(HysteresisLoop):
         loop once every contact has slipped; a contact that never slips acts as its stuck
         spring about the mean, the stuck linearisation's limit), kept in ``self.sliders``;
         or, with ``held`` ``(S, K, 3, 2)`` [m], each state reads its own slider, unmarched,
-        and the slider it returns is kept in ``self.returned``."""
+        and the slider it returns is kept in :attr:`hysteresis`' ``returned``."""
         S, K = q.shape[0], len(self.kinds)
         self.forces.params = self._at(lam)
         force = np.empty((S, 3, self.modes))
         normal, power = np.empty((S, K)), np.empty((S, K))
         state = np.empty((S, K), dtype=np.int8)
-        periods, block, sliders, self.returned = 0, 0, None, None
+        periods, block, sliders = 0, 0, None
+        returned = self.hysteresis.hold(held)
         if held is not None:
-            sliders, self.returned, self._held = held, np.empty_like(held), held
+            sliders = held
         elif self.elastic:  # S / n_t periods of samples, each marched
             block = self.nt if S % self.nt == 0 else S
             sliders = np.empty((S, *self.forces.slider.shape))
@@ -256,7 +258,7 @@ class WaveBalance(HysteresisLoop):
             periods = MARCH_PERIODS
         self.march_drift = self.forces.evaluate_samples(
             q, v, force, normal, power, state, sliders, periods, block,
-            MARCH_MAX_PERIODS if periods else 0, MARCH_TOLERANCE, self.returned)
+            MARCH_MAX_PERIODS if periods else 0, MARCH_TOLERANCE, returned)
         if periods:
             self.sliders = sliders
         return force[:, 0], normal, power, state
@@ -312,17 +314,18 @@ class WaveBalance(HysteresisLoop):
                 target[k, :, blades[i]] += delta
                 target[k + 1, :, blades[i]] -= delta
         f = self._evaluate(Q.reshape(-1, 3, m), V.reshape(-1, 3, m), lam,
-                           self._tiled(held, 4 * n_in + 1))[0]
+                           tiled(held, 4 * n_in + 1))[0]
         f = f.reshape(4 * n_in + 1, nt, m)
-        same = self._same_branch(4 * n_in + 1)
+        same = self.hysteresis.same_branch(4 * n_in + 1)
         by_input = np.repeat(steps, n_in)[:, None, None]
 
         def chain(f, kind):  # (nt, out) per window blade
-            d = self._differences(f, by_input, same).reshape(2, n_in, nt, -1)[kind]
+            d = differences(f, by_input, same).reshape(2, n_in, nt, -1)[kind]
             return np.stack([np.einsum("itj,il->tjl", d[blades == w], rows[blades == w])
                              for w in range(3)])
 
-        dslider = None if held is None else chain(self._returned(4 * n_in + 1), 0)
+        dslider = None if held is None else chain(
+            self.hysteresis.returned_components(4 * n_in + 1), 0)
         return Linearisation(f[0], chain(f, 0), chain(f, 1), dslider)
 
     def _linearise_modal(self, q, v, omega: float, lam: float,
@@ -342,32 +345,48 @@ class WaveBalance(HysteresisLoop):
             target[1 + 2 * i, :, w, j] += step
             target[2 + 2 * i, :, w, j] -= step
         f = self._evaluate(Q.reshape(-1, 3, m), V.reshape(-1, 3, m), lam,
-                           self._tiled(held, 2 * n_in + 1))[0]
+                           tiled(held, 2 * n_in + 1))[0]
         f = f.reshape(2 * n_in + 1, nt, m)
-        same = self._same_branch(2 * n_in + 1)
+        same = self.hysteresis.same_branch(2 * n_in + 1)
         by_input = np.repeat(steps.reshape(2, 1, m), 3, axis=1).reshape(n_in)[:, None, None]
 
         def derivative(f):  # (kind, w, nt, out, m)
-            d = self._differences(f, by_input, same)
+            d = differences(f, by_input, same)
             return d.reshape(2, 3, m, nt, -1).transpose(0, 1, 3, 4, 2)
 
         d = derivative(f)
-        dslider = None if held is None else derivative(self._returned(2 * n_in + 1))[0]
+        dslider = None if held is None else derivative(
+            self.hysteresis.returned_components(2 * n_in + 1))[0]
         return Linearisation(f[0], d[0], d[1], dslider)
+
+    def _loop_jacobian(self, X: np.ndarray, omega: float, lam: float):
+        """The elastic law's Jacobian: ``(lin, marched, through_sliders)``, the sample-local
+        derivatives with each sample's slider held (``lin``), those sliders ``(n_t, K, 3,
+        2)`` [m] of the march's loop and the hysteresis' part of ``dR/dX`` ``(2H+1, m, 2H+1,
+        m)`` (:meth:`HysteresisLoop.jacobian <wheelrom.analysis.periodic.hysteresis.
+        HysteresisLoop.jacobian>`)."""
+        q, v = self.samples(X, omega)
+        self._evaluate(q, v, lam)  # the march: its loop's sliders
+        marched = self.sliders.copy()
+        self.hysteresis.find_shaken(q, marched)  # before the differences: their branches
+        differenced = self._linearise_physical if self.inputs is not None else \
+            self._linearise_modal
+        lin = differenced(q, v, omega, lam, marched)
+        return lin, marched, self.hysteresis.jacobian(q, v, lam, marched, lin.dslider)
 
     def jacobian(self, X: np.ndarray, omega: float, lam: float, lin: Linearisation | None = None):
         """``(R, dR/dX, dR/domega, dR/dlam)``: packed residual ``(2H+1, m)``, its derivative
         ``(2H+1, m, 2H+1, m)`` and the two parameter columns ``(2H+1, m)``."""
         held = None
         if self.elastic:  # the sliders' part through the closed loop (:meth:`_loop_jacobian`)
-            lin, held, loop = self._loop_jacobian(X, omega, lam)
+            lin, held, through_sliders = self._loop_jacobian(X, omega, lam)
         lin = lin or self.linearise(X, omega, lam)
         R = self.linear_term(X, omega, lam) - self.P @ lin.force
         dRdX, dRdw = self._linear_derivatives(X, omega, lam)
         dRdX -= self._projected(lin.dq, "E")
         dRdX -= omega * self._projected(lin.dv, "D")
         if held is not None:
-            dRdX -= loop
+            dRdX -= through_sliders
         # d/domega of the forces through the velocities
         DX = np.einsum("wjh,hm->wjm", self.D, X)
         dRdw -= self.P @ np.einsum("wjil,wjl->ji", lin.dv, DX)

@@ -2,7 +2,10 @@
 is (the factor ``lam_c`` on the self-excitation at which it crosses), the branch of periodic
 solutions from there by pseudo-arclength continuation in ``lam`` (the amplitude-dependent
 frequency and damping of the wave's nonlinear mode), the cycles at the configured intensity
-(``lam = 1``) and their Floquet stability (docs/theory.md, "Limit cycles").
+(``lam = 1``), each made exact by shooting (``limit_cycle.method = "shooting"``:
+:func:`~.exact.exact_cycle`; under the elastic law the orbit is marched and shot without a
+balance, :func:`~.exact.marched_cycle`), and their Floquet stability (docs/theory.md,
+"Limit cycles").
 
 The autonomous problem: nozzle off, tuned wheel, around the case's preloaded equilibrium
 (:func:`wheelrom.analysis.stability.linearise`).
@@ -73,7 +76,7 @@ def settings_of(cfg: Config, waves=None) -> Settings:
     branch = BranchSettings(lam_max=lc.mu_max, amplitude_max=lc.amplitude_max, steps=lc.steps)
     # the elastic law's balance: Hill's method would read the hysteresis's local tangent only
     # (its exact orbit's multipliers are the pattern map's: exact.elastic_stability)
-    floquet = "off" if cfg.contacts.law == "elastic" and lc.floquet == "auto" \
+    floquet = "off" if cfg.contacts.elastic and lc.floquet == "auto" \
         and lc.method != "shooting" else lc.floquet
     return Settings(harmonics=lc.harmonics, samples=lc.samples,
                     waves=tuple(lc.waves if waves is None else waves), floquet=floquet,

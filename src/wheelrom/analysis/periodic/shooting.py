@@ -131,7 +131,7 @@ class Shooting:
     def __init__(self, model: ReducedModel, cfg: Config, wave: int,
                  angles_deg: dict | None = None, lam: float = 1.0, comm=None,
                  options: dict | None = None):
-        if cfg.contacts.law == "elastic":  # this shot's state would drop the sliders
+        if cfg.contacts.elastic:  # this shot's state would drop the sliders
             raise InputError("this shot does not carry the elastic contact law's sliders: "
                              "under contacts.law = 'elastic' the exact orbit is marched and "
                              "shot by analysis/periodic/slider_shooting.py (limit-cycle does)")
