@@ -194,7 +194,8 @@ def test_impact_orbit_converges_and_the_transient_stays_on_it(impact_cycle, smal
     orbit = cycle.orbit
     assert orbit.residual <= 1e-9
     assert np.all(cycle.fractions[:, 0] > 0.2)  # both contacts open within the period
-    assert cycle.energy_residual < 1e-3  # in = friction + damping over the orbit
+    # in = friction + damping + the energy's change over the orbit replayed at 1/8 step
+    assert cycle.energy_residual < 1e-5
     state = orbit.wheel_state(small_model.blades)
     steps = orbit.steps_per_period
     run_cfg = cfg.replace(**{"time.step": orbit.period / steps, "time.end": 10 * orbit.period,

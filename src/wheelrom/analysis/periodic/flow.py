@@ -179,6 +179,32 @@ class WheelFlow:
         (its contact laws, sliders and equilibrium checks)."""
         return self._batch(1)[0].forces[0]
 
+    def energy(self, state: np.ndarray, tangential: bool = True) -> float:
+        """The flow's wheel's mechanical energy [J on the modal masses] at the flat ``state``
+        (``q, q'`` then, under the elastic law, the sliders ``(K, N, 2)``): kinetic, the
+        wheel's elastic ``q K_R q / 2``, the normal contact springs' and (``tangential``) the
+        tangential springs' ``|F_t|^2 / (2 k_t)`` (a slider on or inside its Coulomb limit
+        at a step's end: ``F_t = k_t (u_t - w)``). Without the tangential springs its change
+        over a time is the works of :meth:`works` over it (the friction's work is the
+        tangential force's on the wheel: the springs' release and the slip's loss): the
+        energy balance."""
+        x = np.asarray(state, dtype=float).ravel()
+        q = x[: self.n].reshape(self.N, self.m)
+        v = x[self.n : 2 * self.n].reshape(self.N, self.m)
+        forces = self.forces()
+        K = len(self.params.contacts.kinds)
+        slider = x[2 * self.n :].reshape(K, self.N, 2) if x.size > 2 * self.n else None
+        forces.evaluate(0.0, np.ascontiguousarray(q), np.ascontiguousarray(v), slider)
+        if getattr(self, "_stiffness", None) is None:
+            self._stiffness = self.model.sparse_stiffness()
+        stored = 0.0
+        if slider is not None and tangential:
+            k_t = np.maximum(self.params.contacts.tangential[:, : self.N], 1e-300)
+            stored = 0.5 * float(np.sum(np.sum(forces.friction_force**2, axis=2) / k_t))
+        flat = q.ravel()
+        return (0.5 * float(v.ravel() @ v.ravel() + flat @ (self._stiffness @ flat))
+                + forces.contact_energy() + stored)
+
     def steps_for(self, duration: float) -> tuple[int, float]:
         """``(n, h)``: whole steps ``h = duration / n <= time.step`` [s] (off the exponential
         scheme's resonances)."""
@@ -191,6 +217,17 @@ class WheelFlow:
             while exponential.safe_step(self.model, duration / n, shift)[1] is not None:
                 n += 1
         return n, duration / n
+
+    def works(self, state: np.ndarray, duration: float, steps: int) -> tuple[np.ndarray,
+                                                                            np.ndarray]:
+        """``(end, works)``: one state's end (as :meth:`advance`, flat ``q, q'`` and the
+        sliders when carried) and the four work integrals over the ``steps`` steps of
+        ``duration`` [s], ``(nozzle, self-excitation, friction, damping)`` [J on the modal
+        masses] (friction and damping negative: taken out), integrated by the scheme along
+        the state (:mod:`wheelrom.transient.kernel`)."""
+        flat = np.asarray(state, dtype=float).reshape(1, -1)
+        end, works = self._advance(flat, duration, steps, 0.0, works=True)
+        return end[0], works[0]
 
     def advance(self, states: np.ndarray, duration: float, steps: int = 0,
                 start: float = 0.0) -> np.ndarray:
@@ -206,9 +243,10 @@ class WheelFlow:
         return out
 
     def _advance(self, states: np.ndarray, duration: float, steps: int,
-                 start: float) -> np.ndarray:
+                 start: float, works: bool = False):
         """End states of ``states`` ``(B, ...)`` from time ``start`` [s]: ``q, q'`` and, when
-        given (``2 n + sliders`` per state), the sliders; sliders not given start at 0."""
+        given (``2 n + sliders`` per state), the sliders; sliders not given start at 0.
+        ``works``: also the four work integrals ``(B, 4)`` over the steps."""
         PETSc = petsc()
         B = states.shape[0]
         problem, ts, f, u = self._batch(B)
@@ -233,9 +271,11 @@ class WheelFlow:
             raise RuntimeError(f"the flow took {ts.getStepNumber()} of {n} steps")
         self.steps_taken += n * B
         end = ctx.unpack(u.getArray(readonly=True))
+        integrals = end[:, 2 * self.n : 2 * self.n + 4].copy()
         if flat.shape[1] > 2 * self.n:
             end = np.concatenate([end[:, : 2 * self.n], end[:, 2 * self.n + 4 :]], axis=1)
-        return end[:, : flat.shape[1]].reshape(states.shape)
+        end = end[:, : flat.shape[1]].reshape(states.shape)
+        return (end, integrals) if works else end
 
     def trajectory(self, state: np.ndarray, duration: float, steps: int,
                    stride: int = 1) -> np.ndarray:

@@ -151,27 +151,11 @@ class SliderShooting:
         return float(limits.min(initial=math.inf))
 
     def energy(self, x: np.ndarray) -> float:
-        """The pattern wheel's mechanical energy at state ``x`` [J per sqrt(kg)^2 ...]: kinetic,
-        the wheel's elastic ``q K_R q / 2``, the normal contact springs' and the stuck
-        tangential springs' ``|F_t|^2 / (2 k_t)`` (the sliders are on or inside the Coulomb
-        limit at a step's end, so ``F_t = k_t (u_t - w)``). Along a periodic orbit it changes
-        within the period only by the self-excitation's and the friction's work, a fraction
-        of the order of the damping ratio: the march's measure of settling."""
-        half = self.nq // 2
-        q = x[:half].reshape(self.N, self.m)
-        v = x[half : self.nq].reshape(self.N, self.m)
-        forces = self.flow.forces()
-        slider = x[self.nq :].reshape(self.K, self.N, 2) if self.sliders else None
-        forces.evaluate(0.0, np.ascontiguousarray(q), np.ascontiguousarray(v), slider)
-        if not hasattr(self, "_stiffness"):
-            self._stiffness = self.model.sparse_stiffness()
-        tangential = 0.0
-        if self.sliders:
-            k_t = np.maximum(self.flow.params.contacts.tangential[:, : self.N], 1e-300)
-            tangential = 0.5 * float(np.sum(np.sum(forces.friction_force**2, axis=2) / k_t))
-        flat = q.ravel()
-        return 0.5 * float(v.ravel() @ v.ravel() + flat @ (self._stiffness @ flat)) + \
-            forces.contact_energy() + tangential
+        """The pattern wheel's mechanical energy at state ``x`` (:meth:`~.flow.WheelFlow.
+        energy`). Along a periodic orbit it changes within the period only by the
+        self-excitation's and the friction's work, a fraction of the order of the damping
+        ratio: the march's measure of settling."""
+        return self.flow.energy(x)
 
     def tip_estimate(self, x: np.ndarray, period: float) -> float:
         """Blade 0's tip amplitude [m] at state ``x`` as a harmonic oscillator's of
