@@ -127,6 +127,8 @@ def full_disk(tmp_path, monkeypatch):
     full = [False]
 
     def on_the_full_disk(path) -> bool:
+        if isinstance(path, int):  # a descriptor (os.fdopen): the file it is open on
+            path = os.readlink(f"/proc/self/fd/{path}")
         return full[0] and isinstance(path, str | os.PathLike) and \
             os.path.dirname(os.path.abspath(path)).startswith(str(out))
 
@@ -176,16 +178,16 @@ def test_a_disk_that_fills_during_settle_keeps_every_case_and_names_the_paths(
     case_1.partial.npz and said "what was written before is kept", naming no path); now it
     stays in memory, the file of both cases is kept in $TMPDIR, and the one line names it,
     the output and the case kept beside it."""
-    from wheelrom.studies import settle as study
+    from wheelrom.studies import settle_cases
 
     out_dir, spare, fill = full_disk
-    real = study.save_case
+    real = settle_cases.save_case
 
     def saved_then_full(*args, **kwargs):
         real(*args, **kwargs)
         fill()  # while the second case is computed
 
-    monkeypatch.setattr(study, "save_case", saved_then_full)
+    monkeypatch.setattr(settle_cases, "save_case", saved_then_full)
     out, beside = out_dir / "s.h5", out_dir / ".s.settle"
     keys = [*QUICK, "sweep.shroud_angles_deg=[50.0, 60.0]"]
     assert cli.main(["settle", SMALL, *_sets(keys), "--out", str(out)]) == 1

@@ -83,15 +83,91 @@ def test_resume_refuses_a_file_of_another_kind(kind, tmp_path, capsys, nothing_c
     assert sorted(os.listdir(tmp_path)) == ["x.h5"]
 
 
-def test_resume_accepts_a_settle_file(tmp_path):
-    """What --resume completes is a settle file; a bare HDF5 file is another kind."""
+def test_resume_refuses_every_existing_file_naming_why(tmp_path):
+    """What --resume continues is the cases kept beside a settle file not yet written: a
+    settle file of another configuration was replaced without --force (and the kept cases
+    of its run deleted), one of this configuration was computed again; a bare HDF5 file is
+    another kind."""
     from wheelrom.studies.settle import resume_problem
 
     settle, bare = tmp_path / "s.h5", tmp_path / "bare.h5"
     _wheelrom_file(settle, "settle")
-    assert resume_problem(str(settle)) is None
+    cfg = config.load(SMALL, SHORT)
+    assert resume_problem(str(settle), cfg) == (
+        f"--out {settle}: already holds every case of this configuration (a settle file is "
+        "written once all are done): nothing to resume; --force computes it again")
+    other = config.load(SMALL, [*SHORT, "sweep.shroud_angles_deg=[60.0]"])
+    assert resume_problem(str(settle), other) == (
+        f"--out {settle}: was written for a different configuration (sweep.shroud_angles_deg: "
+        "[50.0] -> [60.0]); choose another --out, or --force to replace it")
     h5py.File(bare, "w").close()
-    assert "is an HDF5 file without a wheelrom format" in resume_problem(str(bare))
+    assert "is an HDF5 file without a wheelrom format" in resume_problem(str(bare), cfg)
+
+
+def _interrupted_run(tmp_path, monkeypatch, *extra: str) -> None:
+    """A settle of ``extra`` into ``tmp_path/s.h5`` stopped once every case is kept beside
+    it, before its file is written (Ctrl-C there)."""
+    def interrupted(*_):
+        raise KeyboardInterrupt
+
+    with monkeypatch.context() as patch:
+        patch.setattr("wheelrom.results.settle.write_settle", interrupted)
+        assert cli.main(_settle(*extra, "--out", str(tmp_path / "s.h5"))) == 130
+
+
+def _tree(folder) -> dict:
+    return {p.name: p.read_bytes() for p in sorted(folder.iterdir())}
+
+
+def test_resume_of_another_configuration_keeps_the_file_and_the_kept_cases(
+        tmp_path, monkeypatch, capsys):
+    """Issue #72, 1: a complete settle file of shroud 50 deg and the kept cases of its run;
+    ``--resume`` at 60 deg exited 0, replaced the file without --force and deleted the kept
+    cases. Now the file is refused naming the change, and the kept cases of the other
+    configuration, the file gone, are refused too (as ``study --resume`` refuses a file
+    "written for a different configuration"); nothing is touched, nothing computed."""
+    _interrupted_run(tmp_path, monkeypatch)
+    folder, out = tmp_path / ".s.settle", tmp_path / "s.h5"
+    kept = _tree(folder)
+    assert sorted(kept) == ["case_0.json", "case_0.npz"]
+    before = _wheelrom_file(out, "settle")
+    capsys.readouterr()
+
+    def computed(*_):
+        raise AssertionError("a segment was built: the refusal came too late")
+
+    monkeypatch.setattr("wheelrom.segment.load.build_builtin", computed)
+    sixty = ("--set", "sweep.shroud_angles_deg=[60.0]")
+    assert cli.main(_settle(*sixty, "--resume", "--out", str(out))) == 2
+    assert _one_error(capsys) == (
+        f"wheelrom: --out {out}: was written for a different configuration "
+        "(sweep.shroud_angles_deg: [50.0] -> [60.0]); choose another --out, or --force to "
+        "replace it")
+    assert out.read_bytes() == before and _tree(folder) == kept
+    out.unlink()
+    assert cli.main(_settle(*sixty, "--resume", "--out", str(out))) == 2
+    assert _one_error(capsys) == (
+        f"wheelrom: --out {out}: {folder}, where its finished cases are kept, holds case 0, "
+        "written for a different configuration (contacts.shroud.angle_deg: 50.0 -> 60.0, "
+        "sweep.shroud_angles_deg: [50.0] -> [60.0]): --resume reuses only this "
+        "configuration's; --force discards it")
+    assert _tree(folder) == kept and not out.exists()
+
+
+def test_kept_cases_are_discarded_only_with_force(tmp_path, monkeypatch, capsys):
+    """A run without --resume deleted the cases an interrupted run kept, unasked; now they
+    are discarded only with --force (as an existing file is replaced)."""
+    _interrupted_run(tmp_path, monkeypatch)
+    folder, out = tmp_path / ".s.settle", tmp_path / "s.h5"
+    kept = _tree(folder)
+    capsys.readouterr()
+    assert cli.main(_settle("--out", str(out))) == 2
+    assert _one_error(capsys) == (
+        f"wheelrom: --out {out}: {folder}, where its finished cases are kept, holds case 0 "
+        "kept by an interrupted run: --resume reuses them, --force discards them")
+    assert _tree(folder) == kept and not out.exists()
+    assert cli.main(_settle("--out", str(out), "--force")) == 0
+    assert out.exists() and not folder.exists()
 
 
 # --- the side folder .NAME.settle -----------------------------------------------------------

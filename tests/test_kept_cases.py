@@ -1,0 +1,122 @@
+"""The one guarded folder of finished cases kept beside an output (issue #72):
+``study --forced-nonlinear``'s ``.NAME.design/`` refuses what ``settle``'s ``.NAME.settle/``
+refuses (tests/test_settle_safety.py), up front, and nothing is ever written through a link
+or outside the folder, even one planted while the job runs.
+
+Small and fast: the small wheel's design study of two preloads, three frequencies at H = 1
+(a few seconds), or no computation at all (a refusal comes before any model is built)."""
+
+import os
+
+import pytest
+
+from conftest import SMALL
+from wheelrom import config
+from wheelrom.cli import main as cli
+from wheelrom.studies.kept_cases import KeptCases
+
+DESIGN = """
+[flutter]
+model = "off"
+[forced]
+points = 3
+harmonics = 1
+[excitation]
+force = 10.0
+[study.grid]
+"contacts.shroud.normal_preload" = [100.0, 3000.0]
+"""
+
+
+@pytest.fixture
+def design_toml(tmp_path):
+    """The small wheel with a design study of two preloads (its [sweep] dropped)."""
+    text = open(SMALL).read().split("[sweep]")[0] + DESIGN
+    path = tmp_path / "design.toml"
+    path.write_text(text)
+    return path
+
+
+@pytest.fixture
+def nothing_computed(monkeypatch):
+    """Fails the test if a segment is built: a refusal under it came before any model."""
+    def computed(*_):
+        raise AssertionError("a segment was built: the refusal came too late")
+
+    monkeypatch.setattr("wheelrom.segment.load.build_builtin", computed)
+    monkeypatch.setattr("wheelrom.segment.load.read_segment", computed)
+
+
+def _one_error(capsys) -> str:
+    err = capsys.readouterr().err
+    assert "Traceback" not in err, err
+    lines = [ln for ln in err.splitlines() if ln.startswith("wheelrom:")]
+    assert len(lines) == 1, err
+    return lines[0]
+
+
+def _design(toml, out, *extra) -> list[str]:
+    return ["study", str(toml), "--stability-only", "--forced-nonlinear", "--out", str(out),
+            *extra]
+
+
+# --- the design study's folder: item 2 ------------------------------------------------------
+
+
+@pytest.mark.parametrize("resume", [False, True])
+def test_a_link_planted_as_the_design_folder_is_refused_never_followed(
+        resume, design_toml, tmp_path, capsys, nothing_computed):
+    """Issue #72, 2: ``.s.design`` planted as a link to another folder was followed: the
+    study's case files were written into the target (the user's ``case_1.json`` there
+    overwritten) and left behind. ``settle`` refused the same plant; now the study does, in
+    the same words, before any model is built."""
+    victim = tmp_path / "victim"
+    victim.mkdir()
+    (victim / "case_1.json").write_text('{"mine": 1}')
+    side, out = tmp_path / ".s.design", tmp_path / "s.h5"
+    side.symlink_to(victim)
+    assert cli.main(_design(design_toml, out, *(["--resume"] if resume else []))) == 2
+    assert _one_error(capsys) == (
+        f"wheelrom: --out {out}: {side}, where its finished cases are kept, is a symbolic link "
+        "to a directory: a link there is never followed (nor what it points to deleted); "
+        "remove the link or choose another name")
+    assert os.readlink(side) == str(victim)
+    assert os.listdir(victim) == ["case_1.json"]
+    assert (victim / "case_1.json").read_text() == '{"mine": 1}'
+    assert not out.exists()
+
+
+def test_a_file_named_as_the_design_folder_is_refused(design_toml, tmp_path, capsys,
+                                                      nothing_computed):
+    side, out = tmp_path / ".s.design", tmp_path / "s.h5"
+    side.write_text("mine")
+    assert cli.main(_design(design_toml, out)) == 2
+    assert _one_error(capsys).endswith(f"{side}, where its finished cases are kept, is a "
+                                       "regular file, not a folder: it is never replaced; move "
+                                       "it away or choose another name")
+    assert side.read_text() == "mine" and not out.exists()
+
+
+def test_the_design_study_keeps_its_cases_in_its_folder_and_removes_only_them(
+        design_toml, tmp_path, capsys):
+    """Without a plant the study runs, its folder made and removed (nothing left beside)."""
+    out = tmp_path / "s.h5"
+    assert cli.main(_design(design_toml, out)) == 0
+    assert out.exists() and not (tmp_path / ".s.design").exists()
+
+
+def test_a_folder_replaced_by_a_link_while_the_job_runs_is_never_written_through(tmp_path):
+    """Checked up front, the folder can still be swapped for a link before a case is saved:
+    the write goes through the folder opened without following a link, so it fails naming
+    the folder, and nothing lands in the link's target."""
+    cfg = config.load(SMALL)
+    folder = KeptCases(str(tmp_path / "s.h5"), "design")
+    assert folder.problem([cfg], resume=False, force=False) is None
+    victim = tmp_path / "victim"
+    victim.mkdir()
+    os.symlink(victim, folder.path)
+    with pytest.raises(OSError, match=f"{folder.path} is now a symbolic link to a directory"):
+        folder.save(0, cfg, {"status": "done"}, {"x": [1.0]})
+    assert os.listdir(victim) == []
+    folder.clear()  # a link: not ours to remove, nor what it points to
+    assert os.path.islink(folder.path) and victim.is_dir()
