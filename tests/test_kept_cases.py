@@ -120,3 +120,44 @@ def test_a_folder_replaced_by_a_link_while_the_job_runs_is_never_written_through
     assert os.listdir(victim) == []
     folder.clear()  # a link: not ours to remove, nor what it points to
     assert os.path.islink(folder.path) and victim.is_dir()
+
+
+# --- a kept case that does not fit its case: item 16 ----------------------------------------
+
+
+def test_a_kept_curve_of_wrong_shapes_is_computed_again(small_model, small_cfg, tmp_path):
+    """A kept design curve whose arrays were replaced by a valid npz of other shapes is named
+    (its SHA-256, or without one, as a kept case of an older version has none, the first
+    array that does not fit) and computed again, never taken as it is."""
+    import json
+
+    import numpy as np
+
+    from wheelrom.studies import design_cases
+    from wheelrom.studies.forced_nonlinear import design_point
+
+    cfg = small_cfg.replace(**{"flutter.model": "off", "forced.points": 3,
+                               "forced.harmonics": 1, "excitation.force": 10.0})
+    folder = design_cases.kept_folder(str(tmp_path / "s.h5"))
+    assert design_cases.save_point(folder, 0, cfg, design_point(small_model, cfg))
+    npz, record = os.path.join(folder.path, "case_0.npz"), os.path.join(folder.path,
+                                                                        "case_0.json")
+    arrays = dict(np.load(npz))
+    arrays["curve_harmonics"] = arrays["curve_harmonics"][:, :2]  # H = 0, not 1
+    np.savez(npz, **arrays)
+    said = []
+    assert design_cases.load_point(folder, 0, cfg, said.append) is None
+    assert said == [f"{npz}: damaged (ValueError: its arrays are not the ones its JSON "
+                    "recorded (SHA-256 differs: replaced or changed since written)); case 1's "
+                    "curve is computed again"]
+    with open(record) as fh:
+        scalars = json.load(fh)
+    del scalars["npz_sha256"]
+    with open(record, "w") as fh:
+        json.dump(scalars, fh)
+    said.clear()
+    assert design_cases.load_point(folder, 0, cfg, said.append) is None
+    points, modes = arrays["curve_frequency"].size, small_model.modes
+    assert said == [f"{record}: damaged (ValueError: array 'curve_harmonics' has shape "
+                    f"({points}, 2, {modes}), this case's is ({points}, 3, {modes})); case 1's "
+                    "curve is computed again"]

@@ -235,6 +235,71 @@ def test_a_damaged_saved_case_is_computed_again(tmp_path, monkeypatch, capsys):
     assert not (tmp_path / ".s.settle").exists()
 
 
+def _wrong_shapes(npz) -> None:
+    """``npz`` replaced by a valid npz of the same arrays for a wheel of 5 blades."""
+    arrays = dict(np.load(npz))
+    arrays.update(amplitude=arrays["amplitude"][:5], tip=arrays["tip"][:, :5],
+                  window_amplitude=arrays["window_amplitude"][:, :5])
+    np.savez(npz, **arrays)
+
+
+@pytest.mark.parametrize("recorded", [True, False])
+def test_a_kept_case_of_wrong_shapes_is_computed_again(recorded, tmp_path, monkeypatch,
+                                                       capsys):
+    """Issue #72, 16: a kept ``case_0.npz`` replaced by a valid npz with wrong shapes was
+    taken as is on --resume (and the file written from it, whose checksums then agreed).
+    Its JSON records the npz's SHA-256 (``recorded``), and the arrays must fit the case (a
+    kept case of an older version, without the SHA-256): either way it is named and the
+    case computed again."""
+    import json
+
+    _interrupted_run(tmp_path, monkeypatch)
+    folder, out = tmp_path / ".s.settle", tmp_path / "s.h5"
+    npz, record = folder / "case_0.npz", folder / "case_0.json"
+    _wrong_shapes(npz)
+    if not recorded:
+        scalars = json.loads(record.read_text())
+        del scalars["npz_sha256"]
+        record.write_text(json.dumps(scalars))
+    capsys.readouterr()
+    assert cli.main(_settle("--out", str(out), "--resume")) == 0
+    err = capsys.readouterr().err
+    [line] = [ln for ln in err.splitlines() if "damaged" in ln]
+    why = ("its arrays are not the ones its JSON recorded (SHA-256 differs: replaced or "
+           "changed since written)") if recorded else \
+        "array 'window_amplitude' has shape (1, 5), this case's is (1, 12)"  # its one window
+    where = npz if recorded else record
+    assert line == f"{where}: damaged (ValueError: {why}); case 1 is computed again", line
+    with h5py.File(out, "r") as f:
+        assert f["settle/case_0/amplitude"].shape == (12,)
+        assert f["settle/case_0/tip"].shape[1:] == (12, 3)
+
+
+def test_info_verify_names_a_case_that_does_not_fit_its_wheel(tmp_path, capsys):
+    """Issue #72, 16: a settle file written whole from a case of the wrong shapes had
+    checksums that agree: ``info --verify`` said "all intact". It now names the case and
+    the array, exit 1."""
+    from wheelrom.results.file_checksums import GROUP, write_file_checksums
+
+    out = tmp_path / "s.h5"
+    assert cli.main(_settle("--out", str(out))) == 0
+    with h5py.File(out, "a") as f:  # as if written from a 5-blade case: checksums agree
+        case = f["settle/case_0"]
+        amplitude = case["amplitude"][:5]
+        del case["amplitude"], f[GROUP]
+        case["amplitude"] = amplitude
+        write_file_checksums(f, {"settle": 1})
+    capsys.readouterr()
+    assert cli.main(["info", str(out), "--verify"]) == 1
+    captured = capsys.readouterr()
+    [checks] = [ln for ln in captured.out.splitlines() if "checksums:" in ln]
+    assert checks.endswith(" checked: INCONSISTENT with the wheel: case 0 "
+                           "(settle/case_0/amplitude: shape (5,), the wheel's 12 blades want "
+                           "(12,))"), checks
+    assert captured.err.startswith(f"wheelrom: {out}: case 0 (settle/case_0/amplitude: shape "
+                                   "(5,)"), captured.err
+
+
 def test_resume_runs_a_batch_kept_in_part_again_whole(tmp_path, monkeypatch, capsys):
     """A batch's windows depend on its members (``settle.batch``): ``--resume`` reuses a
     batch only when every case of it was kept, runs one kept in part again whole (its cases

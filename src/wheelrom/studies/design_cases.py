@@ -19,7 +19,7 @@ from wheelrom.analysis.periodic.forced_wave import ForcedCurve, RefinedPeak
 from wheelrom.config import Config
 from wheelrom.runtime.outputs import is_disk_full
 from wheelrom.studies.forced_nonlinear import DesignPoint
-from wheelrom.studies.kept_cases import DamagedCase, KeptCases
+from wheelrom.studies.kept_cases import DamagedCase, KeptCases, expect_shapes
 
 _CURVE = ("frequency", "harmonics", "tip_amplitude", "converged", "iterations", "fractions",
           "folds", "growth")
@@ -71,13 +71,32 @@ def load_point(folder: KeptCases, index: int, cfg: Config, warn=None) -> DesignP
             return None
         scalars, arrays = kept
         try:
+            check_shapes(arrays, scalars, cfg.forced.harmonics)
             return _point_of(scalars, arrays)
-        except Exception as exc:  # a field missing or of the wrong kind
+        except Exception as exc:  # a field missing, of the wrong kind or shape
             raise DamagedCase(os.path.join(folder.path, f"case_{index}.json"), exc) from None
     except DamagedCase as exc:
         if warn is not None:
             warn(f"{exc}; case {index + 1}'s curve is computed again")
         return None
+
+
+def check_shapes(arrays: dict, scalars: dict, harmonics: int) -> None:
+    """Raise ``ValueError`` naming the first array of a kept curve that does not fit a case
+    of ``harmonics`` harmonics: ``F`` frequencies, their ``(F, 2H + 1, m)`` harmonics and
+    ``(F, K, 3)`` contact shares (``K`` the JSON's kinds), the band's two ends, the refined
+    peak's ``(2H + 1, m)`` and ``(K, 3)``."""
+    expect_shapes(arrays, {"curve_frequency": (None,), "curve_harmonics": (None, None, None)})
+    points, modes = arrays["curve_frequency"].shape[0], arrays["curve_harmonics"].shape[2]
+    rows, kinds = 2 * harmonics + 1, len(scalars["kinds"])
+    growth = (points,) if arrays.get("curve_growth", np.zeros(0)).size else (0,)
+    expect_shapes(arrays, {
+        "curve_harmonics": (points, rows, modes), "curve_tip_amplitude": (points,),
+        "curve_converged": (points,), "curve_iterations": (points,),
+        "curve_fractions": (points, kinds, 3), "curve_folds": (None,), "curve_growth": growth,
+        "band": (2,)})
+    if scalars["refined"] is not None:
+        expect_shapes(arrays, {"peak_harmonics": (rows, modes), "peak_fractions": (kinds, 3)})
 
 
 def _point_of(scalars: dict, arrays: dict) -> DesignPoint:

@@ -17,7 +17,7 @@ import numpy as np
 from wheelrom.analysis.periodic.settle import Classification, Settled, Window
 from wheelrom.config import Config
 from wheelrom.runtime.outputs import disk_full, is_disk_full
-from wheelrom.studies.kept_cases import DamagedCase, KeptCases
+from wheelrom.studies.kept_cases import DamagedCase, KeptCases, expect_shapes
 
 KEPT_IN_MEMORY = "the finished cases are kept in memory and written with the others at the end"
 
@@ -74,7 +74,8 @@ def load_case(folder: KeptCases, index: int, cfg: Config, warn=None) -> Settled 
         if kept is None:
             return None
         scalars, arrays = kept
-        try:  # its windows and classification read back
+        try:  # its windows and classification read back, once they fit this case
+            check_shapes(arrays, cfg.wheel.blades)
             rows = zip(arrays["window_end"], arrays["window_amplitude"],
                        arrays["window_nd_energy"], scalars["changes"], strict=True)
             windows = [Window(float(e), a, n, tuple(ch)) for e, a, n, ch in rows]
@@ -92,3 +93,23 @@ def load_case(folder: KeptCases, index: int, cfg: Config, warn=None) -> Settled 
         if warn is not None:
             warn(f"{exc}; case {index + 1} is computed again")
         return None
+
+
+def check_shapes(arrays: dict, blades: int) -> None:
+    """Raise ``ValueError`` naming the first array of a kept case that does not fit a case of
+    a wheel of ``blades`` blades: ``W`` windows of ``(blades,)`` amplitudes and ``(blades //
+    2 + 1,)`` ND shares, and once described (a case that ran to its end) the last window's
+    amplitude, ND shares, ``(K, 3)`` contact shares and ``(K, 2)`` normal-force range, ``T``
+    tip samples ``(T, blades, 3)``; an undescribed case's arrays are empty."""
+    expect_shapes(arrays, {"window_end": (None,), "amplitude": (None,), "fractions": (None, 3),
+                           "tip_time": (None,)})
+    windows, described = arrays["window_end"].shape[0], arrays["amplitude"].size > 0
+    shares = blades // 2 + 1
+    kinds, samples = arrays["fractions"].shape[0], arrays["tip_time"].shape[0]
+    expect_shapes(arrays, {
+        "window_amplitude": (windows, blades) if windows else (0,),
+        "window_nd_energy": (windows, shares) if windows else (0,),
+        "amplitude": (blades,) if described else (0,),
+        "nd_energy": (shares,) if described else (0,),
+        "normal_force_range": (kinds, 2),
+        "tip": (samples, blades, 3) if described else (0, 0, 3)})
