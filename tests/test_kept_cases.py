@@ -161,3 +161,79 @@ def test_a_kept_curve_of_wrong_shapes_is_computed_again(small_model, small_cfg, 
     assert said == [f"{record}: damaged (ValueError: array 'curve_harmonics' has shape "
                     f"({points}, 2, {modes}), this case's is ({points}, 3, {modes})); case 1's "
                     "curve is computed again"]
+
+
+# --- an entry planted inside the folder: item 20 ------------------------------------------
+
+
+SETTLE = ["contacts.tieboss.enabled=false", "contacts.shroud.enabled=false",
+          "sweep.shroud_angles_deg=[50.0, 60.0]", "settle.max_time=0.02",
+          "settle.min_time=0.01", "settle.window_periods=2"]
+
+
+@pytest.mark.parametrize("resume", [False, True])
+def test_a_link_planted_as_a_case_file_is_refused_up_front(resume, tmp_path, capsys,
+                                                           nothing_computed):
+    """Issue #72, 20: a link to a folder planted at ``.s.settle/case_1.json`` was found only
+    after the case was computed, and the message called it ``--out``. Now it is refused
+    before any model is built, named as what it is, in the folder."""
+    victim = tmp_path / "victim"
+    victim.mkdir()
+    side, out = tmp_path / ".s.settle", tmp_path / "s.h5"
+    side.mkdir()
+    (side / "case_1.json").symlink_to(victim)
+    argv = ["settle", SMALL, *sum((["--set", k] for k in SETTLE), []), "--out", str(out)]
+    assert cli.main([*argv, *(["--resume"] if resume else [])]) == 2
+    assert _one_error(capsys) == (
+        f"wheelrom: --out {out}: {side}, where its finished cases are kept, holds "
+        f"{side / 'case_1.json'}, which is a symbolic link to a directory, not a kept case: it "
+        "is never followed nor replaced; remove it")
+    assert os.readlink(side / "case_1.json") == str(victim) and os.listdir(victim) == []
+
+
+def test_a_case_file_planted_while_the_job_runs_is_never_replaced(tmp_path):
+    """Planted after the check, a case's name holding a link (or a folder) is not replaced:
+    the save fails naming that path (the command keeps the case in memory), never
+    ``--out``."""
+    cfg = config.load(SMALL)
+    folder = KeptCases(str(tmp_path / "s.h5"), "settle")
+    os.mkdir(folder.path)
+    victim = tmp_path / "victim"
+    victim.mkdir()
+    planted = os.path.join(folder.path, "case_1.json")
+    os.symlink(victim, planted)
+    with pytest.raises(OSError, match=f"{planted} is a symbolic link to a directory, not a "
+                                      "kept case: it is never replaced"):
+        folder.save(1, cfg, {"status": "done"}, {"x": [1.0]})
+    assert os.listdir(folder.path) == ["case_1.json"] and os.path.islink(planted)
+    assert os.listdir(victim) == []
+
+
+def test_settle_keeps_a_case_it_cannot_save_in_memory(tmp_path, capsys, monkeypatch):
+    """The case whose save fails on a planted path is written to ``--out`` with the others,
+    one warning naming the path (not ``--out``), nothing lost."""
+    import h5py
+
+    from wheelrom.studies import settle_cases
+
+    real = settle_cases.save_case
+
+    def planted_then_saved(folder, index, cfg, result):
+        if index == 1:  # a link appears at the second case's name while it runs
+            os.symlink(tmp_path, os.path.join(folder.path, "case_1.json"))
+        return real(folder, index, cfg, result)
+
+    monkeypatch.setattr(settle_cases, "save_case", planted_then_saved)
+    out = tmp_path / "s.h5"
+    argv = ["settle", SMALL, *sum((["--set", k] for k in SETTLE), []), "--out", str(out)]
+    assert cli.main([*argv, "--set", "settle.batch=1"]) == 0
+    err = capsys.readouterr().err
+    side = tmp_path / ".s.settle"
+    [warning] = [ln for ln in err.splitlines() if ln.startswith("wheelrom: warning:")]
+    assert warning == (f"wheelrom: warning: {side}: case 1 not saved "
+                       f"({side / 'case_1.json'} is a symbolic link to a directory, not a kept "
+                       "case: it is never replaced); the finished cases are kept in memory and "
+                       "written with the others at the end"), warning
+    with h5py.File(out, "r") as f:
+        assert f["settle/time"].shape == (2,) and (f["settle/time"][()] > 0).all()
+    assert os.listdir(side) == ["case_1.json"]  # the link, not ours to remove

@@ -210,7 +210,8 @@ class KeptCases:
 
     def clear(self) -> None:
         """Remove the kept cases and the folder: its own files only (a name it did not write,
-        appeared since it was checked, stays, and so does the folder then)."""
+        or a link or folder planted at a case's name since it was checked, stays, and so
+        does the folder then)."""
         try:
             fd = self._folder()
         except OSError:
@@ -219,7 +220,7 @@ class KeptCases:
             return
         try:
             for name in os.listdir(fd):
-                if _CASE.match(name) or _PARTIAL.match(name):
+                if (_CASE.match(name) or _PARTIAL.match(name)) and _regular(fd, name):
                     with contextlib.suppress(FileNotFoundError):
                         os.unlink(name, dir_fd=fd)
         finally:
@@ -307,6 +308,14 @@ class KeptCases:
         except Exception as exc:  # BadZipFile, EOFError, a link (ELOOP), ...
             raise DamagedCase(name, exc) from None
         return scalars, arrays
+
+
+def _regular(fd: int, name: str) -> bool:
+    """Whether ``name`` in the folder ``fd`` is a regular file itself (not a link)."""
+    try:
+        return stat.S_ISREG(os.stat(name, dir_fd=fd, follow_symlinks=False).st_mode)
+    except FileNotFoundError:
+        return False
 
 
 def _not_a_plain_file(path: str) -> str | None:

@@ -57,10 +57,11 @@ def save_or_keep(folder: KeptCases, index: int, cfg: Config, result: Settled,
     try:
         save_case(folder, index, cfg, result)
     except OSError as exc:
-        where = os.path.join(folder.path, f"case_{index}.npz")
         if not warned:
-            why = disk_full(where, exc, KEPT_IN_MEMORY) if is_disk_full(exc) else \
-                f"{where}: case {index} not saved ({exc.strerror or exc}); {KEPT_IN_MEMORY}"
+            why = disk_full(os.path.join(folder.path, f"case_{index}.npz"), exc,
+                            KEPT_IN_MEMORY) if is_disk_full(exc) else \
+                f"{folder.path}: case {index} not saved ({exc.strerror or exc}); " \
+                f"{KEPT_IN_MEMORY}"
             print(f"wheelrom: warning: {why}", file=sys.stderr, flush=True)
         warned.append(index)
 
