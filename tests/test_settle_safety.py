@@ -170,6 +170,21 @@ def test_kept_cases_are_discarded_only_with_force(tmp_path, monkeypatch, capsys)
     assert out.exists() and not folder.exists()
 
 
+def test_resume_with_force_or_without_out_is_refused(tmp_path, capsys, nothing_computed):
+    """Issue #72, 22: ``settle --force --resume`` and ``--resume`` without ``--out`` were
+    accepted (``sweep`` refuses both): the first as ``sweep`` does, a usage error, the other
+    in one line naming the option."""
+    with pytest.raises(SystemExit) as stop:
+        cli.main(_settle("--out", str(tmp_path / "s.h5"), "--force", "--resume"))
+    assert stop.value.code == 2
+    assert capsys.readouterr().err.splitlines()[-1] == (
+        "wheelrom settle: error: argument --resume: not allowed with argument --force")
+    assert cli.main(_settle("--resume")) == 2
+    assert _one_error(capsys) == ("wheelrom: --resume: continues the cases an interrupted run "
+                                  "kept beside its --out; give that --out")
+    assert os.listdir(tmp_path) == []
+
+
 # --- the side folder .NAME.settle -----------------------------------------------------------
 
 

@@ -21,9 +21,13 @@ def args_settle(p: argparse.ArgumentParser) -> None:
                    "are kept beside it while the job runs: --resume continues)")
     p.add_argument("--cycles", help="a limit-cycle file (wheelrom limit-cycle --out) whose "
                    "exact orbits start the cases (settle.start = 'cycle')")
-    p.add_argument("--force", action="store_true", help="overwrite an existing --out")
-    p.add_argument("--resume", action="store_true",
-                   help="keep the cases an interrupted run of the same configuration finished")
+    existing = p.add_mutually_exclusive_group()
+    existing.add_argument("--force", action="store_true",
+                          help="overwrite an existing --out (and discard the cases kept "
+                          "beside it)")
+    existing.add_argument("--resume", action="store_true",
+                          help="keep the cases an interrupted run of the same configuration "
+                          "finished beside --out")
 
 
 @locked("--out")
@@ -37,6 +41,9 @@ def cmd_settle(args: argparse.Namespace) -> int:
     from wheelrom.studies.settle_cases import kept_folder
     from wheelrom.studies.stability import world_if_parallel
 
+    if args.resume and not args.out:  # what it reuses is kept beside --out
+        raise InputError("--resume: continues the cases an interrupted run kept beside its "
+                         "--out; give that --out")
     cfg = load_config(args)
     comm = world_if_parallel()
     folder = kept_folder(args.out) if args.out else None
