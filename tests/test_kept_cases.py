@@ -148,7 +148,7 @@ def test_a_kept_curve_of_wrong_shapes_is_computed_again(small_model, small_cfg, 
     said = []
     assert design_cases.load_point(folder, 0, cfg, said.append) is None
     assert said == [f"{npz}: damaged (ValueError: its arrays are not the ones its JSON "
-                    "recorded (SHA-256 differs: replaced or changed since written)); case 1's "
+                    "recorded (SHA-256 differs: replaced or changed since written)); case 0's "
                     "curve is computed again"]
     with open(record) as fh:
         scalars = json.load(fh)
@@ -159,7 +159,7 @@ def test_a_kept_curve_of_wrong_shapes_is_computed_again(small_model, small_cfg, 
     assert design_cases.load_point(folder, 0, cfg, said.append) is None
     points, modes = arrays["curve_frequency"].size, small_model.modes
     assert said == [f"{record}: damaged (ValueError: array 'curve_harmonics' has shape "
-                    f"({points}, 2, {modes}), this case's is ({points}, 3, {modes})); case 1's "
+                    f"({points}, 2, {modes}), this case's is ({points}, 3, {modes})); case 0's "
                     "curve is computed again"]
 
 

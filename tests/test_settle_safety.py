@@ -284,7 +284,7 @@ def test_a_kept_case_of_wrong_shapes_is_computed_again(recorded, tmp_path, monke
            "changed since written)") if recorded else \
         "array 'window_amplitude' has shape (1, 5), this case's is (1, 12)"  # its one window
     where = npz if recorded else record
-    assert line == f"{where}: damaged (ValueError: {why}); case 1 is computed again", line
+    assert line == f"{where}: damaged (ValueError: {why}); case 0 is computed again", line
     with h5py.File(out, "r") as f:
         assert f["settle/case_0/amplitude"].shape == (12,)
         assert f["settle/case_0/tip"].shape[1:] == (12, 3)
@@ -315,6 +315,26 @@ def test_info_verify_names_a_case_that_does_not_fit_its_wheel(tmp_path, capsys):
                                    "(5,)"), captured.err
 
 
+def test_interrupt_and_resume_number_the_cases_from_0(tmp_path):
+    """Issue #72, 17: the interrupt and resume messages counted cases from 1 ("case 2 of 3"),
+    while the kept files (``case_1.json``), ``info`` and ``--confirm`` count from 0. The
+    second of three cases kept is now case 1 everywhere."""
+    import argparse
+
+    from wheelrom.cli.settle import _interrupted
+    from wheelrom.config.study import expand
+    from wheelrom.studies.settle_cases import kept_folder
+
+    cfg = config.load(SMALL, [*SHORT, "sweep.shroud_angles_deg=[50.0, 60.0, 70.0]"])
+    out = tmp_path / "s.h5"
+    folder = kept_folder(str(out))
+    folder.save(1, expand(cfg).configs[1], {"status": "done"}, {"x": np.zeros(1)})
+    args = argparse.Namespace(out=str(out), cycles=None)
+    assert str(_interrupted(args, cfg)).startswith(
+        f"interrupted: case 1 of 0..2 finished and kept in {folder.path}; to compute only the "
+        "other 2, rerun the settle with --resume")
+
+
 def test_resume_runs_a_batch_kept_in_part_again_whole(tmp_path, monkeypatch, capsys):
     """A batch's windows depend on its members (``settle.batch``): ``--resume`` reuses a
     batch only when every case of it was kept, runs one kept in part again whole (its cases
@@ -337,8 +357,8 @@ def test_resume_runs_a_batch_kept_in_part_again_whole(tmp_path, monkeypatch, cap
     real, calls = study._settle_batch, []
     monkeypatch.setattr(study, "_settle_batch", lambda *a, **k: calls.append(a[4]) or real(*a, **k))
     assert cli.main(_settle(*three, "--out", str(out), "--resume")) == 0
-    assert len(calls) == 1 and [label[:5] for label in calls[0]] == ["[1/3]", "[2/3]"]
-    assert "[3/3] tieboss.angle_deg 45, shroud.angle_deg 70: kept" in capsys.readouterr().err
+    assert len(calls) == 1 and [label[:10] for label in calls[0]] == ["[case 0/2]", "[case 1/2]"]
+    assert "[case 2/2] tieboss.angle_deg 45, shroud.angle_deg 70: kept" in capsys.readouterr().err
     with h5py.File(out, "r") as f:
         for i in range(3):
             np.testing.assert_array_equal(f[f"settle/case_{i}/amplitude"][()], kept[i])

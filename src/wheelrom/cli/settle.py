@@ -8,7 +8,7 @@ import os
 import shlex
 
 from wheelrom.cli.args import json_out, load_config, locked
-from wheelrom.cli.output import log, number_ranges, report_and_save, throttled
+from wheelrom.cli.output import log, report_and_save, throttled
 from wheelrom.runtime.errors import InputError, Interrupted
 from wheelrom.runtime.outputs import agree, output_problem
 
@@ -99,9 +99,11 @@ def _output_problem(args: argparse.Namespace, cfg, folder) -> InputError | None:
 
 
 def _which(kept: dict, total: int) -> str:
-    """``"case 2 of 3"``, ``"cases 1..3, 5 of 8"``: the kept cases, numbered from 1."""
-    which = number_ranges([i + 1 for i in sorted(kept)])
-    return f"case{'s' if len(kept) > 1 else ''} {which} of {total}"
+    """``"case 1 of 0..2"``, ``"cases 0..2, 4 of 0..7"``: the kept cases among all, numbered
+    from 0 as the files, ``info`` and ``--confirm`` number them."""
+    from wheelrom.studies.kept_cases import case_numbers
+
+    return f"{case_numbers(kept)} of 0..{total - 1}"
 
 
 def _kept_beside(folder, cfg) -> str:

@@ -77,7 +77,7 @@ def load_point(folder: KeptCases, index: int, cfg: Config, warn=None) -> DesignP
             raise DamagedCase(os.path.join(folder.path, f"case_{index}.json"), exc) from None
     except DamagedCase as exc:
         if warn is not None:
-            warn(f"{exc}; case {index + 1}'s curve is computed again")
+            warn(f"{exc}; case {index}'s curve is computed again")
         return None
 
 

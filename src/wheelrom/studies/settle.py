@@ -286,7 +286,7 @@ def run_settle(cfg: Config, out: str | None, comm=None, log=print, resume: bool 
         raise InputError("settle: the start from a travelling-wave cycle needs a tuned wheel")
     folder = kept_folder(out) if out else None
     mine, problem, unsaved = [], None, []
-    labels = [f"[{i + 1}/{study.size}] " + ", ".join(
+    labels = [f"[case {i}/{study.size - 1}] " + ", ".join(
         f"{short_name(k)} {v:g}" if isinstance(v, float) else f"{short_name(k)} {v}"
         for k, v in zip(study.names, study.values[i], strict=True)) for i in range(study.size)]
 

@@ -92,7 +92,7 @@ def load_case(folder: KeptCases, index: int, cfg: Config, warn=None) -> Settled 
             raise DamagedCase(os.path.join(folder.path, f"case_{index}.json"), exc) from None
     except DamagedCase as exc:
         if warn is not None:
-            warn(f"{exc}; case {index + 1} is computed again")
+            warn(f"{exc}; case {index} is computed again")
         return None
 
 

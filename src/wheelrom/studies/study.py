@@ -250,7 +250,7 @@ def _design_point(study: Study, models: list, model_of: list[int], i: int, folde
     the other ranks)."""
     point = design_cases.load_point(folder, i, study.configs[i], warn) if resume else None
     if point is not None:
-        say(f"  case {i + 1}: its nonlinear forced response kept from the interrupted run")
+        say(f"  case {i}: its nonlinear forced response kept from the interrupted run")
         return point
     try:
         point = design_point(case_model(models, model_of, study, i), study.configs[i])
@@ -258,10 +258,9 @@ def _design_point(study: Study, models: list, model_of: list[int], i: int, folde
         return f"{type(exc).__name__}: {exc}"
     try:
         if not design_cases.save_point(folder, i, study.configs[i], point):
-            warn(f"{folder.path}: the disk is full; case {i + 1}'s curve is kept in memory "
-                 "only")
+            warn(f"{folder.path}: the disk is full; case {i}'s curve is kept in memory only")
     except OSError as exc:
-        warn(f"{folder.path}: case {i + 1}'s curve not saved ({exc}); kept in memory only")
+        warn(f"{folder.path}: case {i}'s curve not saved ({exc}); kept in memory only")
     return point
 
 
