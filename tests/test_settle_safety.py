@@ -394,6 +394,79 @@ def test_cycles_of_another_kind_are_refused_naming_it(kind, tmp_path, capsys, no
                                   + ", not a limit-cycle file (wheelrom limit-cycle --out)")
 
 
+def _with_orbit(path, angles=(np.nan, np.nan)) -> None:
+    """One exact orbit (every blade 1 um in its first mode, ND 6 at 116.5 Hz) at the contact
+    ``angles`` (tieboss, shroud; NaN: that contact not enabled) added to the limit-cycle file
+    ``path``."""
+    state = np.zeros((1, 2, 12, 6))
+    state[0, 0, :, 0] = 1e-6
+    with h5py.File(path, "a") as f:
+        g = f["limit_cycle"]
+        g["angles_deg"] = np.array([angles], dtype=float)
+        c = g.create_group("case_0/wave_6/cycles")
+        c["orbit_state"], c["orbit_period"] = state, np.array([1 / 116.5])
+        c["tip_amplitude"] = np.array([1e-5])
+
+
+@pytest.mark.parametrize("held", [True, False])
+def test_cycles_of_other_angles_are_refused_naming_them(held, tmp_path, capsys,
+                                                        nothing_computed):
+    """Issue #72, 9: a --cycles file without the case's angles was silently ignored (the
+    cycle computed again, and when none was found the run fell back to the preload while
+    ``info`` said "start cycle"). Now it is refused before any model is built, naming the
+    cases and the angles the file holds."""
+    contacts = ["contacts.tieboss.enabled=true", "contacts.shroud.enabled=true"]
+    cycles = tmp_path / "lc.h5"
+    _wheelrom_file(cycles, "limit-cycle", contacts)
+    if held:
+        _with_orbit(cycles, (45.0, 50.0))
+    argv = _settle("--cycles", str(cycles), *sum((["--set", k] for k in contacts), []),
+                   "--set", "sweep.shroud_angles_deg=[60.0, 70.0]")
+    assert cli.main(argv) == 2
+    holds = "it holds tieboss 45 deg, shroud 50 deg" if held else "it holds no case"
+    assert _one_error(capsys) == (
+        f"wheelrom: --cycles {cycles}: holds no limit cycle for cases 0..1 (tieboss 45 deg, "
+        f"shroud 60 deg, ...): {holds}; give the limit-cycle file of these angles, or no "
+        "--cycles (their cycles are then computed here)")
+
+
+def test_a_case_the_cycles_file_holds_without_a_cycle_starts_from_the_preload(
+        tmp_path, capsys, monkeypatch):
+    """Issue #72, 9: a case the file holds but whose continuation found no cycle (an
+    elastic-law file of the small wheel) had its cycle computed again, then fell back to the
+    preload unsaid. The file's word is taken: no cycle is computed, and the start says
+    why."""
+    import json
+
+    def computed(*_, **__):
+        raise AssertionError("the cycle was computed again")
+
+    monkeypatch.setattr("wheelrom.analysis.periodic.limit_cycle.case_limit_cycles", computed)
+    cycles = tmp_path / "lc.h5"
+    _wheelrom_file(cycles, "limit-cycle")
+    _with_orbit(cycles)
+    with h5py.File(cycles, "a") as f:  # the wave's continuation found no bounded cycle
+        c = f["limit_cycle/case_0/wave_6/cycles"]
+        for name in list(c):
+            del c[name]
+        c["tip_amplitude"] = np.zeros(0)
+    assert cli.main(_settle("--cycles", str(cycles), "--json")) == 0
+    row = json.loads(capsys.readouterr().out)["cases"][0]
+    assert row["start"].startswith("the preloaded equilibrium (lc.h5 holds no cycle at these "
+                                   "angles), the growing modes of waves "), row["start"]
+
+
+def test_cycles_with_a_preload_start_are_refused(tmp_path, capsys, nothing_computed):
+    """``settle.start = "preload"`` reads no cycle: a --cycles beside it was ignored."""
+    cycles = tmp_path / "lc.h5"
+    _wheelrom_file(cycles, "limit-cycle")
+    _with_orbit(cycles)
+    assert cli.main(_settle("--cycles", str(cycles), "--set", 'settle.start="preload"')) == 2
+    assert _one_error(capsys) == (
+        f"wheelrom: --cycles {cycles}: settle.start = 'preload' starts from the preloaded "
+        "equilibrium and reads no cycle; drop --cycles, or set settle.start = 'cycle'")
+
+
 def test_cycles_of_the_same_wheel_at_another_intensity_are_accepted(tmp_path):
     """Only the wheel must agree: the orbit of another flutter intensity, time step or
     harmonic count is still a start in this model's coordinates."""
@@ -404,6 +477,7 @@ def test_cycles_of_the_same_wheel_at_another_intensity_are_accepted(tmp_path):
     _wheelrom_file(cycles, "limit-cycle", ["flutter.mu=5.0", "time.step=5e-6",
                                            "limit_cycle.harmonics=3",
                                            "contacts.shroud.angle_deg=60.0"])
+    _with_orbit(cycles)
     cfg = config.load(SMALL, SHORT)
     check_cycles(str(cycles), cfg)
     with pytest.raises(InputError, match="contacts.tieboss.height: 1.6 -> 1.7"):
@@ -421,14 +495,7 @@ def test_the_orbit_of_a_wheel_without_contacts_is_read_from_the_file(tmp_path, c
 
     cycles = tmp_path / "lc.h5"
     _wheelrom_file(cycles, "limit-cycle")
-    state = np.zeros((1, 2, 12, 6))
-    state[0, 0, :, 0] = 1e-6
-    with h5py.File(cycles, "a") as f:
-        g = f["limit_cycle"]
-        g["angles_deg"] = np.full((1, 2), np.nan)
-        c = g.create_group("case_0/wave_6/cycles")
-        c["orbit_state"], c["orbit_period"] = state, np.array([1 / 116.5])
-        c["tip_amplitude"] = np.array([1e-5])
+    _with_orbit(cycles)
     assert cli.main(_settle("--cycles", str(cycles), "--json")) == 0
     row = json.loads(capsys.readouterr().out)["cases"][0]
     assert row["start"].startswith("the exact orbit in lc.h5"), row["start"]

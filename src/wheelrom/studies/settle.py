@@ -84,6 +84,58 @@ def check_cycles(path: str, cfg: Config) -> None:
         raise InputError(f"--cycles {path}: written for another wheel ({changed}): its orbits "
                          "are not this model's; compute the limit cycles of this "
                          "configuration")
+    if cfg.settle.start != "cycle":
+        raise InputError(f"--cycles {path}: settle.start = {cfg.settle.start!r} starts from "
+                         "the preloaded equilibrium and reads no cycle; drop --cycles, or set "
+                         "settle.start = 'cycle'")
+    _check_every_case_is_held(path, cfg)
+
+
+def _check_every_case_is_held(path: str, cfg: Config) -> None:
+    """Every case of ``cfg`` is a case of the limit-cycle file ``path`` (the angles of its
+    enabled contacts are a row of its table), else one line naming the cases it does not
+    hold and the angles it does: a ``--cycles`` of other angles was silently ignored (each
+    cycle computed again). A case it holds without a cycle starts from the preloaded
+    equilibrium, its start saying why (:func:`_start`)."""
+    import h5py
+
+    from wheelrom.studies.kept_cases import case_numbers
+
+    with h5py.File(path, "r", locking=False) as f:
+        g = f["limit_cycle"]
+        table = g["angles_deg"][()] if "angles_deg" in g else np.zeros((0, 2))
+    configs = expand(cfg).configs
+    wanted = [_enabled(c, contact_angles(c)) for c in configs]
+    missing = [i for i, angles in enumerate(wanted) if not _rows(table, angles)]
+    if not missing:
+        return
+    held = [_angle_words(dict(zip(("tieboss", "shroud"), row, strict=True))) or "no contacts"
+            for row in table]
+    holds = f"it holds {'; '.join(held[:3])}{' ...' if len(held) > 3 else ''}" if held else \
+        "it holds no case"
+    raise InputError(f"--cycles {path}: holds no limit cycle for {case_numbers(missing)} "
+                     f"({_angle_words(wanted[missing[0]]) or 'no contacts'}"
+                     f"{', ...' if len(missing) > 1 else ''}): {holds}; give the limit-cycle "
+                     "file of these angles, or no --cycles (their cycles are then computed "
+                     "here)")
+
+
+def _rows(table: np.ndarray, angles: dict) -> list[int]:
+    """The rows of a limit-cycle file's ``angles_deg`` table ``(C, 2)`` (tieboss, shroud;
+    NaN for a contact not enabled) at the enabled contacts' ``angles`` [deg]."""
+    want = np.array([angles.get("tieboss", np.nan), angles.get("shroud", np.nan)])
+    return [i for i, row in enumerate(table)
+            if np.allclose(row, want, equal_nan=True, atol=1e-9)]
+
+
+def _enabled(cfg: Config, angles: dict) -> dict:
+    """The angles of the enabled contacts (a limit-cycle file holds NaN for a disabled one)."""
+    return {k: v for k, v in angles.items() if cfg.contact(k).enabled}
+
+
+def _angle_words(angles: dict) -> str:
+    """``tieboss 45 deg, shroud 60 deg`` (NaN: a contact not enabled, left out)."""
+    return ", ".join(f"{k} {v:g} deg" for k, v in angles.items() if np.isfinite(v))
 
 
 def _cycle_from_file(path: str, angles: dict, blades: int):
@@ -94,15 +146,14 @@ def _cycle_from_file(path: str, angles: dict, blades: int):
     wave_state`); None."""
     import h5py
 
-    with h5py.File(path, "r") as f:
+    with h5py.File(path, "r", locking=False) as f:
         g = f["limit_cycle"]
-        table = g["angles_deg"][()]
-        want = np.array([angles.get("tieboss", np.nan), angles.get("shroud", np.nan)])
-        rows = [i for i, row in enumerate(table)
-                if np.allclose(row, want, equal_nan=True, atol=1e-9)]
-        for i in rows:
-            case = g[f"case_{i}"]
-            waves = [case[n] for n in case if n.startswith("wave_") and "cycles" in case[n]]
+        if "angles_deg" not in g:
+            return None
+        for i in _rows(g["angles_deg"][()], angles):
+            case = g.get(f"case_{i}", {})
+            waves = [case[n] for n in case if n.startswith("wave_") and "cycles" in case[n]
+                     and case[n]["cycles"]["tip_amplitude"].shape[0] > 0]
             for w in waves:
                 c = w["cycles"]
                 for j in range(c["tip_amplitude"].shape[0]):
@@ -113,8 +164,8 @@ def _cycle_from_file(path: str, angles: dict, blades: int):
                             else None
                         return (state[:, every], 1.0 / c["orbit_period"][j],
                                 c["tip_amplitude"][j], sliders, _largest_multiplier(c, j))
-            for w in waves:  # no exact orbit: the harmonic balance's cycle
-                c = w["cycles"]
+            for w in (w for w in waves if "harmonics" in w["cycles"]):  # no exact orbit: the
+                c = w["cycles"]                                         # balance's cycle
                 hz = float(c["frequency_hz"][0])
                 q, v = wave_state(c["harmonics"][0], int(w.attrs["wave"]), blades,
                                   2 * math.pi * hz)
@@ -157,13 +208,14 @@ def _start(model, cfg: Config, angles: dict, cycles_file: str | None, comm=None)
     from wheelrom.transient.preload import start_perturbation
 
     st, N = cfg.settle, model.blades
-    found = None
+    found, no_cycle = None, ""
     if st.start == "cycle" and cycles_file:
         # the file holds the angles of the enabled contacts only (NaN for a disabled one)
-        enabled = {k: v for k, v in angles.items() if cfg.contact(k).enabled}
-        found = _cycle_from_file(cycles_file, enabled, N)
+        found = _cycle_from_file(cycles_file, _enabled(cfg, angles), N)
         words = f"the exact orbit in {os.path.basename(cycles_file)}"
-    if st.start == "cycle" and found is None:
+        if found is None:  # its continuation found none: the preload, said so
+            no_cycle = f" ({os.path.basename(cycles_file)} holds no cycle at these angles)"
+    if st.start == "cycle" and found is None and not cycles_file:
         lc = dataclasses.replace(lc_settings(cfg, (-1,)), method="shooting", floquet="off",
                                  refine=0)
         res = case_limit_cycles(model, cfg, lc, angles, comm)
@@ -195,8 +247,8 @@ def _start(model, cfg: Config, angles: dict, cycles_file: str | None, comm=None)
         u0 = np.stack([q0.ravel(), dv.ravel()])
         seed = size * st.perturbation
         amplitude = math.nan
-        words = (f"the preloaded equilibrium, the growing modes of waves {unstable} seeded at "
-                 f"{size:.3g} m{why}")
+        words = (f"the preloaded equilibrium{no_cycle}, the growing modes of waves {unstable} "
+                 f"seeded at {size:.3g} m{why}")
     every = cfg.replace(**{"time.perturbation": seed, "time.perturbation_waves": [],
                            "time.seed": st.seed})
     u0 = u0.copy()
