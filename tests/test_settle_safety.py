@@ -450,10 +450,29 @@ def test_a_case_the_cycles_file_holds_without_a_cycle_starts_from_the_preload(
         for name in list(c):
             del c[name]
         c["tip_amplitude"] = np.zeros(0)
-    assert cli.main(_settle("--cycles", str(cycles), "--json")) == 0
+    out = tmp_path / "s.h5"
+    assert cli.main(_settle("--cycles", str(cycles), "--json", "--out", str(out))) == 0
     row = json.loads(capsys.readouterr().out)["cases"][0]
     assert row["start"].startswith("the preloaded equilibrium (lc.h5 holds no cycle at these "
                                    "angles), the growing modes of waves "), row["start"]
+    assert cli.main(["info", str(out)]) == 0  # it said "start cycle" and nothing else
+    shown = capsys.readouterr().out.splitlines()
+    assert "(start cycle, 1 of 1 case(s) from the preloaded equilibrium (no cycle found), " \
+        "windows of 2 periods" in shown[0], shown[0]
+    assert shown[-1].endswith(" in the last window (started from the preloaded equilibrium)")
+
+
+def test_info_of_a_preload_start_says_so(tmp_path, capsys):
+    """Issue #72, 10: ``info`` of a settle started from the preload said "(started at 0
+    um)", the stored value being NaN (no cycle)."""
+    out = tmp_path / "s.h5"
+    assert cli.main(_settle("--set", 'settle.start="preload"', "--out", str(out))) == 0
+    with h5py.File(out, "r") as f:
+        assert np.isnan(f["settle/start_amplitude"][0])
+    capsys.readouterr()
+    assert cli.main(["info", str(out)]) == 0
+    last = capsys.readouterr().out.splitlines()[-1]
+    assert last.endswith(" um in the last window (started from the preloaded equilibrium)"), last
 
 
 def test_cycles_with_a_preload_start_are_refused(tmp_path, capsys, nothing_computed):
@@ -491,7 +510,6 @@ def test_the_orbit_of_a_wheel_without_contacts_is_read_from_the_file(tmp_path, c
     in its first mode) is now the start."""
     import json
 
-    import numpy as np
 
     cycles = tmp_path / "lc.h5"
     _wheelrom_file(cycles, "limit-cycle")
