@@ -486,6 +486,19 @@ def test_cycles_with_a_preload_start_are_refused(tmp_path, capsys, nothing_compu
         "equilibrium and reads no cycle; drop --cycles, or set settle.start = 'cycle'")
 
 
+@pytest.mark.parametrize("where, what", [("folder", "a directory"),
+                                         ("/dev/null", "a character device"),
+                                         ("missing", None)])
+def test_cycles_that_is_no_file_is_named_as_what_it_is(where, what, tmp_path, capsys,
+                                                       nothing_computed):
+    """Issue #72, 18: ``--cycles <folder>`` and ``--cycles /dev/null`` said "no such file"."""
+    path = {"folder": str(tmp_path), "missing": str(tmp_path / "lc.h5")}.get(where, where)
+    assert cli.main(_settle("--cycles", path)) == 2
+    assert _one_error(capsys) == (
+        f"wheelrom: --cycles {path}: is {what}, not a limit-cycle file (wheelrom limit-cycle "
+        "--out)" if what else f"wheelrom: --cycles {path}: no such file")
+
+
 def test_cycles_of_the_same_wheel_at_another_intensity_are_accepted(tmp_path):
     """Only the wheel must agree: the orbit of another flutter intensity, time step or
     harmonic count is still a start in this model's coordinates."""

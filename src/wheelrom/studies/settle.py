@@ -31,7 +31,7 @@ from wheelrom.analysis.periodic.window import wave_state
 from wheelrom.config import Config
 from wheelrom.config.study import batch_key, expand, short_name
 from wheelrom.runtime.errors import InputError
-from wheelrom.runtime.outputs import agree
+from wheelrom.runtime.outputs import agree, not_a_regular_file
 from wheelrom.studies.plan import batches, shared_models
 from wheelrom.studies.queue import CaseQueue
 from wheelrom.studies.rounds import wait_for_all
@@ -69,8 +69,12 @@ def check_cycles(path: str, cfg: Config) -> None:
     from wheelrom.results.layout import config_changes
     from wheelrom.results.limit_cycles import FORMAT as LIMIT_CYCLE_FORMAT
 
-    if not os.path.isfile(path):
+    if not os.path.exists(path):
         raise InputError(f"--cycles {path}: no such file")
+    what = not_a_regular_file(path)  # a directory, /dev/null (a read would never end), ...
+    if what:
+        raise InputError(f"--cycles {path}: is {what}, not a limit-cycle file (wheelrom "
+                         "limit-cycle --out)")
     fmt, kind = kind_of(path)
     if fmt != LIMIT_CYCLE_FORMAT:
         raise InputError(f"--cycles {path}: is {kind}, not a limit-cycle file (wheelrom "
