@@ -462,6 +462,27 @@ def test_a_case_the_cycles_file_holds_without_a_cycle_starts_from_the_preload(
     assert shown[-1].endswith(" in the last window (started from the preloaded equilibrium)")
 
 
+def test_info_says_how_max_time_ends_the_run(tmp_path, capsys):
+    """Issue #72, 26: an elastic-law settle ran past ``settle.max_time`` by up to half a
+    window while ``info`` said "at most". The run is whole windows, the last the one ending
+    nearest ``max_time`` (so that ``min_time = max_time`` is reached); ``info`` now says so,
+    and the run's end is that window's: within half a window of it."""
+    out = tmp_path / "s.h5"
+    keys = ['contacts.law="elastic"', 'settle.start="preload"', "settle.window_periods=2",
+            "settle.min_time=0.04", "settle.max_time=0.04",
+            "sweep.shroud_angles_deg=[50.0]"]
+    assert cli.main(["settle", SMALL, *sum((["--set", k] for k in keys), []), "--out",
+                     str(out)]) == 0
+    with h5py.File(out, "r") as f:
+        ends = f["settle/case_0/window_end"][()]
+    window = ends[0]
+    assert ends[-1] > 0.04 and abs(ends[-1] - 0.04) <= 0.5 * window  # past it, the nearest
+    capsys.readouterr()
+    assert cli.main(["info", str(out)]) == 0
+    title = capsys.readouterr().out.splitlines()[0]
+    assert title.endswith("until the window ending nearest 0.04 s)") and "at most" not in title
+
+
 def test_info_of_a_preload_start_says_so(tmp_path, capsys):
     """Issue #72, 10: ``info`` of a settle started from the preload said "(started at 0
     um)", the stored value being NaN (no cycle)."""

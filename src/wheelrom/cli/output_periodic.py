@@ -38,8 +38,8 @@ def periodic_title(info: dict) -> str:
     return (f"{info['file']}: where the flutter settles, {n['total']} case(s): {n['settled']} "
             f"settled, {n['not_settled']} not (start {s.get('start')}{_preloaded(info)}, "
             f"windows of "
-            f"{s.get('window_periods')} periods, tolerance {s.get('tolerance')}, at most "
-            f"{s.get('max_time')} s)")
+            f"{s.get('window_periods')} periods, tolerance {s.get('tolerance')}, until the "
+            f"window ending nearest {s.get('max_time')} s)")
 
 
 def _preloaded(info: dict) -> str:

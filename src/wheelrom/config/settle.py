@@ -51,7 +51,8 @@ class SettleConfig:
                       "for its first windows)", min=0.0, max=1e4))
     max_time: float = field(
         default=5.0,
-        metadata=_key("s", "simulated time at most; then 'not settled after X s'", gt=0.0,
+        metadata=_key("s", "simulated time: the run ends with the window ending nearest it "
+                      "(up to half a window past it); then 'not settled after X s'", gt=0.0,
                       max=1e4))
     batch: int = field(
         default=3,

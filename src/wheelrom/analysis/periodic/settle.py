@@ -9,7 +9,9 @@ displacement about the blade's mean over the window, [m]) and the ND energy frac
 stationary against the one before when ``max_s |A_s - A'_s| / max_s A'_s <= tolerance`` and
 ``sum_k |e_k - e'_k| / 2 <= tolerance``; the motion has settled after ``consecutive`` such
 windows in a row and at least ``min_time``; at ``max_time`` without it the case is reported
-"not settled after X s" and no settled state is claimed.
+"not settled after X s" and no settled state is claimed. The run is whole windows: it ends
+with the window whose end is nearest ``max_time``, up to half a window past it (so that a
+``min_time`` equal to ``max_time`` is reached).
 
 **Classification** of the last window, from blade ``s*`` (the largest amplitude): its tip ``y``
 history's envelope (the peak of every period, between successive zero crossings) and that
@@ -369,6 +371,7 @@ def settle_cases(model, cfg, angles: list, u0: list, frequency_hz: list, setting
     states = [np.asarray(u, dtype=float).copy() for u in u0]
     last: list = [None] * len(angles)
     running = list(range(len(angles)))
+    # whole windows, the last the one ending nearest max_time (up to half a window past it)
     while running and outs[running[0]].time < first.max_time - 0.5 * length:
         done = run_cases(model, run_cfg, [angles[i] for i in running],
                          u0=[states[i] for i in running])
