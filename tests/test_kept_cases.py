@@ -105,6 +105,28 @@ def test_the_design_study_keeps_its_cases_in_its_folder_and_removes_only_them(
     assert out.exists() and not (tmp_path / ".s.design").exists()
 
 
+def test_design_cases_of_another_configuration_are_refused_on_resume(
+        design_toml, tmp_path, capsys, nothing_computed):
+    """As settle's: --resume refuses the curves kept for another configuration (naming what
+    differs) rather than discarding them at the end, and without --resume kept curves are
+    discarded only with --force."""
+    from wheelrom.config.study import expand
+
+    out, side = tmp_path / "s.h5", tmp_path / ".s.design"
+    other = expand(config.load(str(design_toml), ["excitation.force=20.0"])).configs[0]
+    KeptCases(str(out), "design").save(0, other, {"status": "done"}, {"x": [1.0]})
+    kept = sorted(os.listdir(side))
+    assert cli.main(_design(design_toml, out, "--resume")) == 2
+    assert _one_error(capsys) == (
+        f"wheelrom: --out {out}: {side}, where its finished cases are kept, holds case 0, "
+        "written for a different configuration (excitation.force: 20.0 -> 10.0): --resume "
+        "reuses only this configuration's; --force discards it")
+    assert cli.main(_design(design_toml, out)) == 2
+    assert _one_error(capsys).endswith("holds case 0 kept by an interrupted run: --resume "
+                                       "reuses them, --force discards them")
+    assert sorted(os.listdir(side)) == kept and not out.exists()
+
+
 def test_a_folder_replaced_by_a_link_while_the_job_runs_is_never_written_through(tmp_path):
     """Checked up front, the folder can still be swapped for a link before a case is saved:
     the write goes through the folder opened without following a link, so it fails naming
