@@ -142,7 +142,7 @@ def test_a_resumed_study_reads_the_curves_kept_beside_it(small_model, small_cfg,
     from mpi4py import MPI
 
     from wheelrom.studies import design_cases
-    from wheelrom.studies.settle import config_digest
+    from wheelrom.studies.kept_cases import config_digest
     from wheelrom.studies.study import run_study
 
     cfg = small_cfg.replace(**{"flutter.model": "off", "forced.points": 3,
@@ -150,23 +150,23 @@ def test_a_resumed_study_reads_the_curves_kept_beside_it(small_model, small_cfg,
                                "study.grid": {"contacts.shroud.normal_preload":
                                               [100.0, 3000.0, 30000.0]}})
     out = str(tmp_path / "design.h5")
-    folder = design_cases.design_dir(out)
+    folder = design_cases.kept_folder(out)
     cases = [cfg.replace(**{"contacts.shroud.normal_preload": p}) for p in (100.0, 3000.0)]
     kept = design_point(small_model, cases[0])
     kept.curve.refined.tip_amplitude = 1.25e-3  # the mark
-    assert design_cases.save_point(folder, 0, config_digest(cases[0]), kept)
-    back = design_cases.load_point(folder, 0, config_digest(cases[0]))
+    assert design_cases.save_point(folder, 0, cases[0], kept)
+    back = design_cases.load_point(folder, 0, cases[0])
     np.testing.assert_array_equal(back.curve.harmonics, kept.curve.harmonics)
     assert back.band == kept.band and back.curve.kinds == kept.curve.kinds
-    assert design_cases.load_point(folder, 0, config_digest(cases[1])) is None  # not its own
-    with open(os.path.join(folder, "case_1.json"), "w") as f:  # damaged: computed again
+    assert design_cases.load_point(folder, 0, cases[1]) is None  # not its own
+    with open(os.path.join(folder.path, "case_1.json"), "w") as f:  # damaged: computed again
         f.write('{"digest": "' + config_digest(cases[1]) + '", "wave"')
     summary = run_study(cfg, out, MPI.COMM_SELF, mode="stability", log=lambda *_: None,
                         nonlinear=True, resume=True)
     peaks = summary["design"]["peak_amplitude_m"]
     assert peaks[0] == 1.25e-3 and peaks[1] < 1e-3 and peaks[2] < 1e-3
     assert "case_1.json: damaged" in capsys.readouterr().err
-    assert not os.path.exists(folder)
+    assert not os.path.exists(folder.path)
 
 
 def _plain_march(balance, X, w: float, tolerance: float) -> int:
@@ -233,7 +233,6 @@ def test_the_peaks_made_exact(small_model, small_cfg, tmp_path, capsys):
 
     from wheelrom.cli.output import print_study
     from wheelrom.studies import design_cases
-    from wheelrom.studies.settle import config_digest
     from wheelrom.studies.study import run_study
 
     cfg = small_cfg.replace(**{"flutter.model": "off", "forced.points": 5,
@@ -260,6 +259,6 @@ def test_the_peaks_made_exact(small_model, small_cfg, tmp_path, capsys):
     point = design_point(small_model, case)
     assert point.exact["tip_amplitude"] == pytest.approx(design["exact_tip_amplitude_m"][1],
                                                          rel=1e-9)
-    folder = design_cases.design_dir(str(tmp_path / "kept.h5"))
-    assert design_cases.save_point(folder, 0, config_digest(case), point)
-    assert design_cases.load_point(folder, 0, config_digest(case)).exact == point.exact
+    folder = design_cases.kept_folder(str(tmp_path / "kept.h5"))
+    assert design_cases.save_point(folder, 0, case, point)
+    assert design_cases.load_point(folder, 0, case).exact == point.exact

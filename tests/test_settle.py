@@ -352,11 +352,12 @@ def test_an_interrupted_run_resumes_keeping_the_finished_case(tmp_path, monkeypa
     kept = os.listdir(tmp_path / ".s.settle")
     assert "case_0.npz" in kept and "case_1.npz" not in kept
     assert not (tmp_path / "s.h5").exists()
-    import json
+    from wheelrom import config
+    from wheelrom.config.study import expand
+    from wheelrom.studies.settle_cases import kept_folder, load_case
 
-    with open(tmp_path / ".s.settle" / "case_0.json") as f:
-        digest = json.load(f)["digest"]
-    first = study.load_case(str(tmp_path / ".s.settle"), 0, digest)
+    first = load_case(kept_folder(str(tmp_path / "s.h5")), 0,
+                      expand(config.load(SMALL, keys)).configs[0])
     assert first is not None and first.settled
     calls.clear()
     monkeypatch.setattr(study, "_settle_batch", lambda *a, **k: calls.extend(a[4]) or real(*a, **k))

@@ -127,6 +127,8 @@ def full_disk(tmp_path, monkeypatch):
     full = [False]
 
     def on_the_full_disk(path) -> bool:
+        if isinstance(path, int):  # a descriptor (os.fdopen): the file it is open on
+            path = os.readlink(f"/proc/self/fd/{path}")
         return full[0] and isinstance(path, str | os.PathLike) and \
             os.path.dirname(os.path.abspath(path)).startswith(str(out))
 
@@ -176,16 +178,16 @@ def test_a_disk_that_fills_during_settle_keeps_every_case_and_names_the_paths(
     case_1.partial.npz and said "what was written before is kept", naming no path); now it
     stays in memory, the file of both cases is kept in $TMPDIR, and the one line names it,
     the output and the case kept beside it."""
-    from wheelrom.studies import settle as study
+    from wheelrom.studies import settle_cases
 
     out_dir, spare, fill = full_disk
-    real = study.save_case
+    real = settle_cases.save_case
 
     def saved_then_full(*args, **kwargs):
         real(*args, **kwargs)
         fill()  # while the second case is computed
 
-    monkeypatch.setattr(study, "save_case", saved_then_full)
+    monkeypatch.setattr(settle_cases, "save_case", saved_then_full)
     out, beside = out_dir / "s.h5", out_dir / ".s.settle"
     keys = [*QUICK, "sweep.shroud_angles_deg=[50.0, 60.0]"]
     assert cli.main(["settle", SMALL, *_sets(keys), "--out", str(out)]) == 1
@@ -197,7 +199,7 @@ def test_a_disk_that_fills_during_settle_keeps_every_case_and_names_the_paths(
     assert line == (f"wheelrom: {out}: the disk is full (errno 28, ENOSPC: No space left on "
                     f"device; {free} free in '{out_dir}'); the results are kept in "
                     f"{spare / kept} (move it there once space is freed); the summary is "
-                    f"printed above; case 1 of 2 also stays in {beside} (--resume reuses "
+                    f"printed above; case 0 of 0..1 also stays in {beside} (--resume reuses "
                     "it)")
     assert f"wheelrom: warning: {beside / 'case_1.npz'}: the disk is full" in err
     assert os.listdir(out_dir) == [".s.settle"]  # no output, no temporary, no lock
@@ -255,7 +257,7 @@ def test_ctrl_c_during_settle_names_the_kept_cases_and_the_resume_line(tmp_path,
     seen = []
     for line in proc.stderr:
         seen.append(line)
-        if line.startswith("[1/2] ") and line.rstrip().endswith(" s)"):  # the first's verdict
+        if line.startswith("[case 0/1] ") and line.rstrip().endswith(" s)"):  # the first's verdict
             proc.send_signal(signal.SIGINT)
             break
     seen += proc.stderr.readlines()
@@ -264,7 +266,7 @@ def test_ctrl_c_during_settle_names_the_kept_cases_and_the_resume_line(tmp_path,
     assert "Traceback" not in err, err
     (line,) = _errors(err)
     beside = folder / ".it's.settle"
-    assert line.startswith(f"wheelrom: interrupted: case 1 of 2 finished and kept in {beside}; "
+    assert line.startswith(f"wheelrom: interrupted: case 0 of 0..1 finished and kept in {beside}; "
                            "to compute only the other 1, rerun the settle with --resume: "
                            "wheelrom settle "), line
     assert sorted(os.listdir(beside)) == ["case_0.json", "case_0.npz"]
@@ -301,7 +303,7 @@ def test_a_killed_rank_leaves_rank_0_saying_what_is_kept(tmp_path, capsys):
     for line in proc.stderr:
         seen.append(line)
         # rank 0's first finished case (which one it is depends on the shared case counter)
-        if re.match(r"\[\d/3\] ", line) and line.rstrip().endswith(" s)"):
+        if re.match(r"\[case \d/2\] ", line) and line.rstrip().endswith(" s)"):
             os.kill(_rank_pid(" ".join(command), 1), signal.SIGKILL)
             break
     seen += proc.stderr.readlines()

@@ -42,12 +42,12 @@ def test_a_stale_case_folder_is_removed_once_under_force(tmp_path_factory, monke
     what the other had listed, FileNotFoundError, the run lost). Rank 0's removal is made
     slow here, so a second rank that also removes it is caught doing so."""
     import os
-    import shutil
     import time
 
     from mpi4py import MPI
 
     from wheelrom.cli import main as cli
+    from wheelrom.studies.kept_cases import KeptCases
     from wheelrom.studies.settle import sidecar_dir
 
     comm = MPI.COMM_WORLD
@@ -60,16 +60,16 @@ def test_a_stale_case_folder_is_removed_once_under_force(tmp_path_factory, monke
                 f.write("stale")
     comm.barrier()
     removed = []
-    remove = shutil.rmtree
+    remove = KeptCases.clear
 
-    def slow_rmtree(path, *args, **kwargs):
-        if os.path.abspath(path) == os.path.abspath(sidecar_dir(out)):
-            removed.append(path)
+    def slow_clear(self):
+        if os.path.abspath(self.path) == os.path.abspath(sidecar_dir(out)):
+            removed.append(self.path)
             if comm.rank == 0:
                 time.sleep(1.0)
-        return remove(path, *args, **kwargs)
+        return remove(self)
 
-    monkeypatch.setattr(shutil, "rmtree", slow_rmtree)
+    monkeypatch.setattr(KeptCases, "clear", slow_clear)
     keys = [*KEYS[:-2], "settle.min_time=0.05", "settle.max_time=0.05",
             "settle.window_periods=2"]
     status = cli.main(["settle", SMALL, *sum((["--set", k] for k in keys), []), "--out", out,

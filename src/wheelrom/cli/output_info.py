@@ -96,9 +96,19 @@ def checksum_text(checks: dict) -> str:
         return "none stored (a file written before wheelrom kept them): nothing was checked"
     what = ("datasets, rows and attributes" if checks.get("scope") == "file"
             else "written case(s) (their /cases rows; the model and configuration have none)")
-    bad = checks["mismatched"]
-    return f"{checks['checked']} {what} checked: " + (
-        f"CHANGED since written: {changed_text(bad)}" if bad else "all intact")
+    bad, odd = checks["mismatched"], checks.get("inconsistent", [])
+    words = [f"CHANGED since written: {changed_text(bad)}"] if bad else []
+    if odd:
+        words.append(f"INCONSISTENT with the wheel: {inconsistent_text(odd)}")
+    return f"{checks['checked']} {what} checked: " + ("; ".join(words) or "all intact")
+
+
+def inconsistent_text(found: list, most: int = 3) -> str:
+    """What ``info --verify`` found not to fit the file's wheel: ``case 0 (settle/case_0/
+    amplitude: shape (5,), the wheel's 12 blades want (12,))``, the first ``most``."""
+    words = [f"case {m['case']} ({m['path']}: {m['why']})" for m in found[:most]]
+    more = len(found) - most
+    return ", ".join(words) + (f" and {more} more (--json lists them all)" if more > 0 else "")
 
 
 def _megabytes(n: int) -> str:

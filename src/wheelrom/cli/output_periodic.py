@@ -6,6 +6,8 @@ from __future__ import annotations
 from wheelrom.analysis.periodic.cycle import cycle_source
 
 PERIODIC_KINDS = ("limit-cycle", "settle")
+#: how a settle case's start begins when it is the preloaded equilibrium
+PRELOADED = "the preloaded equilibrium"
 
 
 def _angles(row: dict) -> str:
@@ -34,10 +36,30 @@ def periodic_title(info: dict) -> str:
                 f"{s.get('harmonics')}, {s.get('samples')} samples, time step "
                 f"{s.get('time_step', 0) * 1e6:g} us)")
     return (f"{info['file']}: where the flutter settles, {n['total']} case(s): {n['settled']} "
-            f"settled, {n['not_settled']} not ({n.get('bounded', 0)} of them bounded; start "
-            f"{s.get('start')}, windows of {s.get('window_periods')} periods, tolerance "
-            f"{s.get('tolerance')}, bounded within {s.get('bounded_drift', '-')} over "
-            f"{s.get('bounded_span', '-')} s, at most {s.get('max_time')} s)")
+            f"settled, {n['not_settled']} not, {n.get('bounded', 0)} of them bounded (start "
+            f"{s.get('start')}{_preloaded(info)}, windows of {s.get('window_periods')} periods, "
+            f"tolerance {s.get('tolerance')}, bounded within {s.get('bounded_drift', '-')} over "
+            f"{s.get('bounded_span', '-')} s, until the window ending nearest "
+            f"{s.get('max_time')} s)")
+
+
+def _preloaded(info: dict) -> str:
+    """``", 1 of 3 case(s) from the preloaded equilibrium (no cycle found)"``: the cases of a
+    settle asked to start from a cycle that started from the preload."""
+    if info["settings"].get("start") != "cycle":
+        return ""
+    preloaded = sum(row.get("start", "").startswith(PRELOADED) for row in info["cases"])
+    return (f", {preloaded} of {len(info['cases'])} case(s) from the preloaded equilibrium (no "
+            "cycle found)" if preloaded else "")
+
+
+def _start_words(row: dict) -> str:
+    """How a settle case started, short: on a cycle of its amplitude, or the preload."""
+    if row["start_amplitude_m"] is not None:
+        return f"started on a cycle of {row['start_amplitude_m'] * 1e6:.4g} um"
+    if row.get("start", "").startswith(PRELOADED):
+        return "started from the preloaded equilibrium"
+    return "start not recorded"
 
 
 def _cycle_line(c: dict) -> str:
@@ -74,5 +96,5 @@ def print_periodic_cases(info: dict) -> None:
             state = row["kind"] or ("settled" if row["settled"] else
                                     "bounded" if row.get("bounded") else "not settled")
             print(f"         {state} at t = {row['time_s']:.3g} s, largest blade tip "
-                  f"{row['max_amplitude_m'] * 1e6:.4g} um in the last window (started at "
-                  f"{(row['start_amplitude_m'] or 0) * 1e6:.4g} um)")
+                  f"{row['max_amplitude_m'] * 1e6:.4g} um in the last window "
+                  f"({_start_words(row)})")

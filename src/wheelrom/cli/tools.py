@@ -17,7 +17,7 @@ from wheelrom.cli.output import (
     print_json,
     print_result,
 )
-from wheelrom.cli.output_info import changed_text, print_info
+from wheelrom.cli.output_info import changed_text, inconsistent_text, print_info
 from wheelrom.runtime.errors import InputError
 from wheelrom.runtime.outputs import check_outdir, check_output
 
@@ -176,6 +176,11 @@ def cmd_info(args: argparse.Namespace) -> int:
                 "(checksum mismatch): recompute them" if checks.get("scope") != "file" else
                 f"wheelrom: {args.file}: {changed} changed since written (checksum "
                 "mismatch): compute the file again")
+        return 1
+    if checks and checks.get("inconsistent"):  # whole as written, but not of its wheel
+        if not args.json:
+            log(f"wheelrom: {args.file}: {inconsistent_text(checks['inconsistent'])}: not "
+                "what its wheel's cases hold; compute the file again")
         return 1
     if checks and not checks["stored"] and not args.json:  # exit 0: an older file is whole
         log(f"wheelrom: {args.file}: no checksums stored (written before wheelrom kept them): "

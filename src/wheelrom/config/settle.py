@@ -51,7 +51,8 @@ class SettleConfig:
                       "for its first windows)", min=0.0, max=1e4))
     max_time: float = field(
         default=20.0,
-        metadata=_key("s", "simulated time at most; then 'not settled after X s "
+        metadata=_key("s", "simulated time: the run ends with the window ending nearest it "
+                      "(up to half a window past it); then 'not settled after X s "
                       "(settle.max_time)' with the range and trend over the last bounded_span",
                       gt=0.0, max=1e4))
     bounded_span: float = field(

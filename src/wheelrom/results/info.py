@@ -99,7 +99,13 @@ def _verify(f, info: dict) -> dict:
     """``info --verify``: the file's checksums recomputed, ``scope`` saying of what. A file
     written in one piece: every dataset and attribute (``"file"``,
     :func:`~wheelrom.results.file_checksums.verify_file`); a sweep, run or study with
-    transients: every written case's rows (``"cases"``, :func:`verify_cases`)."""
+    transients: every written case's rows (``"cases"``, :func:`verify_cases`). A settle
+    file adds ``inconsistent``: what does not fit its wheel though its checksums agree
+    (:func:`~wheelrom.results.settle.layout_problems`)."""
+    if info["kind"] == "settle":
+        from wheelrom.results.settle import layout_problems
+
+        return {**verify_file(f), "scope": "file", "inconsistent": layout_problems(f)}
     if FILE_CHECKSUMS in f or info["kind"] not in ("results", "study"):
         return {**verify_file(f), "scope": "file"}
     return {**verify_cases(f["cases"], info["cases"]), "scope": "cases"}

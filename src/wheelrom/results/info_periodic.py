@@ -93,15 +93,18 @@ def limit_cycle_info(f, path: str, header: dict) -> dict:
 
 def settle_info(f, path: str, header: dict) -> dict:
     """A settle file: the stationarity settings, then per case the verdict, whether and when
-    [s] it settled, the kind of final state, the largest blade tip amplitude [m] and the
-    start's amplitude [m]."""
+    [s] it settled, the kind of final state, the largest blade tip amplitude [m], the
+    start's amplitude [m] (None: not a cycle) and its start in words (``start``: the cycle,
+    or the preloaded equilibrium and why)."""
     g = f["settle"]
     cases = _cases(g)
     for case in cases:
         i = case["index"]
         case.update(settled=bool(g["settled"][i]), kind=_text(g["kind"][i]) or None,
                     time_s=_number(g["time"][i]), max_amplitude_m=_number(g["max_amplitude"][i]),
-                    start_amplitude_m=_number(g["start_amplitude"][i]))
+                    start_amplitude_m=_number(g["start_amplitude"][i]),
+                    start=_text(g[f"case_{i}"].attrs.get("start", "")) if f"case_{i}" in g
+                    else "")
         # (older files lack them; NaN: settled, or too few windows)
         case["bounded"] = bool(g["bounded"][i]) if "bounded" in g else False
         if "trend" in g and np.isfinite(g["trend"][i, 0]):

@@ -278,7 +278,7 @@ def options_problem(path: str, settings: dict) -> str | None:
             try:
                 used = json.loads(raw.decode())
             except ValueError:
-                return (f"{path}: case {i + 1}'s recorded TS options are not readable JSON; "
+                return (f"{path}: case {i}'s recorded TS options are not readable JSON; "
                         "use --force to start again")
             if used:  # {}: a batch that failed before its TS existed records nothing to match
                 recorded.append((i, used))
@@ -289,7 +289,7 @@ def options_problem(path: str, settings: dict) -> str | None:
             then = ", ".join(f"{k}={used.get(k, '-')}" for k in differ)
             now = ", ".join(f"{k}={wanted.get(k, '-')}" for k in differ)
             return (
-                f"{path}: case {i + 1} ran with {then}; this run would use {now}. Resume with "
+                f"{path}: case {i} ran with {then}; this run would use {now}. Resume with "
                 "the same PETSc options (see 'wheelrom info'), or use --force to start again"
             )
     return None

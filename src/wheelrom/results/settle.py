@@ -95,3 +95,38 @@ def _write_case(g, r) -> None:
     g["normal_force_range"] = r.normal_force_range
     g.create_dataset("tip_time", data=r.tip_time)
     g.create_dataset("tip", data=r.tip, compression="gzip", shuffle=True)
+
+
+def layout_problems(f) -> list[dict]:
+    """What in the settle file ``f`` does not fit its wheel (``/model``'s blades ``N``):
+    per case its windows ``(W,)``, their ``(W, N)`` amplitudes, ``(W, N // 2 + 1)`` ND
+    shares and ``(W, 2)`` changes, the last window's ``(N,)`` amplitude and ND shares,
+    ``(K, 3)`` contact shares and ``(K, 2)`` normal-force range, ``(T, N, 3)`` tip samples.
+    Each ``{"path", "case", "why"}``: a file whose checksums agree (written whole from what
+    it was given) can still hold a case of another wheel. ``info --verify`` reports them."""
+    blades = int(f["model"].attrs["blades"])
+    shares = blades // 2 + 1
+    problems = []
+    g = f["settle"]
+    for i in range(g["verdict"].shape[0]):
+        case = g.get(f"case_{i}")
+        if case is None:
+            problems.append({"path": f"settle/case_{i}", "case": i, "why": "missing"})
+            continue
+        windows = case["window_end"].shape[0] if "window_end" in case else 0
+        kinds = case["fractions"].shape[0] if "fractions" in case else 0
+        samples = case["tip_time"].shape[0] if "tip_time" in case else 0
+        want = {"window_end": (windows,), "window_change": (windows, 2)}
+        if windows:
+            want.update(window_amplitude=(windows, blades), window_nd_energy=(windows, shares))
+        if "amplitude" in case:  # a case that ran to its end
+            want.update(amplitude=(blades,), nd_energy=(shares,), fractions=(kinds, 3),
+                        normal_force_range=(kinds, 2), tip_time=(samples,),
+                        tip=(samples, blades, 3))
+        for name, shape in want.items():
+            got = case[name].shape if name in case else None
+            if got != shape:
+                problems.append({"path": f"settle/case_{i}/{name}", "case": i,
+                                 "why": f"shape {got}, the wheel's {blades} blades want "
+                                        f"{shape}" if got is not None else "missing"})
+    return problems

@@ -97,29 +97,6 @@ def check_output(path: str, force: bool = False, flag: str = "--out") -> None:
         raise problem
 
 
-def check_side_folder(folder: str, out: str, flag: str = "--out") -> None:
-    """The folder beside the output ``out`` where a command keeps its finished parts until
-    the file is written (``settle``'s ``.name.settle``): missing (created when needed) or a
-    writable directory. Anything else is one line naming it, never replaced: a symbolic link
-    is never followed (what it points to is not ours to fill, nor to delete), a file of that
-    name is not ours to remove."""
-    try:
-        mode = os.lstat(folder).st_mode
-    except FileNotFoundError:
-        return
-    where = f"{flag} {out}: {folder}, where its finished cases are kept,"
-    if stat.S_ISLNK(mode):
-        what = not_a_regular_file(folder) or "a symbolic link to a regular file"
-        raise InputError(f"{where} is {what}: a link there is never followed (nor what it "
-                         "points to deleted); remove the link or choose another name")
-    if not stat.S_ISDIR(mode):
-        what = "a regular file" if stat.S_ISREG(mode) else _kind(mode)
-        raise InputError(f"{where} is {what}, not a folder: it is never replaced; move it "
-                         "away or choose another name")
-    if not os.access(folder, os.W_OK | os.X_OK):
-        raise InputError(f"{where} is not writable")
-
-
 def check_outdir(path: str, flag: str = "--outdir") -> None:
     """An output directory: existing and writable, or creatable (its nearest existing
     ancestor is a writable directory). Creates nothing."""

@@ -3,7 +3,8 @@ batches (:mod:`.rounds`), design studies (:mod:`.study`), their planning (model 
 screening, load balance: :mod:`.plan`), the stability part of a sweep or study
 (:mod:`.stability`), per-case mistuning with its forced peak (:mod:`.mistuning`), the nonlinear
 forced response of a case and the design curve (:mod:`.forced_nonlinear`), limit cycles over
-the cases (:mod:`.limit_cycles`) and where the flutter settles (:mod:`.settle`); cases handed to
+the cases (:mod:`.limit_cycles`) and where the flutter settles (:mod:`.settle`, its kept cases
+written and read back by :mod:`.settle_cases`); cases handed to
 the ranks as they become free (:mod:`.queue`) and finished cases kept on disk while a long
 command runs (:mod:`.kept_cases`; the design study's curves: :mod:`.design_cases`).
 

@@ -45,7 +45,7 @@ def run_limit_cycles(cfg: Config, comm=None, log=print, waves=None,
     queue = CaseQueue(study.size, comm)
     for i in queue:
         case_cfg = study.configs[i]
-        label = f"[{i + 1}/{study.size}] " + ", ".join(
+        label = f"[case {i}/{study.size - 1}] " + ", ".join(
             f"{short_name(k)} {v:g}" if isinstance(v, float) else f"{short_name(k)} {v}"
             for k, v in zip(study.names, study.values[i], strict=True))
 

@@ -17,31 +17,26 @@ file is then kept in the temporary directory, as every command's
 from __future__ import annotations
 
 import dataclasses
-import hashlib
-import json
 import math
 import os
-import sys
 import time
 
 import numpy as np
 
 from wheelrom.analysis.periodic.settle import (
-    Classification,
     Settings,
     Settled,
-    Window,
     settle_cases,
 )
 from wheelrom.analysis.periodic.window import wave_state
-from wheelrom.config import Config, to_toml
+from wheelrom.config import Config
 from wheelrom.config.study import batch_key, expand, short_name
 from wheelrom.runtime.errors import InputError
-from wheelrom.runtime.outputs import agree, disk_full, is_disk_full
-from wheelrom.studies.kept_cases import DamagedCase, kept_dir, read_case, write_case
+from wheelrom.runtime.outputs import agree, not_a_regular_file
 from wheelrom.studies.plan import batches, shared_models
 from wheelrom.studies.queue import CaseQueue
 from wheelrom.studies.rounds import wait_for_all
+from wheelrom.studies.settle_cases import kept_folder, load_case, save_or_keep
 
 
 def settings_of(cfg: Config) -> Settings:
@@ -52,16 +47,13 @@ def settings_of(cfg: Config) -> Settings:
 
 
 def sidecar_dir(out: str) -> str:
-    return kept_dir(out, "settle")
+    """The folder of ``settle --out out``'s finished cases (:mod:`.settle_cases`)."""
+    return kept_folder(out).path
 
 
 def contact_angles(cfg: Config) -> dict:
     """A case's contact angles [deg] by kind."""
     return {k: cfg.contact(k).angle_deg for k in ("tieboss", "shroud")}
-
-
-def config_digest(cfg: Config) -> str:
-    return hashlib.sha256(to_toml(cfg, comments=False).encode()).hexdigest()[:16]
 
 
 # ------------------------------------------------------------------ the start of one case
@@ -79,8 +71,12 @@ def check_cycles(path: str, cfg: Config) -> None:
     from wheelrom.results.layout import config_changes
     from wheelrom.results.limit_cycles import FORMAT as LIMIT_CYCLE_FORMAT
 
-    if not os.path.isfile(path):
+    if not os.path.exists(path):
         raise InputError(f"--cycles {path}: no such file")
+    what = not_a_regular_file(path)  # a directory, /dev/null (a read would never end), ...
+    if what:
+        raise InputError(f"--cycles {path}: is {what}, not a limit-cycle file (wheelrom "
+                         "limit-cycle --out)")
     fmt, kind = kind_of(path)
     if fmt != LIMIT_CYCLE_FORMAT:
         raise InputError(f"--cycles {path}: is {kind}, not a limit-cycle file (wheelrom "
@@ -94,6 +90,58 @@ def check_cycles(path: str, cfg: Config) -> None:
         raise InputError(f"--cycles {path}: written for another wheel ({changed}): its orbits "
                          "are not this model's; compute the limit cycles of this "
                          "configuration")
+    if cfg.settle.start != "cycle":
+        raise InputError(f"--cycles {path}: settle.start = {cfg.settle.start!r} starts from "
+                         "the preloaded equilibrium and reads no cycle; drop --cycles, or set "
+                         "settle.start = 'cycle'")
+    _check_every_case_is_held(path, cfg)
+
+
+def _check_every_case_is_held(path: str, cfg: Config) -> None:
+    """Every case of ``cfg`` is a case of the limit-cycle file ``path`` (the angles of its
+    enabled contacts are a row of its table), else one line naming the cases it does not
+    hold and the angles it does: a ``--cycles`` of other angles was silently ignored (each
+    cycle computed again). A case it holds without a cycle starts from the preloaded
+    equilibrium, its start saying why (:func:`_start`)."""
+    import h5py
+
+    from wheelrom.studies.kept_cases import case_numbers
+
+    with h5py.File(path, "r", locking=False) as f:
+        g = f["limit_cycle"]
+        table = g["angles_deg"][()] if "angles_deg" in g else np.zeros((0, 2))
+    configs = expand(cfg).configs
+    wanted = [_enabled(c, contact_angles(c)) for c in configs]
+    missing = [i for i, angles in enumerate(wanted) if not _rows(table, angles)]
+    if not missing:
+        return
+    held = [_angle_words(dict(zip(("tieboss", "shroud"), row, strict=True))) or "no contacts"
+            for row in table]
+    holds = f"it holds {'; '.join(held[:3])}{' ...' if len(held) > 3 else ''}" if held else \
+        "it holds no case"
+    raise InputError(f"--cycles {path}: holds no limit cycle for {case_numbers(missing)} "
+                     f"({_angle_words(wanted[missing[0]]) or 'no contacts'}"
+                     f"{', ...' if len(missing) > 1 else ''}): {holds}; give the limit-cycle "
+                     "file of these angles, or no --cycles (their cycles are then computed "
+                     "here)")
+
+
+def _rows(table: np.ndarray, angles: dict) -> list[int]:
+    """The rows of a limit-cycle file's ``angles_deg`` table ``(C, 2)`` (tieboss, shroud;
+    NaN for a contact not enabled) at the enabled contacts' ``angles`` [deg]."""
+    want = np.array([angles.get("tieboss", np.nan), angles.get("shroud", np.nan)])
+    return [i for i, row in enumerate(table)
+            if np.allclose(row, want, equal_nan=True, atol=1e-9)]
+
+
+def _enabled(cfg: Config, angles: dict) -> dict:
+    """The angles of the enabled contacts (a limit-cycle file holds NaN for a disabled one)."""
+    return {k: v for k, v in angles.items() if cfg.contact(k).enabled}
+
+
+def _angle_words(angles: dict) -> str:
+    """``tieboss 45 deg, shroud 60 deg`` (NaN: a contact not enabled, left out)."""
+    return ", ".join(f"{k} {v:g} deg" for k, v in angles.items() if np.isfinite(v))
 
 
 def _cycle_from_file(path: str, angles: dict, blades: int):
@@ -104,15 +152,14 @@ def _cycle_from_file(path: str, angles: dict, blades: int):
     wave_state`); None."""
     import h5py
 
-    with h5py.File(path, "r") as f:
+    with h5py.File(path, "r", locking=False) as f:
         g = f["limit_cycle"]
-        table = g["angles_deg"][()]
-        want = np.array([angles.get("tieboss", np.nan), angles.get("shroud", np.nan)])
-        rows = [i for i, row in enumerate(table)
-                if np.allclose(row, want, equal_nan=True, atol=1e-9)]
-        for i in rows:
-            case = g[f"case_{i}"]
-            waves = [case[n] for n in case if n.startswith("wave_") and "cycles" in case[n]]
+        if "angles_deg" not in g:
+            return None
+        for i in _rows(g["angles_deg"][()], angles):
+            case = g.get(f"case_{i}", {})
+            waves = [case[n] for n in case if n.startswith("wave_") and "cycles" in case[n]
+                     and case[n]["cycles"]["tip_amplitude"].shape[0] > 0]
             for w in waves:
                 c = w["cycles"]
                 for j in range(c["tip_amplitude"].shape[0]):
@@ -123,8 +170,8 @@ def _cycle_from_file(path: str, angles: dict, blades: int):
                             else None
                         return (state[:, every], 1.0 / c["orbit_period"][j],
                                 c["tip_amplitude"][j], sliders, _largest_multiplier(c, j))
-            for w in waves:  # no exact orbit: the harmonic balance's cycle
-                c = w["cycles"]
+            for w in (w for w in waves if "harmonics" in w["cycles"]):  # no exact orbit: the
+                c = w["cycles"]                                         # balance's cycle
                 hz = float(c["frequency_hz"][0])
                 q, v = wave_state(c["harmonics"][0], int(w.attrs["wave"]), blades,
                                   2 * math.pi * hz)
@@ -167,13 +214,14 @@ def _start(model, cfg: Config, angles: dict, cycles_file: str | None, comm=None)
     from wheelrom.transient.preload import start_perturbation
 
     st, N = cfg.settle, model.blades
-    found = None
+    found, no_cycle = None, ""
     if st.start == "cycle" and cycles_file:
         # the file holds the angles of the enabled contacts only (NaN for a disabled one)
-        enabled = {k: v for k, v in angles.items() if cfg.contact(k).enabled}
-        found = _cycle_from_file(cycles_file, enabled, N)
+        found = _cycle_from_file(cycles_file, _enabled(cfg, angles), N)
         words = f"the exact orbit in {os.path.basename(cycles_file)}"
-    if st.start == "cycle" and found is None:
+        if found is None:  # its continuation found none: the preload, said so
+            no_cycle = f" ({os.path.basename(cycles_file)} holds no cycle at these angles)"
+    if st.start == "cycle" and found is None and not cycles_file:
         lc = dataclasses.replace(lc_settings(cfg, (-1,)), method="shooting", floquet="off",
                                  refine=0)
         res = case_limit_cycles(model, cfg, lc, angles, comm)
@@ -205,8 +253,8 @@ def _start(model, cfg: Config, angles: dict, cycles_file: str | None, comm=None)
         u0 = np.stack([q0.ravel(), dv.ravel()])
         seed = size * st.perturbation
         amplitude = math.nan
-        words = (f"the preloaded equilibrium, the growing modes of waves {unstable} seeded at "
-                 f"{size:.3g} m{why}")
+        words = (f"the preloaded equilibrium{no_cycle}, the growing modes of waves {unstable} "
+                 f"seeded at {size:.3g} m{why}")
     every = cfg.replace(**{"time.perturbation": seed, "time.perturbation_waves": [],
                            "time.seed": st.seed})
     u0 = u0.copy()
@@ -255,112 +303,37 @@ def _below_slip_onset(model, cfg, angles, q, B0, B1, size: float) -> tuple[float
 
 
 # ------------------------------------------------------------------ the output
-def resume_problem(path: str) -> str | None:
-    """Why ``--resume`` must not replace the existing file at ``path`` (None: it is a settle
-    file, which the resumed run completes): any other kind of file is the user's work of
-    another command, replaced only with ``--force``."""
+def resume_problem(path: str, cfg: Config) -> str | None:
+    """Why ``--resume`` must not go on with the existing file at ``path`` (None: it may):
+    ``--resume`` continues the cases kept beside a settle file not yet written, so any file
+    already there is refused, only ``--force`` replaces it: another command's (the user's
+    work), a settle file of another configuration (another run's), or one of this
+    configuration (written once every case was done: nothing is left to resume)."""
+    import h5py
+
     from wheelrom.results.info import kind_of
+    from wheelrom.results.layout import config_changes
     from wheelrom.results.settle import FORMAT
 
     fmt, kind = kind_of(path)
-    if fmt == FORMAT:
-        return None
-    return (f"--out {path}: is {kind}, not a settle file: --resume completes only a settle "
-            "file; choose another --out, or --force to replace it")
-
-
-# ------------------------------------------------------------------ sidecars
-def save_case(directory: str, index: int, digest: str, result: Settled) -> None:
-    """Case ``index`` as ``case_<index>.npz`` + ``.json`` in ``directory``, each built in
-    memory and renamed into place once written whole (:func:`replacing`): a full disk fails
-    in one plain write and leaves no part of the case behind (numpy's own writer left its
-    half zip open, and retried it at every garbage collection)."""
-    c = result.classification
-    scalars = {"digest": digest, "settled": result.settled, "time": result.time,
-               "status": result.status, "start": result.start, "wall_s": result.wall_s,
-               "start_amplitude": result.start_amplitude,
-               "energy_balance": result.energy_balance,
-               "classification": dataclasses.asdict(c) if c else None,
-               "changes": [list(w.change) for w in result.windows]}
-    arrays = {"window_end": np.array([w.end for w in result.windows]),
-              "window_amplitude": np.array([w.amplitude for w in result.windows]),
-              "window_nd_energy": np.array([w.nd_energy for w in result.windows]),
-              "amplitude": result.amplitude, "nd_energy": result.nd_energy,
-              "fractions": result.fractions, "normal_force_range": result.normal_force_range,
-              "tip_time": result.tip_time, "tip": result.tip}
-    write_case(directory, index, scalars, arrays)
-
-
-def _save_or_keep(directory: str, index: int, digest: str, result: Settled,
-                  warned: list) -> None:
-    """:func:`save_case`; on a full disk the case stays in memory only, to reach ``--out``
-    (or its copy in the temporary directory) with the others at the end, and the first such
-    case on this rank says so on stderr (any rank's write may fail: not rank 0's log)."""
-    try:
-        save_case(directory, index, digest, result)
-    except OSError as exc:
-        if not is_disk_full(exc):
-            raise
-        if not warned:
-            where = os.path.join(directory, f"case_{index}.npz")
-            print(f"wheelrom: warning: {disk_full(where, exc, KEPT_IN_MEMORY)}",
-                  file=sys.stderr, flush=True)
-        warned.append(index)
-
-
-KEPT_IN_MEMORY = "the finished cases are kept in memory and written with the others at the end"
-
-
-def kept_cases(directory: str, cfg: Config) -> tuple[dict[int, str], int]:
-    """``({index: status}, cases)``: the cases of ``cfg`` saved in ``directory`` with the
-    same configuration (what ``--resume`` reuses), and how many cases ``cfg`` has."""
-    study = expand(cfg)
-    kept = {}
-    for i, case_cfg in enumerate(study.configs):
-        try:
-            with open(os.path.join(directory, f"case_{i}.json")) as f:
-                scalars = json.load(f)
-        except (OSError, ValueError):
-            continue
-        if scalars.get("digest") == config_digest(case_cfg):
-            kept[i] = str(scalars.get("status"))
-    return kept, study.size
-
-
-def load_case(directory: str, index: int, digest: str, warn=None) -> Settled | None:
-    """A saved case of the same configuration, else None: none saved, another
-    configuration's, or damaged (truncated by a full disk or a kill, garbled): then ``warn``
-    is told in one line which file and why, and the case is computed again."""
-    try:
-        kept = read_case(directory, index, digest)
-        if kept is None:
-            return None
-        scalars, arrays = kept
-        try:  # its windows and classification read back
-            rows = zip(arrays["window_end"], arrays["window_amplitude"],
-                       arrays["window_nd_energy"], scalars["changes"], strict=True)
-            windows = [Window(float(e), a, n, tuple(ch)) for e, a, n, ch in rows]
-            c = scalars["classification"]
-            return Settled(scalars["settled"], scalars["time"], windows,
-                           Classification(**c) if c else None, arrays["amplitude"],
-                           arrays["nd_energy"], arrays["fractions"],
-                           arrays["normal_force_range"], scalars["energy_balance"],
-                           arrays["tip_time"], arrays["tip"], scalars["start"],
-                           scalars["start_amplitude"], scalars["wall_s"],
-                           scalars["status"])
-        except Exception as exc:
-            raise DamagedCase(os.path.join(directory, f"case_{index}.json"), exc) from None
-    except DamagedCase as exc:
-        if warn is not None:
-            warn(f"{exc}; case {index + 1} is computed again")
-        return None
+    if fmt != FORMAT:
+        return (f"--out {path}: is {kind}, not a settle file: --resume completes only a "
+                "settle file; choose another --out, or --force to replace it")
+    with h5py.File(path, "r", locking=False) as f:
+        changed = config_changes(f.attrs.get("config"), cfg)
+    if changed:
+        return (f"--out {path}: was written for a different configuration ({changed}); "
+                "choose another --out, or --force to replace it")
+    return (f"--out {path}: already holds every case of this configuration (a settle file is "
+            "written once all are done): nothing to resume; --force computes it again")
 
 
 # ------------------------------------------------------------------ the cases
 def run_settle(cfg: Config, out: str | None, comm=None, log=print, resume: bool = False,
                cycles_file: str | None = None, progress=None, warn=print):
-    """``(model, [(angles, parameters, Settled)])`` of every case on rank 0 (others: the
-    model and ``[]``). ``warn``: a damaged saved case (rank 0 reads them). ``--resume``
+    """``(model, [(angles, parameters, Settled)], folder)``: every case on rank 0 (others:
+    the model and ``[]``) and the :class:`~wheelrom.studies.kept_cases.KeptCases` of ``out``
+    (None without). ``warn``: a damaged saved case (rank 0 reads them). ``--resume``
     reuses a batch (``settle.batch``) whose every case was kept, and runs one kept in part
     again whole: a batch's windows depend on its members."""
     study = expand(cfg)
@@ -369,9 +342,9 @@ def run_settle(cfg: Config, out: str | None, comm=None, log=print, resume: bool 
     model_of, models = shared_models(study.configs, comm, say)
     if not all(m.tuned for m in models):
         raise InputError("settle: the start from a travelling-wave cycle needs a tuned wheel")
-    directory = sidecar_dir(out) if out else None
+    folder = kept_folder(out) if out else None
     mine, problem, unsaved = [], None, []
-    labels = [f"[{i + 1}/{study.size}] " + ", ".join(
+    labels = [f"[case {i}/{study.size - 1}] " + ", ".join(
         f"{short_name(k)} {v:g}" if isinstance(v, float) else f"{short_name(k)} {v}"
         for k, v in zip(study.names, study.values[i], strict=True)) for i in range(study.size)]
 
@@ -385,9 +358,9 @@ def run_settle(cfg: Config, out: str | None, comm=None, log=print, resume: bool 
     plan = batches(list(range(study.size)), [batch_key(c) for c in study.configs],
                    cfg.settle.batch)
     kept: dict[int, Settled] = {}
-    if resume and directory and rank == 0:  # one rank reads what is kept: the plan is its
-        for i in range(study.size):         # (another rank could already be saving a case)
-            done = load_case(directory, i, config_digest(study.configs[i]), warn)
+    if resume and folder and rank == 0:  # one rank reads what is kept: the plan is its
+        for i in range(study.size):      # (another rank could already be saving a case)
+            done = load_case(folder, i, study.configs[i], warn)
             if done is not None:
                 kept[i] = done
     whole = [b for b in plan if all(i in kept for i in b)]  # a batch kept whole is reused;
@@ -407,8 +380,8 @@ def run_settle(cfg: Config, out: str | None, comm=None, log=print, resume: bool 
                                     [labels[i] for i in chunk],
                                     progress if rank == 0 else None)
             for i, done in zip(chunk, results, strict=True):
-                if directory:
-                    _save_or_keep(directory, i, config_digest(study.configs[i]), done, unsaved)
+                if folder:
+                    save_or_keep(folder, i, study.configs[i], done, unsaved)
                 keep(i, done)
     except InputError as exc:  # e.g. a window longer than max_time: told to every rank below
         problem = exc
@@ -421,7 +394,7 @@ def run_settle(cfg: Config, out: str | None, comm=None, log=print, resume: bool 
         problem = next((p for _, p in gathered if p is not None), None)
         ordered = sorted((it for part, _ in gathered for it in part), key=lambda it: it[0])
     agree(comm, problem)  # every rank stops together: none waits for one that stopped
-    return models[0], [(a, p, r) for _, a, p, r in ordered], directory
+    return models[0], [(a, p, r) for _, a, p, r in ordered], folder
 
 
 def _settle_batch(model, cfgs: list[Config], angles: list[dict], cycles_file, labels,

@@ -56,7 +56,7 @@ def run_stability(cfg: Config, comm=None, log=print,
         if rank == 0:
             said = res if isinstance(res, str) else (
                 f"{res.verdict()}, {res.describe()}{_margin_text(res)} ({res.wall_s:.2f} s)")
-            say(f"[{i + 1}/{angles.shape[0]}] {_case_label(angles[i])}: {said}")
+            say(f"[case {i}/{angles.shape[0] - 1}] {_case_label(angles[i])}: {said}")
     gathered = comm.gather(mine, root=0) if comm is not None else [mine]
     ordered = []
     if rank == 0:

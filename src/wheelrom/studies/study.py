@@ -49,7 +49,6 @@ from wheelrom.studies.mistuning import (
 )
 from wheelrom.studies.plan import balance, batches, group_by, selection
 from wheelrom.studies.rounds import _mpi_op, check_space_collectively, run_rounds, wait_for_all
-from wheelrom.studies.settle import config_digest
 from wheelrom.studies.stability import attach_classification
 from wheelrom.transient.run import run_cases
 from wheelrom.transient.ts import PREFIX, time_grid, ts_settings
@@ -98,7 +97,8 @@ def _study(cfg: Config, out: str, comm, mode: str, confirm: tuple, resume: bool,
     if comm.rank == 0:
         try:
             problem = _output_problem(out, cfg, mode, resume, force,
-                                      None if "time.step" in study.names else settings, extras)
+                                      None if "time.step" in study.names else settings, extras,
+                                      study.configs)
         except Exception as exc:  # rank 0's surprise must not leave the others waiting
             problem = InputError(f"{out}: cannot be checked for --resume ({exc})")
     problem = comm.bcast(problem)
@@ -110,9 +110,9 @@ def _study(cfg: Config, out: str, comm, mode: str, confirm: tuple, resume: bool,
     say(f"study: {study.size} cases of {', '.join(study.names)} ({shape}), {len(members)} "
         f"model(s), {comm.size} rank(s)")
     fresh = not (resume and os.path.exists(out))
-    kept = design_cases.design_dir(out)  # the finished nonlinear curves of this study
-    if comm.rank == 0 and nonlinear and not resume:
-        design_cases.remove(kept)  # an earlier run's, not asked for
+    kept = design_cases.kept_folder(out)  # the finished nonlinear curves of this study
+    if comm.rank == 0 and nonlinear and fresh and not resume:
+        kept.clear()  # an earlier run's, discarded (--force; else refused above)
     wait_for_all(comm)
     if fresh:
         models = _models(study, members, range(len(members)), comm, say)
@@ -125,7 +125,8 @@ def _study(cfg: Config, out: str, comm, mode: str, confirm: tuple, resume: bool,
             if not nonlinear:
                 raise
             raise Interrupted(f"interrupted: the finished nonlinear forced responses are kept "
-                              f"in {kept}; the same command with --resume reads them") from None
+                              f"in {kept.path}; the same command with --resume reads them") \
+                from None
         took = time.perf_counter() - t1
         chosen = selection(_labels(stability), study.shape, confirm, mode)
         say(f"stability{_extra_words(extras)} of {study.size} cases in {took:.1f} s "
@@ -136,7 +137,7 @@ def _study(cfg: Config, out: str, comm, mode: str, confirm: tuple, resume: bool,
                  "forced_nonlinear": design}
         _create(out, cfg, study, models, model_of, stability, chosen, mode, comm, extra)
         if comm.rank == 0 and nonlinear:
-            design_cases.remove(kept)  # every curve is in the file now
+            kept.clear()  # every curve is in the file now
     stopped = mode != "stability" and _transients(out, cfg, study, model_of, members, comm,
                                                   batch, options, say, settings,
                                                   models if fresh else None)
@@ -164,10 +165,15 @@ def _check_arguments(mode: str, resume: bool, force: bool, batch: int) -> None:
 
 
 def _output_problem(out: str, cfg: Config, mode: str, resume: bool, force: bool,
-                    settings: dict | None, extras: tuple) -> InputError | None:
+                    settings: dict | None, extras: tuple, configs: list) -> InputError | None:
     """Why ``out`` must not be written (None: go ahead); ``settings``: the TS settings the
-    finished cases must have used (None: not checked, a study of ``time.step``)."""
+    finished cases must have used (None: not checked, a study of ``time.step``). A study
+    that will compute nonlinear curves (``extras[1]``, its file not there yet) keeps them
+    in a folder beside ``out``, checked as every such folder is
+    (:meth:`~wheelrom.studies.kept_cases.KeptCases.problem`; ``configs``: its cases)."""
     problem = output_problem(out, force=resume or force)
+    if problem is None and extras[1] and not (resume and os.path.exists(out)):
+        problem = design_cases.kept_folder(out).problem(configs, resume, force)
     if problem or not (resume and os.path.exists(out)):
         return problem
     why = study_file.resume_problem(out, cfg, mode, *extras)
@@ -203,7 +209,7 @@ def _models(study: Study, members: list[list[int]], wanted, comm, say) -> list:
 
 
 def _stability(study: Study, models: list, model_of: list[int], comm, say,
-               extras: tuple = (False, False), kept: tuple = ("", False)) -> tuple:
+               extras: tuple = (False, False), kept: tuple = (None, False)) -> tuple:
     """``/stability`` of every case
     (:func:`wheelrom.results.study_layout.stability_arrays`), ``/forced``
     (:func:`wheelrom.studies.mistuning.forced_arrays`) when ``extras[0]`` and
@@ -236,26 +242,25 @@ def _stability(study: Study, models: list, model_of: list[int], comm, say,
     return comm.bcast(arrays)
 
 
-def _design_point(study: Study, models: list, model_of: list[int], i: int, folder: str,
+def _design_point(study: Study, models: list, model_of: list[int], i: int, folder,
                   resume: bool, say):
     """Case ``i``'s :func:`wheelrom.studies.forced_nonlinear.design_point` (read from
     ``folder`` with ``resume`` when a finished one of the same configuration is there,
     else computed and saved there), or the text of its failure (recorded; never a hang of
     the other ranks)."""
-    digest = config_digest(study.configs[i])
-    point = design_cases.load_point(folder, i, digest, warn) if resume else None
+    point = design_cases.load_point(folder, i, study.configs[i], warn) if resume else None
     if point is not None:
-        say(f"  case {i + 1}: its nonlinear forced response kept from the interrupted run")
+        say(f"  case {i}: its nonlinear forced response kept from the interrupted run")
         return point
     try:
         point = design_point(case_model(models, model_of, study, i), study.configs[i])
     except Exception as exc:
         return f"{type(exc).__name__}: {exc}"
     try:
-        if not design_cases.save_point(folder, i, digest, point):
-            warn(f"{folder}: the disk is full; case {i + 1}'s curve is kept in memory only")
+        if not design_cases.save_point(folder, i, study.configs[i], point):
+            warn(f"{folder.path}: the disk is full; case {i}'s curve is kept in memory only")
     except OSError as exc:
-        warn(f"{folder}: case {i + 1}'s curve not saved ({exc}); kept in memory only")
+        warn(f"{folder.path}: case {i}'s curve not saved ({exc}); kept in memory only")
     return point
 
 

@@ -14,7 +14,9 @@ the trend of its largest amplitude over the last ``bounded_span`` seconds (all a
 ``min_time``), with its error adjusted for the windows' correlation (:func:`drift`), keeps it
 within ``bounded_drift`` over that span (:func:`bounded`). At ``max_time`` without either the
 case is reported "not settled" with how far it is from bounded, and no settled state is
-claimed.
+claimed. The run is whole windows: it ends with the window whose end is nearest
+``max_time``, up to half a window past it (so that a ``min_time`` equal to ``max_time`` is
+reached).
 
 **Classification** of the last window, from blade ``s*`` (the largest amplitude): its tip ``y``
 history's envelope (the peak of every period, between successive zero crossings) and that
@@ -471,6 +473,7 @@ def settle_cases(model, cfg, angles: list, u0: list, frequency_hz: list, setting
     states = [np.asarray(u, dtype=float).copy() for u in u0]
     last: list = [None] * len(angles)
     running = list(range(len(angles)))
+    # whole windows, the last the one ending nearest max_time (up to half a window past it)
     while running and outs[running[0]].time < first.max_time - 0.5 * length:
         done = run_cases(model, run_cfg, [angles[i] for i in running],
                          u0=[states[i] for i in running])
