@@ -21,10 +21,11 @@ Floquet multipliers ``mu = nu^{N'}`` of every perturbation that keeps the patter
 are multiples of ``g``: for the paper wheel's ND-2 wave the even NDs), labelled by ND. A
 real multiplier through +1 is a fold of the response curve, one through -1 a period
 doubling, a complex pair leaving the unit circle the onset of a quasi-periodic state (a
-self-excited wave beside the forced one). A contact that sticks the whole period leaves its
-slider free (any stuck position repeats): such directions have ``mu = 1`` exactly and are
-neutral, not unstable; they make the Jacobian singular, so the Newton step is the
-least-squares one.
+self-excited wave beside the forced one). A contact kind that sticks the whole period leaves
+its sliders free (any stuck position repeats): their rows of the Jacobian are unit rows, each
+a multiplier ``mu = 1`` exactly, neutral, not unstable. They make the Jacobian singular, so
+the Newton step is the least-squares one, and they are left out of the eigenproblem and
+reported as exactly 1 (:meth:`ForcedShooting.locked`).
 """
 
 from __future__ import annotations
@@ -50,7 +51,7 @@ from wheelrom.analysis.periodic.newton import (
     reduced_rank_extrapolation,
 )
 from wheelrom.config import Config
-from wheelrom.rom.model import ReducedModel
+from wheelrom.rom.model import ReducedModel, nodal_diameter
 from wheelrom.runtime.environment import petsc
 
 MAX_ITERATIONS = 20
@@ -83,7 +84,9 @@ class ForcedOrbit:
     the vibration (max norm, scaled units); ``multipliers`` ``mu`` (complex, largest
     modulus first) inside the pattern's symmetry and their ``nodal_diameters``;
     ``tip_amplitude`` [m] 0-peak about the mean from the orbit's every step;
-    ``hb_tip_amplitude`` [m] the harmonic balance's at the same frequency."""
+    ``hb_tip_amplitude`` [m] the harmonic balance's at the same frequency; ``neutral``
+    ``(K,)`` the contact kinds stuck all period, whose sliders' multipliers (exactly 1) are
+    among ``multipliers``."""
 
     frequency: float
     state: np.ndarray
@@ -103,6 +106,7 @@ class ForcedOrbit:
     #: the multipliers in every ND (:func:`wheel_multipliers`), largest first, their NDs
     wheel_multipliers: np.ndarray = field(default_factory=lambda: np.zeros(0, complex))
     wheel_nodal_diameters: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
+    neutral: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
 
     @property
     def largest(self) -> float:
@@ -248,30 +252,78 @@ class ForcedShooting:
         orbit = ForcedOrbit(self.omega, x, self.N, size, it, converged, reason=reason,
                             steps_per_period=self.flow.steps_for(self.tau)[0] * self.shots)
         if converged:  # the multipliers from the Jacobian at the solution itself
-            orbit.multipliers, orbit.nodal_diameters = self._multipliers(
-                self.jacobian(x, scale), scale)
-            orbit.tip_amplitude = self.tip_amplitude(x)
+            path = self.path(x)
+            orbit.tip_amplitude = self.tip_amplitude(path)
+            orbit.neutral = self.locked(path)
+            orbit.multipliers, orbit.nodal_diameters = self.multipliers(x, scale, orbit.neutral)
         orbit.wall_s = time.perf_counter() - t0
         return orbit
 
-    def _multipliers(self, G: np.ndarray, scale: np.ndarray):
-        """``(mu, nd)`` of the pattern map's Jacobian ``G`` (scaled), largest first
-        (:func:`~.flow.pattern_spectrum`)."""
-        mu, _, nd = pattern_spectrum(G, scale, self.shots, self.N, self.blades, self.m)
-        return mu, nd
+    def multipliers(self, x: np.ndarray, scale: np.ndarray, neutral: np.ndarray):
+        """``(mu, nd)`` of the pattern map at ``x`` (``scale``: the unknowns' units), largest
+        first: the eigenvalues of its Jacobian without the sliders of the ``neutral`` kinds
+        ``(K,)`` (:func:`~.flow.pattern_spectrum`; their columns are not shot), then those
+        sliders' multipliers, exactly 1, labelled by the ND of their wave
+        (:func:`neutral_nds`)."""
+        keep = self.unlocked(neutral)
+        G = self.jacobian(x, scale, keep)[keep]
+        mu, _, nd = pattern_spectrum(G, scale[keep], self.shots, self.N, self.blades, self.m)
+        ones = neutral_nds(2 * self.N * int(np.sum(neutral)), self.N, self.g, self.blades)
+        return largest_first(np.concatenate([mu, np.ones(ones.size)]),
+                             np.concatenate([nd, ones]))
 
-    def tip_amplitude(self, x: np.ndarray) -> float:
-        """0-peak tip amplitude [m] about the mean, at every step of one shot of every
-        pattern blade: blade ``s`` is blade 0 a time ``k s T / N`` later, so these samples are
-        blade 0's whole period."""
+    def unlocked(self, neutral: np.ndarray) -> np.ndarray:
+        """Flat indices of the unknowns other than the sliders of the ``neutral`` kinds
+        ``(K,)``."""
+        mask = np.ones(self.n, bool)
+        if self.sliders:
+            mask[2 * self.N * self.m :] = np.repeat(~np.asarray(neutral, bool), 2 * self.N)
+        return np.flatnonzero(mask)
+
+    def path(self, x: np.ndarray) -> np.ndarray:
+        """``(n_tau, n)``: ``x`` and the state after each step of one shot but the last (the
+        nozzle's time going on). Blade ``s`` is blade 0 a time ``k s T / N`` later, so the
+        blades' rows together are every blade's whole period."""
         n_tau, h = self.flow.steps_for(self.tau)
         path = [x]
-        for i in range(n_tau - 1):  # the nozzle's time goes on
+        for i in range(n_tau - 1):
             path.append(self.flow.advance(path[-1][None], h, 1, start=i * h)[0])
+        return np.array(path)
+
+    def tip_amplitude(self, path: np.ndarray) -> float:
+        """0-peak tip amplitude [m] about the mean of the orbit whose shot is ``path``
+        (:meth:`path`): blade 0's whole period at every step."""
         nq = self.N * self.m
-        q = np.array(path)[:, :nq].reshape(-1, self.m)  # (steps N', m)
+        q = path[:, :nq].reshape(-1, self.m)  # (steps N', m)
         q = q - q.mean(axis=0)
         return float(np.linalg.norm(q @ self.tip.T, axis=1).max())
+
+    def locked(self, path: np.ndarray) -> np.ndarray:
+        """``(K,)`` bool: the contact kinds none of whose sliders moves over the shot
+        ``path`` (:meth:`path`) and its last step, which is every blade's whole period: the
+        kinds that stick all period (under the paper law none: no sliders)."""
+        if not self.sliders:
+            return np.zeros(self.K, bool)
+        n_tau, h = self.flow.steps_for(self.tau)
+        end = self.flow.advance(path[-1][None], h, 1, start=(n_tau - 1) * h)
+        nq = 2 * self.N * self.m
+        sliders = np.concatenate([path[:, nq:], end[:, nq:]]).reshape(-1, self.K, 2 * self.N)
+        return np.all(sliders == sliders[:1], axis=(0, 2))
+
+
+def neutral_nds(count: int, pattern: int, g: int, blades: int) -> np.ndarray:
+    """``(count,)`` the NDs on the wheel of ``blades`` of ``count`` locked slider unknowns of
+    a pattern of ``pattern`` blades repeating ``g`` times: per kind and component, one wave
+    ``k' g`` (``k' = 0..N'-1``) over the pattern's blades each (their multipliers are the
+    eigenvalue 1 of unit rows: any combination is an eigenvector's slider part)."""
+    waves = np.arange(pattern) * g
+    return np.tile(nodal_diameter(waves, blades), count // max(pattern, 1)).astype(int)
+
+
+def largest_first(mu: np.ndarray, nd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(mu, nd)`` ordered by decreasing ``|mu|`` (ties in their given order)."""
+    order = np.argsort(-np.abs(mu), kind="stable")
+    return mu[order], np.asarray(nd, int)[order]
 
 
 def exact_forced(model: ReducedModel, cfg: Config, problem: ForcedWave, X: np.ndarray,
@@ -345,16 +397,21 @@ def wheel_multipliers(model: ReducedModel, cfg: Config, problem: ForcedWave,
     (``w = e^{2 pi i / g}``, ``p = 0..g-1``) hold the eigenvalues ``nu`` of the perturbations
     that change by ``w^p`` from one super-block to the next. ``F^{N'} = S^{-j N'} phi_T`` with
     ``S^{N'} v = w^p v``, so the monodromy's multiplier is ``mu = w^{p j} nu^{N'}``
-    (``p = 0``: the pattern's own). No trivial multiplier: the force fixes the phase."""
+    (``p = 0``: the pattern's own). No trivial multiplier: the force fixes the phase. The
+    sliders of the kinds stuck all period (``orbit.neutral``) are left out of every block and
+    their ``2 N`` multipliers reported as exactly 1 (:func:`neutral_nds`)."""
     N, m = model.blades, model.modes
     whole = ForcedShooting(model, cfg, problem, orbit.frequency, angles_deg, whole=True)
+    neutral = np.asarray(orbit.neutral if orbit.neutral.size else np.zeros(whole.K, bool))
     try:
         K = whole.sliders // (2 * N)
         P = whole.shots  # the wave's pattern N' (the orbit may be on the whole wheel)
         g = N // P
+        moving = np.isin(np.arange(whole.n), whole.unlocked(neutral))
 
         def block(r: int) -> np.ndarray:  # flat indices of super-block r's blades
-            return blade_indices(np.arange(r * P, (r + 1) * P), N, m, K)
+            indices = blade_indices(np.arange(r * P, (r + 1) * P), N, m, K)
+            return indices[moving[indices]]
 
         # blade s of the wheel is the orbit's blade s mod its blade count
         x_full = orbit.state[blade_indices(np.arange(N) % orbit.pattern, orbit.pattern,
@@ -366,5 +423,6 @@ def wheel_multipliers(model: ReducedModel, cfg: Config, problem: ForcedWave,
     C = [columns[block(r)] for r in range(g)]  # C[r]: super-block r's response to block 0
     values, nds, _, _ = block_circulant_spectrum(C, [block(r) for r in range(g)], scale, N, m,
                                                  P, whole.shift)
-    order = np.argsort(-np.abs(values))
-    orbit.wheel_multipliers, orbit.wheel_nodal_diameters = values[order], nds[order]
+    ones = neutral_nds(2 * N * int(neutral.sum()), N, 1, N)
+    orbit.wheel_multipliers, orbit.wheel_nodal_diameters = largest_first(
+        np.concatenate([values, np.ones(ones.size)]), np.concatenate([nds, ones]))
