@@ -16,7 +16,9 @@
   Newton of the shots whose Jacobian can be singular (:mod:`.newton`), the orbit's Floquet
   multipliers from the monodromy (:mod:`.monodromy`) and the whole wheel's from the wave's
   pattern by Bloch waves (:mod:`.bloch`), the forced response's exact state at the known
-  period (:mod:`.forced_shooting`) and where a flutter transient settles (:mod:`.settle`);
+  period (:mod:`.forced_shooting`), that state perturbed on the whole wheel (a seeded wave's
+  growth, where an unstable one goes: :mod:`.forced_perturbed`) and where a flutter transient
+  settles (:mod:`.settle`);
 - what a periodic solution reports, whichever method found it (:mod:`.cycle`; an exact
   orbit's from its samples, :mod:`.report`).
 """
