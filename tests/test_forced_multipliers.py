@@ -80,7 +80,7 @@ def test_a_stable_state_in_partial_slip_damps_its_seeds_as_its_multipliers_say(
 
 
 def test_an_unstable_state_grows_its_seeds_as_its_multipliers_say_and_leaves(
-        small_model, elastic_states):
+        small_model, elastic_states, tmp_path, capsys):
     cfg, problem, states = elastic_states
     orbit, shares = states[250.0]
     assert 0.05 < shares[1, 2] < 0.8 and not orbit.stable
@@ -96,3 +96,37 @@ def test_an_unstable_state_grows_its_seeds_as_its_multipliers_say_and_leaves(
     assert settled.bounded and settled.seeded == [1, 2, 4, 5, 6]
     assert settled.largest > 1.05 * orbit.tip_amplitude and settled.spread > 0.03
     assert settled.dominant_nd == 5
+    _said_and_written(orbit, settled, tmp_path, capsys)
+
+
+def _said_and_written(orbit, settled, tmp_path, capsys):
+    """``forced-response --exact``'s line, its JSON keys and its file's datasets say where
+    the wheel goes from the unstable state (the command's own formatting and writer)."""
+    import h5py
+
+    from wheelrom.cli import forced as command
+
+    orbit.settled = settled
+    row = command._exact(orbit)
+    assert row["settled_bounded"] and row["settled_largest_m"] == settled.largest
+    command._print_exact(row)
+    line = capsys.readouterr().out
+    change = 100 * (settled.largest / orbit.tip_amplitude - 1)
+    assert ": unstable; perturbed, the wheel leaves it and stays bounded" in line
+    assert f"({change:+.2f} %)" in line and "mostly ND 5" in line
+    assert command._settles(row) == f" {change:+8.2f}%"
+    assert command._settles({k: v for k, v in row.items() if "settled" not in k}) == ""
+    with h5py.File(tmp_path / "f.h5", "w") as f:
+        out = {"law": "elastic", "harmonics": 3, "exact_curve": [None, row], "exact": row}
+        command._write_nonlinear(f.create_group("nonlinear"), out, _NoCurve())
+        e = f["nonlinear/exact_curve"]
+        assert np.isnan(e["settled_largest_m"][0])
+        assert e["settled_largest_m"][1] == settled.largest
+        assert f["nonlinear/exact"].attrs["settled_nd"] == 5
+
+
+class _NoCurve:
+    """The curve's arrays the writer stores beside the exact states (not looked at here)."""
+
+    tip_amplitude = converged = harmonics = fractions = np.zeros(2)
+    kinds = ("tieboss", "shroud")

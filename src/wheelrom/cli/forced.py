@@ -40,8 +40,9 @@ def args_forced(p: argparse.ArgumentParser) -> None:
                    help="with --nonlinear: the exact periodic state at the nonlinear peak "
                    "('peak', the default) or at every solved frequency ('all': the curve's "
                    "stable and unstable parts) by shooting on the transient's equations (the "
-                   "harmonic balance's error) and its Floquet multipliers in every ND "
-                   "(docs/theory.md)")
+                   "harmonic balance's error) and its Floquet multipliers in every ND; an "
+                   "unstable state is then perturbed and the whole wheel integrated from it "
+                   "until bounded: where the wheel goes (docs/theory.md)")
     p.add_argument("--angle", nargs=2, action="append", default=[], metavar=("KIND", "DEG"),
                    help="contact angle [deg] of a kind (tieboss, shroud) instead of "
                    "contacts.<kind>.angle_deg (repeatable)")
@@ -265,7 +266,7 @@ def _exact_states(model, cfg, curve, inputs: tuple, angles: dict | None, harmoni
         say(f"the exact state at {curve.frequency[j] / (2 * math.pi):.4f} Hz by shooting")
         states[int(j)] = _exact(exact_peak(model, cfg, curve.harmonics[j],
                                            float(curve.frequency[j]), harmonics, inputs,
-                                           angles, whole_wheel=True))
+                                           angles, whole_wheel=True, settle=True))
     if world is not None and len(wanted):
         states = {j: s for part in world.allgather(states) for j, s in part.items()}
     return states
@@ -290,6 +291,12 @@ def _exact(orbit) -> dict:
         out.update(wheel_largest_multiplier=float(abs(mu[0])),
                    wheel_multipliers_re=mu.real.tolist(), wheel_multipliers_im=mu.imag.tolist(),
                    wheel_multiplier_nd=orbit.wheel_nodal_diameters.tolist())
+    if orbit.settled is not None:  # unstable: where the wheel goes
+        st = orbit.settled
+        out.update(settled_bounded=st.bounded, settled_periods=st.periods,
+                   settled_largest_m=st.largest, settled_smallest_m=st.smallest,
+                   settled_spread=st.spread, settled_deviation_m=st.deviation,
+                   settled_nd=st.dominant_nd, settled_wall_s=st.wall_s)
     return out
 
 
@@ -413,6 +420,8 @@ def _write_nonlinear(g, out: dict, curve) -> None:
         e["wheel_multiplier_nd"] = np.array([r["wheel_multiplier_nd"][0]
                                              if r and "wheel_multiplier_nd" in r else -1
                                              for r in rows], dtype="i8")
+        for key in ("settled_largest_m", "settled_spread"):  # NaN: stable or not settled
+            e[key] = np.array([r[key] if r and key in r else np.nan for r in rows], dtype=float)
         e["stable"] = np.array([bool(r and r.get("stable")) for r in rows])
         e["converged"] = np.array([bool(r and r["converged"]) for r in rows])
     if "exact" in out:  # --exact
@@ -460,14 +469,15 @@ def _print_nonlinear(out: dict) -> None:
           f"'{nl['law']}', {nl['wall_s']:.1f} s):")
     exact = nl.get("exact_curve") or [None] * len(out["frequency_hz"])
     print(f"{'f [Hz]':>12s} {'linear [m]':>12s} {'nonlinear [m]':>14s}"
-          + (f" {'exact [m]':>12s} {'|mu| (ND)':>16s}" if "exact_curve" in nl else ""))
+          + (f" {'exact [m]':>12s} {'|mu| (ND)':>16s} {'settles':>9s}" if "exact_curve" in nl
+             else ""))
     rows = zip(out["frequency_hz"], out["max_amplitude_m"], nl["tip_amplitude_m"], exact,
                strict=True)
     for f, a, b, ex in rows:
         text = f"{b:14.4e}" if b is not None else f"{'no solution':>14s}"
         if ex is not None and ex["converged"]:  # --exact all
             mu = f"{ex['wheel_largest_multiplier']:.4f} ({ex['wheel_multiplier_nd'][0]})"
-            text += f" {ex['tip_amplitude_m']:12.4e} {mu:>16s}"
+            text += f" {ex['tip_amplitude_m']:12.4e} {mu:>16s}" + _settles(ex)
         elif ex is not None:
             text += f" {'no orbit':>12s}"
         print(f"{f:12.4f} {a:12.4e} {text}")
@@ -504,6 +514,8 @@ def _print_exact(ex: dict) -> None:
     verdict = "stable" if ex["stable"] else "unstable"
     every = (f"; in every ND |mu| = {ex['wheel_largest_multiplier']:.6f} (ND "
              f"{ex['wheel_multiplier_nd'][0]})" if "wheel_largest_multiplier" in ex else "")
+    if "settled_bounded" in ex:
+        verdict += _settled_words(ex)
     print(f"exact state at {ex['frequency_hz']:.4f} Hz (shooting, {ex['iterations']} "
           f"iterations, residual {ex['residual']:.1e}, {ex['wall_s']:.1f} s): tip "
           f"{ex['tip_amplitude_m']:.4e} m, the harmonic balance "
@@ -511,3 +523,28 @@ def _print_exact(ex: dict) -> None:
           f"|mu| = {ex['largest_multiplier']:.6f} (ND {ex['multiplier_nd'][0]}; "
           f"{ex['largest_multiplier_at_twice_the_step']:.6f} at twice the step) within the "
           f"NDs of its {ex['pattern_blades']}-blade pattern{every}: {verdict}")
+
+
+def _settles(ex: dict) -> str:
+    """The table's column: the largest blade where the wheel goes from an unstable state,
+    over the state's (blank: stable; 'unbounded': it did not saturate)."""
+    if "settled_bounded" not in ex:
+        return ""
+    if not ex["settled_bounded"]:
+        return f" {'unbounded':>9s}"
+    change = 100 * (ex["settled_largest_m"] / ex["tip_amplitude_m"] - 1)
+    return f" {change:+8.2f}%"
+
+
+def _settled_words(ex: dict) -> str:
+    """Where the wheel goes from the unstable state, in words."""
+    change = 100 * (ex["settled_largest_m"] / ex["tip_amplitude_m"] - 1)
+    motion = (f"the largest blade {ex['settled_largest_m']:.4e} m ({change:+.2f} %), the "
+              f"blades {100 * ex['settled_spread']:.2f} % apart, the tips within "
+              f"{100 * ex['settled_deviation_m'] / ex['tip_amplitude_m']:.2f} % of the "
+              f"state's amplitude from it, the difference mostly ND {ex['settled_nd']}")
+    if ex["settled_bounded"]:
+        return (f"; perturbed, the wheel leaves it and stays bounded after "
+                f"{ex['settled_periods']} periods ({ex['settled_wall_s']:.0f} s): {motion}")
+    return (f"; perturbed, the wheel leaves it, not bounded after {ex['settled_periods']} "
+            f"periods: {motion}")

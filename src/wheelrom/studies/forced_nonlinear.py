@@ -16,6 +16,7 @@ import numpy as np
 from wheelrom.analysis.forced import operators, speed_following
 from wheelrom.analysis.forced_peak import resonance
 from wheelrom.analysis.periodic.forced_branch import traced_curve
+from wheelrom.analysis.periodic.forced_perturbed import settle_unstable
 from wheelrom.analysis.periodic.forced_segments import segment_count, segmented_curve
 from wheelrom.analysis.periodic.forced_shooting import ForcedOrbit, exact_forced
 from wheelrom.analysis.periodic.forced_wave import ForcedCurve, ForcedWave, forced_curve
@@ -131,12 +132,16 @@ def design_point(model: ReducedModel, cfg: Config, angles_deg: dict | None = Non
 
 def exact_peak(model: ReducedModel, cfg: Config, X: np.ndarray, omega: float,
                harmonics: int, inputs: tuple, angles_deg: dict | None = None,
-               whole_wheel: bool = False) -> ForcedOrbit:
+               whole_wheel: bool = False, settle: bool = False) -> ForcedOrbit:
     """The exact state by shooting from the balance's state ``X`` ``(2H + 1, m)`` at
     ``omega`` [rad/s] (``inputs``: the case's :func:`forced_inputs`; ``whole_wheel``: its
-    multipliers in every ND too)."""
+    multipliers in every ND too; ``settle``: where the wheel goes when it is unstable,
+    :func:`~wheelrom.analysis.periodic.forced_perturbed.settle_unstable`)."""
     problem = ForcedWave(model, inputs[0], cfg.wheel.damping_beta, harmonics)
-    return exact_forced(model, cfg, problem, X, omega, angles_deg, whole_wheel=whole_wheel)
+    orbit = exact_forced(model, cfg, problem, X, omega, angles_deg, whole_wheel=whole_wheel)
+    if settle:
+        settle_unstable(model, cfg, problem, orbit, angles_deg)
+    return orbit
 
 
 def exact_summary(orbit: ForcedOrbit) -> dict:

@@ -37,7 +37,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from wheelrom.analysis.periodic.bloch import blade_indices
-from wheelrom.analysis.periodic.forced_shooting import UNIT, ForcedOrbit, ForcedShooting
+from wheelrom.analysis.periodic.forced_shooting import (
+    UNIT,
+    ForcedOrbit,
+    ForcedShooting,
+    guarded,
+)
 from wheelrom.analysis.periodic.forced_wave import ForcedWave
 from wheelrom.analysis.periodic.settle import peak
 from wheelrom.config import Config
@@ -120,8 +125,8 @@ class SettledForced:
 
 class WholeWheel:
     """The whole wheel at the exact state ``orbit`` of ``problem``: its flat state ``x``
-    (the pattern tiled), the units of its unknowns, the forced flow at the orbit's step
-    (``cfg``: the orbit's configuration); :meth:`destroy` frees the flow."""
+    (the pattern tiled), the units of its unknowns, the forced flow in the orbit's own steps
+    (``orbit.steps_per_period``; ``cfg``'s step is not used); :meth:`destroy` frees it."""
 
     def __init__(self, model: ReducedModel, cfg: Config, problem: ForcedWave,
                  orbit: ForcedOrbit, angles_deg: dict | None = None):
@@ -193,7 +198,7 @@ def seeded_growth(model: ReducedModel, cfg: Config, problem: ForcedWave, orbit: 
                   nd: int, periods: int = 60, size: float = 1e-6,
                   angles_deg: dict | None = None, seed: int = 0, skip: int = SKIP,
                   limit: float = LIMIT) -> SeededGrowth:
-    """A wave of ND ``nd`` seeded at the exact state ``orbit`` (``cfg``: its step) at
+    """A wave of ND ``nd`` seeded at the exact state ``orbit`` (its own steps) at
     ``size`` of the vibration and the whole wheel integrated ``periods`` periods; the fit
     from ``skip`` to the last period below ``limit`` (module docstring)."""
     t0 = time.perf_counter()
@@ -218,7 +223,7 @@ def seeded_growth(model: ReducedModel, cfg: Config, problem: ForcedWave, orbit: 
 def settle_forced(model: ReducedModel, cfg: Config, problem: ForcedWave, orbit: ForcedOrbit,
                   angles_deg: dict | None = None, size: float = 1e-6, window: int = 10,
                   max_periods: int = 400) -> SettledForced:
-    """Where the wheel goes from the exact state ``orbit`` (``cfg``: its step) perturbed by
+    """Where the wheel goes from the exact state ``orbit`` (its own steps) perturbed by
     ``size`` of the vibration in the NDs of its multipliers outside the unit circle (every
     ND's, :func:`~.forced_shooting.wheel_multipliers`, when computed; else the pattern's):
     windows of ``window`` periods until bounded or decayed, at most ``max_periods``
@@ -272,3 +277,14 @@ def _amplitudes(tips: np.ndarray) -> np.ndarray:
 def _largest_distance(tips: np.ndarray, reference: np.ndarray) -> float:
     """The largest distance [m] of a tip of ``tips`` from ``reference`` (both ``(S, N, 3)``)."""
     return float(np.sqrt(((tips - reference) ** 2).sum(axis=2)).max())
+
+
+def settle_unstable(model: ReducedModel, cfg: Config, problem: ForcedWave, orbit: ForcedOrbit,
+                    angles_deg: dict | None = None) -> None:
+    """``orbit.settled``: :func:`settle_forced` when ``orbit`` is unstable (a flow that fails
+    is said in ``orbit.reason``, the state kept)."""
+    if not orbit.converged or orbit.stable is not False:
+        return
+    orbit.settled, failure = guarded(settle_forced, model, cfg, problem, orbit, angles_deg)
+    if failure:
+        orbit.reason += f"; where the wheel goes: {failure}"

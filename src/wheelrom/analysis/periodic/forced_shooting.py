@@ -33,6 +33,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -107,6 +108,9 @@ class ForcedOrbit:
     wheel_multipliers: np.ndarray = field(default_factory=lambda: np.zeros(0, complex))
     wheel_nodal_diameters: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
     neutral: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    #: where the wheel goes from the state when it is unstable
+    #: (:class:`~.forced_perturbed.SettledForced`; None: not asked or stable)
+    settled: Any = None
 
     @property
     def largest(self) -> float:
@@ -338,14 +342,14 @@ def exact_forced(model: ReducedModel, cfg: Config, problem: ForcedWave, X: np.nd
     ``whole_wheel``: also the whole wheel's multipliers (:func:`wheel_multipliers`)."""
     hb = problem.tip_amplitude(X, omega)
     orbit_cfg = cfg  # the configuration of the step the orbit is reported at
-    orbit, failure = _guarded(_shoot, model, cfg, problem, omega, angles_deg, X, None, hb)
+    orbit, failure = guarded(_shoot, model, cfg, problem, omega, angles_deg, X, None, hb)
     if failure:  # a step of the flow failed: said, and nothing else computed is lost
         return ForcedOrbit(float(omega), np.zeros(0), 0, math.inf, 0, False,
                            hb_tip_amplitude=hb, reason=failure)
     orbit.hb_tip_amplitude = hb
     if refine and orbit.converged:
         finer = cfg.replace(**{"time.step": cfg.time.step / 2})
-        fine, failure = _guarded(_shoot, model, finer, problem, omega, angles_deg, None,
+        fine, failure = guarded(_shoot, model, finer, problem, omega, angles_deg, None,
                                  orbit.state, hb)
         if fine is not None and fine.converged:
             fine.hb_tip_amplitude, fine.coarse_largest = hb, orbit.largest
@@ -355,7 +359,7 @@ def exact_forced(model: ReducedModel, cfg: Config, problem: ForcedWave, X: np.nd
             orbit.reason += f"; at half the step: {failure or fine.reason}"
     if whole_wheel and orbit.converged:
         t0 = time.perf_counter()
-        _, failure = _guarded(wheel_multipliers, model, orbit_cfg, problem, orbit, angles_deg)
+        _, failure = guarded(wheel_multipliers, model, orbit_cfg, problem, orbit, angles_deg)
         if failure:
             orbit.reason += f"; every ND: {failure}"
         orbit.wall_s += time.perf_counter() - t0
@@ -372,7 +376,7 @@ def _shoot(model, cfg, problem, omega, angles_deg, X, x0, hb) -> ForcedOrbit:
         shooting.destroy()
 
 
-def _guarded(function, *args):
+def guarded(function, *args):
     """``(result, "")`` or ``(None, what failed)``: a flow that diverges or a linear algebra
     failure on a NaN column ends this state's shot, not the caller's whole curve."""
     try:
