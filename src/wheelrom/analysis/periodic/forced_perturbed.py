@@ -18,14 +18,14 @@ periods, its tips sampled ``SAMPLES`` times a period, until the perturbation, gr
 ``GROWN`` times beyond its start, grows from window to window by less than a quarter of
 the linear rate's ``|mu|^window - 1`` and less than ``CALM`` in ``CONSECUTIVE`` windows in
 a row (bounded: the instability has saturated), or stays below its start, at most
-``max_periods``. Reported from the last window: every
-blade's amplitude against the state's at the same samples (the sampling's bias cancels: a
-period's peak from 48 samples is within 1.4 % of the orbit's; the largest, the smallest and
-their spread), the largest distance of a tip from the state's, and the ND content of that
-difference (beside the forced wave). An instability that saturates where a perturbation
-first makes a contact slip where the state sticks (the paper wheel at 130 Hz: a stick
-phase within 2.8e-4 of the Coulomb limit; the perturbation stops at 4e-4 of the vibration)
-leaves the wheel within a fraction of a percent of the travelling wave.
+``max_periods``. Reported from the last window: every blade's amplitude against the state's
+at the same samples (the sampling's bias cancels: a period's peak from 48 samples is within
+1.4 % of the orbit's; the largest, the smallest and their spread), the largest distance of
+a tip from the state's, and the ND content of that difference (beside the forced wave).
+An instability that saturates where a perturbation first makes a contact slip where the
+state sticks (the paper wheel at 130 Hz: a stick phase within 2.8e-4 of the Coulomb limit;
+the perturbation stops at 4e-4 of the vibration) leaves the wheel within a fraction of a
+percent of the travelling wave.
 """
 
 from __future__ import annotations
