@@ -35,6 +35,23 @@ TESTS = os.path.dirname(os.path.abspath(__file__))
 GIVE_UP_S = 900.0
 
 
+#: a :func:`script` patch for ``wheelrom sweep``: rank 0's second round holds before it
+#: integrates until a stop is requested (SIGINT or SIGTERM, under interrupts.deferred), then
+#: runs, and its first window's progress stops it (or until SIGKILL); the file then holds the
+#: first round's cases and no other, whatever the speed of the machine
+SWEEP_SECOND_ROUND = """
+    import wheelrom.studies.sweep as sweep
+    from wheelrom.runtime import interrupts
+    integrate, calls = sweep.run_cases, []
+    def run_cases(*args, **kwargs):
+        calls.append(args)
+        if rank == 0 and len(calls) == 2:
+            hold("rank 0's second round", released=interrupts.requested)
+        return integrate(*args, **kwargs)
+    sweep.run_cases = run_cases
+    """
+
+
 def hold(where: str, released=lambda: False) -> None:
     """Say on stderr that this process is at ``where`` and wait there until ``released()``
     is true or a signal raises out of the wait."""

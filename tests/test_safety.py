@@ -182,29 +182,12 @@ def test_resume_with_other_ts_options_is_refused_naming_them(small_sweep):
         assert [json.loads(o)["ts_rk_type"] for o in f["cases/options"][:]] == ["3bs"] * 3
 
 
-#: the wrapper's patch (tests/handshake.py): rank 0's second round holds before it integrates
-#: until a stop is requested (the signal, under interrupts.deferred), then runs, and its first
-#: window's progress stops it; the first round's cases are then in the file, whatever the speed
-#: of the machine (signalled after the first progress line instead, a fast machine could have
-#: finished every case before the signal came)
-HOLD_THE_SECOND_ROUND = """
-    import wheelrom.studies.sweep as sweep
-    from wheelrom.runtime import interrupts
-    integrate, calls = sweep.run_cases, []
-    def run_cases(*args, **kwargs):
-        calls.append(args)
-        if rank == 0 and len(calls) == 2:
-            hold("rank 0's second round", released=interrupts.requested)
-        return integrate(*args, **kwargs)
-    sweep.run_cases = run_cases
-    """
-
-
 def _interrupt_the_second_round(tmp_path, argv, sig=signal.SIGINT, ranks=None):
     """Run ``wheelrom argv`` (under ``mpirun -n ranks`` when given) with rank 0's second round
-    held (:data:`HOLD_THE_SECOND_ROUND`), send ``sig`` to every rank once it holds there, and
-    return (exit status, stderr)."""
-    cmd = [*handshake.script(tmp_path, HOLD_THE_SECOND_ROUND), *argv]
+    held (:data:`handshake.SWEEP_SECOND_ROUND`), send ``sig`` to every rank once it holds
+    there, and return (exit status, stderr). Signalled after the first progress line instead,
+    a fast machine could have finished every case before the signal came."""
+    cmd = [*handshake.script(tmp_path, handshake.SWEEP_SECOND_ROUND), *argv]
     if ranks:
         cmd = ["mpirun", "-n", str(ranks), *cmd]
     proc = subprocess.Popen(cmd, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True,
