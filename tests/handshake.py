@@ -22,6 +22,7 @@ import os
 import re
 import sys
 import textwrap
+import threading
 import time
 
 HOLDING = "handshake: holding"
@@ -29,10 +30,11 @@ ARRIVED = "handshake: arrived"
 STARTED = "handshake: started"
 TESTS = os.path.dirname(os.path.abspath(__file__))
 
-#: [s] a guard only: a test that never acts (it failed before) must not leave its command
-#: waiting for ever; far beyond any wait of a test that works, which acts within a second of
-#: reading the line
-GIVE_UP_S = 900.0
+#: [s] the timeout of every subprocess of the suite (conftest re-exports it), of the wait for
+#: a handshake's line and of a hold a test never released: a guard against a hang only,
+#: never a limit a working command reaches (a cold kernel cache on a 2-core machine loaded
+#: by other jobs takes minutes)
+HANG_S = 1800
 
 
 #: a :func:`script` patch for ``wheelrom sweep``: rank 0's second round holds before it
@@ -56,7 +58,7 @@ def hold(where: str, released=lambda: False) -> None:
     """Say on stderr that this process is at ``where`` and wait there until ``released()``
     is true or a signal raises out of the wait."""
     print(f"{HOLDING} {where} (pid {os.getpid()})", file=sys.stderr, flush=True)
-    give_up = time.monotonic() + GIVE_UP_S
+    give_up = time.monotonic() + HANG_S
     while not released():
         if time.monotonic() > give_up:
             raise SystemExit(f"handshake: never released at {where}")
@@ -89,16 +91,22 @@ def script(folder, patch: str, name: str = "held.py") -> list[str]:
     return [sys.executable, path]
 
 
-def read_until(stream, *wanted: str) -> list[str]:
-    """The lines of ``stream`` read until every text of ``wanted`` was seen (in any order:
-    the ranks' lines reach mpirun's stderr as they come). Raises
-    AssertionError with everything read when the stream ends first (the command stopped
-    before reaching the point)."""
+def read_until(proc, *wanted: str) -> list[str]:
+    """The lines of the ``subprocess.Popen`` ``proc``'s stderr read until every text of
+    ``wanted`` was seen (in any order: the ranks' lines reach mpirun's stderr as they come).
+    Raises AssertionError with everything read when the stream ends first (the command
+    stopped before reaching the point), or when ``proc`` has not said them in :data:`HANG_S`
+    (then it is stopped by SIGTERM, which mpirun passes on to its ranks)."""
+    watchdog = threading.Timer(HANG_S, proc.terminate)
+    watchdog.start()
     seen: list[str] = []
-    for line in stream:
-        seen.append(line)
-        if all(any(w in ln for ln in seen) for w in wanted):
-            return seen
+    try:
+        for line in proc.stderr:
+            seen.append(line)
+            if all(any(w in ln for ln in seen) for w in wanted):
+                return seen
+    finally:
+        watchdog.cancel()
     raise AssertionError(f"the command ended before saying {wanted}:\n{''.join(seen)}")
 
 

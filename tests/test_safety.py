@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import handshake
-from conftest import SMALL
+from conftest import HANG_S, SMALL
 from wheelrom import config
 from wheelrom.cli import main as cli
 from wheelrom.results.info import file_info
@@ -25,7 +25,7 @@ ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIR
            OMPI_MCA_rmaps_base_oversubscribe="1", MPLBACKEND="Agg")
 
 
-def wheelrom(*args, timeout=300, ranks=None, **kw):
+def wheelrom(*args, timeout=HANG_S, ranks=None, **kw):
     """The CLI in a subprocess (its own PETSc database), optionally under mpirun."""
     cmd = [sys.executable, "-m", "wheelrom.cli.main", *args]
     if ranks:
@@ -143,7 +143,7 @@ def test_sweep_killed_while_creating_its_file_leaves_nothing_to_trip_over(tmp_pa
     out = tmp_path / "s.h5"
     argv = ["sweep", SMALL, "--out", str(out), *QUICK]
     res = subprocess.run([sys.executable, "-c", KILL_DURING_CREATION, *argv],
-                         capture_output=True, text=True, timeout=300, env=ENV)
+                         capture_output=True, text=True, timeout=HANG_S, env=ENV)
     assert res.returncode == -signal.SIGKILL
     assert not out.exists()  # the name appears only with a complete layout
     # the killed job's lock is reported stale with the command that removes it, not stolen
@@ -193,11 +193,11 @@ def _interrupt_the_second_round(tmp_path, argv, sig=signal.SIGINT, ranks=None):
     proc = subprocess.Popen(cmd, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True,
                             env=ENV)
     every_rank = [f"{handshake.STARTED} rank {r} " for r in range(ranks or 1)]
-    seen = handshake.read_until(proc.stderr, handshake.HOLDING, *every_rank)
+    seen = handshake.read_until(proc, handshake.HOLDING, *every_rank)
     for pid in handshake.pids(seen).values():  # the ranks themselves, never mpirun
         os.kill(pid, sig)
     seen += proc.stderr.readlines()
-    return proc.wait(timeout=300), "".join(seen)  # a guard against a hang only
+    return proc.wait(timeout=HANG_S), "".join(seen)
 
 
 #: three cases, one a round (one process: three rounds; two ranks: cases 1 and 2, then 3)
@@ -381,8 +381,7 @@ def test_a_failing_stability_case_under_mpirun_stops_every_rank(tmp_path):
     of the 90 deg case on rank 1 1.2e-7): one line, no hang (every rank stops together)."""
     res = wheelrom("stability", SMALL, "--set", "sweep.shroud_angles_deg=[0.0, 90.0, 20.0]",
                    "--", "-stability_preload_snes_rtol", "0", "-stability_preload_snes_atol",
-                   "2e-8", "-stability_preload_snes_max_it", "2", ranks=2,
-                   timeout=120)
+                   "2e-8", "-stability_preload_snes_max_it", "2", ranks=2)
     assert res.returncode != 0
     lines = [ln for ln in res.stderr.splitlines() if ln.startswith("wheelrom:")]
     assert len(lines) == 1 and "linear stability failed for 1 case(s)" in lines[0], res.stderr

@@ -25,7 +25,7 @@ import numpy as np
 import pytest
 
 import handshake
-from conftest import SMALL, VDP_WHEEL
+from conftest import HANG_S, SMALL, VDP_WHEEL
 from wheelrom.cli import main as cli
 
 #: one case, two-period windows, at most 0.05 s simulated
@@ -263,11 +263,11 @@ def test_ctrl_c_during_settle_names_the_kept_cases_and_the_resume_line(tmp_path,
     proc = subprocess.Popen([*held, "settle", str(cfg), "--out", str(out)],
                             stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True,
                             env=dict(os.environ, MPLBACKEND="Agg"))
-    seen = handshake.read_until(proc.stderr, handshake.HOLDING)
+    seen = handshake.read_until(proc, handshake.HOLDING)
     proc.send_signal(signal.SIGINT)
     seen += proc.stderr.readlines()
     err = "".join(seen)
-    assert proc.wait(timeout=300) == 130, err  # a guard against a hang only: it exits at once
+    assert proc.wait(timeout=HANG_S) == 130, err
     assert "Traceback" not in err, err
     (line,) = _errors(err)
     beside = folder / ".it's.settle"
@@ -327,10 +327,10 @@ def test_a_killed_rank_leaves_rank_0_saying_what_is_kept(tmp_path, capsys):
     proc = subprocess.Popen(["mpirun", "-n", "2", *held, "settle", str(cfg), "--out",
                              str(out)], stderr=subprocess.PIPE, stdout=subprocess.DEVNULL,
                             text=True, env=env)
-    seen = handshake.read_until(proc.stderr, handshake.HOLDING, handshake.ARRIVED)
+    seen = handshake.read_until(proc, handshake.HOLDING, handshake.ARRIVED)
     os.kill(handshake.held_pid(seen), signal.SIGKILL)
     seen += proc.stderr.readlines()
-    proc.wait(timeout=300)  # a guard against a hang only
+    proc.wait(timeout=HANG_S)
     err = "".join(seen)
     lines = [ln for ln in err.splitlines() if ln.startswith("wheelrom:")]
     assert len(lines) == 1 and "Traceback" not in err, err
@@ -363,6 +363,6 @@ def test_an_exception_on_one_rank_aborts_the_job(tmp_path):
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
                OMPI_MCA_rmaps_base_oversubscribe="1", MPLBACKEND="Agg")
     done = subprocess.run(["mpirun", "-n", "2", sys.executable, str(script)], env=env,
-                          capture_output=True, text=True, timeout=120)
+                          capture_output=True, text=True, timeout=HANG_S)
     assert done.returncode != 0
     assert "rank 1: Traceback" in done.stderr and "rank 1 fails here" in done.stderr

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import handshake
-from conftest import SMALL
+from conftest import HANG_S, SMALL
 
 WHEELROM = [sys.executable, "-m", "wheelrom.cli.main"]
 ENV = dict(
@@ -25,7 +25,7 @@ def sweep(out, *extra, ranks=1, check=True, env=ENV):
     cmd = WHEELROM + ["sweep", SMALL, "--out", str(out), *extra]
     if ranks > 1:
         cmd = ["mpirun", "-n", str(ranks), *cmd]
-    return subprocess.run(cmd, env=env, capture_output=True, text=True, check=check, timeout=600)
+    return subprocess.run(cmd, env=env, capture_output=True, text=True, check=check, timeout=HANG_S)
 
 
 # timing and the rank count, not the physics
@@ -104,9 +104,9 @@ def test_killed_sweep_resumes_to_the_same_file(serial_run, tmp_path):
     proc = subprocess.Popen([*held, "sweep", SMALL, "--out", str(out), "--batch", "1"],
                             env=ENV, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                             text=True)
-    handshake.read_until(proc.stderr, handshake.HOLDING)
+    handshake.read_until(proc, handshake.HOLDING)
     proc.send_signal(signal.SIGKILL)
-    proc.communicate(timeout=60)  # a guard against a hang only: it is dead at once
+    proc.communicate(timeout=HANG_S)
     with h5py.File(out, "r") as f:  # opens, holds the first case
         assert [s.decode() for s in f["cases/status"][:]] == ["done", "pending", "pending"]
     # the killed job's lock stays and is reported stale (tests/test_safety.py); once removed,
