@@ -39,8 +39,8 @@ HANG_S = 1800
 
 #: a :func:`script` patch for ``wheelrom sweep``: rank 0's second round holds before it
 #: integrates until a stop is requested (SIGINT or SIGTERM, under interrupts.deferred), then
-#: runs, and its first window's progress stops it (or until SIGKILL); the file then holds the
-#: first round's cases and no other, whatever the speed of the machine
+#: runs, and its first window's progress stops it; a SIGKILL ends it where it holds. Either
+#: way the file holds the first round's cases and no other, whatever the machine's speed.
 SWEEP_SECOND_ROUND = """
     import wheelrom.studies.sweep as sweep
     from wheelrom.runtime import interrupts
@@ -77,7 +77,10 @@ def script(folder, patch: str, name: str = "held.py") -> list[str]:
     arguments."""
     path = os.path.join(folder, name)
     with open(path, "w") as f:
-        f.write("import os, sys\n"
+        f.write("import os, signal, sys\n"
+                # Ctrl-C as at a terminal: a test run started in the background ('&' in a
+                # script) ignores SIGINT, and Python then leaves it ignored
+                "signal.signal(signal.SIGINT, signal.default_int_handler)\n"
                 f"sys.path.insert(0, {TESTS!r})\n"
                 "from wheelrom.runtime.environment import bootstrap\n"
                 "bootstrap()  # one BLAS thread a process, before numpy loads (as the CLI)\n"
