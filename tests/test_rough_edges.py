@@ -7,6 +7,7 @@ import os
 
 import pytest
 
+from conftest import HANG_S
 from wheelrom.cli import main as cli
 
 SECRET = "root:x:0:0:root:/root:/bin/bash"
@@ -160,7 +161,7 @@ def test_python_dash_m_wheelrom_is_the_command():
     import sys
 
     res = subprocess.run([sys.executable, "-m", "wheelrom", "--version"], capture_output=True,
-                         text=True, timeout=120)
+                         text=True, timeout=HANG_S)
     assert res.returncode == 0 and res.stdout.startswith("wheelrom "), res.stderr[-500:]
 
 
