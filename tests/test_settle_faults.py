@@ -337,9 +337,10 @@ def test_a_killed_rank_leaves_rank_0_saying_what_is_kept(tmp_path, capsys):
     lines = [ln for ln in err.splitlines() if ln.startswith("wheelrom:")]
     assert len(lines) == 1 and "Traceback" not in err, err
     # rank 0 finished the two cases rank 1 did not take (which ones: the shared counter's)
-    kept = re.escape(f" of 3 finished and kept in {tmp_path / '.s.settle'}; to compute only "
-                     "the other 1, ")
-    assert re.match(rf"wheelrom: interrupted: cases (1\.\.2|1, 3|2\.\.3){kept}", lines[0]), \
+    # (cases counted from 0, as in the files)
+    kept = re.escape(f" of 0..2 finished and kept in {tmp_path / '.s.settle'}; to compute "
+                     "only the other 1, ")
+    assert re.match(rf"wheelrom: interrupted: cases (0\.\.1|0, 2|1\.\.2){kept}", lines[0]), \
         lines[0]
     assert lines[0].endswith(f": wheelrom settle {cfg} --out {out} --resume"), lines[0]
     assert len(os.listdir(tmp_path / ".s.settle")) == 4  # their .npz and .json
