@@ -33,6 +33,7 @@ from wheelrom.cli.output import (  # noqa: E402
     abort_the_job,
     fail,
     log,
+    numpy_warnings_off,
     print_json,
     print_modes,
     print_result,
@@ -461,8 +462,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     if world_rank() == 0:  # "compiling kernels (first run only)" on a kernel-cache miss
         _kernel_cache.set_log(log)
     try:
-        _petsc_options(args)
-        status = int(args.func(args) or 0)
+        with numpy_warnings_off():
+            _petsc_options(args)
+            status = int(args.func(args) or 0)
     except config_mod.ConfigError as exc:
         return fail(str(exc))
     except OutputExists as exc:
