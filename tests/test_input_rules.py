@@ -43,6 +43,30 @@ def _refused(capsys, argv, words, absent=()):
     return err
 
 
+# --- rule 3: --set of a whole table is merged ------------------------------------------
+
+
+def test_set_of_a_table_merges_into_its_section(tmp_path):
+    """Item 14: ``--set 'time={end=1.0}'`` replaced [time]: scheme, step and window went
+    back to their defaults. A table merges key by key, nested tables too."""
+    from wheelrom import config
+
+    cfg = config.load(SMALL, ["time={end=1.0}"])
+    assert (cfg.time.end, cfg.time.scheme, cfg.time.step, cfg.time.window) == \
+        (1.0, "rk", 5e-6, 5e-4)
+    toml = tmp_path / "c.toml"
+    toml.write_text(open(SMALL).read() + "\n[contacts.shroud]\nnormal_preload = 300.0\n"
+                    '[study.grid]\n"contacts.shroud.angle_deg" = [20.0, 50.0]\n')
+    cfg = config.load(toml, ["contacts={shroud={angle_deg=30.0}}",
+                             'study.grid={"contacts.tieboss.angle_deg"=[40.0]}'])
+    assert (cfg.contacts.shroud.angle_deg, cfg.contacts.shroud.normal_preload) == (30.0, 300.0)
+    assert cfg.contacts.shroud.height == 2.18  # the shroud's own default, not the tie-boss's
+    assert dict(cfg.study.grid) == {"contacts.shroud.angle_deg": (20.0, 50.0),
+                                    "contacts.tieboss.angle_deg": (40.0,)}
+    # a value replaced by a later --set of its table, in order
+    assert config.load(SMALL, ["time.end=0.5", "time={end=0.25}"]).time.end == 0.25
+
+
 # --- rule 4: no numpy RuntimeWarning reaches the user ------------------------------------
 
 #: forced-response --nonlinear with the nozzle force of issue #72 (1e30 N) put past the range

@@ -298,16 +298,34 @@ def to_dict(cfg: Any) -> dict[str, Any]:
     return out
 
 
-def _set_nested(data: dict[str, Any], changes: Mapping[str, Any]) -> dict[str, Any]:
+def _set_nested(data: dict[str, Any], changes: Mapping[str, Any],
+                merge: bool = False) -> dict[str, Any]:
+    """``data`` with the dotted keys of ``changes`` set. ``merge`` (``--set``): a table value
+    (``--set 'time={end=1.0}'``) is merged into the section it names, key by key, so the
+    TOML's other keys of that section stay (replacing the section would have silently put
+    them back to their defaults)."""
     for dotted, value in changes.items():
         node = data
         parts = dotted.split(".")
         for part in parts[:-1]:
             node = node.setdefault(part, {})
             if not isinstance(node, dict):
-                raise ConfigError([f"--set {dotted}: '{part}' is a key, not a section"])
-        node[parts[-1]] = value
+                raise ConfigError([f"--set {cut(dotted)}: '{cut(part)}' is a key, not a "
+                                   "section"])
+        if merge and isinstance(value, Mapping) and isinstance(node.get(parts[-1]), dict):
+            _merge(node[parts[-1]], value)
+        else:
+            node[parts[-1]] = value
     return data
+
+
+def _merge(section: dict[str, Any], table: Mapping[str, Any]) -> None:
+    """``table``'s keys into ``section``, nested tables into nested sections."""
+    for key, value in table.items():
+        if isinstance(value, Mapping) and isinstance(section.get(key), dict):
+            _merge(section[key], value)
+        else:
+            section[key] = value
 
 
 def _build(cls: type, data: Mapping[str, Any], prefix: str, problems: list[str]) -> Any:
@@ -444,4 +462,4 @@ def load(path: str | Path | None = None, overrides: Sequence[str] = ()) -> Confi
     changes = dict(parse_override(o) for o in overrides)
     if changes:
         source += " + --set " + " ".join(f"{cut(k)}={shown(v)}" for k, v in changes.items())
-    return from_dict(_set_nested(data, changes), source=source)
+    return from_dict(_set_nested(data, changes, merge=True), source=source)
