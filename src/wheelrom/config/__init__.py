@@ -1,6 +1,7 @@
 """Stage 1, configuration: one TOML file mapped onto frozen dataclasses, defaults = the paper's
 Table 1 (:mod:`.model`: the schema, ``load``, the cross-checks), the field converter and file
-resolver (:mod:`.values`), the ``[forced]`` and ``[mistuning]`` sections (:mod:`.forced`), the
+resolver (:mod:`.values`), the shared ranges and the options that set keys
+(:mod:`.limits`), the ``[forced]`` and ``[mistuning]`` sections (:mod:`.forced`), the
 ``[flutter]`` section and its aerodynamic damping table (:mod:`.aero`), and the cases of a
 ``[study]`` (:mod:`.study`).
 
@@ -9,6 +10,7 @@ May import: :mod:`wheelrom.runtime`. This face re-exports the schema, so
 keep working.
 """
 
+from wheelrom.config.limits import with_option
 from wheelrom.config.model import (
     CONTACT_KINDS,
     Config,
@@ -38,5 +40,5 @@ __all__ = [
     "CONTACT_KINDS", "Config", "ConfigError", "ContactConfig", "ContactsConfig",
     "ExcitationConfig", "FlutterConfig", "ForcedConfig", "FrictionConfig", "MistuningConfig",
     "OutputConfig", "SegmentConfig", "StudyConfig", "SweepConfig", "TimeConfig", "WheelConfig",
-    "from_dict", "load", "parse_override", "sample_every", "to_dict", "to_toml",
+    "from_dict", "load", "parse_override", "sample_every", "to_dict", "to_toml", "with_option",
 ]

@@ -42,9 +42,11 @@ class FlutterConfig:
             choices=("relative", "absolute", "off", "table"),
         ),
     )
-    mu: float = field(default=100.0, metadata=_key("N s/m", "Van der Pol intensity mu", min=0.0))
+    mu: float = field(default=100.0, metadata=_key("N s/m", "Van der Pol intensity mu", min=0.0,
+                                                   max=1e6))
     r: float = field(
-        default=5e-3, metadata=_key("m", "amplitude where negative damping turns positive", gt=0.0)
+        default=5e-3, metadata=_key("m", "amplitude where negative damping turns positive", gt=0.0,
+                                    max=1.0)
     )
     mode: int | str = field(
         default="auto",
@@ -87,7 +89,8 @@ class FlutterConfig:
     table_scale: float = field(
         default=1.0,
         metadata=_key("-", "factor on the table's aerodynamic coefficients (the flutter "
-                      "margin is the factor at which the wheel flutters)", min=0.0),
+                      "margin is the factor at which the wheel flutters)", min=0.0,
+                      max=1e3),
     )
 
 

@@ -64,14 +64,14 @@ class ForcedConfig:
         default=(),
         metadata=_key("Hz", "[lo, hi] excitation frequency band of the peak search; [] = "
                       "automatic: the tuned resonance of the excited ND's mode 'family' "
-                      "+-max(1 %, 2 max|delta_s|)", min=0.0, allow_empty=True),
+                      "+-max(1 %, 2 max|delta_s|)", min=0.0, max=1e6, allow_empty=True),
     )
     family: int = field(
         default=0,
         metadata=_key("-", "mode family (0: lowest) of the excited ND the automatic band is "
                       "centred on (over the speed: its Campbell crossing with the engine "
                       "order; up to the model's modes, attachment vectors included)",
-                      min=0),
+                      min=0, max=1000),
     )
     contacts: bool = field(
         default=True,
