@@ -4,11 +4,15 @@ option has a physical range and the configuration's caps apply to the options th
 key; ``--set`` of a whole table is merged into its section; no numpy ``RuntimeWarning``
 reaches the user; a message names the key or option the user gave."""
 
+import contextlib
+import io
 import json
 import os
 import subprocess
 import sys
+import tempfile
 
+import h5py
 import pytest
 
 from conftest import SMALL
@@ -277,3 +281,96 @@ def test_numpy_runtime_warnings_never_reach_stderr():
     assert unsolved == ["118.0000", "119.0000", "120.0000"], done.stdout
 
 
+# --- rule 5: the message names what the user gave ----------------------------------------
+
+
+@pytest.mark.parametrize("key, extra", [
+    ("segment.source", ""), ("mistuning.file", ""), ("study.cases", ""),
+    ("flutter.table", 'model = "table"\n'),
+])
+def test_a_huge_path_value_is_not_quoted_back(key, extra, tmp_path, capsys, nothing_computed):
+    """Item 21: a 1 MB "path" came back whole on stderr (segment.source) or as 1000
+    characters with the problem line's doubled length (the others). No file name is longer
+    than 4096 characters: refused with the configuration, quoted cut."""
+    section, name = key.split(".")
+    toml = tmp_path / "c.toml"
+    toml.write_text(f'[{section}]\n{name} = "{"a" * 1_000_000}"\n{extra}')
+    err = _refused(capsys, ["config", "check", str(toml)],
+                   [f"{key}: 'aaaa", "... (1000000 characters) is no file name (a path has "
+                    "at most 4096 characters)"])
+    assert len(err) < 400, err
+
+
+@pytest.mark.parametrize("fmt, kind", [
+    ("wheelrom-stability-1", "stability"), ("wheelrom-forced-1", "forced-response"),
+    ("wheelrom-settle-1", "settle"), ("wheelrom-limit-cycle-1", "limit-cycle"),
+])
+@pytest.mark.parametrize("command", ["export", "animate", "contacts"])
+def test_a_file_of_another_kind_is_named_for_what_it_is(fmt, kind, command, tmp_path, capsys):
+    """Item 24: "not a wheelrom results file" for a stability, forced, settle or limit-cycle
+    file: it is one, just not one of cases with transients."""
+    from wheelrom.results.info import KIND_OF_FORMAT
+
+    assert KIND_OF_FORMAT[fmt] == kind  # the formats as the writers name them
+    path = tmp_path / "f.h5"
+    with h5py.File(path, "w") as f:
+        f.attrs["format"] = fmt
+        f.create_group(kind.replace("-", "_"))
+    argv = [command, str(path)] + (["--csv", str(tmp_path / "x")] if command == "export"
+                                   else [])
+    _refused(capsys, argv, [f"{path} is a {kind} file (format {fmt!r}): {command} reads the "
+                            "cases of a sweep or run results ('wheelrom-sweep-1')"],
+             ["not a wheelrom results file"])
+
+
+def _as_another_user(argv: list[str]) -> tuple[int, str]:
+    """``(status, stderr)`` of ``cli.main(argv)`` run by a user other than the files' owner:
+    as root, in a forked child that became ``nobody`` (root reads every file)."""
+    if os.geteuid() != 0:
+        err = io.StringIO()
+        with contextlib.redirect_stderr(err):
+            return cli.main(argv), err.getvalue()
+    read, write = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # the child: never returns into pytest
+        status = 99
+        try:
+            os.close(read)
+            os.setgid(65534)
+            os.setuid(65534)
+            err = io.StringIO()
+            with contextlib.redirect_stderr(err):
+                status = cli.main(argv)
+            os.write(write, err.getvalue().encode())
+        except BaseException as exc:  # noqa: BLE001 -- reported to the parent, then exit
+            os.write(write, f"child failed: {exc!r}".encode())
+        finally:
+            os._exit(status)
+    os.close(write)
+    with os.fdopen(read) as fh:
+        text = fh.read()
+    _, code = os.waitpid(pid, 0)
+    return os.waitstatus_to_exitcode(code), text
+
+
+@pytest.mark.parametrize("command", [["info"], ["export", "--csv", "X"], ["plot", "--outdir",
+                                                                          "X"], ["animate"]])
+def test_a_file_this_user_may_not_read_is_said_so(command):
+    """Item 25: another user's mode-0600 file was "cannot be read as HDF5, not a wheelrom
+    ... file" (its content was never seen)."""
+    folder = tempfile.mkdtemp()  # /tmp, which every user may enter
+    try:
+        os.chmod(folder, 0o755)
+        path = os.path.join(folder, "r.h5")
+        with h5py.File(path, "w") as f:
+            f.attrs["format"] = "wheelrom-stability-1"
+        os.chmod(path, 0o000 if os.geteuid() else 0o600)
+        argv = [command[0], path] + [os.path.join(folder, a) if a == "X" else a
+                                     for a in command[1:]]
+        status, err = _as_another_user(argv)
+        assert (status, err) == (2, f"wheelrom: {path}: not readable by this user "
+                                    "(permission denied)\n")
+    finally:
+        os.chmod(path, 0o600)
+        os.remove(path)
+        os.rmdir(folder)

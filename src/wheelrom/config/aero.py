@@ -27,7 +27,13 @@ from typing import Any
 
 import numpy as np
 
-from wheelrom.config.values import beside_toml, file_stamp, input_file_problem, quoted
+from wheelrom.config.values import (
+    beside_toml,
+    file_stamp,
+    input_file_problem,
+    path_problem,
+    quoted,
+)
 from wheelrom.config.values import field_key as _key
 
 
@@ -337,7 +343,7 @@ def aero_table_problems(cfg: Any, source: str, problems: list[str]) -> None:
     if not isinstance(fl.table, str) or not fl.table:
         problems.append("flutter.table: flutter.model = 'table' needs a table file")
         return
-    if not isinstance(blades, int):
+    if not isinstance(blades, int) or path_problem(fl.table):  # the latter said by its key
         return
     try:
         table = read_aero_table(fl.table, source, blades, fl.table_phase, fl.table_directions,

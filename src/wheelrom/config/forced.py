@@ -18,6 +18,7 @@ from wheelrom.config.values import (
     file_stamp,
     input_file_problem,
     is_number,
+    path_problem,
     quoted,
 )
 from wheelrom.config.values import field_key as _key
@@ -177,7 +178,7 @@ def mistuning_problems(cfg: Any, source: str, problems: list[str]) -> None:
     if isinstance(pattern, tuple) and pattern and len(pattern) != blades:
         problems.append(f"mistuning.pattern: {len(pattern)} values for {blades} blades "
                         "(one per blade)")
-    if isinstance(mt.file, str) and mt.file:
+    if isinstance(mt.file, str) and mt.file and not path_problem(mt.file):  # else said
         try:
             read_mistuning_file(mt.file, source, blades)
         except ValueError as exc:

@@ -220,6 +220,24 @@ FILE_KEYS = {"segment.source": "builtin", "mistuning.file": "", "study.cases": "
              "flutter.table": ""}
 
 
+#: the longest path and file name the operating system opens (Linux's PATH_MAX, NAME_MAX)
+MAX_PATH, MAX_NAME = 4096, 255
+
+
+def path_problem(name: str) -> str | None:
+    """Why the value ``name`` of a file key (:data:`FILE_KEYS`) cannot name a file (None: it
+    may): longer than a path or one of its names can be. Checked with the configuration,
+    so that no reader quotes a 50 MB "path" back into a message (the value is cut:
+    :func:`shown`)."""
+    if len(name) > MAX_PATH:
+        return f"{shown(name)} is no file name (a path has at most {MAX_PATH} characters)"
+    longest = max(name.replace("\\", "/").split("/"), key=len)
+    if len(longest) > MAX_NAME:
+        return (f"{shown(name)} is no file name (one of its names has {len(longest)} "
+                f"characters, at most {MAX_NAME})")
+    return None
+
+
 def to_toml(cfg: Any, comments: bool = True) -> str:
     """The effective configuration (a :class:`wheelrom.config.Config`) as TOML, with units and
     help as comments. File keys (:data:`FILE_KEYS`) are written as absolute paths: the text
@@ -313,6 +331,8 @@ def convert_field(where: str, f: dataclasses.Field, value: Any, problems: list[s
     if isinstance(default, str):
         if not isinstance(value, str):
             problems.append(f"{where}: expected a string, got {shown(value)}")
+        elif any(where.split("[")[0].endswith(key) for key in FILE_KEYS) and path_problem(value):
+            problems.append(f"{where}: {path_problem(value)}")
         elif "choices" in meta and value not in meta["choices"]:
             problems.append(
                 f"{where}: {shown(value)} is not one of {', '.join(map(repr, meta['choices']))}"
