@@ -44,10 +44,14 @@ def with_option(cfg, option: str, changes: Mapping[str, Any]):
     try:
         return cfg.replace(**changes)
     except ConfigError as exc:
-        lines = []
+        keys_of: dict[str, list[str]] = {}  # one reason, the keys the option sets that give it
         for problem in exc.problems:
             problem = problem.removeprefix(f"{cfg.source}: ")
             key, _, why = problem.partition(": ")
-            lines.append(f"{why} (the range of {key}, which it sets)" if key in changes
-                         or key.split("[")[0] in changes else problem)
+            if key in changes or key.split("[")[0] in changes:
+                keys_of.setdefault(why, []).append(key)
+            else:
+                keys_of.setdefault(problem, [])
+        lines = [f"{why} (the range of {' and '.join(keys)}, which it sets)" if keys else why
+                 for why, keys in keys_of.items()]
         raise InputError(f"{cut(option, 200)}: " + "; ".join(lines)) from None
