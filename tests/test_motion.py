@@ -170,7 +170,8 @@ def test_contacts_of_a_study_case_use_its_own_model_and_parameters(tmp_path, cap
     rows = np.loadtxt(tmp_path / "x_contact_forces.csv", delimiter=",", skiprows=1, ndmin=2)
     np.testing.assert_array_equal(rows[:, 1], histories["tieboss"].normal_force[:, 0])
     assert cli.main(["animate", str(out), "--case", "3", "--out", str(tmp_path / "a")]) == 2
-    assert "not a wheelrom results file" in capsys.readouterr().err
+    assert "is a study file (format 'wheelrom-sweep-2'): animate reads the cases of a sweep" \
+        in capsys.readouterr().err
 
 
 def test_xdmf_holds_the_models_tip_motion(case_file, tmp_path, capsys):
