@@ -4,6 +4,7 @@ import os
 
 import pytest
 
+from handshake import HANG_S  # noqa: F401 (every test's subprocess timeout, from here)
 from wheelrom.runtime.environment import bootstrap
 
 bootstrap()  # PETSc location and one BLAS thread per process, before numpy loads

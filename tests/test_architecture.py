@@ -7,6 +7,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+from conftest import HANG_S
+
 SRC = os.path.join(os.path.dirname(os.path.dirname(__file__)), "src")
 PACKAGE = os.path.join(SRC, "wheelrom")
 
@@ -102,7 +104,7 @@ def test_every_module_imports_on_its_own():
         "print('ok')\n"
     )
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         timeout=300, env=dict(os.environ, PYTHONPATH=SRC))
+                         timeout=HANG_S, env=dict(os.environ, PYTHONPATH=SRC))
     assert res.returncode == 0 and res.stdout.strip() == "ok", res.stderr[-2000:]
 
 

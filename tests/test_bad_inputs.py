@@ -104,12 +104,12 @@ def test_a_device_as_mistuning_file_is_refused(capsys, nothing_computed):
 @pytest.mark.parametrize("angle", ["nan", "120", "-30"])
 def test_forced_angle_outside_0_90_is_refused(angle, capsys, nothing_computed):
     _refused(capsys, ["forced-response", SMALL, "--angle", "shroud", angle],
-             f"--angle shroud {angle}", "0..90")
+             f"--angle shroud {angle}", "contacts.shroud.angle_deg")
 
 
 def test_forced_frequency_count_is_bounded(capsys, nothing_computed):
     _refused(capsys, ["forced-response", SMALL, "--frequencies", "100:120:100000000"],
-             "100000000 frequencies", "at most 100000")
+             "100000000 values", "at most 100000")
 
 
 @pytest.mark.parametrize("tokens, words", [

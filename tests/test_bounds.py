@@ -17,7 +17,7 @@ import os
 import subprocess
 import sys
 
-from conftest import SMALL
+from conftest import HANG_S, SMALL
 from wheelrom.runtime import kernel_cache as _kernel_cache
 from wheelrom.transient import startup
 
@@ -81,7 +81,7 @@ def test_kernels_load_in_a_second_process_and_read_no_array_past_its_end(
     # every consumer of the force parameters, checked (the run's kernels from that cache)
     env = dict(os.environ, NUMBA_CACHE_DIR=str(cache), WHEELROM_MODEL_CACHE="off")
     done = subprocess.run([sys.executable, "-c", SCRIPT, SMALL], capture_output=True,
-                          text=True, env=env, timeout=600)
+                          text=True, env=env, timeout=HANG_S)
     assert done.returncode == 0, done.stderr[-3000:]
     assert done.stdout.split("\n")[:3] == ["control: caught", "paper done", "elastic done"], \
         done.stdout + done.stderr[-3000:]

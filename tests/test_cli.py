@@ -6,7 +6,7 @@ import h5py
 import numpy as np
 import pytest
 
-from conftest import SMALL
+from conftest import HANG_S, SMALL
 from wheelrom.cli import main as cli
 
 
@@ -45,7 +45,7 @@ def test_compare_takes_the_step_from_the_ts():
 
     res = subprocess.run([sys.executable, "-m", "wheelrom.cli.main", "compare", SMALL, "--steps",
                           "100", "--json", "--", "-wheel_ts_dt", "2.5e-6"],
-                         capture_output=True, text=True, check=True, timeout=300)
+                         capture_output=True, text=True, check=True, timeout=HANG_S)
     out = json.loads(res.stdout)
     assert out["step_s"] == 2.5e-6 and out["max_relative_difference"] < 1e-9
 

@@ -75,7 +75,7 @@ def test_set_overrides_types():
     [
         ("[wheel]\nbladse = 66\n", "wheel.bladse: unknown key (did you mean 'blades'?)"),
         ("[wheeel]\nblades = 66\n", "wheeel: unknown section (did you mean 'wheel'?)"),
-        ("[time]\nstep = -1e-6\n", "time.step: must be > 0.0"),
+        ("[time]\nstep = -1e-6\n", "time.step: must be >= 1e-09 s"),
         ("[time]\nstep = 0.1\nwindow = 0.01\n", "time.step: larger than time.window"),
         ("[time]\nend = nan\n", "time.end: must be finite"),
         ("[time]\nstart = 'warm'\n", "time.start: 'warm' is not one of"),

@@ -128,7 +128,7 @@ def test_the_curve_is_written_and_read_back(tmp_path, capsys):
 
 @pytest.mark.parametrize(("extra", "message"), [
     (["--set", "excitation.force=0.0"], "excitation.force = 0: the nozzle force is off"),
-    (["--harmonics", "0"], "--harmonics 0: at least 1"),
+    (["--harmonics", "0"], "--harmonics 0: must be >= 1"),
 ])
 def test_the_command_refuses_in_one_line(extra, message, capsys, tmp_path, monkeypatch):
     from conftest import SMALL

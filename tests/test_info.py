@@ -11,7 +11,7 @@ import h5py
 import numpy as np
 import pytest
 
-from conftest import SMALL
+from conftest import HANG_S, SMALL
 from wheelrom.cli import main as cli
 from wheelrom.cli.output_info import LONG_LISTING, print_info
 from wheelrom.results.info import file_info, resume_hint, study_flags, ts_scheme
@@ -35,7 +35,7 @@ def sweep_file(tmp_path_factory):
     """The 3-case small sweep (45 deg tie-boss; shroud 20, 50, 80 deg), 2 windows."""
     path = tmp_path_factory.mktemp("info") / "sweep.h5"
     subprocess.run([sys.executable, "-m", "wheelrom.cli.main", "sweep", SMALL, *END, "--out",
-                    str(path)], env=ENV, check=True, capture_output=True, timeout=600)
+                    str(path)], env=ENV, check=True, capture_output=True, timeout=HANG_S)
     return path
 
 

@@ -13,7 +13,7 @@ import h5py
 import numpy as np
 import pytest
 
-from conftest import SMALL
+from conftest import HANG_S, SMALL
 from wheelrom import config
 from wheelrom.cli import main as cli
 from wheelrom.config import ConfigError
@@ -110,7 +110,7 @@ def case_file(tmp_path_factory):
     statistics sample."""
     path = tmp_path_factory.mktemp("motion") / "case.h5"
     subprocess.run(WHEELROM + ["run", SMALL, *STATE, "--out", str(path)], env=ENV, check=True,
-                   capture_output=True, timeout=600)
+                   capture_output=True, timeout=HANG_S)
     return str(path)
 
 
@@ -151,7 +151,7 @@ def test_contacts_of_a_study_case_use_its_own_model_and_parameters(tmp_path, cap
     study, out = tmp_path / "study.toml", tmp_path / "study.h5"
     study.write_text(STUDY)
     subprocess.run(WHEELROM + ["study", str(study), "--out", str(out)], env=ENV, check=True,
-                   capture_output=True, timeout=600)
+                   capture_output=True, timeout=HANG_S)
     histories = case_contacts(str(out), 3)
     with h5py.File(out, "r") as f:
         assert f["cases/model"][3] == 1 and f["models/1"].attrs["modes"] == 6
@@ -170,7 +170,8 @@ def test_contacts_of_a_study_case_use_its_own_model_and_parameters(tmp_path, cap
     rows = np.loadtxt(tmp_path / "x_contact_forces.csv", delimiter=",", skiprows=1, ndmin=2)
     np.testing.assert_array_equal(rows[:, 1], histories["tieboss"].normal_force[:, 0])
     assert cli.main(["animate", str(out), "--case", "3", "--out", str(tmp_path / "a")]) == 2
-    assert "not a wheelrom results file" in capsys.readouterr().err
+    assert "is a study file (format 'wheelrom-sweep-2'): animate reads the cases of a sweep" \
+        in capsys.readouterr().err
 
 
 def test_xdmf_holds_the_models_tip_motion(case_file, tmp_path, capsys):
@@ -261,7 +262,7 @@ def test_bad_input_is_one_line(case_file, tmp_path, capsys, argv, message):
 def tips_only(tmp_path_factory):
     path = tmp_path_factory.mktemp("tips") / "tips.h5"
     subprocess.run(WHEELROM + ["run", SMALL, "--out", str(path)], env=ENV, check=True,
-                   capture_output=True, timeout=600)
+                   capture_output=True, timeout=HANG_S)
     return str(path)
 
 
@@ -304,7 +305,7 @@ def test_batched_mpi_sweep_records_the_same_states(tmp_path):
                           str(out), "--batch", batch]
         if ranks > 1:
             cmd = ["mpirun", "-n", str(ranks), *cmd]
-        subprocess.run(cmd, env=ENV, check=True, capture_output=True, timeout=600)
+        subprocess.run(cmd, env=ENV, check=True, capture_output=True, timeout=HANG_S)
         with h5py.File(out, "r") as f:
             runs[name] = {k: f[f"cases/{k}"][()] for k in
                           ("state_history", "state_time", "states_done", "tip_history")}

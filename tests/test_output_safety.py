@@ -15,7 +15,7 @@ import sys
 import h5py
 import pytest
 
-from conftest import SMALL
+from conftest import HANG_S, SMALL
 from wheelrom.cli import main as cli
 from wheelrom.runtime.locks import lock_name, output_lock
 
@@ -23,7 +23,7 @@ ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIR
            OMPI_MCA_rmaps_base_oversubscribe="1", MPLBACKEND="Agg")
 
 
-def wheelrom(*args, timeout=300):
+def wheelrom(*args, timeout=HANG_S):
     """The CLI in a subprocess: another job."""
     return subprocess.run([sys.executable, "-m", "wheelrom.cli.main", *args],
                           capture_output=True, text=True, timeout=timeout, env=ENV)

@@ -14,7 +14,8 @@ import h5py
 import numpy as np
 import pytest
 
-from conftest import SMALL
+import handshake
+from conftest import HANG_S, SMALL
 from wheelrom import config
 from wheelrom.cli import main as cli
 from wheelrom.results.info import file_info
@@ -24,7 +25,7 @@ ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIR
            OMPI_MCA_rmaps_base_oversubscribe="1", MPLBACKEND="Agg")
 
 
-def wheelrom(*args, timeout=300, ranks=None, **kw):
+def wheelrom(*args, timeout=HANG_S, ranks=None, **kw):
     """The CLI in a subprocess (its own PETSc database), optionally under mpirun."""
     cmd = [sys.executable, "-m", "wheelrom.cli.main", *args]
     if ranks:
@@ -142,7 +143,7 @@ def test_sweep_killed_while_creating_its_file_leaves_nothing_to_trip_over(tmp_pa
     out = tmp_path / "s.h5"
     argv = ["sweep", SMALL, "--out", str(out), *QUICK]
     res = subprocess.run([sys.executable, "-c", KILL_DURING_CREATION, *argv],
-                         capture_output=True, text=True, timeout=300, env=ENV)
+                         capture_output=True, text=True, timeout=HANG_S, env=ENV)
     assert res.returncode == -signal.SIGKILL
     assert not out.exists()  # the name appears only with a complete layout
     # the killed job's lock is reported stale with the command that removes it, not stolen
@@ -181,59 +182,56 @@ def test_resume_with_other_ts_options_is_refused_naming_them(small_sweep):
         assert [json.loads(o)["ts_rk_type"] for o in f["cases/options"][:]] == ["3bs"] * 3
 
 
-def _interrupt_after_progress(cmd, sig=signal.SIGINT, targets=None):
-    """Start ``cmd``, wait for its first progress line, send ``sig`` (to ``targets()`` pids
-    when given, else to the process), return (exit status, stderr)."""
+def _interrupt_the_second_round(tmp_path, argv, sig=signal.SIGINT, ranks=None):
+    """Run ``wheelrom argv`` (under ``mpirun -n ranks`` when given) with rank 0's second round
+    held (:data:`handshake.SWEEP_SECOND_ROUND`), send ``sig`` to every rank once it holds
+    there, and return (exit status, stderr). Signalled after the first progress line instead,
+    a fast machine could have finished every case before the signal came."""
+    cmd = [*handshake.script(tmp_path, handshake.SWEEP_SECOND_ROUND), *argv]
+    if ranks:
+        cmd = ["mpirun", "-n", str(ranks), *cmd]
     proc = subprocess.Popen(cmd, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True,
                             env=ENV)
-    seen = []
-    for line in proc.stderr:
-        seen.append(line)
-        if "round 1/" in line and "window" in line:
-            for pid in targets() if targets else [proc.pid]:
-                os.kill(pid, sig)
-            break
+    every_rank = [f"{handshake.STARTED} rank {r} " for r in range(ranks or 1)]
+    seen = handshake.read_until(proc, handshake.HOLDING, *every_rank)
+    for pid in handshake.pids(seen).values():  # the ranks themselves, never mpirun
+        os.kill(pid, sig)
     seen += proc.stderr.readlines()
-    return proc.wait(timeout=300), "".join(seen)
+    return proc.wait(timeout=HANG_S), "".join(seen)
 
 
-LONG = ["--set", "time.end=0.5", "--set", "time.window=0.01", "--batch", "1"]
+#: three cases, one a round (one process: three rounds; two ranks: cases 1 and 2, then 3)
+ROUNDS = ["--set", "time.end=0.002", "--set", "time.window=0.001", "--batch", "1"]
 
 
 def test_ctrl_c_saves_finished_cases_and_says_how_to_resume(tmp_path):
     out = tmp_path / "s.h5"
-    cmd = [sys.executable, "-m", "wheelrom.cli.main", "sweep", SMALL, "--out", str(out), *LONG]
-    status, err = _interrupt_after_progress(cmd)
+    status, err = _interrupt_the_second_round(tmp_path, ["sweep", SMALL, "--out", str(out),
+                                                         *ROUNDS])
     assert status == 130, err
     lines = [ln for ln in err.splitlines() if ln.startswith("wheelrom:")]
     assert len(lines) == 1 and "Traceback" not in err
-    assert lines[0].startswith("wheelrom: interrupted: ")
+    assert lines[0].startswith("wheelrom: interrupted: 1 of 3 cases done and saved in "), lines
     assert "rerun the sweep with --resume" in lines[0]
-    done = int(lines[0].split("interrupted: ")[1].split(" of ")[0])
     with h5py.File(out, "r") as f:  # readable, and it says what the message said
         status_of = [s.decode() for s in f["cases/status"][:]]
-    assert status_of.count("done") == done < 3
-    assert status_of.count("pending") == 3 - done
+    assert status_of == ["done", "pending", "pending"]
     assert lines[0].endswith(file_info(str(out))["hint"])  # one hint: the command's and info's
 
 
 def test_sigterm_under_mpirun_stops_every_rank_with_one_line(tmp_path):
-    """mpirun forwards Ctrl-C to the ranks as SIGTERM: here sent to the ranks directly."""
+    """mpirun forwards Ctrl-C to the ranks as SIGTERM: here sent to the ranks directly (sent
+    to mpirun as well, as a search of the command line did, mpirun aborts the job: SIGKILL a
+    second after its SIGTERM, and the ranks had to finish within that second)."""
     out = tmp_path / "s.h5"
-    cmd = ["mpirun", "-n", "2", sys.executable, "-m", "wheelrom.cli.main", "sweep", SMALL,
-           "--out", str(out), *LONG]
-
-    def ranks():
-        found = subprocess.run(["pgrep", "-f", f"wheelrom.cli.main sweep {SMALL} --out {out}"],
-                               capture_output=True, text=True).stdout.split()
-        return [int(p) for p in found if int(p) != os.getpid()]
-
-    status, err = _interrupt_after_progress(cmd, signal.SIGTERM, ranks)
-    assert status != 0
-    lines = [ln for ln in err.splitlines() if ln.startswith("wheelrom: interrupted")]
+    status, err = _interrupt_the_second_round(
+        tmp_path, ["sweep", SMALL, "--out", str(out), *ROUNDS], signal.SIGTERM, ranks=2)
+    assert status == 130, err  # every rank's (mpirun's status: the first rank's to end)
+    lines = [ln for ln in err.splitlines() if ln.startswith("wheelrom:")]
     assert len(lines) == 1 and "Traceback" not in err, err
-    with h5py.File(out, "r") as f:
-        assert "pending" in [s.decode() for s in f["cases/status"][:]]
+    assert lines[0].startswith("wheelrom: interrupted: 2 of 3 cases done and saved in "), lines
+    with h5py.File(out, "r") as f:  # the first round's two cases, the held one pending
+        assert [s.decode() for s in f["cases/status"][:]] == ["done", "done", "pending"]
 
 
 # --- clear errors -----------------------------------------------------------------------
@@ -383,8 +381,7 @@ def test_a_failing_stability_case_under_mpirun_stops_every_rank(tmp_path):
     of the 90 deg case on rank 1 1.2e-7): one line, no hang (every rank stops together)."""
     res = wheelrom("stability", SMALL, "--set", "sweep.shroud_angles_deg=[0.0, 90.0, 20.0]",
                    "--", "-stability_preload_snes_rtol", "0", "-stability_preload_snes_atol",
-                   "2e-8", "-stability_preload_snes_max_it", "2", ranks=2,
-                   timeout=120)
+                   "2e-8", "-stability_preload_snes_max_it", "2", ranks=2)
     assert res.returncode != 0
     lines = [ln for ln in res.stderr.splitlines() if ln.startswith("wheelrom:")]
     assert len(lines) == 1 and "linear stability failed for 1 case(s)" in lines[0], res.stderr

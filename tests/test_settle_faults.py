@@ -24,7 +24,8 @@ import h5py
 import numpy as np
 import pytest
 
-from conftest import SMALL, VDP_WHEEL
+import handshake
+from conftest import HANG_S, SMALL, VDP_WHEEL
 from wheelrom.cli import main as cli
 
 #: one case, two-period windows, at most 0.05 s simulated
@@ -242,27 +243,33 @@ def test_ctrl_c_during_settle_names_the_kept_cases_and_the_resume_line(tmp_path,
     real signal to the command): the first case is kept beside the output, and the one line
     said "nothing was being saved"; now it names the case, the folder and the line that
     resumes, shell-quoted (a space and a quote in the paths), which then finishes the file
-    computing only the second case."""
+    computing only the second case. The second case holds before its integration until the
+    signal comes (tests/handshake.py: sent once the first case's verdict line appeared, a
+    fast machine had finished the second too, exit 0)."""
     folder = tmp_path / "my runs"
     folder.mkdir()
     # one case a batch: the first is kept while the second runs
-    keys = [*QUICK, "sweep.shroud_angles_deg=[50.0, 60.0]", "settle.min_time=0.2",
-            "settle.max_time=0.2", "settle.batch=1"]
+    keys = [*QUICK, "sweep.shroud_angles_deg=[50.0, 60.0]", "settle.batch=1"]
     assert cli.main(["config", "show", SMALL, *_sets(keys)]) == 0
     cfg, out = folder / "it's.toml", folder / "it's.h5"
     cfg.write_text(capsys.readouterr().out)
-    proc = subprocess.Popen([sys.executable, "-m", "wheelrom", "settle", str(cfg), "--out",
-                             str(out)], stderr=subprocess.PIPE, stdout=subprocess.DEVNULL,
-                            text=True, env=dict(os.environ, MPLBACKEND="Agg"))
-    seen = []
-    for line in proc.stderr:
-        seen.append(line)
-        if line.startswith("[case 0/1] ") and line.rstrip().endswith(" s)"):  # the first's verdict
-            proc.send_signal(signal.SIGINT)
-            break
+    held = handshake.script(tmp_path, """
+        import wheelrom.studies.settle as study
+        integrate = study.settle_cases
+        def settle_cases(model, cfg, angles, *args, **kwargs):
+            if angles[0]["shroud"] == 60.0:  # the second case
+                hold("the second case's integration")  # until SIGINT raises in it
+            return integrate(model, cfg, angles, *args, **kwargs)
+        study.settle_cases = settle_cases
+        """)
+    proc = subprocess.Popen([*held, "settle", str(cfg), "--out", str(out)],
+                            stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True,
+                            env=dict(os.environ, MPLBACKEND="Agg"))
+    seen = handshake.read_until(proc, handshake.HOLDING)
+    proc.send_signal(signal.SIGINT)
     seen += proc.stderr.readlines()
     err = "".join(seen)
-    assert proc.wait(timeout=300) == 130, err
+    assert proc.wait(timeout=HANG_S) == 130, err
     assert "Traceback" not in err, err
     (line,) = _errors(err)
     beside = folder / ".it's.settle"
@@ -280,55 +287,64 @@ def test_ctrl_c_during_settle_names_the_kept_cases_and_the_resume_line(tmp_path,
 
 
 def test_a_killed_rank_leaves_rank_0_saying_what_is_kept(tmp_path, capsys):
-    """mpirun -n 2, rank 1 killed (SIGKILL) once rank 0 finished its first case: mpirun
-    sends the others SIGTERM and, a grace period later, SIGKILL. Rank 0 waited for rank 1 in a
-    blocking gather, where no signal reaches Python: it died without a word (and left its
-    lock); now it waits in a polled barrier and names what is kept and the resume line."""
+    """mpirun -n 2, rank 1 killed (SIGKILL) in its case while rank 0, its cases finished,
+    waits for it: mpirun sends the others SIGTERM and, a grace period later, SIGKILL. Rank 0
+    waited for rank 1 in a blocking gather, where no signal reaches Python: it died without a
+    word (and left its lock); now it waits in a polled barrier and names what is kept and the
+    resume line. A handshake (tests/handshake.py) puts each rank there, whatever the speed:
+    rank 1 holds in the first case it takes, rank 0 integrates its first case only once rank
+    1 holds one (so it cannot take all three) and says when it reaches the barrier; rank 1 is
+    killed once both have said so."""
     cfg = tmp_path / "c.toml"
-    keys = [*QUICK, "sweep.shroud_angles_deg=[50.0, 60.0, 70.0]", "settle.min_time=0.2",
-            "settle.max_time=0.2", "settle.batch=1"]
+    keys = [*QUICK, "sweep.shroud_angles_deg=[50.0, 60.0, 70.0]", "settle.batch=1"]
     assert cli.main(["config", "show", SMALL, *_sets(keys)]) == 0
     cfg.write_text(capsys.readouterr().out)
     out = tmp_path / "s.h5"
+    held = handshake.script(tmp_path, """
+        from mpi4py import MPI
+        import wheelrom.studies.settle as study
+        ours = MPI.COMM_WORLD.Dup()  # the handshake's messages never meet wheelrom's
+        integrate, wait_for_all = study.settle_cases, study.wait_for_all
+        waited = []
+        def settle_cases(*args, **kwargs):
+            if rank == 1:
+                ours.send("rank 1 has a case", dest=0)
+                hold("rank 1's case")  # until SIGKILL
+            elif not waited:  # rank 0's first case
+                waited.append(ours.recv(source=1))
+            return integrate(*args, **kwargs)
+        def waiting(comm):
+            if rank == 0:
+                arrived("rank 0's wait for the other ranks")
+            return wait_for_all(comm)
+        study.settle_cases, study.wait_for_all = settle_cases, waiting
+        """)
     # mpirun's SIGKILL follows its SIGTERM after odls_base_sigkill_timeout (1 s by default):
-    # with the other test worker compiling, rank 0 was once still inside a compiled window
-    # (where Python sees no signal) after that second and died without its line; 10 s here
+    # rank 0 then sleeps in its polled barrier and needs milliseconds to say its line; 10 s
+    # is a margin for a loaded machine that schedules it late (mpirun sleeps it out twice
+    # whatever happens, which is most of this test's 23 s)
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
                OMPI_MCA_rmaps_base_oversubscribe="1", MPLBACKEND="Agg",
                OMPI_MCA_odls_base_sigkill_timeout="10")
-    command = [sys.executable, "-m", "wheelrom", "settle", str(cfg), "--out", str(out)]
-    proc = subprocess.Popen(["mpirun", "-n", "2", *command], stderr=subprocess.PIPE,
-                            stdout=subprocess.DEVNULL, text=True, env=env)
-    seen = []
-    for line in proc.stderr:
-        seen.append(line)
-        # rank 0's first finished case (which one it is depends on the shared case counter)
-        if re.match(r"\[case \d/2\] ", line) and line.rstrip().endswith(" s)"):
-            os.kill(_rank_pid(" ".join(command), 1), signal.SIGKILL)
-            break
+    proc = subprocess.Popen(["mpirun", "-n", "2", *held, "settle", str(cfg), "--out",
+                             str(out)], stderr=subprocess.PIPE, stdout=subprocess.DEVNULL,
+                            text=True, env=env)
+    seen = handshake.read_until(proc, handshake.HOLDING, handshake.ARRIVED)
+    os.kill(handshake.held_pid(seen), signal.SIGKILL)
     seen += proc.stderr.readlines()
-    proc.wait(timeout=300)
+    proc.wait(timeout=HANG_S)
     err = "".join(seen)
     lines = [ln for ln in err.splitlines() if ln.startswith("wheelrom:")]
     assert len(lines) == 1 and "Traceback" not in err, err
-    assert lines[0].startswith("wheelrom: interrupted: case"), lines[0]
-    assert f"finished and kept in {tmp_path / '.s.settle'}; " in lines[0], lines[0]
+    # rank 0 finished the two cases rank 1 did not take (which ones: the shared counter's)
+    # (cases counted from 0, as in the files)
+    kept = re.escape(f" of 0..2 finished and kept in {tmp_path / '.s.settle'}; to compute "
+                     "only the other 1, ")
+    assert re.match(rf"wheelrom: interrupted: cases (0\.\.1|0, 2|1\.\.2){kept}", lines[0]), \
+        lines[0]
     assert lines[0].endswith(f": wheelrom settle {cfg} --out {out} --resume"), lines[0]
+    assert len(os.listdir(tmp_path / ".s.settle")) == 4  # their .npz and .json
     assert not (tmp_path / ".s.h5.lock").exists()
-
-
-def _rank_pid(command: str, rank: int) -> int:
-    """The pid of MPI rank ``rank`` running ``command`` (from its environment)."""
-    found = subprocess.run(["pgrep", "-f", command], capture_output=True, text=True).stdout
-    for pid in map(int, found.split()):
-        try:
-            with open(f"/proc/{pid}/environ", "rb") as fh:
-                env = fh.read().split(b"\0")
-        except OSError:
-            continue
-        if f"OMPI_COMM_WORLD_RANK={rank}".encode() in env:
-            return pid
-    raise AssertionError(f"no rank {rank} running {command}")
 
 
 def test_an_exception_on_one_rank_aborts_the_job(tmp_path):
@@ -350,6 +366,6 @@ def test_an_exception_on_one_rank_aborts_the_job(tmp_path):
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
                OMPI_MCA_rmaps_base_oversubscribe="1", MPLBACKEND="Agg")
     done = subprocess.run(["mpirun", "-n", "2", sys.executable, str(script)], env=env,
-                          capture_output=True, text=True, timeout=120)
+                          capture_output=True, text=True, timeout=HANG_S)
     assert done.returncode != 0
     assert "rank 1: Traceback" in done.stderr and "rank 1 fails here" in done.stderr

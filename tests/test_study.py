@@ -13,7 +13,7 @@ import h5py
 import numpy as np
 import pytest
 
-from conftest import SMALL
+from conftest import HANG_S, SMALL
 
 WHEELROM = [sys.executable, "-m", "wheelrom.cli.main"]
 ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
@@ -53,7 +53,7 @@ def wheelrom(*args, ranks=1, check=True):
     cmd = WHEELROM + [str(a) for a in args]
     if ranks > 1:
         cmd = ["mpirun", "-n", str(ranks), *cmd]
-    res = subprocess.run(cmd, env=ENV, capture_output=True, text=True, timeout=600)
+    res = subprocess.run(cmd, env=ENV, capture_output=True, text=True, timeout=HANG_S)
     if check and res.returncode:
         raise AssertionError(f"{cmd} exited {res.returncode}:\n{res.stderr[-3000:]}")
     return res

@@ -29,7 +29,7 @@ def test_two_ranks_settle_as_one():
     if comm.rank != 0:
         assert parallel == []
         return
-    assert len(parallel) == len(serial) == 3  # a batch of two on one rank, one on the other
+    assert len(parallel) == len(serial) == 3  # two batches, each on whichever rank was free
     for (_, _, a), (_, _, b) in zip(parallel, serial, strict=True):
         assert a.verdict() == b.verdict() and len(a.windows) == len(b.windows) > 1
         np.testing.assert_array_equal(a.amplitude, b.amplitude)
@@ -39,14 +39,16 @@ def test_two_ranks_settle_as_one():
 def test_a_stale_case_folder_is_removed_once_under_force(tmp_path_factory, monkeypatch):
     """``settle --out F --force`` with an earlier run's case folder beside ``F``: one rank
     removes it, before any rank keeps a case (both ranks removed it, racing: one unlinked
-    what the other had listed, FileNotFoundError, the run lost). Rank 0's removal is made
-    slow here, so a second rank that also removes it is caught doing so."""
+    what the other had listed, FileNotFoundError, the run lost). Rank 0's removal takes
+    effect only once every rank has passed the point where it decides (the command's barrier,
+    before run_settle), so a second rank that also removes it always finds it there and is
+    caught doing so (a sleep in rank 0's removal caught it only if rank 1 came within it)."""
     import os
-    import time
 
     from mpi4py import MPI
 
     from wheelrom.cli import main as cli
+    from wheelrom.studies import settle as study
     from wheelrom.studies.kept_cases import KeptCases
     from wheelrom.studies.settle import sidecar_dir
 
@@ -59,17 +61,24 @@ def test_a_stale_case_folder_is_removed_once_under_force(tmp_path_factory, monke
             with open(os.path.join(sidecar_dir(out), f"case_{i}.json"), "w") as f:
                 f.write("stale")
     comm.barrier()
-    removed = []
-    remove = KeptCases.clear
+    removed, held = [], []
+    remove, settle = KeptCases.clear, study.run_settle
 
-    def slow_clear(self):
+    def recorded_clear(self):
         if os.path.abspath(self.path) == os.path.abspath(sidecar_dir(out)):
             removed.append(self.path)
-            if comm.rank == 0:
-                time.sleep(1.0)
+            if comm.rank == 0 and len(removed) == 1:  # the stale folder: held back
+                held.append(self)
+                return None
         return remove(self)
 
-    monkeypatch.setattr(KeptCases, "clear", slow_clear)
+    def run_settle(*args, **kwargs):  # every rank has decided: the stale folder goes now
+        for folder in held:
+            remove(folder)
+        return settle(*args, **kwargs)
+
+    monkeypatch.setattr(KeptCases, "clear", recorded_clear)
+    monkeypatch.setattr(study, "run_settle", run_settle)
     keys = [*KEYS[:-2], "settle.min_time=0.05", "settle.max_time=0.05",
             "settle.window_periods=2"]
     status = cli.main(["settle", SMALL, *sum((["--set", k] for k in keys), []), "--out", out,

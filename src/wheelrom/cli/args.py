@@ -8,6 +8,8 @@ import functools
 import math
 
 from wheelrom.cli.output_info import LONG_LISTING
+from wheelrom.config import CONTACT_KINDS, with_option
+from wheelrom.config.values import cut
 from wheelrom.runtime.errors import InputError
 from wheelrom.runtime.locks import output_lock
 from wheelrom.runtime.outputs import check_output
@@ -325,17 +327,109 @@ def check_vtu_arguments(args: argparse.Namespace, cfg) -> None:
         raise InputError(f"--vtu-family {args.vtu_family}: families count from 0 (the lowest)")
 
 
-def parse_speeds(text: str):
-    """``--speeds``: ``"start:stop:count"`` [Hz] (inclusive, like numpy.linspace) or
-    ``"a,b,c"``."""
+def parse_range(text: str, option: str, most: int, why: str,
+                one_point: bool = False) -> tuple[float, float, int]:
+    """``A:B:N`` of ``option`` -> ``(A, B, N)``: ``0 <= A <= B`` finite [Hz], ``N`` a whole
+    number from 1 to ``most`` (``why``: what each costs, for the refusal); ``N = 1`` asks
+    for ``A = B`` unless ``one_point`` (a band searched whole with one grid point: the
+    forced response's peak search). A reversed, empty or oversized range is one line naming
+    the option, before anything is computed."""
+    shown = cut(text)
+    try:
+        start, stop, count = text.split(":")
+        a, b, n = float(start), float(stop), int(count)
+    except ValueError:
+        raise InputError(f"{option} {shown}: expected A:B:N (Hz, N a whole number), "
+                         "e.g. 300:400:201") from None
+    if not (math.isfinite(a) and math.isfinite(b) and 0 <= a <= b):
+        raise InputError(f"{option} {shown}: expected 0 <= A <= B (Hz; a reversed range is "
+                         "not read backwards)")
+    if n < 1 or (n > 1 and a == b) or (n == 1 and a < b and not one_point):
+        raise InputError(f"{option} {shown}: N must be >= 1, 1 exactly when A = B"
+                         if not one_point else
+                         f"{option} {shown}: N must be >= 1 (and 1 when A = B)")
+    if n > most:
+        raise InputError(f"{option} {shown}: {n} values ({why}); at most {most}")
+    return a, b, n
+
+
+#: the most rotor speeds ``campbell --speeds`` may ask for: each builds the prestressed
+#: segment and the wheel again (a second or more each on the coarse wheel)
+MAX_SPEEDS = 1000
+
+
+def parse_speeds(text: str, cfg=None):
+    """``campbell --speeds``: ``"start:stop:count"`` [Hz] (inclusive, like numpy.linspace) or
+    ``"a,b,c"`` (increasing), at most :data:`MAX_SPEEDS`; each within ``wheel.speed_hz``'s
+    range of ``cfg`` (named as ``--speeds``)."""
     import numpy as np
 
-    try:
-        if ":" in text:
-            start, stop, count = text.split(":")
-            return np.linspace(float(start), float(stop), int(count))
-        return np.array([float(x) for x in text.split(",")])
-    except ValueError:
-        raise InputError(
-            f"--speeds: expected start:stop:count or a,b,c in Hz, got {text!r}"
-        ) from None
+    why = "each a prestressed segment solve"
+    if ":" in text:
+        speeds = np.linspace(*parse_range(text, "--speeds", MAX_SPEEDS, why))
+    else:
+        try:
+            speeds = np.array([float(x) for x in text.split(",")])
+        except ValueError:
+            raise InputError(f"--speeds: expected start:stop:count or a,b,c in Hz, got "
+                             f"{cut(text)!r}") from None
+        if speeds.size > MAX_SPEEDS:
+            raise InputError(f"--speeds: {speeds.size} values ({why}); at most {MAX_SPEEDS}")
+        if not np.all(np.isfinite(speeds)) or np.any(np.diff(speeds) <= 0):
+            raise InputError(f"--speeds {cut(text)}: expected finite speeds in increasing "
+                             "order, each once")
+    if cfg is not None:  # the range of wheel.speed_hz, which each speed sets
+        for speed in (speeds[0], speeds[-1]):
+            with_option(cfg, f"--speeds {cut(text)}", {"wheel.speed_hz": float(speed)})
+    return speeds
+
+
+#: the most frequencies ``--frequencies`` / ``--speeds`` may ask for (as forced.points)
+MAX_FREQUENCIES = 100_000
+
+
+def excitation_band(args: argparse.Namespace, cfg) -> tuple[tuple[float, float] | None,
+                                                             int | None]:
+    """``((A, B), N)``: the nozzle band [Hz] of ``--frequencies A:B:N`` or of ``--speeds``
+    (``n_s A .. n_s B``) and its coarse grid's count, checked as ``forced.band_hz`` and
+    ``forced.points`` (and the speeds as ``wheel.speed_hz``) would be but named by the
+    option; ``(None, None)``: the band of ``[forced]``."""
+    if args.frequencies and args.speeds:
+        raise InputError("--frequencies and --speeds exclude each other (one range)")
+    option, text = ("--speeds", args.speeds) if args.speeds else ("--frequencies",
+                                                                  args.frequencies)
+    if not text:
+        return None, None
+    why = "one linear solve each, twice when mistuned"
+    a, b, n = parse_range(text, option, MAX_FREQUENCIES, why, one_point=True)
+    if args.speeds:
+        for speed in (a, b):
+            with_option(cfg, f"{option} {text}", {"wheel.speed_hz": speed})
+        a, b = cfg.wheel.stator_vanes * a, cfg.wheel.stator_vanes * b
+    with_option(cfg, f"{option} {text}", {"forced.points": n} if a == b else
+                {"forced.band_hz": [a, b], "forced.points": n})
+    return (a, b), n
+
+
+def parse_angles(pairs: list[list[str]], cfg) -> dict:
+    """``--angle KIND DEG`` pairs -> kind -> angle [deg], each checked as
+    ``contacts.<kind>.angle_deg`` (0..90 deg) and refused for a kind ``cfg`` disables (it
+    would be silently unused)."""
+    out = {}
+    for kind, value in pairs:
+        if kind not in CONTACT_KINDS:
+            raise InputError(f"--angle {cut(kind)}: contact kinds are "
+                             f"{', '.join(CONTACT_KINDS)}")
+        option = f"--angle {kind} {cut(value)}"
+        try:
+            angle = float(value)
+        except ValueError:
+            raise InputError(f"{option}: the angle is a number [deg]") from None
+        with_option(cfg, option, {f"contacts.{kind}.angle_deg": angle})
+        if not cfg.contact(kind).enabled:
+            raise InputError(f"{option}: contacts.{kind}.enabled is false, the angle would "
+                             f"not be used (enable the {kind} contact or leave the option out)")
+        if kind in out:
+            raise InputError(f"{option}: --angle {kind} given twice")
+        out[kind] = angle
+    return out

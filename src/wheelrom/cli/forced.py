@@ -8,15 +8,20 @@ import math
 
 import numpy as np
 
-from wheelrom.cli.args import comm_self, force, json_out, load_config, locked
+from wheelrom.cli.args import (
+    comm_self,
+    excitation_band,
+    force,
+    json_out,
+    load_config,
+    locked,
+    parse_angles,
+)
 from wheelrom.cli.output import log, print_json
-from wheelrom.config import CONTACT_KINDS
+from wheelrom.config import with_option
 from wheelrom.results.layout import FORCED_FORMAT as FORMAT
 from wheelrom.runtime.errors import InputError
 from wheelrom.runtime.outputs import agree, check_output, save_hdf5
-
-#: the most frequencies ``--frequencies`` / ``--speeds`` may ask for (as forced.points)
-MAX_FREQUENCIES = 100_000
 
 
 def args_forced(p: argparse.ArgumentParser) -> None:
@@ -51,52 +56,6 @@ def args_forced(p: argparse.ArgumentParser) -> None:
     force(p)
 
 
-def parse_frequencies(text: str, option: str = "--frequencies") -> np.ndarray:
-    """``--frequencies A:B:N`` (or ``--speeds``) [Hz] -> ``(N,)`` values from A to B
-    inclusive."""
-    try:
-        start, stop, count = text.split(":")
-        a, b, n = float(start), float(stop), int(count)
-    except ValueError:
-        raise InputError(f"{option} {text}: expected A:B:N (Hz, N an integer), "
-                         "e.g. 300:400:201") from None
-    if not (math.isfinite(a) and math.isfinite(b) and 0 <= a <= b):
-        raise InputError(f"{option} {text}: expected 0 <= A <= B (Hz)")
-    if n < 1 or (n > 1 and a == b):
-        raise InputError(f"{option} {text}: N must be >= 1 (and 1 when A = B)")
-    if n > MAX_FREQUENCIES:
-        raise InputError(f"{option} {text}: {n} frequencies (one linear solve each, twice "
-                         f"when mistuned); at most {MAX_FREQUENCIES}")
-    return np.linspace(a, b, n)
-
-
-def excitation_grid(args: argparse.Namespace, stator_vanes: int) -> np.ndarray | None:
-    """The nozzle frequencies [Hz] of ``--frequencies`` or of ``--speeds`` (``n_s f_rev``);
-    None: the band of ``[forced]``."""
-    if args.frequencies and args.speeds:
-        raise InputError("--frequencies and --speeds exclude each other (one range)")
-    if args.speeds:
-        return stator_vanes * parse_frequencies(args.speeds, "--speeds")
-    return parse_frequencies(args.frequencies) if args.frequencies else None
-
-
-def parse_angles(pairs: list[list[str]]) -> dict:
-    """``--angle KIND DEG`` pairs -> kind -> angle [deg]."""
-    out = {}
-    for kind, value in pairs:
-        if kind not in CONTACT_KINDS:
-            raise InputError(f"--angle {kind}: contact kinds are {', '.join(CONTACT_KINDS)}")
-        try:
-            angle = float(value)
-        except ValueError:
-            raise InputError(f"--angle {kind} {value}: the angle is a number [deg]") from None
-        if not 0.0 <= angle <= 90.0:  # as contacts.<kind>.angle_deg (NaN included)
-            raise InputError(f"--angle {kind} {value}: the angle must be within 0..90 deg "
-                             f"(as contacts.{kind}.angle_deg)")
-        out[kind] = angle
-    return out
-
-
 @locked("--out")
 def cmd_forced(args: argparse.Namespace) -> int:
     """Forced response to the nozzle at engine order wheel.stator_vanes. Linear: the peak of
@@ -109,22 +68,40 @@ def cmd_forced(args: argparse.Namespace) -> int:
     state by shooting and the state's Floquet multipliers. PETSc prefixes forced_ (KSP) and
     forced_preload_ (SNES)."""
     from wheelrom.analysis.forced_peak import peak_response, tuned_reference
+    from wheelrom.rom.bases import basis_size
     from wheelrom.rom.build import build_model, quiet
+    from wheelrom.studies.forced_nonlinear import (
+        check_nonlinear_memory,
+        nonlinear_inputs_problem,
+    )
     from wheelrom.studies.stability import world_if_parallel
 
     cfg = load_config(args)
-    if args.harmonics is None:
-        args.harmonics = cfg.forced.harmonics
-    if args.harmonics < 1:
-        raise InputError(f"--harmonics {args.harmonics}: at least 1")
+    if args.harmonics is not None:  # forced.harmonics' range (at most 64), named as the option
+        with_option(cfg, f"--harmonics {args.harmonics}", {"forced.harmonics": args.harmonics})
+        if not args.nonlinear:
+            raise InputError("--harmonics sets the nonlinear response's: give --nonlinear too")
+    args.harmonics = cfg.forced.harmonics if args.harmonics is None else args.harmonics
     if args.exact and not args.nonlinear:
         raise InputError("--exact checks the nonlinear response: give --nonlinear too")
+    if args.nonlinear and args.contacts is False:  # the balance is the contacts' nonlinearity
+        raise InputError("--no-contacts leaves the contacts out of the linear response only; "
+                         "the nonlinear one is theirs (leave a kind out with contacts.<kind>."
+                         "enabled = false)")
     if cfg.excitation.force <= 0:  # a response of zero (and a peak search of nothing)
         raise InputError("excitation.force = 0: the nozzle force is off, nothing is forced")
-    hz = excitation_grid(args, cfg.wheel.stator_vanes)
-    band, points = ((hz[0], hz[-1]), hz.size) if hz is not None else (None, None)
+    band, points = excitation_band(args, cfg)
+    if args.nonlinear:
+        nonlinear_problem = nonlinear_inputs_problem(
+            cfg, cfg.forced.points if points is None else points)
+        if nonlinear_problem:
+            raise InputError(f"forced-response --nonlinear: {nonlinear_problem}")
+        count = cfg.forced.points if points is None else points
+        check_nonlinear_memory(cfg, args.harmonics, count, f"--nonlinear at H = "
+                               f"{args.harmonics} over {count} frequencies of "
+                               f"{basis_size(cfg)} basis vectors")
     contacts = cfg.forced.contacts if args.contacts is None else args.contacts
-    angles = parse_angles(args.angle) or None
+    angles = parse_angles(args.angle, cfg) or None
     if args.out:
         check_output(args.out, args.force)
     say = quiet if args.json else log
@@ -340,6 +317,10 @@ def _no_resonance(model, cfg, grid: np.ndarray, angles: dict | None) -> str:
     where = ", ".join(f"{name} {w / (2 * math.pi):.5g} Hz"
                       for name, w in zip(names, found, strict=False))
     nd = int(nodal_diameter(cfg.wheel.stator_vanes, model.blades))
+    if lo == hi:  # N = 1: the grid is the band's lower end alone, whatever the band
+        return (f"no resonance at the grid's one frequency {lo / (2 * math.pi):.5g} Hz: the "
+                f"ND {nd} family {cfg.forced.family} resonates with the contacts {where}; "
+                "the nonlinear response is solved at the grid's frequencies only (give N > 1)")
     return (f"no resonance in {lo / (2 * math.pi):.5g}..{hi / (2 * math.pi):.5g} Hz: the ND "
             f"{nd} family {cfg.forced.family} resonates with the contacts {where}; the "
             "response computed here is off resonance (its largest value at an edge)")
@@ -486,7 +467,8 @@ def _print_nonlinear(out: dict) -> None:
                            f" %, slip {100 * s['slip']:.0f} %"
                            for kind, s in nl["peak_shares"].items())
         print(f"nonlinear peak on the grid: {nl['peak_amplitude_m']:.4e} m at "
-              f"{nl['peak_frequency_hz']:.4f} Hz, speed {nl['peak_speed_hz']:.4f} Hz ({shares})")
+              f"{nl['peak_frequency_hz']:.4f} Hz, speed {nl['peak_speed_hz']:.4f} Hz "
+              f"({shares or 'no contacts'})")
     if "exact" in nl:
         _print_exact(nl["exact"])
     if "traced" in nl:

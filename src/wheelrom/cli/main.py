@@ -32,6 +32,7 @@ from wheelrom.cli.output import (  # noqa: E402
     EXIT_INTERRUPTED,
     fail,
     log,
+    numpy_warnings_off,
     print_json,
     print_modes,
     print_result,
@@ -180,11 +181,12 @@ def cmd_run(args: argparse.Namespace) -> int:
     """One transient case on PETSc TS (options after -- go to the TS, prefix wheel_)."""
     from wheelrom.rom.build import build_model, quiet
     from wheelrom.studies.stability import attach_linear
-    from wheelrom.transient.run import run_case
+    from wheelrom.transient.run import check_run_memory, run_case
 
     cfg = load_config(args)
     if args.out:
         check_output(args.out, args.force)
+    check_run_memory(cfg)
     model = build_model(cfg, comm_self(), log=quiet if args.json else log)
 
     def progress(w, total, t, amp):
@@ -225,7 +227,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     from wheelrom.rom.build import build_model, quiet
     from wheelrom.transient.exponential import taken_step
     from wheelrom.transient.reference import reference_solution, tip_difference
-    from wheelrom.transient.run import run_case
+    from wheelrom.transient.run import check_run_memory, run_case
     from wheelrom.transient.ts import ts_settings
 
     cfg = load_config(args)
@@ -234,7 +236,9 @@ def cmd_compare(args: argparse.Namespace) -> int:
     settings = ts_settings(cfg)  # the TS's scheme and step: -wheel_ts_* options override
     scheme = _reference_scheme(settings)
     steps = args.steps
-    _check_compare_memory(_compare_config(cfg, steps, float(settings["ts_dt"])), steps)
+    check_run_memory(_compare_config(cfg, steps, float(settings["ts_dt"])),
+                     given=f"compare --steps {steps}",
+                     advice="compare fewer steps")
     model = build_model(cfg, comm_self(), log=quiet if args.json else log)
     step = float(settings["ts_dt"])
     if scheme == "exponential":  # the step the TS takes (off resonances, stable)
@@ -274,24 +278,10 @@ def _compare_config(cfg, steps: int, step: float):
     growth: 4e-8 after 20 ms)."""
     span = steps * step
     rate = max(cfg.output.sample_rate_hz, 1.0 / span)
-    return cfg.replace(**{"time.end": span, "time.window": span, "output.sample_rate_hz": rate,
-                          "output.history_rate_hz": rate, "output.state_rate_hz": 0.0,
-                          "time.start": "preload"})
-
-
-def _check_compare_memory(cfg, steps: int) -> None:
-    """Refuse, before anything is allocated, a comparison whose samples do not fit in the
-    memory available (:func:`~wheelrom.transient.run.run_bytes`)."""
-    from wheelrom.runtime.environment import available_memory
-    from wheelrom.runtime.outputs import size_text
-    from wheelrom.transient.run import run_bytes
-
-    needed, available = run_bytes(cfg), available_memory()
-    if available is not None and needed > available:
-        raise InputError(f"compare --steps {steps}: the run would need about "
-                         f"{size_text(needed)} of memory (its output samples at "
-                         f"{cfg.output.sample_rate_hz:g} Hz over {cfg.time.end:g} s), "
-                         f"{size_text(available)} is available: compare fewer steps")
+    return config_mod.with_option(
+        cfg, f"compare --steps {steps}",
+        {"time.end": span, "time.window": span, "output.sample_rate_hz": rate,
+         "output.history_rate_hz": rate, "output.state_rate_hz": 0.0, "time.start": "preload"})
 
 
 def _reference_scheme(settings: dict) -> str:
@@ -484,8 +474,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     if world_rank() == 0:  # "compiling kernels (first run only)" on a kernel-cache miss
         _kernel_cache.set_log(log)
     try:
-        _petsc_options(args)
-        status = int(args.func(args) or 0)
+        with numpy_warnings_off():
+            _petsc_options(args)
+            status = int(args.func(args) or 0)
     except config_mod.ConfigError as exc:
         return fail(str(exc))
     except OutputExists as exc:

@@ -3,6 +3,7 @@ under mpirun), progress on stderr."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
@@ -55,6 +56,21 @@ def world_rank() -> int:
         if os.environ.get(name, "").isdigit():
             return int(os.environ[name])
     return 0
+
+
+@contextlib.contextmanager
+def numpy_warnings_off():
+    """No numpy ``RuntimeWarning`` reaches the user: "invalid value encountered in subtract"
+    with a source line says nothing a user can act on. What such a value means is the
+    commands' to say, in their own lines (a NaN amplitude is "no solution", a diverged
+    case "failed"), and the keys' ranges keep the inputs that caused them out."""
+    import warnings
+
+    import numpy as np
+
+    with warnings.catch_warnings(), np.errstate(all="ignore"):
+        warnings.simplefilter("ignore", RuntimeWarning)
+        yield
 
 
 def fail(message: str, status: int = EXIT_CONFIG) -> int:

@@ -98,16 +98,20 @@ def cmd_mesh(args: argparse.Namespace) -> int:
 def cmd_campbell(args: argparse.Namespace) -> int:
     """Segment and wheel frequencies versus speed (prestressed), with engine orders."""
     from wheelrom.plots.figures import plot_campbell
-    from wheelrom.rom.build import quiet
+    from wheelrom.rom.build import BeyondPrestress, quiet
     from wheelrom.rom.campbell import campbell
 
     cfg = load_config(args)
     check_outdir(args.outdir)
-    speeds = cli_args.parse_speeds(args.speeds)
+    speeds = cli_args.parse_speeds(args.speeds, cfg)
     if os.path.isdir(args.outdir):  # a figure there is refused before computing (or --force)
         for name in ("campbell.png", "campbell.pdf")[: 1 + args.pdf]:
             check_output(os.path.join(args.outdir, name), args.force, flag="--outdir")
-    data = campbell(cfg, speeds, comm_self(), log=quiet if args.json else log)
+    try:
+        data = campbell(cfg, speeds, comm_self(), log=quiet if args.json else log)
+    except BeyondPrestress as exc:  # the speed is the option's, not wheel.speed_hz
+        raise InputError(f"--speeds {args.speeds}: at {exc.speed_hz:g} Hz {exc.why}: a lower "
+                         "top speed") from None
     written = plot_campbell(data, args.outdir, pdf=args.pdf, force=args.force)
     if args.json:
         print_json({k: (v.tolist() if hasattr(v, "tolist") else v) for k, v in data.items()}

@@ -27,7 +27,13 @@ from typing import Any
 
 import numpy as np
 
-from wheelrom.config.values import beside_toml, file_stamp, input_file_problem, quoted
+from wheelrom.config.values import (
+    beside_toml,
+    file_stamp,
+    input_file_problem,
+    path_problem,
+    quoted,
+)
 from wheelrom.config.values import field_key as _key
 
 
@@ -42,9 +48,11 @@ class FlutterConfig:
             choices=("relative", "absolute", "off", "table"),
         ),
     )
-    mu: float = field(default=100.0, metadata=_key("N s/m", "Van der Pol intensity mu", min=0.0))
+    mu: float = field(default=100.0, metadata=_key("N s/m", "Van der Pol intensity mu", min=0.0,
+                                                   max=1e6))
     r: float = field(
-        default=5e-3, metadata=_key("m", "amplitude where negative damping turns positive", gt=0.0)
+        default=5e-3, metadata=_key("m", "amplitude where negative damping turns positive", gt=0.0,
+                                    max=1.0)
     )
     mode: int | str = field(
         default="auto",
@@ -87,7 +95,8 @@ class FlutterConfig:
     table_scale: float = field(
         default=1.0,
         metadata=_key("-", "factor on the table's aerodynamic coefficients (the flutter "
-                      "margin is the factor at which the wheel flutters)", min=0.0),
+                      "margin is the factor at which the wheel flutters)", min=0.0,
+                      max=1e3),
     )
 
 
@@ -334,7 +343,7 @@ def aero_table_problems(cfg: Any, source: str, problems: list[str]) -> None:
     if not isinstance(fl.table, str) or not fl.table:
         problems.append("flutter.table: flutter.model = 'table' needs a table file")
         return
-    if not isinstance(blades, int):
+    if not isinstance(blades, int) or path_problem(fl.table):  # the latter said by its key
         return
     try:
         table = read_aero_table(fl.table, source, blades, fl.table_phase, fl.table_directions,

@@ -7,24 +7,30 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
+from wheelrom.config.values import MAX_STIFFNESS, is_number
 from wheelrom.config.values import field_key as _key
-from wheelrom.config.values import is_number
 
 CONTACT_KINDS = ("tieboss", "shroud")
 #: the largest ``contacts.*.normal_preload`` [N]: far above any wheel's (hundreds of N), short
 #: of what overflows the contact laws (1e308 N)
 MAX_NORMAL_PRELOAD = 1e7
-__all__ = ["CONTACT_KINDS", "CONTACT_LAWS", "MAX_NORMAL_PRELOAD", "ContactConfig",
+#: the largest arm or height [m]: beyond any wheel (the paper's radius is 2.2 m)
+MAX_LENGTH = 10.0
+__all__ = ["CONTACT_KINDS", "CONTACT_LAWS", "MAX_LENGTH", "MAX_NORMAL_PRELOAD", "MAX_STIFFNESS",
+           "ContactConfig",
            "ContactsConfig", "FrictionConfig", "law_problems"]
 
 
 @dataclass(frozen=True)
 class ContactConfig:
     enabled: bool = field(default=True, metadata=_key("-", "contact kind present"))
-    height: float = field(default=1.6, metadata=_key("m", "radius H of the arm", gt=0.0))
-    arm_length: float = field(default=0.15, metadata=_key("m", "rigid arm length L", gt=0.0))
+    height: float = field(default=1.6, metadata=_key("m", "radius H of the arm", gt=0.0,
+                                                     max=MAX_LENGTH))
+    arm_length: float = field(default=0.15, metadata=_key("m", "rigid arm length L", gt=0.0,
+                                                          max=MAX_LENGTH))
     profile_thickness: float = field(
-        default=3.1e-2, metadata=_key("m", "distance l between profile points A and B", gt=0.0)
+        default=3.1e-2, metadata=_key("m", "distance l between profile points A and B", gt=0.0,
+                                      max=MAX_LENGTH)
     )
     angle_deg: float = field(
         default=45.0, metadata=_key("deg", "contact surface angle beta", min=0.0, max=90.0)
@@ -38,11 +44,13 @@ class ContactConfig:
         metadata=_key(
             "N/m",
             "normal contact stiffness k_c: a number, a table [[angle_deg, N/m], ...] or 'fe'",
+            gt=0.0, max=MAX_STIFFNESS,  # shown by config show; convert_stiffness applies it
         ),
     )
     arm_axial_stiffness: float = field(
         default=5e8,
-        metadata=_key("N/m", "axial stiffness of the arm, in series for stiffness = 'fe'", gt=0.0),
+        metadata=_key("N/m", "axial stiffness of the arm, in series for stiffness = 'fe'", gt=0.0,
+                      max=MAX_STIFFNESS),
     )
     tangential_stiffness: Any = field(
         default="mindlin",
@@ -51,6 +59,7 @@ class ContactConfig:
             "contacts.law = 'elastic' only: tangential stiffness k_t of the stuck contact, a "
             "number or 'mindlin' (Mindlin's ratio 2 (1 - nu) / (2 - nu) of the normal "
             "stiffness k_c at each blade's angle, nu = segment.poisson: 0.82 k_c)",
+            gt=0.0, max=MAX_STIFFNESS,  # shown by config show; the converter applies it
         ),
     )
 
@@ -92,16 +101,17 @@ class ContactsConfig:
 @dataclass(frozen=True)
 class FrictionConfig:
     static: float = field(
-        default=0.6, metadata=_key("-", "static friction coefficient f_s", min=0.0)
+        default=0.6, metadata=_key("-", "static friction coefficient f_s", min=0.0, max=10.0)
     )
     dynamic: float = field(
-        default=0.4, metadata=_key("-", "dynamic friction coefficient f_d", min=0.0)
+        default=0.4, metadata=_key("-", "dynamic friction coefficient f_d", min=0.0, max=10.0)
     )
     decay: float = field(
-        default=2.0, metadata=_key("s/m", "decay d of the static-to-dynamic transition", min=0.0)
+        default=2.0, metadata=_key("s/m", "decay d of the static-to-dynamic transition", min=0.0,
+                                   max=1e4)
     )
     microslip_velocity: float = field(
-        default=0.6, metadata=_key("m/s", "micro-slip velocity v_k", gt=0.0)
+        default=0.6, metadata=_key("m/s", "micro-slip velocity v_k", gt=0.0, max=100.0)
     )
     coulomb: float = field(
         default=0.4,

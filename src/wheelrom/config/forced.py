@@ -18,6 +18,7 @@ from wheelrom.config.values import (
     file_stamp,
     input_file_problem,
     is_number,
+    path_problem,
     quoted,
 )
 from wheelrom.config.values import field_key as _key
@@ -64,14 +65,14 @@ class ForcedConfig:
         default=(),
         metadata=_key("Hz", "[lo, hi] excitation frequency band of the peak search; [] = "
                       "automatic: the tuned resonance of the excited ND's mode 'family' "
-                      "+-max(1 %, 2 max|delta_s|)", min=0.0, allow_empty=True),
+                      "+-max(1 %, 2 max|delta_s|)", min=0.0, max=1e6, allow_empty=True),
     )
     family: int = field(
         default=0,
         metadata=_key("-", "mode family (0: lowest) of the excited ND the automatic band is "
                       "centred on (over the speed: its Campbell crossing with the engine "
                       "order; up to the model's modes, attachment vectors included)",
-                      min=0),
+                      min=0, max=1000),
     )
     contacts: bool = field(
         default=True,
@@ -177,7 +178,7 @@ def mistuning_problems(cfg: Any, source: str, problems: list[str]) -> None:
     if isinstance(pattern, tuple) and pattern and len(pattern) != blades:
         problems.append(f"mistuning.pattern: {len(pattern)} values for {blades} blades "
                         "(one per blade)")
-    if isinstance(mt.file, str) and mt.file:
+    if isinstance(mt.file, str) and mt.file and not path_problem(mt.file):  # else said
         try:
             read_mistuning_file(mt.file, source, blades)
         except ValueError as exc:

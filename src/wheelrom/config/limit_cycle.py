@@ -18,7 +18,7 @@ class LimitCycleConfig:
         default=0,
         metadata=_key("-", "time samples per period of the AFT force evaluation; 0 = 8 (H + 1) "
                       "(at least 2 H + 1; 4 H + 1 resolves the Floquet analysis; a contact "
-                      "that opens within the cycle wants more)", min=0))
+                      "that opens within the cycle wants more)", min=0, max=4096))
     method: str = field(
         default="shooting",
         metadata=_key("-", "'shooting': the exact periodic orbit (shooting on the transient's "
@@ -57,18 +57,19 @@ class LimitCycleConfig:
     mu_max: float = field(
         default=4.0,
         metadata=_key("-", "continuation stops where the factor on the self-excitation "
-                      "(flutter.mu or flutter.table_scale) exceeds this", gt=0.0))
+                      "(flutter.mu or flutter.table_scale) exceeds this", gt=0.0, max=1e3))
     amplitude_max: float = field(
         default=1e-3,
         metadata=_key("m", "continuation stops above this tip amplitude; 'no bounded cycle "
-                      "below' it is reported when none is found", gt=0.0))
+                      "below' it is reported when none is found", gt=0.0, max=1.0))
     steps: int = field(
-        default=120, metadata=_key("-", "most points of the branch from the Hopf point", min=2))
+        default=120, metadata=_key("-", "most points of the branch from the Hopf point", min=2,
+                                   max=100_000))
     seeds: tuple[float, ...] = field(
         default=(1e-6, 1e-5, 1e-4, 1e-3),
         metadata=_key("m", "tip amplitudes of the Newton starts at the configured intensity "
                       "(each cycle found is continued both ways); [] = the Hopf branch only",
-                      gt=0.0, allow_empty=True))
+                      gt=0.0, max=1.0, allow_empty=True))
     floquet: str = field(
         default="auto",
         metadata=_key("-", "stability of the cycles: 'auto' ('monodromy' for shooting, "

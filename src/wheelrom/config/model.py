@@ -19,6 +19,7 @@ from typing import Any
 from wheelrom.config.aero import FlutterConfig, aero_table_problems
 from wheelrom.config.contacts import (
     CONTACT_KINDS,
+    MAX_STIFFNESS,
     ContactConfig,
     ContactsConfig,
     FrictionConfig,
@@ -31,45 +32,40 @@ from wheelrom.config.forced import (
     mistuning_problems,
 )
 from wheelrom.config.limit_cycle import LimitCycleConfig, limit_cycle_problems
+from wheelrom.config.limits import (
+    MAX_BLADES,
+    MAX_FORCE,
+    MAX_SIMULATED_TIME,
+    MAX_SPEED_HZ,
+    MAX_WINDOWS,
+    MIN_STEP,
+)
 from wheelrom.config.settle import SettleConfig, settle_problems
-from wheelrom.config.values import convert_field, cut, is_number, shown, suggest
+from wheelrom.config.values import ConfigError, convert_field, cut, is_number, shown, suggest
 from wheelrom.config.values import field_key as _key
 from wheelrom.config.values import to_toml as to_toml  # re-exported: config.to_toml
-
-#: the longest ``time.end`` [s]: far beyond any run (seconds), short of what overflows the
-#: time grid (1e300 s)
-MAX_SIMULATED_TIME = 1e4
-
-
-#: characters of one problem line at most: each names a key and quotes at most a cut of its
-#: value (:func:`~wheelrom.config.values.shown`); this bounds a line that quotes user text
-#: some other way (a key's name, a path)
-MAX_PROBLEM = 1000
-
-
-class ConfigError(ValueError):
-    """Invalid configuration; ``problems`` lists one message per offending key."""
-
-    def __init__(self, problems: Sequence[str]):
-        self.problems = [cut(p, MAX_PROBLEM) for p in problems]
-        super().__init__("invalid configuration:\n  " + "\n  ".join(self.problems))
 
 
 @dataclass(frozen=True)
 class WheelConfig:
-    blades: int = field(default=66, metadata=_key("-", "number of rotor blades N", min=3))
+    blades: int = field(default=66, metadata=_key("-", "number of rotor blades N", min=3,
+                                                  max=MAX_BLADES))
     stator_vanes: int = field(
-        default=64, metadata=_key("-", "number of stator vanes n_s (nozzle order)", min=1)
+        default=64, metadata=_key("-", "number of stator vanes n_s (nozzle order)", min=1,
+                                  max=MAX_BLADES)
     )
-    speed_hz: float = field(default=50.0, metadata=_key("Hz", "rotor speed f_rev", min=0.0))
+    speed_hz: float = field(default=50.0, metadata=_key("Hz", "rotor speed f_rev", min=0.0,
+                                                        max=MAX_SPEED_HZ))
     coupling_stiffness: float = field(
-        default=2e8, metadata=_key("N/m", "cut-face coupling springs c1", min=0.0)
+        default=2e8, metadata=_key("N/m", "cut-face coupling springs c1", min=0.0,
+                                   max=MAX_STIFFNESS)
     )
     modes_per_segment: int = field(
         default=10, metadata=_key("-", "segment modes m kept per blade", min=1, max=200)
     )
     damping_beta: float = field(
-        default=5e-8, metadata=_key("s", "stiffness-proportional damping beta_D", min=0.0)
+        default=5e-8, metadata=_key("s", "stiffness-proportional damping beta_D", min=0.0,
+                                    max=1e-4)  # 1e-4 s: 2.5 % of critical at 80 Hz already
     )
     basis: str = field(
         default="attachment",
@@ -93,11 +89,13 @@ class SegmentConfig:
         default="default",
         metadata=_key("-", "built-in mesh density", choices=("coarse", "default", "paper")),
     )
-    young: float = field(default=2.1e11, metadata=_key("Pa", "Young's modulus E", gt=0.0))
+    young: float = field(default=2.1e11, metadata=_key("Pa", "Young's modulus E", min=1e9,
+                                                       max=1.2e12))  # polymers to diamond
     poisson: float = field(
         default=0.3, metadata=_key("-", "Poisson's ratio nu", min=0.0, max=0.4999)
     )
-    density: float = field(default=7850.0, metadata=_key("kg/m^3", "density rho", gt=0.0))
+    density: float = field(default=7850.0, metadata=_key("kg/m^3", "density rho", min=100.0,
+                                                         max=25000.0))  # foams to osmium
     prestress: bool = field(
         default=True,
         metadata=_key(
@@ -108,7 +106,8 @@ class SegmentConfig:
     )
     node_set_tolerance: float = field(
         default=1e-3,
-        metadata=_key("m", "largest distance of a node picked by coordinates", gt=0.0),
+        metadata=_key("m", "largest distance of a node picked by coordinates", gt=0.0,
+                      max=0.1),
     )
     node_sets: Mapping[str, Any] = field(
         default_factory=dict,
@@ -123,7 +122,8 @@ class SegmentConfig:
 class ExcitationConfig:
     force: float = field(
         default=100.0,
-        metadata=_key("N", "nozzle force amplitude F_b per excitation node (0: off)", min=0.0),
+        metadata=_key("N", "nozzle force amplitude F_b per excitation node (0: off)", min=0.0,
+                      max=MAX_FORCE),
     )
 
 
@@ -137,7 +137,7 @@ class TimeConfig:
                       "scheme's stability for the stuck contacts: the elastic law's 8.1 us); "
                       "RK 3bs is "
                       "stable up to 2 pi f_max step = 1.73 (the default attachment basis reaches "
-                      "69 kHz: 3e-6)", gt=0.0),
+                      "69 kHz: 3e-6)", min=MIN_STEP, max=MAX_SIMULATED_TIME),
     )
     scheme: str = field(
         default="exponential",
@@ -148,7 +148,8 @@ class TimeConfig:
     end: float = field(
         default=1.5, metadata=_key("s", "simulated time", gt=0.0, max=MAX_SIMULATED_TIME)
     )
-    window: float = field(default=0.0375, metadata=_key("s", "evaluation window", gt=0.0))
+    window: float = field(default=0.0375, metadata=_key("s", "evaluation window", gt=0.0,
+                                                        max=MAX_SIMULATED_TIME))
     start: str = field(
         default="rest",
         metadata=_key(
@@ -157,13 +158,14 @@ class TimeConfig:
     )
     divergence_amplitude: float = field(
         default=1.0,
-        metadata=_key("m", "tip amplitude beyond which a case is stopped as diverged", gt=0.0),
+        metadata=_key("m", "tip amplitude beyond which a case is stopped as diverged", gt=0.0,
+                      max=10.0),
     )
     perturbation: float = field(
         default=0.0,
         metadata=_key(
             "m", "largest tip displacement of the start perturbation: the lowest mode of every ND "
-            "(contacts open) with random phases", min=0.0
+            "(contacts open) with random phases", min=0.0, max=0.1
         ),
     )
     seed: int = field(
@@ -183,19 +185,19 @@ class OutputConfig:
     sample_rate_hz: float = field(
         default=20000.0,
         metadata=_key("Hz", "sample rate of the window statistics (tip amplitude, contact "
-                      "forces, ND spectrum) and the divergence check", gt=0.0),
+                      "forces, ND spectrum) and the divergence check", gt=0.0, max=1e7),
     )
     history_rate_hz: float = field(
         default=2000.0,
         metadata=_key("Hz", "rate of the stored tip history: every k-th statistics sample, "
                       "k = sample_rate_hz / history_rate_hz a whole number (at or above the "
-                      "sample rate: every sample); 0: no tip history", min=0.0),
+                      "sample rate: every sample); 0: no tip history", min=0.0, max=1e7),
     )
     state_rate_hz: float = field(
         default=0.0,
         metadata=_key("Hz", "rate of the stored modal state history (q, q' of every blade, "
                       "for 'wheelrom animate' and 'contacts'), same rule; 0: none",
-                      min=0.0),
+                      min=0.0, max=1e7),
     )
 
 
@@ -298,16 +300,34 @@ def to_dict(cfg: Any) -> dict[str, Any]:
     return out
 
 
-def _set_nested(data: dict[str, Any], changes: Mapping[str, Any]) -> dict[str, Any]:
+def _set_nested(data: dict[str, Any], changes: Mapping[str, Any],
+                merge: bool = False) -> dict[str, Any]:
+    """``data`` with the dotted keys of ``changes`` set. ``merge`` (``--set``): a table value
+    (``--set 'time={end=1.0}'``) is merged into the section it names, key by key, so the
+    TOML's other keys of that section stay (replacing the section would have silently put
+    them back to their defaults)."""
     for dotted, value in changes.items():
         node = data
         parts = dotted.split(".")
         for part in parts[:-1]:
             node = node.setdefault(part, {})
             if not isinstance(node, dict):
-                raise ConfigError([f"--set {dotted}: '{part}' is a key, not a section"])
-        node[parts[-1]] = value
+                raise ConfigError([f"--set {cut(dotted)}: '{cut(part)}' is a key, not a "
+                                   "section"])
+        if merge and isinstance(value, Mapping) and isinstance(node.get(parts[-1]), dict):
+            _merge(node[parts[-1]], value)
+        else:
+            node[parts[-1]] = value
     return data
+
+
+def _merge(section: dict[str, Any], table: Mapping[str, Any]) -> None:
+    """``table``'s keys into ``section``, nested tables into nested sections."""
+    for key, value in table.items():
+        if isinstance(value, Mapping) and isinstance(section.get(key), dict):
+            _merge(section[key], value)
+        else:
+            section[key] = value
 
 
 def _build(cls: type, data: Mapping[str, Any], prefix: str, problems: list[str]) -> Any:
@@ -365,6 +385,10 @@ def _cross_checks(cfg: Config, problems: list[str]) -> None:
     if all(is_number(v) and 0 < v <= MAX_SIMULATED_TIME for v in times):
         if t.step > t.window:
             problems.append(f"time.step: larger than time.window ({t.step} > {t.window} s)")
+        elif t.end / t.window > MAX_WINDOWS:
+            problems.append(f"time.window: {t.window:g} s cuts time.end ({t.end:g} s) into "
+                            f"{t.end / t.window:.3g} windows; at most {MAX_WINDOWS} (each is "
+                            "a row of every case's window statistics)")
         rate = cfg.output.sample_rate_hz
         if is_number(rate) and rate * t.step > 1.0:
             problems.append(f"output.sample_rate_hz: {rate} Hz exceeds 1/time.step")
@@ -377,6 +401,17 @@ def _cross_checks(cfg: Config, problems: list[str]) -> None:
             )
     _history_problems(cfg.output, problems)
     w = cfg.wheel
+    waves = t.perturbation_waves
+    if isinstance(w.blades, int) and isinstance(waves, tuple) and all(
+            isinstance(k, int) for k in waves):
+        beyond = [k for k in waves if k >= w.blades]
+        if beyond:
+            problems.append(f"time.perturbation_waves: {beyond} not below wheel.blades = "
+                            f"{w.blades} (travelling waves are 0..{w.blades - 1})")
+        twice = sorted({k for k in waves if waves.count(k) > 1})
+        if twice:
+            problems.append(f"time.perturbation_waves: {twice} listed more than once (each "
+                            "would be seeded twice)")
     if isinstance(cfg.flutter.mode, int) and isinstance(w.modes_per_segment, int):
         if cfg.flutter.mode >= w.modes_per_segment:
             problems.append(
@@ -444,4 +479,4 @@ def load(path: str | Path | None = None, overrides: Sequence[str] = ()) -> Confi
     changes = dict(parse_override(o) for o in overrides)
     if changes:
         source += " + --set " + " ".join(f"{cut(k)}={shown(v)}" for k, v in changes.items())
-    return from_dict(_set_nested(data, changes), source=source)
+    return from_dict(_set_nested(data, changes, merge=True), source=source)

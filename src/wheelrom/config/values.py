@@ -44,8 +44,46 @@ def cut(text: str, limit: int = SHOWN) -> str:
     return text if len(text) <= limit else f"{text[:limit]}... ({len(text)} characters)"
 
 
+#: characters of one problem line at most: each names a key and quotes at most a cut of its
+#: value (:func:`~wheelrom.config.values.shown`); this bounds a line that quotes user text
+#: some other way (a key's name, a path)
+MAX_PROBLEM = 1000
+
+
+class ConfigError(ValueError):
+    """Invalid configuration; ``problems`` lists one message per offending key."""
+
+    def __init__(self, problems: Sequence[str]):
+        self.problems = [cut(p, MAX_PROBLEM) for p in problems]
+        super().__init__("invalid configuration:\n  " + "\n  ".join(self.problems))
+
+
+#: the stiffest spring a key may give [N/m] (10 kN/um): no contact, arm or cut-face coupling
+#: is stiffer than the steel around it; beyond it a stuck contact only adds a spurious stiff
+#: mode (k_t = 1e14 N/m put one at 81 kHz on the small wheel, 1e30 a false instability at
+#: 3.7 MHz)
+MAX_STIFFNESS = 1e10
+
+
 def is_number(v: Any) -> bool:
     return isinstance(v, int | float) and not isinstance(v, bool)
+
+
+def bound_text(bound: float) -> str:
+    """A range's bound as a message gives it: ``90.0``, ``0.0``, but ``1e+10`` (not eleven
+    digits)."""
+    return str(bound) if bound == 0 or 1e-4 <= abs(bound) < 1e5 else f"{bound:g}"
+
+
+def range_text(meta: Mapping[str, Any]) -> str:
+    """A key's range as ``config show`` gives it after the unit: ``", 0.0..90.0"``,
+    ``", > 0.0"``, ``", >= 3"``, ``", > 0.0, <= 1e+10"``; "" without one."""
+    low = (f"> {bound_text(meta['gt'])}" if "gt" in meta else
+           f">= {bound_text(meta['min'])}" if "min" in meta else "")
+    high = f"<= {bound_text(meta['max'])}" if "max" in meta else ""
+    if "min" in meta and high:
+        return f", {bound_text(meta['min'])}..{bound_text(meta['max'])}"
+    return "".join(f", {part}" for part in (low, high) if part)
 
 
 def check_number(where: str, value: Any, meta: Mapping[str, Any], problems: list[str]) -> bool:
@@ -58,13 +96,15 @@ def check_number(where: str, value: Any, meta: Mapping[str, Any], problems: list
     unit = meta.get("unit", "")
     unit = "" if unit == "-" else f" {unit}"
     if "gt" in meta and not value > meta["gt"]:
-        problems.append(f"{where}: must be > {meta['gt']}{unit}, got {shown(value)}")
+        problems.append(f"{where}: must be > {bound_text(meta['gt'])}{unit}, got {shown(value)}")
         return False
     if "min" in meta and value < meta["min"]:
-        problems.append(f"{where}: must be >= {meta['min']}{unit}, got {shown(value)}")
+        problems.append(f"{where}: must be >= {bound_text(meta['min'])}{unit}, got "
+                        f"{shown(value)}")
         return False
     if "max" in meta and value > meta["max"]:
-        problems.append(f"{where}: must be <= {meta['max']}{unit}, got {shown(value)}")
+        problems.append(f"{where}: must be <= {bound_text(meta['max'])}{unit}, got "
+                        f"{shown(value)}")
         return False
     return True
 
@@ -75,7 +115,7 @@ def convert_stiffness(where: str, value: Any, problems: list[str]) -> Any:
             problems.append(f"{where}: expected a number, a table or 'fe', got {shown(value)}")
         return value
     if is_number(value):
-        check_number(where, value, {"gt": 0.0, "unit": "N/m"}, problems)
+        check_number(where, value, {"gt": 0.0, "max": MAX_STIFFNESS, "unit": "N/m"}, problems)
         return float(value)
     if isinstance(value, list | tuple) and len(value) >= 2:
         rows = []
@@ -84,7 +124,8 @@ def convert_stiffness(where: str, value: Any, problems: list[str]) -> Any:
                 problems.append(f"{where}[{i}]: expected [angle_deg, stiffness], got {shown(row)}")
                 return value
             a_ok = check_number(f"{where}[{i}][0]", row[0], {"min": 0.0, "max": 90.0}, problems)
-            k_ok = check_number(f"{where}[{i}][1]", row[1], {"gt": 0.0}, problems)
+            k_ok = check_number(f"{where}[{i}][1]", row[1],
+                                {"gt": 0.0, "max": MAX_STIFFNESS, "unit": "N/m"}, problems)
             if not (a_ok and k_ok):
                 return value
             rows.append((float(row[0]), float(row[1])))
@@ -102,7 +143,7 @@ def convert_tangential_stiffness(where: str, value: Any, problems: list[str]) ->
         if value != "mindlin":
             problems.append(f"{where}: expected a number [N/m] or 'mindlin', got {value!r}")
         return value
-    if check_number(where, value, {"gt": 0.0, "unit": "N/m"}, problems):
+    if check_number(where, value, {"gt": 0.0, "max": MAX_STIFFNESS, "unit": "N/m"}, problems):
         return float(value)
     return value
 
@@ -179,6 +220,24 @@ FILE_KEYS = {"segment.source": "builtin", "mistuning.file": "", "study.cases": "
              "flutter.table": ""}
 
 
+#: the longest path and file name the operating system opens (Linux's PATH_MAX, NAME_MAX)
+MAX_PATH, MAX_NAME = 4096, 255
+
+
+def path_problem(name: str) -> str | None:
+    """Why the value ``name`` of a file key (:data:`FILE_KEYS`) cannot name a file (None: it
+    may): longer than a path or one of its names can be. Checked with the configuration,
+    so that no reader quotes a 50 MB "path" back into a message (the value is cut:
+    :func:`shown`)."""
+    if len(name) > MAX_PATH:
+        return f"{shown(name)} is no file name (a path has at most {MAX_PATH} characters)"
+    longest = max(name.replace("\\", "/").split("/"), key=len)
+    if len(longest) > MAX_NAME:
+        return (f"{shown(name)} is no file name (one of its names has {len(longest)} "
+                f"characters, at most {MAX_NAME})")
+    return None
+
+
 def to_toml(cfg: Any, comments: bool = True) -> str:
     """The effective configuration (a :class:`wheelrom.config.Config`) as TOML, with units and
     help as comments. File keys (:data:`FILE_KEYS`) are written as absolute paths: the text
@@ -202,7 +261,8 @@ def to_toml(cfg: Any, comments: bool = True) -> str:
             for f in plain:
                 text = f"{f.name} = {_toml_value(value_of(obj, name, f.name))}"
                 if comments and f.metadata:
-                    text = f"{text:<40} # [{f.metadata['unit']}] {f.metadata['help']}"
+                    text = (f"{text:<40} # [{f.metadata['unit']}{range_text(f.metadata)}] "
+                            f"{f.metadata['help']}")
                 lines.append(text)
             lines.append("")
         if name == "segment" and obj.node_sets:
@@ -271,6 +331,8 @@ def convert_field(where: str, f: dataclasses.Field, value: Any, problems: list[s
     if isinstance(default, str):
         if not isinstance(value, str):
             problems.append(f"{where}: expected a string, got {shown(value)}")
+        elif any(where.split("[")[0].endswith(key) for key in FILE_KEYS) and path_problem(value):
+            problems.append(f"{where}: {path_problem(value)}")
         elif "choices" in meta and value not in meta["choices"]:
             problems.append(
                 f"{where}: {shown(value)} is not one of {', '.join(map(repr, meta['choices']))}"

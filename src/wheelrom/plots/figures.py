@@ -17,7 +17,13 @@ from wheelrom.plots.helpers import cell_edges as _cell_edges
 from wheelrom.plots.helpers import need as _need
 from wheelrom.plots.helpers import save as _save
 from wheelrom.plots.helpers import staged
-from wheelrom.results.layout import FORCED_FORMAT, check_readable, read_config, statuses
+from wheelrom.results.layout import (
+    FORCED_FORMAT,
+    check_readable,
+    read_config,
+    read_error,
+    statuses,
+)
 from wheelrom.results.study_layout import FORMAT as STUDY_FORMAT
 from wheelrom.results.study_layout import read_parameters
 from wheelrom.runtime.errors import InputError
@@ -46,7 +52,7 @@ def plot_file(path: str, outdir: str | None = None, pdf: bool = False,
     try:
         f = h5py.File(path, "r")
     except OSError as exc:
-        raise InputError(f"{path}: not a readable HDF5 file ({exc})") from None
+        raise read_error(path, exc, "not a readable HDF5 file") from None
     with f, plt.rc_context(FONT), staged(outdir, force) as (stage, written):
         cfg = read_config(f, path)
         _draw(f, cfg, path, stage, pdf, written, plt, nd_angles)

@@ -21,7 +21,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from wheelrom.results.layout import FORMAT, open_file
+from wheelrom.results.info import not_case_file
+from wheelrom.results.layout import FORMAT, check_readable, open_file
 from wheelrom.results.study_layout import FORMAT as STUDY_FORMAT
 from wheelrom.runtime.errors import InputError
 from wheelrom.runtime.outputs import check_output, replacing
@@ -35,8 +36,7 @@ def case_tables(path: str, case: int,
     ``wheelrom info`` lists them) of the results file at ``path``."""
     with open_file(path) as f:
         if f.attrs.get("format") not in (FORMAT, STUDY_FORMAT) or "cases" not in f:
-            raise InputError(f"{path}: not a wheelrom results file (format {FORMAT!r} or "
-                             f"{STUDY_FORMAT!r} expected)")
+            raise not_case_file(path, f, "export", (FORMAT, STUDY_FORMAT))
         c = f["cases"]
         if "max_tip_amplitude" not in c:
             raise InputError(f"{path}: a --stability-only study: no transient to export")
@@ -124,9 +124,10 @@ def export_case(path: str, case: int, prefix: str, what: str = "all",
                 force: bool = False) -> list[str]:
     """``wheelrom export``: the tables ``what`` (``"all"`` = tips and windows, ``"tips"``,
     ``"windows"`` or ``"contact_forces"``) of case ``case`` of ``path`` as
-    ``<prefix>_<table>.csv``; the output files are checked (existing ones need ``force``)
-    before anything is read. Returns the paths written."""
+    ``<prefix>_<table>.csv``; the input is checked readable, then the output files
+    (existing ones need ``force``), before anything is read. Returns the paths written."""
     tables = TABLES if what == "all" else (what,)
+    check_readable(path)  # the input first: its problem is the one the user must fix first
     for target in table_paths(prefix, tables):
         check_output(target, force, "--csv")
     return write_tables(case_tables(path, case, tables), prefix, tables)

@@ -27,6 +27,8 @@ from wheelrom.results.layout import (
     FORMAT,
     STABILITY_FORMAT,
     check_readable,
+    not_readable,
+    read_error,
     statuses,
 )
 from wheelrom.results.limit_cycles import FORMAT as LIMIT_CYCLE_FORMAT
@@ -64,8 +66,7 @@ def file_info(path: str, verify: bool = False) -> dict:
         f = h5py.File(path, "r", locking=False)
     except OSError as exc:
         what = "not an HDF5 file" if "signature" in str(exc) else "cannot be read as HDF5"
-        raise InputError(f"{path}: {what}, not a wheelrom results or model file ({exc})") \
-            from None
+        raise read_error(path, exc, f"{what}, not a wheelrom results or model file") from None
     with f:
         info = _info(f, path)
         if verify:
@@ -130,15 +131,33 @@ def kind_of(path: str) -> tuple[str | None, str]:
     except OSError as exc:
         if "signature" in str(exc):
             return None, "a file that is not HDF5"
+        if not_readable(exc):
+            return None, "a file this user may not read (permission denied)"
         return None, f"a file that cannot be read as HDF5 ({exc})"
     with f:
-        fmt = _text(f.attrs.get("format"))
-        if fmt in KIND_OF_FORMAT:
-            return fmt, f"a {KIND_OF_FORMAT[fmt]} file (format {fmt!r})"
-        if fmt is None and "model" in f and "config" in f.attrs:
-            return None, "a model file (modes --out)"
-    return fmt, (f"an HDF5 file of format {fmt!r}" if fmt
-                 else "an HDF5 file without a wheelrom format")
+        return _text(f.attrs.get("format")), file_kind(f)
+
+
+def file_kind(f) -> str:
+    """What the open HDF5 file ``f`` is, in words following "is": ``"a stability file
+    (format 'wheelrom-stability-1')"``, ``"a model file (modes --out)"``, ``"an HDF5 file
+    without a wheelrom format"``."""
+    fmt = _text(f.attrs.get("format"))
+    if fmt in KIND_OF_FORMAT:
+        return f"a {KIND_OF_FORMAT[fmt]} file (format {fmt!r})"
+    if fmt is None and "model" in f and "config" in f.attrs:
+        return "a model file (modes --out)"
+    return f"an HDF5 file of format {fmt!r}" if fmt else "an HDF5 file without a wheelrom format"
+
+
+def not_case_file(path: str, f, command: str, formats: tuple[str, ...]) -> InputError:
+    """The refusal of ``command`` (``export``, ``animate``, ``contacts``), which reads the
+    cases of a file of ``formats``, for the open file ``f`` at ``path``: what the file is
+    (a stability, settle or forced-response file is a wheelrom file, just not one of cases
+    with transients) and what the command reads."""
+    kinds = " or ".join(f"{KIND_OF_FORMAT[fmt]} ({fmt!r})" for fmt in formats)
+    return InputError(f"{path} is {file_kind(f)}: {command} reads the cases of a {kinds} "
+                      "file")
 
 
 def verify_cases(cases, rows: list[dict]) -> dict:

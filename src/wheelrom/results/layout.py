@@ -345,6 +345,29 @@ def check_readable(path: str) -> None:
     if not os.path.isfile(path):
         raise InputError(f"{path} is not a regular file (a device, a FIFO or a socket), not a "
                          "wheelrom results file")
+    if not os.access(path, os.R_OK):
+        raise InputError(PERMISSION.format(path=path))
+
+
+#: the refusal of a file this user may not read (another user's mode-0600 file): said as
+#: such, not as "not an HDF5 file" (its content was never seen)
+PERMISSION = "{path}: not readable by this user (permission denied)"
+
+
+def not_readable(exc: OSError) -> bool:
+    """Whether opening a file failed for want of permission (h5py reports errno 13 in its
+    message, not always as ``errno``)."""
+    import errno
+
+    return exc.errno == errno.EACCES or "Permission denied" in str(exc)
+
+
+def read_error(path: str, exc: OSError, what: str) -> InputError:
+    """The one line of an HDF5 file that did not open: permission denied said as such,
+    anything else as ``what`` (``"not an HDF5 file"``) with HDF5's reason."""
+    if not_readable(exc):
+        return InputError(PERMISSION.format(path=path))
+    return InputError(f"{path}: {what} ({exc})")
 
 
 def open_file(path: str):
@@ -356,7 +379,7 @@ def open_file(path: str):
     try:
         return h5py.File(path, "r", locking=False)
     except OSError as exc:
-        raise InputError(f"{path}: not an HDF5 file ({exc})") from None
+        raise read_error(path, exc, "not an HDF5 file") from None
 
 
 def read_config(f, path: str) -> Config:

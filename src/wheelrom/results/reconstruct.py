@@ -16,6 +16,7 @@ from wheelrom.config import Config, parse_override
 from wheelrom.forces.parameters import force_parameters
 from wheelrom.forces.reference import ReferenceForces
 from wheelrom.results.histories import state_window
+from wheelrom.results.info import not_case_file
 from wheelrom.results.layout import FORMAT, angles_of, open_file, read_config
 from wheelrom.results.study_layout import FORMAT as STUDY_FORMAT
 from wheelrom.results.study_layout import read_parameters
@@ -30,9 +31,9 @@ def open_results(path: str, studies: bool = True):
     f = open_file(path)
     formats = (FORMAT, STUDY_FORMAT) if studies else (FORMAT,)
     if f.attrs.get("format") not in formats or "cases" not in f or "model" not in f:
+        problem = not_case_file(path, f, "animate" if not studies else "contacts", formats)
         f.close()
-        raise InputError(f"{path}: not a wheelrom results file (format "
-                         f"{' or '.join(map(repr, formats))} expected)")
+        raise problem
     return f
 
 

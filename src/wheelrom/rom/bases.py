@@ -20,6 +20,20 @@ def enrichment_phases(blades: int) -> tuple[int, ...]:
     return tuple(sorted({0, round(blades / 8), round(blades / 4), blades // 2}))
 
 
+def basis_size(cfg) -> int:
+    """The basis vectors per blade ``cfg`` builds at most, known from its keys alone (before
+    the segment is solved): ``wheel.modes_per_segment``, plus the sector modes of the
+    enrichment (:data:`ENRICH_FAMILIES` per phase, complex ones twice) and 6 attachment
+    vectors per enabled contact kind. For the memory a model will take up front."""
+    parts = set(cfg.wheel.basis.split("+"))
+    size = cfg.wheel.modes_per_segment
+    if "enriched" in parts:
+        size += 2 * ENRICH_FAMILIES * len(enrichment_phases(cfg.wheel.blades))
+    if "attachment" in parts:
+        size += 6 * len(cfg.contacts.enabled_kinds())
+    return size
+
+
 def enrichment_vectors(seg, mats, c1: float, per_phase: int, comm, phases=None) -> np.ndarray:
     """``(n_free, r)`` the lowest ``per_phase`` exact sector modes at ``phases`` (default ND 0
     and N/2; complex modes give their real and imaginary parts)."""

@@ -25,6 +25,7 @@ from wheelrom.rom.bases import (
     ritz_basis,
 )
 from wheelrom.rom.model import ReducedModel, blade_mistuning, reduce
+from wheelrom.runtime.errors import InputError
 from wheelrom.segment.assembly import SegmentMatrices, assemble
 from wheelrom.segment.contact_stiffness import stiffness_tables
 from wheelrom.segment.load import load_segment
@@ -75,6 +76,7 @@ def build_segment(cfg: Config, comm, log=quiet) -> SegmentBuild:
         omega = 2 * np.pi * cfg.wheel.speed_hz
         ps = prestress(seg, mats, s.young, s.poisson, s.density, omega,
                        cfg.wheel.coupling_stiffness, comm)
+        _check_prestress_strain(seg, ps, cfg.wheel.speed_hz)
         standstill = mats.K
         mats = replace(mats, K=ps.stiffness(mats))
         stiffening = (mats.K - standstill).tocsr()
@@ -87,6 +89,38 @@ def build_segment(cfg: Config, comm, log=quiet) -> SegmentBuild:
     else:
         stress, stiffening = {}, None
     return SegmentBuild(seg, mats, cfg, stress, stiffening)
+
+
+#: the largest centrifugal displacement over the wheel's outer radius the linear prestress
+#: is taken for: its hoop strain. Steels yield at 0.2-0.7 %; at 1 % the wheel has long left
+#: small-strain elasticity (the built-in wheel reaches it near 105 Hz, 3.4 % at 200 Hz; at
+#: 1e9 Hz it "moved" 1.2e15 mm and spin softening took every frequency to 0)
+MAX_PRESTRESS_STRAIN = 0.01
+
+
+class BeyondPrestress(InputError):
+    """A rotor speed ``speed_hz`` [Hz] whose linear prestress is meaningless (``why``); the
+    message names ``wheel.speed_hz``, a command that set the speed otherwise (``campbell
+    --speeds``) names its option with ``why``."""
+
+    def __init__(self, speed_hz: float, why: str):
+        self.speed_hz, self.why = speed_hz, why
+        super().__init__(f"wheel.speed_hz {speed_hz:g} Hz: {why}: a lower speed, or "
+                         "segment.prestress = false")
+
+
+def _check_prestress_strain(seg, ps, speed_hz: float) -> None:
+    """Refuse a ``wheel.speed_hz`` whose centrifugal displacement exceeds
+    :data:`MAX_PRESTRESS_STRAIN` of the wheel's outer radius: the linear prestress and every
+    frequency built on it would be meaningless, however finite."""
+    radius = float(np.hypot(seg.nodes[:, 0], seg.nodes[:, 1]).max())
+    moved = float(np.abs(ps.displacement).max())
+    if moved > MAX_PRESTRESS_STRAIN * radius:
+        raise BeyondPrestress(
+            speed_hz, f"the centrifugal displacement {moved * 1e3:.3g} mm is "
+            f"{100 * moved / radius:.2g} % of the wheel's {radius:.3g} m radius, beyond "
+            f"small-strain elasticity (at most {100 * MAX_PRESTRESS_STRAIN:g} %; peak von Mises "
+            f"stress {ps.peak_von_mises / 1e6:.3g} MPa)")
 
 
 ROOT_CORNER_SPAN = 0.1  # [m] band about the rim where the blade root's corner is singular

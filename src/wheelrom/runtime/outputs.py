@@ -255,6 +255,30 @@ def check_space(path: str, needed: int, flag: str = "--out") -> None:
         raise problem
 
 
+def memory_problem(needed: int, what: str, advice: str) -> InputError | None:
+    """Why an allocation of about ``needed`` bytes, sized by ``what`` (the option or key the
+    user gave, and its value), must not start (None: it fits in the memory available,
+    :func:`~wheelrom.runtime.environment.available_memory`, or that is unknown): one line
+    naming ``what``, the bytes needed and available and ``advice`` (what to give instead).
+    Every input that sizes an allocation is checked here before anything is computed: a
+    traceback from numpy's allocator (or the kernel's OOM killer) after minutes of work is
+    no answer."""
+    from wheelrom.runtime.environment import available_memory
+
+    available = available_memory()
+    if available is None or needed <= available:
+        return None
+    return InputError(f"{what} would need about {size_text(needed)} of memory, "
+                      f"{size_text(available)} is available: {advice}")
+
+
+def check_memory(needed: int, what: str, advice: str) -> None:
+    """Raise :func:`memory_problem`'s error, if any."""
+    problem = memory_problem(needed, what, advice)
+    if problem:
+        raise problem
+
+
 def is_disk_full(exc: BaseException) -> bool:
     """Whether ``exc`` is the operating system's "no space left" (or quota) error, also as
     HDF5 reports it through h5py (an ``OSError``, or a ``RuntimeError`` of a failed flush),

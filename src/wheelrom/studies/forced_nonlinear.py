@@ -55,6 +55,42 @@ def nonlinear_forced(model: ReducedModel, cfg: Config, frequencies: np.ndarray,
                         harmonics=harmonics, progress=progress, refine=refine)
 
 
+def nonlinear_inputs_problem(cfg: Config, points: int | None = None) -> str | None:
+    """Why the nonlinear forced response of ``cfg`` cannot be computed, known from its keys
+    before any model is built (None: it can): no nozzle force, a mistuned wheel (the balance
+    is of one travelling wave), or no grid frequency to solve at (``points``: the coarse
+    grid's count of ``forced-response``; None: a study case's, at least 3 whatever
+    ``forced.points``). The command and every case of a study ask it up front, so that no
+    case fails for it after others were computed."""
+    from wheelrom.rom.model import blade_mistuning
+
+    if cfg.excitation.force <= 0:
+        return "excitation.force = 0: the nozzle force is off, nothing is forced"
+    if blade_mistuning(cfg) is not None:
+        return ("the travelling-wave harmonic balance needs a tuned wheel; [mistuning] is set "
+                "(mistuning.pattern, file, alternate or std)")
+    if points == 0:
+        return ("forced.points = 0 leaves no grid frequency to solve the nonlinear response "
+                "at: set forced.points >= 1 or give --frequencies A:B:N")
+    return None
+
+
+def check_nonlinear_memory(cfg: Config, harmonics: int, frequencies: int, given: str) -> None:
+    """Refuse, before any model is built, a nonlinear forced response of ``harmonics`` H over
+    ``frequencies`` F grid points that does not fit in the memory (``given``: the options or
+    keys that set H and F, as the user gave them). Its peak: the balance's projectors
+    ``2 (2H + 1)^2 3 n_t`` (``n_t = 8 (H + 1)`` samples), three dense Jacobians of ``n =
+    (2H + 1) m`` unknowns, and the curve's harmonics ``3 F (2H + 1) m`` doubles (``m``: the
+    basis vectors, :func:`~wheelrom.rom.bases.basis_size`)."""
+    from wheelrom.rom.bases import basis_size
+    from wheelrom.runtime.outputs import check_memory
+
+    rows, samples = 2 * harmonics + 1, 8 * (harmonics + 1)
+    unknowns = rows * basis_size(cfg)
+    needed = 8 * (2 * rows**2 * 3 * samples + 3 * unknowns**2 + 3 * frequencies * unknowns)
+    check_memory(needed, given, "fewer harmonics or frequencies")
+
+
 def forced_inputs(model: ReducedModel, cfg: Config, angles_deg: dict | None = None,
                   comm=None) -> tuple:
     """``(force parameters, preloaded equilibrium (N, m))`` of a nonlinear forced case (the

@@ -39,7 +39,12 @@ from wheelrom.runtime.outputs import (
     save_hdf5,
 )
 from wheelrom.studies import design_cases
-from wheelrom.studies.forced_nonlinear import design_arrays, design_point
+from wheelrom.studies.forced_nonlinear import (
+    check_nonlinear_memory,
+    design_arrays,
+    design_point,
+    nonlinear_inputs_problem,
+)
 from wheelrom.studies.mistuning import (
     ForcedCases,
     analyse_case,
@@ -50,7 +55,7 @@ from wheelrom.studies.mistuning import (
 from wheelrom.studies.plan import balance, batches, group_by, selection
 from wheelrom.studies.rounds import _mpi_op, check_space_collectively, run_rounds, wait_for_all
 from wheelrom.studies.stability import attach_classification
-from wheelrom.transient.run import run_cases
+from wheelrom.transient.run import check_run_memory, run_cases
 from wheelrom.transient.ts import PREFIX, time_grid, ts_settings
 
 HISTORY_BYTES = 1 << 30  # tip histories a rank holds in one batch by default (1 GiB)
@@ -90,6 +95,7 @@ def _study(cfg: Config, out: str, comm, mode: str, confirm: tuple, resume: bool,
     if any(not 0 <= i < study.size for i in confirm):
         raise InputError(f"--confirm: case indices are 0..{study.size - 1}, got "
                          f"{', '.join(map(str, confirm))}")
+    _check_cases(study, mode, batch, extras)
     settings = ts_settings(cfg, PREFIX, options)
     if len(json.dumps(settings)) > results.STATUS_LEN:
         raise InputError("too many TS options to record: pass fewer -wheel_ts_* options")
@@ -154,6 +160,42 @@ def _study(cfg: Config, out: str, comm, mode: str, confirm: tuple, resume: bool,
     return done
 
 
+def _check_cases(study: Study, mode: str, batch: int, extras: tuple) -> None:
+    """What the cases ask that cannot be done, refused before anything is computed (each
+    was stored as every case's failure, exit 0): a forced response without a nozzle force, a
+    nonlinear one on a mistuned wheel, a transient or a nonlinear curve that does not fit in
+    the memory."""
+    forced, nonlinear = extras
+    checks = [("--forced", forced, _no_force),
+              ("--forced-nonlinear", nonlinear, nonlinear_inputs_problem)]
+    for option, asked, problem in checks:
+        found = [(i, why) for i, why in enumerate(map(problem, study.configs)) if why] \
+            if asked else []
+        if found:
+            i, why = found[0]
+            which = "every case" if len(found) == study.size and len({w for _, w in found}) \
+                == 1 else f"case {i} ({study.label(i)})"
+            raise InputError(f"study {option}, {which}: {why}")
+    if nonlinear:  # the grid of forced.points (at least 3) and the band's two resonances
+        for case in {(c.forced, c.wheel, c.contacts): c for c in study.configs}.values():
+            f = case.forced
+            check_nonlinear_memory(case, f.harmonics, max(f.points, 3) + 2,
+                                   f"study --forced-nonlinear at forced.harmonics {f.harmonics}"
+                                   f" over forced.points {f.points}")
+    if mode != "stability":  # every case's transient fits (a batch of them at once)
+        sized = {(c.time, c.output, c.wheel, tuple(c.contacts.enabled_kinds())): c
+                 for c in study.configs}  # what a run's memory depends on
+        for case in sized.values():
+            check_run_memory(case, min(batch, study.size) or 1)
+
+
+def _no_force(cfg: Config) -> str | None:
+    """Why a linear forced response of ``cfg`` is nothing to compute (None: it is)."""
+    if cfg.excitation.force <= 0:
+        return "excitation.force = 0: the nozzle force is off, nothing is forced"
+    return None
+
+
 def _check_arguments(mode: str, resume: bool, force: bool, batch: int) -> None:
     if mode not in study_file.MODES:
         raise InputError(f"study mode must be one of {', '.join(study_file.MODES)}, not {mode!r}")
@@ -161,7 +203,7 @@ def _check_arguments(mode: str, resume: bool, force: bool, batch: int) -> None:
         raise InputError("--resume and --force exclude each other (complete the file, or "
                          "start it again)")
     if batch < 0:
-        raise InputError(f"study batch must be >= 0, not {batch}")
+        raise InputError(f"--batch {batch}: must be >= 0 (0: every case of a rank that fits)")
 
 
 def _output_problem(out: str, cfg: Config, mode: str, resume: bool, force: bool,

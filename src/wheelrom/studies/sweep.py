@@ -29,7 +29,7 @@ from wheelrom.runtime.locks import output_lock
 from wheelrom.runtime.outputs import create_collectively, output_problem
 from wheelrom.studies.rounds import check_space_collectively, run_rounds
 from wheelrom.studies.stability import attach_linear, refuse_study
-from wheelrom.transient.run import run_cases
+from wheelrom.transient.run import check_run_memory, run_cases
 from wheelrom.transient.ts import PREFIX, ts_settings
 
 
@@ -64,12 +64,14 @@ def _sweep(cfg: Config, out: str, comm, resume: bool, force: bool, log, options:
     say = log if comm.rank == 0 else (lambda *_: None)
     refuse_study(cfg, "sweep")
     if batch < 0:
-        raise InputError(f"sweep batch must be >= 0, not {batch}")
+        raise InputError(f"--batch {batch}: must be >= 0 (0: all of a rank's cases at once)")
     if model_comm not in ("rank0", "world"):
         raise InputError(f"model_comm must be 'rank0' or 'world', not {model_comm!r}")
     if resume and force:
         raise InputError("--resume and --force exclude each other (complete the file, or "
                          "start it again)")
+    cases = len(results.case_angles(cfg))
+    check_run_memory(cfg, min(batch, cases) or max(math.ceil(cases / comm.size), 1))
     # decide what to do with the output file before computing anything
     settings = ts_settings(cfg, PREFIX, options)
     recorded = len(json.dumps(settings))  # /cases/options holds STATUS_LEN bytes per case

@@ -17,9 +17,11 @@ import numpy as np
 from wheelrom.config import Config
 from wheelrom.forces.parameters import ForceParameters, force_parameters
 from wheelrom.forces.reference import ReferenceForces
+from wheelrom.rom.bases import basis_size
 from wheelrom.rom.model import ReducedModel
 from wheelrom.runtime.environment import petsc
 from wheelrom.runtime.errors import InputError
+from wheelrom.runtime.outputs import check_memory
 from wheelrom.transient import bridge, exponential
 from wheelrom.transient.contact_kernel import slide_core
 from wheelrom.transient.exponential_kernel import etd4_step
@@ -213,6 +215,7 @@ def run_cases(model: ReducedModel, cfg: Config, angles: list[dict | None],
                 for i, res in zip(group, done, strict=True):
                     out[i] = res
             return out
+    check_run_memory(cfg, len(angles))  # every caller checked up front; this is the floor
     params = [force_parameters(model, cfg, a) for a in angles]
     compile_s = load_kernels(params[0], rhs_kind)
     t_wall = time.perf_counter()
@@ -250,20 +253,61 @@ def run_cases(model: ReducedModel, cfg: Config, angles: list[dict | None],
     return results
 
 
-def run_bytes(cfg: Config, batch: int = 1) -> int:
-    """About the memory [bytes] a run of ``cfg`` (``batch`` cases) holds at its peak, known
-    before anything is allocated: the context with one window's sample buffers
-    (:func:`~wheelrom.transient.layout.context_bytes`), the window's samples taken out of it
-    and their squares, the tip and state histories kept and joined at the end (the model's
-    own arrays, a few MB, left out)."""
+def run_memory(cfg: Config, batch: int = 1) -> dict[str, int]:
+    """About the memory [bytes] a run of ``cfg`` (``batch`` cases) holds at its peak, by what
+    sizes it, known before anything is allocated: ``"window"`` the context with one window's
+    sample buffers (:func:`~wheelrom.transient.layout.context_bytes`) and the window's
+    samples taken out of it with their squares (``time.window`` x ``output.sample_rate_hz``);
+    ``"histories"`` the tip and state histories kept and joined at the end (``time.end`` x
+    ``output.history_rate_hz`` / ``state_rate_hz``); ``"matrices"`` the dense ``K_R`` of the
+    energies and its copies (``wheel.blades`` x basis vectors, squared)."""
     grid = time_grid(cfg)
-    N, m = cfg.wheel.blades, cfg.wheel.modes_per_segment
+    N, m = cfg.wheel.blades, basis_size(cfg)
     K = len(cfg.contacts.enabled_kinds())
     tip, state = 1 + 3 * N, 1 + 2 * N * m  # doubles per sample: its time and the values
-    held = 2 * grid.sample_capacity * tip + 2 * grid.history_max * tip + \
-        2 * grid.state_max * state
-    return context_bytes(N, m, K, batch, grid.sample_capacity, grid.state_capacity) + \
-        8 * batch * held
+    return {
+        "window": context_bytes(N, m, K, batch, grid.sample_capacity, grid.state_capacity)
+        + 8 * batch * 2 * grid.sample_capacity * tip,
+        "histories": 8 * batch * (2 * grid.history_max * tip + 2 * grid.state_max * state),
+        "matrices": 8 * DENSE_COPIES * (N * m) ** 2,
+    }
+
+
+#: dense ``(N m, N m)`` arrays a run holds at once: ``K_R`` for the energies (built as
+#: ``(N, m, N, m)``), the results file's copy of it, a preload Jacobian without a sparse
+#: tangent
+DENSE_COPIES = 3
+
+
+def run_bytes(cfg: Config, batch: int = 1) -> int:
+    """:func:`run_memory` in all [bytes]."""
+    return sum(run_memory(cfg, batch).values())
+
+
+def check_run_memory(cfg: Config, batch: int = 1, given: str | None = None,
+                     advice: str | None = None) -> None:
+    """Refuse, before anything is built, a run of ``cfg`` (``batch`` cases at once) that does
+    not fit in the memory available, naming what sizes its largest part by the keys that
+    set it (``given``, ``advice``: the option that set them instead, e.g. ``compare
+    --steps``, and what to do)."""
+    parts = run_memory(cfg, batch)
+    t, out = cfg.time, cfg.output
+    largest = max(parts, key=parts.get)
+    batch_text = f" for {batch} cases at once" if batch > 1 else ""
+    what, fix = {
+        "window": (f"time.window {t.window:g} s at output.sample_rate_hz "
+                   f"{out.sample_rate_hz:g} Hz ({time_grid(cfg).sample_capacity} samples of "
+                   f"{cfg.wheel.blades} tips a window{batch_text})",
+                   "shorten time.window or lower output.sample_rate_hz"),
+        "histories": (f"time.end {t.end:g} s at output.history_rate_hz "
+                      f"{out.history_rate_hz:g} Hz and state_rate_hz {out.state_rate_hz:g} Hz "
+                      f"(the stored histories{batch_text})",
+                      "shorten time.end or lower the history rates"),
+        "matrices": (f"wheel.blades {cfg.wheel.blades} with {basis_size(cfg)} basis vectors "
+                     "each (the dense reduced stiffness)",
+                     "fewer blades or wheel.modes_per_segment"),
+    }[largest]
+    check_memory(sum(parts.values()), given or what, advice or fix)
 
 
 _LOADED: set[str] = set()  # right-hand side kinds whose kernels this process has
