@@ -52,6 +52,10 @@ def _cycle(path, i):
                 shares = c["fractions"][j]
                 text += "; " + ", ".join(f"{kind} slips {100 * shares[k][2]:.0f} %"
                                          for k, kind in enumerate(kinds))
+            if "band" in c and np.isfinite(c["band"][j, 0]):  # its family's friction band
+                low, high, _ = c["band"][j] * 1e6
+                text += (f"; **band {low:.2f}-{high:.2f} um** over the stuck "
+                         f"{c['band_kinds'][j].decode()}'s offsets")
             rows = c["refined_multiplier"][j] if "refined_multiplier" in c else []
             rows = [r for r in rows if np.isfinite(r[1])]  # (NaN rows pad shorter cycles)
             if rows:

@@ -381,3 +381,83 @@ def test_a_failed_whole_wheel_keeps_the_symmetrys_verdict(elastic_orbit, monkeyp
     assert cycle.stability.by.startswith("stable inside its own symmetry (largest 0.9976")
     assert cycle.stability.by.endswith("the whole wheel's failed (RuntimeError: the flow took "
                                        "3 of 408 steps): settle decides")
+
+
+def test_the_friction_limited_orbits_form_a_band_holding_the_preload_history(elastic_orbit):
+    """The tie-boss sticks the whole period: its slider's offset is neutral, and every offset
+    that keeps it stuck gives another exact orbit (issue #68). The band traced over those
+    offsets (:mod:`wheelrom.analysis.periodic.family`) holds the orbit found, its ends are
+    exact orbits of the whole wheel with the tie-boss stuck, and the pattern's own transient
+    from above the slip onset, another history, lands inside it (0.48 um, results.md)."""
+    from wheelrom.analysis.periodic.flow import WheelFlow
+    from wheelrom.analysis.periodic.hopf import wave_blocks, wave_mode
+    from wheelrom.analysis.periodic.slider_shooting import SliderShooting
+    from wheelrom.analysis.stability import linearise
+
+    cfg, model, angles, res = elastic_orbit
+    cycle = res.branches[0].cycles[0]
+    band = cycle.band
+    assert band is not None and band.kinds == ("tieboss",)
+    assert band.low.tip == pytest.approx(0.087e-6, rel=0.05)
+    assert band.high.tip == pytest.approx(0.526e-6, rel=0.05)
+    assert band.low.tip < cycle.tip_amplitude == band.start_tip < band.high.tip
+    assert band.multiplier_high < 1.0  # its largest member stable in its symmetry
+    N = model.blades
+    flow = WheelFlow(model, cfg, angles)
+    shooting = SliderShooting(model, cfg, 6, angles)
+    try:
+        for end in (band.low, band.high):
+            orbit = end.orbit
+            assert orbit.converged and orbit.residual <= 1e-9
+            stuck = shooting.locked(orbit)[shooting.nq :].reshape(shooting.K, shooting.N, 2)
+            assert stuck[0].all() and not stuck[1].all()  # the tie-boss held, the shroud slips
+            blades = np.arange(N) % orbit.pattern
+            x = np.concatenate([orbit.wheel_state(N).ravel(), orbit.sliders[:, blades].ravel()])
+            after = flow.advance(x[None], orbit.period, orbit.steps_per_period)[0]
+            nq = 2 * N * model.modes
+            assert np.abs(after[:nq] - x[:nq]).max() <= 1e-7 * np.abs(x[nq // 2 : nq]).max()
+        # another history: the stuck mode started at twice its slip onset, marched
+        params, q, _, J, _ = linearise(model, cfg, angles)
+        B0, B1 = wave_blocks(model, params, q, J)
+        _, value, vector = wave_mode(B0[6], B1[6], 1.0)
+        onset = shooting.slip_onset(q, vector)
+        x = shooting.start(q, vector, 2 * onset)
+        x, period, _ = shooting.march(x, 2 * np.pi / value.imag)
+        history = shooting.tip_estimate(x, period)
+        assert abs(history / cycle.tip_amplitude - 1) > 0.1  # another member
+        assert band.low.tip < history < band.high.tip
+    finally:
+        shooting.destroy()
+        flow.destroy()
+
+
+def test_the_band_is_in_the_file_the_json_and_the_verdict(elastic_orbit, tmp_path, capsys):
+    """``/limit_cycle/.../cycles/band`` holds the family's ends and the orbit, ``info --json``
+    and ``limit-cycle --json``'s summary read them, and the verdict says the band."""
+    import json
+
+    import h5py
+
+    from wheelrom.cli import main as cli
+    from wheelrom.results.limit_cycles import write_limit_cycles
+    from wheelrom.studies.limit_cycles import summary
+
+    cfg, model, angles, res = elastic_orbit
+    band = res.branches[0].cycles[0].band
+    path = tmp_path / "lc.h5"
+    with h5py.File(path, "w") as f:
+        write_limit_cycles(f, cfg, model, [res])
+    with h5py.File(path) as f:
+        c = f["limit_cycle/case_0/wave_6/cycles"]
+        np.testing.assert_array_equal(c["band"][0], [band.low.tip, band.high.tip,
+                                                     band.start_tip])
+        np.testing.assert_array_equal(c["band_high_offset"][0], band.high.offset)
+        assert c["band_kinds"][0] == b"tieboss"
+    row = summary(res)["waves"][0]["cycles"][0]["band"]
+    assert row["low_m"] == band.low.tip and row["high_m"] == band.high.tip
+    assert row["stuck_kinds"] == ["tieboss"]
+    assert cli.main(["info", str(path), "--json"]) == 0
+    cycle = json.loads(capsys.readouterr().out)["cases"][0]["waves"][0]["cycles"][0]
+    assert cycle["band"]["high_m"] == pytest.approx(band.high.tip, rel=1e-15)
+    assert (f"friction-limited band {band.low.tip * 1e6:.4g}-{band.high.tip * 1e6:.4g} um "
+            "over the stuck tieboss's admissible offsets") in res.verdict()

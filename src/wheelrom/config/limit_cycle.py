@@ -70,6 +70,13 @@ class LimitCycleConfig:
         metadata=_key("m", "tip amplitudes of the Newton starts at the configured intensity "
                       "(each cycle found is continued both ways); [] = the Hopf branch only",
                       gt=0.0, max=1.0, allow_empty=True))
+    band: bool = field(
+        default=True,
+        metadata=_key("-", "under the elastic law, trace the family of friction-limited orbits "
+                      "over the admissible slider offsets of the contacts stuck the whole "
+                      "period and report its band, the smallest and largest amplitude "
+                      "(docs/theory.md 'Why the friction-limited amplitude is a band'; "
+                      "30-60 s an orbit)"))
     floquet: str = field(
         default="auto",
         metadata=_key("-", "stability of the cycles: 'auto' ('monodromy' for shooting, "

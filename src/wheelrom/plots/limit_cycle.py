@@ -86,12 +86,15 @@ def _amplitude_over_cases(g, angles, plt, outdir, pdf, written) -> None:
     """The smallest stable cycle's (else the smallest cycle's) tip amplitude per case."""
     settle = np.full(angles.shape[0], np.nan)
     stable_found = np.zeros(angles.shape[0], dtype=bool)
+    band = np.full((angles.shape[0], 2), np.nan)  # the elastic law's friction band [m]
     for i in range(angles.shape[0]):
         case = g.get(f"case_{i}")
         for name in case if case is not None else []:
             if not name.startswith("wave_") or "cycles" not in case[name]:
                 continue
             c = case[name]["cycles"]
+            if "band" in c and np.isfinite(c["band"][:, 0]).any():
+                band[i] = [np.nanmin(c["band"][:, 0]), np.nanmax(c["band"][:, 1])]
             amp, ok = c["tip_amplitude"][()], c["stable"][()] == 1
             pick = amp[ok] if ok.any() else amp
             if pick.size and not (stable_found[i] and not ok.any()):
@@ -105,6 +108,10 @@ def _amplitude_over_cases(g, angles, plt, outdir, pdf, written) -> None:
     ax.plot(x, settle * 1e6, "o-", color="C3", mfc="none", label="unstable or not decided")
     ax.plot(x[stable_found], settle[stable_found] * 1e6, "o", color="C3", ms=8,
             label="stable")
+    has = np.isfinite(band[:, 0])
+    if has.any():  # every offset of the stuck contacts gives another exact orbit
+        ax.vlines(x[has], band[has, 0] * 1e6, band[has, 1] * 1e6, color="C0", lw=4,
+                  alpha=0.4, label="friction-limited band (the family's orbits)")
     ax.set_ylim(bottom=0)
     ax.set_xlabel(label)
     ax.set_ylabel("limit-cycle tip amplitude, 0-peak [um]")

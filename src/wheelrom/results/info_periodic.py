@@ -60,6 +60,10 @@ def _cycles(g) -> list[dict]:
             "largest_multiplier_nd": int(g["multiplier_nd"][i][np.argmax(modulus)])
             if modulus.size else None,
         })
+        if "band" in g and np.isfinite(g["band"][i, 0]):  # the elastic law's family
+            rows[-1]["band"] = {"low_m": _number(g["band"][i, 0]),
+                                "high_m": _number(g["band"][i, 1]),
+                                "stuck_kinds": _text(g["band_kinds"][i]).split(", ")}
     return rows
 
 

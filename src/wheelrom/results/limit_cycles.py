@@ -126,6 +126,7 @@ def _write_orbits(g, cycles) -> None:
                                                 for o in orbits], dtype=np.int64)
         g["orbit_iterations"] = np.array([o.iterations if o else -1 for o in orbits],
                                          dtype=np.int64)
+    _write_bands(g, [c.band for c in cycles])
     mus = [c.multipliers for c in cycles]
     if any(m is not None for m in mus):
         E = max(len(m.values) for m in mus if m is not None)
@@ -157,3 +158,33 @@ def _write_orbits(g, cycles) -> None:
         g["refined_multiplier"] = out
         g["refined_multiplier"].attrs["columns"] = "step [s], |mu| (dominant inside the " \
             "cycle's symmetry), ND"
+
+
+def _write_bands(g, bands: list) -> None:
+    """The elastic law's family of friction-limited orbits per cycle
+    (:class:`~wheelrom.analysis.periodic.family.Band`; rows without one are NaN / empty)."""
+    if all(b is None for b in bands):
+        return
+    g["band"] = np.array([(b.low.tip, b.high.tip, b.start_tip) if b else (np.nan,) * 3
+                          for b in bands])
+    g["band"].attrs["columns"] = "smallest, largest tip amplitude [m] of the family, " \
+        "this orbit's [m]"
+    S = max(b.low.offset.size for b in bands if b is not None)
+
+    def offsets(get):
+        out = np.full((len(bands), S), np.nan)
+        for i, b in enumerate(bands):
+            if b is not None:
+                out[i, : b.low.offset.size] = get(b)
+        return out
+
+    g["band_low_offset"] = offsets(lambda b: b.low.offset)
+    g["band_high_offset"] = offsets(lambda b: b.high.offset)
+    g["band_low_offset"].attrs["layout"] = "(cycle, (xi, zeta) per stuck contact kind) " \
+        "in stick radii mu F_n / k_t from the orbit's sliders"
+    g["band_multiplier"] = np.array([(b.multiplier_low, b.multiplier_high) if b
+                                     else (np.nan, np.nan) for b in bands])
+    g["band_multiplier"].attrs["columns"] = "the smallest, the largest member's largest " \
+        "in-symmetry multiplier but the phase shift's"
+    g["band_kinds"] = np.array([", ".join(b.kinds).encode() if b else b"" for b in bands])
+    g["band_traces"] = np.array([b.reason.encode() if b else b"" for b in bands])

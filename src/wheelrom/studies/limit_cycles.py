@@ -140,7 +140,21 @@ def _cycle(c, kinds) -> dict:
                           "trivial_multiplier_error": c.stability.trivial,
                           "trusted": c.stability.trusted,
                           "worst_family": c.stability.worst_family}
+    if c.band is not None:
+        out["band"] = band_summary(c.band)
     return out
+
+
+def band_summary(band) -> dict:
+    """The elastic law's friction-limited band (:class:`~wheelrom.analysis.periodic.family.
+    Band`) as plain data: tip amplitudes [m], offsets [stick radii], radii [m]."""
+    return {"low_m": band.low.tip, "high_m": band.high.tip, "orbit_m": band.start_tip,
+            "stuck_kinds": list(band.kinds), "stick_radius_m": [float(r) for r in band.radius],
+            "low_offset": [float(x) for x in band.low.offset],
+            "high_offset": [float(x) for x in band.high.offset],
+            "low_multiplier": _finite_or_none(band.multiplier_low),
+            "high_multiplier": _finite_or_none(band.multiplier_high),
+            "members": len(band.members), "traces": band.reason}
 
 
 def _finite_or_none(x: float):

@@ -12,7 +12,8 @@
   the MPI ranks in segments (:mod:`.forced_segments`);
 - by time integration: the wheel's flow on its own TS (:mod:`.flow`), the exact periodic orbit
   by shooting (:mod:`.shooting`, a balance's cycle made exact by :mod:`.exact`; under the
-  elastic law with the sliders in the state, :mod:`.slider_shooting`), the least-squares
+  elastic law with the sliders in the state, :mod:`.slider_shooting`, and the family of
+  friction-limited orbits its stuck contacts' offsets span, :mod:`.family`), the least-squares
   Newton of the shots whose Jacobian can be singular (:mod:`.newton`), the orbit's Floquet
   multipliers from the monodromy (:mod:`.monodromy`) and the whole wheel's from the wave's
   pattern by Bloch waves (:mod:`.bloch`), the forced response's exact state at the known

@@ -68,6 +68,9 @@ class Cycle:
     shooting_residual: float = math.nan  # the shot's |phi_tau(x0) - S^j x0| / vibration
     floquet_skipped: str = ""  # why no stability was computed for it (in words)
     hb_tip_amplitude: float = math.nan  # [m] the harmonic balance's cycle it started from
+    #: under the elastic law, the family of friction-limited orbits around this one
+    #: (:class:`~.family.Band`; None: not traced, or no contact sticks the whole period)
+    band: object = None
     hb_frequency_hz: float = math.nan
     orbit: object | None = None  # the Orbit (state at t = 0 of the pattern blades)
     multipliers: object | None = None  # the monodromy's Multipliers

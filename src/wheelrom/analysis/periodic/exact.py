@@ -14,6 +14,7 @@ import numpy as np
 from wheelrom.analysis.periodic.bloch import bloch_multipliers
 from wheelrom.analysis.periodic.continuation import Corrector
 from wheelrom.analysis.periodic.cycle import Cycle
+from wheelrom.analysis.periodic.family import friction_band
 from wheelrom.analysis.periodic.floquet import TRUSTED, FloquetResult
 from wheelrom.analysis.periodic.harmonic_balance import WaveBalance
 from wheelrom.analysis.periodic.hopf import wave_mode
@@ -279,12 +280,36 @@ def marched_cycle(model, cfg, angles, branch, q_eq: np.ndarray, blocks, harmonic
             except (ValueError, RuntimeError, petsc().Error) as exc:  # the orbit stands
                 cycle.stability, cycle.refined = None, []
                 cycle.floquet_skipped = f"its multipliers failed: {type(exc).__name__}: {exc}"
+        if cfg.limit_cycle.band:
+            try:
+                cycle.band = orbit_band(shooting, cycle)
+            except (ValueError, RuntimeError, petsc().Error) as exc:  # the orbit stands
+                how += f"; its family's band failed ({type(exc).__name__}: {exc})"
         branch.end = f"{how}, then shot ({orbit.iterations} Newton iterations)"
         branch.cycles.append(cycle)
     except (ValueError, RuntimeError, petsc().Error) as exc:  # a step of the flow failed
         branch.end = f"the elastic law's march and shot failed: {type(exc).__name__}: {exc}"
     finally:
         shooting.destroy()
+
+
+def orbit_band(shooting: SliderShooting, cycle: Cycle):
+    """The :func:`~.family.friction_band` of ``cycle``'s exact orbit on ``shooting``'s
+    pattern wheel: each member's tip amplitude as the report's (the 0-peak of pattern blade
+    0 over the period's steps), the ends' largest in-symmetry multiplier but the phase
+    shift's (at the orbit's own step)."""
+
+    def tip_of(orbit) -> float:
+        q = shooting.samples(orbit).states[:, 0, 0]
+        tip = (q - q.mean(axis=0)) @ shooting.model.tip.T
+        return float(np.linalg.norm(tip, axis=1).max())
+
+    def largest(orbit) -> float:
+        found = shooting.multipliers(orbit, cycle.tip_amplitude)
+        values = np.delete(np.abs(found["values"]), found["trivial"])
+        return float(values.max()) if values.size else math.nan
+
+    return friction_band(shooting, cycle.orbit, cycle.tip_amplitude, tip_of, largest)
 
 
 def elastic_stability(model, cfg, angles, cycle: Cycle, shooting: SliderShooting,

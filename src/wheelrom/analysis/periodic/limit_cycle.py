@@ -174,6 +174,8 @@ class WaveBranch:
                              f"{st.growth.max():.3g} /s; the flutter does not settle on this "
                              "wave alone)")
         words += [orbit_words(c), coexisting(self.cycles, c)]
+        if c.band is not None:
+            words.append(c.band.words())
         return ", ".join(w for w in words if w)
 
 

@@ -231,11 +231,21 @@ class SliderShooting:
         return scale
 
     # ------------------------------------------------------------------ Newton
-    def solve(self, x0: np.ndarray, period: float, tip_amplitude: float) -> Orbit:
+    def solve(self, x0: np.ndarray, period: float, tip_amplitude: float,
+              fixed: np.ndarray | None = None, chord: dict | None = None,
+              iterations: int = MAX_ITERATIONS) -> Orbit:
         """Newton from ``x0`` ``(n,)`` and ``period`` [s] (``tip_amplitude`` [m]: the
-        sliders' unit); the orbit (``converged`` False when Newton failed)."""
+        sliders' unit); the orbit (``converged`` False when Newton failed). ``fixed``
+        ``(n,)`` bool: unknowns held at ``x0``'s values (the sliders of contacts stuck all
+        period: an orbit of the family at that offset, :mod:`.family`); their equations
+        stay, so a held slider that the period would move leaves a residual. ``chord``: a
+        dict whose ``"matrix"`` (the bordered Jacobian of a neighbouring solve, kept there by
+        the last fresh one) is used for every iteration while ``"reuse"`` is true (the
+        family's members lie close together: one Jacobian, ``2 n`` shots, serves them);
+        ``iterations``: Newton's at most."""
         t0 = time.perf_counter()
         x, period = np.array(x0, dtype=float), float(period)
+        free = np.ones(self.n, bool) if fixed is None else ~np.asarray(fixed, bool)
         steps = self.flow.steps_for(self.fraction * period)[0]  # fixed: the map smooth in T
         scale = self._scale(x, period, tip_amplitude)
         one = self.flow.steps_for(self.fraction * period / steps)  # one step along the flow
@@ -245,9 +255,12 @@ class SliderShooting:
         floor = ROUNDOFF * float(np.abs(start).max())
 
         n = self.n
+        columns = np.flatnonzero(free)
 
-        def unknowns(z):  # z: x in its units, then T over the start's period
-            return z[:n] * scale, period * z[n]
+        def unknowns(z):  # z: the free x in its units, then T over the start's period
+            full = start.copy()
+            full[columns] = z[:-1]
+            return full * scale, period * z[-1]
 
         def residual(z):
             x, T = unknowns(z)
@@ -255,10 +268,13 @@ class SliderShooting:
                 return np.full(n + 1, np.nan)
             F = np.empty(n + 1)
             F[:n] = (self.shot(x[None], T, steps)[0] - x) / scale
-            F[n] = normal @ (z[:n] - start)
+            F[n] = normal @ (x / scale - start)
             return F
 
         def jacobian(z):
+            if chord is not None and chord.get("reuse") and chord.get("matrix") is not None \
+                    and chord["matrix"].shape == (n + 1, columns.size + 1):
+                return chord["matrix"]
             x, T = unknowns(z)
             A = np.zeros((n + 1, n + 1))
             A[:n, :n] = self.jacobian(x, T, steps, scale) - np.eye(n)
@@ -266,10 +282,13 @@ class SliderShooting:
             later = self.shot(x[None], T + dT, steps)[0] - self.shot(x[None], T - dT, steps)[0]
             A[:n, n] = later / (2 * dT) / scale * period
             A[n, :n] = normal
+            A = A[:, np.append(columns, n)]
+            if chord is not None:
+                chord["matrix"] = A
             return A
 
         z, _, size, reason, it = newton_least_squares(
-            residual, jacobian, np.concatenate([start, [1.0]]), floor, MAX_ITERATIONS)
+            residual, jacobian, np.append(start[columns], 1.0), floor, iterations)
         x, T = unknowns(z)
         converged = reason.startswith("converged")
         q_v = x[: self.nq].reshape(2, self.N, self.m)
