@@ -37,11 +37,14 @@ FIRST_STEP = 0.1
 #: the step grows by this after a member is found, up to ``LARGEST_STEP`` radii
 GROWTH, LARGEST_STEP = 2.0, 8.0
 #: the edge of the admissible region to this share of the distance traced, or this many
-#: stick radii when more (halving the step)
-EDGE = 0.01
-#: Newton iterations of a member at the most: a neighbour's is close (4-8 taken), and where
-#: there is none (beyond the edge) the iterations spent finding that out are lost
-MEMBER_ITERATIONS = 10
+#: stick radii when more (halving the step): the amplitude is close to linear in the offset,
+#: so the band's ends are known to about this share of the amplitude's change along it
+EDGE = 0.02
+#: Newton iterations of a member at the most on the last Jacobian (a chord: linear, 7-15
+#: taken from a neighbour), then on fresh Jacobians (each ``2 n`` shots: where there is no
+#: member, beyond the edge, the iterations spent finding that out are lost; from a
+#: neighbour 2-4 suffice)
+MEMBER_ITERATIONS, FRESH_ITERATIONS = 20, 6
 #: a trace ends after this many stick radii at the most. The admissible region reaches far
 #: beyond one radius where the wheel is soft against ``k_t``: a slider's shift then mostly
 #: moves the wheel with it, and the stuck spring's force changes by a fraction of ``k_t``
@@ -54,11 +57,14 @@ REACH = 100.0
 class Member:
     """One orbit of the family: ``offset`` ``(S,)`` the held sliders' shift from the
     orbit's, in stick radii (per stuck kind its ``(xi, zeta)``); ``orbit``; ``tip`` [m] the
-    0-peak tip amplitude over its period's steps."""
+    0-peak tip amplitude over its period's steps; ``margin`` the held contacts' least
+    distance from slipping over the period, ``min (1 - |F_t| / (mu F_n))`` (0 at the
+    admissible region's edge)."""
 
     offset: np.ndarray
     orbit: Orbit
     tip: float
+    margin: float = math.nan
 
 
 @dataclass
@@ -141,25 +147,31 @@ def friction_band(shooting, orbit: Orbit, tip_amplitude: float, tip_of,
 
     chord = {"reuse": True, "matrix": None}
 
-    def member(x: np.ndarray, period: float, offset: np.ndarray) -> Member | None:
+    def member(x: np.ndarray, period: float, offset: np.ndarray,
+               fresh: int = FRESH_ITERATIONS) -> Member | None:
         """The family's orbit at ``offset`` from the state ``x`` (None: none there): Newton
-        on the last Jacobian first (a chord), then, failing that, on fresh ones."""
-        for reuse in (True, False) if chord["matrix"] is not None else (False,):
+        on the last Jacobian first (a chord), then, failing that, ``fresh`` iterations on
+        fresh ones."""
+        tries = ((True, MEMBER_ITERATIONS), (False, fresh)) \
+            if chord["matrix"] is not None else ((False, MEMBER_ITERATIONS),)
+        for reuse, iterations in tries:
             chord["reuse"] = reuse
             found = shooting.solve(shifted(x, offset), period, tip_amplitude, fixed=held,
-                                   chord=chord, iterations=MEMBER_ITERATIONS)
+                                   chord=chord, iterations=iterations)
             if found.converged:
                 break
         else:
             return None
         # a held contact slipping to and fro can return its slider exactly: the shot closes,
         # but the offset is no longer free there (the edge)
-        still = shooting.locked(found)[shooting.nq :].reshape(shooting.K, shooting.N, 2)
-        if not still[kinds].all():
+        path = shooting.samples(found)
+        moved = np.any(path.sliders != path.sliders[:1], axis=(0, 3))  # (K, N')
+        if moved[kinds].any():
             return None
-        return Member(offset.copy(), found, tip_of(found))
+        return Member(offset.copy(), found, tip_of(found), _margin(shooting, path, kinds))
 
-    start = Member(np.zeros(S), orbit, tip_of(orbit))
+    start = Member(np.zeros(S), orbit, tip_of(orbit),
+                   _margin(shooting, shooting.samples(orbit), kinds))
     members = [start]
     gradient = _gradient(member, start, S, members)
     size = float(np.linalg.norm(gradient))
@@ -193,7 +205,8 @@ def _gradient(member, start: Member, size: int, members: list) -> np.ndarray:
         step = np.zeros(size)
         step[j] = FIRST_STEP
         for sign in (1.0, -1.0):
-            found = member(start.orbit.flat(), start.orbit.period, sign * step)
+            found = member(start.orbit.flat(), start.orbit.period, sign * step,
+                           MEMBER_ITERATIONS)
             if found is not None:
                 members.append(found)
                 gradient[j] = sign * (found.tip - start.tip) / FIRST_STEP
@@ -216,19 +229,48 @@ def _normal_force(shooting, orbit: Orbit) -> np.ndarray:
 
 def _trace(member, start: Member, direction: np.ndarray) -> tuple[list, str]:
     """The members from ``start`` along ``direction`` (unit, in radii) to the edge of the
-    admissible region: steps of :data:`FIRST_STEP` growing to :data:`LARGEST_STEP` while
-    members are found, halved at a failure down to :data:`EDGE`; ``(members, why it
-    ended)``."""
-    path, step, s = [start], FIRST_STEP, 0.0
+    admissible region, where the held contacts' :attr:`Member.margin` reaches 0: each next
+    offset where the secant through the last two members' margins puts it (a little inside,
+    at most :data:`GROWTH` times the last step, at least :data:`FIRST_STEP`; while the margin
+    still grows, :data:`GROWTH` times the last step), halved towards the last member where
+    there is none; ``(members, why it ended)``."""
+    path, step = [start], FIRST_STEP
+    s = 0.0
     while s < REACH:
-        found = member(path[-1].orbit.flat(), path[-1].orbit.period,
-                       (s + step) * direction)
+        last = path[-1]
+        if last.margin <= EDGE:
+            return path, f"its held contact within {last.margin:.1%} of slipping"
+        found = member(last.orbit.flat(), last.orbit.period, (s + step) * direction)
         if found is None:
-            if step <= max(EDGE, EDGE * s):
+            if step <= EDGE * max(1.0, s):
                 return path, f"the held contact slips beyond it (to {step:.2g} radii)"
             step *= 0.5
             continue
         path.append(found)
         s += step
-        step = min(step * GROWTH, LARGEST_STEP)
+        if found.margin < last.margin:  # the next step to the secant's zero, a little inside
+            slope = (last.margin - found.margin) / step
+            step = min(max((1 - EDGE) * found.margin / slope, FIRST_STEP), GROWTH * step,
+                       LARGEST_STEP)
+        else:  # still moving away from the edge: longer steps
+            step = min(GROWTH * step, LARGEST_STEP)
     return path, f"the trace's reach, {REACH:g} radii"
+
+
+def _margin(shooting, path, kinds: np.ndarray) -> float:
+    """The held contacts' least ``1 - |F_t| / (mu F_n)`` over an orbit's steps ``path``
+    (:class:`~.shooting.OrbitSamples`, the sliders each step starts from) on every pattern
+    blade: how far they are from slipping (0 on the Coulomb limit; an open contact, ``F_n =
+    0``, counts as 0)."""
+    forces = shooting.flow.forces()
+    mu = shooting.flow.params.law.coulomb
+    least = math.inf
+    for S in range(path.states.shape[0]):
+        q, v = path.states[S]
+        forces.evaluate(0.0, np.ascontiguousarray(q), np.ascontiguousarray(v),
+                        path.sliders[S])
+        limit = mu * forces.normal_force[kinds]  # (kinds, N')
+        used = np.linalg.norm(forces.friction_force[kinds], axis=2)
+        share = np.where(limit > 0, 1.0 - used / np.maximum(limit, 1e-300), 0.0)
+        least = min(least, float(share.min()))
+    return least
