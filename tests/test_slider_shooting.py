@@ -402,6 +402,10 @@ def test_the_friction_limited_orbits_form_a_band_holding_the_preload_history(ela
     assert band.high.tip == pytest.approx(0.526e-6, rel=0.05)
     assert band.low.tip < cycle.tip_amplitude == band.start_tip < band.high.tip
     assert band.multiplier_high < 1.0  # its largest member stable in its symmetry
+    # both ends on the edge: the held tie-boss within 2 % of the Coulomb limit somewhere in
+    # the period, while the orbit found keeps well inside it
+    assert band.low.margin <= 0.02 and band.high.margin <= 0.02
+    assert band.members[0].margin > 0.1
     N = model.blades
     flow = WheelFlow(model, cfg, angles)
     shooting = SliderShooting(model, cfg, 6, angles)

@@ -240,7 +240,13 @@ def _trace(member, start: Member, direction: np.ndarray) -> tuple[list, str]:
         last = path[-1]
         if last.margin <= EDGE:
             return path, f"its held contact within {last.margin:.1%} of slipping"
-        found = member(last.orbit.flat(), last.orbit.period, (s + step) * direction)
+        x, period = last.orbit.flat(), last.orbit.period
+        if len(path) > 1:  # the secant's prediction: the members move near-affinely
+            prev = path[-2]
+            ratio = step / float(np.linalg.norm(last.offset - prev.offset))
+            x = x + ratio * (x - prev.orbit.flat())
+            period += ratio * (period - prev.orbit.period)
+        found = member(x, period, (s + step) * direction)
         if found is None:
             if step <= EDGE * max(1.0, s):
                 return path, f"the held contact slips beyond it (to {step:.2g} radii)"
