@@ -465,3 +465,76 @@ def test_the_band_is_in_the_file_the_json_and_the_verdict(elastic_orbit, tmp_pat
     assert cycle["band"]["high_m"] == pytest.approx(band.high.tip, rel=1e-15)
     assert (f"friction-limited band {band.low.tip * 1e6:.4g}-{band.high.tip * 1e6:.4g} um "
             "over the stuck tieboss's admissible offsets") in res.verdict()
+
+
+def test_settle_says_where_each_history_of_a_case_ends_against_its_band(elastic_orbit,
+                                                                        tmp_path, capsys):
+    """Issue #68, 3: ``settle`` over a ``[study]`` of ``settle.start`` runs two histories of
+    one case, the preload seeded at half the slip onset and the exact orbit with its sliders,
+    and reports them as a group beside the band of the ``--cycles`` file: each history's
+    range is its case's own, the spread their union, and the band (0.09-0.53 um) holds both
+    (the tests above: the preload history settles at the orbit's 0.320 um to 2 %, the orbit
+    stays on itself). Where the flutter would end outside it, the words say so."""
+    import json
+
+    import h5py
+
+    from wheelrom.cli import main as cli
+    from wheelrom.results.limit_cycles import write_limit_cycles
+
+    cfg, model, angles, res = elastic_orbit
+    cycle = res.branches[0].cycles[0]
+    band = cycle.band
+    path = tmp_path / "lc.h5"
+    with h5py.File(path, "w") as f:
+        write_limit_cycles(f, cfg, model, [res])
+    keys = [*ELASTIC, f"contacts.tieboss.angle_deg={angles['tieboss']}",
+            f"contacts.shroud.angle_deg={angles['shroud']}",
+            'study.grid={"settle.start" = ["preload", "cycle"]}',
+            "settle.min_time=1.0", "settle.max_time=2.0"]
+    args = ["settle", str(SMALL), *[a for k in keys for a in ("--set", k)],
+            "--cycles", str(path), "--json"]
+    assert cli.main(args) == 0
+    out = json.loads(capsys.readouterr().out)
+    (group,) = out["histories"]
+    assert group["members"] == [0, 1] and group["history"] == ["start preload", "start cycle"]
+    assert group["band_m"] == [band.low.tip, band.high.tip, band.start_tip]
+    for i, row in enumerate(out["cases"]):
+        own = row["band_m"] if "band_m" in row else {"low": row["amplitude_m"]["max"],
+                                                      "high": row["amplitude_m"]["max"]}
+        assert group["range_m"][i] == [own["low"], own["high"]]
+        assert own["low"] == pytest.approx(cycle.tip_amplitude, rel=0.03)
+        assert own["high"] == pytest.approx(cycle.tip_amplitude, rel=0.03)
+    lows, highs = zip(*group["range_m"], strict=True)
+    assert group["spread_m"] == [min(lows), max(highs)]
+    assert group["place"] == ["inside", "inside"]
+    # the words, and a history outside a narrower band named with its side
+    from wheelrom.studies.settle import history_words
+
+    assert "holds 2 of them" in history_words(group)
+    narrow = dict(group, band_m=(0.5 * cycle.tip_amplitude, 0.9 * cycle.tip_amplitude, 0.0),
+                  place=["above", "above"])
+    assert "start preload above, start cycle above" in history_words(narrow)
+
+
+def test_histories_group_the_cases_that_differ_only_in_their_start():
+    """Cases of one wheel that differ only in ``settle.*`` start keys are one group; another
+    preload is another case, alone, and not a group; each range's place against a band: inside,
+    above, below, across its edge."""
+    from wheelrom.studies.settle import histories
+
+    def row(preload, seed, low, high):
+        return {"label": "tieboss 45 deg, shroud 0 deg",
+                "angles_deg": {"tieboss": 45.0, "shroud": 0.0},
+                "parameters": {"contacts.shroud.normal_preload": preload, "settle.seed": seed},
+                "band_m": {"low": low, "high": high, "over_s": 3.0}}
+
+    rows = [row(400.0, 0, 4e-6, 5e-6), row(400.0, 1, 6e-6, 7e-6), row(400.0, 2, 1e-6, 2e-6),
+            row(400.0, 3, 3e-6, 4.5e-6), row(800.0, 0, 4e-6, 5e-6)]
+    (group,) = histories(rows, lambda angles: (3.5e-6, 5.5e-6, 4.5e-6))
+    assert group["members"] == [0, 1, 2, 3]
+    assert group["history"] == ["seed 0", "seed 1", "seed 2", "seed 3"]
+    assert group["spread_m"] == (1e-6, 7e-6)
+    assert group["place"] == ["inside", "above", "below", "across"]
+    assert "normal_preload 400.0" in group["label"]
+    assert histories(rows[:1] + rows[4:]) == []  # no two histories of one case

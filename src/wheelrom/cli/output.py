@@ -35,14 +35,15 @@ def throttled(every_s: float = 5.0):
 
 
 def report_and_save(rows: list[dict], as_json: bool, printer, out: str | None, fill,
-                    kept: str = "the summary is printed above"):
+                    kept: str = "the summary is printed above", extra: dict | None = None):
     """Rank 0 of a per-case command: the rows printed (JSON or ``printer(rows)``) before the
     file is written, so a full disk still leaves the numbers; ``fill(f)`` builds the HDF5
-    file ``out`` (None: none). Returns the write's failure for ``agree``."""
+    file ``out`` (None: none); ``extra``: more JSON keys beside ``cases``. Returns the
+    write's failure for ``agree``."""
     from wheelrom.runtime.outputs import save_hdf5
 
     if as_json:
-        print_json({"cases": rows})
+        print_json({"cases": rows, **(extra or {})})
     else:
         printer(rows)
     if not out:

@@ -40,7 +40,7 @@ def cmd_settle(args: argparse.Namespace) -> int:
     'bounded' by its amplitude's trend. Cases are integrated in batches (settle.batch); under
     mpirun the batches go to the ranks as they become free."""
     from wheelrom.rom.build import quiet
-    from wheelrom.studies.settle import check_cycles, run_settle, summary
+    from wheelrom.studies.settle import band_from_file, check_cycles, histories, run_settle, summary
     from wheelrom.studies.settle_cases import kept_folder
     from wheelrom.studies.stability import world_if_parallel
 
@@ -74,10 +74,15 @@ def cmd_settle(args: argparse.Namespace) -> int:
     failure = None
     if cases:
         beside = _kept_beside(folder, cfg) if folder else ""
+        rows = [summary(a, p, r) for a, p, r in cases]
+        # cases that differ only in how they started: their spread beside the band
+        groups = histories(rows, (lambda angles: band_from_file(args.cycles, angles))
+                           if args.cycles else None)
         failure = report_and_save(
-            [summary(a, p, r) for a, p, r in cases], args.json, _print_rows, args.out,
+            rows, args.json, lambda rows: _print_rows(rows, groups), args.out,
             lambda f: write_settle(f, cfg, model, cases),
-            "; ".join(["the summary is printed above", *([beside] if beside else [])]))
+            "; ".join(["the summary is printed above", *([beside] if beside else [])]),
+            {"histories": groups} if groups else None)
         if folder and (failure is None or not beside):
             folder.clear()  # in the file, or no case of it kept (a full disk)
     agree(comm, failure)
@@ -146,6 +151,10 @@ def _interrupted(args: argparse.Namespace, cfg) -> Interrupted:
                        + resume_line(args.out, cfg.source, "settle", flags))
 
 
-def _print_rows(rows: list[dict]) -> None:
+def _print_rows(rows: list[dict], groups: list[dict]) -> None:
+    from wheelrom.studies.settle import history_words
+
     for row in rows:
         print(f"{row['label']}: {row['verdict']}")
+    for group in groups:
+        print(history_words(group))

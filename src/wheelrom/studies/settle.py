@@ -179,6 +179,117 @@ def _cycle_from_file(path: str, angles: dict, blades: int):
     return None
 
 
+def band_from_file(path: str, angles: dict) -> tuple[float, float, float] | None:
+    """``(smallest, largest, orbit)`` [m]: the band of the first exact orbit with one of the
+    case with ``angles`` in a limit-cycle file (under the elastic law: its friction-limited
+    orbits over the stuck contacts' offsets, :mod:`~wheelrom.analysis.periodic.family`);
+    None without."""
+    import h5py
+
+    with h5py.File(path, "r", locking=False) as f:
+        g = f.get("limit_cycle", {})
+        if "angles_deg" not in g:
+            return None
+        for i in _rows(g["angles_deg"][()], angles):
+            case = g.get(f"case_{i}", {})
+            for name in (n for n in case if n.startswith("wave_")):
+                c = case[name].get("cycles", {})
+                for row in (c["band"][()] if "band" in c else ()):
+                    if np.all(np.isfinite(row)):
+                        return float(row[0]), float(row[1]), float(row[2])
+    return None
+
+
+#: the keys that choose how a case's motion started, not its wheel: cases that differ only in
+#: them are histories of one case, whose friction-limited ends may differ under the elastic law
+#: (docs/theory.md "Why the friction-limited amplitude is a band")
+HISTORY_KEYS = ("settle.start", "settle.seed", "settle.seed_amplitude", "settle.perturbation")
+
+
+def histories(rows: list[dict], band_of=None) -> list[dict]:
+    """The cases of :func:`summary` ``rows`` that are histories of one case (the same angles
+    and parameters but :data:`HISTORY_KEYS`), two or more a group: per group its ``label``
+    (the case's), ``members`` (row indices), each member's ``history`` (its keys in words)
+    and range ``(low, high)`` [m] (the largest blade over the last span, or its settled
+    amplitude), the ``spread`` (lowest low, highest high) [m], and with ``band_of(angles)``
+    (:func:`band_from_file`) the ``band`` and each member's place against it: ``"inside"``,
+    ``"above"``, ``"below"`` or ``"across"`` its edges."""
+    groups: dict[str, list[int]] = {}
+    for i, row in enumerate(rows):
+        case = {k: v for k, v in row["parameters"].items() if k not in HISTORY_KEYS}
+        key = repr((sorted(row["angles_deg"].items()), sorted(case.items())))
+        groups.setdefault(key, []).append(i)
+    out = []
+    for members in groups.values():
+        if len(members) < 2:
+            continue
+        first = rows[members[0]]
+        case = {k: v for k, v in first["parameters"].items() if k not in HISTORY_KEYS}
+        label = ", ".join([first["label"], *(f"{k} {v}" for k, v in case.items()
+                                             if k not in ("contacts.tieboss.angle_deg",
+                                                          "contacts.shroud.angle_deg"))])
+        ranges, words = [], []
+        for i in members:
+            row = rows[i]
+            span = row.get("band_m")
+            if span is not None:
+                ranges.append((span["low"], span["high"]))
+            elif "amplitude_m" in row:
+                ranges.append((row["amplitude_m"]["max"],) * 2)
+            else:
+                ranges.append((math.nan, math.nan))
+            keys = {k: v for k, v in row["parameters"].items() if k in HISTORY_KEYS}
+            words.append(", ".join(f"{k.split('.')[-1]} {v}" for k, v in keys.items())
+                         or row.get("start", ""))
+        lows, highs = np.array([r[0] for r in ranges]), np.array([r[1] for r in ranges])
+        group = {"label": label, "members": members, "history": words,
+                 "range_m": ranges,
+                 "spread_m": (float(np.nanmin(lows)), float(np.nanmax(highs)))
+                 if np.any(np.isfinite(lows)) else (math.nan, math.nan)}
+        band = band_of(first["angles_deg"]) if band_of is not None else None
+        if band is not None:
+            group["band_m"] = band
+            group["place"] = [_place(r, band) for r in ranges]
+        out.append(group)
+    return out
+
+
+def _place(span: tuple[float, float], band: tuple) -> str:
+    """Where a history's range ``(low, high)`` [m] lies against a band ``(low, high, ...)``."""
+    low, high = span
+    if not (math.isfinite(low) and math.isfinite(high)):
+        return "unknown"
+    if low >= band[0] and high <= band[1]:
+        return "inside"
+    if low > band[1]:
+        return "above"
+    if high < band[0]:
+        return "below"
+    return "across"
+
+
+def history_words(group: dict) -> str:
+    """One group of :func:`histories` in words."""
+    low, high = group["spread_m"]
+    text = (f"histories of {group['label']}: {len(group['members'])} end at "
+            f"{low * 1e6:.3g}-{high * 1e6:.3g} um (" + "; ".join(
+                f"{w}: {r[0] * 1e6:.3g}-{r[1] * 1e6:.3g}"
+                for w, r in zip(group["history"], group["range_m"], strict=True)) + ")")
+    if "band_m" in group:
+        b = group["band_m"]
+        places = group["place"]
+        inside = places.count("inside")
+        text += (f"; the band of its friction-limited orbits {b[0] * 1e6:.3g}-"
+                 f"{b[1] * 1e6:.3g} um holds {inside} of them")
+        if inside < len(places):
+            text += (" (" + ", ".join(f"{w} {p}" for w, p in
+                                      zip(group["history"], places, strict=True)
+                                      if p != "inside")
+                     + ": a history whose blades slip differently, outside the band's "
+                     "pattern-symmetric offsets, or one that left an unstable orbit)")
+    return text
+
+
 def _largest_multiplier(c, j: int) -> float:
     """The largest non-trivial multiplier modulus that made cycle ``j`` of a limit-cycle
     file's ``cycles`` group ``c`` unstable (``floquet_multiplier`` where ``stable`` is 0: the
