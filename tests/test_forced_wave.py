@@ -194,3 +194,39 @@ def test_the_command_traces_the_curve_on_request(tmp_path, capsys):
     capsys.readouterr()
     assert cli.main(["plot", str(path), "--outdir", str(tmp_path / "fig")]) == 0
     assert (tmp_path / "fig" / "forced_response.png").stat().st_size > 1000
+
+
+def test_without_a_band_the_nonlinear_response_spans_slipping_to_stuck(capsys):
+    """Issue #74, 1: ``--nonlinear`` without ``--frequencies`` searches the band from the
+    excited ND's resonance with the contacts slipping (120.0 Hz on the small wheel) to the one
+    with them stuck (the linear peak, 256.6 Hz) +-3 %, not the stuck one's +-1 %: the
+    nonlinear resonance, at the default 10 N with the contacts slipping grossly, is inside it,
+    at the slipping one. Over 125..200 Hz, above it, the largest value lies on the band's
+    lower edge and is said so, never called a peak, and the line on the missing linear
+    resonances says where the nonlinear response's largest value is."""
+    import json
+
+    from conftest import SMALL
+    from wheelrom.cli import main as cli
+
+    args = ["forced-response", SMALL, "--nonlinear", "--harmonics", "1",
+            "--set", 'contacts.law="elastic"']
+    assert cli.main([*args, "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    lo, hi = out["band_hz"]
+    assert hi == pytest.approx(1.03 * out["peak_frequency_hz"], rel=1e-3)  # the stuck one
+    assert lo == pytest.approx(0.97 * 120.02, rel=1e-3)  # the slipping one
+    nl = out["nonlinear"]
+    assert "peak_at_edge" not in nl and "no_resonance" not in nl
+    assert lo < nl["peak_frequency_hz"] < 1.05 * 120.02  # at the slipping resonance
+    assert nl["peak_amplitude_m"] == max(a for a in nl["tip_amplitude_m"] if a is not None)
+    assert cli.main([*args, "--json", "--frequencies", "125:200:5"]) == 0
+    nl = json.loads(capsys.readouterr().out)["nonlinear"]
+    assert nl["peak_at_edge"] == "lower"
+    assert nl["peak_frequency_hz"] == pytest.approx(125.0, rel=1e-12)
+    assert nl["no_resonance"].endswith("the linear response computed here is off resonance; "
+                                       "the nonlinear response's largest value is at the "
+                                       "band's lower edge")
+    assert cli.main([*args, "--frequencies", "125:200:5"]) == 0
+    assert "nonlinear largest value at the band's lower edge (the resonance lies below it" \
+        in capsys.readouterr().out
