@@ -498,7 +498,8 @@ def test_settle_says_where_each_history_of_a_case_ends_against_its_band(elastic_
     out = json.loads(capsys.readouterr().out)
     (group,) = out["histories"]
     assert group["members"] == [0, 1] and group["history"] == ["start preload", "start cycle"]
-    assert group["band_m"] == [band.low.tip, band.high.tip, band.start_tip]
+    assert group["band_m"] == [band.low.tip, band.high.tip, band.start_tip, 6]
+    assert [nd for nd, _ in group["nd"]] == [6, 6]  # both in the band's wave
     for i, row in enumerate(out["cases"]):
         own = row["band_m"] if "band_m" in row else {"low": row["amplitude_m"]["max"],
                                                       "high": row["amplitude_m"]["max"]}
@@ -512,9 +513,15 @@ def test_settle_says_where_each_history_of_a_case_ends_against_its_band(elastic_
     from wheelrom.studies.settle import history_words
 
     assert "holds 2 of them" in history_words(group)
-    narrow = dict(group, band_m=(0.5 * cycle.tip_amplitude, 0.9 * cycle.tip_amplitude, 0.0),
-                  place=["above", "above"])
-    assert "start preload above, start cycle above" in history_words(narrow)
+    narrow = dict(group, band_m=(0.5 * cycle.tip_amplitude, 0.9 * cycle.tip_amplitude, 0.0,
+                                 6), place=["above", "above"])
+    assert "; start preload above, start cycle above: in the band's wave, its blades " \
+        "slipping differently" in history_words(narrow)
+    left = dict(narrow, nd=[[6, 0.9], [2, 0.7]])
+    assert history_words(left).endswith(
+        "; start cycle above, ND 2 70%: the flutter left the band's wave (ND 6) for another, "
+        "its orbits unstable in the whole wheel; start preload above: in the band's wave, "
+        "its blades slipping differently (offsets outside the band's pattern-symmetric ones)")
 
 
 def test_histories_group_the_cases_that_differ_only_in_their_start():
@@ -531,7 +538,7 @@ def test_histories_group_the_cases_that_differ_only_in_their_start():
 
     rows = [row(400.0, 0, 4e-6, 5e-6), row(400.0, 1, 6e-6, 7e-6), row(400.0, 2, 1e-6, 2e-6),
             row(400.0, 3, 3e-6, 4.5e-6), row(800.0, 0, 4e-6, 5e-6)]
-    (group,) = histories(rows, lambda angles: (3.5e-6, 5.5e-6, 4.5e-6))
+    (group,) = histories(rows, lambda angles: (3.5e-6, 5.5e-6, 4.5e-6, 33))
     assert group["members"] == [0, 1, 2, 3]
     assert group["history"] == ["seed 0", "seed 1", "seed 2", "seed 3"]
     assert group["spread_m"] == (1e-6, 7e-6)

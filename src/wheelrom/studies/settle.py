@@ -179,11 +179,11 @@ def _cycle_from_file(path: str, angles: dict, blades: int):
     return None
 
 
-def band_from_file(path: str, angles: dict) -> tuple[float, float, float] | None:
-    """``(smallest, largest, orbit)`` [m]: the band of the first exact orbit with one of the
-    case with ``angles`` in a limit-cycle file (under the elastic law: its friction-limited
-    orbits over the stuck contacts' offsets, :mod:`~wheelrom.analysis.periodic.family`);
-    None without."""
+def band_from_file(path: str, angles: dict) -> tuple[float, float, float, int] | None:
+    """``(smallest, largest, orbit [m], nodal diameter)``: the band of the first exact orbit
+    with one of the case with ``angles`` in a limit-cycle file (under the elastic law: its
+    friction-limited orbits over the stuck contacts' offsets,
+    :mod:`~wheelrom.analysis.periodic.family`) and its wave's ND; None without."""
     import h5py
 
     with h5py.File(path, "r", locking=False) as f:
@@ -194,9 +194,10 @@ def band_from_file(path: str, angles: dict) -> tuple[float, float, float] | None
             case = g.get(f"case_{i}", {})
             for name in (n for n in case if n.startswith("wave_")):
                 c = case[name].get("cycles", {})
+                nd = int(case[name].attrs.get("nodal_diameter", -1))
                 for row in (c["band"][()] if "band" in c else ()):
                     if np.all(np.isfinite(row)):
-                        return float(row[0]), float(row[1]), float(row[2])
+                        return float(row[0]), float(row[1]), float(row[2]), nd
     return None
 
 
@@ -213,7 +214,8 @@ def histories(rows: list[dict], band_of=None) -> list[dict]:
     and range ``(low, high)`` [m] (the largest blade over the last span, or its settled
     amplitude), the ``spread`` (lowest low, highest high) [m], and with ``band_of(angles)``
     (:func:`band_from_file`) the ``band`` and each member's place against it: ``"inside"``,
-    ``"above"``, ``"below"`` or ``"across"`` its edges."""
+    ``"above"``, ``"below"`` or ``"across"`` its edges; ``nd``: each member's dominant ND and
+    its energy share in the last window (``(-1, 0)``: not known)."""
     groups: dict[str, list[int]] = {}
     for i, row in enumerate(rows):
         case = {k: v for k, v in row["parameters"].items() if k not in HISTORY_KEYS}
@@ -228,9 +230,11 @@ def histories(rows: list[dict], band_of=None) -> list[dict]:
         label = ", ".join([first["label"], *(f"{k} {v}" for k, v in case.items()
                                              if k not in ("contacts.tieboss.angle_deg",
                                                           "contacts.shroud.angle_deg"))])
-        ranges, words = [], []
+        ranges, words, waves = [], [], []
         for i in members:
             row = rows[i]
+            energy = row.get("nd_energy") or []
+            waves.append((int(np.argmax(energy)), float(max(energy))) if energy else (-1, 0.0))
             span = row.get("band_m")
             if span is not None:
                 ranges.append((span["low"], span["high"]))
@@ -243,7 +247,7 @@ def histories(rows: list[dict], band_of=None) -> list[dict]:
                          or row.get("start", ""))
         lows, highs = np.array([r[0] for r in ranges]), np.array([r[1] for r in ranges])
         group = {"label": label, "members": members, "history": words,
-                 "range_m": ranges,
+                 "range_m": ranges, "nd": waves,
                  "spread_m": (float(np.nanmin(lows)), float(np.nanmax(highs)))
                  if np.any(np.isfinite(lows)) else (math.nan, math.nan)}
         band = band_of(first["angles_deg"]) if band_of is not None else None
@@ -281,12 +285,19 @@ def history_words(group: dict) -> str:
         inside = places.count("inside")
         text += (f"; the band of its friction-limited orbits {b[0] * 1e6:.3g}-"
                  f"{b[1] * 1e6:.3g} um holds {inside} of them")
-        if inside < len(places):
-            text += (" (" + ", ".join(f"{w} {p}" for w, p in
-                                      zip(group["history"], places, strict=True)
-                                      if p != "inside")
-                     + ": a history whose blades slip differently, outside the band's "
-                     "pattern-symmetric offsets, or one that left an unstable orbit)")
+        wave = b[3] if len(b) > 3 else -1
+        outside = [(w, p, nd) for w, p, nd in zip(group["history"], places, group["nd"],
+                                                  strict=True) if p != "inside"]
+        left = [(w, p, nd) for w, p, nd in outside if wave >= 0 and nd[0] not in (-1, wave)]
+        kept = [(w, p, nd) for w, p, nd in outside if (w, p, nd) not in left]
+        if left:  # another ND took the energy: the band's wave is unstable in the whole wheel
+            text += ("; " + ", ".join(f"{w} {p}, ND {nd[0]} {nd[1]:.0%}" for w, p, nd in left)
+                     + f": the flutter left the band's wave (ND {wave}) for another, its orbits "
+                     "unstable in the whole wheel")
+        if kept:  # the same wave, other offsets: blades that slipped differently
+            text += ("; " + ", ".join(f"{w} {p}" for w, p, _ in kept) + ": in the band's wave,"
+                     " its blades slipping differently (offsets outside the band's "
+                     "pattern-symmetric ones)")
     return text
 
 
