@@ -21,6 +21,26 @@ VDP_WHEEL = ["contacts.tieboss.enabled=false", "contacts.shroud.enabled=false",
              'flutter.model="relative"', 'time.scheme="exponential"', "time.step=1e-5"]
 
 
+@pytest.fixture
+def nothing_computed(monkeypatch):
+    """Fails the test if a segment is built or read (every computation starts there): a
+    refusal under it came before anything was computed."""
+    def computed(*_):
+        raise AssertionError("a segment was built: the refusal came too late")
+
+    monkeypatch.setattr("wheelrom.segment.load.build_builtin", computed)
+    monkeypatch.setattr("wheelrom.segment.load.read_segment", computed)
+
+
+def one_error(capsys) -> str:
+    """The one ``wheelrom:`` line a refused command wrote to stderr (no traceback)."""
+    err = capsys.readouterr().err
+    assert "Traceback" not in err, err
+    lines = [ln for ln in err.splitlines() if ln.startswith("wheelrom:")]
+    assert len(lines) == 1, err
+    return lines[0]
+
+
 @pytest.fixture(scope="session")
 def comm():
     """``PETSc.COMM_SELF``: the communicator of serial builds."""

@@ -16,16 +16,6 @@ from wheelrom.cli import main as cli
 QUICK = ["--set", "time.end=0.001", "--set", "time.window=0.0005"]
 
 
-@pytest.fixture
-def nothing_computed(monkeypatch):
-    """Fails the test if a segment is built or read (every computation starts there)."""
-    def computed(*_):
-        raise AssertionError("a segment was built: the refusal came too late")
-
-    monkeypatch.setattr("wheelrom.segment.load.build_builtin", computed)
-    monkeypatch.setattr("wheelrom.segment.load.read_segment", computed)
-
-
 def _error_lines(capsys):
     err = capsys.readouterr().err
     assert "Traceback" not in err, err

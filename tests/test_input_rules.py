@@ -20,16 +20,6 @@ from wheelrom.cli import main as cli
 
 
 @pytest.fixture
-def nothing_computed(monkeypatch):
-    """Fails the test if a segment is built or read (every computation starts there)."""
-    def computed(*_):
-        raise AssertionError("a segment was built: the refusal came too late")
-
-    monkeypatch.setattr("wheelrom.segment.load.build_builtin", computed)
-    monkeypatch.setattr("wheelrom.segment.load.read_segment", computed)
-
-
-@pytest.fixture
 def eight_gb(monkeypatch):
     """8 GB of memory available, whatever the machine has."""
     monkeypatch.setattr("wheelrom.runtime.environment.available_memory", lambda: 8 * 10**9)

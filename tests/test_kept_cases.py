@@ -10,7 +10,7 @@ import os
 
 import pytest
 
-from conftest import SMALL
+from conftest import SMALL, one_error
 from wheelrom import config
 from wheelrom.cli import main as cli
 from wheelrom.studies.kept_cases import KeptCases
@@ -37,24 +37,6 @@ def design_toml(tmp_path):
     return path
 
 
-@pytest.fixture
-def nothing_computed(monkeypatch):
-    """Fails the test if a segment is built: a refusal under it came before any model."""
-    def computed(*_):
-        raise AssertionError("a segment was built: the refusal came too late")
-
-    monkeypatch.setattr("wheelrom.segment.load.build_builtin", computed)
-    monkeypatch.setattr("wheelrom.segment.load.read_segment", computed)
-
-
-def _one_error(capsys) -> str:
-    err = capsys.readouterr().err
-    assert "Traceback" not in err, err
-    lines = [ln for ln in err.splitlines() if ln.startswith("wheelrom:")]
-    assert len(lines) == 1, err
-    return lines[0]
-
-
 def _design(toml, out, *extra) -> list[str]:
     return ["study", str(toml), "--stability-only", "--forced-nonlinear", "--out", str(out),
             *extra]
@@ -76,7 +58,7 @@ def test_a_link_planted_as_the_design_folder_is_refused_never_followed(
     side, out = tmp_path / ".s.design", tmp_path / "s.h5"
     side.symlink_to(victim)
     assert cli.main(_design(design_toml, out, *(["--resume"] if resume else []))) == 2
-    assert _one_error(capsys) == (
+    assert one_error(capsys) == (
         f"wheelrom: --out {out}: {side}, where its finished cases are kept, is a symbolic link "
         "to a directory: a link there is never followed (nor what it points to deleted); "
         "remove the link or choose another name")
@@ -91,7 +73,7 @@ def test_a_file_named_as_the_design_folder_is_refused(design_toml, tmp_path, cap
     side, out = tmp_path / ".s.design", tmp_path / "s.h5"
     side.write_text("mine")
     assert cli.main(_design(design_toml, out)) == 2
-    assert _one_error(capsys).endswith(f"{side}, where its finished cases are kept, is a "
+    assert one_error(capsys).endswith(f"{side}, where its finished cases are kept, is a "
                                        "regular file, not a folder: it is never replaced; move "
                                        "it away or choose another name")
     assert side.read_text() == "mine" and not out.exists()
@@ -117,12 +99,12 @@ def test_design_cases_of_another_configuration_are_refused_on_resume(
     KeptCases(str(out), "design").save(0, other, {"status": "done"}, {"x": [1.0]})
     kept = sorted(os.listdir(side))
     assert cli.main(_design(design_toml, out, "--resume")) == 2
-    assert _one_error(capsys) == (
+    assert one_error(capsys) == (
         f"wheelrom: --out {out}: {side}, where its finished cases are kept, holds case 0, "
         "written for a different configuration (excitation.force: 20.0 -> 10.0): --resume "
         "reuses only this configuration's; --force discards it")
     assert cli.main(_design(design_toml, out)) == 2
-    assert _one_error(capsys).endswith("holds case 0 kept by an interrupted run: --resume "
+    assert one_error(capsys).endswith("holds case 0 kept by an interrupted run: --resume "
                                        "reuses them, --force discards them")
     assert sorted(os.listdir(side)) == kept and not out.exists()
 
@@ -206,7 +188,7 @@ def test_a_link_planted_as_a_case_file_is_refused_up_front(resume, tmp_path, cap
     (side / "case_1.json").symlink_to(victim)
     argv = ["settle", SMALL, *sum((["--set", k] for k in SETTLE), []), "--out", str(out)]
     assert cli.main([*argv, *(["--resume"] if resume else [])]) == 2
-    assert _one_error(capsys) == (
+    assert one_error(capsys) == (
         f"wheelrom: --out {out}: {side}, where its finished cases are kept, holds "
         f"{side / 'case_1.json'}, which is a symbolic link to a directory, not a kept case: it "
         "is never followed nor replaced; remove it")

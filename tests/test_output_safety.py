@@ -33,17 +33,6 @@ def _error_lines(err: str) -> list[str]:
     return [ln for ln in err.splitlines() if ln.startswith("wheelrom:")]
 
 
-@pytest.fixture
-def nothing_computed(monkeypatch):
-    """Fails the test if a segment is built or read: a refusal under it came before anything
-    was computed."""
-    def computed(*_):
-        raise AssertionError("a segment was built: the refusal came too late")
-
-    monkeypatch.setattr("wheelrom.segment.load.build_builtin", computed)
-    monkeypatch.setattr("wheelrom.segment.load.read_segment", computed)
-
-
 def _stability_cases(path) -> int:
     with h5py.File(path, "r") as f:
         return int(f["stability/verdict"].shape[0])

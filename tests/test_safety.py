@@ -44,18 +44,6 @@ def _one_error_line(res, *words):
 # --- existing outputs -----------------------------------------------------------------
 
 
-@pytest.fixture
-def nothing_computed(monkeypatch):
-    """Fails the test if a segment is built or read: every computation starts there, so a
-    refusal under this fixture came before anything was computed (a mechanism, not a clock:
-    a loaded machine cannot make it fail)."""
-    def computed(*_):
-        raise AssertionError("a segment was built: the refusal came too late")
-
-    monkeypatch.setattr("wheelrom.segment.load.build_builtin", computed)
-    monkeypatch.setattr("wheelrom.segment.load.read_segment", computed)
-
-
 @pytest.mark.parametrize(
     "argv",
     [

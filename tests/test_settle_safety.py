@@ -11,7 +11,7 @@ import h5py
 import numpy as np
 import pytest
 
-from conftest import SMALL, VDP_WHEEL
+from conftest import SMALL, VDP_WHEEL, one_error
 from wheelrom import config
 from wheelrom.cli import main as cli
 
@@ -47,25 +47,6 @@ def _wheelrom_file(path, kind: str, overrides=()) -> bytes:
     return path.read_bytes()
 
 
-def _one_error(capsys) -> str:
-    err = capsys.readouterr().err
-    assert "Traceback" not in err, err
-    lines = [ln for ln in err.splitlines() if ln.startswith("wheelrom:")]
-    assert len(lines) == 1, err
-    return lines[0]
-
-
-@pytest.fixture
-def nothing_computed(monkeypatch):
-    """Fails the test if a segment is built or read: a refusal under it came before any
-    model was built."""
-    def computed(*_):
-        raise AssertionError("a segment was built: the refusal came too late")
-
-    monkeypatch.setattr("wheelrom.segment.load.build_builtin", computed)
-    monkeypatch.setattr("wheelrom.segment.load.read_segment", computed)
-
-
 # --- --resume on a file of another kind ----------------------------------------------------
 
 
@@ -75,7 +56,7 @@ def test_resume_refuses_a_file_of_another_kind(kind, tmp_path, capsys, nothing_c
     out = tmp_path / "x.h5"
     before = _wheelrom_file(out, kind)
     assert cli.main(_settle("--resume", "--out", str(out))) == 2
-    line = _one_error(capsys)
+    line = one_error(capsys)
     words = KINDS[kind][2] if kind != "text" else "a file that is not HDF5"
     assert line.startswith(f"wheelrom: --out {out}: is {words}"), line
     assert "not a settle file" in line and "--force" in line
@@ -139,14 +120,14 @@ def test_resume_of_another_configuration_keeps_the_file_and_the_kept_cases(
     monkeypatch.setattr("wheelrom.segment.load.build_builtin", computed)
     sixty = ("--set", "sweep.shroud_angles_deg=[60.0]")
     assert cli.main(_settle(*sixty, "--resume", "--out", str(out))) == 2
-    assert _one_error(capsys) == (
+    assert one_error(capsys) == (
         f"wheelrom: --out {out}: was written for a different configuration "
         "(sweep.shroud_angles_deg: [50.0] -> [60.0]); choose another --out, or --force to "
         "replace it")
     assert out.read_bytes() == before and _tree(folder) == kept
     out.unlink()
     assert cli.main(_settle(*sixty, "--resume", "--out", str(out))) == 2
-    assert _one_error(capsys) == (
+    assert one_error(capsys) == (
         f"wheelrom: --out {out}: {folder}, where its finished cases are kept, holds case 0, "
         "written for a different configuration (contacts.shroud.angle_deg: 50.0 -> 60.0, "
         "sweep.shroud_angles_deg: [50.0] -> [60.0]): --resume reuses only this "
@@ -162,7 +143,7 @@ def test_kept_cases_are_discarded_only_with_force(tmp_path, monkeypatch, capsys)
     kept = _tree(folder)
     capsys.readouterr()
     assert cli.main(_settle("--out", str(out))) == 2
-    assert _one_error(capsys) == (
+    assert one_error(capsys) == (
         f"wheelrom: --out {out}: {folder}, where its finished cases are kept, holds case 0 "
         "kept by an interrupted run: --resume reuses them, --force discards them")
     assert _tree(folder) == kept and not out.exists()
@@ -180,7 +161,7 @@ def test_resume_with_force_or_without_out_is_refused(tmp_path, capsys, nothing_c
     assert capsys.readouterr().err.splitlines()[-1] == (
         "wheelrom settle: error: argument --resume: not allowed with argument --force")
     assert cli.main(_settle("--resume")) == 2
-    assert _one_error(capsys) == ("wheelrom: --resume: continues the cases an interrupted run "
+    assert one_error(capsys) == ("wheelrom: --resume: continues the cases an interrupted run "
                                   "kept beside its --out; give that --out")
     assert os.listdir(tmp_path) == []
 
@@ -200,7 +181,7 @@ def test_a_link_planted_as_the_side_folder_is_refused_never_followed(resume, tmp
     side.symlink_to(victim)
     out = tmp_path / "s.h5"
     assert cli.main(_settle("--out", str(out), *(["--resume"] if resume else []))) == 2
-    line = _one_error(capsys)
+    line = one_error(capsys)
     assert f"--out {out}: {side}, where its finished cases are kept, is a symbolic link to a " \
         "directory: a link there is never followed" in line, line
     assert os.path.islink(side) and os.readlink(side) == str(victim)
@@ -216,7 +197,7 @@ def test_a_file_named_as_the_side_folder_is_refused_up_front(resume, tmp_path, c
     side.write_text("mine")
     out = tmp_path / "s.h5"
     assert cli.main(_settle("--out", str(out), *(["--resume"] if resume else []))) == 2
-    line = _one_error(capsys)
+    line = one_error(capsys)
     assert f"{side}, where its finished cases are kept, is a regular file" in line, line
     assert side.read_text() == "mine" and not out.exists()
 
@@ -377,7 +358,7 @@ def test_cycles_of_another_wheel_are_refused_naming_the_key(override, changed, t
     cycles = tmp_path / "lc.h5"
     _wheelrom_file(cycles, "limit-cycle", [override])
     assert cli.main(_settle("--cycles", str(cycles))) == 2
-    line = _one_error(capsys)
+    line = one_error(capsys)
     assert line.startswith(f"wheelrom: --cycles {cycles}: written for another wheel "
                            f"({changed})"), line
 
@@ -389,7 +370,7 @@ def test_cycles_of_another_kind_are_refused_naming_it(kind, tmp_path, capsys, no
     _wheelrom_file(cycles, kind)
     assert cli.main(_settle("--cycles", str(cycles))) == 2
     words = KINDS[kind][2] if kind != "text" else "a file that is not HDF5"
-    assert _one_error(capsys) == (f"wheelrom: --cycles {cycles}: is {words}"
+    assert one_error(capsys) == (f"wheelrom: --cycles {cycles}: is {words}"
                                   + (f" (format {KINDS[kind][0]!r})" if kind != "text" else "")
                                   + ", not a limit-cycle file (wheelrom limit-cycle --out)")
 
@@ -424,7 +405,7 @@ def test_cycles_of_other_angles_are_refused_naming_them(held, tmp_path, capsys,
                    "--set", "sweep.shroud_angles_deg=[60.0, 70.0]")
     assert cli.main(argv) == 2
     holds = "it holds tieboss 45 deg, shroud 50 deg" if held else "it holds no case"
-    assert _one_error(capsys) == (
+    assert one_error(capsys) == (
         f"wheelrom: --cycles {cycles}: holds no limit cycle for cases 0..1 (tieboss 45 deg, "
         f"shroud 60 deg, ...): {holds}; give the limit-cycle file of these angles, or no "
         "--cycles (their cycles are then computed here)")
@@ -502,7 +483,7 @@ def test_cycles_with_a_preload_start_are_refused(tmp_path, capsys, nothing_compu
     _wheelrom_file(cycles, "limit-cycle")
     _with_orbit(cycles)
     assert cli.main(_settle("--cycles", str(cycles), "--set", 'settle.start="preload"')) == 2
-    assert _one_error(capsys) == (
+    assert one_error(capsys) == (
         f"wheelrom: --cycles {cycles}: settle.start = 'preload' starts from the preloaded "
         "equilibrium and reads no cycle; drop --cycles, or set settle.start = 'cycle'")
 
@@ -515,7 +496,7 @@ def test_cycles_that_is_no_file_is_named_as_what_it_is(where, what, tmp_path, ca
     """Issue #72, 18: ``--cycles <folder>`` and ``--cycles /dev/null`` said "no such file"."""
     path = {"folder": str(tmp_path), "missing": str(tmp_path / "lc.h5")}.get(where, where)
     assert cli.main(_settle("--cycles", path)) == 2
-    assert _one_error(capsys) == (
+    assert one_error(capsys) == (
         f"wheelrom: --cycles {path}: is {what}, not a limit-cycle file (wheelrom limit-cycle "
         "--out)" if what else f"wheelrom: --cycles {path}: no such file")
 
