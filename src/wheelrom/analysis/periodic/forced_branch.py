@@ -49,8 +49,6 @@ START_FACTOR = 10.0
 CONTRACTION = 0.25
 #: points at most of one curve
 MAX_POINTS = 2000
-#: the frequency's differencing step under the elastic law [share of the frequency]
-DIFFERENCE_STEP = 1e-9
 #: consecutive folds closer than this share of their frequency are one turn: the sampled
 #: AFT's residual has a kink wherever a contact's opening or sticking instant crosses a time
 #: sample, and a smooth turn of the curve (the tip of a bent peak) becomes a zig-zag of
@@ -94,19 +92,11 @@ class ArclengthCorrector:
 
     def system(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
         """``(F, J, converged)``: the scaled balance ``(n,)``, its Jacobian ``(n, n + 1)``
-        and whether the balance meets :meth:`ForcedWave._converged` at ``z``; under the
-        elastic law the Jacobian by central differences (:meth:`ForcedWave.
-        _difference_jacobian`, the frequency's column by :data:`DIFFERENCE_STEP` of it)."""
+        and whether the balance meets :meth:`ForcedWave._converged` at ``z``."""
         X, omega = self.unpack(z)
         p = self.problem
-        if p.balance.elastic:  # the loop's analytic Jacobian misses shaken-down contacts
-            R = p.residual(X, omega)
-            dRdX = p._difference_jacobian(X, omega).reshape(R.shape + R.shape)
-            step = DIFFERENCE_STEP * omega
-            dRdw = (p.residual(X, omega + step) - p.residual(X, omega - step)) / (2 * step)
-        else:
-            R, dRdX, dRdw, _ = p.balance.jacobian(X, omega, p.lam)
-            R = R - p.force
+        R, dRdX, dRdw, _ = p.balance.jacobian(X, omega, p.lam)
+        R = R - p.force
         scale = self.row_scale
         J = np.empty((self.size, self.size + 1))
         J[:, :-1] = (dRdX * scale[:, :, None, None]

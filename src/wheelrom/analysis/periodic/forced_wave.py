@@ -148,21 +148,20 @@ class ForcedWave:
     def solve(self, X0: np.ndarray, omega: float) -> tuple[np.ndarray, bool, int]:
         """The steady state from ``X0`` ``(2H + 1, m)``: ``(X, converged, iterations)``.
 
-        Chord steps first (:meth:`_chord`). Under the elastic law, where they fail, the
-        relaxation along the slow flow (:meth:`_relax`); under the paper law Newton's full
-        steps, then steps backtracked until the residual falls (either alone loses cases the
-        other solves: measured on the small wheel under the elastic law, full steps 7 of 8
-        frequencies near the stuck resonance and 2 of 17 on a coarse grid through the
-        slipping one, backtracking 1 and 12, both together 7 and 13), then the relaxation."""
+        Chord steps first (:meth:`_chord`), then Newton's full steps, then steps backtracked
+        until the residual falls (either alone loses cases the other solves: measured on the
+        small wheel under the elastic law, full steps 7 of 8 frequencies near the stuck
+        resonance and 2 of 17 on a coarse grid through the slipping one, backtracking 1 and
+        12, both together 7 and 13), and where all fail the relaxation along the slow flow
+        (:meth:`_relax`: the friction plateau at a slip onset, issue #69)."""
         X, ok, iterations = self._chord(X0, omega)
         if ok:
             return X, ok, iterations
-        if not self.balance.elastic:
-            for backtrack in (False, True):
-                X, ok, more = self._newton(X0, omega, backtrack=backtrack)
-                iterations += more
-                if ok:
-                    return X, ok, iterations
+        for backtrack in (False, True):
+            X, ok, more = self._newton(X0, omega, backtrack=backtrack)
+            iterations += more
+            if ok:
+                return X, ok, iterations
         X, ok, more = self._relax(X0, omega)
         return X, ok, iterations + more
 
