@@ -230,3 +230,36 @@ def test_without_a_band_the_nonlinear_response_spans_slipping_to_stuck(capsys):
     assert cli.main([*args, "--frequencies", "125:200:5"]) == 0
     assert "nonlinear largest value at the band's lower edge (the resonance lies below it" \
         in capsys.readouterr().out
+
+
+def test_the_friction_plateau_is_solved_at_every_frequency(capsys):
+    """Issue #69: the small wheel under stiff, rough contacts (``k_t`` 7.6e7 N/m, Coulomb 0.6)
+    at 0.02 N, shroud 45 deg, swept through its stuck resonance (2.83 um at 258.009 Hz): where
+    the stuck response would pass the contacts' slip onset they slip and hold a friction
+    plateau. Every one of the 41 frequencies is solved (9 holes over the plateau before the
+    slow flow's relaxation), the plateau is flat (1.130-1.137 um: within 1 % over 257.99-258.03
+    Hz, where the stuck response would reach 1.2-2.8 um), and off it the contacts stick and
+    the curve is the linear (stuck) response, a second computation, to 1e-3."""
+    import json
+
+    from conftest import SMALL
+    from wheelrom.cli import main as cli
+
+    keys = ['contacts.law="elastic"', "contacts.tieboss.tangential_stiffness=7.6e7",
+            "contacts.shroud.tangential_stiffness=7.6e7", "friction.coulomb=0.6",
+            "excitation.force=0.02", 'flutter.model="off"']
+    argv = ["forced-response", SMALL, *[a for k in keys for a in ("--set", k)],
+            "--angle", "shroud", "45", "--frequencies", "257.90:258.10:41", "--nonlinear",
+            "--harmonics", "3", "--json"]
+    assert cli.main(argv) == 0
+    out = json.loads(capsys.readouterr().out)
+    nl = out["nonlinear"]
+    assert all(nl["converged"]), nl["converged"]
+    f = np.array(out["frequency_hz"])
+    linear, curve = np.array(out["max_amplitude_m"]), np.array(nl["tip_amplitude_m"])
+    plateau = (f >= 257.99 - 1e-9) & (f <= 258.03 + 1e-9)
+    assert curve[plateau].max() / curve[plateau].min() < 1.01
+    assert np.all(curve[plateau] < 0.95 * linear[plateau])  # held below the stuck response
+    stuck = curve < 0.9 * curve[plateau].min()  # far below the slip onset: the contacts stick
+    assert stuck.sum() >= 25
+    np.testing.assert_allclose(curve[stuck], linear[stuck], rtol=1e-3)

@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from wheelrom.forces.contact_law import tangential_force
+from wheelrom.forces.contact_law import L_MU, tangential_force
 from wheelrom.forces.parameters import ForceParameters
 from wheelrom.runtime import kernel_cache as _kernel_cache
 
@@ -118,10 +118,12 @@ class ReferenceForces:
         period (0: all ``S``); the states are then ``S / block`` periods marched each on its
         own from its first slider. None: zeros (the paper law reads none).
 
-        ``max_periods > periods``: the march goes on, up to ``max_periods``, until a period
-        moves no slider by more than ``tolerance`` [m] from where it began (the loop is
-        periodic: its forces are those written), its geometric walk to the shakedown loop
-        extrapolated (:func:`_extrapolated`); returns the largest such move of the last
+        ``max_periods > periods``: the march goes on, up to ``max_periods``, until what is
+        left of every contact's walk to its loop is within ``tolerance`` [m] (its last
+        period's move over one minus the walk's period-to-period shrink, :func:`_walks_closed`:
+        the loop is periodic, its forces are those written), the walk extrapolated
+        (:func:`_extrapolated`) or, where it zig-zags between two stick discs, closed onto
+        their loop at once (:func:`_closed_loops`); returns the largest move of the last
         period over the blocks (0 without sliders); ``self.marched_periods``: the most
         periods a block took. ``returned`` ``(S, K, N, 2)``: filled with the slider each
         state returns (its ``slider_next``: the harmonic balance's slider tangents)."""
@@ -185,27 +187,39 @@ def _kernel_samples(q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p
                     power_out, state_out, returned):
     """:func:`_kernel` at ``t = 0`` for every state ``q[i], v[i]`` (``(S, N, m)``) with the
     slider ``sliders[i]``, or marched (``periods > 0``, :meth:`evaluate_samples`: at least
-    ``periods``, up to ``max_periods`` until a period moves no slider by more than
-    ``tolerance``; ``drift[0]``: the largest last move, ``drift[1]``: the most periods a
+    ``periods``, up to ``max_periods`` until every contact's walk is within ``tolerance``
+    of its loop; ``drift[0]``: the largest last move, ``drift[1]``: the most periods a
     block took), keeping blade pair 0's normal
     force, friction power and state per contact kind (and, when ``returned`` has a row per
     state, each state's returned slider)."""
     drift[0], drift[1] = 0.0, 0.0
     move, last_move = np.empty_like(slider), np.empty_like(slider)
+    K, N = slider.shape[0], slider.shape[1]
+    # per contact: the last aligned move ratio (-1: none), the walk's period-to-period shrink
+    # (0: none measured) and the last period's move [m] (0: none, or a jump since)
+    ratios, rates, sizes = np.empty((K, N)), np.empty((K, N)), np.empty((K, N))
+    # per sample of the last period and contact: its stick disc (centre, radius) [m]
+    discs = np.empty((block if periods > 0 else 1, K, N, 3))
+    slips = np.empty((K, N, 2), dtype=np.int64)
+    count = np.zeros((K, N), dtype=np.int64)
     for start in range(0, q.shape[0], block):
         if periods > 0:
             _copy(slider, sliders[start])
         last_move[...] = 0.0
-        last_ratio = -1.0
+        ratios[...], rates[...], sizes[...] = -1.0, 0.0, 0.0
         for period in range(max(max_periods, 1)):
-            if period >= periods > 0:  # the last period's loop closed: its forces stand
-                if _moved(move, slider, sliders[start]) <= tolerance:
+            if periods > 0 and period >= 1:
+                _moved(move, slider, sliders[start])
+                closed = _walks_closed(move, sizes, rates, tolerance)
+                if period >= periods and closed:
                     break
-                if max_periods > periods:
-                    last_ratio = _extrapolated(slider, move, last_move, last_ratio)
+                if period >= periods and max_periods > periods:
+                    _closed_loops(slider, discs, slips, count, rates, last_move, ratios, sizes)
+                    _extrapolated(slider, move, last_move, ratios, sizes)
             elif period >= max(periods, 1):
                 break
             drift[1] = max(drift[1], period + 1.0)
+            count[...] = 0
             for i in range(start, start + block):
                 if periods > 0:
                     _copy(sliders[i], slider)  # what this sample sees: the last one's return
@@ -217,6 +231,8 @@ def _kernel_samples(q, v, out, omega, n_s, Fb, p_exc, phase, vdp_model, mu, r, p
                 if returned.shape[0] == q.shape[0]:
                     _copy(returned[i], slider_next)
                 if periods > 0:
+                    _record_discs(i - start, law, kt, normal, rel_u, slider, slider_next, discs,
+                                  slips, count)
                     _copy(slider, slider_next)
         if periods > 0:
             drift[0] = max(drift[0], _moved(move, slider, sliders[start]))
@@ -249,15 +265,136 @@ def _moved(move, slider, start):
 RATIO_AGREEMENT, ALIGNED = 0.1, 1e-3
 #: ... and lies in this range
 RATIO_RANGE = (0.3, 0.9999)
+#: a walk that does not shrink (rate 1 and above) is closed when its move is this many
+#: times below the tolerance
+WALK_GAIN = 1e6
+#: a walk shrinking slower than this a period is closed onto its two-slip loop where there is
+#: one (:func:`_closed_loops`)
+LOOP_RATE = 0.5
+#: a contact's move ratio that says it jumped onto its loop this period
+JUMPED = -2.0
 
 
 @_kernel_cache.njit(fastmath=False)
-def _extrapolated(slider, move, last_move, last_ratio):
-    """Accelerate the march's walk to its shakedown loop; returns the ratio for the next call.
+def _record_discs(i, law, kt, normal, rel_u, slider, slider_next, discs, slips, count):
+    """Keep sample ``i``'s stick disc of every contact (centre: the tangential relative
+    displacement, radius ``mu F_n / k_t`` [m]) and whether the contact slipped there (its
+    slider returned elsewhere; ``count`` -1: it opened this period, no loop is closed)."""
+    for c in range(slider.shape[0]):
+        for s in range(slider.shape[1]):
+            discs[i, c, s, 0] = rel_u[c, s, 0]
+            discs[i, c, s, 1] = rel_u[c, s, 2]
+            discs[i, c, s, 2] = law[L_MU] * normal[c, s] / kt[c, s]
+            if count[c, s] < 0:
+                continue
+            if normal[c, s] <= 0.0:
+                count[c, s] = -1
+            elif slider_next[c, s, 0] != slider[c, s, 0] or \
+                    slider_next[c, s, 1] != slider[c, s, 1]:
+                if count[c, s] < 2:
+                    slips[c, s, count[c, s]] = i
+                count[c, s] += 1
+
+
+@_kernel_cache.njit(fastmath=False)
+def _closed_loops(slider, discs, slips, count, rates, last_move, ratios, sizes):
+    """Move each contact that slipped at exactly two samples of the last period and walks
+    slowly (its ``rates`` at least :data:`LOOP_RATE`) onto the loop its walk converges to,
+    where that loop holds at every sample (its walk's records reset: the next move is the
+    jump's error).
+
+    The elastic law's return is the projection onto the sample's stick disc, so the march
+    projects the slider onto the discs in turn. Two discs that a contact slips on and that
+    barely meet (or barely miss each other) are a slow walk: the projections zig-zag between
+    them with a period-to-period ratio ``1 - gap / radius`` (0.9999 on the small wheel's shroud
+    just past its shakedown onset, the plain march 1e5 periods from its loop). Its limit is
+    known: where the discs meet, the corner of their lens nearer the slider (the contact then
+    sticks throughout); where they miss each other, the slider sits at the two discs' nearest
+    points in turn (slipping at the two samples). The loop is taken when every other sample
+    of the period sticks on it; the march goes on from there and its own test closes it."""
+    n = discs.shape[0]
+    for c in range(slider.shape[0]):
+        for s in range(slider.shape[1]):
+            if count[c, s] != 2 or rates[c, s] < LOOP_RATE:
+                continue
+            i1, i2 = slips[c, s, 0], slips[c, s, 1]
+            x1, y1, r1 = discs[i1, c, s, 0], discs[i1, c, s, 1], discs[i1, c, s, 2]
+            x2, y2, r2 = discs[i2, c, s, 0], discs[i2, c, s, 1], discs[i2, c, s, 2]
+            d = math.sqrt((x2 - x1) ** 2 + (y2 - y1) ** 2)
+            if d <= abs(r1 - r2) or d <= 0.0:
+                continue  # one disc inside the other: no two-slip loop
+            ex, ey = (x2 - x1) / d, (y2 - y1) / d
+            if d <= r1 + r2:  # the lens' corner nearer the slider: a stuck loop
+                a = (r1 * r1 - r2 * r2 + d * d) / (2.0 * d)
+                h = math.sqrt(max(r1 * r1 - a * a, 0.0))
+                px, py = x1 + a * ex - h * ey, y1 + a * ey + h * ex
+                qx, qy = x1 + a * ex + h * ey, y1 + a * ey - h * ex
+                w0, w1 = slider[c, s, 0], slider[c, s, 1]
+                if (qx - w0) ** 2 + (qy - w1) ** 2 < (px - w0) ** 2 + (py - w1) ** 2:
+                    px, py = qx, qy
+                ok = True
+                for i in range(n):
+                    ok = ok and _inside(discs, i, c, s, px, py)
+                if ok:
+                    slider[c, s, 0], slider[c, s, 1] = px, py
+                    _restart(c, s, last_move, ratios, sizes)
+                continue
+            # the nearest points: on disc 1 towards disc 2 from sample i1 to i2, then back
+            ax, ay = x1 + r1 * ex, y1 + r1 * ey
+            bx, by = x2 - r2 * ex, y2 - r2 * ey
+            ok = True
+            for i in range(n):
+                if i1 < i <= i2 - 1 or i == i1:
+                    ok = ok and _inside(discs, i, c, s, ax, ay)
+                else:
+                    ok = ok and _inside(discs, i, c, s, bx, by)
+            if ok:  # the period ends after sample i2: on disc 2's nearest point
+                slider[c, s, 0], slider[c, s, 1] = bx, by
+                _restart(c, s, last_move, ratios, sizes)
+
+
+@_kernel_cache.njit(fastmath=False)
+def _restart(c, s, last_move, ratios, sizes):
+    """Forget contact ``(c, s)``'s walk (it jumped: its next move is the jump's error)."""
+    last_move[c, s, 0], last_move[c, s, 1] = 0.0, 0.0
+    ratios[c, s], sizes[c, s] = JUMPED, 0.0
+
+
+@_kernel_cache.njit(fastmath=False)
+def _inside(discs, i, c, s, x, y):
+    """Whether ``(x, y)`` [m] lies in sample ``i``'s stick disc of contact ``(c, s)`` (to
+    1e-12 of its radius: a point on the rim is the rim's)."""
+    dx, dy = x - discs[i, c, s, 0], y - discs[i, c, s, 1]
+    return math.sqrt(dx * dx + dy * dy) <= discs[i, c, s, 2] * (1.0 + 1e-12)
+
+
+@_kernel_cache.njit(fastmath=False)
+def _walks_closed(move, sizes, rates, tolerance):
+    """Whether every contact's walk has closed its loop: what is left of a geometric walk,
+    its move over ``1 - rate``, within ``tolerance`` [m] (not the move alone: a walk that
+    shrinks by 1e-4 a period stops 1e4 moves short of its loop, and the march's forces would
+    jump where the move crosses the tolerance). ``move`` ``(K, N, 2)`` the last period's;
+    ``sizes``, ``rates`` ``(K, N)`` updated (a size 0: none since a jump, the rate kept)."""
+    closed = True
+    for k in range(move.shape[0]):
+        for n in range(move.shape[1]):
+            size = math.sqrt(move[k, n, 0] ** 2 + move[k, n, 1] ** 2)
+            if sizes[k, n] > 0.0:
+                rates[k, n] = size / sizes[k, n]
+            sizes[k, n] = size
+            closed = closed and size <= tolerance * max(1.0 - rates[k, n], 1.0 / WALK_GAIN)
+    return closed
+
+
+@_kernel_cache.njit(fastmath=False)
+def _extrapolated(slider, move, last_move, ratios, sizes):
+    """Accelerate each contact's walk to its shakedown loop (contacts walk on their own: a
+    slider's return depends on its own contact's motion only).
 
     ``slider`` (moved in place) is the sliders' state at the end of a period, ``move`` that
-    period's move, ``last_move`` the previous period's (zeros: none; updated) and
-    ``last_ratio`` the ratio of the two moves before (-1: none).
+    period's move, ``last_move`` the previous period's (zeros: none; updated), ``ratios``
+    ``(K, N)`` the ratio of the two moves before (-1: none; updated) and ``sizes`` the last
+    moves' lengths (set to 0 where a contact jumped: its next move is the jump's error).
 
     A contact in partial slip walks towards its loop: the distance left shrinks as
     ``e_(n+1) = e_n - c e_n^p`` a period, the move ``d_n = c e_n^p``. ``p = 1`` is a
@@ -274,26 +411,30 @@ def _extrapolated(slider, move, last_move, last_ratio):
     is, never what counts as converged."""
     # loops, not array expressions: numba compiles a broadcast's shape-error message with
     # every array expression (seconds of compile time for a few lines)
-    size, last_size, dot = 0.0, 0.0, 0.0
     for k in range(move.shape[0]):
         for n in range(move.shape[1]):
-            for j in range(move.shape[2]):
+            if ratios[k, n] == JUMPED:  # onto its loop this period (:func:`_closed_loops`)
+                ratios[k, n] = -1.0
+                continue
+            size, last_size, dot = 0.0, 0.0, 0.0
+            for j in range(2):
                 size += move[k, n, j] * move[k, n, j]
                 last_size += last_move[k, n, j] * last_move[k, n, j]
                 dot += move[k, n, j] * last_move[k, n, j]
-    size, last_size = np.sqrt(size), np.sqrt(last_size)
-    ratio = -1.0  # none measured
-    if size > 0.0 and last_size > 0.0 and dot >= (1.0 - ALIGNED) * size * last_size:
-        ratio = dot / (last_size * last_size)
-    jump = (last_ratio >= 0.0 and RATIO_RANGE[0] < ratio < RATIO_RANGE[1]
-            and abs(ratio - last_ratio) < RATIO_AGREEMENT * (1.0 - ratio))
-    for k in range(move.shape[0]):
-        for n in range(move.shape[1]):
-            for j in range(move.shape[2]):
+            size, last_size = np.sqrt(size), np.sqrt(last_size)
+            ratio = -1.0  # none measured
+            if size > 0.0 and last_size > 0.0 and dot >= (1.0 - ALIGNED) * size * last_size:
+                ratio = dot / (last_size * last_size)
+            last = ratios[k, n]
+            jump = (last >= 0.0 and RATIO_RANGE[0] < ratio < RATIO_RANGE[1]
+                    and abs(ratio - last) < RATIO_AGREEMENT * (1.0 - ratio))
+            for j in range(2):
                 if jump:
                     slider[k, n, j] += move[k, n, j] * (ratio / (1.0 - ratio))
                 last_move[k, n, j] = 0.0 if jump else move[k, n, j]
-    return -1.0 if jump else ratio
+            ratios[k, n] = -1.0 if jump else ratio
+            if jump:
+                sizes[k, n] = 0.0
 
 
 @_kernel_cache.njit(fastmath=False)

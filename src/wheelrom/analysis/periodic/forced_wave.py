@@ -47,6 +47,13 @@ ROUNDOFF_STATIC = 1e-10
 ROUNDOFF_MOVING = 1e-7
 #: time samples per period at least of the 0-peak tip amplitude
 AMPLITUDE_SAMPLES = 512
+#: the slow flow's relaxation (:meth:`ForcedWave._relax`): its first step [periods], steps
+#: at most, steps one Jacobian serves at most, the Jacobian's differencing step [share of a
+#: row's size], a step's reach [share of the vibration's largest harmonic]
+RELAX_START, RELAX_STEPS, RELAX_CHORD, RELAX_STEP, RELAX_REACH = 25.0, 150, 4, 1e-6, 0.3
+#: steps without a new smallest residual before it gives up, then Newton's iterations from
+#: its closest state
+RELAX_PATIENCE, RELAX_POLISH = 40, 6
 #: halvings of a frequency step whose Newton solve failed (:func:`stepped_solve`)
 SUBSTEPS = 3
 #: the secant predictor's step at most this many times the step between the two solutions
@@ -139,20 +146,149 @@ class ForcedWave:
         return self.balance.residual(X, omega, self.lam) - self.force
 
     def solve(self, X0: np.ndarray, omega: float) -> tuple[np.ndarray, bool, int]:
-        """Newton from ``X0`` ``(2H + 1, m)``: ``(X, converged, iterations)``; full steps
-        first, then, if they fail, steps backtracked until the residual falls (either alone
-        loses cases the other solves: measured on the small wheel under the elastic law,
-        full steps 7 of 8 frequencies near the stuck resonance and 2 of 17 on a coarse grid
-        through the slipping one, backtracking 1 and 12, both together 7 and 13)."""
+        """The steady state from ``X0`` ``(2H + 1, m)``: ``(X, converged, iterations)``.
+
+        Chord steps first (:meth:`_chord`), then Newton's full steps, then steps backtracked
+        until the residual falls (either alone loses cases the other solves: measured on the
+        small wheel under the elastic law, full steps 7 of 8 frequencies near the stuck
+        resonance and 2 of 17 on a coarse grid through the slipping one, backtracking 1 and
+        12, both together 7 and 13), and where all fail the relaxation along the slow flow
+        (:meth:`_relax`: the friction plateau at a slip onset, issue #69)."""
         X, ok, iterations = self._chord(X0, omega)
         if ok:
             return X, ok, iterations
-        X, ok, more = self._newton(X0, omega, backtrack=False)
-        iterations += more
-        if ok:
-            return X, ok, iterations
-        X, ok, more = self._newton(X0, omega, backtrack=True)
+        for backtrack in (False, True):
+            X, ok, more = self._newton(X0, omega, backtrack=backtrack)
+            iterations += more
+            if ok:
+                return X, ok, iterations
+        X, ok, more = self._relax(X0, omega)
         return X, ok, iterations + more
+
+    def _relax(self, X0: np.ndarray, omega: float) -> tuple[np.ndarray, bool, int]:
+        """Pseudo-transient continuation from ``X0`` ``(2H + 1, m)`` at ``omega`` [rad/s]
+        along the balance's slow flow: ``(X, converged, steps)``.
+
+        The harmonics of a slowly varying motion ``Re(c_h e^{i h tau})`` obey (unit modal
+        mass, ``c''`` dropped) ``2 i h omega c_h' = -R_h``: the residual drives them as the
+        transient would, and a steady state is where they rest. Implicit Euler steps of
+        this flow, the mean held in static balance, ``(D / dt - J) dX = R`` with ``D`` the
+        flow's ``2 h omega`` rotation of each harmonic's (Re, Im) pair and ``J`` the
+        residual's Jacobian, are Newton's step regularised along ``D``: a step ``dt`` of
+        :data:`RELAX_START` periods at first, doubled where the residual falls, kept where
+        it grows less than twice, quartered where it grows more; every step taken (the
+        march's loop has kinks the flow must cross: refusing the steps that grow the
+        residual stalled it at them), the vibration moved by at most :data:`RELAX_REACH` of
+        itself a step (a large force from rest otherwise overshoots and diverges: the small
+        wheel at 10 N, 252 Hz); ``dt`` to infinity is Newton. It gives up after
+        :data:`RELAX_PATIENCE` steps without a new smallest residual, and Newton takes over
+        from its closest state (:meth:`_polish`).
+
+        Why: at a lightly damped resonance whose contacts just start to slip the response
+        is held at the slip onset by a dissipation that rises steeply with the amplitude,
+        and the balance is stiff on the slipping side, near-singular (the resonance) on the
+        sticking side and kinked between: Newton's step from either side lands far on the
+        other (measured on the small wheel at 0.02 N: 9 frequencies of 41 unsolved, the
+        Newton step growing the residual 4000-fold, its backtracked steps stalling, least
+        squares (Levenberg-Marquardt) and a continuation in the force stalling at the
+        onset's corner, where the curve at a fixed frequency folds). The slow flow passes
+        the corner as the vibration builds up to it (all 41 solved, 10-40 steps).
+
+        Under the elastic law ``J`` is the residual's central difference (:meth:`
+        _difference_jacobian`): the loop's analytic Jacobian misses the grazing and
+        shaken-down contacts' sliders there (10-50 % off in the harmonic-1 and mean blocks,
+        against a resonance whose smallest singular value is 1e-6 of the largest), with it
+        the relaxation reaches the plateau and wanders on it. ``J`` is kept for up to
+        :data:`RELAX_CHORD` steps while each step halves the residual."""
+        b = self.balance
+        X = np.array(X0, dtype=float)
+        n, m = b.size, b.modes
+        flow = np.zeros((n, n))  # D: the slow flow's rotation of each harmonic pair
+        for h in range(1, self.harmonics + 1):
+            re = (2 * h - 1) * m + np.arange(m)
+            flow[re, re + m] = 2 * h * omega
+            flow[re + m, re] = -2 * h * omega
+        dt = RELAX_START * 2 * math.pi / omega
+        R = self.residual(X, omega)
+        J, age, slow, best, since, closest = None, 0, False, math.inf, 0, X
+        for step in range(RELAX_STEPS + 1):
+            if not np.all(np.isfinite(R)):
+                return X, False, step
+            if self._converged(R, X, omega):
+                return X, True, step
+            if step == RELAX_STEPS or since > RELAX_PATIENCE:
+                return self._polish(closest, omega, step)
+            if J is None or age >= RELAX_CHORD or slow:
+                J = self._difference_jacobian(X, omega) if b.elastic \
+                    else self._jacobian(X, omega)[0]
+                age = 0
+            size = float(np.linalg.norm(R / self._row_scale(X, omega)))
+            if size < best:
+                best, since, closest = size, 0, X
+            else:
+                since += 1
+            try:
+                dX = np.linalg.solve(flow / dt - J, R.ravel()).reshape(X.shape)
+            except np.linalg.LinAlgError:
+                return self._polish(closest, omega, step)
+            vibration, moved = float(np.abs(X[1:]).max()), float(np.abs(dX[1:]).max())
+            if 0 < vibration and RELAX_REACH * vibration < moved:
+                dX *= RELAX_REACH * vibration / moved
+            X = X + dX
+            R_new = self.residual(X, omega)
+            grown = float(np.linalg.norm(R_new / self._row_scale(X, omega)))
+            dt *= 2.0 if grown < size else 1.0 if grown < 2.0 * size else 0.25
+            R, age, slow = R_new, age + 1, not grown < 0.5 * size
+        return self._polish(closest, omega, RELAX_STEPS)
+
+    def _polish(self, X0: np.ndarray, omega: float, steps: int) -> tuple[np.ndarray, bool, int]:
+        """Newton from ``X0``, the relaxation's closest state, when the flow did not settle:
+        ``(X, converged, steps + iterations)``. The flow leaves a steady state it cannot rest
+        on (one that a slipping contact makes unstable: measured on the small wheel at 1 N,
+        257.945 Hz, the residual falling to 2e-6 of its terms, then growing by 1.4 a step
+        towards another branch); the balance holds it all the same."""
+        X = np.array(X0, dtype=float)
+        for it in range(RELAX_POLISH + 1):
+            R = self.residual(X, omega)
+            if not np.all(np.isfinite(R)):
+                break
+            if self._converged(R, X, omega):
+                return X, True, steps + it
+            if it == RELAX_POLISH:
+                break
+            J = self._difference_jacobian(X, omega) if self.balance.elastic \
+                else self._jacobian(X, omega)[0]
+            try:
+                X = X - np.linalg.solve(J, R.ravel()).reshape(X.shape)
+            except np.linalg.LinAlgError:
+                break
+        return X0, False, steps + RELAX_POLISH
+
+    def _row_scale(self, X: np.ndarray, omega: float) -> np.ndarray:
+        """``(2H + 1, 1)`` each equation's scale: the mean's largest linear term (the
+        preload's static forces), the harmonics' largest."""
+        terms = np.abs(self.balance.linear_term(X, omega, self.lam))
+        return np.maximum(np.r_[terms[0].max(), np.full(terms.shape[0] - 1,
+                                                       terms[1:].max())], 1e-300)[:, None]
+
+    def _difference_jacobian(self, X: np.ndarray, omega: float) -> np.ndarray:
+        """``(n, n)`` the residual's Jacobian at ``X`` by central differences of
+        :data:`RELAX_STEP` of each row's size (the mean's and the harmonics' largest entry:
+        the march's loop moves with the motion; a step of the loop Jacobian's 1e-10 m
+        crosses the sampled onsets' kinks at a response of 1e-6 m); where a row is zero (at
+        rest), the balance's own step."""
+        b = self.balance
+        n, m = b.size, b.modes
+        size = np.r_[np.abs(X[0]).max(), np.full(X.shape[0] - 1, np.abs(X[1:]).max())]
+        J = np.empty((n, n))
+        for k in range(n):
+            row, mode = divmod(k, m)
+            h = RELAX_STEP * size[row] if size[row] > 0 else b.fd_step[mode]
+            d = np.zeros_like(X)
+            d[row, mode] = h
+            J[:, k] = (self.residual(X + d, omega) - self.residual(X - d, omega)).ravel() \
+                / (2 * h)
+        return J
 
     def _chord(self, X0: np.ndarray, omega: float):
         """Newton with the Jacobian kept while the residual falls by :data:`CONTRACTION` an
@@ -332,7 +468,11 @@ def predicted_solve(problem: ForcedWave, X: np.ndarray, last: float | None, w: f
     ``before`` ``(X, omega)`` and ``X`` (the last two converged solutions) when the step is
     at most :data:`SECANT_REACH` times theirs, and :func:`stepped_solve` from ``X`` when
     that fails or there is no secant (measured on the paper wheel's 200-point curves: 10-20 %
-    fewer Newton iterations, 30 % (elastic law) to 50 % (paper law) less time)."""
+    fewer Newton iterations, 30 % (elastic law) to 50 % (paper law) less time); when that
+    fails too, from rest (the mean kept): past a fold of the curve the branch followed
+    ends, and the vibration built up from rest settles on another (measured on the small
+    wheel's friction plateau at 0.1 N: the branch from below ends at 258.06 Hz, 1.13 um,
+    the one from rest holds 1.15 um up to 258.1 Hz)."""
     iterations = 0
     if before is not None and last is not None and before[1] != last:
         ratio = (w - last) / (last - before[1])
@@ -341,6 +481,14 @@ def predicted_solve(problem: ForcedWave, X: np.ndarray, last: float | None, w: f
             if ok:
                 return X_new, ok, iterations
     X_new, ok, more = stepped_solve(problem, X, last, w)
+    iterations += more
+    if ok or last is None:
+        return X_new, ok, iterations
+    # the branch ended (a fold of the frequency): the state the vibration builds up to from
+    # rest, as a sweep jumps there
+    rest = np.zeros_like(X)
+    rest[0] = X[0]
+    X_new, ok, more = problem.solve(rest, w)
     return X_new, ok, iterations + more
 
 

@@ -47,8 +47,12 @@ from wheelrom.rom.model import ReducedModel
 #: periods the AFT marches the elastic law's sliders (NLvib and pyHarm march 2-3): the loop
 #: of a contact that slips in the first period is closed in the second
 MARCH_PERIODS = 3
-#: ... and on, up to this many, until a period moves no slider by more than
-#: :data:`MARCH_TOLERANCE` [m]: a contact in partial slip whose normal force varies with its
+#: ... and on, up to this many, until what is left of every slider's walk to its loop (the
+#: period's move over one minus the walk's shrink a period: a move alone stopped a walk
+#: shrinking by 1e-4 a period 1e4 moves short of its loop, and the forces jumped where
+#: that move crossed the tolerance) is within :data:`MARCH_TOLERANCE` [m] (the walk
+#: closed by :func:`wheelrom.forces.reference._closed_loops` where it zig-zags between two
+#: stick discs): a contact in partial slip whose normal force varies with its
 #: tangential motion walks towards its shakedown loop over hundreds of periods (measured on
 #: the small wheel's stuck resonance, shroud slipping 56 % of the period: the harmonic
 #: forces after 3 periods 8.5e-5 of the harmonics' terms off the periodic loop's, 1.7e-6
