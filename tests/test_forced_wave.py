@@ -220,9 +220,15 @@ def test_without_a_band_the_nonlinear_response_spans_slipping_to_stuck(capsys):
     assert "peak_at_edge" not in nl and "no_resonance" not in nl
     assert lo < nl["peak_frequency_hz"] < 1.05 * 120.02  # at the slipping resonance
     assert nl["peak_amplitude_m"] == max(a for a in nl["tip_amplitude_m"] if a is not None)
+    # the refined peak: a maximum of the solved curve between the grid neighbours of its
+    # largest point, at least that point's amplitude
+    f = out["frequency_hz"]
+    i = f.index(nl["peak_frequency_hz"])
+    assert f[i - 1] < nl["refined_peak_frequency_hz"] < f[i + 1]
+    assert nl["refined_peak_amplitude_m"] >= nl["peak_amplitude_m"]
     assert cli.main([*args, "--json", "--frequencies", "125:200:5"]) == 0
     nl = json.loads(capsys.readouterr().out)["nonlinear"]
-    assert nl["peak_at_edge"] == "lower"
+    assert nl["peak_at_edge"] == "lower" and "refined_peak_amplitude_m" not in nl
     assert nl["peak_frequency_hz"] == pytest.approx(125.0, rel=1e-12)
     assert nl["no_resonance"].endswith("the linear response computed here is off resonance; "
                                        "the nonlinear response's largest value is at the "

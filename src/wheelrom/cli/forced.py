@@ -221,7 +221,7 @@ def _nonlinear(model, cfg, grid: np.ndarray, angles: dict | None, harmonics: int
         f"contacts.law = '{cfg.contacts.law}') at {grid.size} frequencies{ranks}")
     inputs = forced_inputs(model, cfg, angles, comm_self())  # the grid's and the trace's
     curve = nonlinear_forced(model, cfg, grid, angles, harmonics, comm_self(), inputs=inputs,
-                             ranks=world)
+                             ranks=world, refine=True)
     amplitude = [float(a) if ok else None
                  for a, ok in zip(curve.tip_amplitude, curve.converged, strict=True)]
     out = {"law": cfg.contacts.law, "harmonics": harmonics, "tip_amplitude_m": amplitude,
@@ -244,6 +244,13 @@ def _nonlinear(model, cfg, grid: np.ndarray, angles: dict | None, harmonics: int
                 f"{out['peak_at_edge']} edge" if "peak_at_edge" in out else
                 f"; the nonlinear response peaks inside it, at "
                 f"{curve.frequency[i] / (2 * math.pi):.5g} Hz")
+        r = curve.refined
+        if r is not None and "peak_at_edge" not in out:  # the maximum off the grid
+            out["refined_peak_amplitude_m"] = float(r.tip_amplitude)
+            out["refined_peak_frequency_hz"] = float(r.frequency / (2 * math.pi))
+            out["refined_peak_shares"] = {
+                kind: dict(zip(("open", "stick", "slip"), map(float, r.fractions[k]),
+                               strict=True)) for k, kind in enumerate(curve.kinds)}
         out["peak_amplitude_m"] = float(curve.tip_amplitude[i])
         out["peak_frequency_hz"] = float(curve.frequency[i] / (2 * math.pi))
         out["peak_speed_hz"] = out["peak_frequency_hz"] / cfg.wheel.stator_vanes
@@ -503,6 +510,12 @@ def _print_nonlinear(out: dict) -> None:
         print(f"{where}: {nl['peak_amplitude_m']:.4e} m at "
               f"{nl['peak_frequency_hz']:.4f} Hz, speed {nl['peak_speed_hz']:.4f} Hz "
               f"({shares or 'no contacts'})")
+    if "refined_peak_amplitude_m" in nl:
+        shares = "; ".join(f"{kind} open {100 * s['open']:.0f} %, stick {100 * s['stick']:.0f}"
+                           f" %, slip {100 * s['slip']:.0f} %"
+                           for kind, s in nl["refined_peak_shares"].items())
+        print(f"refined nonlinear peak: {nl['refined_peak_amplitude_m']:.6e} m at "
+              f"{nl['refined_peak_frequency_hz']:.6f} Hz ({shares or 'no contacts'})")
     if "exact" in nl:
         _print_exact(nl["exact"])
     if "traced" in nl:
