@@ -59,7 +59,8 @@ def main(angles: list[float]) -> None:
                 # the march stops on its energy's tolerance, near its orbit but not on it
                 # (its tip estimate 6 % off at 45 deg): the orbit it tends to, by a shot
                 found = shooting.solve(x, period, cycle.tip_amplitude)
-                ends.append((seed, _tip(shooting, found) if found.converged else math.nan))
+                ends.append((seed, shooting.samples(found).tip_amplitude(model.tip)
+                             if found.converged else math.nan))
         finally:
             shooting.destroy()
         words = "no band (no contact stuck all period)" if band is None else (
@@ -76,16 +77,6 @@ def main(angles: list[float]) -> None:
               flush=True)
         del res, cycle, band
         gc.collect()  # the case's PETSc objects freed before PETSc finalises at exit
-
-
-def _tip(shooting, orbit) -> float:
-    """[m] an orbit's 0-peak tip amplitude over its period's steps (the band's measure)."""
-    import numpy as np
-
-    path = shooting.samples(orbit)
-    q0 = path.states[:, 0, 0]  # (steps, m) blade 0's displacement
-    tip = (q0 - q0.mean(axis=0)) @ shooting.model.tip.T
-    return float(np.linalg.norm(tip, axis=1).max())
 
 
 if __name__ == "__main__":

@@ -71,6 +71,7 @@ def cmd_forced(args: argparse.Namespace) -> int:
     from wheelrom.rom.bases import basis_size
     from wheelrom.rom.build import build_model, quiet
     from wheelrom.studies.forced_nonlinear import (
+        BAND_MARGIN,
         check_nonlinear_memory,
         nonlinear_inputs_problem,
     )
@@ -108,8 +109,14 @@ def cmd_forced(args: argparse.Namespace) -> int:
     model = build_model(cfg, comm_self(), log=say)
     if cfg.forced.over == "speed":
         say(_speed_note(model, cfg))
-    if args.nonlinear and band is None and not cfg.forced.band_hz:
-        band = _nonlinear_band(model, cfg, angles, say)
+    resonances = None
+    if args.nonlinear:  # friction holds the nonlinear resonance between these two
+        automatic, resonances = _nonlinear_resonances(model, cfg, angles)
+        if band is None and not cfg.forced.band_hz:
+            band = (automatic[0] / (2 * math.pi), automatic[1] / (2 * math.pi))
+            say(f"the band {band[0]:.5g}..{band[1]:.5g} Hz: the resonance with the contacts "
+                f"{_resonance_words(resonances, ' to ')}, +-{BAND_MARGIN:.0%} (friction "
+                "holds the nonlinear one between them; --frequencies sets another)")
     say("the tuned reference (mistuning removed)" if not model.tuned else "the tuned wheel")
     tuned = tuned_reference(model, cfg, [model.mistuning], contacts, angles, comm_self(),
                             band_hz=band, points=points)
@@ -122,7 +129,8 @@ def cmd_forced(args: argparse.Namespace) -> int:
     curve, world = None, world_if_parallel()
     if args.nonlinear:
         out["nonlinear"], curve = _nonlinear(model, cfg, response.grid, angles,
-                                             args.harmonics, say, args.exact, world)
+                                             args.harmonics, say, resonances, args.exact,
+                                             world)
     failure = None
     if world is None or world.rank == 0:  # every rank holds the result: rank 0 tells it
         if args.json:
@@ -137,23 +145,38 @@ def cmd_forced(args: argparse.Namespace) -> int:
     return 0
 
 
-def _nonlinear_band(model, cfg, angles: dict | None, say) -> tuple[float, float]:
-    """[Hz] the band of ``--nonlinear`` without ``--frequencies`` or ``forced.band_hz``: from
-    the excited ND's resonance with the contacts slipping to the one with them stuck, widened
-    (:func:`~wheelrom.studies.forced_nonlinear.nonlinear_band`, the design study's): friction
-    holds the nonlinear resonance between the two, while the linear peak search's band is the
-    stuck resonance's +-1 % and misses it (the paper wheel at 1 N: 130 Hz against 146.8)."""
-    from wheelrom.studies.forced_nonlinear import BAND_MARGIN, nonlinear_band
+def _nonlinear_resonances(model, cfg, angles: dict | None) -> tuple[tuple, list]:
+    """``((lo, hi), resonances)`` [rad/s]: the excited ND's resonance with the contacts
+    slipping and, under the elastic law, stuck, and the band from one to the other widened
+    (:func:`~wheelrom.studies.forced_nonlinear.nonlinear_band`, the design study's, whatever
+    ``forced.band_hz`` says): ``--nonlinear``'s band when none is given (the linear peak
+    search's, the stuck resonance's +-1 %, misses the nonlinear one: the paper wheel at 1 N,
+    130 Hz against 146.8), and what :func:`_no_resonance` checks a given band against."""
+    import dataclasses
 
-    (lo, hi), found = nonlinear_band(model, cfg, angles, comm_self())
-    band = (lo / (2 * math.pi), hi / (2 * math.pi))
-    names = ("slipping", "stuck")
-    where = " to ".join(f"{name} {w / (2 * math.pi):.5g} Hz"
-                        for name, w in zip(names, found, strict=False))
-    say(f"the band {band[0]:.5g}..{band[1]:.5g} Hz: the resonance with the contacts {where}, "
-        f"+-{BAND_MARGIN:.0%} (friction holds the nonlinear one between them; --frequencies "
-        "sets another)")
-    return band
+    from wheelrom.studies.forced_nonlinear import nonlinear_band
+
+    whole = dataclasses.replace(cfg, forced=dataclasses.replace(cfg.forced, band_hz=()))
+    return nonlinear_band(model, whole, angles, comm_self())
+
+
+def _resonance_words(found: list, sep: str) -> str:
+    """``slipping 120.02 Hz<sep>stuck 256.58 Hz`` of the resonances ``found`` [rad/s]."""
+    return sep.join(f"{name} {w / (2 * math.pi):.5g} Hz"
+                    for name, w in zip(("slipping", "stuck"), found, strict=False))
+
+
+def _shares(fractions: np.ndarray, kinds) -> dict:
+    """Per contact kind its open / stick / slip shares of ``fractions`` ``(K, 3)``."""
+    return {kind: dict(zip(("open", "stick", "slip"), map(float, fractions[k]), strict=True))
+            for k, kind in enumerate(kinds)}
+
+
+def _shares_words(shares: dict) -> str:
+    """:func:`_shares` in words ("no contacts" without)."""
+    return "; ".join(f"{kind} open {100 * s['open']:.0f} %, stick {100 * s['stick']:.0f} %, "
+                     f"slip {100 * s['slip']:.0f} %" for kind, s in shares.items()) \
+        or "no contacts"
 
 
 def _speed_note(model, cfg) -> str:
@@ -204,16 +227,18 @@ def summary(response, tuned, cfg, model, contacts: bool) -> dict:
 
 
 def _nonlinear(model, cfg, grid: np.ndarray, angles: dict | None, harmonics: int,
-               say, exact: str | None = None, world=None):
+               say, resonances: list, exact: str | None = None, world=None):
     """``(plain data, ForcedCurve)``: the nonlinear curve over the coarse grid (tip
     amplitude per frequency, Newton's verdict, the peak with its contacts' open / stick /
-    slip shares; ``exact``: the peak's exact state by shooting, ``"all"``: every solved
-    frequency's too). Under mpirun (``world``: mpi4py's COMM_WORLD) the grid's frequencies are
-    shared in segments and the exact states dealt over the ranks; rank 0 traces the curve."""
+    slip shares, refined off the grid; ``exact``: the peak's exact state by shooting,
+    ``"all"``: every solved frequency's too; ``resonances`` [rad/s]:
+    :func:`_nonlinear_resonances`'). Under mpirun (``world``: mpi4py's COMM_WORLD) the grid's
+    frequencies are shared in segments and the exact states dealt over the ranks; rank 0
+    traces the curve."""
     from wheelrom.studies.forced_nonlinear import forced_inputs, nonlinear_forced
 
     rank = 0 if world is None else world.rank
-    outside = _no_resonance(model, cfg, grid, angles)
+    outside = _no_resonance(model, cfg, grid, resonances)
     if outside:
         say(outside)
     ranks = f" over {world.size} ranks" if world is not None else ""
@@ -248,15 +273,11 @@ def _nonlinear(model, cfg, grid: np.ndarray, angles: dict | None, harmonics: int
         if r is not None and "peak_at_edge" not in out:  # the maximum off the grid
             out["refined_peak_amplitude_m"] = float(r.tip_amplitude)
             out["refined_peak_frequency_hz"] = float(r.frequency / (2 * math.pi))
-            out["refined_peak_shares"] = {
-                kind: dict(zip(("open", "stick", "slip"), map(float, r.fractions[k]),
-                               strict=True)) for k, kind in enumerate(curve.kinds)}
+            out["refined_peak_shares"] = _shares(r.fractions, curve.kinds)
         out["peak_amplitude_m"] = float(curve.tip_amplitude[i])
         out["peak_frequency_hz"] = float(curve.frequency[i] / (2 * math.pi))
         out["peak_speed_hz"] = out["peak_frequency_hz"] / cfg.wheel.stator_vanes
-        out["peak_shares"] = {kind: dict(zip(("open", "stick", "slip"),
-                                             map(float, curve.fractions[i, k]), strict=True))
-                              for k, kind in enumerate(curve.kinds)}
+        out["peak_shares"] = _shares(curve.fractions[i], curve.kinds)
         states = _exact_states(model, cfg, curve, inputs, angles, harmonics, exact, world, say)
         if states:
             out["exact"] = states[i]
@@ -335,24 +356,17 @@ def _traced(model, cfg, curve, grid: np.ndarray, inputs: tuple) -> dict:
     return out
 
 
-def _no_resonance(model, cfg, grid: np.ndarray, angles: dict | None) -> str:
+def _no_resonance(model, cfg, grid: np.ndarray, found: list) -> str:
     """One line when the frequencies ``grid`` [rad/s] hold neither resonance that friction
     keeps the peak between (the excited ND's ``forced.family`` with the contacts slipping
     and, under the elastic law, stuck: :func:`~wheelrom.studies.forced_nonlinear.
     nonlinear_band`); "" when they hold one."""
-    import dataclasses
-
     from wheelrom.rom.model import nodal_diameter
-    from wheelrom.studies.forced_nonlinear import nonlinear_band
 
-    whole = dataclasses.replace(cfg, forced=dataclasses.replace(cfg.forced, band_hz=()))
-    _, found = nonlinear_band(model, whole, angles, comm_self())
     lo, hi = float(grid.min()), float(grid.max())
     if any(lo <= w <= hi for w in found):
         return ""
-    names = ("slipping", "stuck")
-    where = ", ".join(f"{name} {w / (2 * math.pi):.5g} Hz"
-                      for name, w in zip(names, found, strict=False))
+    where = _resonance_words(found, ", ")
     nd = int(nodal_diameter(cfg.wheel.stator_vanes, model.blades))
     if lo == hi:  # N = 1: the grid is the band's lower end alone, whatever the band
         return (f"no resonance at the grid's one frequency {lo / (2 * math.pi):.5g} Hz: the "
@@ -500,22 +514,17 @@ def _print_nonlinear(out: dict) -> None:
             text += f" {'no orbit':>12s}"
         print(f"{f:12.4f} {a:12.4e} {text}")
     if "peak_amplitude_m" in nl:
-        shares = "; ".join(f"{kind} open {100 * s['open']:.0f} %, stick {100 * s['stick']:.0f}"
-                           f" %, slip {100 * s['slip']:.0f} %"
-                           for kind, s in nl["peak_shares"].items())
         edge = nl.get("peak_at_edge")
         where = (f"nonlinear largest value at the band's {edge} edge (the resonance lies "
                  f"{'below' if edge == 'lower' else 'above'} it: widen --frequencies)"
                  if edge else "nonlinear peak on the grid")
         print(f"{where}: {nl['peak_amplitude_m']:.4e} m at "
               f"{nl['peak_frequency_hz']:.4f} Hz, speed {nl['peak_speed_hz']:.4f} Hz "
-              f"({shares or 'no contacts'})")
+              f"({_shares_words(nl['peak_shares'])})")
     if "refined_peak_amplitude_m" in nl:
-        shares = "; ".join(f"{kind} open {100 * s['open']:.0f} %, stick {100 * s['stick']:.0f}"
-                           f" %, slip {100 * s['slip']:.0f} %"
-                           for kind, s in nl["refined_peak_shares"].items())
         print(f"refined nonlinear peak: {nl['refined_peak_amplitude_m']:.6e} m at "
-              f"{nl['refined_peak_frequency_hz']:.6f} Hz ({shares or 'no contacts'})")
+              f"{nl['refined_peak_frequency_hz']:.6f} Hz "
+              f"({_shares_words(nl['refined_peak_shares'])})")
     if "exact" in nl:
         _print_exact(nl["exact"])
     if "traced" in nl:

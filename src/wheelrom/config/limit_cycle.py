@@ -76,7 +76,7 @@ class LimitCycleConfig:
                       "over the admissible slider offsets of the contacts stuck the whole "
                       "period and report its band, the smallest and largest amplitude "
                       "(docs/theory.md 'Why the friction-limited amplitude is a band'; "
-                      "30-60 s an orbit)"))
+                      "15-50 s an orbit of the paper wheel with its multipliers)"))
     floquet: str = field(
         default="auto",
         metadata=_key("-", "stability of the cycles: 'auto' ('monodromy' for shooting, "

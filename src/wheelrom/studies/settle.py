@@ -144,6 +144,17 @@ def _angle_words(angles: dict) -> str:
     return ", ".join(f"{k} {v:g} deg" for k, v in angles.items() if np.isfinite(v))
 
 
+def _case_waves(g, angles: dict):
+    """Per case of a limit-cycle file's ``/limit_cycle`` group ``g`` at ``angles`` (none
+    without its table), the list of its wave groups with at least one cycle."""
+    if "angles_deg" not in g:
+        return
+    for i in _rows(g["angles_deg"][()], angles):
+        case = g.get(f"case_{i}", {})
+        yield [case[n] for n in case if n.startswith("wave_") and "cycles" in case[n]
+               and case[n]["cycles"]["tip_amplitude"].shape[0] > 0]
+
+
 def _cycle_from_file(path: str, angles: dict, blades: int):
     """``(state (2, N, m), frequency [Hz], tip amplitude [m], sliders (K, N, 2) [m] or
     None)`` of the case with ``angles`` in a limit-cycle file: its first exact orbit (under
@@ -153,13 +164,7 @@ def _cycle_from_file(path: str, angles: dict, blades: int):
     import h5py
 
     with h5py.File(path, "r", locking=False) as f:
-        g = f["limit_cycle"]
-        if "angles_deg" not in g:
-            return None
-        for i in _rows(g["angles_deg"][()], angles):
-            case = g.get(f"case_{i}", {})
-            waves = [case[n] for n in case if n.startswith("wave_") and "cycles" in case[n]
-                     and case[n]["cycles"]["tip_amplitude"].shape[0] > 0]
+        for waves in _case_waves(f["limit_cycle"], angles):
             for w in waves:
                 c = w["cycles"]
                 for j in range(c["tip_amplitude"].shape[0]):
@@ -187,17 +192,13 @@ def band_from_file(path: str, angles: dict) -> tuple[float, float, float, int] |
     import h5py
 
     with h5py.File(path, "r", locking=False) as f:
-        g = f.get("limit_cycle", {})
-        if "angles_deg" not in g:
-            return None
-        for i in _rows(g["angles_deg"][()], angles):
-            case = g.get(f"case_{i}", {})
-            for name in (n for n in case if n.startswith("wave_")):
-                c = case[name].get("cycles", {})
-                nd = int(case[name].attrs.get("nodal_diameter", -1))
-                for row in (c["band"][()] if "band" in c else ()):
-                    if np.all(np.isfinite(row)):
-                        return float(row[0]), float(row[1]), float(row[2]), nd
+        for wave in (w for waves in _case_waves(f.get("limit_cycle", {}), angles)
+                     for w in waves):
+            c = wave["cycles"]
+            for row in (c["band"][()] if "band" in c else ()):
+                if np.all(np.isfinite(row)):
+                    return (float(row[0]), float(row[1]), float(row[2]),
+                            int(wave.attrs.get("nodal_diameter", -1)))
     return None
 
 
@@ -216,17 +217,16 @@ def histories(rows: list[dict], band_of=None) -> list[dict]:
     (:func:`band_from_file`) the ``band`` and each member's place against it: ``"inside"``,
     ``"above"``, ``"below"`` or ``"across"`` its edges; ``nd``: each member's dominant ND and
     its energy share in the last window (``(-1, 0)``: not known)."""
-    groups: dict[str, list[int]] = {}
+    groups: dict[str, tuple[dict, list[int]]] = {}
     for i, row in enumerate(rows):
         case = {k: v for k, v in row["parameters"].items() if k not in HISTORY_KEYS}
         key = repr((sorted(row["angles_deg"].items()), sorted(case.items())))
-        groups.setdefault(key, []).append(i)
+        groups.setdefault(key, (case, []))[1].append(i)
     out = []
-    for members in groups.values():
+    for case, members in groups.values():
         if len(members) < 2:
             continue
         first = rows[members[0]]
-        case = {k: v for k, v in first["parameters"].items() if k not in HISTORY_KEYS}
         label = ", ".join([first["label"], *(f"{k} {v}" for k, v in case.items()
                                              if k not in ("contacts.tieboss.angle_deg",
                                                           "contacts.shroud.angle_deg"))])
@@ -285,7 +285,7 @@ def history_words(group: dict) -> str:
         inside = places.count("inside")
         text += (f"; the band of its friction-limited orbits {b[0] * 1e6:.3g}-"
                  f"{b[1] * 1e6:.3g} um holds {inside} of them")
-        wave = b[3] if len(b) > 3 else -1
+        wave = b[3]
         outside = [(w, p, nd) for w, p, nd in zip(group["history"], places, group["nd"],
                                                   strict=True) if p != "inside"]
         left = [(w, p, nd) for w, p, nd in outside if wave >= 0 and nd[0] not in (-1, wave)]

@@ -295,21 +295,15 @@ def marched_cycle(model, cfg, angles, branch, q_eq: np.ndarray, blocks, harmonic
 
 def orbit_band(shooting: SliderShooting, cycle: Cycle):
     """The :func:`~.family.friction_band` of ``cycle``'s exact orbit on ``shooting``'s
-    pattern wheel: each member's tip amplitude as the report's (the 0-peak of pattern blade
-    0 over the period's steps), the ends' largest in-symmetry multiplier but the phase
-    shift's (at the orbit's own step)."""
-
-    def tip_of(orbit) -> float:
-        q = shooting.samples(orbit).states[:, 0, 0]
-        tip = (q - q.mean(axis=0)) @ shooting.model.tip.T
-        return float(np.linalg.norm(tip, axis=1).max())
+    pattern wheel, the ends' largest in-symmetry multiplier but the phase shift's (at the
+    orbit's own step)."""
 
     def largest(orbit) -> float:
         found = shooting.multipliers(orbit, cycle.tip_amplitude)
         values = np.delete(np.abs(found["values"]), found["trivial"])
         return float(values.max()) if values.size else math.nan
 
-    return friction_band(shooting, cycle.orbit, cycle.tip_amplitude, tip_of, largest)
+    return friction_band(shooting, cycle.orbit, cycle.tip_amplitude, largest)
 
 
 def elastic_stability(model, cfg, angles, cycle: Cycle, shooting: SliderShooting,

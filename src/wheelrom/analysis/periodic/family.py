@@ -18,9 +18,9 @@ member is the shot with those sliders held (:meth:`~.slider_shooting.SliderShoot
 (measured on the small wheel at 40 deg: 0.087-0.526 um across the admissible ``zeta``
 offsets, 0.318-0.323 across ``xi``), so its extremes lie where the admissible region meets
 the gradient's direction: the gradient from one small step along each offset component, then
-the two traces along plus and minus it to the edge, where the held contact would slip (the
-shot no longer closes with it held, or its slider moves), the edge found by halving the
-step.
+the two traces along plus and minus it (:func:`_trace`) to the edge, where the held
+contacts' stick margin reaches 0 (or the shot no longer closes with them held, or a held
+slider moves).
 """
 
 from __future__ import annotations
@@ -90,11 +90,6 @@ class Band:
     multiplier_high: float = math.nan
     reason: str = ""
 
-    @property
-    def width(self) -> float:
-        """``high - low`` over ``high`` [-]."""
-        return (self.high.tip - self.low.tip) / max(self.high.tip, 1e-300)
-
     def words(self) -> str:
         """The band in words: "friction-limited band 0.087-0.526 um over the stuck
         tieboss's admissible offsets (this orbit 0.320 um)"."""
@@ -115,13 +110,14 @@ def stuck_kinds(shooting, orbit: Orbit) -> np.ndarray:
     return np.flatnonzero(locked.all(axis=(1, 2)))
 
 
-def friction_band(shooting, orbit: Orbit, tip_amplitude: float, tip_of,
+def friction_band(shooting, orbit: Orbit, tip_amplitude: float,
                   multipliers=None) -> Band | None:
     """The :class:`Band` of ``orbit``'s family on ``shooting``'s pattern wheel (None when no
     contact sticks all period: the orbit is then isolated). ``tip_amplitude`` [m]: the
-    orbit's, the sliders' unit in the shot; ``tip_of(orbit)`` [m] a member's tip amplitude;
-    ``multipliers(orbit)``: its largest in-symmetry multiplier's modulus (None: not
-    computed)."""
+    orbit's, the sliders' unit in the shot; each member's tip amplitude the report's
+    (:meth:`~.shooting.OrbitSamples.tip_amplitude`, from the period's samples its stick
+    margin is read from); ``multipliers(orbit)``: its largest in-symmetry multiplier's
+    modulus (None: not computed)."""
     kinds = stuck_kinds(shooting, orbit)
     if kinds.size == 0:
         return None
@@ -168,10 +164,9 @@ def friction_band(shooting, orbit: Orbit, tip_amplitude: float, tip_of,
         moved = np.any(path.sliders != path.sliders[:1], axis=(0, 3))  # (K, N')
         if moved[kinds].any():
             return None
-        return Member(offset.copy(), found, tip_of(found), _margin(shooting, path, kinds))
+        return _member(shooting, offset.copy(), found, path, kinds)
 
-    start = Member(np.zeros(S), orbit, tip_of(orbit),
-                   _margin(shooting, shooting.samples(orbit), kinds))
+    start = _member(shooting, np.zeros(S), orbit, shooting.samples(orbit), kinds)
     members = [start]
     gradient = _gradient(member, start, S, members)
     size = float(np.linalg.norm(gradient))
@@ -189,7 +184,7 @@ def friction_band(shooting, orbit: Orbit, tip_amplitude: float, tip_of,
             reasons.append(f"{name} at {np.linalg.norm(path[-1].offset):.3g} radii ({words})")
     low, high = min(members, key=lambda m: m.tip), max(members, key=lambda m: m.tip)
     band = Band(tuple(c.kinds[k] for k in kinds), radius, low, high, start.tip,
-                gradient * 1.0, members, reason="; ".join(reasons))
+                gradient, members, reason="; ".join(reasons))
     if multipliers is not None:
         band.multiplier_low = float(multipliers(low.orbit))
         band.multiplier_high = float(multipliers(high.orbit))
@@ -261,6 +256,13 @@ def _trace(member, start: Member, direction: np.ndarray) -> tuple[list, str]:
         else:  # still moving away from the edge: longer steps
             step = min(GROWTH * step, LARGEST_STEP)
     return path, f"the trace's reach, {REACH:g} radii"
+
+
+def _member(shooting, offset: np.ndarray, orbit: Orbit, path, kinds: np.ndarray) -> Member:
+    """The :class:`Member` at ``offset`` from its ``orbit`` and that orbit's period samples
+    ``path`` (each integrated once: the tip amplitude and the stick margin both read it)."""
+    return Member(offset, orbit, path.tip_amplitude(shooting.model.tip),
+                  _margin(shooting, path, kinds))
 
 
 def _margin(shooting, path, kinds: np.ndarray) -> float:

@@ -219,9 +219,7 @@ class ForcedWave:
             if step == RELAX_STEPS or since > RELAX_PATIENCE:
                 return self._polish(closest, omega, step)
             if J is None or age >= RELAX_CHORD or slow:
-                J = self._difference_jacobian(X, omega) if b.elastic \
-                    else self._jacobian(X, omega)[0]
-                age = 0
+                J, age = self._relax_jacobian(X, omega), 0
             size = float(np.linalg.norm(R / self._row_scale(X, omega)))
             if size < best:
                 best, since, closest = size, 0, X
@@ -256,8 +254,7 @@ class ForcedWave:
                 return X, True, steps + it
             if it == RELAX_POLISH:
                 break
-            J = self._difference_jacobian(X, omega) if self.balance.elastic \
-                else self._jacobian(X, omega)[0]
+            J = self._relax_jacobian(X, omega)
             try:
                 X = X - np.linalg.solve(J, R.ravel()).reshape(X.shape)
             except np.linalg.LinAlgError:
@@ -270,6 +267,13 @@ class ForcedWave:
         terms = np.abs(self.balance.linear_term(X, omega, self.lam))
         return np.maximum(np.r_[terms[0].max(), np.full(terms.shape[0] - 1,
                                                        terms[1:].max())], 1e-300)[:, None]
+
+    def _relax_jacobian(self, X: np.ndarray, omega: float) -> np.ndarray:
+        """``(n, n)`` the relaxation's and its polish's Jacobian: by central differences
+        under the elastic law (:meth:`_difference_jacobian`), the balance's own otherwise."""
+        if self.balance.elastic:
+            return self._difference_jacobian(X, omega)
+        return self._jacobian(X, omega)[0]
 
     def _difference_jacobian(self, X: np.ndarray, omega: float) -> np.ndarray:
         """``(n, n)`` the residual's Jacobian at ``X`` by central differences of

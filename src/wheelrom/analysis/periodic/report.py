@@ -76,14 +76,13 @@ def orbit_quantities(shooting: Shooting, orbit: Orbit, harmonics: int, lam: floa
     top = min(harmonics, (S - 1) // 2)
     c[0] = spectrum[0].real
     c[1 : top + 1] = 2 * spectrum[1 : top + 1]
-    tip = (q0 - q0.mean(axis=0)) @ model.tip.T  # (S, 3)
     h = np.arange(harmonics + 1)
     kinetic = float(np.sum((h * omega) ** 2 * np.sum(np.abs(c) ** 2, axis=1)))
     out = float(friction.sum() + damping)
     closure, imbalance = replay_balance(shooting.flow, orbit)
     return dict(
         lam=float(lam), frequency_hz=orbit.frequency_hz, harmonics=c,
-        tip_amplitude=float(np.linalg.norm(tip, axis=1).max()),
+        tip_amplitude=samples.tip_amplitude(model.tip),
         tip_harmonics=np.linalg.norm(np.abs(c[1:] @ model.tip.T), axis=1),
         normal_force_range=np.stack([normal.min(axis=0), normal.max(axis=0)], axis=1),
         fractions=np.array([[np.mean(state[:, k] == s) for s in range(3)] for k in range(K)]),

@@ -209,6 +209,13 @@ class OrbitSamples:
     states: np.ndarray
     sliders: np.ndarray | None = None
 
+    def tip_amplitude(self, tip: np.ndarray) -> float:
+        """[m] the 0-peak tip amplitude of pattern blade 0 about its mean over the samples
+        (``tip`` ``(3, m)``: the model's modal tip displacement): the orbit's reported
+        amplitude."""
+        q0 = self.states[:, 0, 0]  # (S, m)
+        return float(np.linalg.norm((q0 - q0.mean(axis=0)) @ tip.T, axis=1).max())
+
 
 def sample_orbit(shooting: Shooting, orbit: Orbit) -> OrbitSamples:
     """The orbit at every step of its period, with the shot's own steps (``N'`` shots of

@@ -209,18 +209,20 @@ class SliderShooting:
             previous = value
         return state, period  # not two crossings: the estimate stands
 
-    def jacobian(self, x: np.ndarray, period: float, steps: int,
-                 scale: np.ndarray) -> np.ndarray:
-        """``(n, n)`` ``d(S^{-j} phi_tau)/dx`` in scaled units, central differences (one
-        batch of ``2 n`` shots)."""
-        n = self.n
-        h = DIFFERENCE * scale
-        perturbed = np.repeat(x[None], 2 * n, axis=0)
-        perturbed[np.arange(n), np.arange(n)] += h
-        perturbed[n + np.arange(n), np.arange(n)] -= h
+    def jacobian(self, x: np.ndarray, period: float, steps: int, scale: np.ndarray,
+                 columns: np.ndarray | None = None) -> np.ndarray:
+        """``(n, c)`` columns ``columns`` (default all) of ``d(S^{-j} phi_tau)/dx`` in scaled
+        units, central differences (one batch of ``2 c`` shots: the held or locked sliders'
+        columns, which the callers drop, are not shot)."""
+        cols = np.arange(self.n) if columns is None else np.asarray(columns)
+        c = cols.size
+        h = DIFFERENCE * scale[cols]
+        perturbed = np.repeat(x[None], 2 * c, axis=0)
+        perturbed[np.arange(c), cols] += h
+        perturbed[c + np.arange(c), cols] -= h
         shots = self.shot(perturbed, period, steps)
-        derivative = (shots[:n] - shots[n:]) / (2 * h[:, None])  # row i: d end / d x_i
-        return derivative.T * scale[None, :] / scale[:, None]
+        derivative = (shots[:c] - shots[c:]) / (2 * h[:, None])  # row i: d end / d x_i
+        return derivative.T * scale[cols][None, :] / scale[:, None]
 
     def _scale(self, x: np.ndarray, period: float, tip_amplitude: float) -> np.ndarray:
         """Units of the unknowns: ``a`` (the largest modal velocity over ``w``) for ``q``,
@@ -276,13 +278,13 @@ class SliderShooting:
                     and chord["matrix"].shape == (n + 1, columns.size + 1):
                 return chord["matrix"]
             x, T = unknowns(z)
-            A = np.zeros((n + 1, n + 1))
-            A[:n, :n] = self.jacobian(x, T, steps, scale) - np.eye(n)
+            c = columns.size  # the free unknowns' columns, then the period's
+            A = np.zeros((n + 1, c + 1))
+            A[:n, :c] = self.jacobian(x, T, steps, scale, columns) - np.eye(n)[:, columns]
             dT = DIFFERENCE * T
             later = self.shot(x[None], T + dT, steps)[0] - self.shot(x[None], T - dT, steps)[0]
-            A[:n, n] = later / (2 * dT) / scale * period
-            A[n, :n] = normal
-            A = A[:, np.append(columns, n)]
+            A[:n, c] = later / (2 * dT) / scale * period
+            A[n, :c] = normal[columns]
             if chord is not None:
                 chord["matrix"] = A
             return A
@@ -326,7 +328,7 @@ class SliderShooting:
         scale = self._scale(x, orbit.period, tip_amplitude)
         locked = self.locked(orbit)
         keep = np.flatnonzero(~locked)
-        G = self.jacobian(x, orbit.period, steps, scale)[np.ix_(keep, keep)]
+        G = self.jacobian(x, orbit.period, steps, scale, keep)[keep]
         along = (self.flow.advance(x[None], self.fraction * orbit.period / steps, 1)[0] - x)
         along = along[keep] / scale[keep]
         # the locked unknowns are sliders, after q and q': keep's first N' m rows are q
