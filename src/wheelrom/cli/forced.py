@@ -71,7 +71,6 @@ def cmd_forced(args: argparse.Namespace) -> int:
     from wheelrom.rom.bases import basis_size
     from wheelrom.rom.build import build_model, quiet
     from wheelrom.studies.forced_nonlinear import (
-        BAND_MARGIN,
         check_nonlinear_memory,
         nonlinear_inputs_problem,
     )
@@ -109,14 +108,8 @@ def cmd_forced(args: argparse.Namespace) -> int:
     model = build_model(cfg, comm_self(), log=say)
     if cfg.forced.over == "speed":
         say(_speed_note(model, cfg))
-    resonances = None
-    if args.nonlinear:  # friction holds the nonlinear resonance between these two
-        automatic, resonances = _nonlinear_resonances(model, cfg, angles)
-        if band is None and not cfg.forced.band_hz:
-            band = (automatic[0] / (2 * math.pi), automatic[1] / (2 * math.pi))
-            say(f"the band {band[0]:.5g}..{band[1]:.5g} Hz: the resonance with the contacts "
-                f"{_resonance_words(resonances, ' to ')}, +-{BAND_MARGIN:.0%} (friction "
-                "holds the nonlinear one between them; --frequencies sets another)")
+    band, resonances = _nonlinear_resonances(model, cfg, angles, band, say) \
+        if args.nonlinear else (band, None)  # friction holds the nonlinear peak between them
     say("the tuned reference (mistuning removed)" if not model.tuned else "the tuned wheel")
     tuned = tuned_reference(model, cfg, [model.mistuning], contacts, angles, comm_self(),
                             band_hz=band, points=points)
@@ -145,19 +138,25 @@ def cmd_forced(args: argparse.Namespace) -> int:
     return 0
 
 
-def _nonlinear_resonances(model, cfg, angles: dict | None) -> tuple[tuple, list]:
-    """``((lo, hi), resonances)`` [rad/s]: the excited ND's resonance with the contacts
-    slipping and, under the elastic law, stuck, and the band from one to the other widened
-    (:func:`~wheelrom.studies.forced_nonlinear.nonlinear_band`, the design study's, whatever
-    ``forced.band_hz`` says): ``--nonlinear``'s band when none is given (the linear peak
-    search's, the stuck resonance's +-1 %, misses the nonlinear one: the paper wheel at 1 N,
-    130 Hz against 146.8), and what :func:`_no_resonance` checks a given band against."""
+def _nonlinear_resonances(model, cfg, angles: dict | None, band, say) -> tuple:
+    """``(band [Hz], resonances [rad/s])``: the excited ND's resonance with the contacts
+    slipping and, under the elastic law, stuck (what :func:`_no_resonance` checks the band
+    against), and ``band`` (``--frequencies``'), else ``forced.band_hz``'s (None), else from
+    one resonance to the other widened (:func:`~wheelrom.studies.forced_nonlinear.
+    nonlinear_band`, the design study's; the linear peak search's, the stuck resonance's
+    +-1 %, misses the nonlinear one: the paper wheel at 1 N, 130 Hz against 146.8)."""
     import dataclasses
 
-    from wheelrom.studies.forced_nonlinear import nonlinear_band
+    from wheelrom.studies.forced_nonlinear import BAND_MARGIN, nonlinear_band
 
     whole = dataclasses.replace(cfg, forced=dataclasses.replace(cfg.forced, band_hz=()))
-    return nonlinear_band(model, whole, angles, comm_self())
+    (lo, hi), resonances = nonlinear_band(model, whole, angles, comm_self())
+    if band is None and not cfg.forced.band_hz:
+        band = (lo / (2 * math.pi), hi / (2 * math.pi))
+        say(f"the band {band[0]:.5g}..{band[1]:.5g} Hz: the resonance with the contacts "
+            f"{_resonance_words(resonances, ' to ')}, +-{BAND_MARGIN:.0%} (friction holds "
+            "the nonlinear one between them; --frequencies sets another)")
+    return band, resonances
 
 
 def _resonance_words(found: list, sep: str) -> str:
