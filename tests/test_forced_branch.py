@@ -242,11 +242,12 @@ def test_bench_figures_of_the_forced_response(small_model, small_cfg):
     cfg = small_cfg.replace(**{"forced.harmonics": 2})
     out = forced_figures(small_model, cfg, lambda *_: None)
     assert out["forced_grid_200_solved"] == 200 and out["forced_traced_points"] > 5
+    assert out["forced_grid_solved"] == cfg.forced.points
     assert out["forced_traced_end"].startswith("reached the end of the range")
     assert out["forced_case"]["law"] == "paper" and out["forced_case"]["nodal_diameter"] == 2
     band = out["forced_case"]["band_hz"]
     assert band[0] < out["forced_peak_frequency_hz"] < band[1]
-    assert out["forced_grid_200_s"] > 0 and out["forced_traced_s"] > 0
+    assert out["forced_grid_200_s"] > 0 and out["forced_traced_s"] > 0 and out["forced_grid_s"] > 0
 
 
 def test_the_growth_of_a_small_forced_state_is_the_linear_analysis(small_model, small_cfg):

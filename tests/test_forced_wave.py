@@ -269,3 +269,37 @@ def test_the_friction_plateau_is_solved_at_every_frequency(capsys):
     stuck = curve < 0.9 * curve[plateau].min()  # far below the slip onset: the contacts stick
     assert stuck.sum() >= 25
     np.testing.assert_allclose(curve[stuck], linear[stuck], rtol=1e-3)
+
+
+def test_the_friction_plateau_is_traced_by_arclength_without_a_stall(capsys):
+    """Issue #69: the same case traced by arclength. Over the plateau the balance's residual
+    has a kink at every step (a sample's contact starts or stops sticking) and the corrector
+    stalled at the slip onset ("stalled at 257.99 Hz"), the plateau only bridged by jumps
+    of the grid's spacing. The trace now reaches both ends of the range without a stall,
+    and its points at the plateau's level sample the whole plateau (every 0.01 Hz of
+    257.99-258.03 Hz), each within 1 % of the grid's plateau, a second computation by
+    natural continuation and the slow flow's relaxation."""
+    import json
+
+    from conftest import SMALL
+    from wheelrom.cli import main as cli
+
+    keys = ['contacts.law="elastic"', "contacts.tieboss.tangential_stiffness=7.6e7",
+            "contacts.shroud.tangential_stiffness=7.6e7", "friction.coulomb=0.6",
+            "excitation.force=0.02", 'flutter.model="off"', 'forced.continuation="arclength"']
+    argv = ["forced-response", SMALL, *[a for k in keys for a in ("--set", k)],
+            "--angle", "shroud", "45", "--frequencies", "257.90:258.10:41", "--nonlinear",
+            "--harmonics", "3", "--json"]
+    assert cli.main(argv) == 0
+    out = json.loads(capsys.readouterr().out)
+    nl, traced = out["nonlinear"], out["nonlinear"]["traced"]
+    assert "stalled" not in traced["end"], traced["end"]
+    f = np.array(out["frequency_hz"])
+    grid = np.array(nl["tip_amplitude_m"])[(f >= 257.99 - 1e-9) & (f <= 258.03 + 1e-9)]
+    points = [(w, a) for w, a in zip(traced["frequency_hz"], traced["tip_amplitude_m"],
+                                     strict=True) if w is not None]
+    w, a = np.array(points).T
+    on = (a > 0.98 * grid.min()) & (w >= 257.99) & (w <= 258.03)
+    assert np.all(a[on] <= 1.01 * grid.max()) and np.all(a[on] >= 0.99 * grid.min())
+    bins = np.floor((w[on] - 257.99) / 0.01).astype(int)
+    assert set(bins) >= {0, 1, 2, 3}, sorted(set(bins))

@@ -4,6 +4,10 @@ configured wheel with its contacts (Van der Pol off, the nozzle force ``excitati
 slipping to the stuck resonance, :func:`~wheelrom.studies.forced_nonlinear.nonlinear_band`),
 ``forced.harmonics`` harmonics, one core:
 
+- ``forced_grid_s``: the curve at ``forced.points`` frequencies (41: ``forced-response
+  --nonlinear``'s grid) over the band, ``forced_grid_solved`` of them (issue #69: the small
+  wheel's friction plateau at most 30 s, the paper wheel's elastic ND 2 resonance at most
+  60 s, every frequency solved);
 - ``forced_grid_200_s``: the curve at 200 frequencies over the band by natural continuation
   (issue #45: <= 20 s on the paper wheel), ``forced_grid_200_solved`` of them;
 - ``forced_traced_s``: the curve traced by arclength over the band (grid spacing 1/40 of
@@ -39,6 +43,12 @@ def forced_figures(model: ReducedModel, cfg: Config, say) -> dict:
     params, q = forced_inputs(model, cfg)
     H, beta = cfg.forced.harmonics, cfg.wheel.damping_beta
     t0 = time.perf_counter()
+    points = forced_curve(model, params, beta, np.linspace(*band, cfg.forced.points or 41), q,
+                          harmonics=H)
+    points_s = time.perf_counter() - t0
+    say(f"  {points.frequency.size} frequencies in {points_s:.1f} s "
+        f"({int(points.converged.sum())} solved)")
+    t0 = time.perf_counter()
     grid = forced_curve(model, params, beta, np.linspace(*band, GRID_POINTS), q, harmonics=H)
     t1 = time.perf_counter()
     say(f"  {GRID_POINTS} frequencies in {t1 - t0:.1f} s ({int(grid.converged.sum())} solved)")
@@ -47,6 +57,8 @@ def forced_figures(model: ReducedModel, cfg: Config, say) -> dict:
     t2 = time.perf_counter()
     peak = traced.refined
     return {
+        "forced_grid_s": points_s,
+        "forced_grid_solved": int(points.converged.sum()),
         "forced_grid_200_s": t1 - t0,
         "forced_grid_200_solved": int(grid.converged.sum()),
         "forced_traced_s": t2 - t1,

@@ -352,6 +352,10 @@ def _traced(model, cfg, curve, grid: np.ndarray, inputs: tuple) -> dict:
     if traced.refined is not None:
         out["peak_amplitude_m"] = traced.refined.tip_amplitude
         out["peak_frequency_hz"] = traced.refined.frequency / (2 * math.pi)
+        edges = (float(grid.min()), float(grid.max()))
+        at = [abs(traced.refined.frequency - e) <= 1e-9 * e for e in edges]
+        if any(at):  # a largest value where the range ends, not a peak: the branch goes on
+            out["peak_at_edge"] = "lower" if at[0] else "upper"
     return out
 
 
@@ -532,6 +536,10 @@ def _print_nonlinear(out: dict) -> None:
                  if tr["folds_hz"] else "no fold")
         peak = (f"peak {tr['peak_amplitude_m']:.4e} m at {tr['peak_frequency_hz']:.4f} Hz; "
                 if "peak_amplitude_m" in tr else "")
+        if "peak_at_edge" in tr:
+            peak = (f"largest {tr['peak_amplitude_m']:.4e} m at the range's "
+                    f"{tr['peak_at_edge']} edge, {tr['peak_frequency_hz']:.4f} Hz (a branch "
+                    f"goes on {'below' if tr['peak_at_edge'] == 'lower' else 'above'} it); ")
         unstable = sum(g is not None and g > 0 for g in tr["growth_per_s"])
         print(f"traced by arclength: {sum(f is not None for f in tr['frequency_hz'])} points "
               f"in {tr['wall_s']:.1f} s, {peak}{folds}, {unstable} unstable "

@@ -5,7 +5,8 @@ resonance, where Newton from the last frequency of a grid lands off the curve.
 
 The unknown ``z = (y, nu)``: blade 0's packed harmonics ``X = x_scale y`` (the mean row in
 units of the preloaded equilibrium's size, the vibration rows in units of ``x_ref``, the
-response's expected size) and the frequency ``omega = omega_ref nu``. The equations: the
+response's expected size) and the frequency ``omega = omega_ref + omega_unit nu`` (``omega_unit``
+the range traced). The equations: the
 forced balance of :class:`~.forced_wave.ForcedWave`, each row in units of ``omega_ref^2
 x_scale``, and the arclength condition ``t . (z - z_pred) = 0`` (``t`` the unit tangent of
 the curve at the last point, ``z_pred = z + ds t``). A fold (turning point in the
@@ -63,7 +64,8 @@ class Branch:
     through a fold), ``harmonics`` ``(P, 2H + 1, m)``, ``iterations`` ``(P,)`` Newton per
     point, ``folds``: ``(omega, index)`` per turning point (its frequency [rad/s] and the
     point before it), ``end``: why the trace stopped (in words), ``jumps``: ``(from, to)``
-    [rad/s] per stall passed by Newton in the frequency (the curve between not traced)."""
+    [rad/s] per stall passed by Newton in the frequency (:func:`_walk`: the curve between
+    sampled in the frequency, not traced by arclength)."""
 
     frequency: np.ndarray
     harmonics: np.ndarray
@@ -71,13 +73,17 @@ class Branch:
     folds: list = field(default_factory=list)
     end: str = ""
     jumps: list = field(default_factory=list)
+    #: points solved in the frequency where the arclength corrector failed (:func:`_in_frequency`)
+    in_frequency: int = 0
 
 
 class ArclengthCorrector:
     """Newton on the scaled forced balance and one linear constraint ``a . z = b``."""
 
-    def __init__(self, problem: ForcedWave, x_scale: np.ndarray, omega_ref: float):
+    def __init__(self, problem: ForcedWave, x_scale: np.ndarray, omega_ref: float,
+                 omega_unit: float | None = None):
         self.problem, self.omega_ref = problem, omega_ref
+        self.omega_unit = float(omega_unit or omega_ref)
         self.x_scale = np.asarray(x_scale, dtype=float)[:, None]  # (2H + 1, 1)
         self.shape = problem.force.shape
         self.size = problem.balance.size
@@ -85,10 +91,15 @@ class ArclengthCorrector:
         self.row_scale = 1.0 / (omega_ref**2 * self.x_scale)  # (2H + 1, 1)
 
     def unpack(self, z: np.ndarray) -> tuple[np.ndarray, float]:
-        return self.x_scale * z[:-1].reshape(self.shape), self.omega_ref * float(z[-1])
+        return self.x_scale * z[:-1].reshape(self.shape), self.frequency(float(z[-1]))
+
+    def frequency(self, nu: float) -> float:
+        """[rad/s] of the scaled frequency ``nu``."""
+        return self.omega_ref + self.omega_unit * nu
 
     def pack(self, X: np.ndarray, omega: float) -> np.ndarray:
-        return np.concatenate([(X / self.x_scale).ravel(), [omega / self.omega_ref]])
+        return np.concatenate([(X / self.x_scale).ravel(),
+                               [(omega - self.omega_ref) / self.omega_unit]])
 
     def system(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
         """``(F, J, converged)``: the scaled balance ``(n,)``, its Jacobian ``(n, n + 1)``
@@ -101,7 +112,7 @@ class ArclengthCorrector:
         J = np.empty((self.size, self.size + 1))
         J[:, :-1] = (dRdX * scale[:, :, None, None]
                      * self.x_scale[None, None, :, :]).reshape(self.size, self.size)
-        J[:, -1] = (dRdw * scale).ravel() * self.omega_ref
+        J[:, -1] = (dRdw * scale).ravel() * self.omega_unit
         ok = bool(np.all(np.isfinite(R))) and p._converged(R, X, omega)
         return (R * scale).ravel(), J, ok
 
@@ -182,7 +193,12 @@ def trace_frequency(problem: ForcedWave, X_start: np.ndarray, omega_start: float
     ``progress(point_index, omega, X)`` per point."""
     mean = max(float(np.abs(X_start[0]).max()), x_ref)
     x_scale = np.r_[mean, np.full(X_start.shape[0] - 1, x_ref)]
-    corrector = ArclengthCorrector(problem, x_scale, omega_start)
+    # the frequency's unit: the range to trace (the start's frequency was the unit, and on a
+    # narrow resonance a step of the arclength then moved the frequency across the whole
+    # range: the small wheel's 0.2 Hz plateau at 258 Hz was crossed in one step, from one
+    # branch to another)
+    corrector = ArclengthCorrector(problem, x_scale, omega_start,
+                                   min(abs(omega_end - omega_start), omega_start) or None)
     sense = 1.0 if omega_end >= omega_start else -1.0
     along = np.r_[np.zeros(X_start.size), sense]  # the frequency's direction
     z = corrector.pack(X_start, omega_start)
@@ -190,10 +206,17 @@ def trace_frequency(problem: ForcedWave, X_start: np.ndarray, omega_start: float
     t = corrector.tangent(J, along)
     zs, its, folds, jumps = [z], [0], [], []
     ds, failures, crawl, end = STEP, 0, 0, f"stopped after {max_points} points"
+    in_frequency = 0
     while len(zs) < max_points:
         predictor = zs[-1] + ds * t
         z_new, n = corrector.solve(predictor, t, float(t @ predictor), J0=J)
         if z_new is None or np.linalg.norm(z_new - predictor) > 2 * ds:
+            z_new, n = _in_frequency(problem, corrector, zs[-1], predictor, ds, sense)
+            in_frequency += z_new is not None
+            kink = z_new is not None  # its iterations are the relaxation's: the step stays
+        else:
+            kink = False
+        if z_new is None:
             ds /= 2
             failures += 1
             stalled = ds < STEP_MIN or failures > RETRIES
@@ -204,13 +227,17 @@ def trace_frequency(problem: ForcedWave, X_start: np.ndarray, omega_start: float
         if stalled:  # Newton in the frequency past the corner, else the trace ends here
             X_last, w_last = corrector.unpack(zs[-1])
             target = w_last + sense * min(jump, abs(omega_end - w_last))
-            X_new, ok, n = stepped_solve(problem, X_last, w_last, target) \
-                if jump and target != w_last else (X_last, False, 0)
-            if not ok:
+            walked = _walk(problem, corrector, zs[-1], target) \
+                if jump and target != w_last else []
+            if not walked:
                 end = f"stalled at {w_last / (2 * math.pi):.6g} Hz"
                 break
-            jumps.append((w_last, target))
-            z_new, ds, failures, crawl = corrector.pack(X_new, target), STEP, 0, 0
+            for z_walked, n_walked in walked[:-1]:  # the curve's points on the way
+                zs.append(z_walked)
+                its.append(n_walked)
+            z_new, n = walked[-1]
+            jumps.append((w_last, corrector.unpack(z_new)[1]))
+            ds, failures, crawl = STEP, 0, 0
             t = along  # the tangent below is oriented along the frequency
         elif z_new is None or failures:
             continue
@@ -237,10 +264,65 @@ def trace_frequency(problem: ForcedWave, X_start: np.ndarray, omega_start: float
         if stalled and sense * (omega - omega_end) == 0:
             end = REACHED
             break
-        ds = min(STEP_MAX, 1.5 * ds) if n <= 5 else (ds / 2 if n > 10 else ds)
+        if not kink:
+            ds = min(STEP_MAX, 1.5 * ds) if n <= 5 else (ds / 2 if n > 10 else ds)
     pts = [corrector.unpack(z) for z in zs]
     return Branch(np.array([w for _, w in pts]), np.stack([X for X, _ in pts]),
-                  np.array(its), merged_folds(folds), end, jumps)
+                  np.array(its), merged_folds(folds), end, jumps, in_frequency)
+
+
+#: a stall is passed in this many steps of the frequency, each twice the last, each point
+#: solved and kept: the first 1e-3 of the way (a plateau just past a slip onset is narrow
+#: beside a grid's spacing: the small wheel's 0.04 Hz against 3.7 Hz)
+WALK_STEPS = 10
+
+
+def _walk(problem: ForcedWave, corrector: ArclengthCorrector, z_last: np.ndarray,
+          target: float) -> list:
+    """``[(z, iterations), ...]``: the curve from ``z_last`` towards ``target`` [rad/s] in
+    :data:`WALK_STEPS` steps of the frequency, each twice the last, each solved from the last
+    (:func:`~.forced_wave.stepped_solve`), up to the first that fails (empty: the first
+    did). Where the trace stalls at a corner of the curve (a contact starts or stops
+    slipping) the curve goes on in the frequency, and a friction plateau beyond the corner
+    is sampled on the way instead of being jumped over."""
+    X, w = corrector.unpack(z_last)
+    out = []
+    share = (2.0 ** np.arange(1, WALK_STEPS + 1) - 1) / (2.0**WALK_STEPS - 1)
+    for w_next in w + (target - w) * share:
+        X, ok, n = stepped_solve(problem, X, w, float(w_next))
+        if not ok:
+            break
+        w = float(w_next)
+        out.append((corrector.pack(X, w), n))
+    return out
+
+
+def _in_frequency(problem: ForcedWave, corrector: ArclengthCorrector, z_last: np.ndarray,
+                  predictor: np.ndarray, ds: float, sense: float) -> tuple:
+    """``(z, iterations)`` of the balance solved at the ``predictor``'s frequency from the
+    last point by the balance's own solver (:meth:`~.forced_wave.ForcedWave.solve`: its
+    Newton variants and the relaxation along the slow flow), or ``(None, iterations)``.
+
+    The corrector is Newton on the arclength system with the balance's analytic Jacobian,
+    and the sampled AFT's residual has a kink wherever a sample's contact starts or stops
+    sticking: on a friction plateau, where every point lies near a slip onset, the
+    corrector fails at every step and the trace stalled (issue #69: the small wheel's
+    plateau was never traced, only bridged by grid-wide jumps). Where the curve goes on in
+    the frequency (the predictor moves in the trace's sense), the point is the curve's at
+    the predictor's frequency: the frequency as the local parameter, as in a continuation
+    that parametrises by the tangent's leading component. It is kept only within ``2 ds``
+    of the predictor, the corrector's own acceptance, so it cannot land on another branch
+    across a fold (near one the predictor's frequency barely moves and a solve there
+    starts from the last point, on its own branch)."""
+    X_last, w_last = corrector.unpack(z_last)
+    w = corrector.unpack(predictor)[1]
+    if sense * (w - w_last) <= 0:
+        return None, 0
+    X, ok, n = problem.solve(X_last, w)
+    z = corrector.pack(X, w)
+    if not ok or np.linalg.norm(z - predictor) > 2 * ds:
+        return None, n
+    return z, n
 
 
 def merged_folds(folds: list) -> list:
@@ -276,7 +358,7 @@ def _fold(corrector: ArclengthCorrector, z0: np.ndarray, t0: np.ndarray, z1: np.
     x = next((float(r.real) for r in roots if abs(r.imag) < 1e-12 and 0 <= r.real <= 1), 0.5)
     nu = ((2 * x**3 - 3 * x**2 + 1) * w0 + (x**3 - 2 * x**2 + x) * d0
           + (-2 * x**3 + 3 * x**2) * w1 + (x**3 - x**2) * d1)
-    return corrector.omega_ref * nu
+    return corrector.frequency(nu)
 
 
 def traced_curve(model, params, beta: float, band: tuple[float, float],
@@ -318,7 +400,9 @@ def traced_curve(model, params, beta: float, band: tuple[float, float],
         pieces.append((branch, start == hi))
         passed = "".join(f"; passed {a / (2 * math.pi):.6g}..{b / (2 * math.pi):.6g} Hz by "
                          "Newton in the frequency" for a, b in branch.jumps)
-        ends.append(branch.end + passed)
+        kinks = (f" ({branch.in_frequency} points solved in the frequency at stick-slip "
+                 "kinks)" if branch.in_frequency else "")
+        ends.append(branch.end + kinks + passed)
         folds += [w for w, _ in branch.folds]
     curve = _curve_of(problem, model, params, pieces, "; ".join(ends), folds)
     curve.growth = np.full(curve.frequency.size, np.nan)
