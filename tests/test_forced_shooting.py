@@ -189,7 +189,10 @@ def test_the_command_checks_the_peak_by_shooting(tmp_path, capsys):
     assert cli.main(argv) == 0
     nl = json.loads(capsys.readouterr().out)["nonlinear"]
     ex = nl["exact"]
-    assert ex["converged"] and ex["frequency_hz"] == pytest.approx(nl["peak_frequency_hz"])
+    # at the refined peak when there is one (issue #74); here the largest solved point is
+    # the first (120 Hz has no solution), no peak to refine: the grid's
+    assert ex["converged"] and not ex["at_refined_peak"] and "refined_peak_frequency_hz" not in nl
+    assert ex["frequency_hz"] == pytest.approx(nl["peak_frequency_hz"])
     assert ex["hb_tip_amplitude_m"] == pytest.approx(nl["peak_amplitude_m"], rel=1e-3)
     assert abs(ex["hb_relative_difference"]) < 1e-3  # H = 11, no contact opens
     assert len(ex["multipliers_re"]) == len(ex["multiplier_nd"]) > 0
@@ -209,7 +212,7 @@ def test_the_command_checks_the_peak_by_shooting(tmp_path, capsys):
     rows = nl["exact_curve"]
     assert len(rows) == 6 and rows[0] is None  # 120 Hz: the balance has no solution
     assert all(r["converged"] for r in rows[1:])
-    assert rows[1] == nl["exact"]  # 123 Hz: the peak
+    assert rows[1] == nl["exact"] and not rows[1]["at_refined_peak"]  # 123 Hz: the peak
     stable = [r["stable"] for r in rows[1:]]
     assert stable == [False, False, False, True, True]  # measured |mu| 1.89 .. 0.9997
     with h5py.File(tmp_path / "all.h5") as f:
@@ -357,3 +360,34 @@ def test_under_an_aerodynamic_table_the_whole_period_is_shot(small_model, tmp_pa
     assert orbit.largest == pytest.approx(abs(orbit.wheel_multipliers[0]), abs=1e-5)
     assert max(np.abs(orbit.wheel_multipliers - v).min() for v in orbit.multipliers[:12]) < 1e-4
     assert orbit.stable and set(orbit.nodal_diameters) == set(orbit.wheel_nodal_diameters)
+
+
+def test_the_exact_peak_is_shot_from_the_refined_peak(monkeypatch):
+    """Issue #74: ``--exact`` shoots the refined peak (the balance's maximum off the grid),
+    not the grid's largest point; at the band's edge (no peak to refine) and under ``--exact
+    all`` the grid's states. The shot is replaced by a record of its start."""
+    from types import SimpleNamespace
+
+    import wheelrom.studies.forced_nonlinear as forced_nonlinear
+    from wheelrom.cli import forced as cli_forced
+
+    started = []
+    monkeypatch.setattr(forced_nonlinear, "exact_peak",
+                        lambda model, cfg, X, w, *a, **k: started.append((X, w)) or "orbit")
+    monkeypatch.setattr(cli_forced, "_exact", lambda orbit: {"orbit": orbit})
+    grid = np.array([1.0, 2.0, 3.0, 4.0])
+    harmonics = np.arange(4.0)[:, None, None] * np.ones((4, 3, 2))
+    refined = SimpleNamespace(harmonics=np.full((3, 2), 9.0), frequency=2.6)
+    curve = SimpleNamespace(converged=np.ones(4, bool), peak=2, frequency=grid,
+                            harmonics=harmonics, refined=refined)
+    say = lambda *_: None  # noqa: E731
+    states = cli_forced._exact_states(None, None, curve, (), None, 3, "peak", None, say)
+    assert list(states) == [2] and states[2]["at_refined_peak"]
+    assert started[-1][1] == 2.6 and np.all(started[-1][0] == 9.0)
+    curve.peak = 3  # the last solved point: a largest value at the edge, not a peak
+    states = cli_forced._exact_states(None, None, curve, (), None, 3, "peak", None, say)
+    assert not states[3]["at_refined_peak"] and started[-1][1] == 4.0
+    started.clear()
+    states = cli_forced._exact_states(None, None, curve, (), None, 3, "all", None, say)
+    assert [w for _, w in started] == [1.0, 2.0, 3.0, 4.0]
+    assert not any(s["at_refined_peak"] for s in states.values())

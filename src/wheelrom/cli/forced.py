@@ -259,9 +259,8 @@ def _nonlinear(model, cfg, grid: np.ndarray, angles: dict | None, harmonics: int
         out["traced"] = _traced(model, cfg, curve, grid, inputs)
     if curve.converged.any():
         i = curve.peak
-        solved = np.flatnonzero(curve.converged)
-        if solved.size > 2 and i in (solved[0], solved[-1]):  # a largest value, not a peak
-            out["peak_at_edge"] = "lower" if i == solved[0] else "upper"
+        if at_edge(curve):  # a largest value, not a peak
+            out["peak_at_edge"] = "lower" if i == np.flatnonzero(curve.converged)[0] else "upper"
         if outside:  # the linear resonances lie outside: where the nonlinear one is
             out["no_resonance"] = outside + (
                 f"; the nonlinear response's largest value is at the band's "
@@ -297,13 +296,24 @@ def _exact_states(model, cfg, curve, inputs: tuple, angles: dict | None, harmoni
     size, rank = (1, 0) if world is None else (world.size, world.rank)
     states = {}
     for j in wanted[rank::size]:
-        say(f"the exact state at {curve.frequency[j] / (2 * math.pi):.4f} Hz by shooting")
-        states[int(j)] = _exact(exact_peak(model, cfg, curve.harmonics[j],
-                                           float(curve.frequency[j]), harmonics, inputs,
-                                           angles, whole_wheel=True, settle=True))
+        X, w = curve.harmonics[j], float(curve.frequency[j])
+        refined = exact == "peak" and curve.refined is not None and not at_edge(curve)
+        if refined:  # the peak off the grid: the balance's maximum, the shot's start
+            X, w = curve.refined.harmonics, float(curve.refined.frequency)
+        say(f"the exact state at {w / (2 * math.pi):.4f} Hz by shooting")
+        states[int(j)] = _exact(exact_peak(model, cfg, X, w, harmonics, inputs, angles,
+                                           whole_wheel=True, settle=True))
+        states[int(j)]["at_refined_peak"] = refined
     if world is not None and len(wanted):
         states = {j: s for part in world.allgather(states) for j, s in part.items()}
     return states
+
+
+def at_edge(curve) -> bool:
+    """Whether the curve's largest converged point is the first or last converged one of
+    three or more (a largest value at the band's edge, not a peak)."""
+    solved = np.flatnonzero(curve.converged)
+    return bool(solved.size > 2 and curve.peak in (solved[0], solved[-1]))
 
 
 def _exact(orbit) -> dict:
@@ -561,7 +571,8 @@ def _print_exact(ex: dict) -> None:
              f"{ex['wheel_multiplier_nd'][0]})" if "wheel_largest_multiplier" in ex else "")
     if "settled_bounded" in ex:
         verdict += _settled_words(ex)
-    print(f"exact state at {ex['frequency_hz']:.4f} Hz (shooting, {ex['iterations']} "
+    where = "the refined peak, " if ex.get("at_refined_peak") else ""
+    print(f"exact state at {where}{ex['frequency_hz']:.4f} Hz (shooting, {ex['iterations']} "
           f"iterations, residual {ex['residual']:.1e}, {ex['wall_s']:.1f} s): tip "
           f"{ex['tip_amplitude_m']:.4e} m, the harmonic balance "
           f"{100 * ex['hb_relative_difference']:+.3f} %; largest Floquet multiplier "

@@ -211,7 +211,10 @@ def trace_frequency(problem: ForcedWave, X_start: np.ndarray, omega_start: float
         predictor = zs[-1] + ds * t
         z_new, n = corrector.solve(predictor, t, float(t @ predictor), J0=J)
         if z_new is None or np.linalg.norm(z_new - predictor) > 2 * ds:
-            z_new, n = _in_frequency(problem, corrector, zs[-1], predictor, ds, sense)
+            # once a point (a failed solve costs the relaxation's patience, 1-2 s on the
+            # small wheel: tried at every halving it took 260 of a 410 s trace)
+            z_new, n = (_in_frequency(problem, corrector, zs[-1], predictor, ds, sense)
+                        if not failures else (None, 0))
             in_frequency += z_new is not None
             kink = z_new is not None  # its iterations are the relaxation's: the step stays
         else:
@@ -281,19 +284,18 @@ def _walk(problem: ForcedWave, corrector: ArclengthCorrector, z_last: np.ndarray
           target: float) -> list:
     """``[(z, iterations), ...]``: the curve from ``z_last`` towards ``target`` [rad/s] in
     :data:`WALK_STEPS` steps of the frequency, each twice the last, each solved from the last
-    (:func:`~.forced_wave.stepped_solve`), up to the first that fails (empty: the first
-    did). Where the trace stalls at a corner of the curve (a contact starts or stops
+    solved one (:func:`~.forced_wave.stepped_solve`; one that fails is passed over: empty when
+    all did). Where the trace stalls at a corner of the curve (a contact starts or stops
     slipping) the curve goes on in the frequency, and a friction plateau beyond the corner
     is sampled on the way instead of being jumped over."""
     X, w = corrector.unpack(z_last)
     out = []
     share = (2.0 ** np.arange(1, WALK_STEPS + 1) - 1) / (2.0**WALK_STEPS - 1)
     for w_next in w + (target - w) * share:
-        X, ok, n = stepped_solve(problem, X, w, float(w_next))
-        if not ok:
-            break
-        w = float(w_next)
-        out.append((corrector.pack(X, w), n))
+        X_next, ok, n = stepped_solve(problem, X, w, float(w_next), depth=0)
+        if ok:  # a step that fails is passed over, as a grid passes a frequency it misses
+            X, w = X_next, float(w_next)
+            out.append((corrector.pack(X, w), n))
     return out
 
 
