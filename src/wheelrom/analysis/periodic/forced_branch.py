@@ -191,14 +191,7 @@ def trace_frequency(problem: ForcedWave, X_start: np.ndarray, omega_start: float
     frequency (:func:`~.forced_wave.stepped_solve`, its backtracking and halvings) up to
     this far on, the jump recorded in ``Branch.jumps``; 0: no jumps.
     ``progress(point_index, omega, X)`` per point."""
-    mean = max(float(np.abs(X_start[0]).max()), x_ref)
-    x_scale = np.r_[mean, np.full(X_start.shape[0] - 1, x_ref)]
-    # the frequency's unit: the range to trace (the start's frequency was the unit, and on a
-    # narrow resonance a step of the arclength then moved the frequency across the whole
-    # range: the small wheel's 0.2 Hz plateau at 258 Hz was crossed in one step, from one
-    # branch to another)
-    corrector = ArclengthCorrector(problem, x_scale, omega_start,
-                                   min(abs(omega_end - omega_start), omega_start) or None)
+    corrector = _corrector(problem, X_start, omega_start, omega_end, x_ref)
     sense = 1.0 if omega_end >= omega_start else -1.0
     along = np.r_[np.zeros(X_start.size), sense]  # the frequency's direction
     z = corrector.pack(X_start, omega_start)
@@ -208,17 +201,8 @@ def trace_frequency(problem: ForcedWave, X_start: np.ndarray, omega_start: float
     ds, failures, crawl, end = STEP, 0, 0, f"stopped after {max_points} points"
     in_frequency = 0
     while len(zs) < max_points:
-        predictor = zs[-1] + ds * t
-        z_new, n = corrector.solve(predictor, t, float(t @ predictor), J0=J)
-        if z_new is None or np.linalg.norm(z_new - predictor) > 2 * ds:
-            # once a point (a failed solve costs the relaxation's patience, 1-2 s on the
-            # small wheel: tried at every halving it took 260 of a 410 s trace)
-            z_new, n = (_in_frequency(problem, corrector, zs[-1], predictor, ds, sense)
-                        if not failures else (None, 0))
-            in_frequency += z_new is not None
-            kink = z_new is not None  # its iterations are the relaxation's: the step stays
-        else:
-            kink = False
+        z_new, n, kink = _next_point(problem, corrector, zs[-1], t, J, ds, sense, failures)
+        in_frequency += kink
         if z_new is None:
             ds /= 2
             failures += 1
@@ -325,6 +309,38 @@ def _in_frequency(problem: ForcedWave, corrector: ArclengthCorrector, z_last: np
     if not ok or np.linalg.norm(z - predictor) > 2 * ds:
         return None, n
     return z, n
+
+
+def _corrector(problem: ForcedWave, X_start: np.ndarray, omega_start: float,
+               omega_end: float, x_ref: float) -> ArclengthCorrector:
+    """The trace's corrector: the mean row in units of the start's mean (or ``x_ref``), the
+    vibration rows in ``x_ref``, the frequency in units of the range to trace (the start's
+    frequency was the unit, and on a narrow resonance a step of the arclength then moved the
+    frequency across the whole range: the small wheel's 0.2 Hz plateau at 258 Hz was crossed
+    in one step, from one branch to another)."""
+    mean = max(float(np.abs(X_start[0]).max()), x_ref)
+    x_scale = np.r_[mean, np.full(X_start.shape[0] - 1, x_ref)]
+    return ArclengthCorrector(problem, x_scale, omega_start,
+                              min(abs(omega_end - omega_start), omega_start) or None)
+
+
+def _next_point(problem: ForcedWave, corrector: ArclengthCorrector, z_last: np.ndarray,
+                t: np.ndarray, J: np.ndarray, ds: float, sense: float, failures: int) -> tuple:
+    """``(z, iterations, kink)``: the next point a step ``ds`` along the tangent ``t`` (the
+    corrector from the last point's Jacobian ``J``), or where the corrector misses it, on
+    the first try of a point (``failures`` 0), the curve at the predictor's frequency
+    (:func:`_in_frequency`; ``kink`` True: its iterations are the relaxation's, the step
+    stays); ``z`` None when both fail. The second solve only once a point: a failed one
+    costs the relaxation's patience (1-2 s on the small wheel; tried at every halving it
+    took 260 of a 410 s trace)."""
+    predictor = z_last + ds * t
+    z, n = corrector.solve(predictor, t, float(t @ predictor), J0=J)
+    if z is not None and np.linalg.norm(z - predictor) <= 2 * ds:
+        return z, n, False
+    if failures:
+        return None, n, False
+    z, n = _in_frequency(problem, corrector, z_last, predictor, ds, sense)
+    return z, n, z is not None
 
 
 def merged_folds(folds: list) -> list:
