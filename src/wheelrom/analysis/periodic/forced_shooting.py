@@ -72,6 +72,8 @@ MARCH_PERIODS, MARCH_TOLERANCE = 2000, 1e-6
 #: under the elastic law at 3.2 kN, 135 Hz: 0.44 of the vibration a period for 600 periods,
 #: its stuck modes damped by 2 zeta = beta_D w = 4e-5 ringing for a minute)
 MARCH_STALL = 200
+#: Newton keeps its Jacobian while the steps contract (:func:`~.newton.newton_least_squares`)
+CHORD = True
 #: a multiplier this close to the unit circle counts as on it (the differences' error, raised
 #: to the pattern's power)
 UNIT = 1e-6
@@ -250,7 +252,7 @@ class ForcedShooting:
         z, _, size, reason, it = newton_least_squares(
             lambda z: (self.shot((z * scale)[None])[0] - z * scale) / scale,
             lambda z: self.jacobian(z * scale, scale) - np.eye(self.n),
-            x / scale, floor, MAX_ITERATIONS)
+            x / scale, floor, MAX_ITERATIONS, chord=CHORD)
         x = z * scale
         converged = reason.startswith("converged")
         orbit = ForcedOrbit(self.omega, x, self.N, size, it, converged, reason=reason,
