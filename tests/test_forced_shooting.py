@@ -391,3 +391,35 @@ def test_the_exact_peak_is_shot_from_the_refined_peak(monkeypatch):
     states = cli_forced._exact_states(None, None, curve, (), None, 3, "all", None, say)
     assert [w for _, w in started] == [1.0, 2.0, 3.0, 4.0]
     assert not any(s["at_refined_peak"] for s in states.values())
+
+
+def test_newton_keeps_its_jacobian_while_the_steps_contract():
+    """``newton_least_squares(chord=True)`` on ``z + 0.3 z^3 = b`` (componentwise, each root
+    the real one of its cubic by numpy's ``roots``): the same roots to 1e-9 as with a fresh
+    Jacobian each iteration, with fewer Jacobians than iterations; a singular direction (a
+    zero row and column, the stuck slider's neutral one) keeps its start."""
+    from wheelrom.analysis.periodic.newton import newton_least_squares
+
+    b = np.array([0.5, -1.0, 2.0, 0.0])
+    mask = np.array([1.0, 1.0, 1.0, 0.0])  # the last unknown: neutral
+
+    def residual(z):
+        return mask * (z + 0.3 * z**3 - b)
+
+    calls = []
+
+    def jacobian(z):
+        calls.append(1)
+        return np.diag(mask * (1 + 0.9 * z**2))
+
+    roots = [next(r.real for r in np.roots([0.3, 0, 1, -v]) if abs(r.imag) < 1e-12)
+             for v in b[:3]]
+    start = np.array([0.0, 0.0, 0.0, 0.7])
+    for chord in (False, True):
+        calls.clear()
+        z, _, size, reason, it = newton_least_squares(residual, jacobian, start.copy(), 0.0,
+                                                      30, chord=chord)
+        assert reason == "converged" and size <= 1e-10
+        np.testing.assert_allclose(z[:3], roots, rtol=1e-9)  # the residual within 1e-10
+        assert z[3] == 0.7
+        assert (len(calls) < it) if chord else (len(calls) == it)
