@@ -259,8 +259,8 @@ def _nonlinear(model, cfg, grid: np.ndarray, angles: dict | None, harmonics: int
         out["traced"] = _traced(model, cfg, curve, grid, inputs)
     if curve.converged.any():
         i = curve.peak
-        if at_edge(curve):  # a largest value, not a peak
-            out["peak_at_edge"] = "lower" if i == np.flatnonzero(curve.converged)[0] else "upper"
+        if edge_of(curve):  # a largest value, not a peak
+            out["peak_at_edge"] = edge_of(curve)
         if outside:  # the linear resonances lie outside: where the nonlinear one is
             out["no_resonance"] = outside + (
                 f"; the nonlinear response's largest value is at the band's "
@@ -297,7 +297,7 @@ def _exact_states(model, cfg, curve, inputs: tuple, angles: dict | None, harmoni
     states = {}
     for j in wanted[rank::size]:
         X, w = curve.harmonics[j], float(curve.frequency[j])
-        refined = exact == "peak" and curve.refined is not None and not at_edge(curve)
+        refined = exact == "peak" and curve.refined is not None and not edge_of(curve)
         if refined:  # the peak off the grid: the balance's maximum, the shot's start
             X, w = curve.refined.harmonics, float(curve.refined.frequency)
         say(f"the exact state at {w / (2 * math.pi):.4f} Hz by shooting")
@@ -309,11 +309,14 @@ def _exact_states(model, cfg, curve, inputs: tuple, angles: dict | None, harmoni
     return states
 
 
-def at_edge(curve) -> bool:
-    """Whether the curve's largest converged point is the first or last converged one of
-    three or more (a largest value at the band's edge, not a peak)."""
+def edge_of(curve) -> str:
+    """'lower' or 'upper' where the curve's largest converged point is the first or last
+    converged one of three or more (a largest value at the band's edge, not a peak), else
+    ''."""
     solved = np.flatnonzero(curve.converged)
-    return bool(solved.size > 2 and curve.peak in (solved[0], solved[-1]))
+    if solved.size <= 2 or curve.peak not in (solved[0], solved[-1]):
+        return ""
+    return "lower" if curve.peak == solved[0] else "upper"
 
 
 def _exact(orbit) -> dict:

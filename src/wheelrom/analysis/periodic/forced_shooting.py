@@ -48,6 +48,7 @@ from wheelrom.analysis.periodic.flow import (
 from wheelrom.analysis.periodic.forced_wave import ForcedWave
 from wheelrom.analysis.periodic.newton import (
     EXTRAPOLATION_WINDOW,
+    central_columns,
     newton_least_squares,
     reduced_rank_extrapolation,
 )
@@ -246,15 +247,7 @@ class ForcedShooting:
                  columns: np.ndarray | None = None) -> np.ndarray:
         """``(n, c)`` columns ``columns`` (default all) of ``d(S^{-j} phi_tau)/dx`` in scaled
         units, central differences (one batch of ``2 c`` shots)."""
-        cols = np.arange(self.n) if columns is None else np.asarray(columns)
-        c = cols.size
-        h = DIFFERENCE * scale[cols]
-        perturbed = np.repeat(x[None], 2 * c, axis=0)
-        perturbed[np.arange(c), cols] += h
-        perturbed[c + np.arange(c), cols] -= h
-        shots = self.shot(perturbed)
-        derivative = (shots[:c] - shots[c:]) / (2 * h[:, None])  # row i: d end / d x_i
-        return derivative.T * scale[cols][None, :] / scale[:, None]
+        return central_columns(self.shot, x, scale, DIFFERENCE, columns)
 
     # ------------------------------------------------------------------ Newton
     def solve(self, x0: np.ndarray, tip_amplitude: float) -> ForcedOrbit:

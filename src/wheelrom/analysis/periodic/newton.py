@@ -81,6 +81,23 @@ def newton_least_squares(residual: Callable, jacobian: Callable, z: np.ndarray,
     return z, F, size, reason, it
 
 
+def central_columns(shot: Callable, x: np.ndarray, scale: np.ndarray, step: float,
+                    columns: np.ndarray | None = None) -> np.ndarray:
+    """``(n, c)`` columns ``columns`` (default all) of ``d shot / dx`` at ``x`` ``(n,)`` in
+    units of ``scale`` ``(n,)``, by central differences of ``step`` in those units: all
+    ``2 c`` perturbed states one call of ``shot`` (``(B, n) -> (B, n)``, one batch of the
+    compiled kernel); the columns not asked for (held or locked sliders) are not shot."""
+    cols = np.arange(x.size) if columns is None else np.asarray(columns)
+    c = cols.size
+    h = step * scale[cols]
+    perturbed = np.repeat(x[None], 2 * c, axis=0)
+    perturbed[np.arange(c), cols] += h
+    perturbed[c + np.arange(c), cols] -= h
+    shots = shot(perturbed)
+    derivative = (shots[:c] - shots[c:]) / (2 * h[:, None])  # row i: d end / d x_i
+    return derivative.T * scale[cols][None, :] / scale[:, None]
+
+
 #: reduced rank extrapolation every this many periods of a march (the small wheel's 256 Hz
 #: partial slip: 66 periods instead of 1547 with 10, 71 with 5, 64 with 20)
 EXTRAPOLATION_WINDOW = 10

@@ -32,7 +32,7 @@ import numpy as np
 
 from wheelrom.analysis.periodic.flow import WheelFlow, pattern_model, pattern_spectrum
 from wheelrom.analysis.periodic.hopf import tip_measure
-from wheelrom.analysis.periodic.newton import newton_least_squares
+from wheelrom.analysis.periodic.newton import central_columns, newton_least_squares
 from wheelrom.analysis.periodic.shooting import Orbit, OrbitSamples, vibration_units
 from wheelrom.config import Config
 from wheelrom.rom.model import ReducedModel
@@ -214,15 +214,8 @@ class SliderShooting:
         """``(n, c)`` columns ``columns`` (default all) of ``d(S^{-j} phi_tau)/dx`` in scaled
         units, central differences (one batch of ``2 c`` shots: the held or locked sliders'
         columns, which the callers drop, are not shot)."""
-        cols = np.arange(self.n) if columns is None else np.asarray(columns)
-        c = cols.size
-        h = DIFFERENCE * scale[cols]
-        perturbed = np.repeat(x[None], 2 * c, axis=0)
-        perturbed[np.arange(c), cols] += h
-        perturbed[c + np.arange(c), cols] -= h
-        shots = self.shot(perturbed, period, steps)
-        derivative = (shots[:c] - shots[c:]) / (2 * h[:, None])  # row i: d end / d x_i
-        return derivative.T * scale[cols][None, :] / scale[:, None]
+        return central_columns(lambda states: self.shot(states, period, steps), x, scale,
+                               DIFFERENCE, columns)
 
     def _scale(self, x: np.ndarray, period: float, tip_amplitude: float) -> np.ndarray:
         """Units of the unknowns: ``a`` (the largest modal velocity over ``w``) for ``q``,
