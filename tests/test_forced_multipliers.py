@@ -30,21 +30,23 @@ FREQUENCIES = (230.0, 240.0, 245.0, 250.0, 255.0, 260.0)
 
 @pytest.fixture(scope="module")
 def elastic_states(small_model, small_cfg):
-    """``(cfg, problem, {f: (orbit, shares (K, 3))})`` at 250 and 260 Hz."""
+    """``(cfg, problem, {f: (orbit, shares (K, 3))}, {f: the balance's X})`` at 250 and 260
+    Hz, shot at the configured step (not refined)."""
     cfg = small_cfg.replace(**ELASTIC)
     params, q = forced_inputs(small_model, cfg)
     curve = forced_curve(small_model, params, cfg.wheel.damping_beta,
                          2 * math.pi * np.array(FREQUENCIES), q, harmonics=3)
     assert curve.converged.all()
     problem = ForcedWave(small_model, params, cfg.wheel.damping_beta, 3)
-    states = {}
+    states, balance = {}, {}
     for f in (250.0, 260.0):
         i = FREQUENCIES.index(f)
+        balance[f] = curve.harmonics[i]
         orbit = exact_forced(small_model, cfg, problem, curve.harmonics[i], 2 * math.pi * f,
                              refine=False, whole_wheel=True)
         assert orbit.converged
         states[f] = (orbit, curve.fractions[i])
-    return cfg, problem, states
+    return cfg, problem, states, balance
 
 
 def _families(orbit):
@@ -61,7 +63,7 @@ def _seeded(small_model, cfg, problem, orbit, nd):
 
 def test_a_stable_state_in_partial_slip_damps_its_seeds_as_its_multipliers_say(
         small_model, elastic_states):
-    cfg, problem, states = elastic_states
+    cfg, problem, states, _ = elastic_states
     orbit, shares = states[260.0]
     N, P = small_model.blades, orbit.pattern
     # the tie-boss sticks all period, the shroud slips part of it (and opens)
@@ -81,7 +83,7 @@ def test_a_stable_state_in_partial_slip_damps_its_seeds_as_its_multipliers_say(
 
 def test_an_unstable_state_grows_its_seeds_as_its_multipliers_say_and_leaves(
         small_model, elastic_states, tmp_path, capsys):
-    cfg, problem, states = elastic_states
+    cfg, problem, states, _ = elastic_states
     orbit, shares = states[250.0]
     assert 0.05 < shares[1, 2] < 0.8 and not orbit.stable
     even, odd = _families(orbit)
@@ -97,6 +99,56 @@ def test_an_unstable_state_grows_its_seeds_as_its_multipliers_say_and_leaves(
     assert settled.largest > 1.05 * orbit.tip_amplitude and settled.spread > 0.03
     assert settled.dominant_nd == 5
     _said_and_written(orbit, settled, tmp_path, capsys)
+
+
+def test_the_finer_step_starts_on_the_coarse_jacobian_and_takes_the_wheels_multipliers(
+        small_model, elastic_states, monkeypatch):
+    """``exact_forced`` refined at half the step (its default) on the partial-slip state at
+    260 Hz: the finer step's Newton keeps the coarse step's Jacobian at the state as its
+    chord (no Jacobian at the finer step but the whole wheel's), the stuck contact's sliders
+    where the coarse state has them, and lands on the family member next to the one Newton
+    with a fresh Jacobian finds from the same coarse state; the finer
+    step's pattern multipliers are the whole wheel's Bloch block p = 0, which the pattern's
+    own differences (:func:`pattern_multipliers`) give to 1e-4."""
+    import dataclasses
+
+    from wheelrom.analysis.periodic.forced_shooting import ForcedShooting, pattern_multipliers
+
+    cfg, problem, states, balance = elastic_states
+    w = 2 * math.pi * 260.0
+    shots, original = [], ForcedShooting.jacobian
+
+    def counted(self, x, scale, columns=None):
+        shots.append((self.N, self.flow.steps_for(self.tau)[1]))
+        return original(self, x, scale, columns)
+
+    monkeypatch.setattr(ForcedShooting, "jacobian", counted)
+    orbit = exact_forced(small_model, cfg, problem, balance[260.0], w, whole_wheel=True)
+    assert orbit.converged and orbit.stable and 0.9 < orbit.coarse_largest <= 1.0
+    coarse = max(h for _, h in shots)
+    assert [n for n, h in shots if h < coarse] == [small_model.blades]  # the wheel's alone
+    finer = cfg.replace(**{"time.step": cfg.time.step / 2})
+    fresh = ForcedShooting(small_model, finer, problem, w)
+    scale = fresh._scale(orbit.state, orbit.tip_amplitude)
+    again = fresh.solve(states[260.0][0].state, orbit.hb_tip_amplitude, multipliers=False)
+    assert again.converged
+    # the tie-boss's stuck sliders: the chord keeps the offset its history gave them (to the
+    # rounding of the scaled unknowns)
+    # (the fresh Jacobian's least-squares step moves them 1.8e-5 of the vibration: another
+    # member of the family); the tip amplitude the same (measured 4e-6 apart)
+    nq = 2 * orbit.pattern * small_model.modes
+    tieboss = slice(nq, nq + 2 * orbit.pattern)
+    np.testing.assert_allclose(orbit.state[tieboss], states[260.0][0].state[tieboss],
+                               rtol=1e-14)
+    assert np.abs((again.state - orbit.state) / scale).max() < 1e-4
+    assert fresh.tip_amplitude(fresh.path(again.state)) == pytest.approx(orbit.tip_amplitude,
+                                                                         rel=2e-5)
+    fresh.destroy()
+    own = dataclasses.replace(orbit, multipliers=np.zeros(0, complex))
+    pattern_multipliers(small_model, finer, problem, own)
+    assert np.sum(orbit.multipliers == 1.0) == np.sum(own.multipliers == 1.0) > 0
+    np.testing.assert_allclose(np.abs(orbit.multipliers[:8]), np.abs(own.multipliers[:8]),
+                               atol=1e-4)
 
 
 def _said_and_written(orbit, settled, tmp_path, capsys):

@@ -67,8 +67,11 @@ DIFFERENCE = 1e-6  # central-difference step, relative to the vibration
 #: shakedown loop over hundreds of periods, and Newton from a slider state off that loop
 #: stalls (measured on the small wheel at 256 Hz: residual 0.06-0.09 after 20 iterations
 #: from 3 marched periods, whatever the difference step or the time step; converged in two
-#: from 300)
-MARCH_PERIODS, MARCH_TOLERANCE = 2000, 1e-6
+#: from 300). Newton ends the march from 1e-4 (the autonomous shot's march too): on the
+#: paper wheel's 1 N peak the march creeps below 3e-6 for over 1000 periods (111 s), while
+#: Newton from 1e-4 (44 periods, 4 s) lands on the 1e-5 march's state to 2e-6 of the
+#: vibration, 3e-7 in the tip amplitude
+MARCH_PERIODS, MARCH_TOLERANCE = 2000, 1e-4
 #: the march stops when this many periods have not found a smaller change (the paper wheel
 #: under the elastic law at 3.2 kN, 135 Hz: 0.44 of the vibration a period for 600 periods,
 #: its stuck modes damped by 2 zeta = beta_D w = 4e-5 ringing for a minute)
@@ -114,6 +117,10 @@ class ForcedOrbit:
     #: where the wheel goes from the state when it is unstable
     #: (:class:`~.forced_perturbed.SettledForced`; None: not asked or stable)
     settled: Any = None
+    #: ``(G, scale)``: the map's Jacobian at ``state`` in the units ``scale`` ``(n,)``, the
+    #: locked sliders' columns the identity's (:meth:`ForcedShooting.multipliers`); a finer
+    #: step's Newton starts its chord on it (None: not computed)
+    jacobian: Any = field(default=None, repr=False)
 
     @property
     def largest(self) -> float:
@@ -250,17 +257,25 @@ class ForcedShooting:
         return central_columns(self.shot, x, scale, DIFFERENCE, columns)
 
     # ------------------------------------------------------------------ Newton
-    def solve(self, x0: np.ndarray, tip_amplitude: float) -> ForcedOrbit:
+    def solve(self, x0: np.ndarray, tip_amplitude: float, jacobian: tuple | None = None,
+              multipliers: bool = True) -> ForcedOrbit:
         """Newton from ``x0`` ``(n,)``; ``tip_amplitude`` [m]: the start's (the sliders'
-        unit). The orbit with its multipliers when converged."""
+        unit); ``jacobian``: ``(G, scale)`` of a nearby state (:attr:`ForcedOrbit.jacobian`,
+        the coarser step's) that Newton's chord starts on instead of a fresh one. The orbit
+        with its multipliers (``multipliers``) and their Jacobian when converged."""
         t0 = time.perf_counter()
         x = np.array(x0, dtype=float)
         scale = self._scale(x, tip_amplitude)
         floor = ROUNDOFF * float(np.abs(x / scale).max())
+        start = None
+        if jacobian is not None:  # in this solve's units: D^-1 D_old G D_old^-1 D
+            G, old = jacobian
+            ratio = old / scale
+            start = ratio[:, None] * G / ratio[None, :] - np.eye(self.n)
         z, _, size, reason, it = newton_least_squares(
             lambda z: (self.shot((z * scale)[None])[0] - z * scale) / scale,
             lambda z: self.jacobian(z * scale, scale) - np.eye(self.n),
-            x / scale, floor, MAX_ITERATIONS, chord=CHORD)
+            x / scale, floor, MAX_ITERATIONS, chord=CHORD, start=start)
         x = z * scale
         converged = reason.startswith("converged")
         orbit = ForcedOrbit(self.omega, x, self.N, size, it, converged, reason=reason,
@@ -269,22 +284,30 @@ class ForcedShooting:
             path = self.path(x)
             orbit.tip_amplitude = self.tip_amplitude(path)
             orbit.neutral = self.locked(path)
-            orbit.multipliers, orbit.nodal_diameters = self.multipliers(x, scale, orbit.neutral)
+            if multipliers:
+                orbit.multipliers, orbit.nodal_diameters, G = self.multipliers(
+                    x, scale, orbit.neutral)
+                orbit.jacobian = (G, scale)
         orbit.wall_s = time.perf_counter() - t0
         return orbit
 
     def multipliers(self, x: np.ndarray, scale: np.ndarray, neutral: np.ndarray):
-        """``(mu, nd)`` of the pattern map at ``x`` (``scale``: the unknowns' units), largest
-        first: the eigenvalues of its Jacobian without the sliders of the ``neutral`` kinds
-        ``(K,)`` (:func:`~.flow.pattern_spectrum`; their columns are not shot), then those
-        sliders' multipliers, exactly 1, labelled by the ND of their wave
-        (:func:`neutral_nds`)."""
+        """``(mu, nd, G)`` of the pattern map at ``x`` (``scale``: the unknowns' units),
+        largest first: the eigenvalues of its Jacobian without the sliders of the
+        ``neutral`` kinds ``(K,)`` (:func:`~.flow.pattern_spectrum`; their columns are not
+        shot), then those sliders' multipliers, exactly 1, labelled by the ND of their wave
+        (:func:`neutral_nds`); ``G`` ``(n, n)`` that Jacobian, scaled, the locked sliders'
+        columns the identity's (a chord on it leaves them where they are)."""
         keep = self.unlocked(neutral)
-        G = self.jacobian(x, scale, keep)[keep]
-        mu, _, nd = pattern_spectrum(G, scale[keep], self.shots, self.N, self.blades, self.m)
+        columns = self.jacobian(x, scale, keep)
+        mu, _, nd = pattern_spectrum(columns[keep], scale[keep], self.shots, self.N,
+                                     self.blades, self.m)
         ones = neutral_nds(2 * self.N * int(np.sum(neutral)), self.N, self.g, self.blades)
-        return largest_first(np.concatenate([mu, np.ones(ones.size)]),
-                             np.concatenate([nd, ones]))
+        G = np.eye(self.n)
+        G[:, keep] = columns
+        mu, nd = largest_first(np.concatenate([mu, np.ones(ones.size)]),
+                               np.concatenate([nd, ones]))
+        return mu, nd, G
 
     def unlocked(self, neutral: np.ndarray) -> np.ndarray:
         """Flat indices of the unknowns other than the sliders of the ``neutral`` kinds
@@ -348,8 +371,11 @@ def exact_forced(model: ReducedModel, cfg: Config, problem: ForcedWave, X: np.nd
     ``refine``: solved again at half the step from there, the multipliers (and the state)
     of the finer step reported and the coarse step's largest ``|mu|`` kept in
     ``coarse_largest`` (a contact opening or sticking within a step makes the multipliers
-    converge with the step erratically: measured 1.45, 1.61, 1.59 at 5, 2.5, 1.25 us);
-    ``whole_wheel``: also the whole wheel's multipliers (:func:`wheel_multipliers`)."""
+    converge with the step erratically: measured 1.45, 1.61, 1.59 at 5, 2.5, 1.25 us),
+    its Newton's chord started on the coarse step's Jacobian at the state;
+    ``whole_wheel``: also the whole wheel's multipliers (:func:`wheel_multipliers`), whose
+    Bloch block ``p = 0`` gives the finer step's pattern multipliers (one Jacobian, not
+    two; the pattern's own, :func:`pattern_multipliers`, where it fails)."""
     hb = problem.tip_amplitude(X, omega)
     orbit_cfg = cfg  # the configuration of the step the orbit is reported at
     orbit, failure = guarded(_shoot, model, cfg, problem, omega, angles_deg, X, None, hb)
@@ -357,31 +383,52 @@ def exact_forced(model: ReducedModel, cfg: Config, problem: ForcedWave, X: np.nd
         return ForcedOrbit(float(omega), np.zeros(0), 0, math.inf, 0, False,
                            hb_tip_amplitude=hb, reason=failure)
     orbit.hb_tip_amplitude = hb
-    if refine and orbit.converged:
+    if refine and orbit.converged:  # the fine step's multipliers: the wheel's p = 0 block
         finer = cfg.replace(**{"time.step": cfg.time.step / 2})
         fine, failure = guarded(_shoot, model, finer, problem, omega, angles_deg, None,
-                                 orbit.state, hb)
+                                 orbit.state, hb, orbit.jacobian, not whole_wheel)
         if fine is not None and fine.converged:
             fine.hb_tip_amplitude, fine.coarse_largest = hb, orbit.largest
             fine.wall_s += orbit.wall_s
             orbit, orbit_cfg = fine, finer
         else:
             orbit.reason += f"; at half the step: {failure or fine.reason}"
+    orbit.jacobian = None  # not kept: (n, n) floats
+    t0 = time.perf_counter()
     if whole_wheel and orbit.converged:
-        t0 = time.perf_counter()
         _, failure = guarded(wheel_multipliers, model, orbit_cfg, problem, orbit, angles_deg)
         if failure:
             orbit.reason += f"; every ND: {failure}"
-        orbit.wall_s += time.perf_counter() - t0
+    if orbit.converged and not orbit.multipliers.size:  # the wheel's failed: the pattern's
+        _, failure = guarded(pattern_multipliers, model, orbit_cfg, problem, orbit,
+                             angles_deg)
+        if failure:
+            orbit.reason += f"; multipliers: {failure}"
+    orbit.wall_s += time.perf_counter() - t0
     return orbit
 
 
-def _shoot(model, cfg, problem, omega, angles_deg, X, x0, hb) -> ForcedOrbit:
+def pattern_multipliers(model: ReducedModel, cfg: Config, problem: ForcedWave,
+                        orbit: ForcedOrbit, angles_deg: dict | None = None) -> None:
+    """The multipliers inside the pattern's symmetry of the converged ``orbit`` (``cfg``:
+    its step), set on it (:meth:`ForcedShooting.multipliers`)."""
+    shooting = ForcedShooting(model, cfg, problem, orbit.frequency, angles_deg)
+    try:
+        scale = shooting._scale(orbit.state, orbit.tip_amplitude)
+        orbit.multipliers, orbit.nodal_diameters, _ = shooting.multipliers(
+            orbit.state, scale, orbit.neutral)
+    finally:
+        shooting.destroy()
+
+
+def _shoot(model, cfg, problem, omega, angles_deg, X, x0, hb,
+           jacobian: tuple | None = None, multipliers: bool = True) -> ForcedOrbit:
     """One shot's Newton solve, from the balance's ``X`` (marched) or from the state
-    ``x0``."""
+    ``x0`` (its chord started on ``jacobian``, :meth:`ForcedShooting.solve`)."""
     shooting = ForcedShooting(model, cfg, problem, omega, angles_deg)
     try:
-        return shooting.solve(shooting.start(problem, X) if x0 is None else x0, hb)
+        return shooting.solve(shooting.start(problem, X) if x0 is None else x0, hb,
+                              jacobian, multipliers)
     finally:
         shooting.destroy()
 
@@ -440,3 +487,9 @@ def wheel_multipliers(model: ReducedModel, cfg: Config, problem: ForcedWave,
     ones = neutral_nds(2 * N * int(neutral.sum()), N, 1, N)
     orbit.wheel_multipliers, orbit.wheel_nodal_diameters = largest_first(
         np.concatenate([values, np.ones(ones.size)]), np.concatenate([nds, ones]))
+    if not orbit.multipliers.size and orbit.pattern == P:  # the pattern's own: block p = 0
+        own = block(0).size
+        ones = neutral_nds(2 * P * int(neutral.sum()), P, g, N)
+        orbit.multipliers, orbit.nodal_diameters = largest_first(
+            np.concatenate([values[:own], np.ones(ones.size)]),
+            np.concatenate([nds[:own], ones]))
