@@ -205,9 +205,10 @@ def test_the_command_checks_the_peak_by_shooting(tmp_path, capsys):
     from wheelrom.cli import main as cli
 
     path = tmp_path / "f.h5"
-    argv = ["forced-response", SMALL, "--nonlinear", "--exact", "--frequencies", "120:135:6",
+    # forced.exact = true (the default; the tests' wheel sets it false): the peak shot
+    argv = ["forced-response", SMALL, "--nonlinear", "--frequencies", "120:135:6",
             "--harmonics", "11", "--set", 'flutter.model="off"', "--set",
-            "excitation.force=10", "--json", "--out", str(path)]
+            "excitation.force=10", "--set", "forced.exact=true", "--json", "--out", str(path)]
     assert cli.main(argv) == 0
     nl = json.loads(capsys.readouterr().out)["nonlinear"]
     ex = nl["exact"]
@@ -228,7 +229,7 @@ def test_the_command_checks_the_peak_by_shooting(tmp_path, capsys):
     assert line and f"{ex['largest_multiplier']:.6f}" in line[0]
     capsys.readouterr()
     # every solved frequency: the curve's stable and unstable parts
-    argv[argv.index("--exact") + 1 : argv.index("--exact") + 1] = ["all"]
+    argv[argv.index("--nonlinear") + 1 : argv.index("--nonlinear") + 1] = ["--exact", "all"]
     assert cli.main(argv[:-2] + ["--out", str(tmp_path / "all.h5")]) == 0
     nl = json.loads(capsys.readouterr().out)["nonlinear"]
     rows = nl["exact_curve"]
@@ -245,6 +246,13 @@ def test_the_command_checks_the_peak_by_shooting(tmp_path, capsys):
     capsys.readouterr()
     assert cli.main(["forced-response", SMALL, "--exact"]) == 2  # --nonlinear needed
     assert "--nonlinear" in capsys.readouterr().err
+    # --exact none: the balance's peak alone, whatever forced.exact says
+    none = argv[:-2]
+    none[none.index("all")] = "none"
+    none[none.index("120:135:6")] = "123:125:2"
+    assert cli.main(none) == 0
+    nl = json.loads(capsys.readouterr().out)["nonlinear"]
+    assert "exact" not in nl and "exact_curve" not in nl and nl["converged"] == [True, True]
 
 
 def test_every_nd_from_the_block_circulant_map(small_model, small_cfg):

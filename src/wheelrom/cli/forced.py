@@ -41,9 +41,11 @@ def args_forced(p: argparse.ArgumentParser) -> None:
                    "(tuned wheel; docs/theory.md 'Nonlinear forced response')")
     p.add_argument("--harmonics", type=int, default=None,
                    help="harmonics of --nonlinear (default forced.harmonics)")
-    p.add_argument("--exact", nargs="?", const="peak", choices=("peak", "all"), default=None,
+    p.add_argument("--exact", nargs="?", const="peak", choices=("peak", "all", "none"),
+                   default=None,
                    help="with --nonlinear: the exact periodic state at the nonlinear peak "
-                   "('peak', the default) or at every solved frequency ('all': the curve's "
+                   "('peak'; by default when forced.exact, 'none': the balance's peak "
+                   "alone) or at every solved frequency ('all': the curve's "
                    "stable and unstable parts) by shooting on the transient's equations (the "
                    "harmonic balance's error) and its Floquet multipliers in every ND; an "
                    "unstable state is then perturbed and the whole wheel integrated from it "
@@ -82,8 +84,10 @@ def cmd_forced(args: argparse.Namespace) -> int:
         if not args.nonlinear:
             raise InputError("--harmonics sets the nonlinear response's: give --nonlinear too")
     args.harmonics = cfg.forced.harmonics if args.harmonics is None else args.harmonics
-    if args.exact and not args.nonlinear:
+    if args.exact not in (None, "none") and not args.nonlinear:
         raise InputError("--exact checks the nonlinear response: give --nonlinear too")
+    exact = {None: "peak" if cfg.forced.exact else None, "none": None}.get(args.exact,
+                                                                          args.exact)
     if args.nonlinear and args.contacts is False:  # the balance is the contacts' nonlinearity
         raise InputError("--no-contacts leaves the contacts out of the linear response only; "
                          "the nonlinear one is theirs (leave a kind out with contacts.<kind>."
@@ -122,7 +126,7 @@ def cmd_forced(args: argparse.Namespace) -> int:
     curve, world = None, world_if_parallel()
     if args.nonlinear:
         out["nonlinear"], curve = _nonlinear(model, cfg, response.grid, angles,
-                                             args.harmonics, say, resonances, args.exact,
+                                             args.harmonics, say, resonances, exact,
                                              world)
     failure = None
     if world is None or world.rank == 0:  # every rank holds the result: rank 0 tells it

@@ -108,11 +108,12 @@ class ForcedConfig:
                       choices=("frequency", "speed")),
     )
     exact: bool = field(
-        default=False,
-        metadata=_key("-", "the design study's peaks made exact (study --forced-nonlinear): "
-                      "the state at each case's refined peak by shooting on the transient's "
-                      "equations, its amplitude and Floquet multipliers beside the harmonic "
-                      "balance's (a minute or more a case on the paper wheel)"),
+        default=True,
+        metadata=_key("-", "the nonlinear peak made exact (forced-response --nonlinear, "
+                      "study --forced-nonlinear): the state at the refined peak by shooting "
+                      "on the transient's equations, its amplitude and Floquet multipliers in "
+                      "every ND beside the harmonic balance's (about a minute on the paper "
+                      "wheel); false: the balance's peak alone"),
     )
 
 
