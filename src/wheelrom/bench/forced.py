@@ -14,7 +14,12 @@ slipping to the stuck resonance, :func:`~wheelrom.studies.forced_nonlinear.nonli
   the band for the stalls' jumps, no stability), ``forced_traced_points``, its folds
   [Hz] and how the trace ended;
 - ``forced_peak_amplitude_m``, ``forced_peak_frequency_hz``: the traced curve's refined
-  peak; ``forced_case``: the law, harmonics, band [Hz] and ND.
+  peak; ``forced_case``: the law, harmonics, band [Hz] and ND;
+- with ``forced.exact`` (the default): ``forced_exact_s``, the exact state at that peak by
+  shooting with its multipliers in every ND (``forced-response --nonlinear``'s default
+  answer; issue #74's goal 20 s on the paper wheel's elastic 1 N peak),
+  ``forced_exact_tip_m`` [m] (None: not converged) and ``forced_exact_largest``, the
+  largest ``|mu|`` in every ND.
 """
 
 from __future__ import annotations
@@ -28,7 +33,7 @@ from wheelrom.analysis.periodic.forced_branch import traced_curve
 from wheelrom.analysis.periodic.forced_wave import forced_curve
 from wheelrom.config import Config
 from wheelrom.rom.model import ReducedModel
-from wheelrom.studies.forced_nonlinear import forced_inputs, nonlinear_band
+from wheelrom.studies.forced_nonlinear import exact_peak, forced_inputs, nonlinear_band
 
 GRID_POINTS = 200
 JUMPS = 40  # the traced curve's jump: this share of the band
@@ -56,7 +61,16 @@ def forced_figures(model: ReducedModel, cfg: Config, say) -> dict:
                           jump=(band[1] - band[0]) / JUMPS)
     t2 = time.perf_counter()
     peak = traced.refined
-    return {
+    exact = {}
+    if cfg.forced.exact and peak is not None:
+        say("  the exact state at the peak")
+        orbit = exact_peak(model, cfg, peak.harmonics, peak.frequency, H, (params, q),
+                           whole_wheel=True)
+        exact = {"forced_exact_s": time.perf_counter() - t2,
+                 "forced_exact_tip_m": orbit.tip_amplitude if orbit.converged else None,
+                 "forced_exact_largest": (float(abs(orbit.wheel_multipliers[0]))
+                                          if orbit.wheel_multipliers.size else None)}
+    return exact | {
         "forced_grid_s": points_s,
         "forced_grid_solved": int(points.converged.sum()),
         "forced_grid_200_s": t1 - t0,
