@@ -95,6 +95,28 @@ def test_van_der_pol_wheel_settles_periodic_at_the_averaging_amplitude(vdp_settl
         assert g.attrs["frequency_hz"] == pytest.approx(truth.omega / (2 * math.pi), rel=1e-3)
 
 
+def test_the_settle_step_keeps_the_amplitude_of_a_four_times_finer_step(vdp_settled,
+                                                                        tmp_path):
+    """``settle.step`` (issue #70: each analysis at the step its own accuracy allows): the
+    Van der Pol wheel settled at 40 us reads the settled amplitude and frequency of its run
+    at 10 us (``time.step``, four times finer) to 1e-3 and 1e-4; each file's ``time_step``
+    is the step it was integrated at."""
+    from wheelrom.cli import main as cli
+
+    out = tmp_path / "coarse.h5"
+    assert cli.main(["settle", SMALL, *sum((["--set", k] for k in VDP), []),
+                     "--set", "settle.step=4e-5", "--out", str(out)]) == 0
+    reads = []
+    for path, step in ((out, 4e-5), (vdp_settled, 1e-5)):
+        with h5py.File(path, "r") as f:
+            g = f["settle/case_0"]
+            assert f["settle"].attrs["time_step"] == step and g.attrs["settled"]
+            reads.append((g["amplitude"][()].max(), g.attrs["frequency_hz"]))
+    (coarse, f_coarse), (fine, f_fine) = reads
+    assert coarse == pytest.approx(fine, rel=1e-3)
+    assert f_coarse == pytest.approx(f_fine, rel=1e-4)
+
+
 def test_a_case_still_growing_is_not_settled(small_model, capsys):
     """From the preloaded equilibrium with the waves seeded at 1 nm, 0.3 s is far too short:
     the verdict says so and no class is claimed."""

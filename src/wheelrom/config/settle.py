@@ -76,6 +76,14 @@ class SettleConfig:
                       "frequency. The batches, not the MPI ranks, "
                       "decide them: the results do not depend on the number of ranks",
                       min=1, max=1000))
+    step: float = field(
+        default=0.0,
+        metadata=_key("s", "the settle's own fixed time step (0: time.step): its amplitude "
+                      "statistics hold at a coarser step than a seed's growth rate needs "
+                      "(the paper wheel's flutter at 20 us reads 10 us's and 5 us's within "
+                      "their window-to-window scatter: docs/performance.md); the exponential "
+                      "scheme's stability check still lowers it under the elastic law",
+                      min=0.0, max=1e-3))
     nozzle: bool = field(
         default=False,
         metadata=_key("-", "nozzle excitation on (excitation.force; windows a whole number of "

@@ -27,7 +27,7 @@ def write_settle(f, cfg: Config, model: ReducedModel, cases: list) -> None:
     for key in ("window_periods", "tolerance", "consecutive", "min_time", "max_time",
                 "bounded_span", "bounded_drift", "perturbation", "seed", "start", "nozzle"):
         g.attrs[key] = getattr(s, key)
-    g.attrs["time_step"] = cfg.time.step
+    g.attrs["time_step"] = s.step or cfg.time.step  # the step integrated (settle.step)
     g["angles_deg"] = np.array([[a.get(k, np.nan) for k in ("tieboss", "shroud")]
                                 for a, _, _ in cases])
     g["angles_deg"].attrs["columns"] = "tieboss, shroud"

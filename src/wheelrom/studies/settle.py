@@ -457,7 +457,10 @@ def run_settle(cfg: Config, out: str | None, comm=None, log=print, resume: bool 
     the model and ``[]``) and the :class:`~wheelrom.studies.kept_cases.KeptCases` of ``out``
     (None without). ``warn``: a damaged saved case (rank 0 reads them). ``--resume``
     reuses a batch (``settle.batch``) whose every case was kept, and runs one kept in part
-    again whole: a batch's windows depend on its members."""
+    again whole: a batch's windows depend on its members. Integrated at ``settle.step``
+    where it is set."""
+    if cfg.settle.step > 0:  # the settle's own step (its statistics, not a seed's growth)
+        cfg = cfg.replace(**{"time.step": cfg.settle.step})
     study = expand(cfg)
     rank = comm.rank if comm is not None else 0
     say = log if rank == 0 and log is not None else (lambda *_: None)
