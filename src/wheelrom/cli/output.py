@@ -337,6 +337,8 @@ def print_study(summary: dict, path: str) -> None:
                 mu = mu if every is None else every
                 words += (f" (exact {exact * 1e6:.4g} um, largest |mu| {mu:.4f}: "
                           f"{'stable' if design['exact_stable'][i] else 'unstable'})")
+            elif a is not None and design.get("exact_asked"):
+                words += " (exact: the shot did not converge)"
             print(f"    [{i}] {label}: {words}{mark}")
 
 

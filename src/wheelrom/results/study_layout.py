@@ -10,6 +10,7 @@ Creation is collective on an ``mpio`` file (every rank passes the same data) or 
 from __future__ import annotations
 
 import math
+import tomllib
 
 import numpy as np
 
@@ -240,8 +241,12 @@ def design_summary(f) -> dict | None:
             return [None] * peak.size
         return [float(v) if np.isfinite(v) else None for v in g[name][()]]
 
+    config = f.attrs.get("config", "")
+    config = config.decode() if isinstance(config, bytes) else config
     return {
         "law": str(g.attrs["law"]), "harmonics": int(g.attrs["harmonics"]),
+        # forced.exact of the study (absent in files of before it was on by default: off)
+        "exact_asked": bool(tomllib.loads(config).get("forced", {}).get("exact", False)),
         "exact_tip_amplitude_m": listed("exact_tip_amplitude"),
         "exact_largest_multiplier": listed("exact_largest_multiplier"),
         "exact_wheel_largest_multiplier": listed("exact_wheel_largest_multiplier"),
