@@ -253,11 +253,10 @@ def test_the_peaks_made_exact(small_model, small_cfg, tmp_path, capsys):
     lines = [x for x in capsys.readouterr().out.splitlines() if "(exact " in x]
     assert len(lines) == 2 and "largest |mu|" in lines[0]
     # a shot that did not converge is said, where a study without forced.exact says nothing
-    design["exact_tip_amplitude_m"][1] = None
-    print_study(summary, out)
+    failed = {**design, "exact_tip_amplitude_m": [design["exact_tip_amplitude_m"][0], None]}
+    print_study({**summary, "design": failed}, out)
     assert "(exact: the shot did not converge)" in capsys.readouterr().out.splitlines()[-1]
-    design["exact_asked"] = False
-    print_study(summary, out)
+    print_study({**summary, "design": {**failed, "exact_asked": False}}, out)
     assert "(exact" not in capsys.readouterr().out.splitlines()[-1]
     with h5py.File(out) as f:
         g = f["forced_nonlinear"]
