@@ -69,7 +69,8 @@ def forced_figures(model: ReducedModel, cfg: Config, say) -> dict:
         exact = {"forced_exact_s": time.perf_counter() - t2,
                  "forced_exact_tip_m": orbit.tip_amplitude if orbit.converged else None,
                  "forced_exact_largest": (float(abs(orbit.wheel_multipliers[0]))
-                                          if orbit.wheel_multipliers.size else None)}
+                                          if orbit.wheel_multipliers.size else
+                                          orbit.largest if orbit.multipliers.size else None)}
     return exact | {
         "forced_grid_s": points_s,
         "forced_grid_solved": int(points.converged.sum()),

@@ -573,6 +573,11 @@ def _print_exact(ex: dict) -> None:
         print(f"exact state at {ex['frequency_hz']:.4f} Hz: shooting did not converge "
               f"({ex['reason']}, residual {ex['residual']:.2g})")
         return
+    if not ex["multiplier_nd"]:  # converged, its multipliers failed (the reason says how)
+        print(f"exact state at {ex['frequency_hz']:.4f} Hz: tip {ex['tip_amplitude_m']:.4e} m, "
+              f"the harmonic balance {100 * ex['hb_relative_difference']:+.3f} %; no "
+              f"multipliers ({ex['reason']})")
+        return
     verdict = "stable" if ex["stable"] else "unstable"
     every = (f"; in every ND |mu| = {ex['wheel_largest_multiplier']:.6f} (ND "
              f"{ex['wheel_multiplier_nd'][0]})" if "wheel_largest_multiplier" in ex else "")

@@ -333,8 +333,10 @@ def print_study(summary: dict, path: str) -> None:
             words = "failed" if a is None else f"{a * 1e6:.4g} um at {hz:.5g} Hz"
             exact, mu = design["exact_tip_amplitude_m"][i], design["exact_largest_multiplier"][i]
             every = design["exact_wheel_largest_multiplier"][i]
-            if exact is not None:  # forced.exact
-                mu = mu if every is None else every
+            mu = mu if every is None else every
+            if exact is not None and mu is None:  # converged, its multipliers failed
+                words += f" (exact {exact * 1e6:.4g} um, multipliers not computed)"
+            elif exact is not None:  # forced.exact
                 words += (f" (exact {exact * 1e6:.4g} um, largest |mu| {mu:.4f}: "
                           f"{'stable' if design['exact_stable'][i] else 'unstable'})")
             elif a is not None and design.get("exact_asked"):

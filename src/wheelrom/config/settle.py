@@ -6,6 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
+from wheelrom.config.limits import MIN_STEP
 from wheelrom.config.values import field_key as _key
 from wheelrom.config.values import is_number
 
@@ -95,6 +96,9 @@ def settle_problems(cfg: Any, problems: list[str]) -> None:
     only with the start's frequency (:func:`wheelrom.analysis.periodic.settle.settle_cases`
     checks it against ``max_time`` before integrating)."""
     s = cfg.settle
+    if is_number(s.step) and 0 < s.step < MIN_STEP:
+        problems.append(f"settle.step = {s.step:g} s is below the smallest step, "
+                        f"{MIN_STEP:g} s (0: time.step)")
     if is_number(s.min_time) and is_number(s.max_time) and s.min_time > s.max_time:
         problems.append(f"settle.min_time = {s.min_time:g} s is above settle.max_time = "
                         f"{s.max_time:g} s: no case could ever be called settled")

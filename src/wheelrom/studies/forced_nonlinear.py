@@ -191,7 +191,8 @@ def exact_summary(orbit: ForcedOrbit) -> dict:
             "tip_amplitude": float(orbit.tip_amplitude) if done else math.nan,
             "largest": float(orbit.largest) if done else math.nan,
             "coarse_largest": float(orbit.coarse_largest) if done else math.nan,
-            "nodal_diameter": int(orbit.nodal_diameters[0]) if done else -1,
+            "nodal_diameter": int(orbit.nodal_diameters[0]) if done and
+            orbit.nodal_diameters.size else -1,
             "wheel_largest": float(abs(orbit.wheel_multipliers[0])) if every else math.nan,
             "wheel_nodal_diameter": int(orbit.wheel_nodal_diameters[0]) if every else -1}
 

@@ -457,10 +457,7 @@ def run_settle(cfg: Config, out: str | None, comm=None, log=print, resume: bool 
     the model and ``[]``) and the :class:`~wheelrom.studies.kept_cases.KeptCases` of ``out``
     (None without). ``warn``: a damaged saved case (rank 0 reads them). ``--resume``
     reuses a batch (``settle.batch``) whose every case was kept, and runs one kept in part
-    again whole: a batch's windows depend on its members. Integrated at ``settle.step``
-    where it is set."""
-    if cfg.settle.step > 0:  # the settle's own step (its statistics, not a seed's growth)
-        cfg = cfg.replace(**{"time.step": cfg.settle.step})
+    again whole: a batch's windows depend on its members."""
     study = expand(cfg)
     rank = comm.rank if comm is not None else 0
     say = log if rank == 0 and log is not None else (lambda *_: None)
@@ -522,13 +519,21 @@ def run_settle(cfg: Config, out: str | None, comm=None, log=print, resume: bool 
     return models[0], [(a, p, r) for _, a, p, r in ordered], folder
 
 
+def at_settle_step(cfg: Config) -> Config:
+    """``cfg`` integrated at ``settle.step`` where it is set (0: ``time.step``): the settle's
+    own step, for its amplitude statistics, not a seed's growth rate."""
+    return cfg.replace(**{"time.step": cfg.settle.step}) if cfg.settle.step > 0 else cfg
+
+
 def _settle_batch(model, cfgs: list[Config], angles: list[dict], cycles_file, labels,
                   progress) -> list[Settled]:
     """Cases of one batch key (:func:`~wheelrom.config.study.batch_key`: they differ in their
     contact ``angles`` only): each one's start, then the cases whose start was found
     integrated together (:func:`~wheelrom.analysis.periodic.settle.settle_cases`); a case
-    without a start is named failed, the others go on."""
+    without a start is named failed, the others go on. Each at its ``settle.step`` where it
+    is set (the cases keep their own configuration: the kept cases' digests)."""
     t0 = time.perf_counter()
+    cfgs = [at_settle_step(c) for c in cfgs]
     out: list[Settled | None] = [None] * len(cfgs)
     starts, settings = {}, {}
     for b, cfg in enumerate(cfgs):
