@@ -86,8 +86,6 @@ def cmd_forced(args: argparse.Namespace) -> int:
     args.harmonics = cfg.forced.harmonics if args.harmonics is None else args.harmonics
     if args.exact not in (None, "none") and not args.nonlinear:
         raise InputError("--exact checks the nonlinear response: give --nonlinear too")
-    exact = {None: "peak" if cfg.forced.exact else None, "none": None}.get(args.exact,
-                                                                          args.exact)
     if args.nonlinear and args.contacts is False:  # the balance is the contacts' nonlinearity
         raise InputError("--no-contacts leaves the contacts out of the linear response only; "
                          "the nonlinear one is theirs (leave a kind out with contacts.<kind>."
@@ -126,7 +124,7 @@ def cmd_forced(args: argparse.Namespace) -> int:
     curve, world = None, world_if_parallel()
     if args.nonlinear:
         out["nonlinear"], curve = _nonlinear(model, cfg, response.grid, angles,
-                                             args.harmonics, say, resonances, exact,
+                                             args.harmonics, say, resonances, args.exact,
                                              world)
     failure = None
     if world is None or world.rank == 0:  # every rank holds the result: rank 0 tells it
@@ -233,14 +231,16 @@ def _nonlinear(model, cfg, grid: np.ndarray, angles: dict | None, harmonics: int
                say, resonances: list, exact: str | None = None, world=None):
     """``(plain data, ForcedCurve)``: the nonlinear curve over the coarse grid (tip
     amplitude per frequency, Newton's verdict, the peak with its contacts' open / stick /
-    slip shares, refined off the grid; ``exact``: the peak's exact state by shooting,
-    ``"all"``: every solved frequency's too; ``resonances`` [rad/s]:
+    slip shares, refined off the grid; ``exact`` (``--exact``; None: ``forced.exact``'s):
+    ``"peak"`` the peak's exact state by shooting, ``"all"`` every solved frequency's too,
+    ``"none"`` neither; ``resonances`` [rad/s]:
     :func:`_nonlinear_resonances`'). Under mpirun (``world``: mpi4py's COMM_WORLD) the grid's
     frequencies are shared in segments and the exact states dealt over the ranks; rank 0
     traces the curve."""
     from wheelrom.studies.forced_nonlinear import forced_inputs, nonlinear_forced
 
     rank = 0 if world is None else world.rank
+    exact = {None: "peak" if cfg.forced.exact else None, "none": None}.get(exact, exact)
     outside = _no_resonance(model, cfg, grid, resonances)
     if outside:
         say(outside)
