@@ -258,8 +258,14 @@ def test_the_peaks_made_exact(small_model, small_cfg, tmp_path, capsys):
     assert "(exact: the shot did not converge)" in capsys.readouterr().out.splitlines()[-1]
     print_study({**summary, "design": {**failed, "exact_asked": False}}, out)
     assert "(exact" not in capsys.readouterr().out.splitlines()[-1]
+    from wheelrom.plots.design import _stable
+    from wheelrom.plots.figures import plot_file
+
+    assert any(w.endswith("design_curve.png")  # the exact states beside the balance's line
+               for w in plot_file(out, str(tmp_path / "fig")))
     with h5py.File(out) as f:
         g = f["forced_nonlinear"]
+        assert list(_stable(g)) == [bool(v) for v in design["exact_stable"]]
         assert (g["exact_multiplier_nd"][()] >= 0).all()
         assert np.isfinite(g["exact_largest_multiplier_at_twice_the_step"][()]).all()
     case = cfg.replace(**{"contacts.shroud.normal_preload": 30000.0})

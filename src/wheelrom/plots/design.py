@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from wheelrom.analysis.periodic.forced_shooting import UNIT
 from wheelrom.config.study import short_name
 from wheelrom.plots.helpers import need, save
 from wheelrom.results.study_layout import design_summary, read_parameters
@@ -20,7 +21,10 @@ def design_figures(f, path: str, outdir: str, pdf: bool, written: list[str], plt
     p = read_parameters(f)
     shape = [int(n) for n in p["shape"]]
     axes = [a for a, n in enumerate(shape) if n > 1] or [0]
-    first = axes[0]
+    # the x axis: the first varied key with numbers (a preload), the others one line each
+    numbers = [a for a in axes if np.isfinite(np.asarray(
+        p["values"][:, list(p["axis"]).index(a)], dtype=float)).all()]
+    first = (numbers or axes)[0]
     j = list(p["axis"]).index(first)
     grid = np.indices(shape).reshape(len(shape), -1)
     x = np.asarray(p["values"][:, j], dtype=float)
@@ -39,8 +43,14 @@ def design_figures(f, path: str, outdir: str, pdf: bool, written: list[str], plt
         if others:
             k = list(p["axis"]).index(others[0])
             label = f"{short_name(p['names'][k])} = {p['text'][rows[0]][k]}"
-        top.plot(x[rows], peak[rows] * 1e6, "o-", label=label)
+        line, = top.plot(x[rows], peak[rows] * 1e6, "o-", label=label)
         bottom.plot(x[rows], peak_hz[rows], "o-", label=label)
+        if "exact_tip_amplitude" in g:  # forced.exact: the exact state, stable or not
+            exact = g["exact_tip_amplitude"][()][rows] * 1e6
+            stable = _stable(g)[rows]
+            for marker, which in (("s", stable), ("x", ~stable)):
+                top.plot(x[rows][which], exact[which], marker, ms=6, mfc="none",
+                         color=line.get_color())
     best = design_summary(f)["optimum"]
     if best is not None:
         top.plot(x[best], peak[best] * 1e6, "*", ms=14, color="tab:red",
@@ -53,7 +63,8 @@ def design_figures(f, path: str, outdir: str, pdf: bool, written: list[str], plt
     if not numeric:
         bottom.set_xticks(x, [t[j] for t in p["text"]])
     top.set_title(f"Friction damper design curve: nozzle resonance with friction "
-                  f"(contacts.law = '{law}', H = {int(g.attrs['harmonics'])})", fontsize=10)
+                  f"(contacts.law = '{law}', H = {int(g.attrs['harmonics'])}; lines the "
+                  f"balance, squares / x the exact states, stable / unstable)", fontsize=9)
     for ax in (top, bottom):
         ax.grid(alpha=0.3)
     top.legend(fontsize=7)
@@ -82,3 +93,13 @@ def design_figures(f, path: str, outdir: str, pdf: bool, written: list[str], plt
         ax.legend(fontsize=7)
     save(fig, outdir, "design_response_curves", pdf, written)
     plt.close(fig)
+
+
+def _stable(g) -> np.ndarray:
+    """``(C,)`` bool: the exact state's largest multiplier (in every ND where computed) on or
+    inside the unit circle (False where not computed: no square is drawn without a state)."""
+    pattern = g["exact_largest_multiplier"][()]
+    every = g["exact_wheel_largest_multiplier"][()] if "exact_wheel_largest_multiplier" in g \
+        else np.full(pattern.shape, np.nan)
+    mu = np.where(np.isfinite(every), every, pattern)
+    return np.isfinite(mu) & (mu <= 1 + UNIT)
