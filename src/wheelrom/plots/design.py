@@ -70,7 +70,13 @@ def design_figures(f, path: str, outdir: str, pdf: bool, written: list[str], plt
     top.legend(fontsize=7)
     save(fig, outdir, "design_curve", pdf, written)
     plt.close(fig)
+    _response_curves(g, p, peak, peak_hz, outdir, pdf, written, plt)
 
+
+def _response_curves(g, p: dict, peak: np.ndarray, peak_hz: np.ndarray, outdir: str,
+                     pdf: bool, written: list[str], plt) -> None:
+    """``design_response_curves``: every case's curve with its refined peak and, where
+    traced, its unstable points."""
     hz, tip = g["frequency_hz"][()], g["tip_amplitude"][()]
     ok = g["converged"][()]
     fig, ax = plt.subplots(figsize=(8, 4.5), layout="constrained")
