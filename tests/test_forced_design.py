@@ -265,7 +265,7 @@ def test_the_peaks_made_exact(small_model, small_cfg, tmp_path, capsys):
                for w in plot_file(out, str(tmp_path / "fig")))
     with h5py.File(out) as f:
         g = f["forced_nonlinear"]
-        assert list(_stable(g)) == [bool(v) for v in design["exact_stable"]]
+        assert list(_stable(design)) == [bool(v) for v in design["exact_stable"]]
         assert (g["exact_multiplier_nd"][()] >= 0).all()
         assert np.isfinite(g["exact_largest_multiplier_at_twice_the_step"][()]).all()
     case = cfg.replace(**{"contacts.shroud.normal_preload": 30000.0})

@@ -263,8 +263,8 @@ def _nonlinear(model, cfg, grid: np.ndarray, angles: dict | None, harmonics: int
         out["traced"] = _traced(model, cfg, curve, grid, inputs)
     if curve.converged.any():
         i = curve.peak
-        if edge_of(curve):  # a largest value, not a peak
-            out["peak_at_edge"] = edge_of(curve)
+        if edge := edge_of(curve):  # a largest value, not a peak
+            out["peak_at_edge"] = edge
         if outside:  # the linear resonances lie outside: where the nonlinear one is
             out["no_resonance"] = outside + (
                 f"; the nonlinear response's largest value is at the band's "

@@ -91,6 +91,12 @@ class SettleConfig:
                       "nozzle periods)"))
 
 
+def at_settle_step(cfg: Any) -> Any:
+    """``cfg`` integrated at ``settle.step`` where it is set (0: ``time.step``): the settle's
+    own step, for its amplitude statistics, not a seed's growth rate."""
+    return cfg.replace(**{"time.step": cfg.settle.step}) if cfg.settle.step > 0 else cfg
+
+
 def settle_problems(cfg: Any, problems: list[str]) -> None:
     """Cross-checks of ``[settle]``: what the keys alone show. The window's length is known
     only with the start's frequency (:func:`wheelrom.analysis.periodic.settle.settle_cases`

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from wheelrom.analysis.periodic.forced_shooting import UNIT
 from wheelrom.config.study import short_name
 from wheelrom.plots.helpers import need, save
 from wheelrom.results.study_layout import design_summary, read_parameters
@@ -33,6 +32,7 @@ def design_figures(f, path: str, outdir: str, pdf: bool, written: list[str], plt
         x = grid[first].astype(float)
     law = g.attrs["law"]
     law = law.decode() if isinstance(law, bytes) else str(law)
+    summary = design_summary(f)
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(8, 6), sharex=True, layout="constrained")
     others = [a for a in axes if a != first]
     groups = [np.flatnonzero(grid[others[0]] == k) for k in range(shape[others[0]])] \
@@ -47,11 +47,11 @@ def design_figures(f, path: str, outdir: str, pdf: bool, written: list[str], plt
         bottom.plot(x[rows], peak_hz[rows], "o-", label=label)
         if "exact_tip_amplitude" in g:  # forced.exact: the exact state, stable or not
             exact = g["exact_tip_amplitude"][()][rows] * 1e6
-            stable = _stable(g)[rows]
+            stable = _stable(summary)[rows]
             for marker, which in (("s", stable), ("x", ~stable)):
                 top.plot(x[rows][which], exact[which], marker, ms=6, mfc="none",
                          color=line.get_color())
-    best = design_summary(f)["optimum"]
+    best = summary["optimum"]
     if best is not None:
         top.plot(x[best], peak[best] * 1e6, "*", ms=14, color="tab:red",
                  label=f"smallest: {peak[best] * 1e6:.3g} um at {peak_hz[best]:.5g} Hz")
@@ -101,11 +101,7 @@ def _response_curves(g, p: dict, peak: np.ndarray, peak_hz: np.ndarray, outdir: 
     plt.close(fig)
 
 
-def _stable(g) -> np.ndarray:
-    """``(C,)`` bool: the exact state's largest multiplier (in every ND where computed) on or
-    inside the unit circle (False where not computed: no square is drawn without a state)."""
-    pattern = g["exact_largest_multiplier"][()]
-    every = g["exact_wheel_largest_multiplier"][()] if "exact_wheel_largest_multiplier" in g \
-        else np.full(pattern.shape, np.nan)
-    mu = np.where(np.isfinite(every), every, pattern)
-    return np.isfinite(mu) & (mu <= 1 + UNIT)
+def _stable(summary: dict) -> np.ndarray:
+    """``(C,)`` bool: the design summary's exact states that are stable (False where none
+    was computed: no square is drawn without a state)."""
+    return np.array([s is True for s in summary["exact_stable"]], dtype=bool)

@@ -7,6 +7,7 @@ import numpy as np
 
 from wheelrom import config as config_mod
 from wheelrom.config import Config
+from wheelrom.config.settle import at_settle_step
 from wheelrom.results.file_checksums import write_file_checksums
 from wheelrom.results.layout import write_model
 from wheelrom.results.limit_cycles import study_number
@@ -27,7 +28,7 @@ def write_settle(f, cfg: Config, model: ReducedModel, cases: list) -> None:
     for key in ("window_periods", "tolerance", "consecutive", "min_time", "max_time",
                 "bounded_span", "bounded_drift", "perturbation", "seed", "start", "nozzle"):
         g.attrs[key] = getattr(s, key)
-    g.attrs["time_step"] = s.step or cfg.time.step  # the step integrated (settle.step)
+    g.attrs["time_step"] = at_settle_step(cfg).time.step  # the step integrated
     g["angles_deg"] = np.array([[a.get(k, np.nan) for k in ("tieboss", "shroud")]
                                 for a, _, _ in cases])
     g["angles_deg"].attrs["columns"] = "tieboss, shroud"

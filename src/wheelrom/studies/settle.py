@@ -30,6 +30,7 @@ from wheelrom.analysis.periodic.settle import (
 )
 from wheelrom.analysis.periodic.window import wave_state
 from wheelrom.config import Config
+from wheelrom.config.settle import at_settle_step
 from wheelrom.config.study import batch_key, expand, short_name
 from wheelrom.runtime.errors import InputError
 from wheelrom.runtime.outputs import agree, not_a_regular_file
@@ -517,12 +518,6 @@ def run_settle(cfg: Config, out: str | None, comm=None, log=print, resume: bool 
         ordered = sorted((it for part, _ in gathered for it in part), key=lambda it: it[0])
     agree(comm, problem)  # every rank stops together: none waits for one that stopped
     return models[0], [(a, p, r) for _, a, p, r in ordered], folder
-
-
-def at_settle_step(cfg: Config) -> Config:
-    """``cfg`` integrated at ``settle.step`` where it is set (0: ``time.step``): the settle's
-    own step, for its amplitude statistics, not a seed's growth rate."""
-    return cfg.replace(**{"time.step": cfg.settle.step}) if cfg.settle.step > 0 else cfg
 
 
 def _settle_batch(model, cfgs: list[Config], angles: list[dict], cycles_file, labels,
