@@ -92,9 +92,11 @@ def test_the_elastic_orbits_multipliers_are_the_transients_decay(elastic_orbit):
     multiplier exactly 1) against the transient itself: the pattern wheel started on the
     orbit plus 1e-6 of the eigenvector of the largest non-trivial one (real, 0.99765)
     returns at that rate per period, its distance from the orbit off the flow direction
-    (the phase) measured each period (to 1e-4; measured 2e-6). The verdict: stable and
-    trusted, the multiplier converged over four halvings of the step (to 1e-4; measured
-    2e-5) and the phase shift's 1 to 1e-3."""
+    (the phase) measured each period (to 1e-4; measured 1e-5: the multipliers are taken on
+    the orbit's event schedule, the transient in uniform steps). The verdict: stable and
+    trusted, the multiplier settled over the halvings of the step (by 1e-4, where they
+    stop: measured 5e-7 over the first) and the phase shift's 1 to 1e-3."""
+    from wheelrom.analysis.periodic.exact import SETTLED_CHANGE
     from wheelrom.analysis.periodic.slider_shooting import SliderShooting
 
     cfg, model, angles, res = elastic_orbit
@@ -107,9 +109,10 @@ def test_the_elastic_orbits_multipliers_are_the_transients_decay(elastic_orbit):
     assert res.branches[0].verdict().startswith("settles at")
     mu = cycle.multipliers
     assert mu.by == "Bloch waves" and mu.nd[mu.worst] == 6 and mu.largest < 0.999
-    assert len(cycle.refined) == 5 and {nd for _, _, nd in cycle.refined} == {6}
+    assert 2 <= len(cycle.refined) < 5 and {nd for _, _, nd in cycle.refined} == {6}
     moduli = [mu for _, mu, _ in cycle.refined]
-    assert max(moduli) - min(moduli) <= 1e-4 and max(moduli) < 0.999
+    assert abs(moduli[-1] - moduli[-2]) <= SETTLED_CHANGE and max(moduli) < 0.999
+    assert orbit.switches is not None and orbit.switches.times.size >= 4
     shooting = SliderShooting(model, cfg, orbit.wave, angles, 1.0)
     try:
         mu = shooting.multipliers(orbit, cycle.tip_amplitude)
@@ -138,21 +141,23 @@ def test_the_elastic_orbits_multipliers_are_the_transients_decay(elastic_orbit):
 
 
 def test_the_whole_wheels_multipliers_by_bloch_waves_are_its_monodromys(elastic_orbit):
-    """The block-circulant identity: every multiplier of the whole 12-blade wheel about the
-    ND 6 orbit by Bloch waves (its 6 copies of the 2-blade pattern, the responses to pattern 0
-    moved alone through the shot's map ``F = S^{-j} phi_{T/2}``;
-    :func:`~wheelrom.analysis.periodic.bloch.bloch_multipliers`) is an eigenvalue of
-    ``S^{j N'} J_F^{N'}``, ``J_F`` differenced over every unknown of every blade, and back
-    (to 1e-9; measured 1e-14: the same differences, rearranged; a wrong index map, Bloch
-    sign or phase ``w^{p j}`` fails it, and the phase did, with ``w^{p^2 j}``, on blocks 2
-    and 5), and of the wheel's monodromy differenced over whole periods (to 1e-3; measured
-    4e-4: the differences across the stick-slip kinks, the phase shift's 1.0004 the
-    largest); the Bloch phase 0 is the pattern's own map (its largest non-trivial, 0.99764,
-    to 1e-4). The tie-boss's sliders are locked in every copy (12 x 2 left out of 2 x 12 x
-    (12 + 4)). Independent truth, the transient: the whole wheel started on the orbit plus
-    1e-6 of the eigenvector of the largest multiplier off the pattern's symmetry (ND 5,
-    0.99732) returns at that rate per period (to 1e-4; measured 2e-6)."""
+    """The block-circulant identity: every multiplier of the whole 12-blade wheel about the ND 6
+    orbit by Bloch waves (its 6 copies of the 2-blade pattern, the responses to pattern 0 moved
+    alone through the shot's map ``F = S^{-j} phi_{T/2}``;
+    :func:`~wheelrom.analysis.periodic.bloch.bloch_multipliers`) is an eigenvalue of ``S^{j N'}
+    J_F^{N'}``, ``J_F`` differenced over every unknown of every blade, and back (to 1e-9;
+    measured 1e-14: the same differences, rearranged; a wrong index map, Bloch sign or phase
+    ``w^{p j}`` fails it, and the phase did, with ``w^{p^2 j}``, on blocks 2 and 5), and of the
+    wheel's monodromy differenced over whole periods (to 1e-3; measured 2e-4: the orbit is the
+    fixed point of the shot in uniform steps, so the shot's Jacobian at it to the N'-th is the
+    period's to its distance from the one on events), all on the orbit's event schedule; the
+    Bloch phase 0 is the pattern's own map (its largest non-trivial, 0.99764, to 1e-4). The tie-
+    boss's sliders are locked in every copy (12 x 2 left out of 2 x 12 x (12 + 4)). Independent
+    truth, the transient: the whole wheel started on the orbit plus 1e-6 of the eigenvector of
+    the largest multiplier off the pattern's symmetry (ND 5, 0.99732) returns at that rate per
+    period (to 1e-4; measured 2e-6)."""
     from wheelrom.analysis.periodic.bloch import DIFFERENCE, blade_indices, bloch_multipliers
+    from wheelrom.analysis.periodic.events import Schedule
     from wheelrom.analysis.periodic.flow import WheelFlow
     from wheelrom.analysis.periodic.slider_shooting import SliderShooting
 
@@ -179,11 +184,16 @@ def test_the_whole_wheels_multipliers_by_bloch_waves_are_its_monodromys(elastic_
     probes[2 * rows, where] += DIFFERENCE * unit
     probes[2 * rows + 1, where] -= DIFFERENCE * unit
     shots, n = round(1 / orbit.fraction), keep.size
+    tau, steps = orbit.fraction * orbit.period, orbit.steps_per_period // shots
+    schedule = orbit.switches.schedule(tau / steps, N, tau)  # the Bloch waves' shots
     flow = WheelFlow(model, cfg, angles, 1.0)
     try:
-        short = flow.shift(flow.advance(probes, orbit.fraction * orbit.period,
-                                        orbit.steps_per_period // shots), -orbit.shift)
-        ends = flow.advance(probes, orbit.period, orbit.steps_per_period)
+        short = flow.shift(flow.advance(probes, tau, steps, schedule=schedule), -orbit.shift)
+        # the whole period on the same switches: blade s at r tau + t is blade s + r j at t
+        period = Schedule(orbit.period, tuple(
+            (length, count, np.roll(modes, -r * orbit.shift, axis=1))
+            for r in range(shots) for length, count, modes in schedule.pieces))
+        ends = flow.advance(probes, orbit.period, schedule=period)
     finally:
         flow.destroy()
     J = ((short[0::2] - short[1::2])[:, where] / (2 * DIFFERENCE) / unit).T

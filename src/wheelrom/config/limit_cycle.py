@@ -45,9 +45,17 @@ class LimitCycleConfig:
     refine: int = field(
         default=4,
         metadata=_key("-", "step halvings at which the dominant multiplier inside the "
-                      "cycle's own symmetry is recomputed (the scheme steps over the "
-                      "contacts' lift-off kinks: the multipliers converge at first order "
-                      "in time.step; docs/theory.md)", min=0, max=6))
+                      "cycle's own symmetry is recomputed (with limit_cycle.events they "
+                      "converge at the scheme's order, without at first order in time.step; "
+                      "docs/theory.md)", min=0, max=6))
+    events: bool = field(
+        default=True,
+        metadata=_key("-", "the multipliers on a step schedule that ends a piece at each of "
+                      "the orbit's contact switches (lift-off, closing, the elastic law's "
+                      "stick and slip; located once an orbit, about a second on the paper "
+                      "wheel) with each contact held on its branch in between, so that they "
+                      "converge at the scheme's order (docs/theory.md 'Events in the "
+                      "step'); false: uniform steps across the switches (first order)"))
     waves: tuple[int, ...] = field(
         default=(-1,),
         metadata=_key("-", "travelling waves k (blade s+1 leads by 2 pi k / N; 0..N-1) whose "

@@ -30,6 +30,12 @@ from wheelrom.forces.fastmath import fexp
 
 PAPER, ELASTIC = 0, 1
 OPEN, STICK, SLIP = 0, 1, 2  # contact states (paper law: STICK is the micro-slip branch)
+# a contact's mode held over a piece of a step schedule (the kernel's ``contact_mode``): FREE
+# as the law says; the others keep the law on one smooth branch past its switch (an event
+# located on an orbit: docs/theory.md "Events in the step"): HELD_OPEN no normal force,
+# HELD_STICK and HELD_SLIP closed (the normal spring without its lift-off kink, the
+# elastic law's slider stuck or returned whatever the trial force)
+FREE, HELD_OPEN, HELD_STICK, HELD_SLIP = 0, 1, 2, 3
 
 #: the packed record compiled code reads: law code, f_s, f_d, decay [s/m], v_k [m/s], mu
 L_CODE, L_FS, L_FD, L_DECAY, L_VK, L_MU = range(6)
@@ -91,19 +97,19 @@ def paper_friction(v_xi, v_zeta, normal, law):
 
 
 @numba.njit(inline="always", fastmath={"contract"}, error_model="numpy")
-def elastic_friction(u_xi, u_zeta, w_xi, w_zeta, normal, k_t, mu):
+def elastic_friction(u_xi, u_zeta, w_xi, w_zeta, normal, k_t, mu, held=FREE):
     """``(F_xi, F_zeta, state, w_xi', w_zeta')``: the elastic Coulomb force [N] on ``A_{s+1}``
     for the tangential relative displacement ``(u_xi, u_zeta)`` [m], the slider ``(w_xi,
     w_zeta)`` [m], the normal force ``normal`` [N] (0: open), tangential stiffness ``k_t``
     [N/m] and Coulomb coefficient ``mu``; and the slider returned onto the Coulomb limit
     (unchanged while the contact sticks, radially returned when it slips, at ``u_t`` when
-    open)."""
+    open). ``held``: ``HELD_STICK`` / ``HELD_SLIP`` keep it on that branch."""
     trial_xi = -k_t * (u_xi - w_xi)
     trial_zeta = -k_t * (u_zeta - w_zeta)
     size = math.sqrt(trial_xi * trial_xi + trial_zeta * trial_zeta)
     limit = mu * normal
-    stuck = size <= limit
-    scale = 1.0 if stuck else limit / size
+    stuck = size <= limit if held < HELD_STICK else held == HELD_STICK
+    scale = 1.0 if stuck else limit / max(size, 1e-300)
     F_xi = scale * trial_xi
     F_zeta = scale * trial_zeta
     # the returned slider: u_t - w' = -F / k_t; a stuck slider keeps its bits
@@ -114,11 +120,12 @@ def elastic_friction(u_xi, u_zeta, w_xi, w_zeta, normal, k_t, mu):
 
 
 @numba.njit(inline="always", fastmath={"contract"}, error_model="numpy")
-def tangential_force(law, u_xi, u_zeta, v_xi, v_zeta, w_xi, w_zeta, normal, k_t):
+def tangential_force(law, u_xi, u_zeta, v_xi, v_zeta, w_xi, w_zeta, normal, k_t, held=FREE):
     """Either law by its record ``law`` (``L_*``): ``(F_xi, F_zeta, state, w_xi', w_zeta')``;
-    the paper law leaves the slider as it is (it has none)."""
+    the paper law leaves the slider as it is (it has none). ``held``: the contact's mode
+    (``FREE``, ``HELD_*``; the normal force is the caller's)."""
     if law[L_CODE] == ELASTIC:
-        return elastic_friction(u_xi, u_zeta, w_xi, w_zeta, normal, k_t, law[L_MU])
+        return elastic_friction(u_xi, u_zeta, w_xi, w_zeta, normal, k_t, law[L_MU], held)
     F_xi, F_zeta, state = paper_friction(v_xi, v_zeta, normal, law)
     return F_xi, F_zeta, state, w_xi, w_zeta
 

@@ -9,7 +9,7 @@ import math
 
 import numba
 
-from wheelrom.forces.contact_law import LAW_SIZE, tangential_force
+from wheelrom.forces.contact_law import FREE, HELD_OPEN, LAW_SIZE, tangential_force
 from wheelrom.forces.fastmath import NOALIAS
 from wheelrom.runtime import kernel_cache as _kernel_cache
 from wheelrom.transient.layout import (
@@ -29,6 +29,7 @@ from wheelrom.transient.layout import (
     I_KC,
     I_KT,
     I_LAW,
+    I_MODE,
     I_NORMAL,
     I_PRELOAD,
     I_R,
@@ -126,6 +127,7 @@ def contacts(ctx, kind, N, m, K, B, Q, V, column, sliders):
     law = get(ctx, I_LAW, LAW_SIZE)
     k_t = get(ctx, I_KT, K * NB).reshape((K, NB))
     slider_next = get(ctx, I_WNEXT, K * 2 * NB).reshape((K, 2, NB))
+    mode = get(ctx, I_MODE, K * NB).reshape((K, NB))
     geometry = (Apt[c, 0], Apt[c, 1], Apt[c, 2], Bpt[c, 0], Bpt[c, 1], Bpt[c, 2],
                 get(ctx, I_ARM, K)[c], get(ctx, I_PRELOAD, K)[c])
     # the next blade's rows as 1-D views (a 2-D view UA[:, B:] would not be contiguous)
@@ -133,7 +135,7 @@ def contacts(ctx, kind, N, m, K, B, Q, V, column, sliders):
     next_f = (FN[0, B:], FN[1, B:], FN[2, B:])
     _contact_columns(NB, UA, UB, VA, VB, *next_a, T[c], kc[c], R, geometry, law, k_t[c],
                      sliders[c, 0], sliders[c, 1], slider_next[c, 0], slider_next[c, 1],
-                     FA, FB, *next_f, normal[c], state[c], column)
+                     FA, FB, *next_f, normal[c], state[c], column, mode[c])
     # the force on A_{s+1} of the last blade's arm went to the ghost column: blade 0
     for a in range(3):
         fa = FA[a]
@@ -147,7 +149,7 @@ def contacts(ctx, kind, N, m, K, B, Q, V, column, sliders):
 @_kernel_cache.njit(fastmath={"contract"}, error_model="numpy", **NOALIAS)
 def _contact_columns(NB, UA, UB, VA, VB, uax, uay, uaz, vax, vay, vaz, T, kc, R, geometry, law,
                      k_t, w_xi, w_zeta, wn_xi, wn_zeta, FA, FB, fnx, fny, fnz, normal, state,
-                     column):
+                     column, mode):
     """The contact law of every column (eqs. 16-20), branch-free so that it vectorises (the
     law's choice is the same for every column: LLVM unswitches it out of the loop).
 
@@ -156,6 +158,10 @@ def _contact_columns(NB, UA, UB, VA, VB, uax, uay, uaz, vax, vay, vaz, T, kc, R,
 
     ``noalias``: the arrays are disjoint parts of the context; telling LLVM so removes the
     runtime overlap checks that otherwise keep this loop scalar.
+
+    ``mode``: each column's contact mode (``FREE``: the law; ``HELD_OPEN``: no normal force;
+    ``HELD_STICK``, ``HELD_SLIP``: closed, the normal spring past its lift-off, the elastic
+    law's slider on that branch).
     """
     ax, ay, az, bx, by, bz, L, preload = geometry
     d0x, d0y, d0z = bx - ax, by - ay, bz - az
@@ -199,9 +205,11 @@ def _contact_columns(NB, UA, UB, VA, VB, uax, uay, uaz, vax, vay, vaz, T, kc, R,
         u_zeta = t20 * ucx + t21 * ucy + t22 * ucz
         v_xi = t00 * vcx + t01 * vcy + t02 * vcz
         v_zeta = t20 * vcx + t21 * vcy + t22 * vcz
-        Fn = max(preload - kc[col] * gap, 0.0)  # eq. 19; 0: open
+        held = mode[col]
+        closed = preload - kc[col] * gap
+        Fn = max(closed, 0.0) if held == FREE else (0.0 if held == HELD_OPEN else closed)
         F_xi, F_zeta, st, w0, w2 = tangential_force(law, u_xi, u_zeta, v_xi, v_zeta, w_xi[col],
-                                                    w_zeta[col], Fn, k_t[col])
+                                                    w_zeta[col], Fn, k_t[col], held)
         wn_xi[col] = w0
         wn_zeta[col] = w2
         column[col] += F_xi * v_xi + F_zeta * v_zeta

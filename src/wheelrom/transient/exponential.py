@@ -82,6 +82,7 @@ class ExponentialStepper:
         self.context = context
         self._step = None
         self._coef = None
+        self._known: dict[float, np.ndarray] = {}  # an event schedule's steps recur
         if context is not None:
             self._work = np.zeros((6, int(context.array[H_NSTATE])))
             self._A0 = context.view("A0_diag").copy()
@@ -98,7 +99,11 @@ class ExponentialStepper:
             raise RuntimeError("the exponential TS has no problem attached")
         t, h = ts.getTime(), ts.getTimeStep()
         if h != self._step:
-            self._coef = coefficients(self._A0, self._beta, h)
+            if h not in self._known:
+                if len(self._known) > 256:
+                    self._known.clear()
+                self._known[h] = coefficients(self._A0, self._beta, h)
+            self._coef = self._known[h]
             self._step = h
         x = ts.getSolution()
         with x as u:

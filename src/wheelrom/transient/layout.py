@@ -119,6 +119,9 @@ _ARRAYS = (
     # transient.stuck_shift) and its share of the damping power q'^T S q' per column
     ("shift_k", lambda N, m, K, B, c, c2: (K,)),
     ("shift_power", lambda N, m, K, B, c, c2: (N * B,)),
+    # each contact's mode per column (wheelrom.forces.contact_law: 0 = FREE, the law as it
+    # is; HELD_* keep one branch over a piece of an event-located step schedule)
+    ("contact_mode", lambda N, m, K, B, c, c2: (K, N * B)),
 )
 _INDEX = {name: i for i, (name, _) in enumerate(_ARRAYS)}
 (
@@ -127,6 +130,7 @@ _INDEX = {name: i for i, (name, _) in enumerate(_ARRAYS)}
     I_Y, I_YD, I_PAIR, I_G, I_COL, I_UA, I_UB, I_VA, I_VB, I_FA, I_FB, I_FN, I_NORMAL, I_STATE,
     I_POWER, I_STIME, I_STIP, I_SMIN, I_SOPEN, I_STOTAL, I_XCOUNT, I_XTIME, I_XSTATE, I_KSEG,
     I_DELTA, I_AEROA, I_AEROB, I_LAW, I_KT, I_WNEXT, I_SSLIP, I_WNONE, I_SHIFTK, I_SHIFTP,
+    I_MODE,
 ) = range(len(_ARRAYS))
 
 STOP_NONFINITE, STOP_AMPLITUDE = 1, 2

@@ -16,7 +16,8 @@
   friction-limited orbits its stuck contacts' offsets span, :mod:`.family`), the least-squares
   Newton of the shots whose Jacobian can be singular (:mod:`.newton`), the orbit's Floquet
   multipliers from the monodromy (:mod:`.monodromy`) and the whole wheel's from the wave's
-  pattern by Bloch waves (:mod:`.bloch`), the forced response's exact state at the known
+  pattern by Bloch waves (:mod:`.bloch`), both on a step schedule that ends a piece at each of
+  the orbit's contact switches (:mod:`.events`), the forced response's exact state at the known
   period (:mod:`.forced_shooting`), that state perturbed on the whole wheel (a seeded wave's
   growth, where an unstable one goes: :mod:`.forced_perturbed`) and where a flutter transient
   settles (:mod:`.settle`);

@@ -36,6 +36,12 @@ FINER_PREFIX = "limitcycle_finer_"  # the options prefix of that balance's SNES
 #: its Newton iterations at most (the paper's 75 deg converged in 4; a failing one at 70 deg
 #: ran 53 s to the continuation's cap)
 FINER_ITERATIONS = 10
+#: the halvings of the multipliers' step stop where the largest in-symmetry modulus changed by
+#: at most this over the last one, on an event schedule (converging at the scheme's order, the
+#: finer value is then within a fifteenth of it: the paper's 90 deg orbit changed 2.9e-2,
+#: 4.7e-3, 3.3e-4, 2.7e-5 over its halvings from 10 us; docs/theory.md "Events in the step").
+#: Without events the first-order scatter can agree by chance: every halving is taken.
+SETTLED_CHANGE = 1e-4
 
 
 def exact_cycle(model, cfg, angles, branch, balance, X: np.ndarray, omega: float,
@@ -227,17 +233,27 @@ def finer_steps(cfg, orbit: Orbit, refine: int):
 def _refine(model, cfg, angles, cycle: Cycle, refine: int, comm=None) -> None:
     """The dominant in-symmetry multiplier at ``refine`` halvings of the step
     (``cycle.refined``), each from the pattern map's Jacobian at the orbit (no Newton solve:
-    :meth:`~wheelrom.analysis.periodic.shooting.Shooting.multipliers_at`)."""
+    :meth:`~wheelrom.analysis.periodic.shooting.Shooting.multipliers_at`; on the orbit's
+    switches when they were located, :mod:`.events`)."""
     orbit = cycle.orbit
     for finer in finer_steps(cfg, orbit, refine):
+        if _settled(cycle.refined, orbit):
+            break
         shooting = Shooting(model, finer, orbit.wave, angles, cycle.lam, comm)
         try:
-            mu, nd = shooting.multipliers_at(orbit.state, orbit.period)
+            mu, nd = shooting.multipliers_at(orbit.state, orbit.period, orbit.switches)
             steps = shooting.flow.steps_for(orbit.fraction * orbit.period)[0]
         finally:
             shooting.destroy()
         cycle.refined.append((orbit.period * orbit.fraction / steps, float(abs(mu[0])),
                               int(nd[0])))
+
+
+def _settled(refined: list, orbit: Orbit) -> bool:
+    """Whether the in-symmetry multiplier ``refined`` (``(step, |mu|, ND)`` per level) has
+    settled on the orbit's event schedule (:data:`SETTLED_CHANGE`)."""
+    return orbit.switches is not None and len(refined) >= 2 and \
+        abs(refined[-1][1] - refined[-2][1]) <= SETTLED_CHANGE
 
 
 def marched_cycle(model, cfg, angles, branch, q_eq: np.ndarray, blocks, harmonics: int,
@@ -327,11 +343,14 @@ def elastic_stability(model, cfg, angles, cycle: Cycle, shooting: SliderShooting
     levels = [_level(shooting, orbit, tip, cfg)]
     orbit.symmetric_multipliers, orbit.symmetric_nd = levels[0]["values"], levels[0]["nd"]
     for step_cfg in finer_steps(cfg, orbit, refine):
+        if _settled([(lv["step"], lv["largest"]) for lv in levels], orbit):
+            break
         finer = SliderShooting(model, step_cfg, orbit.wave, angles, 1.0)
         try:
             again = finer.solve(orbit.flat(), orbit.period, tip)
             if not again.converged:
                 break
+            again.switches = orbit.switches  # the same switches to O(step^4)
             levels.append(_level(finer, again, tip, step_cfg))
         finally:
             finer.destroy()

@@ -230,27 +230,34 @@ class WheelFlow:
         return end[0], works[0]
 
     def advance(self, states: np.ndarray, duration: float, steps: int = 0,
-                start: float = 0.0) -> np.ndarray:
+                start: float = 0.0, schedule=None) -> np.ndarray:
         """``phi_duration`` of every state ``(B, 2, N, m)`` -> ``(B, 2, N, m)``, or of flat
         states ``(B, 2 N m + sliders)`` that carry the elastic law's sliders after ``q, q'``
         (blade-major ``(K, N, 2)`` [m], as the transient's state), in ``steps`` whole steps
-        (0: :meth:`steps_for`), from time ``start`` [s] (the forced flow's nozzle phase)."""
+        (0: :meth:`steps_for`), from time ``start`` [s] (the forced flow's nozzle phase).
+        ``schedule``: an event-located :class:`~.events.Schedule` of ``duration`` instead
+        (its pieces' steps and contact modes; ``steps`` unread)."""
         states = np.asarray(states, dtype=float)
         out = np.empty_like(states)
         for lo in range(0, states.shape[0], MAX_BATCH):
             chunk = states[lo : lo + MAX_BATCH]
-            out[lo : lo + len(chunk)] = self._advance(chunk, duration, steps, start)
+            out[lo : lo + len(chunk)] = self._advance(chunk, duration, steps, start,
+                                                      schedule=schedule)
         return out
 
     def _advance(self, states: np.ndarray, duration: float, steps: int,
-                 start: float, works: bool = False):
+                 start: float, works: bool = False, schedule=None):
         """End states of ``states`` ``(B, ...)`` from time ``start`` [s]: ``q, q'`` and, when
         given (``2 n + sliders`` per state), the sliders; sliders not given start at 0.
-        ``works``: also the four work integrals ``(B, 4)`` over the steps."""
-        PETSc = petsc()
+        ``works``: also the four work integrals ``(B, 4)`` over the steps; ``schedule``: an
+        event-located :class:`~.events.Schedule` (:meth:`advance`)."""
         B = states.shape[0]
         problem, ts, f, u = self._batch(B)
-        n, h = (steps, duration / steps) if steps else self.steps_for(duration)
+        if schedule is not None and abs(schedule.duration - duration) > 1e-9 * duration:
+            raise ValueError(f"a schedule of {schedule.duration!r} s for a flow over "
+                             f"{duration!r} s")
+        n = schedule.steps if schedule is not None else \
+            steps if steps else self.steps_for(duration)[0]
         full = np.zeros((B, problem.size()))
         flat = states.reshape(B, -1)
         full[:, : 2 * self.n] = flat[:, : 2 * self.n]
@@ -259,23 +266,37 @@ class WheelFlow:
         ctx = problem.context
         ctx.set_header(H_NEXT_SAMPLE, math.inf)  # no output samples: end states only
         u.setArray(ctx.pack(full))
-        ts.setTime(start)
-        ts.setStepNumber(0)
-        ts.setTimeStep(h)
-        ts.setMaxSteps(n)
-        ts.setMaxTime(start + duration + 0.5 * h)
-        ts.setExactFinalTime(PETSc.TS.ExactFinalTime.STEPOVER)
-        ts.solve(u)
-        exponential.end_sliders(u, ctx)
-        if ts.getStepNumber() != n:
-            raise RuntimeError(f"the flow took {ts.getStepNumber()} of {n} steps")
-        self.steps_taken += n * B
+        pieces = [(duration, n, None)] if schedule is None else schedule.pieces
+        mode = ctx.view("contact_mode").reshape(-1, self.N, B)
+        try:
+            for length, count, modes in pieces:
+                mode[...] = 0.0 if modes is None else modes[:, :, None]
+                self._solve(ts, u, ctx, start, length, count)
+                start += length
+        finally:
+            mode[...] = 0.0
+        self.steps_taken += sum(p[1] for p in pieces) * B
         end = ctx.unpack(u.getArray(readonly=True))
         integrals = end[:, 2 * self.n : 2 * self.n + 4].copy()
         if flat.shape[1] > 2 * self.n:
             end = np.concatenate([end[:, : 2 * self.n], end[:, 2 * self.n + 4 :]], axis=1)
         end = end[:, : flat.shape[1]].reshape(states.shape)
         return (end, integrals) if works else end
+
+    def _solve(self, ts, u, ctx, start: float, duration: float, n: int) -> None:
+        """``n`` steps of ``ts`` on ``u`` from ``start`` over ``duration`` [s], the sliders
+        returned at the end under the contact modes the steps held."""
+        h = duration / n
+        ts.setTime(start)
+        ts.setStepNumber(0)
+        ts.setTimeStep(h)
+        ts.setMaxSteps(n)
+        ts.setMaxTime(start + duration + 0.5 * h)
+        ts.setExactFinalTime(petsc().TS.ExactFinalTime.STEPOVER)
+        ts.solve(u)
+        exponential.end_sliders(u, ctx)
+        if ts.getStepNumber() != n:
+            raise RuntimeError(f"the flow took {ts.getStepNumber()} of {n} steps")
 
     def trajectory(self, state: np.ndarray, duration: float, steps: int,
                    stride: int = 1) -> np.ndarray:

@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from wheelrom.analysis.periodic.events import Switches, locate
 from wheelrom.analysis.periodic.flow import (
     WheelFlow,
     pattern_model,
@@ -97,6 +98,9 @@ class Orbit:
     reason: str = ""
     #: the elastic law's sliders ``(K, N', 2)`` [m] at ``t = 0`` (None: the paper law)
     sliders: np.ndarray | None = None
+    #: the contact switches over a shot from ``t = 0`` (:class:`~.events.Switches`; None:
+    #: not located) on which the multipliers are taken
+    switches: Switches | None = None
 
     @property
     def frequency_hz(self) -> float:
@@ -143,14 +147,16 @@ class Shooting:
         self.comm = comm
         self.N, self.m = pattern.blades, pattern.modes
         self.n = 2 * self.N * self.m
+        self.events = cfg.limit_cycle.events
 
     def destroy(self) -> None:
         self.flow.destroy()
 
     # ------------------------------------------------------------------ the shot
-    def _shot(self, states: np.ndarray, period: float) -> np.ndarray:
-        """``S^{-j} phi_tau(x)`` of states ``(B, 2, N', m)``."""
-        end = self.flow.advance(states, self.fraction * period)
+    def _shot(self, states: np.ndarray, period: float, schedule=None) -> np.ndarray:
+        """``S^{-j} phi_tau(x)`` of states ``(B, 2, N', m)`` (``schedule``: on that
+        :class:`~.events.Schedule` of ``tau``)."""
+        end = self.flow.advance(states, self.fraction * period, schedule=schedule)
         return shift_blades(end, -self.shift)
 
     def solve(self, x0: np.ndarray, period: float) -> Orbit:
@@ -170,7 +176,11 @@ class Shooting:
                       bool(reason > 0 and np.all(np.isfinite(F))),
                       steps_per_period=self.flow.steps_for(self.fraction * T)[0]
                       * round(1 / self.fraction), reason=str(reason))
-        if orbit.converged:  # the multipliers from the Jacobian at the solution itself
+        if orbit.converged and self.events:  # on the orbit's switches (docs/theory.md)
+            orbit.switches = self.switches(orbit)
+            orbit.symmetric_multipliers, orbit.symmetric_nd = self.multipliers_at(
+                x, orbit.period, orbit.switches)
+        elif orbit.converged:  # the multipliers from the Jacobian at the solution itself
             G = system.jacobian(z)[: self.n, : self.n] + np.eye(self.n)
             orbit.symmetric_multipliers, orbit.symmetric_nd = self._pattern_multipliers(
                 G, system.scale)
@@ -181,12 +191,23 @@ class Shooting:
         """One period of ``orbit`` at every step (:func:`sample_orbit`)."""
         return sample_orbit(self, orbit)
 
-    def multipliers_at(self, x0: np.ndarray, period: float) -> tuple[np.ndarray, np.ndarray]:
+    def switches(self, orbit: Orbit) -> Switches:
+        """The contact switches over ``orbit``'s shot (:func:`~.events.locate`, on this
+        flow's step)."""
+        tau = orbit.fraction * orbit.period
+        return locate(self.flow, orbit.flat(), tau, self.flow.steps_for(tau)[1])
+
+    def multipliers_at(self, x0: np.ndarray, period: float,
+                       switches: Switches | None = None) -> tuple[np.ndarray, np.ndarray]:
         """``(mu, nd)`` of the pattern map's Jacobian at ``x0`` ``(2, N', m)``, ``period``
         [s] without a Newton solve: an orbit of another step is a fixed point of this step's
         map to the integration error, which moves the multipliers far less than the step's
-        own effect on them (one batch of ``2 n`` shots)."""
-        system = _ShotSystem(self, np.asarray(x0, dtype=float), period)
+        own effect on them (one batch of ``2 n`` shots); ``switches``: on their schedule at
+        this flow's step (:mod:`.events`)."""
+        tau = self.fraction * period
+        schedule = None if switches is None else \
+            switches.schedule(self.flow.steps_for(tau)[1], duration=tau)
+        system = _ShotSystem(self, np.asarray(x0, dtype=float), period, schedule)
         z = np.concatenate([system.z_start, [1.0]])
         G = system.jacobian(z)[: self.n, : self.n] + np.eye(self.n)
         return self._pattern_multipliers(G, system.scale)
@@ -234,8 +255,9 @@ class _ShotSystem:
     ``f . (z - z_start) = 0``, ``f`` the unit vector field at the start (a Poincare section
     through it: any point of a nearby orbit lies on one)."""
 
-    def __init__(self, shooting: Shooting, x0: np.ndarray, period: float):
+    def __init__(self, shooting: Shooting, x0: np.ndarray, period: float, schedule=None):
         self.s = shooting
+        self.schedule = schedule  # the shots' event schedule (at ``period`` only)
         self.n = shooting.n
         self.scale = vibration_units(x0, period)
         self.T_ref = period
@@ -255,7 +277,7 @@ class _ShotSystem:
             x, T = self.unpack(z)
             if not (np.all(np.isfinite(z)) and T > 0):  # a Newton step off any orbit
                 return np.full(self.n + 1, np.nan), np.full_like(x, np.nan)
-            self._cache = (key, self.s._shot(x[None], T)[0])
+            self._cache = (key, self.s._shot(x[None], T, self.schedule)[0])
         end = self._cache[1]
         x, _ = self.unpack(z)
         F = np.empty(self.n + 1)
@@ -275,7 +297,8 @@ class _ShotSystem:
         perturbed = np.repeat(x.reshape(1, n), 2 * n, axis=0)
         perturbed[np.arange(n), np.arange(n)] += h
         perturbed[n + np.arange(n), np.arange(n)] -= h
-        shots = s._shot(perturbed.reshape((2 * n,) + x.shape), T).reshape(2 * n, n)
+        shots = s._shot(perturbed.reshape((2 * n,) + x.shape), T,
+                        self.schedule).reshape(2 * n, n)
         columns = (shots[:n] - shots[n:]) / (2 * h[:, None])  # row i: d end / d x_i
         A = np.zeros((n + 1, n + 1))
         A[:n, :n] = columns.T * scale[None, :] / scale[:, None] - np.eye(n)

@@ -30,6 +30,7 @@ import time
 
 import numpy as np
 
+from wheelrom.analysis.periodic.events import Switches, locate
 from wheelrom.analysis.periodic.flow import WheelFlow, pattern_model, pattern_spectrum
 from wheelrom.analysis.periodic.hopf import tip_measure
 from wheelrom.analysis.periodic.newton import central_columns, newton_least_squares
@@ -72,14 +73,17 @@ class SliderShooting:
         self.sliders = self.flow.sliders
         self.nq = 2 * self.N * self.m
         self.n = self.nq + self.sliders
+        self.events = cfg.limit_cycle.events
 
     def destroy(self) -> None:
         self.flow.destroy()
 
     # ------------------------------------------------------------------ the map
-    def shot(self, x: np.ndarray, period: float, steps: int) -> np.ndarray:
-        """``S^{-j} phi_tau(x)`` of states ``(B, n)`` in ``steps`` whole steps."""
-        return self.flow.shift(self.flow.advance(x, self.fraction * period, steps), -self.shift)
+    def shot(self, x: np.ndarray, period: float, steps: int, schedule=None) -> np.ndarray:
+        """``S^{-j} phi_tau(x)`` of states ``(B, n)`` in ``steps`` whole steps (``schedule``:
+        on that :class:`~.events.Schedule` of ``tau`` instead)."""
+        end = self.flow.advance(x, self.fraction * period, steps, schedule=schedule)
+        return self.flow.shift(end, -self.shift)
 
     def unit_mode(self, vector: np.ndarray) -> np.ndarray:
         """``(N', 2 m)`` complex: the wave's mode ``vector`` ``(2 m,)`` (``q, q'`` of blade 0;
@@ -210,12 +214,20 @@ class SliderShooting:
         return state, period  # not two crossings: the estimate stands
 
     def jacobian(self, x: np.ndarray, period: float, steps: int, scale: np.ndarray,
-                 columns: np.ndarray | None = None) -> np.ndarray:
+                 columns: np.ndarray | None = None, schedule=None) -> np.ndarray:
         """``(n, c)`` columns ``columns`` (default all) of ``d(S^{-j} phi_tau)/dx`` in scaled
         units, central differences (one batch of ``2 c`` shots: the held or locked sliders'
-        columns, which the callers drop, are not shot)."""
-        return central_columns(lambda states: self.shot(states, period, steps), x, scale,
-                               DIFFERENCE, columns)
+        columns, which the callers drop, are not shot; ``schedule``: on that event
+        schedule)."""
+        return central_columns(lambda states: self.shot(states, period, steps, schedule), x,
+                               scale, DIFFERENCE, columns)
+
+    def switches(self, orbit: Orbit) -> Switches:
+        """The contact switches over ``orbit``'s shot on its own step
+        (:func:`~.events.locate`)."""
+        tau = self.fraction * orbit.period
+        return locate(self.flow, orbit.flat(), tau,
+                      tau / max(orbit.steps_per_period // self.shots, 1))
 
     def _scale(self, x: np.ndarray, period: float, tip_amplitude: float) -> np.ndarray:
         """Units of the unknowns: ``a`` (the largest modal velocity over ``w``) for ``q``,
@@ -228,7 +240,7 @@ class SliderShooting:
     # ------------------------------------------------------------------ Newton
     def solve(self, x0: np.ndarray, period: float, tip_amplitude: float,
               fixed: np.ndarray | None = None, chord: dict | None = None,
-              iterations: int = MAX_ITERATIONS) -> Orbit:
+              iterations: int = MAX_ITERATIONS, switches: Switches | None = None) -> Orbit:
         """Newton from ``x0`` ``(n,)`` and ``period`` [s] (``tip_amplitude`` [m]: the
         sliders' unit); the orbit (``converged`` False when Newton failed). ``fixed``
         ``(n,)`` bool: unknowns held at ``x0``'s values (the sliders of contacts stuck all
@@ -237,7 +249,8 @@ class SliderShooting:
         dict whose ``"matrix"`` (the bordered Jacobian of a neighbouring solve, kept there by
         the last fresh one) is used for every iteration while ``"reuse"`` is true (the
         family's members lie close together: one Jacobian, ``2 n`` shots, serves them);
-        ``iterations``: Newton's at most."""
+        ``iterations``: Newton's at most; ``switches``: shot on their event schedule, scaled
+        with the period (:mod:`.events`; the orbit carries them)."""
         t0 = time.perf_counter()
         x, period = np.array(x0, dtype=float), float(period)
         free = np.ones(self.n, bool) if fixed is None else ~np.asarray(fixed, bool)
@@ -251,6 +264,11 @@ class SliderShooting:
 
         n = self.n
         columns = np.flatnonzero(free)
+        step = self.fraction * period / steps
+
+        def on(T):  # the event schedule of the shot over T (None: uniform steps)
+            return None if switches is None else \
+                switches.schedule(step, duration=self.fraction * T)
 
         def unknowns(z):  # z: the free x in its units, then T over the start's period
             full = start.copy()
@@ -262,7 +280,7 @@ class SliderShooting:
             if not T > 0:
                 return np.full(n + 1, np.nan)
             F = np.empty(n + 1)
-            F[:n] = (self.shot(x[None], T, steps)[0] - x) / scale
+            F[:n] = (self.shot(x[None], T, steps, on(T))[0] - x) / scale
             F[n] = normal @ (x / scale - start)
             return F
 
@@ -273,9 +291,11 @@ class SliderShooting:
             x, T = unknowns(z)
             c = columns.size  # the free unknowns' columns, then the period's
             A = np.zeros((n + 1, c + 1))
-            A[:n, :c] = self.jacobian(x, T, steps, scale, columns) - np.eye(n)[:, columns]
+            A[:n, :c] = self.jacobian(x, T, steps, scale, columns, on(T)) - \
+                np.eye(n)[:, columns]
             dT = DIFFERENCE * T
-            later = self.shot(x[None], T + dT, steps)[0] - self.shot(x[None], T - dT, steps)[0]
+            later = self.shot(x[None], T + dT, steps, on(T + dT))[0] - \
+                self.shot(x[None], T - dT, steps, on(T - dT))[0]
             A[:n, c] = later / (2 * dT) / scale * period
             A[n, :c] = normal[columns]
             if chord is not None:
@@ -290,7 +310,7 @@ class SliderShooting:
         orbit = Orbit(self.wave, T, q_v, self.shift, self.fraction, size, it, converged,
                       steps_per_period=steps * self.shots, reason=reason,
                       sliders=x[self.nq :].reshape(self.K, self.N, 2) if self.sliders
-                      else None)
+                      else None, switches=switches)
         orbit.wall_s = time.perf_counter() - t0
         return orbit
 
@@ -321,7 +341,13 @@ class SliderShooting:
         scale = self._scale(x, orbit.period, tip_amplitude)
         locked = self.locked(orbit)
         keep = np.flatnonzero(~locked)
-        G = self.jacobian(x, orbit.period, steps, scale, keep)[keep]
+        schedule = None
+        if self.events:  # on the orbit's switches (docs/theory.md "Events in the step")
+            if orbit.switches is None:
+                orbit.switches = self.switches(orbit)
+            tau = self.fraction * orbit.period
+            schedule = orbit.switches.schedule(tau / steps, duration=tau)
+        G = self.jacobian(x, orbit.period, steps, scale, keep, schedule)[keep]
         along = (self.flow.advance(x[None], self.fraction * orbit.period / steps, 1)[0] - x)
         along = along[keep] / scale[keep]
         # the locked unknowns are sliders, after q and q': keep's first N' m rows are q
