@@ -329,58 +329,82 @@ def elastic_stability(model, cfg, angles, cycle: Cycle, shooting: SliderShooting
     period left out, each a multiplier exactly 1) at its own step (``shooting``'s) and at the
     halvings of ``time.step`` up to ``refine`` finer than it, the orbit shot again at each
     (a fixed point of that step's map, so that the phase shift's multiplier measures the
-    differences' error). The fixed step meets the stick-slip kinks anywhere: the multipliers
-    converge at first order and not monotonically (the paper wheel at 70 deg: a pair of
-    1.0101 at a 5.9 us step, confirmed by the growth of a perturbation in the transient,
-    1.0001-1.0005 from 5 us down to 0.16 us). ``cycle.refined``: ``(step [s], |mu|, ND)`` of
-    the largest non-trivial one per step; ``cycle.stability`` from the finest
-    (:func:`_elastic_verdict`). Then every multiplier of the whole wheel by Bloch waves
-    (:func:`~.bloch.bloch_multipliers`) at the two finest steps (``cycle.multipliers``: the
-    ``count`` largest of the finest), and the verdict from them by the same rule, unless the
-    pattern is the whole wheel or ``whole_wheel = 'undecided'`` and the symmetry's already
-    proves the orbit unstable."""
+    differences' error), on the orbit's event schedule (:mod:`.events`; uniform steps meet
+    the stick-slip kinks anywhere and converge at first order, not monotonically: the paper
+    wheel at 70 deg read 1.0101 at a 5.9 us step, 1.0001-1.0005 from 5 us down to 0.16 us),
+    the halvings stopping where the largest settled (:func:`_settled`). ``cycle.refined``:
+    ``(step [s], |mu|, ND)`` of the largest non-trivial one per step; ``cycle.stability``
+    from the finest (:func:`_elastic_verdict`). Then every multiplier of the whole wheel by
+    Bloch waves (:func:`~.bloch.bloch_multipliers`) at the two finest steps, and at a further
+    halving while their verdict is uncertain and ``refine`` allows one (``cycle.multipliers``:
+    the ``count`` largest of the finest), and the verdict from them by the same rule, unless
+    the pattern is the whole wheel or ``whole_wheel = 'undecided'`` and the symmetry's
+    already proves the orbit unstable."""
     orbit, tip = cycle.orbit, cycle.tip_amplitude
     levels = [_level(shooting, orbit, tip, cfg)]
     orbit.symmetric_multipliers, orbit.symmetric_nd = levels[0]["values"], levels[0]["nd"]
-    for step_cfg in finer_steps(cfg, orbit, refine):
-        if _settled([(lv["step"], lv["largest"]) for lv in levels], orbit):
+    pending = list(finer_steps(cfg, orbit, refine))
+    while pending and not _settled([(lv["step"], lv["largest"]) for lv in levels], orbit):
+        level = _finer_level(model, angles, orbit, tip, pending.pop(0))
+        if level is None:
+            pending = []
             break
-        finer = SliderShooting(model, step_cfg, orbit.wave, angles, 1.0)
-        try:
-            again = finer.solve(orbit.flat(), orbit.period, tip)
-            if not again.converged:
-                break
-            again.switches = orbit.switches  # the same switches to O(step^4)
-            levels.append(_level(finer, again, tip, step_cfg))
-        finally:
-            finer.destroy()
-    cycle.refined = [(lv["step"], lv["largest"], lv["worst_nd"]) for lv in levels]
+        levels.append(level)
     whole = orbit.pattern == model.blades
+    cycle.refined = [(lv["step"], lv["largest"], lv["worst_nd"]) for lv in levels]
     cycle.stability = _elastic_verdict(levels, orbit.period, whole)
     proved = cycle.stability.trusted and not cycle.stability.stable
     if whole or (proved and whole_wheel == "undecided"):
         return
     inside = cycle.stability
-    wheel, wall = [], 0.0
     try:
-        for lv in levels[-2:]:
-            mu = bloch_multipliers(model, lv["cfg"], lv["orbit"], lv["scale"], lv["keep"],
-                                   angles)
-            worst, wall = mu.worst, wall + mu.wall_s
-            wheel.append({"step": lv["step"], "largest": mu.largest, "error": mu.trivial_error,
-                          "worst_nd": int(mu.nd[worst]) if worst >= 0 else -1})
+        wheel = [_wheel_level(model, angles, lv) for lv in levels[-2:]]
+        verdict = _elastic_verdict(wheel, orbit.period, True, wheel=True)
+        while not verdict.trusted and pending:  # a further halving, for the wheel's sake
+            level = _finer_level(model, angles, orbit, tip, pending.pop(0))
+            if level is None:
+                break
+            levels.append(level)
+            wheel.append(_wheel_level(model, angles, level))
+            verdict = _elastic_verdict(wheel[-2:], orbit.period, True, wheel=True)
     except (ValueError, RuntimeError, np.linalg.LinAlgError, petsc().Error) as exc:
         # the symmetry's verdict stands, with why the wheel's is missing
         cycle.stability = dataclasses.replace(inside, by=f"{inside.by}; the whole wheel's "
                                               f"failed ({type(exc).__name__}: {exc}): settle "
                                               "decides")
         return
-    cycle.multipliers = dataclasses.replace(mu.top(count), wall_s=wall)  # both steps' time
-    verdict = _elastic_verdict(wheel, orbit.period, True, wheel=True)
+    cycle.refined = [(lv["step"], lv["largest"], lv["worst_nd"]) for lv in levels]
+    mu = wheel[-1]["multipliers"]
+    cycle.multipliers = dataclasses.replace(mu.top(count), wall_s=sum(
+        w["multipliers"].wall_s for w in wheel))  # every step's time
     if not proved or verdict.trusted and not verdict.stable:  # the wheel's adds its ND
         if not verdict.trusted and inside.by.startswith("stable inside"):  # say it too
             verdict = dataclasses.replace(verdict, by=f"{verdict.by}; {inside.by}")
         cycle.stability = verdict
+
+
+def _finer_level(model, angles, orbit: Orbit, tip: float, step_cfg) -> dict | None:
+    """:func:`_level` of ``orbit`` shot again at ``step_cfg``'s step (None: Newton failed),
+    on the orbit's switches (the same to the step's order)."""
+    finer = SliderShooting(model, step_cfg, orbit.wave, angles, 1.0)
+    try:
+        again = finer.solve(orbit.flat(), orbit.period, tip)
+        if not again.converged:
+            return None
+        again.switches = orbit.switches
+        return _level(finer, again, tip, step_cfg)
+    finally:
+        finer.destroy()
+
+
+def _wheel_level(model, angles, level: dict) -> dict:
+    """The whole wheel's multipliers by Bloch waves at ``level`` (:func:`_level`'s): its
+    step, largest modulus, the phase shift's error, the largest's ND and the multipliers."""
+    mu = bloch_multipliers(model, level["cfg"], level["orbit"], level["scale"], level["keep"],
+                           angles)
+    worst = mu.worst
+    return {"step": level["step"], "largest": mu.largest, "error": mu.trivial_error,
+            "worst_nd": int(mu.nd[worst]) if worst >= 0 else -1, "multipliers": mu}
 
 
 def _level(shooting: SliderShooting, orbit: Orbit, tip: float, cfg) -> dict:
