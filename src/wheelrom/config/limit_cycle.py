@@ -40,7 +40,7 @@ class LimitCycleConfig:
                       "time.step, which resolves a cycle whose contacts open to first order "
                       "only; every ND's by Bloch waves for an orbit whose pattern is smaller "
                       "than the wheel, 6 s per paper angle, else SLEPc's, 15-20 s; under the "
-                      "elastic law at the two finest refined steps, 15-60 s)",
+                      "elastic law at the two finest refined steps, 10-45 s)",
                       choices=("always", "undecided")))
     refine: int = field(
         default=4,

@@ -160,14 +160,15 @@ def finer_balance(balance, X: np.ndarray, omega: float, lam: float, comm=None):
 def monodromy_stability(model, cfg, angles, cycle: Cycle, count: int, refine: int,
                         comm=None, whole_wheel: str = "always") -> None:
     """Floquet multipliers of the exact orbit ``cycle.orbit``: the dominant one inside the
-    cycle's symmetry at the step and ``refine`` halvings of it (``cycle.refined``: ``(step
-    [s], |mu|, ND)``; on the pattern wheel, cheap), and the ``count`` largest of the whole
-    wheel's at the configured step (``cycle.multipliers``, and ``cycle.stability`` from
-    them: every ND's by Bloch waves, :func:`~.bloch.bloch_multipliers`, when the orbit's
-    pattern is smaller than the wheel, else SLEPc's on the monodromy) unless ``whole_wheel
-    = 'undecided'`` and the first already proves the cycle unstable. The scheme steps over
-    the contacts' lift-off kinks, so the multipliers of a cycle whose contacts open converge
-    at first order in the step."""
+    cycle's symmetry at the step and up to ``refine`` halvings of it (``cycle.refined``:
+    ``(step [s], |mu|, ND)``; on the pattern wheel, cheap; on the orbit's event schedule when
+    its switches were located, :mod:`.events`, the halvings stopping where it settles,
+    :func:`_settled`: in uniform steps across the contacts' lift-off kinks they converge at
+    first order), and the ``count`` largest of the whole wheel's at the configured step
+    (``cycle.multipliers``, and ``cycle.stability`` from them: every ND's by Bloch waves,
+    :func:`~.bloch.bloch_multipliers`, when the orbit's pattern is smaller than the wheel,
+    else SLEPc's on the monodromy, in uniform steps) unless ``whole_wheel = 'undecided'`` and
+    the first already proves the cycle unstable."""
     orbit = cycle.orbit
     if orbit.symmetric_multipliers.size:
         cycle.refined.append((orbit.period / orbit.steps_per_period,
@@ -251,9 +252,12 @@ def _refine(model, cfg, angles, cycle: Cycle, refine: int, comm=None) -> None:
 
 def _settled(refined: list, orbit: Orbit) -> bool:
     """Whether the in-symmetry multiplier ``refined`` (``(step, |mu|, ND)`` per level) has
-    settled on the orbit's event schedule (:data:`SETTLED_CHANGE`)."""
-    return orbit.switches is not None and len(refined) >= 2 and \
-        abs(refined[-1][1] - refined[-2][1]) <= SETTLED_CHANGE
+    settled on the orbit's event schedule (:data:`SETTLED_CHANGE`) and stands off 1 by at
+    least twice that change (the verdict's own rule, :func:`_elastic_verdict`)."""
+    if orbit.switches is None or len(refined) < 2:
+        return False
+    change = abs(refined[-1][1] - refined[-2][1])
+    return change <= SETTLED_CHANGE and abs(refined[-1][1] - 1.0) >= 2 * change
 
 
 def marched_cycle(model, cfg, angles, branch, q_eq: np.ndarray, blocks, harmonics: int,
@@ -374,6 +378,7 @@ def elastic_stability(model, cfg, angles, cycle: Cycle, shooting: SliderShooting
                                               "decides")
         return
     cycle.refined = [(lv["step"], lv["largest"], lv["worst_nd"]) for lv in levels]
+    inside = _elastic_verdict(levels, orbit.period, whole)  # with any further halving
     mu = wheel[-1]["multipliers"]
     cycle.multipliers = dataclasses.replace(mu.top(count), wall_s=sum(
         w["multipliers"].wall_s for w in wheel))  # every step's time
@@ -385,13 +390,15 @@ def elastic_stability(model, cfg, angles, cycle: Cycle, shooting: SliderShooting
 
 def _finer_level(model, angles, orbit: Orbit, tip: float, step_cfg) -> dict | None:
     """:func:`_level` of ``orbit`` shot again at ``step_cfg``'s step (None: Newton failed),
-    on the orbit's switches (the same to the step's order)."""
+    on that orbit's own switches, located on its flow at ``orbit``'s step (the sampling's
+    resolution; the bisection sets their accuracy)."""
     finer = SliderShooting(model, step_cfg, orbit.wave, angles, 1.0)
     try:
         again = finer.solve(orbit.flat(), orbit.period, tip)
         if not again.converged:
             return None
-        again.switches = orbit.switches
+        if orbit.switches is not None:
+            again.switches = finer.switches(again, orbit.period / orbit.steps_per_period)
         return _level(finer, again, tip, step_cfg)
     finally:
         finer.destroy()

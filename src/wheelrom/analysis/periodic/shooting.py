@@ -200,10 +200,10 @@ class Shooting:
     def multipliers_at(self, x0: np.ndarray, period: float,
                        switches: Switches | None = None) -> tuple[np.ndarray, np.ndarray]:
         """``(mu, nd)`` of the pattern map's Jacobian at ``x0`` ``(2, N', m)``, ``period``
-        [s] without a Newton solve: an orbit of another step is a fixed point of this step's
-        map to the integration error, which moves the multipliers far less than the step's
-        own effect on them (one batch of ``2 n`` shots); ``switches``: on their schedule at
-        this flow's step (:mod:`.events`)."""
+        [s] without a Newton solve (one batch of ``2 n`` shots): an orbit of another step is
+        a fixed point of this step's map to the integration error (the orbit converges at
+        the scheme's order); ``switches``: the Jacobian on their schedule at this flow's step
+        (:mod:`.events`; they are ``x0``'s own, located on it)."""
         tau = self.fraction * period
         schedule = None if switches is None else \
             switches.schedule(self.flow.steps_for(tau)[1], duration=tau)

@@ -222,12 +222,12 @@ class SliderShooting:
         return central_columns(lambda states: self.shot(states, period, steps, schedule), x,
                                scale, DIFFERENCE, columns)
 
-    def switches(self, orbit: Orbit) -> Switches:
-        """The contact switches over ``orbit``'s shot on its own step
-        (:func:`~.events.locate`)."""
+    def switches(self, orbit: Orbit, step: float = 0.0) -> Switches:
+        """The contact switches over ``orbit``'s shot (:func:`~.events.locate`), sampled
+        at ``step`` [s] (0: the orbit's own)."""
         tau = self.fraction * orbit.period
         return locate(self.flow, orbit.flat(), tau,
-                      tau / max(orbit.steps_per_period // self.shots, 1))
+                      step or tau / max(orbit.steps_per_period // self.shots, 1))
 
     def _scale(self, x: np.ndarray, period: float, tip_amplitude: float) -> np.ndarray:
         """Units of the unknowns: ``a`` (the largest modal velocity over ``w``) for ``q``,
@@ -240,7 +240,7 @@ class SliderShooting:
     # ------------------------------------------------------------------ Newton
     def solve(self, x0: np.ndarray, period: float, tip_amplitude: float,
               fixed: np.ndarray | None = None, chord: dict | None = None,
-              iterations: int = MAX_ITERATIONS, switches: Switches | None = None) -> Orbit:
+              iterations: int = MAX_ITERATIONS) -> Orbit:
         """Newton from ``x0`` ``(n,)`` and ``period`` [s] (``tip_amplitude`` [m]: the
         sliders' unit); the orbit (``converged`` False when Newton failed). ``fixed``
         ``(n,)`` bool: unknowns held at ``x0``'s values (the sliders of contacts stuck all
@@ -249,8 +249,7 @@ class SliderShooting:
         dict whose ``"matrix"`` (the bordered Jacobian of a neighbouring solve, kept there by
         the last fresh one) is used for every iteration while ``"reuse"`` is true (the
         family's members lie close together: one Jacobian, ``2 n`` shots, serves them);
-        ``iterations``: Newton's at most; ``switches``: shot on their event schedule, scaled
-        with the period (:mod:`.events`; the orbit carries them)."""
+        ``iterations``: Newton's at most."""
         t0 = time.perf_counter()
         x, period = np.array(x0, dtype=float), float(period)
         free = np.ones(self.n, bool) if fixed is None else ~np.asarray(fixed, bool)
@@ -264,11 +263,6 @@ class SliderShooting:
 
         n = self.n
         columns = np.flatnonzero(free)
-        step = self.fraction * period / steps
-
-        def on(T):  # the event schedule of the shot over T (None: uniform steps)
-            return None if switches is None else \
-                switches.schedule(step, duration=self.fraction * T)
 
         def unknowns(z):  # z: the free x in its units, then T over the start's period
             full = start.copy()
@@ -280,7 +274,7 @@ class SliderShooting:
             if not T > 0:
                 return np.full(n + 1, np.nan)
             F = np.empty(n + 1)
-            F[:n] = (self.shot(x[None], T, steps, on(T))[0] - x) / scale
+            F[:n] = (self.shot(x[None], T, steps)[0] - x) / scale
             F[n] = normal @ (x / scale - start)
             return F
 
@@ -291,11 +285,9 @@ class SliderShooting:
             x, T = unknowns(z)
             c = columns.size  # the free unknowns' columns, then the period's
             A = np.zeros((n + 1, c + 1))
-            A[:n, :c] = self.jacobian(x, T, steps, scale, columns, on(T)) - \
-                np.eye(n)[:, columns]
+            A[:n, :c] = self.jacobian(x, T, steps, scale, columns) - np.eye(n)[:, columns]
             dT = DIFFERENCE * T
-            later = self.shot(x[None], T + dT, steps, on(T + dT))[0] - \
-                self.shot(x[None], T - dT, steps, on(T - dT))[0]
+            later = self.shot(x[None], T + dT, steps)[0] - self.shot(x[None], T - dT, steps)[0]
             A[:n, c] = later / (2 * dT) / scale * period
             A[n, :c] = normal[columns]
             if chord is not None:
@@ -310,7 +302,7 @@ class SliderShooting:
         orbit = Orbit(self.wave, T, q_v, self.shift, self.fraction, size, it, converged,
                       steps_per_period=steps * self.shots, reason=reason,
                       sliders=x[self.nq :].reshape(self.K, self.N, 2) if self.sliders
-                      else None, switches=switches)
+                      else None)
         orbit.wall_s = time.perf_counter() - t0
         return orbit
 
