@@ -186,7 +186,7 @@ def test_the_whole_wheels_multipliers_by_bloch_waves_are_its_monodromys(elastic_
     probes[2 * rows + 1, where] -= DIFFERENCE * unit
     shots, n = round(1 / orbit.fraction), keep.size
     tau, steps = orbit.fraction * orbit.period, orbit.steps_per_period // shots
-    schedule = orbit.switches.schedule(tau / steps, N, tau)  # the Bloch waves' shots
+    schedule = orbit.switches.schedule(tau / steps, N)  # the Bloch waves' shots
     flow = WheelFlow(model, cfg, angles, 1.0)
     try:
         short = flow.shift(flow.advance(probes, tau, steps, schedule=schedule), -orbit.shift)

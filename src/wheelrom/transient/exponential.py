@@ -80,9 +80,7 @@ class ExponentialStepper:
 
     def __init__(self, context=None):
         self.context = context
-        self._step = None
-        self._coef = None
-        self._known: dict[float, np.ndarray] = {}  # an event schedule's steps recur
+        self._coefficients: dict[float, np.ndarray] = {}  # per step: an event schedule's recur
         if context is not None:
             self._work = np.zeros((6, int(context.array[H_NSTATE])))
             self._A0 = context.view("A0_diag").copy()
@@ -98,16 +96,14 @@ class ExponentialStepper:
         if self.context is None:
             raise RuntimeError("the exponential TS has no problem attached")
         t, h = ts.getTime(), ts.getTimeStep()
-        if h != self._step:
-            if h not in self._known:
-                if len(self._known) > 256:
-                    self._known.clear()
-                self._known[h] = coefficients(self._A0, self._beta, h)
-            self._coef = self._known[h]
-            self._step = h
+        coef = self._coefficients.get(h)
+        if coef is None:
+            if len(self._coefficients) > 256:
+                self._coefficients.clear()
+            coef = self._coefficients[h] = coefficients(self._A0, self._beta, h)
         x = ts.getSolution()
         with x as u:
-            etd4_step(t, h, u, self.context.array, self._coef, self._work)
+            etd4_step(t, h, u, self.context.array, coef, self._work)
         ts.setTime(t + h)
 
 

@@ -94,7 +94,7 @@ def bloch_multipliers(model: ReducedModel, cfg: Config, orbit: Orbit, scale: np.
         h = tau / short
         # on the orbit's switches, the pattern's branches on every copy (docs/theory.md
         # "Events in the step"), when they were located
-        schedule = None if orbit.switches is None else orbit.switches.schedule(h, N, tau)
+        schedule = None if orbit.switches is None else orbit.switches.schedule(h, N)
         ends = flow.shift(flow.advance(probes, tau, short, schedule=schedule), -orbit.shift)
         along = (flow.advance(state[None], h, 1)[0] - state)[where[0]] / unit
     finally:

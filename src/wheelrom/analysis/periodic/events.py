@@ -62,21 +62,18 @@ class Switches:
     times: np.ndarray
     modes: np.ndarray
 
-    def schedule(self, step: float, blades: int | None = None,
-                 duration: float | None = None) -> Schedule:
+    def schedule(self, step: float, blades: int | None = None) -> Schedule:
         """The pieces in whole steps of at most ``step`` [s]; ``blades``: the modes tiled
         over a wheel of that many blades (a pattern's copies, blade ``s`` is pattern blade
-        ``s mod N'``); ``duration`` [s]: every piece scaled to it in the same steps (the
-        shot of a period that Newton moves: the map smooth in it)."""
+        ``s mod N'``)."""
         bounds = np.concatenate([[0.0], self.times, [self.duration]])
-        scale = 1.0 if duration is None else float(duration) / self.duration
         pattern = self.modes.shape[2]
         tile = np.arange(pattern if blades is None else blades) % pattern
         pieces = []
         for i, (a, b) in enumerate(zip(bounds[:-1], bounds[1:], strict=True)):
             n = max(1, math.ceil((b - a) / step * (1 - 1e-12)))
-            pieces.append((float(b - a) * scale, n, self.modes[i][:, tile].astype(float)))
-        return Schedule(self.duration * scale, tuple(pieces))
+            pieces.append((float(b - a), n, self.modes[i][:, tile].astype(float)))
+        return Schedule(self.duration, tuple(pieces))
 
 
 def contact_modes(flow, state: np.ndarray, probe: float) -> np.ndarray:
@@ -122,6 +119,14 @@ def _bisect(flow, state: np.ndarray, h: float, modes: np.ndarray, now: np.ndarra
         else:
             lo = mid
     return min(hi + 0.5 * probe, h) if ending else hi
+
+
+def orbit_switches(flow, orbit, step: float = 0.0) -> Switches:
+    """:func:`locate` over a shot of ``orbit`` (a :class:`~.shooting.Orbit`: its flat state
+    at ``t = 0``, ``fraction`` of its ``period``) on ``flow``, sampled at ``step`` [s] (0:
+    the orbit's own step)."""
+    return locate(flow, orbit.flat(), orbit.fraction * orbit.period,
+                  step or orbit.period / max(orbit.steps_per_period, 1))
 
 
 def locate(flow, x: np.ndarray, duration: float, step: float,

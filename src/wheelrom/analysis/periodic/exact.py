@@ -14,6 +14,7 @@ import numpy as np
 from wheelrom.analysis.periodic.bloch import bloch_multipliers
 from wheelrom.analysis.periodic.continuation import Corrector
 from wheelrom.analysis.periodic.cycle import Cycle
+from wheelrom.analysis.periodic.events import orbit_switches
 from wheelrom.analysis.periodic.family import friction_band
 from wheelrom.analysis.periodic.floquet import TRUSTED, FloquetResult
 from wheelrom.analysis.periodic.harmonic_balance import WaveBalance
@@ -398,7 +399,8 @@ def _finer_level(model, angles, orbit: Orbit, tip: float, step_cfg) -> dict | No
         if not again.converged:
             return None
         if orbit.switches is not None:
-            again.switches = finer.switches(again, orbit.period / orbit.steps_per_period)
+            again.switches = orbit_switches(finer.flow, again,
+                                            orbit.period / orbit.steps_per_period)
         return _level(finer, again, tip, step_cfg)
     finally:
         finer.destroy()

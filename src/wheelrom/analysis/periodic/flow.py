@@ -275,7 +275,7 @@ class WheelFlow:
                 start += length
         finally:
             mode[...] = 0.0
-        self.steps_taken += sum(p[1] for p in pieces) * B
+        self.steps_taken += n * B
         end = ctx.unpack(u.getArray(readonly=True))
         integrals = end[:, 2 * self.n : 2 * self.n + 4].copy()
         if flat.shape[1] > 2 * self.n:

@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from wheelrom.analysis.periodic.events import Switches, locate
+from wheelrom.analysis.periodic.events import Switches, orbit_switches
 from wheelrom.analysis.periodic.flow import (
     WheelFlow,
     pattern_model,
@@ -177,7 +177,7 @@ class Shooting:
                       steps_per_period=self.flow.steps_for(self.fraction * T)[0]
                       * round(1 / self.fraction), reason=str(reason))
         if orbit.converged and self.events:  # on the orbit's switches (docs/theory.md)
-            orbit.switches = self.switches(orbit)
+            orbit.switches = orbit_switches(self.flow, orbit)
             orbit.symmetric_multipliers, orbit.symmetric_nd = self.multipliers_at(
                 x, orbit.period, orbit.switches)
         elif orbit.converged:  # the multipliers from the Jacobian at the solution itself
@@ -191,12 +191,6 @@ class Shooting:
         """One period of ``orbit`` at every step (:func:`sample_orbit`)."""
         return sample_orbit(self, orbit)
 
-    def switches(self, orbit: Orbit) -> Switches:
-        """The contact switches over ``orbit``'s shot (:func:`~.events.locate`, on this
-        flow's step)."""
-        tau = orbit.fraction * orbit.period
-        return locate(self.flow, orbit.flat(), tau, self.flow.steps_for(tau)[1])
-
     def multipliers_at(self, x0: np.ndarray, period: float,
                        switches: Switches | None = None) -> tuple[np.ndarray, np.ndarray]:
         """``(mu, nd)`` of the pattern map's Jacobian at ``x0`` ``(2, N', m)``, ``period``
@@ -204,9 +198,8 @@ class Shooting:
         a fixed point of this step's map to the integration error (the orbit converges at
         the scheme's order); ``switches``: the Jacobian on their schedule at this flow's step
         (:mod:`.events`; they are ``x0``'s own, located on it)."""
-        tau = self.fraction * period
         schedule = None if switches is None else \
-            switches.schedule(self.flow.steps_for(tau)[1], duration=tau)
+            switches.schedule(self.flow.steps_for(self.fraction * period)[1])
         system = _ShotSystem(self, np.asarray(x0, dtype=float), period, schedule)
         z = np.concatenate([system.z_start, [1.0]])
         G = system.jacobian(z)[: self.n, : self.n] + np.eye(self.n)

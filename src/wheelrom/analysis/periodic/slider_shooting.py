@@ -30,7 +30,7 @@ import time
 
 import numpy as np
 
-from wheelrom.analysis.periodic.events import Switches, locate
+from wheelrom.analysis.periodic.events import orbit_switches
 from wheelrom.analysis.periodic.flow import WheelFlow, pattern_model, pattern_spectrum
 from wheelrom.analysis.periodic.hopf import tip_measure
 from wheelrom.analysis.periodic.newton import central_columns, newton_least_squares
@@ -222,13 +222,6 @@ class SliderShooting:
         return central_columns(lambda states: self.shot(states, period, steps, schedule), x,
                                scale, DIFFERENCE, columns)
 
-    def switches(self, orbit: Orbit, step: float = 0.0) -> Switches:
-        """The contact switches over ``orbit``'s shot (:func:`~.events.locate`), sampled
-        at ``step`` [s] (0: the orbit's own)."""
-        tau = self.fraction * orbit.period
-        return locate(self.flow, orbit.flat(), tau,
-                      step or tau / max(orbit.steps_per_period // self.shots, 1))
-
     def _scale(self, x: np.ndarray, period: float, tip_amplitude: float) -> np.ndarray:
         """Units of the unknowns: ``a`` (the largest modal velocity over ``w``) for ``q``,
         ``w a`` for ``q'``, the tip amplitude [m] for the sliders."""
@@ -336,9 +329,8 @@ class SliderShooting:
         schedule = None
         if self.events:  # on the orbit's switches (docs/theory.md "Events in the step")
             if orbit.switches is None:
-                orbit.switches = self.switches(orbit)
-            tau = self.fraction * orbit.period
-            schedule = orbit.switches.schedule(tau / steps, duration=tau)
+                orbit.switches = orbit_switches(self.flow, orbit)
+            schedule = orbit.switches.schedule(self.fraction * orbit.period / steps)
         G = self.jacobian(x, orbit.period, steps, scale, keep, schedule)[keep]
         along = (self.flow.advance(x[None], self.fraction * orbit.period / steps, 1)[0] - x)
         along = along[keep] / scale[keep]
