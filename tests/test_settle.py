@@ -100,7 +100,8 @@ def test_the_settle_step_keeps_the_amplitude_of_a_four_times_finer_step(vdp_sett
     """``settle.step`` (issue #70: each analysis at the step its own accuracy allows): the
     Van der Pol wheel settled at 40 us reads the settled amplitude and frequency of its run
     at 10 us (``time.step``, four times finer) to 1e-3 and 1e-4; each file's ``time_step``
-    is the step it was integrated at."""
+    is the step asked, and its ``step`` the one integrated: the window's whole steps of at
+    most it (no contact, nothing lowers it)."""
     from wheelrom.cli import main as cli
 
     out = tmp_path / "coarse.h5"
@@ -111,10 +112,41 @@ def test_the_settle_step_keeps_the_amplitude_of_a_four_times_finer_step(vdp_sett
         with h5py.File(path, "r") as f:
             g = f["settle/case_0"]
             assert f["settle"].attrs["time_step"] == step and g.attrs["settled"]
+            assert 0.99 * step < f["settle/step"][0] <= step and g.attrs["step_lowered"] == ""
             reads.append((g["amplitude"][()].max(), g.attrs["frequency_hz"]))
     (coarse, f_coarse), (fine, f_fine) = reads
     assert coarse == pytest.approx(fine, rel=1e-3)
     assert f_coarse == pytest.approx(f_fine, rel=1e-4)
+
+
+def test_a_step_the_scheme_lowers_is_the_step_reported(tmp_path, capsys):
+    """A settle step beyond the exponential scheme's stability for the contacts is lowered
+    by the TS (the small wheel at 80 deg: 8e-5 s to 0.9 of it, one lowering), and the file,
+    ``--json`` and the text report the step the integration took and why, not the one
+    asked."""
+    import json
+
+    from wheelrom.cli import main as cli
+
+    keys = ["time.scheme=\"exponential\"", "sweep.shroud_angles_deg=[80.0]",
+            "excitation.force=0.0", "settle.step=8e-5",
+            "output.sample_rate_hz=5000.0", "output.history_rate_hz=1000.0",
+            "settle.start=\"preload\"", "settle.window_periods=2", "settle.min_time=0.02",
+            "settle.max_time=0.02"]
+    out = tmp_path / "lowered.h5"
+    assert cli.main(["settle", SMALL, *sum((["--set", k] for k in keys), []), "--json",
+                     "--out", str(out)]) == 0
+    row = json.loads(capsys.readouterr().out)["cases"][0]
+    with h5py.File(out, "r") as f:
+        step, why = f["settle/step"][0], f["settle/case_0"].attrs["step_lowered"]
+        asked = f["settle"].attrs["time_step"]
+    # the window's whole steps of at most 8e-5 s (within 1 % of it), lowered once by 0.9
+    assert asked == 8e-5 and 0.9 * 0.99 * asked < step <= 0.9 * asked * (1 + 1e-12)
+    assert f"lowered to {step:.4g} s" in why
+    assert row["step_s"] == step and row["step_lowered"] == why
+    assert cli.main(["settle", SMALL, *sum((["--set", k] for k in keys), []),
+                     "--out", str(tmp_path / "text.h5")]) == 0
+    assert f"integrated at {step * 1e6:.4g} us ({why})" in capsys.readouterr().out
 
 
 def test_a_case_still_growing_is_not_settled(small_model, capsys):

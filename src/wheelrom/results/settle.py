@@ -28,7 +28,7 @@ def write_settle(f, cfg: Config, model: ReducedModel, cases: list) -> None:
     for key in ("window_periods", "tolerance", "consecutive", "min_time", "max_time",
                 "bounded_span", "bounded_drift", "perturbation", "seed", "start", "nozzle"):
         g.attrs[key] = getattr(s, key)
-    g.attrs["time_step"] = at_settle_step(cfg).time.step  # the step integrated
+    g.attrs["time_step"] = at_settle_step(cfg).time.step  # the step asked (settle.step)
     g["angles_deg"] = np.array([[a.get(k, np.nan) for k in ("tieboss", "shroud")]
                                 for a, _, _ in cases])
     g["angles_deg"].attrs["columns"] = "tieboss, shroud"
@@ -44,6 +44,10 @@ def write_settle(f, cfg: Config, model: ReducedModel, cases: list) -> None:
     g["max_amplitude"] = np.array([r.amplitude.max() if r.amplitude.size else np.nan
                                    for _, _, r in cases])
     g["wall_s"] = np.array([r.wall_s for _, _, r in cases])
+    g["step"] = np.array([r.step for _, _, r in cases])
+    g["step"].attrs["meaning"] = "the step [s] each case was integrated at: whole steps of " \
+        "its window no longer than time_step, lowered where the exponential scheme's " \
+        "stability check lowers them (case_<i>'s step_lowered says why; NaN: no window ran)"
     trends = [r.trend() for _, _, r in cases]
     g["trend"] = np.array([(t.rate, t.error, t.correlation) if t else (np.nan,) * 3
                            for t in trends]).reshape(-1, 3)
@@ -78,6 +82,8 @@ def _write_case(g, r) -> None:
     g.attrs["bounded"] = r.bounded
     g.attrs["time"] = r.time
     g.attrs["energy_balance"] = r.energy_balance
+    g.attrs["step"] = r.step
+    g.attrs["step_lowered"] = r.step_lowered
     g["window_end"] = np.array([w.end for w in r.windows])
     g["window_amplitude"] = np.array([w.amplitude for w in r.windows])
     g["window_nd_energy"] = np.array([w.nd_energy for w in r.windows])

@@ -573,7 +573,8 @@ def summary(angles: dict, parameters: dict, r: Settled) -> dict:
            "verdict": r.verdict(), "settled": r.settled, "bounded": r.bounded,
            "simulated_s": r.time,
            "status": r.status, "start": r.start, "wall_s": r.wall_s,
-           "windows": len(r.windows)}
+           "windows": len(r.windows), "step_s": r.step if math.isfinite(r.step) else None,
+           "step_lowered": r.step_lowered}
     trend = r.trend()
     if trend is not None:
         out["trend_per_s"] = {"rate": trend.rate, "error": trend.error,

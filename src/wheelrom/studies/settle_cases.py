@@ -9,6 +9,7 @@ fit its case, is computed again (a warning names it).
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 import sys
 
@@ -37,6 +38,7 @@ def save_case(folder: KeptCases, index: int, cfg: Config, result: Settled) -> No
                "status": result.status, "start": result.start, "wall_s": result.wall_s,
                "start_amplitude": result.start_amplitude,
                "energy_balance": result.energy_balance,
+               "step": result.step, "step_lowered": result.step_lowered,
                "classification": dataclasses.asdict(c) if c else None,
                "changes": [list(w.change) for w in result.windows]}
     arrays = {"window_end": np.array([w.end for w in result.windows]),
@@ -81,13 +83,17 @@ def load_case(folder: KeptCases, index: int, cfg: Config, warn=None) -> Settled 
                        arrays["window_nd_energy"], scalars["changes"], strict=True)
             windows = [Window(float(e), a, n, tuple(ch)) for e, a, n, ch in rows]
             c = scalars["classification"]
-            return Settled(scalars["settled"], scalars["time"], windows,
-                           Classification(**c) if c else None, arrays["amplitude"],
-                           arrays["nd_energy"], arrays["fractions"],
-                           arrays["normal_force_range"], scalars["energy_balance"],
-                           arrays["tip_time"], arrays["tip"], scalars["start"],
-                           scalars["start_amplitude"], scalars["wall_s"],
-                           scalars["status"])
+            out = Settled(scalars["settled"], scalars["time"], windows,
+                          Classification(**c) if c else None, arrays["amplitude"],
+                          arrays["nd_energy"], arrays["fractions"],
+                          arrays["normal_force_range"], scalars["energy_balance"],
+                          arrays["tip_time"], arrays["tip"], scalars["start"],
+                          scalars["start_amplitude"], scalars["wall_s"],
+                          scalars["status"])
+            # (a case kept before the step was recorded reads NaN: not known)
+            out.step = float(scalars.get("step", math.nan))
+            out.step_lowered = str(scalars.get("step_lowered", ""))
+            return out
         except Exception as exc:
             raise DamagedCase(os.path.join(folder.path, f"case_{index}.json"), exc) from None
     except DamagedCase as exc:

@@ -338,6 +338,11 @@ class Settled:
     bounded: bool = False
     span: float = Settings.bounded_span
     drift_limit: float = Settings.bounded_drift
+    #: [s] the step the integration took (its TS's: the window's whole steps of at most
+    #: ``settle.step``, lowered where the exponential scheme's stability check lowers it),
+    #: and why it is below the window's step ("": it is not)
+    step: float = math.nan
+    step_lowered: str = ""
 
     def band(self) -> tuple[float, float, float] | None:
         """``(low, high, duration)``: the range [m] of the largest blade's amplitude over the
@@ -480,6 +485,8 @@ def settle_cases(model, cfg, angles: list, u0: list, frequency_hz: list, setting
         still = []
         for i, res in zip(running, done, strict=True):
             last[i], out = res, outs[i]
+            out.step = float(res.options.get("ts_dt", run_cfg.time.step))
+            out.step_lowered = str(res.options.get("ts_dt_lowered", ""))
             if not res.status.startswith("done"):
                 out.status = f"failed at {out.time + res.window_end[-1:].sum():.3g} s: {res.status}"
                 continue
