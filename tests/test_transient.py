@@ -452,3 +452,23 @@ def test_bench_times_both_contact_laws_alternately(small_model, small_cfg):
     assert figures["law_steps_s"]["paper"] == taken_step(small_model, cfg, 1e-5)
     assert figures["law_steps_s"]["elastic"] == taken_step(small_model, elastic, 1e-5)
     assert len(lines) == 1 and "x /" in lines[0]
+
+
+def test_bench_times_the_settle_step_against_the_time_step(small_model, small_cfg):
+    """``bench``'s settle figures (issue #70's same-run ratio): the configured case at
+    ``time.step`` and at twice it (``settle.step`` 0, as ./run/paper asks), each at the step
+    its TS takes, and their ratio."""
+    from wheelrom.bench.laws import settle_figures
+    from wheelrom.transient.exponential import taken_step
+
+    cfg = small_cfg.replace(**{"time.scheme": "exponential", "time.step": 1e-5})
+    lines = []
+    figures = settle_figures(small_model, cfg, lines.append, rounds=2, end=4e-3)
+    cost, ratio = figures["settle_s_per_simulated_s"], figures["settle_speedup"]
+    steps = figures["settle_steps_s"]
+    assert steps == {"time_step": taken_step(small_model, cfg, 1e-5),
+                     "settle_step": taken_step(small_model, cfg, 2e-5)}
+    assert ratio == pytest.approx([cost["time_step"][0] / cost["settle_step"][0],
+                                   cost["time_step"][1] / cost["settle_step"][1]])
+    assert all(0 < c[0] <= c[1] for c in cost.values())  # min, median (no timing compared)
+    assert len(lines) == 1 and "settle's step" in lines[0]

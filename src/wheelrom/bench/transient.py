@@ -39,7 +39,8 @@ Figures (all on the configuration's reduced model, single core):
   with round-off-level changes of the state's coordinates) whose tip-history error against
   a fine-step reference (all from the preloaded equilibrium) is not larger than ours; a run
   over ``SCIPY_BUDGET`` times ours ends the search (``ratio_vs_scipy_is_lower_bound``).
-- ``limit_cycle_*`` (#30): :mod:`wheelrom.bench.limit_cycle`; ``*law*`` (#44): :mod:`.laws`.
+- ``limit_cycle_*`` (#30): :mod:`wheelrom.bench.limit_cycle`; ``*law*`` (#44) and ``settle_*``
+  (#70): :mod:`.laws`.
 - ``rk_*`` and ``configured_*`` (issue #31): RK 3bs at ``RK_STEP`` (the paper's scheme) and
   the configured scheme and step (default: the exponential scheme), both from the preloaded
   equilibrium with a 1 nm seed: ``*_tip_error`` after 20.16 ms against RK 5dp at 0.75 us
@@ -405,6 +406,7 @@ def _work(steps: int, compare_steps: int, batch: int) -> dict:
         "linear stability of the configured angles": 30000,
         "RK and the exponential scheme from the preloaded equilibrium": 40000,
         "the elastic law against the paper law (alternated runs)": 30000,
+        "the settle's step against time.step (alternated runs)": 20000,
         "limit cycles (harmonic balance)": 30000,
         "nonlinear forced response (200 frequencies, traced)": 30000,
     }
@@ -442,11 +444,12 @@ def run(model: ReducedModel, cfg: Config, steps: int = 20000, compare_steps: int
     from wheelrom.bench import forced, laws, limit_cycle
 
     law_cost = group(next(groups), laws.law_figures, model, cfg, say)
+    settle_cost = group(next(groups), laws.settle_figures, model, cfg, say)
     cycles = group(next(groups), limit_cycle.limit_cycle_figures, model, cfg, say)
     nonlinear = group(next(groups), forced.forced_figures, model, cfg, say)
     return {"blades": model.blades, "modes": model.modes, "contact_kinds": list(problem.kinds),
             **start, **single, **in_batch, **floors, **numpy_cmp, **scipy_cmp, **stability,
-            **schemes, **law_cost, **cycles, **nonlinear}
+            **schemes, **law_cost, **settle_cost, **cycles, **nonlinear}
 
 
 SCIPY_BUDGET = 200.0  # x our run: a longer solve_ivp run ends the rtol search (a lower bound)
