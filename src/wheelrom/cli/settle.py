@@ -158,8 +158,12 @@ def _print_rows(rows: list[dict], groups: list[dict]) -> None:
         print(f"{row['label']}: {row['verdict']}")
     # the step the integration took, once per distinct one (the exponential scheme's
     # stability check may lower the asked step: the user should not read 20 us where 18 ran)
-    for step, why in dict.fromkeys((row["step_s"], row["step_lowered"]) for row in rows
-                                   if row.get("step_s")):
-        print(f"integrated at {step * 1e6:.4g} us" + (f" ({why})" if why else ""))
+    # (batches' windows differ in their last digits: one line per step as printed)
+    said: dict[str, str] = {}
+    for row in rows:
+        if row.get("step_s"):
+            said.setdefault(f"{row['step_s'] * 1e6:.4g}", row["step_lowered"])
+    for step, why in said.items():
+        print(f"integrated at {step} us" + (f" ({why})" if why else ""))
     for group in groups:
         print(history_words(group))
