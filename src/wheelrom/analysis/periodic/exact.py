@@ -349,14 +349,14 @@ def elastic_stability(model, cfg, angles, cycle: Cycle, shooting: SliderShooting
     levels = [_level(shooting, orbit, tip, cfg)]
     orbit.symmetric_multipliers, orbit.symmetric_nd = levels[0]["values"], levels[0]["nd"]
     pending = list(finer_steps(cfg, orbit, refine))
-    while pending and not _settled([(lv["step"], lv["largest"]) for lv in levels], orbit):
+    while pending and not _settled(_refined(levels), orbit):
         level = _finer_level(model, angles, orbit, tip, pending.pop(0))
         if level is None:
             pending = []
             break
         levels.append(level)
     whole = orbit.pattern == model.blades
-    cycle.refined = [(lv["step"], lv["largest"], lv["worst_nd"]) for lv in levels]
+    cycle.refined = _refined(levels)
     cycle.stability = _elastic_verdict(levels, orbit.period, whole)
     proved = cycle.stability.trusted and not cycle.stability.stable
     if whole or (proved and whole_wheel == "undecided"):
@@ -378,7 +378,7 @@ def elastic_stability(model, cfg, angles, cycle: Cycle, shooting: SliderShooting
                                               f"failed ({type(exc).__name__}: {exc}): settle "
                                               "decides")
         return
-    cycle.refined = [(lv["step"], lv["largest"], lv["worst_nd"]) for lv in levels]
+    cycle.refined = _refined(levels)
     inside = _elastic_verdict(levels, orbit.period, whole)  # with any further halving
     mu = wheel[-1]["multipliers"]
     cycle.multipliers = dataclasses.replace(mu.top(count), wall_s=sum(
@@ -387,6 +387,11 @@ def elastic_stability(model, cfg, angles, cycle: Cycle, shooting: SliderShooting
         if not verdict.trusted and inside.by.startswith("stable inside"):  # say it too
             verdict = dataclasses.replace(verdict, by=f"{verdict.by}; {inside.by}")
         cycle.stability = verdict
+
+
+def _refined(levels: list[dict]) -> list[tuple]:
+    """``cycle.refined``'s rows ``(step [s], |mu|, ND)`` of :func:`_level`'s ``levels``."""
+    return [(lv["step"], lv["largest"], lv["worst_nd"]) for lv in levels]
 
 
 def _finer_level(model, angles, orbit: Orbit, tip: float, step_cfg) -> dict | None:
